@@ -1,0 +1,102 @@
+"""The ``tactile-torch`` command line.
+
+Every subcommand of DESIGN.md is listed; the handlers import their modules lazily so that
+``tactile-torch predict`` can run on a robot with onnxruntime and no torch.
+"""
+
+from __future__ import annotations
+
+import argparse
+import subprocess
+import sys
+from collections.abc import Callable
+from pathlib import Path
+
+NOT_BUILT_EXIT = 2
+
+# Subcommands of DESIGN.md that are listed but not built yet: name -> (help, where it will come from).
+PLANNED: dict[str, tuple[str, str]] = {
+    "train": ("train a classifier on features of a data set", "tactile_torch.svm, issue 5"),
+    "cluster": ("discover surfaces with the Pitman-Yor mixture", "tactile_torch.mixture, issue 6"),
+    "export": ("export a trained pipeline to one ONNX file", "issue 7"),
+    "predict": ("classify a data set with an exported ONNX pipeline", "issue 7"),
+    "stream": ("classify a live serial sensor stream", "tactile_torch.stream"),
+    "simulate-sensor": ("emulate a serial sensor from recorded or synthetic data", "tactile_torch.stream"),
+}
+
+
+def _not_built(name: str, issue: str) -> Callable[[argparse.Namespace], int]:
+    def handler(args: argparse.Namespace) -> int:
+        print(
+            f"tactile-torch {name}: not built yet ({issue}); nothing was done.",
+            file=sys.stderr,
+        )
+        return NOT_BUILT_EXIT
+
+    return handler
+
+
+def _report(args: argparse.Namespace) -> int:
+    from .studies import run_report
+
+    only = [s for s in args.only.split(",") if s] if args.only else None
+    path = run_report(args.out, random_state=args.seed, quick=args.quick, only=only)
+    print(f"report written to {path}")
+    return 0
+
+
+def _bench(args: argparse.Namespace) -> int:
+    runner = Path(__file__).resolve().parents[1] / "bench" / "run.py"
+    if not runner.exists():
+        print(
+            "tactile-torch bench: the benchmarks live in the source checkout (bench/run.py), "
+            f"which was not found at {runner.parent}",
+            file=sys.stderr,
+        )
+        return NOT_BUILT_EXIT
+    cmd = [
+        sys.executable,
+        str(runner),
+        *(["--quick"] if args.quick else []),
+        *(["--only", args.only] if args.only else []),
+    ]
+    return subprocess.call(cmd)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Return the argument parser with every subcommand."""
+    from . import __version__
+
+    parser = argparse.ArgumentParser(
+        prog="tactile-torch",
+        description="Recognise surfaces from tactile images and vibration; train, cluster, export, run.",
+    )
+    parser.add_argument("--version", action="version", version=f"tactile-torch {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+
+    p = sub.add_parser("report", help="run every pipeline on the bundled data and write a report (make run)")
+    p.add_argument("--out", default="runs/latest", help="output directory (default: runs/latest)")
+    p.add_argument("--seed", type=int, default=0, help="random seed of the whole run (default: 0)")
+    p.add_argument("--quick", action="store_true", help="smaller data and fewer iterations, for a smoke test")
+    p.add_argument("--only", default="", help="comma-separated study names to run (default: all)")
+    p.set_defaults(handler=_report)
+
+    p = sub.add_parser("bench", help="run the benchmarks and write bench/results (make bench)")
+    p.add_argument("--quick", action="store_true", help="small sizes, for a smoke test")
+    p.add_argument("--only", default="", help="comma-separated benchmark names (default: all)")
+    p.set_defaults(handler=_bench)
+
+    for name, (help_text, issue) in PLANNED.items():
+        p = sub.add_parser(name, help=f"{help_text} [not built yet]")
+        p.set_defaults(handler=_not_built(name, issue))
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the command line; return the exit status."""
+    args = build_parser().parse_args(argv)
+    return int(args.handler(args))
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

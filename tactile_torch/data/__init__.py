@@ -1,0 +1,34 @@
+"""Data: seeded synthetic generators, loaders for the ``.npz`` formats, and the shared real data sets.
+
+Real data sets live outside the repository, in ``../shared/data/<name>/`` (each with a
+``PROVENANCE.md``); :func:`shared_data_dir` finds them.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+SHARED_DATA_ENV = "TACTILE_TORCH_SHARED_DATA"
+
+
+def shared_data_dir(name: str | None = None) -> Path | None:
+    """Return the directory of the shared real data (or of one data set in it), or ``None`` if absent.
+
+    Looked up, in order: the ``TACTILE_TORCH_SHARED_DATA`` environment variable, then
+    ``../shared/data`` next to the source checkout, then ``../shared/data`` relative to the current
+    directory.
+    """
+    candidates = []
+    if os.environ.get(SHARED_DATA_ENV):
+        candidates.append(Path(os.environ[SHARED_DATA_ENV]))
+    candidates.append(Path(__file__).resolve().parents[2] / ".." / "shared" / "data")
+    candidates.append(Path.cwd() / ".." / "shared" / "data")
+    for root in candidates:
+        path = root / name if name else root
+        if path.is_dir():
+            return path.resolve()
+    return None
+
+
+__all__ = ["SHARED_DATA_ENV", "shared_data_dir"]

@@ -1,0 +1,68 @@
+"""The experiments behind ``make run``: each module adds one section to the report.
+
+A study module exposes ``TITLE`` and ``run(section, ctx)``; :data:`STUDIES` lists them in report
+order. :func:`run_report` generates the bundled (seeded, synthetic) data, runs every study and
+writes ``report.md`` with its tables and charts. Studies share generated data through
+:attr:`RunContext.cache` so that nothing is generated twice.
+"""
+
+from __future__ import annotations
+
+import importlib
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from ..report import Report
+
+# Report order. Each entry is a module of this package with TITLE and run(section, ctx).
+STUDIES: list[str] = ["environment"]
+
+
+@dataclass
+class RunContext:
+    """What every study gets: the seed, the size of the run and a cache of shared intermediate data."""
+
+    random_state: int = 0
+    quick: bool = False
+    out_dir: Path = Path("runs/latest")
+    cache: dict[str, Any] = field(default_factory=dict)
+
+    def cached(self, key: str, make: Callable[[], Any]) -> Any:
+        """Return ``cache[key]``, computing it with ``make()`` the first time."""
+        if key not in self.cache:
+            self.cache[key] = make()
+        return self.cache[key]
+
+
+def run_report(
+    out_dir: str | Path,
+    *,
+    random_state: int = 0,
+    quick: bool = False,
+    only: list[str] | None = None,
+    log: Callable[[str], None] = print,
+) -> Path:
+    """Run the studies (all, or those named in ``only``) and write the report; return its path."""
+    unknown = sorted(set(only or []) - set(STUDIES))
+    if unknown:
+        raise ValueError(f"only must name studies among {STUDIES}, got unknown {unknown}")
+    out_dir = Path(out_dir)
+    ctx = RunContext(random_state=random_state, quick=quick, out_dir=out_dir)
+    report = Report(out_dir)
+    cmd = f"tactile-torch report --out {out_dir} --seed {random_state}" + (" --quick" if quick else "")
+    report.preamble.append(f"Written by `{cmd}` (`make run` runs it with the defaults).")
+    for name in STUDIES:
+        if only and name not in only:
+            continue
+        module = importlib.import_module(f"{__name__}.{name}")
+        section = report.section(module.TITLE)
+        start = time.perf_counter()
+        log(f"[report] {module.TITLE} ...")
+        module.run(section, ctx)
+        seconds = time.perf_counter() - start
+        section.text(f"_Section computed in {seconds:.1f} s._")
+        log(f"[report] {module.TITLE}: {seconds:.1f} s")
+    return report.write()

@@ -1,0 +1,56 @@
+import json
+import subprocess
+import sys
+
+import matplotlib.pyplot as plt
+import pytest
+
+from tactile_torch.cli import NOT_BUILT_EXIT, PLANNED, main
+from tactile_torch.report import Report
+from tactile_torch.studies import STUDIES, run_report
+
+
+def test_report_writes_markdown_tables_and_figures(tmp_path):
+    rep = Report(tmp_path)
+    sec = rep.section("Demo section")
+    sec.text("Some text.")
+    sec.table([{"a": 1, "b": 0.123456}, {"a": 2, "b": float("nan")}], caption="numbers")
+    fig, ax = plt.subplots()
+    ax.plot([0, 1], [1, 0])
+    png = sec.figure(fig, "Demo Figure", "a line")
+    path = rep.write()
+    md = path.read_text()
+    assert "## Demo section" in md
+    assert "| a | b |" in md and "| 1 | 0.1235 |" in md and "| 2 | nan |" in md
+    assert "![a line](figures/demo-figure.png)" in md
+    assert png.exists() and png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    data = json.loads((tmp_path / "report.json").read_text())
+    assert data["sections"][0]["tables"][0]["rows"][0] == {"a": 1, "b": 0.123456}
+
+
+def test_report_table_rejects_empty_rows(tmp_path):
+    with pytest.raises(ValueError, match="rows must hold at least one row"):
+        Report(tmp_path).section("x").table([])
+
+
+def test_run_report_environment(tmp_path):
+    path = run_report(tmp_path, quick=True, only=["environment"], log=lambda s: None)
+    text = path.read_text()
+    assert "## Environment and data" in text and "torch" in text
+    with pytest.raises(ValueError, match="only must name studies"):
+        run_report(tmp_path, only=["nope"])
+    assert "environment" in STUDIES
+
+
+def test_cli_help_lists_every_design_subcommand():
+    out = subprocess.run(
+        [sys.executable, "-m", "tactile_torch.cli", "--help"], capture_output=True, text=True, check=True
+    ).stdout
+    for name in ["train", "cluster", "export", "predict", "stream", "simulate-sensor", "bench", "report"]:
+        assert name in out
+
+
+@pytest.mark.parametrize("name", sorted(PLANNED))
+def test_cli_unbuilt_subcommand_says_so_and_exits_nonzero(name, capsys):
+    assert main([name]) == NOT_BUILT_EXIT
+    assert f"tactile-torch {name}: not built yet" in capsys.readouterr().err
