@@ -1,0 +1,91 @@
+"""Export torch modules to ONNX with the dynamo exporter, and run ONNX models with onnxruntime.
+
+Shared by the parity tests of every exported op and by the pipeline export. The batch dimension
+(dim 0 of every input) is dynamic by default, so a model exported with a batch of 2 runs on any batch.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import logging
+import warnings
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+import torch
+
+
+def export_onnx(
+    module: torch.nn.Module,
+    example_inputs: Sequence[torch.Tensor],
+    path: str | Path,
+    *,
+    input_names: Sequence[str] | None = None,
+    output_names: Sequence[str] | None = None,
+    dynamic_batch: bool = True,
+    metadata: Mapping[str, str] | None = None,
+    opset_version: int | None = None,
+) -> Path:
+    """Export ``module(*example_inputs)`` to ``path`` with ``torch.onnx.export(..., dynamo=True)``.
+
+    Dimension 0 of every input is a dynamic batch size unless ``dynamic_batch=False``; ``metadata``
+    goes into the model's ``metadata_props``. The exported model is checked with ``onnx.checker``.
+    Returns ``path``.
+    """
+    import onnx
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    example_inputs = tuple(example_inputs)
+    dynamic_shapes = None
+    if dynamic_batch:
+        batch = torch.export.Dim("batch", min=1, max=1 << 20)
+        dynamic_shapes = tuple({0: batch} for _ in example_inputs)
+    module = module.eval()
+    # The exporter reports its progress and optional-dependency notes on stdout and the log; keep the
+    # caller's output clean and surface only real errors (raised).
+    quiet = logging.getLogger("torch.onnx")
+    level = quiet.level
+    quiet.setLevel(logging.ERROR)
+    try:
+        with warnings.catch_warnings(), contextlib.redirect_stdout(io.StringIO()):
+            warnings.simplefilter("ignore")
+            program = torch.onnx.export(
+                module,
+                example_inputs,
+                dynamo=True,
+                dynamic_shapes=dynamic_shapes,
+                input_names=list(input_names) if input_names else None,
+                output_names=list(output_names) if output_names else None,
+                opset_version=opset_version,
+                optimize=True,
+                verbose=False,
+            )
+    finally:
+        quiet.setLevel(level)
+    program.save(str(path))
+    model = onnx.load(str(path))
+    if metadata:
+        for key, value in metadata.items():
+            entry = model.metadata_props.add()
+            entry.key, entry.value = str(key), str(value)
+        onnx.save(model, str(path))
+    onnx.checker.check_model(model, full_check=True)
+    return path
+
+
+def run_onnx(path: str | Path, *inputs: np.ndarray | torch.Tensor, threads: int = 1) -> list[np.ndarray]:
+    """Run an ONNX model with onnxruntime on ``inputs`` (in the model's input order); return its outputs."""
+    import onnxruntime as ort
+
+    options = ort.SessionOptions()
+    options.intra_op_num_threads = threads
+    options.inter_op_num_threads = 1
+    session = ort.InferenceSession(str(path), options, providers=["CPUExecutionProvider"])
+    feeds = {
+        arg.name: (x.detach().cpu().numpy() if isinstance(x, torch.Tensor) else np.asarray(x))
+        for arg, x in zip(session.get_inputs(), inputs, strict=True)
+    }
+    return session.run(None, feeds)

@@ -1,0 +1,34 @@
+import numpy as np
+import onnx
+import pytest
+import torch
+
+from tactile_torch._onnx import export_onnx, run_onnx
+
+
+class _Spectrum(torch.nn.Module):
+    def forward(self, x):
+        return torch.fft.rfft(x, dim=-1).abs().sum(-1), torch.quantile(x, 0.95, dim=-1)
+
+
+def test_export_dynamic_batch_metadata_and_parity(tmp_path):
+    path = export_onnx(
+        _Spectrum(),
+        (torch.randn(2, 3, 64),),
+        tmp_path / "m.onnx",
+        input_names=["x"],
+        output_names=["hf", "p95"],
+        metadata={"window_size": "64", "class_names": '["a", "b"]'},
+    )
+    model = onnx.load(str(path))
+    assert {p.key: p.value for p in model.metadata_props} == {
+        "window_size": "64",
+        "class_names": '["a", "b"]',
+    }
+    x = torch.randn(5, 3, 64, generator=torch.Generator().manual_seed(0))  # a batch other than the export's
+    got = run_onnx(path, x)
+    want = _Spectrum()(x)
+    for g, w in zip(got, want, strict=True):
+        np.testing.assert_allclose(g, w.numpy(), rtol=1e-5, atol=1e-4)
+    with pytest.raises(ValueError):
+        run_onnx(path, x, x)  # one input too many
