@@ -37,6 +37,7 @@ def test_run_report_environment(tmp_path):
     path = run_report(tmp_path, quick=True, only=["environment"], log=lambda s: None)
     text = path.read_text()
     assert "## Environment and data" in text and "torch" in text
+    assert "Not built yet" not in text  # only asked for a study that exists
     with pytest.raises(ValueError, match="only must name studies"):
         run_report(tmp_path, only=["nope"])
     assert "environment" in STUDIES
