@@ -1,0 +1,170 @@
+"""Run an exported tactile-torch pipeline with onnxruntime, without torch.
+
+An exported bundle is one ``.onnx`` file holding the whole inference graph (raw exploration frames or
+raw vibration windows in, ``labels`` and ``scores`` out) and its metadata in the model's
+``metadata_props``. This module needs only numpy and onnxruntime, so it runs on a robot's computer
+where torch is not installed; importing it never imports torch.
+
+Metadata keys read here (all values are strings; JSON where structured):
+
+``tactile_torch.pipeline``
+    what the graph does, e.g. ``"vibration-svm"``.
+``tactile_torch.version``
+    the library version that exported it.
+``input_shape``
+    JSON list, one entry per input dimension: an int fixes the size, ``null`` is free (the batch).
+``input_layout``
+    the dimension names, e.g. ``"B,3,W"``, used in error messages.
+``uint8_scale``
+    optional; when present, uint8 input is accepted and multiplied by this factor (``1/255`` maps
+    8-bit frames to [0, 1]).
+``class_names``
+    JSON list of the class (or component) names indexed by label.
+
+Other keys (window size, sample rate, thresholds, feature scale ...) are kept in
+:attr:`OnnxPipeline.metadata` for the caller.
+
+Examples
+--------
+>>> pipe = OnnxPipeline("vibration.onnx")            # doctest: +SKIP
+>>> pipe.predict(windows)                            # doctest: +SKIP
+array([3, 3, 17])
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping
+from pathlib import Path
+
+import numpy as np
+
+LABELS_OUTPUT = "labels"
+SCORES_OUTPUT = "scores"
+
+
+class OnnxPipeline:
+    """An exported pipeline loaded with onnxruntime: validate raw input, then predict labels and scores.
+
+    Parameters
+    ----------
+    path : str or Path
+        The ``.onnx`` bundle written by ``tactile-torch export``.
+    intra_op_threads : int, default 1
+        Threads onnxruntime may use inside one operator (1 gives the lowest latency jitter on a
+        robot's computer that runs other processes; 0 lets onnxruntime choose).
+    inter_op_threads : int, default 1
+        Threads across operators.
+
+    Attributes
+    ----------
+    metadata : dict of str to str
+        Every metadata property of the model.
+    class_names : list of str
+        Name of each label.
+    input_shape : tuple of (int or None)
+        Expected input shape; ``None`` marks a free dimension (the batch).
+    input_layout : str
+        Names of the input dimensions, e.g. ``"B,T,3,H,W"``.
+    """
+
+    def __init__(self, path: str | Path, *, intra_op_threads: int = 1, inter_op_threads: int = 1) -> None:
+        import onnxruntime as ort
+
+        path = Path(path)
+        if not path.is_file():
+            raise FileNotFoundError(
+                f"path must name an exported .onnx bundle, got {str(path)!r} (no such file)"
+            )
+        for name, value in (("intra_op_threads", intra_op_threads), ("inter_op_threads", inter_op_threads)):
+            if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+                raise ValueError(f"{name} must be an int >= 0, got {value!r}")
+        options = ort.SessionOptions()
+        options.intra_op_num_threads = intra_op_threads
+        options.inter_op_num_threads = inter_op_threads
+        self.path = path
+        self.session = ort.InferenceSession(str(path), options, providers=["CPUExecutionProvider"])
+        self.metadata: dict[str, str] = dict(self.session.get_modelmeta().custom_metadata_map)
+        self._input = self.session.get_inputs()[0]
+        self._outputs = [o.name for o in self.session.get_outputs()]
+        missing = {LABELS_OUTPUT, SCORES_OUTPUT} - set(self._outputs)
+        if missing:
+            raise ValueError(
+                f"{path} is not a tactile-torch bundle: outputs must include 'labels' and 'scores', "
+                f"got {self._outputs}"
+            )
+        self.input_shape = self._declared_shape()
+        self.input_layout = self.metadata.get("input_layout", ",".join("?" * len(self.input_shape)))
+        names = self.metadata.get("class_names")
+        self.class_names: list[str] = json.loads(names) if names else []
+        scale = self.metadata.get("uint8_scale")
+        self._uint8_scale = float(scale) if scale else None
+
+    def _declared_shape(self) -> tuple[int | None, ...]:
+        if "input_shape" in self.metadata:
+            return tuple(json.loads(self.metadata["input_shape"]))
+        return tuple(d if isinstance(d, int) else None for d in self._input.shape)
+
+    @property
+    def pipeline(self) -> str:
+        """What the graph does (``tactile_torch.pipeline`` metadata), or ``"unknown"``."""
+        return self.metadata.get("tactile_torch.pipeline", "unknown")
+
+    def validate(self, raw: object) -> np.ndarray:
+        """Return ``raw`` as a float32 array of the model's input shape, or raise a clear error.
+
+        uint8 input is scaled by the bundle's ``uint8_scale`` when it declares one (image bundles:
+        8-bit frames to [0, 1]); float64 is cast to float32; other dtypes, a wrong rank or size, and
+        NaN or inf values raise.
+        """
+        if not isinstance(raw, np.ndarray):
+            raise TypeError(f"raw must be a numpy.ndarray, got {type(raw).__name__}")
+        expected = "(" + ", ".join(self.input_layout.split(",")) + ")"
+        fixed = tuple("B" if d is None else d for d in self.input_shape)
+        if raw.ndim != len(self.input_shape) or any(
+            want is not None and got != want for want, got in zip(self.input_shape, raw.shape, strict=False)
+        ):
+            raise ValueError(
+                f"raw must have shape {expected} = {fixed} for this {self.pipeline} bundle, got {raw.shape}"
+            )
+        if raw.shape[0] == 0:
+            raise ValueError(f"raw must hold at least one sample (batch size >= 1), got shape {raw.shape}")
+        if raw.dtype == np.uint8 and self._uint8_scale is not None:
+            return raw.astype(np.float32) * np.float32(self._uint8_scale)
+        if raw.dtype not in (np.float32, np.float64):
+            accepted = "float32, float64" + (" or uint8" if self._uint8_scale is not None else "")
+            raise TypeError(f"raw must have dtype {accepted}, got {raw.dtype}")
+        raw = raw.astype(np.float32, copy=False)
+        if not np.isfinite(raw).all():
+            raise ValueError(f"raw must be finite, got {int((~np.isfinite(raw)).sum())} NaN/inf value(s)")
+        return raw
+
+    def run(self, raw: np.ndarray) -> Mapping[str, np.ndarray]:
+        """Return every output of the graph for validated ``raw``, by name."""
+        values = self.session.run(None, {self._input.name: self.validate(raw)})
+        return dict(zip(self._outputs, values, strict=True))
+
+    def predict(self, raw: np.ndarray) -> np.ndarray:
+        """Return the predicted label of each sample, shape ``(B,)`` int64."""
+        return np.asarray(self.run(raw)[LABELS_OUTPUT], dtype=np.int64)
+
+    def predict_scores(self, raw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Return ``(labels, scores)``: labels ``(B,)`` int64 and the graph's scores ``(B, C)`` float32."""
+        out = self.run(raw)
+        return np.asarray(out[LABELS_OUTPUT], dtype=np.int64), out[SCORES_OUTPUT]
+
+    def predict_names(self, raw: np.ndarray) -> list[str]:
+        """Return the predicted class name of each sample (the label when the bundle has no names)."""
+        labels = self.predict(raw)
+        if not self.class_names:
+            return [str(int(label)) for label in labels]
+        return [self.class_names[int(label)] for label in labels]
+
+    def __repr__(self) -> str:
+        return (
+            f"OnnxPipeline({str(self.path)!r}, pipeline={self.pipeline!r}, "
+            f"input=({self.input_layout}), classes={len(self.class_names)})"
+        )
+
+
+__all__ = ["LABELS_OUTPUT", "SCORES_OUTPUT", "OnnxPipeline"]

@@ -1,0 +1,107 @@
+import json
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+import torch
+
+from tactile_torch._onnx import export_onnx
+from tactile_torch.runtime import OnnxPipeline
+
+
+class _NearestMean(torch.nn.Module):
+    """A stand-in pipeline: raw (B, 3, W) windows -> per-axis means -> nearest of 4 class means."""
+
+    def __init__(self):
+        super().__init__()
+        self.register_buffer("means", torch.tensor([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]]))
+
+    def forward(self, x):
+        feats = x.mean(dim=-1)
+        d2 = (
+            (feats * feats).sum(1, keepdim=True) + (self.means * self.means).sum(1) - 2 * feats @ self.means.T
+        )
+        scores = -d2
+        return scores.argmax(dim=1), scores
+
+
+@pytest.fixture(scope="module")
+def bundle(tmp_path_factory):
+    path = tmp_path_factory.mktemp("rt") / "toy.onnx"
+    meta = {
+        "tactile_torch.pipeline": "toy-vibration",
+        "input_shape": json.dumps([None, 3, 16]),
+        "input_layout": "B,3,W",
+        "class_names": json.dumps(["still", "x", "y", "z"]),
+        "window_size": "16",
+    }
+    return export_onnx(
+        _NearestMean(),
+        (torch.zeros(2, 3, 16),),
+        path,
+        input_names=["windows"],
+        output_names=["labels", "scores"],
+        metadata=meta,
+    )
+
+
+def test_predict_matches_torch_at_another_batch_size(bundle):
+    pipe = OnnxPipeline(bundle)
+    rng = np.random.default_rng(0)
+    raw = (rng.normal(size=(9, 3, 16)) + np.eye(4, 3)[rng.integers(0, 4, 9)][:, :, None]).astype(np.float32)
+    labels, scores = pipe.predict_scores(raw)
+    want_labels, want_scores = _NearestMean()(torch.from_numpy(raw))
+    np.testing.assert_array_equal(labels, want_labels.numpy())
+    np.testing.assert_allclose(scores, want_scores.numpy(), rtol=1e-5, atol=1e-6)
+    assert pipe.predict_names(raw) == [["still", "x", "y", "z"][i] for i in labels]
+    assert pipe.input_shape == (None, 3, 16) and pipe.metadata["window_size"] == "16"
+    np.testing.assert_array_equal(pipe.predict(raw.astype(np.float64)), labels)
+    assert "toy-vibration" in repr(pipe)
+
+
+@pytest.mark.parametrize(
+    ("raw", "err", "match"),
+    [
+        ([[0.0] * 16] * 3, TypeError, "raw must be a numpy.ndarray, got list"),
+        (np.zeros((3, 16), np.float32), ValueError, r"raw must have shape \(B, 3, W\) = \('B', 3, 16\)"),
+        (np.zeros((2, 3, 17), np.float32), ValueError, r"got \(2, 3, 17\)"),
+        (np.zeros((0, 3, 16), np.float32), ValueError, "at least one sample"),
+        (np.zeros((2, 3, 16), np.uint8), TypeError, "dtype float32, float64, got uint8"),
+        (np.full((2, 3, 16), np.nan, np.float32), ValueError, "raw must be finite, got 96 NaN/inf"),
+    ],
+)
+def test_bad_input_is_named(bundle, raw, err, match):
+    with pytest.raises(err, match=match):
+        OnnxPipeline(bundle).predict(raw)
+
+
+def test_bad_construction(tmp_path, bundle):
+    with pytest.raises(FileNotFoundError, match=r"path must name an exported \.onnx bundle"):
+        OnnxPipeline(tmp_path / "missing.onnx")
+    with pytest.raises(ValueError, match="intra_op_threads must be an int >= 0, got -1"):
+        OnnxPipeline(bundle, intra_op_threads=-1)
+
+
+def test_runtime_runs_where_torch_cannot_be_imported(bundle):
+    code = textwrap.dedent(
+        f"""
+        import sys
+
+        class _NoTorch:
+            def find_spec(self, name, path=None, target=None):
+                if name == "torch" or name.startswith("torch."):
+                    raise ImportError("torch is not installed on this robot")
+                return None
+
+        sys.meta_path.insert(0, _NoTorch())
+        import numpy as np
+        from tactile_torch.runtime import OnnxPipeline
+
+        pipe = OnnxPipeline({str(bundle)!r})
+        print(pipe.predict(np.zeros((1, 3, 16), np.float32)).tolist(), "torch" in sys.modules)
+        """
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.split() == ["[0]", "False"]
