@@ -49,9 +49,10 @@ Degenerate and extreme windows
 ------------------------------
 - A constant window (a stylus at rest) has ``var = tv = cross = hf = 0``, and its standardised
   moments, undefined (``0 / 0``), are **defined as 0** (``skew = kurt = m5 = 0``); scipy returns NaN.
-- Windows are shifted by their first sample and divided by their range before the moments and the
-  spectrum are taken, so the features are finite and accurate for any finite scale and offset (a
-  1 g gravity offset costs no float32 accuracy, values of 1e30 do not overflow ``m_5``).
+- The moments are computed in float64 from the deviations divided by the window's range, whatever
+  the input dtype, and the spectrum from the window minus its first sample: the features are finite
+  and accurate for any scale and offset (a 1 g gravity offset costs no float32 accuracy, values of
+  1e30 do not overflow ``m_5``), as long as the variance itself fits in the dtype.
 - A spike or clipped (saturated) samples need no special case: every feature stays finite.
 - NaN or inf samples raise ``ValueError`` (in eager mode; an exported ONNX graph cannot raise, its
   outputs are then non-finite, so check the input before running it).
@@ -65,7 +66,10 @@ torch.Size([19, 21])
 
 from __future__ import annotations
 
+import contextlib
 import functools
+from collections.abc import Iterator
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import torch
@@ -189,36 +193,68 @@ def window_features(windows: torch.Tensor) -> torch.Tensor:
     >>> window_features(torch.randn(4, 3, 800)).shape
     torch.Size([4, 21])
     """
-    exporting = torch.compiler.is_exporting()
-    if not exporting:
+    if torch.compiler.is_exporting():  # traced: one graph, no validation (it cannot raise)
+        width = windows.shape[-1]
+        stats = _row_statistics(windows.reshape(-1, width), exact=True)
+        features = _features_from_statistics(stats, width).to(windows.dtype)
+        return features.reshape(*windows.shape[:-2], len(FEATURE_NAMES))
+    with _serial_torch_ops() as threads:
         _check_windows(windows)
         check_finite(windows, "windows")
-    lead, width = windows.shape[:-2], windows.shape[-1]
-    rows = windows.reshape(-1, width)  # (B * 3, W): every feature is a function of one row
-    if exporting:
-        stats = _row_statistics(rows, exact=True)
-    else:
-        block = max(3, _BLOCK_SAMPLES // width)
-        # Blocks of windows, for cache locality (see _BLOCK_SAMPLES); not a loop over windows.
-        stats = torch.cat(
-            [_row_statistics(rows[i : i + block], exact=False) for i in range(0, len(rows), block)]
-        )
-    return _features_from_statistics(stats, width).reshape(*lead, len(FEATURE_NAMES))
+        lead, width = windows.shape[:-2], windows.shape[-1]
+        rows = windows.reshape(-1, width)  # (B * 3, W): every feature is a function of one row
+        size = max(3, _BLOCK_SAMPLES // width)
+        blocks = [rows[i : i + size] for i in range(0, len(rows), size)]  # blocks of windows, not windows
+        statistics = functools.partial(_row_statistics, exact=False, grad=torch.is_grad_enabled())
+        if threads > 1 and len(blocks) > 1:
+            with ThreadPoolExecutor(min(threads, len(blocks))) as pool:
+                stats = torch.cat(list(pool.map(statistics, blocks)))
+        else:
+            stats = torch.cat([statistics(block) for block in blocks])
+        return _features_from_statistics(stats, width).to(windows.dtype).reshape(*lead, len(FEATURE_NAMES))
 
 
-def _row_statistics(a: torch.Tensor, *, exact: bool) -> torch.Tensor:
-    """The sums every feature is made of, for rows ``(R, W)`` → ``(R, 9)``; inputs already validated.
+@contextlib.contextmanager
+def _serial_torch_ops() -> Iterator[int]:
+    """Run torch ops on one intra-op thread inside the block; yield the thread count it had before.
 
-    Columns: range, offset, raw moments 2..5 of the scaled deviations, total variation, crossings and
-    the upper-half amplitude sum of the scaled deviations (see :func:`_features_from_statistics`).
-    The deviations ``d = (a - mean(a)) / range`` make the moments shift- and scale-free: no overflow
-    of ``d**5`` or cancellation against an offset, whatever the signal's unit and gravity offset.
+    A block's dozens of short passes cost less than one synchronisation of torch's thread pool (on a
+    loaded 2-core machine a parallel ``floor`` or small FFT stalls for milliseconds), so the eager
+    path parallelises over blocks instead, each running single-threaded ops. The setting is global
+    to the process and is restored on exit.
     """
+    threads = torch.get_num_threads()
+    if threads > 1:
+        torch.set_num_threads(1)
+    try:
+        yield threads
+    finally:
+        if threads > 1:
+            torch.set_num_threads(threads)
+
+
+def _row_statistics(a: torch.Tensor, *, exact: bool, grad: bool = True) -> torch.Tensor:
+    """The sums every feature is made of, for rows ``(R, W)`` → float64 ``(R, 9)``; inputs validated.
+
+    Columns: range, offset, sums of the powers 2..5 of the scaled deviations, total variation,
+    crossings and upper-half amplitude sum (see :func:`_features_from_statistics`). ``grad`` is the
+    caller's grad mode, which worker threads do not inherit.
+
+    The moments use the deviations ``d = (a - mean(a)) / range`` in float64 whatever the input dtype:
+    dividing by the range keeps ``d**5`` from overflowing and makes the standardised moments
+    offset- and scale-free, and float64 because the fifth moment of a heavy-tailed window is a small
+    difference of large terms (float32 deviations alone cost up to 4e-5 of it). Total variation,
+    crossings and spectrum stay in the input dtype (their float32 error is ~1e-7).
+    """
+    if grad != torch.is_grad_enabled():
+        with torch.set_grad_enabled(grad):
+            return _row_statistics(a, exact=exact, grad=grad)
     lo, hi = a.amin(-1, keepdim=True), a.amax(-1, keepdim=True)  # 10x faster than aminmax on CPU
     spread = hi - lo
-    flat = spread == 0
-    d = (a - a.mean(-1, keepdim=True)) / torch.where(flat, torch.ones_like(spread), spread)
-    # The rounded mean leaves mean(d) = offset of about eps * |mean(a)| / range; instead of a second
+    wide = a.to(torch.float64)
+    range64 = spread.to(torch.float64)
+    d = (wide - wide.mean(-1, keepdim=True)) / torch.where(range64 == 0, torch.ones_like(range64), range64)
+    # The rounded mean leaves mean(d) = offset, about 1e-16 * |mean(a)| / range; instead of a second
     # centring pass, the moments are corrected for it exactly (binomial expansion).
     offset = d.mean(-1)
     d2 = d * d
@@ -228,8 +264,11 @@ def _row_statistics(a: torch.Tensor, *, exact: bool) -> torch.Tensor:
     tv = (a[:, 1:] - a[:, :-1]).abs().sum(-1)
     with torch.no_grad():  # piecewise constant: zero gradient
         cross = _crossings(a.detach(), lo.detach(), spread.detach(), exact=exact)
-    hf = _upper_half_amplitude_sum(d, basis=exact)
-    return torch.stack([spread[:, 0], offset, *raw, tv, cross, hf], dim=-1)
+    # Minus the first sample: the DC bin is not summed, and the FFT's rounding scales with the signal's
+    # magnitude, which a 1 g gravity offset would otherwise dominate.
+    hf = _upper_half_amplitude_sum(a - a[:, :1], basis=exact)
+    others = torch.stack([tv, cross, hf], dim=-1).to(torch.float64)
+    return torch.cat([torch.stack([range64[:, 0], offset, *raw], dim=-1), others], dim=-1)
 
 
 def _features_from_statistics(stats: torch.Tensor, width: int) -> torch.Tensor:
@@ -248,7 +287,7 @@ def _features_from_statistics(stats: torch.Tensor, width: int) -> torch.Tensor:
     skew = torch.where(flat, zero, m3 / m2_safe**1.5)
     kurt = torch.where(flat, zero, m4 / m2_safe**2)
     fifth = torch.where(flat, zero, m5 / m2_safe**2.5)
-    return torch.stack([var, skew, kurt, fifth, tv, cross, hf * spread], dim=-1)
+    return torch.stack([var, skew, kurt, fifth, tv, cross, hf], dim=-1)
 
 
 def _threshold(lo: torch.Tensor, spread: torch.Tensor, k: torch.Tensor) -> torch.Tensor:

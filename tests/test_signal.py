@@ -56,11 +56,14 @@ def surfaces():
 
 
 def _test_windows(surfaces, size, dtype):
-    """Synthetic windows of every surface, plus Gaussian, constant, spike and clipped ones."""
+    """Synthetic windows of every surface, plus Gaussian, constant, spike, clipped and heavy-tailed ones."""
     rng = np.random.default_rng(size)
     synthetic = np.stack([s[:size].T for s in surfaces.signals])
-    extra = np.empty((4, 3, size))
+    extra = np.empty((5, 3, size))
     extra[0] = rng.normal(1.0, 0.3, (3, size))  # continuous values, offset
+    extra[4] = (
+        np.round(0.02 * rng.standard_t(3, (3, size)) / QUANTUM_G) * QUANTUM_G
+    )  # heavy tails: m5 ill-conditioned
     extra[1] = 0.25  # constant: a stylus at rest
     extra[2] = 0.0
     extra[2, :, size // 3] = [3.0, -2.0, 0.5]  # one spike per axis

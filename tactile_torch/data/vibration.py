@@ -715,7 +715,9 @@ def _simulate(
     # 5. through the probe and the contact; impulses scaled so one impact peaks at its amplitude
     response = np.fft.irfft(transfer, n)
     peak = np.abs(response).max()
-    vib = rough + np.fft.irfft(np.fft.rfft(smooth) * transfer + np.fft.rfft(impulses) * (transfer / peak), n)
+    excited = np.fft.rfft(smooth) * transfer + np.fft.rfft(impulses) * (transfer / peak)
+    excited[:, 0] = 0.0  # a stylus that stays on the surface has no mean acceleration
+    vib = rough + np.fft.irfft(excited, n)
 
     # 6. wear drift and slow wander of the gain
     drift = 1.0 + rng.uniform(-0.04, 0.01) * t / t[-1] + 0.01 * _lowpass_noise(rng, (), n, rate, 0.2)

@@ -24,13 +24,13 @@ EXAMPLES = ("glass", "sandpaper-p120", "carpet", "rubber", "ceramic-tiles", "fel
 
 
 def bundled_recordings(ctx):
-    """The synthetic recordings of ``make run``: 28 surfaces, 120 s each (10 s in quick mode), seeded.
+    """The synthetic recordings of ``make run``: 28 surfaces, 120 s each (6 s in quick mode), seeded.
 
     Cached in ``ctx`` under :data:`RECORDINGS_KEY`, so every study of the run uses the same data.
     """
     from ..data.vibration import make_vibration_recordings
 
-    duration = 10.0 if ctx.quick else 120.0
+    duration = 6.0 if ctx.quick else 120.0
     return ctx.cached(
         RECORDINGS_KEY,
         lambda: make_vibration_recordings(28, duration_s=duration, random_state=ctx.random_state),
@@ -120,6 +120,7 @@ def _example_windows(section, rec) -> None:
 
 def _feature_distributions(section, ds, feats) -> None:
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import MaxNLocator
 
     from ..signal import AXIS_FEATURES, FEATURE_NAMES
 
@@ -129,24 +130,19 @@ def _feature_distributions(section, ds, feats) -> None:
     fig, axes = plt.subplots(3, len(AXIS_FEATURES), figsize=(15, 6.5))
     for j, name in enumerate(FEATURE_NAMES):
         ax = axes[j // len(AXIS_FEATURES), j % len(AXIS_FEATURES)]
-        column = values[:, j]
         log = AXIS_FEATURES[j % len(AXIS_FEATURES)] in ("var", "tv", "hf", "cross")
-        shown = np.log10(np.maximum(column, 1e-12)) if log else column
+        shown = np.log10(np.maximum(values[:, j], 1e-12)) if log else values[:, j]
         lo, hi = np.percentile(shown, [0.5, 99.5])
         bins = np.linspace(lo, hi if hi > lo else lo + 1, 40)
         for k, surface in enumerate(names):
-            ax.hist(
-                shown[labels == ds.class_names.index(surface)],
-                bins=bins,
-                histtype="step",
-                lw=1.0,
-                color=plt.cm.tab10(k),
-                label=surface,
-            )
+            counts, _ = np.histogram(shown[labels == ds.class_names.index(surface)], bins=bins)
+            ax.stairs(counts, bins, color=plt.cm.tab10(k), lw=1.0, label=surface)
         ax.set_title(("log10 " if log else "") + name, fontsize=8)
+        ax.set_yticks([])  # counts per surface; only the shapes matter
+        ax.xaxis.set_major_locator(MaxNLocator(3))
         ax.tick_params(labelsize=6)
     axes[0, -1].legend(fontsize=6)
-    fig.tight_layout()
+    fig.subplots_adjust(hspace=0.45, wspace=0.08)
     section.figure(
         fig,
         "vibration-feature-distributions",
