@@ -257,6 +257,7 @@ def test_sliding_windows_layout_and_view():
     wb = sliding_windows(batch, 4, 3)
     assert wb.shape == (2, 3, 3, 4) and torch.equal(wb[1], sliding_windows(rec + 100, 4, 3))
     assert window_features(wb).shape == (2, 3, 21)
+    assert window_features(torch.zeros(0, 3, 50)).shape == (0, 21)  # no window, no error
 
 
 @settings(max_examples=25, deadline=None)
