@@ -121,10 +121,27 @@ class VibrationRecordings:
     def windows(
         self, size: int, step: int | None = None, *, max_per_recording: int | None = None
     ) -> VibrationWindows:
-        """Cut every recording into windows of ``size`` samples every ``step`` (default ``size``).
+        """Return the windows of every recording, with their labels and positions.
 
-        Recordings shorter than ``size`` give no window. ``max_per_recording`` keeps the first ones.
-        Returns a :class:`VibrationWindows` with float32 windows ``(N, 3, size)`` (a copy).
+        Parameters
+        ----------
+        size : int
+            Window length ``W`` in samples.
+        step : int, optional
+            Hop between windows; default ``size`` (non-overlapping).
+        max_per_recording : int, optional
+            Keep only the first windows of each recording.
+
+        Returns
+        -------
+        VibrationWindows
+            float32 windows ``(N, 3, W)`` (a copy), recordings in order, windows in time order.
+            Recordings shorter than ``size`` give no window.
+
+        Raises
+        ------
+        ValueError
+            If no recording is at least ``size`` samples long.
         """
         import torch
 

@@ -12,8 +12,6 @@ Other studies reuse the recordings through ``ctx.cached(RECORDINGS_KEY, ...)`` (
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 
 TITLE = "Vibration windows and features (method 2)"
@@ -45,16 +43,14 @@ def _command(ctx) -> str:
 
 def run(section, ctx) -> None:
     from ..data.vibration import surface_table
-    from ..signal import FeatureScaler, window_features
+    from ..signal import window_features
 
-    start = time.perf_counter()
     rec = bundled_recordings(ctx)
-    seconds_generated = time.perf_counter() - start
     section.text(
         f"Data: `make_vibration_recordings(28, duration_s={rec.durations_s[0]:g}, "
         f"random_state={ctx.random_state})`, a simulated ADXL345 stylus (800 Hz, 3.9 mg, ±5 g, "
-        "58.9 cm/s) on 28 synthetic surfaces, one recording each "
-        f"({seconds_generated:.1f} s to generate). Parameters are invented, not fitted to measurements; "
+        "58.9 cm/s) on 28 synthetic surfaces, one recording each. Parameters are invented, not fitted "
+        "to measurements; "
         "see `docs/vibration.md` for the model. Alike pairs share their random jitter."
     )
     section.command(_command(ctx))
@@ -76,12 +72,15 @@ def run(section, ctx) -> None:
         caption="Synthetic surfaces (nominal parameters, before the per-seed jitter of 8 %)",
     )
 
-    by_size = {size: (ds := rec.windows(size), window_features(ds.windows)) for size in WINDOW_SIZES}
+    by_size = {}
+    for size in WINDOW_SIZES:
+        windows = rec.windows(size)
+        by_size[size] = (windows, window_features(windows.windows))
     _example_windows(section, rec)
     ds, feats = by_size[800]
     _feature_distributions(section, ds, feats)
     _clustering_scatter(section, ds, feats)
-    rows = [_svc_accuracy(size, ds, feats, FeatureScaler) for size, (ds, feats) in by_size.items()]
+    rows = [_svc_accuracy(size, ds, feats) for size, (ds, feats) in by_size.items()]
     section.text(
         "Generator check: a quick scikit-learn RBF SVC on the 21 features scaled to unit standard "
         "deviation (fitted on the training windows), odd/even window split as in the study. With the "
@@ -182,11 +181,13 @@ def _clustering_scatter(section, ds, feats) -> None:
     )
 
 
-def _svc_accuracy(size, ds, feats, scaler_cls) -> dict:
+def _svc_accuracy(size, ds, feats) -> dict:
     from sklearn.svm import SVC
 
+    from ..signal import FeatureScaler
+
     train = (ds.position % 2 == 0).numpy()
-    scaled = scaler_cls().fit(feats[train]).transform(feats).numpy()
+    scaled = FeatureScaler().fit(feats[train]).transform(feats).numpy()
     y = ds.labels.numpy()
     row = {"W": size, "train windows": int(train.sum()), "test windows": int((~train).sum())}
     for label, gamma, c in (
