@@ -31,4 +31,26 @@ def shared_data_dir(name: str | None = None) -> Path | None:
     return None
 
 
-__all__ = ["SHARED_DATA_ENV", "shared_data_dir"]
+# Vibration recordings (issue 4), imported on first use so that this package stays light to import.
+_LAZY = {
+    "VibrationRecordings": "vibration",
+    "VibrationWindows": "vibration",
+    "load_vibration_csv": "vibration",
+    "load_vibration_npz": "vibration",
+    "make_vibration_dataset": "vibration",
+    "make_vibration_recordings": "vibration",
+    "save_vibration_npz": "vibration",
+    "load_borealtc_imu": "recordings",
+    "load_hapmat_imu5": "recordings",
+}
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        import importlib
+
+        return getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+__all__ = ["SHARED_DATA_ENV", "shared_data_dir", *_LAZY]

@@ -1,0 +1,258 @@
+"""Report section: vibration windows and their 21 features (method 2, ``tactile_torch.signal``).
+
+Shows the bundled synthetic stylus data (the surfaces, example windows like Fig. 3 of the study), the
+feature distributions, the unsupervised transform's first components, how separable the generated
+surfaces are for a quick scikit-learn RBF SVC at W = 200 ... 1600 (a check of the generator, not the
+study's classifier, which is ``vibration_classification``), and the same features on the real
+accelerometer sets when ``../shared/data`` is present.
+
+Other studies reuse the recordings through ``ctx.cached(RECORDINGS_KEY, ...)`` (see
+:func:`bundled_recordings`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+TITLE = "Vibration windows and features (method 2)"
+RECORDINGS_KEY = "vibration_recordings"
+WINDOW_SIZES = (200, 400, 800, 1600)
+# Surfaces shown in the example-window and distribution figures: an alike pair and distinct characters.
+EXAMPLES = ("glass", "sandpaper-p120", "carpet", "rubber", "ceramic-tiles", "felt", "velvet")
+
+
+def bundled_recordings(ctx):
+    """The synthetic recordings of ``make run``: 28 surfaces, 120 s each (6 s in quick mode), seeded.
+
+    Cached in ``ctx`` under :data:`RECORDINGS_KEY`, so every study of the run uses the same data.
+    """
+    from ..data.vibration import make_vibration_recordings
+
+    duration = 6.0 if ctx.quick else 120.0
+    return ctx.cached(
+        RECORDINGS_KEY,
+        lambda: make_vibration_recordings(28, duration_s=duration, random_state=ctx.random_state),
+    )
+
+
+def _command(ctx) -> str:
+    return f"tactile-torch report --only vibration_features --seed {ctx.random_state} --out {ctx.out_dir}" + (
+        " --quick" if ctx.quick else ""
+    )
+
+
+def run(section, ctx) -> None:
+    from ..data.vibration import surface_table
+    from ..signal import window_features
+
+    rec = bundled_recordings(ctx)
+    section.text(
+        f"Data: `make_vibration_recordings(28, duration_s={rec.durations_s[0]:g}, "
+        f"random_state={ctx.random_state})`, a simulated ADXL345 stylus (800 Hz, 3.9 mg, ±5 g, "
+        "58.9 cm/s) on 28 synthetic surfaces, one recording each. Parameters are invented, not fitted "
+        "to measurements; "
+        "see `docs/vibration.md` for the model. Alike pairs share their random jitter."
+    )
+    section.command(_command(ctx))
+    section.table(
+        [
+            {
+                "surface": s.name,
+                "rms (g)": s.rms_g,
+                "corner (Hz)": s.corner_hz,
+                "hardness": s.hardness,
+                "texture (mm)": s.texture_mm or "",
+                "impacts": (f"{s.impacts_hz:g}/s" if s.impacts_hz else "")
+                + (f"every {s.bump_mm:g} mm" if s.bump_mm else ""),
+                "stick-slip (Hz)": s.slip_hz or "",
+                "alike of": s.alike_of,
+            }
+            for s in surface_table(len(rec.class_names))
+        ],
+        caption="Synthetic surfaces (nominal parameters, before the per-seed jitter of 8 %)",
+    )
+
+    by_size = {}
+    for size in WINDOW_SIZES:
+        windows = rec.windows(size)
+        by_size[size] = (windows, window_features(windows.windows))
+    _example_windows(section, rec)
+    ds, feats = by_size[800]
+    _feature_distributions(section, ds, feats)
+    _clustering_scatter(section, ds, feats)
+    rows = [_svc_accuracy(size, ds, feats) for size, (ds, feats) in by_size.items()]
+    section.text(
+        "Generator check: a quick scikit-learn RBF SVC on the 21 features scaled to unit standard "
+        "deviation (fitted on the training windows), odd/even window split as in the study. With the "
+        "study's gamma = 0.0186, C = 16 and with C = 1000. The tuned torch SVM of "
+        "`vibration_classification` is the study's classifier; this table only shows that the "
+        "synthetic surfaces are separable but not trivially, and which are confused."
+    )
+    section.table(rows, caption="Quick SVC accuracy on the synthetic surfaces (test = odd windows)")
+    _real_data(section, ctx)
+
+
+def _example_windows(section, rec) -> None:
+    import matplotlib.pyplot as plt
+
+    names = [n for n in EXAMPLES if n in rec.class_names]
+    size = int(rec.rate_hz)  # one second
+    fig, axes = plt.subplots(len(names), 1, figsize=(8, 1.5 * len(names)), sharex=True)
+    t = np.arange(size) / rec.rate_hz
+    for ax, name in zip(np.atleast_1d(axes), names, strict=True):
+        signal = rec.signals[rec.class_names.index(name)]
+        mid = max(0, len(signal) // 2 - size // 2)
+        window = signal[mid : mid + size]
+        for axis, colour in zip(range(3), ("tab:blue", "tab:orange", "tab:green"), strict=True):
+            ax.plot(t[: len(window)], window[:, axis], lw=0.6, color=colour, label="xyz"[axis])
+        ax.set_ylabel("g")
+        ax.set_title(name, fontsize=9, loc="left")
+    np.atleast_1d(axes)[0].legend(ncol=3, fontsize=7, loc="upper right")
+    np.atleast_1d(axes)[-1].set_xlabel("time (s)")
+    fig.tight_layout()
+    section.figure(
+        fig,
+        "vibration-example-windows",
+        "One-second windows (W = 800) of seven synthetic surfaces, x/y/z in g",
+    )
+
+
+def _feature_distributions(section, ds, feats) -> None:
+    import matplotlib.pyplot as plt
+    from matplotlib.ticker import MaxNLocator
+
+    from ..signal import AXIS_FEATURES, FEATURE_NAMES
+
+    names = [n for n in EXAMPLES if n in ds.class_names]
+    labels = ds.labels.numpy()
+    values = feats.numpy()
+    fig, axes = plt.subplots(3, len(AXIS_FEATURES), figsize=(15, 6.5))
+    for j, name in enumerate(FEATURE_NAMES):
+        ax = axes[j // len(AXIS_FEATURES), j % len(AXIS_FEATURES)]
+        log = AXIS_FEATURES[j % len(AXIS_FEATURES)] in ("var", "tv", "hf", "cross")
+        shown = np.log10(np.maximum(values[:, j], 1e-12)) if log else values[:, j]
+        lo, hi = np.percentile(shown, [0.5, 99.5])
+        bins = np.linspace(lo, hi if hi > lo else lo + 1, 40)
+        for k, surface in enumerate(names):
+            counts, _ = np.histogram(shown[labels == ds.class_names.index(surface)], bins=bins)
+            ax.stairs(counts, bins, color=plt.cm.tab10(k), lw=1.0, label=surface)
+        ax.set_title(("log10 " if log else "") + name, fontsize=8)
+        ax.set_yticks([])  # counts per surface; only the shapes matter
+        ax.xaxis.set_major_locator(MaxNLocator(3))
+        ax.tick_params(labelsize=6)
+    axes[0, -1].legend(fontsize=6)
+    fig.subplots_adjust(hspace=0.45, wspace=0.08)
+    section.figure(
+        fig,
+        "vibration-feature-distributions",
+        "Distributions of the 21 features (W = 800) for seven surfaces; felt and velvet are an alike pair",
+    )
+
+
+def _clustering_scatter(section, ds, feats) -> None:
+    import matplotlib.pyplot as plt
+
+    from ..signal import ClusteringTransform
+
+    transform = ClusteringTransform(n_components=3).fit(feats)
+    comps = transform(feats).numpy()
+    labels = ds.labels.numpy()
+    fig, ax = plt.subplots(figsize=(7, 5.5))
+    for c, name in enumerate(ds.class_names):
+        sel = labels == c
+        ax.scatter(
+            comps[sel, 0],
+            comps[sel, 1],
+            s=4,
+            color=plt.cm.tab20(c % 20),
+            marker="o" if c < 20 else "^",
+            label=name,
+        )
+    ax.set_xlabel("PC 1")
+    ax.set_ylabel("PC 2")
+    ax.legend(fontsize=5, ncol=2, markerscale=2, loc="best")
+    ratio = transform.explained_variance_ratio_.numpy()
+    fig.tight_layout()
+    section.figure(
+        fig,
+        "vibration-clustering-transform",
+        "Unsupervised transform (sqrt var, log tv/cross/hf, standardised, PCA), W = 800, first two of "
+        f"three components (explained variance {ratio[0]:.2f}, {ratio[1]:.2f}, {ratio[2]:.2f})",
+    )
+
+
+def _svc_accuracy(size, ds, feats) -> dict:
+    from sklearn.svm import SVC
+
+    from ..signal import FeatureScaler
+
+    train = (ds.position % 2 == 0).numpy()
+    scaled = FeatureScaler().fit(feats[train]).transform(feats).numpy()
+    y = ds.labels.numpy()
+    row = {"W": size, "train windows": int(train.sum()), "test windows": int((~train).sum())}
+    for label, gamma, c in (
+        ("acc (gamma 0.0186, C 16)", 0.0186, 16.0),
+        ("acc (gamma 0.0186, C 1000)", 0.0186, 1000.0),
+    ):
+        pred = SVC(gamma=gamma, C=c).fit(scaled[train], y[train]).predict(scaled[~train])
+        row[label] = float((pred == y[~train]).mean())
+    truth = y[~train]
+    confusion = np.zeros((len(ds.class_names),) * 2, dtype=int)
+    np.add.at(confusion, (truth, pred), 1)
+    np.fill_diagonal(confusion, 0)
+    a, b = np.unravel_index(confusion.argmax(), confusion.shape)
+    row["most confused (C 1000)"] = (
+        f"{ds.class_names[a]} → {ds.class_names[b]} ({confusion[a, b]})" if confusion.any() else "none"
+    )
+    return row
+
+
+def _real_data(section, ctx) -> None:
+    import torch
+
+    from ..data import shared_data_dir
+    from ..data.recordings import load_borealtc_imu, load_hapmat_imu5
+    from ..signal import FeatureScaler, window_features
+
+    loaders = {"hapmat_imu5": load_hapmat_imu5, "borealtc_imu": load_borealtc_imu}
+    present = {name: load for name, load in loaders.items() if shared_data_dir(name) is not None}
+    if not present:
+        section.text(
+            "The real accelerometer sets (`../shared/data/hapmat_imu5`, `borealtc_imu`) are absent: skipped."
+        )
+        return
+    from sklearn.svm import SVC
+
+    rows = []
+    for name, load in present.items():
+        rec = load()
+        size = int(2 * rec.rate_hz)  # 2 s windows at the native 100 Hz
+        ds = rec.windows(size)
+        feats = window_features(ds.windows)
+        # Time split inside each recording (first 2/3 train, last 1/3 test): adjacent windows of one
+        # continuous recording are too alike for an odd/even split to mean much.
+        counts = np.bincount(ds.recording.numpy())
+        train = ds.position.numpy() < (2 * counts[ds.recording.numpy()]) // 3
+        scaled = FeatureScaler().fit(feats[train]).transform(feats).numpy()
+        y = ds.labels.numpy()
+        pred = SVC(gamma=0.0186, C=1000.0).fit(scaled[train], y[train]).predict(scaled[~train])
+        rows.append(
+            {
+                "data set": name,
+                "recordings": len(rec),
+                "classes": len(rec.class_names),
+                "rate (Hz)": rec.rate_hz,
+                "W (2 s)": size,
+                "windows": len(ds),
+                "finite features": bool(torch.isfinite(feats).all()),
+                "SVC acc (time split)": float((pred == y[~train]).mean()),
+                "chance": 1.0 / len(rec.class_names),
+            }
+        )
+    section.text(
+        "Real accelerometer data, loaded by `tactile_torch.data.load_hapmat_imu5` / `load_borealtc_imu` "
+        "(100 Hz IMU logs, not an 800 Hz stylus: nothing above 50 Hz, so only a sanity check of the "
+        "pipeline on real signals). Same 21 features, 2 s windows, quick RBF SVC (gamma 0.0186, C 1000) "
+        "trained on the first two thirds of every recording and tested on the last third."
+    )
+    section.table(rows, caption="Real data sets under ../shared/data")
