@@ -71,7 +71,7 @@ FEATURE_NAMES = tuple(f"{image}_{stat}" for image in ("M", "A") for stat in STAT
 """Names of the 12 features of :func:`exploration_features` (magnitude first, then direction)."""
 HISTOGRAM_LEVELS = 256
 """Gray levels of the histogram behind :func:`otsu_threshold`."""
-CHUNK_PIXELS = 1 << 22
+CHUNK_PIXELS = 1 << 18
 """Pixels (batch x frames x height x width) processed at once by :func:`exploration_features`."""
 
 Threshold = float | torch.Tensor | str
@@ -95,7 +95,7 @@ def _check_frames(frames: object, name: str = "frames", *, batched: bool = True)
 
 
 def _check_unit_range(x: torch.Tensor, name: str) -> None:
-    lo, hi = torch.aminmax(x)
+    lo, hi = torch.aminmax(x.detach())
     if not (bool(torch.isfinite(lo)) and bool(torch.isfinite(hi))):
         check_finite(x, name)
     if float(lo) < 0.0 or float(hi) > 1.0:
@@ -140,13 +140,22 @@ def _check_threshold(threshold: Threshold, batch: int, name: str = "threshold") 
 
 
 # ------------------------------------------------------------------------------------------ kernels
-def _gray(frames: torch.Tensor, dtype: torch.dtype) -> torch.Tensor:
-    """(..., 3, H, W) → (..., H, W) in ``dtype``; the same elementwise operations as the reference."""
-    x = frames.to(dtype)
+def _gray(frames: torch.Tensor, dtype: torch.dtype, work: torch.Tensor | None = None) -> torch.Tensor:
+    """(..., 3, H, W) → (..., H, W) in ``dtype``, with the reference's elementwise operations in its order.
+
+    ``work``: a float buffer of at least ``frames``' size along dim 1, reused across chunks for the
+    uint8 → float conversion (fresh large buffers cost page faults).
+    """
     if frames.dtype == torch.uint8:
-        x = x / 255.0
+        x = frames.to(dtype) if work is None else work[:, : frames.shape[1]].copy_(frames)
+        x = x.div_(255.0)
+    else:
+        x = frames.to(dtype)
     r, g, b = x.unbind(-3)
-    return GRAY_WEIGHTS[0] * r + GRAY_WEIGHTS[1] * g + GRAY_WEIGHTS[2] * b
+    gray = r * GRAY_WEIGHTS[0]
+    gray += g * GRAY_WEIGHTS[1]
+    gray += b * GRAY_WEIGHTS[2]
+    return gray
 
 
 def _window_pads(k: int) -> tuple[int, int]:
@@ -154,66 +163,97 @@ def _window_pads(k: int) -> tuple[int, int]:
     return k // 2, k - 1 - k // 2
 
 
-def _running_min(x: torch.Tensor, k: int, dim: int) -> torch.Tensor:
-    """Minimum over windows of ``k`` consecutive entries along ``dim`` (output shorter by ``k - 1``).
+# The spatial kernels work on the flattened, padded stack of images: a neighbour is a fixed offset in
+# the 1-D buffer (1 along a row, the padded width along a column), so every step is one long contiguous
+# elementwise operation instead of many short rows. Positions that mix rows or images land only in the
+# padding, which is cut off afterwards.
+def _window_min(x: torch.Tensor, k: int, stride: int, temperature: float | None) -> torch.Tensor:
+    """Minimum of ``x[q], x[q + stride], ..., x[q + (k-1) stride]`` for every ``q`` (1-D, shorter output).
 
-    Doubling: the minima of windows of 1, 2, 4, ... are built from two shifted copies each, and a last
-    (overlapping) step reaches ``k``: about ``2 log2(k)`` elementwise minima, exact, little memory.
+    Hard: by doubling, windows of 1, 2, 4, ... from two shifted copies each and a last overlapping step,
+    about ``2 log2(k)`` elementwise minima, exact. Soft: ``-t * logsumexp(-x / t)`` over the window.
     """
-    out_len = x.shape[dim] - k + 1
+    n_out = x.shape[0] - (k - 1) * stride
+    if temperature is not None:
+        windows = x.unfold(0, (k - 1) * stride + 1, 1)[:, ::stride]
+        return -temperature * torch.logsumexp(-windows / temperature, dim=-1)
     width = 1
     while 2 * width <= k:
-        n = x.shape[dim] - width
-        x = torch.minimum(x.narrow(dim, 0, n), x.narrow(dim, width, n))
+        n = x.shape[0] - width * stride
+        x = torch.minimum(x[:n], x[width * stride : width * stride + n])
         width *= 2
     if width < k:
-        return torch.minimum(x.narrow(dim, 0, out_len), x.narrow(dim, k - width, out_len))
-    return x.narrow(dim, 0, out_len)
-
-
-def _soft_running_min(x: torch.Tensor, k: int, dim: int, temperature: float) -> torch.Tensor:
-    """``-t * logsumexp(-x / t)`` over windows of ``k`` entries along ``dim``."""
-    windows = x.unfold(dim, k, 1)
-    return -temperature * torch.logsumexp(-windows / temperature, dim=-1)
+        offset = (k - width) * stride
+        return torch.minimum(x[:n_out], x[offset : offset + n_out])
+    return x[:n_out]
 
 
 def _erode(mask: torch.Tensor, k: int, temperature: float | None) -> torch.Tensor:
+    """Minimum filter of (..., H, W) by a k x k square, outside ignored (any dtype; soft: float)."""
     if k == 1:
         return mask
+    *lead, height, width = mask.shape
     before, after = _window_pads(k)
-    # +inf outside: the border never lowers the minimum (MATLAB imerode's padding with the maximum).
-    x = F.pad(mask, (before, after, before, after), value=math.inf)
-    if temperature is None:
-        return _running_min(_running_min(x, k, -1), k, -2)
-    # The soft minimum over a square is separable exactly: logsumexp over a 2-D window is the
-    # logsumexp over rows of the per-row logsumexps.
-    x = _soft_running_min(x, k, -1, temperature)
-    return _soft_running_min(x, k, -2, temperature)
+    # The maximum outside: the border never lowers the minimum (MATLAB imerode's padding).
+    fill = math.inf if mask.is_floating_point() else 1
+    padded = F.pad(mask.reshape(-1, height, width), (before, after, before, after), value=fill)
+    padded_width = width + k - 1
+    # The soft minimum over a square is separable exactly: logsumexp over a 2-D window is the logsumexp
+    # over rows of the per-row logsumexps.
+    flat = _window_min(padded.reshape(-1), k, 1, temperature)
+    flat = _window_min(flat, k, padded_width, temperature)
+    flat = F.pad(flat, (0, padded.numel() - flat.numel()))
+    return flat.reshape(padded.shape)[:, :height, :width].reshape(*lead, height, width)
+
+
+def _sobel_flat(image: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """Unnormalised Sobel (gx, gy) of (N, H, W), 'reflect' border, as 1-D buffers for :func:`_unflat`."""
+    # One repeated pixel on each side: scipy's 'reflect' (d c b a | a b c d) for a 3 x 3 kernel.
+    p = torch.cat([image[:, :1], image, image[:, -1:]], dim=1)
+    p = torch.cat([p[:, :, :1], p, p[:, :, -1:]], dim=2).reshape(-1)
+    s, n = image.shape[-1] + 2, p.shape[0]
+    smooth_y = p[: n - 2 * s] + 2 * p[s : n - s] + p[2 * s :]
+    diff_y = p[2 * s :] - p[: n - 2 * s]
+    gx = smooth_y[2:] - smooth_y[:-2]
+    gy = diff_y[:-2] + 2 * diff_y[1:-1] + diff_y[2:]
+    return gx, gy
+
+
+def _unflat(values: torch.Tensor, shape: torch.Size) -> torch.Tensor:
+    """Map a 1-D result of :func:`_sobel_flat` back to (..., H, W)."""
+    height, width = shape[-2:]
+    s = width + 2
+    full = F.pad(values, (s + 1, s + 1)).reshape(-1, height + 2, width + 2)
+    return full[:, 1:-1, 1:-1].reshape(shape)
 
 
 def _sobel(image: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
     """Unnormalised Sobel ``(gx, gy)`` of (..., H, W) with scipy's 'reflect' border (edge repeated)."""
-    p = torch.cat([image[..., :1, :], image, image[..., -1:, :]], dim=-2)
-    p = torch.cat([p[..., :1], p, p[..., -1:]], dim=-1)
-    rows = p[..., :-2, :] + 2.0 * p[..., 1:-1, :] + p[..., 2:, :]  # smoothed along y, for gx
-    cols = p[..., :-2] + 2.0 * p[..., 1:-1] + p[..., 2:]  # smoothed along x, for gy
-    gx = rows[..., 2:] - rows[..., :-2]
-    gy = cols[..., 2:, :] - cols[..., :-2, :]
-    return gx, gy
+    gx, gy = _sobel_flat(image.reshape(-1, *image.shape[-2:]))
+    return _unflat(gx, image.shape), _unflat(gy, image.shape)
 
 
 def _edges(mask: torch.Tensor, edge_threshold: float, temperature: float | None) -> torch.Tensor:
-    gx, gy = _sobel(mask)
+    """Edges of (..., H, W): bool (hard) or float (soft)."""
+    gx, gy = _sobel_flat(mask.reshape(-1, *mask.shape[-2:]))
     # The squared magnitude keeps the soft edge differentiable where the gradient vanishes.
-    excess = gx * gx + gy * gy - edge_threshold * edge_threshold
-    if temperature is None:
-        return (excess > 0).to(mask.dtype)
-    return torch.sigmoid(excess / temperature)
+    squared = gx * gx + gy * gy
+    if temperature is not None:
+        edges = torch.sigmoid((squared - edge_threshold * edge_threshold) / temperature)
+    elif mask.is_floating_point():
+        edges = squared > edge_threshold * edge_threshold
+    else:
+        # A binary int8 mask has integer squared magnitudes of at most 32 (|gx|, |gy| <= 4).
+        edges = squared > min(math.floor(edge_threshold * edge_threshold), 32)
+    if edges.dtype == torch.bool:
+        edges = edges.view(torch.int8)
+    return _unflat(edges, mask.shape)
 
 
 def _pressure(gray: torch.Tensor, threshold: torch.Tensor, temperature: float | None) -> torch.Tensor:
+    """Pressed region: bool (hard) or float (soft)."""
     if temperature is None:
-        return (gray < threshold).to(gray.dtype)
+        return gray < threshold
     return torch.sigmoid((threshold - gray) / temperature)
 
 
@@ -235,9 +275,11 @@ def _otsu_from_histogram(hist: torch.Tensor) -> torch.Tensor:
     denom = omega * (1.0 - omega)
     valid = denom > 0
     between = torch.where(valid, (mu_total * omega - mu) ** 2 / torch.where(valid, denom, 1.0), 0.0)
-    best = between == between.amax(-1, keepdim=True)
-    # MATLAB graythresh: the middle of a plateau of maxima (e.g. across empty bins between two modes).
-    level = (best * levels).sum(-1) / best.sum(-1)
+    top = between.amax(-1, keepdim=True)
+    best = between == top
+    # MATLAB graythresh: the middle of a plateau of maxima (e.g. across empty bins between two modes);
+    # level 0 when no split separates anything (a constant sample).
+    level = torch.where(top.squeeze(-1) > 0, (best * levels).sum(-1) / best.sum(-1), 0.0)
     return (level + 0.5) / (hist.shape[-1] - 1)
 
 
@@ -265,7 +307,9 @@ def _gradient(image: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
 
 
 def _statistics(image: torch.Tensor) -> torch.Tensor:
-    values = image.flatten(-2)
+    # Accumulated in float64: the third and fourth moments of thousands of float32 values would
+    # otherwise lose about five digits.
+    values = image.flatten(-2).to(torch.float64)
     n = values.shape[-1]
     mean = values.mean(-1, keepdim=True)
     dev = values - mean
@@ -288,7 +332,7 @@ def _statistics(image: torch.Tensor) -> torch.Tensor:
     below, above = top[..., -1], top[..., max(n - lower - 2, 0)]
     p95 = below + (above - below) * fraction
     mad = dev.abs().mean(-1)
-    return torch.stack([mean.squeeze(-1), std, skew, kurt, p95, mad], dim=-1)
+    return torch.stack([mean.squeeze(-1), std, skew, kurt, p95, mad], dim=-1).to(image.dtype)
 
 
 def _image_features(image: torch.Tensor) -> torch.Tensor:
@@ -299,8 +343,10 @@ def _image_features(image: torch.Tensor) -> torch.Tensor:
 def _or_accumulate(acc: torch.Tensor | None, edges: torch.Tensor, soft: bool) -> torch.Tensor:
     """Fold (B, t, H, W) edges into the running OR: hard max, or the sum of ``log(1 - e)`` if soft."""
     if soft:
-        tiny = torch.finfo(edges.dtype).eps
-        part = torch.log1p(-edges.clamp(0.0, 1.0 - tiny)).sum(1)
+        # log(1 - e), -inf where e = 1 (so that the OR is exactly 1 there); the double where keeps the
+        # gradient finite (e = 1 only where a sigmoid saturated, whose own gradient is 0).
+        below = edges < 1.0
+        part = torch.where(below, torch.log1p(-torch.where(below, edges, 0.0)), -math.inf).sum(1)
     else:
         part = edges.amax(1)
     if acc is None:
@@ -393,7 +439,7 @@ def pressure_mask(
     _check_temperature(temperature)
     if isinstance(threshold, str):
         threshold = otsu_threshold(gray)
-    return _pressure(gray, _threshold_tensor(threshold, gray), temperature)
+    return _pressure(gray, _threshold_tensor(threshold, gray), temperature).to(gray.dtype)
 
 
 def erode(
@@ -463,7 +509,7 @@ def sobel_edges(
     _check_image(mask, "mask", ["*", "H", "W"])
     check_positive(edge_threshold, "edge_threshold", strict=False)
     _check_temperature(temperature)
-    return _edges(mask, float(edge_threshold), temperature)
+    return _edges(mask, float(edge_threshold), temperature).to(mask.dtype)
 
 
 def fuse_edges(edges: torch.Tensor, *, soft: bool = False) -> torch.Tensor:
@@ -474,7 +520,7 @@ def fuse_edges(edges: torch.Tensor, *, soft: bool = False) -> torch.Tensor:
     edges : tensor of shape (B, T, H, W), floating, values in [0, 1]
     soft : bool
         ``False``: maximum over frames (the OR of {0, 1} maps). ``True``: noisy-OR ``1 - prod(1 - e)``,
-        computed as ``-expm1(sum(log1p(-e)))`` with ``e`` clamped below 1 by one machine epsilon.
+        computed as ``-expm1(sum(log1p(-e)))`` (exactly 1 where some ``e`` is 1).
 
     Returns
     -------
@@ -519,7 +565,8 @@ def gradient_statistics(image: torch.Tensor) -> torch.Tensor:
     Over the row-major flattened image: mean; standard deviation with ``ddof=1``; biased skewness and
     Pearson kurtosis (``scipy.stats.skew``, ``kurtosis(fisher=False)``); 95th percentile with linear
     interpolation (``numpy.percentile``); mean absolute deviation about the mean. A constant image has
-    skewness 0 and kurtosis 0 (scipy: NaN); a one-pixel image has standard deviation 0.
+    skewness 0 and kurtosis 0 (scipy: NaN); a one-pixel image has standard deviation 0. The moments are
+    accumulated in float64 and returned in the image's dtype.
 
     Parameters
     ----------
@@ -608,16 +655,19 @@ def exploration_features(
     soft = temperature is not None
     fused = None
     per_frame = []
+    work = torch.empty((batch, chunk, 3, height, width), dtype=dtype) if frames.dtype == torch.uint8 else None
     for s in starts:
-        gray = _gray(frames[:, s : s + chunk], dtype)
+        gray = _gray(frames[:, s : s + chunk], dtype, work)
         mask = _pressure(gray, _threshold_tensor(threshold, gray), temperature)
+        if not soft:  # binary steps on int8: a quarter of the memory traffic of float32, exact
+            mask = mask.view(torch.int8)
         edges = _edges(_erode(mask, int(erosion), temperature), float(edge_threshold), temperature)
         if fuse:
             fused = _or_accumulate(fused, edges, soft)
         else:
-            per_frame.append(_image_features(edges))
+            per_frame.append(_image_features(edges.to(dtype)))
     if fuse:
-        return _image_features(_or_finish(fused, soft))
+        return _image_features(_or_finish(fused, soft).to(dtype))
     return torch.cat(per_frame, dim=1).reshape(batch, n_frames * len(FEATURE_NAMES))
 
 

@@ -34,7 +34,7 @@ def otsu(gray: np.ndarray) -> float:
     with np.errstate(divide="ignore", invalid="ignore"):
         sigma_b = (mu[-1] * omega - mu) ** 2 / (omega * (1 - omega))
     sigma_b[~np.isfinite(sigma_b)] = 0.0
-    k = np.mean(np.flatnonzero(sigma_b == sigma_b.max()))
+    k = np.mean(np.flatnonzero(sigma_b == sigma_b.max())) if sigma_b.max() > 0 else 0.0
     return (k + 0.5) / 255
 
 

@@ -176,7 +176,7 @@ def render_pressure(
     if size is not None and tuple(size) != (h, w):
         scaled = F.interpolate(scaled, size=tuple(size), mode="bilinear", align_corners=False)
     scaled = scaled.reshape(n, t, *scaled.shape[-2:])
-    rgb = jet(scaled).movedim(-1, 2)
+    rgb = jet(scaled).movedim(-1, 2).contiguous()
     white = (scaled < DISPLAY_FLOOR / SATURATION).unsqueeze(2)
     rgb = torch.where(white, 1.0, rgb)
     return torch.round(rgb * 255.0).to(torch.uint8)
