@@ -246,7 +246,7 @@ def _edges(mask: torch.Tensor, edge_threshold: float, temperature: float | None)
         # A binary int8 mask has integer squared magnitudes of at most 32 (|gx|, |gy| <= 4).
         edges = squared > min(math.floor(edge_threshold * edge_threshold), 32)
     if edges.dtype == torch.bool:
-        edges = edges.view(torch.int8)
+        edges = edges.to(torch.int8)
     return _unflat(edges, mask.shape)
 
 
@@ -660,7 +660,7 @@ def exploration_features(
         gray = _gray(frames[:, s : s + chunk], dtype, work)
         mask = _pressure(gray, _threshold_tensor(threshold, gray), temperature)
         if not soft:  # binary steps on int8: a quarter of the memory traffic of float32, exact
-            mask = mask.view(torch.int8)
+            mask = mask.to(torch.int8)
         edges = _edges(_erode(mask, int(erosion), temperature), float(edge_threshold), temperature)
         if fuse:
             fused = _or_accumulate(fused, edges, soft)

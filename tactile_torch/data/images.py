@@ -85,7 +85,7 @@ OBJECTS: tuple[SurfaceObject, ...] = (
     SurfaceObject("bubble wrap", "dots", 11.0, 9.0, 3.0, 0.0, stagger=True),
     SurfaceObject("embossed sheet (dashes)", "dashes", 7.0, 3.0, 0.6, 0.0, 11.0, 7.0, stagger=True),
     SurfaceObject("anti-slip stair tread", "dashes", 9.0, 3.5, 1.5, 0.0, 18.0, 14.0),
-    SurfaceObject("rubber door mat", "dashes", 8.0, 4.0, 2.0, 90.0, 15.0, 10.0, stagger=True),
+    SurfaceObject("rubber door mat", "dashes", 8.0, 4.0, 2.0, 0.0, 15.0, 10.0, stagger=True),
     SurfaceObject("toy tyre tread", "dashes", 10.0, 4.0, 2.0, 10.0, 12.0, 6.0),
     SurfaceObject("embossed sheet (lines)", "horizontal_lines", 7.0, 3.0, 0.6),
     SurfaceObject("ribbed rubber mat", "horizontal_lines", 6.0, 3.0, 1.5, -8.0),
@@ -93,7 +93,7 @@ OBJECTS: tuple[SurfaceObject, ...] = (
     SurfaceObject("bamboo placemat", "horizontal_lines", 9.0, 7.0, 1.0),
     SurfaceObject("embossed sheet (grid)", "grid", 8.0, 2.5, 0.6),
     SurfaceObject("oven cooling rack", "grid", 7.0, 2.5, 3.0, 0.0, 16.0),
-    SurfaceObject("silicone baking mat", "grid", 10.0, 4.0, 2.0, 45.0),
+    SurfaceObject("silicone baking mat", "grid", 10.0, 4.0, 2.0, 20.0),
     SurfaceObject("plastic canvas mesh", "grid", 5.0, 2.0, 1.0),
 )
 """The simulated objects: four per class, an embossed sheet and three household objects each."""
@@ -324,12 +324,12 @@ def _simulate_pressure(
     # Finger: depth over time (mean force, oscillation, noise, touch-down and lift-off ramps).
     t = np.arange(n_frames) / FRAME_RATE_HZ
     duration = max(t[-1], 1e-9)
-    depth = rng.uniform(0.0, 0.2, (n, 1)) + relief.view(n, 1).numpy() * rng.uniform(0.5, 1.0, (n, 1))
+    depth = relief.view(n, 1).numpy() * rng.uniform(0.3, 0.8, (n, 1))
     depth = depth * (
         1 + 0.35 * _smooth_noise(rng, n, t, (2.0, 8.0)) + 0.05 * rng.standard_normal((n, n_frames))
     )
-    touch = rng.uniform(0.0, 1.2, (n, 1))
-    lift = duration - rng.uniform(0.0, 1.2, (n, 1))
+    touch = rng.uniform(0.0, 0.12, (n, 1)) * duration
+    lift = duration * (1.0 - rng.uniform(0.0, 0.12, (n, 1)))
     ramp = np.clip(np.minimum(t - touch, lift - t) / 0.4, 0.0, 1.0)
     depth = np.clip(depth, 0.0, None) * ramp
     # Path: a smooth wander around a random centre, amplitude about a third of the sensor.
@@ -352,7 +352,7 @@ def _simulate_pressure(
     gap = rho2 * rho2  # mm: a flat pad, 1 mm above the surface at the rim of its ellipse
     overlap = (frames_tensor(depth) + height - relief - gap).clamp(min=0.0)
     stiffness = torch.as_tensor(rng.uniform(90.0, 160.0, n), dtype=torch.float32).view(n, 1, 1, 1)
-    contact = stiffness * overlap**1.5  # counts
+    contact = stiffness * overlap * overlap.sqrt()  # counts; Hertz-like p ∝ overlap^1.5
 
     # Sensor: area average per sensel, gain, noise, 8-bit quantisation, noise threshold.
     readings = F.avg_pool2d(contact.reshape(-1, 1, fine, fine), _OVERSAMPLE).reshape(
