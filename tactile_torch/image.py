@@ -147,8 +147,11 @@ def _gray(frames: torch.Tensor, dtype: torch.dtype, work: torch.Tensor | None = 
     uint8 → float conversion (fresh large buffers cost page faults).
     """
     if frames.dtype == torch.uint8:
-        x = frames.to(dtype) if work is None else work[:, : frames.shape[1]].copy_(frames)
-        x = x.div_(255.0)
+        if work is not None and dtype == torch.get_default_dtype():
+            # one pass: the integers convert exactly, then divide in ``dtype`` (as .to(dtype) / 255)
+            x = torch.div(frames, 255.0, out=work[:, : frames.shape[1]])
+        else:
+            x = frames.to(dtype).div_(255.0)
     else:
         x = frames.to(dtype)
     r, g, b = x.unbind(-3)
@@ -234,19 +237,19 @@ def _sobel(image: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
 
 
 def _edges(mask: torch.Tensor, edge_threshold: float, temperature: float | None) -> torch.Tensor:
-    """Edges of (..., H, W): bool (hard) or float (soft)."""
+    """Edges of (..., H, W): {0, 1} in mask's dtype (hard) or float in (0, 1) (soft)."""
     gx, gy = _sobel_flat(mask.reshape(-1, *mask.shape[-2:]))
     # The squared magnitude keeps the soft edge differentiable where the gradient vanishes.
     squared = gx * gx + gy * gy
     if temperature is not None:
         edges = torch.sigmoid((squared - edge_threshold * edge_threshold) / temperature)
     elif mask.is_floating_point():
-        edges = squared > edge_threshold * edge_threshold
+        edges = (squared > edge_threshold * edge_threshold).to(mask.dtype)
     else:
-        # A binary int8 mask has integer squared magnitudes of at most 32 (|gx|, |gy| <= 4).
-        edges = squared > min(math.floor(edge_threshold * edge_threshold), 32)
-    if edges.dtype == torch.bool:
-        edges = edges.to(torch.int8)
+        # A binary int8 mask has integer squared magnitudes of at most 32 (|gx|, |gy| <= 4), so
+        # ``squared > c`` is ``clamp(squared - c, 0, 1)``: int8 in place, no bool round trip.
+        cut = min(math.floor(edge_threshold * edge_threshold), 32)
+        edges = (squared.sub_(cut) if cut else squared).clamp_(0, 1)
     return _unflat(edges, mask.shape)
 
 

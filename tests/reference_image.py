@@ -83,9 +83,11 @@ def image_features(edge_image: np.ndarray) -> np.ndarray:
     return np.concatenate([statistics(magnitude), statistics(direction)])
 
 
-def frame_edges(frame: np.ndarray, threshold: float, erosion: int, dtype=np.float64) -> np.ndarray:
+def frame_edges(
+    frame: np.ndarray, threshold: float, erosion: int, dtype=np.float64, edge_threshold: float = 0.5
+) -> np.ndarray:
     gray = grayscale(frame, dtype)
-    return edges(erode(gray < dtype(threshold), erosion))
+    return edges(erode(gray < dtype(threshold), erosion), edge_threshold)
 
 
 def exploration_features(
@@ -94,6 +96,7 @@ def exploration_features(
     fuse: bool = True,
     threshold: float | str = 240 / 255,
     erosion: int = 10,
+    edge_threshold: float = 0.5,
     dtype=np.float64,
 ) -> np.ndarray:
     """(B, T, 3, H, W) → (B, 12) or (B, T * 12), looping over explorations and frames."""
@@ -102,7 +105,7 @@ def exploration_features(
         thr = threshold
         if threshold == "otsu":
             thr = otsu(np.stack([grayscale(f, dtype) for f in exploration]))
-        per_frame = [frame_edges(f, thr, erosion, dtype) for f in exploration]
+        per_frame = [frame_edges(f, thr, erosion, dtype, edge_threshold) for f in exploration]
         if fuse:
             fused = np.zeros(per_frame[0].shape, bool)
             for e in per_frame:

@@ -174,11 +174,12 @@ def test_exploration_features_match_reference_on_random_input(dtype, fuse, erosi
     np.testing.assert_allclose(got.double().numpy(), want, **tol)
 
 
-@pytest.mark.parametrize("threshold", [240 / 255, 0.8, "otsu"])
+@pytest.mark.parametrize(("threshold", "edge_threshold"), [(240 / 255, 0.5), (0.8, 2.5), ("otsu", 0.5)])
 @pytest.mark.parametrize("fuse", [True, False])
-def test_exploration_features_match_reference_on_realistic_input(realistic, threshold, fuse):
-    got = image.exploration_features(realistic, fuse=fuse, threshold=threshold, frames_per_chunk=5)
-    want = ref.exploration_features(realistic.numpy(), fuse=fuse, threshold=threshold, dtype=np.float32)
+def test_exploration_features_match_reference_on_realistic_input(realistic, threshold, edge_threshold, fuse):
+    kwargs = {"fuse": fuse, "threshold": threshold, "edge_threshold": edge_threshold}
+    got = image.exploration_features(realistic, frames_per_chunk=5, **kwargs)
+    want = ref.exploration_features(realistic.numpy(), dtype=np.float32, **kwargs)
     np.testing.assert_allclose(got.double().numpy(), want, **TOL[torch.float32])
     assert float(np.abs(want).sum()) > 0  # the explorations have edges
 
