@@ -171,3 +171,16 @@ def test_image_features_study_quick_writes_figures_and_tables(tmp_path):
 def test_image_explorations_container():
     data = ImageExplorations(torch.zeros(2, 1, 3, 4, 4, dtype=torch.uint8), torch.tensor([0, 1]), ("a", "b"))
     assert len(data) == 2 and data.groups is None
+
+
+def test_load_drimus_grasps(shared_data, tmp_path):
+    from tactile_torch.data.images import DRIMUS, load_drimus_grasps
+
+    data = load_drimus_grasps(shared_data(DRIMUS), n_frames=10, scale=2)
+    assert data.frames.shape == (51, 10, 3, 28, 12) and len(data.class_names) == 5
+    assert torch.bincount(data.labels).tolist() == [10, 10, 10, 12, 9]  # PROVENANCE.md's counts
+    assert float(data.pressure.min()) == 0.0
+    with pytest.raises(FileNotFoundError, match="drimus_sdh_tactile"):
+        load_drimus_grasps(tmp_path)
+    with pytest.raises(ValueError, match="sensor must be one of the arrays"):
+        load_drimus_grasps(shared_data(DRIMUS), sensor="ts9")

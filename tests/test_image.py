@@ -338,3 +338,16 @@ def test_onnx_export_of_the_inference_path_matches_onnxruntime(tmp_path, realist
     path = export_onnx(unfused, (realistic[:2, :6],), tmp_path / "unfused.onnx", input_names=["frames"])
     (got,) = run_onnx(path, frames)
     np.testing.assert_allclose(got, unfused(frames).numpy(), rtol=1e-5, atol=1e-5)
+
+
+def test_exploration_features_match_reference_on_real_grasps(shared_data):
+    # real pressure-array recordings (the synthetic-data tests above cover the same code)
+    from tactile_torch.data.images import DRIMUS, load_drimus_grasps
+
+    data = load_drimus_grasps(shared_data(DRIMUS), n_frames=20)
+    frames = data.frames[torch.arange(0, len(data), 10)]  # one grasp of each object
+    for fuse in (True, False):
+        got = image.exploration_features(frames, fuse=fuse, erosion=3)
+        want = ref.exploration_features(frames.numpy(), fuse=fuse, erosion=3, dtype=np.float32)
+        np.testing.assert_allclose(got.double().numpy(), want, **TOL[torch.float32])
+    assert float(np.abs(want).sum()) > 0
