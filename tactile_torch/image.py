@@ -464,7 +464,8 @@ def erode(
         Side of the square (1: no erosion).
     temperature : float, optional
         ``None``: exact minimum. Otherwise the soft minimum ``-t * logsumexp(-x / t)`` over the window
-        (below the minimum by at most ``t * log(size**2)``).
+        (below the minimum by at most ``t * log(size**2)``); it materialises the windows (``size``
+        times the input's memory), as suits the small inputs of training, not bulk feature extraction.
 
     Returns
     -------

@@ -166,6 +166,9 @@ def test_image_features_study_quick_writes_figures_and_tables(tmp_path):
     assert [row["class"] for row in per_class["rows"]] == list(CLASS_NAMES)
     assert {row["features"] for row in accuracy["rows"]} == {"fused (12)", "unfused (240)"}
     assert "tactile-torch report --only image_features" in text
+    with np.load(tmp_path / "image_features.npz") as saved:
+        assert saved["fused"].shape == (12, 12) and saved["unfused"].shape == (12, 20 * 12)
+        assert saved["feature_names"].tolist() == list(image.FEATURE_NAMES)
 
 
 def test_image_explorations_container():

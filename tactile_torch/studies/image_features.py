@@ -168,6 +168,21 @@ def run(section, ctx) -> None:
         f"{len(np.unique(feats['groups']))} objects. Features of the whole set in "
         f"{feats['seconds_fused']:.2f} s (fused, {1e3 * feats['seconds_fused'] / n:.1f} ms per exploration)."
     )
+    saved = ctx.out_dir / "image_features.npz"
+    saved.parent.mkdir(parents=True, exist_ok=True)
+    np.savez_compressed(
+        saved,
+        fused=feats["fused"],
+        unfused=feats["unfused"],
+        labels=feats["labels"],
+        groups=feats["groups"],
+        class_names=np.asarray(feats["class_names"]),
+        feature_names=np.asarray(FEATURE_NAMES),
+    )
+    section.text(
+        f"The features are saved in `{saved.name}` next to this report (`fused` ({n}, 12), `unfused` "
+        f"({n}, {feats['unfused'].shape[1]}), `labels`, `groups` = object index, `class_names`, `feature_names`)."
+    )
     section.command(cmd)
     fig, frame = _stage_figure(data, 0)
     section.figure(
