@@ -254,9 +254,10 @@ def _edges(mask: torch.Tensor, edge_threshold: float, temperature: float | None)
 
 
 def _pressure(gray: torch.Tensor, threshold: torch.Tensor, temperature: float | None) -> torch.Tensor:
-    """Pressed region: bool (hard) or float (soft)."""
+    """Pressed region: int8 {0, 1} (hard) or float (soft)."""
     if temperature is None:
-        return gray < threshold
+        # written straight to int8: several times faster than a bool result converted afterwards
+        return torch.lt(gray, threshold, out=torch.empty(gray.shape, dtype=torch.int8))
     return torch.sigmoid((threshold - gray) / temperature)
 
 
@@ -662,9 +663,8 @@ def exploration_features(
     work = torch.empty((batch, chunk, 3, height, width), dtype=dtype) if frames.dtype == torch.uint8 else None
     for s in starts:
         gray = _gray(frames[:, s : s + chunk], dtype, work)
+        # hard: the binary steps run on int8, a quarter of the memory traffic of float32, exact
         mask = _pressure(gray, _threshold_tensor(threshold, gray), temperature)
-        if not soft:  # binary steps on int8: a quarter of the memory traffic of float32, exact
-            mask = mask.to(torch.int8)
         edges = _edges(_erode(mask, int(erosion), temperature), float(edge_threshold), temperature)
         if fuse:
             fused = _or_accumulate(fused, edges, soft)
