@@ -79,7 +79,8 @@ def main(argv: list[str] | None = None) -> int:
         print(markdown_table(result["rows"]), flush=True)
     if not args.quick:
         summary = ["# Benchmark results", "", "Written by `make bench`. One file per benchmark:", ""]
-        summary += [f"- [{n}]({n}.md)" for n in names if (RESULTS / f"{n}.md").exists()]
+        done = sorted(p.stem for p in RESULTS.glob("*.md") if p.stem != "summary" and not p.stem.endswith("-quick"))
+        summary += [f"- [{n}]({n}.md)" for n in done]
         (RESULTS / "summary.md").write_text("\n".join(summary) + "\n")
     return 0
 

@@ -1,5 +1,10 @@
 """Data: seeded synthetic generators, loaders for the ``.npz`` formats, and the shared real data sets.
 
+Submodules (imported on demand, so that this package stays free of torch):
+``images`` - tactile-image explorations (seeded generator, ``.npz`` loader and saver);
+``vibration`` - triaxial recordings and windows (seeded generator, ``.npz``/CSV loaders);
+``recordings`` - loaders of the shared real IMU data sets.
+
 Real data sets live outside the repository, in ``../shared/data/<name>/`` (each with a
 ``PROVENANCE.md``); :func:`shared_data_dir` finds them.
 """
