@@ -1477,8 +1477,15 @@ class HierarchicalSVC(_KernelMachine):
     def predict(self, X: object) -> np.ndarray:
         """Return the class reached by descending the tree, shape (n,)."""
         margins = torch.from_numpy(self._margins(X))
-        t = self._tree_tensors()
-        labels = tree_descent(margins, t["left"], t["right"], t["column"], t["leaf_label"], self.depth_)
+        # The class descent reaches is the argmax of the path scores (a few tensor operations
+        # whatever the depth); only a margin of exactly 0 can make them differ, so such rows descend.
+        labels = path_scores(margins, torch.from_numpy(self._path_sign)).argmax(dim=1)
+        tie = (margins == 0).any(dim=1)
+        if bool(tie.any()):
+            t = self._tree_tensors()
+            labels[tie] = tree_descent(
+                margins[tie], t["left"], t["right"], t["column"], t["leaf_label"], self.depth_
+            )
         return self.classes_[labels.numpy()]
 
     def describe(self) -> str:

@@ -366,3 +366,17 @@ def test_predict_before_fit_raises():
 
     with pytest.raises(NotFittedError):
         SVC().predict(np.zeros((2, 2)))
+
+
+def test_predict_descends_rows_with_a_zero_margin(monkeypatch):
+    import copy
+
+    model = copy.deepcopy(_FITTED["hm"])
+    margins = np.zeros((4, model.dual_coef_.shape[0]))
+    margins[1], margins[2], margins[3, 0] = 1.0, -1.0, 0.5  # rows 0 and 3 hold exact zeros
+    monkeypatch.setattr(model, "_margins", lambda X: margins)
+    t = model._tree_tensors()
+    want = tree_descent(
+        torch.from_numpy(margins), t["left"], t["right"], t["column"], t["leaf_label"], model.depth_
+    )
+    np.testing.assert_array_equal(model.predict(np.zeros((4, 2))), model.classes_[want.numpy()])
