@@ -55,6 +55,8 @@ _ROW_CHUNK = 4096
 
 # Shrinking threshold of the active-set method, in units of margin (see _active_set).
 _SHRINK = 0.5
+# Samples this close beyond their margin join the interior-point working set.
+_NEAR = 0.1
 
 
 # --------------------------------------------------------------------------------------------------
@@ -485,6 +487,7 @@ def _active_set(
     b, steps = 0.0, 0
     order_t = torch.from_numpy(order)
     nu = torch.empty(0, dtype=y.dtype)
+    carry = False
     for level, size in enumerate(sorted(set(sizes))):
         S = order_t[:size]
         diag_s = diagonal[S]
@@ -492,7 +495,11 @@ def _active_set(
         guess = _Guess.of(alpha[S], C)
         seen: set[bytes] = set()
         best, stall = math.inf, 0
-        robust = level == 0  # the cold first level: every sample violates
+        # Robust steps for the cold first level (every sample violates), and from the start of a
+        # level after one where Newton steps failed (the regime, e.g. few free and many bounded
+        # variables, persists); within a level, robust steps once taken continue.
+        robust, failed = level == 0 or carry, False
+        first = True  # the level's first Newton step
         full, active = True, torch.ones(size, dtype=torch.bool)
         while True:
             if full:
@@ -513,6 +520,7 @@ def _active_set(
             n_change = int((to_lower | to_upper | violating).sum())
             if n_change == 0:
                 if full:
+                    carry = failed
                     break  # the level is solved
                 full = True
                 continue
@@ -524,7 +532,7 @@ def _active_set(
             if not robust:
                 # At most half as many variables leave a bound per step as are free (at least 64;
                 # the worst violators), so that the blocks grow by half at most.
-                max_enter = max(64, int(guess.free.sum()) // 2)
+                max_enter = max(16, int(guess.free.sum()) // 2)
                 if int(violating.sum()) > max_enter:
                     worst = torch.topk(torch.where(violating, nu.abs(), -1.0), max_enter).indices
                     keep = torch.zeros_like(violating)
@@ -544,9 +552,12 @@ def _active_set(
                     seen.add(new.key())
                     solved = _newton_step(problem, S[new.free], S[new.upper])
                     steps += 1
-                # The first steps from a new level's guess overshoot the box by up to tens of C,
-                # harmlessly; a guess that is far off sends the block system to thousands of C.
-                if solved is not None and _largest(solved[0]) <= 100.0 * C:
+                # The first step from a new level's guess may overshoot the box by tens of C,
+                # harmlessly; later steps that still swing by more than a few C are cycling (few
+                # free and many bounded variables), and a far-off guess sends them to thousands of C.
+                swing = (100.0 if first else 10.0) * C
+                first = False
+                if solved is not None and _largest(solved[0]) <= swing:
                     guess, (a_free, b) = new, solved
                     alpha[S] = torch.where(guess.upper, C, 0.0).to(alpha.dtype)
                     alpha[S[guess.free]] = a_free
@@ -556,12 +567,15 @@ def _active_set(
                     if bool(((a_free > 0) & (a_free < C)).all()):
                         feasible, feasible_b = alpha.clone(), b
                     continue
-            # Robust step from the last feasible point: the free variables and every violator (by
-            # its margin at that point) solved together, the others fixed.
+                failed = True
+            # Robust step from the last feasible point: support vectors and (near-)violators by their
+            # margins at that point solved together, the others fixed at 0.
             alpha, b = feasible.clone(), feasible_b
             nu = problem.margins(S, alpha, b)
             a_s = alpha[S]
-            work_m = ((a_s > 0) & (a_s < C)) | ((a_s <= 0) & (nu < -eps)) | ((a_s >= C) & (nu > eps))
+            # The working set: every support vector, every violator and the samples just beyond
+            # their margin, so that one solve leaves few new violators.
+            work_m = (a_s > 0) | (nu < _NEAR)
             work = S[work_m]
             if work.numel() == 0:  # the feasible point is optimal: only the guess was off
                 guess = _Guess.of(a_s, C)
@@ -582,7 +596,7 @@ def _active_set(
                 b = _bias(alpha[S], y[S], problem.margins(S, alpha, 0.0), C)
             feasible, feasible_b = alpha.clone(), b
             seen.clear()
-            best, stall, robust, full = math.inf, 0, False, True
+            best, stall, full, robust = math.inf, 0, True, True
     # The last margins were computed on every sample (in level order): G = nu - b y.
     grad = torch.empty_like(alpha)
     grad[order_t] = nu - b * y[order_t]
