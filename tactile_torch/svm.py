@@ -35,9 +35,11 @@ method", SIAM J. Optim. 13(3), 2003.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import numbers
 import warnings
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -52,6 +54,9 @@ KERNELS = ("rbf", "linear")
 # Rows of a kernel block computed at once when a product over all samples is needed: bounds the
 # memory of one block to _ROW_CHUNK * n_columns float64 values.
 _ROW_CHUNK = 4096
+
+# Problems up to this many samples are solved on one thread (see solve_dual).
+_SINGLE_THREAD_MAX = 5000
 
 # Shrinking threshold of the active-set method, in units of margin (see _active_set).
 _SHRINK = 0.5
@@ -724,6 +729,26 @@ def solve_dual(
     >>> round(sol.intercept, 6), [round(a, 6) for a in sol.alpha.tolist()]
     (-2.0, [0.0, 0.5, 0.5, 0.0])
     """
+    # Below a few thousand samples the solver's tensors are small and every step is a few dozen
+    # small operations, which intra-op threads only slow down (many times over on a loaded
+    # machine): such problems run on one thread, and the caller's setting is restored after.
+    with _torch_threads(1 if x.shape[0] <= _SINGLE_THREAD_MAX else torch.get_num_threads()):
+        return _solve_dual(x, y, C, kernel, gamma, tol, max_iter, solver, cache_size, random_state)
+
+
+@contextlib.contextmanager
+def _torch_threads(n: int) -> Iterator[None]:
+    before = torch.get_num_threads()
+    if n != before:
+        torch.set_num_threads(n)
+    try:
+        yield
+    finally:
+        if n != before:
+            torch.set_num_threads(before)
+
+
+def _solve_dual(x, y, C, kernel, gamma, tol, max_iter, solver, cache_size, random_state) -> DualSolution:
     problem = _Dual(x, y, float(C), kernel, float(gamma), int(cache_size * 2**20))
     budget = max_iter if max_iter > 0 else 1 << 62
     steps, method = 0, "smo"
