@@ -380,3 +380,47 @@ def test_predict_descends_rows_with_a_zero_margin(monkeypatch):
         torch.from_numpy(margins), t["left"], t["right"], t["column"], t["leaf_label"], model.depth_
     )
     np.testing.assert_array_equal(model.predict(np.zeros((4, 2))), model.classes_[want.numpy()])
+
+
+# --- vibration windows: the real accelerometer sets, and the synthetic generator as fallback ------
+
+
+def _vibration_binary_tasks(rec, size):
+    from tactile_torch.signal import FeatureScaler, window_features
+
+    ds = rec.windows(size)
+    position = ds.position.numpy()
+    train, test = np.flatnonzero(position % 2 == 0), np.flatnonzero(position % 2 == 1)
+    feats = window_features(ds.windows).double()
+    X = FeatureScaler().fit(feats[torch.from_numpy(train)])(feats).numpy()
+    y = ds.labels.numpy()
+    for k in range(min(3, len(rec.class_names))):
+        yield X[train], y[train] == k, X[test]
+
+
+def _check_against_libsvm(rec, size):
+    for X_train, y_train, X_test in _vibration_binary_tasks(rec, size):
+        gamma = scale_gamma(X_train)
+        for C in (1.0, 16.0):
+            ours = SVC(C=C, gamma=gamma, random_state=0).fit(X_train, y_train)
+            lib = ref.libsvm(X_train, y_train, C=C, kind="rbf", gamma=gamma)
+            cmp = ref.compare_binary(ours, lib, X_train, X_test, kind="rbf", gamma=gamma)
+            assert cmp["objective_rel"] < 1e-3 and cmp["agreement"] >= 0.995, cmp
+            assert cmp["support_other"] == 0, cmp
+
+
+@pytest.mark.parametrize("name", ["hapmat_imu5", "borealtc_imu"])
+def test_svc_matches_libsvm_on_real_vibration_windows(name, shared_data):
+    pytest.importorskip("tactile_torch.signal", reason="needs tactile_torch.signal (issue 4)")
+    from tactile_torch import data
+
+    root = shared_data(name)
+    rec = data.load_hapmat_imu5(root) if name == "hapmat_imu5" else data.load_borealtc_imu(root)
+    _check_against_libsvm(rec, 100)
+
+
+def test_svc_matches_libsvm_on_synthetic_vibration_windows():
+    pytest.importorskip("tactile_torch.signal", reason="needs tactile_torch.signal (issue 4)")
+    from tactile_torch.data.vibration import make_vibration_recordings
+
+    _check_against_libsvm(make_vibration_recordings(6, duration_s=20.0, random_state=0), 400)

@@ -78,3 +78,18 @@ def test_training_errors(tmp_path, feature_npz):
     torch.save({"a": 1}, not_model)
     with pytest.raises(ValueError, match=r"not a tactile-torch classifier"):
         load_model(not_model)
+
+
+def test_train_program_trains_the_study_classifier_on_a_file(feature_npz, tmp_path, capsys):
+    import importlib.util
+    from pathlib import Path
+
+    program = Path(__file__).resolve().parents[1] / "train" / "classification.py"
+    spec = importlib.util.spec_from_file_location("train_classification", program)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    path, _, _ = feature_npz
+    assert module.main(["vibration", "--data", str(path), "--out", str(tmp_path), "--C", "4"]) == 0
+    saved = load_model(tmp_path / "vibration.pt")
+    assert saved["method"] == "hmsvm" and saved["estimator"].C == 4.0 and saved["estimator"].gamma == 0.0186
+    assert "overall accuracy" in capsys.readouterr().out
