@@ -16,7 +16,6 @@ NOT_BUILT_EXIT = 2
 
 # Subcommands of DESIGN.md that are listed but not built yet: name -> (help, where it will come from).
 PLANNED: dict[str, tuple[str, str]] = {
-    "train": ("train a classifier on features of a data set", "tactile_torch.svm, issue 5"),
     "cluster": ("discover surfaces with the Pitman-Yor mixture", "tactile_torch.mixture, issue 6"),
     "export": ("export a trained pipeline to one ONNX file", "issue 7"),
     "predict": ("classify a data set with an exported ONNX pipeline", "issue 7"),
@@ -42,6 +41,42 @@ def _report(args: argparse.Namespace) -> int:
     only = [s for s in args.only.split(",") if s] if args.only else None
     path = run_report(args.out, random_state=args.seed, quick=args.quick, only=only)
     print(f"report written to {path}")
+    return 0
+
+
+def _train(args: argparse.Namespace) -> int:
+    from .training import load_features, save_model, train_classifier
+
+    gamma = args.gamma if args.gamma == "scale" else float(args.gamma)
+    features = load_features(
+        args.data, window=args.window, step=args.step, fuse=not args.no_fuse, allow_pickle=args.allow_pickle
+    )
+    print(
+        f"{args.data}: {features.X.shape[0]} samples x {features.X.shape[1]} features "
+        f"({features.source['kind']}), {len(features.class_names)} classes"
+    )
+    model = train_classifier(
+        features,
+        args.method,
+        C=args.C,
+        gamma=gamma,
+        kernel=args.kernel,
+        test_size=args.test_size,
+        random_state=args.seed,
+    )
+    rep = model.report
+    print(
+        f"{args.method}: trained on {len(model.train_index)}, tested on {len(model.test_index)} held-out samples"
+    )
+    print(f"{'class':<24} {'samples':>7} {'accuracy':>9} {'type I':>8} {'type II':>8}")
+    for row in rep.rows():
+        print(
+            f"{row['class']:<24} {row['samples']:>7} {row['accuracy']:>9.4f} "
+            f"{row['type I error']:>8.4f} {row['type II error']:>8.4f}"
+        )
+    print(f"overall accuracy {rep.overall_accuracy:.4f}")
+    if args.out:
+        print(f"model written to {save_model(args.out, model, features)}")
     return 0
 
 
@@ -85,6 +120,36 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quick", action="store_true", help="small sizes, for a smoke test")
     p.add_argument("--only", default="", help="comma-separated benchmark names (default: all)")
     p.set_defaults(handler=_bench)
+
+    p = sub.add_parser(
+        "train", help="train a classifier on an image, vibration or feature .npz; print a class report"
+    )
+    p.add_argument(
+        "--data",
+        required=True,
+        help="a .npz of DESIGN.md's formats (frames, signals) or with a features matrix",
+    )
+    p.add_argument(
+        "--method",
+        default="hmsvm",
+        choices=["hmsvm", "svm", "lda", "knn"],
+        help="classifier (default: hmsvm)",
+    )
+    p.add_argument("--out", default="", help="write the trained model here (torch.save), e.g. model.pt")
+    p.add_argument("--C", type=float, default=16.0, help="SVM penalty (default: 16)")
+    p.add_argument("--gamma", default="scale", help="RBF width, a float or 'scale' (default)")
+    p.add_argument("--kernel", default="rbf", choices=["rbf", "linear"], help="SVM kernel (default: rbf)")
+    p.add_argument("--window", type=int, default=800, help="vibration window in samples (default: 800)")
+    p.add_argument("--step", type=int, default=None, help="vibration window hop (default: the window)")
+    p.add_argument("--no-fuse", action="store_true", help="image: per-frame features instead of fused ones")
+    p.add_argument(
+        "--test-size", type=float, default=0.25, help="held-out share for the report (default: 0.25)"
+    )
+    p.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
+    p.add_argument(
+        "--allow-pickle", action="store_true", help="allow object arrays in a trusted vibration .npz"
+    )
+    p.set_defaults(handler=_train)
 
     for name, (help_text, issue) in PLANNED.items():
         p = sub.add_parser(name, help=f"{help_text} [not built yet]")

@@ -1,0 +1,103 @@
+import numpy as np
+import pytest
+from sklearn.datasets import make_blobs
+from sklearn.discriminant_analysis import LinearDiscriminantAnalysis
+from sklearn.model_selection import GridSearchCV
+from sklearn.neighbors import KNeighborsClassifier
+
+from tactile_torch.model_selection import (
+    grid_search_validation,
+    odd_even_split,
+    parameter_grid,
+    rank_feature_groups,
+    rotating_splits,
+    run_holdout_protocol,
+    stratified_grid_search,
+)
+from tactile_torch.svm import HierarchicalSVC
+
+
+def test_rotating_splits_partition_and_stratify():
+    y = np.repeat(np.arange(4), [10, 15, 20, 25])
+    splits = rotating_splits(y, random_state=0)
+    assert len(splits) == 5
+    tested = np.concatenate([s.test for s in splits])
+    assert np.array_equal(np.sort(tested), np.arange(70))  # every sample tested exactly once
+    for k, s in enumerate(splits):
+        parts = np.concatenate([s.train, s.validation, s.test])
+        assert np.array_equal(np.sort(parts), np.arange(70))  # a partition
+        assert len(s.train) == 42 and len(s.validation) == 14 and len(s.test) == 14  # 60/20/20
+        assert np.array_equal(s.validation, splits[(k + 1) % 5].test)
+        for c, n in zip(range(4), [10, 15, 20, 25], strict=True):
+            assert np.sum(y[s.test] == c) == n // 5  # stratified
+    again = rotating_splits(y, random_state=0)
+    assert all(np.array_equal(a.test, b.test) for a, b in zip(splits, again, strict=True))
+
+
+def test_rotating_splits_errors():
+    with pytest.raises(ValueError, match="at least n_folds=5 samples"):
+        rotating_splits(np.repeat([0, 1], [10, 4]))
+    with pytest.raises(ValueError, match="n_folds must be >= 3"):
+        rotating_splits(np.repeat([0, 1], 10), n_folds=2)
+
+
+def test_parameter_grid_order_and_errors():
+    assert parameter_grid({"C": [1, 2], "gamma": [0.1, 0.2]})[:2] == [
+        {"C": 1, "gamma": 0.1},
+        {"C": 1, "gamma": 0.2},
+    ]
+    with pytest.raises(ValueError, match="param_grid\\['C'\\] must list at least one value"):
+        parameter_grid({"C": []})
+
+
+def test_grid_search_validation_picks_the_best_by_brute_force():
+    X, y = make_blobs(120, centers=3, cluster_std=3.0, random_state=0)
+    train, val = np.arange(80), np.arange(80, 120)
+    grid = {"n_neighbors": [1, 3, 9, 15]}
+    best, scores = grid_search_validation(KNeighborsClassifier(), grid, X, y, train, val)
+    accs = [
+        np.mean(KNeighborsClassifier(n_neighbors=k).fit(X[train], y[train]).predict(X[val]) == y[val])
+        for k in grid["n_neighbors"]
+    ]
+    assert [s["validation accuracy"] for s in scores] == pytest.approx(accs)
+    assert best == {"n_neighbors": grid["n_neighbors"][int(np.argmax(accs))]}  # first of the best
+
+
+def test_holdout_protocol_pools_test_predictions():
+    X, y = make_blobs(100, centers=4, cluster_std=2.5, random_state=1)
+    splits = rotating_splits(y, random_state=0)
+    res = run_holdout_protocol(HierarchicalSVC(random_state=0), X, y, splits, {"C": [0.5, 5.0]})
+    assert len(res.chosen) == 5 and all(c["C"] in (0.5, 5.0) for c in res.chosen)
+    for s, acc in zip(splits, res.fold_accuracy, strict=True):
+        assert acc == pytest.approx(np.mean(res.y_pred[s.test] == y[s.test]))
+    assert res.mean_accuracy > 0.7
+    lda = run_holdout_protocol(LinearDiscriminantAnalysis(), X, y, splits)
+    assert lda.chosen == [{}] * 5 and len(lda.fit_seconds) == 5
+    with pytest.raises(ValueError, match="test every sample once"):
+        run_holdout_protocol(LinearDiscriminantAnalysis(), X, y, splits[:2])
+
+
+def test_stratified_grid_search_is_gridsearchcv():
+    X, y = make_blobs(100, centers=2, random_state=0)
+    search = stratified_grid_search(
+        KNeighborsClassifier(), {"n_neighbors": [1, 5]}, X, y, n_folds=10, random_state=0
+    )
+    assert isinstance(search, GridSearchCV) and search.n_splits_ == 10
+    assert search.best_params_["n_neighbors"] in (1, 5)
+
+
+def test_odd_even_split():
+    train, test = odd_even_split(7)
+    assert train.tolist() == [0, 2, 4, 6] and test.tolist() == [1, 3, 5]
+
+
+def test_rank_feature_groups_puts_the_informative_feature_first():
+    rng = np.random.default_rng(0)
+    y = np.repeat([0, 1, 2], 40)
+    X = np.column_stack([y + rng.normal(0, 0.2, 120), rng.normal(size=120), rng.normal(size=120)])
+    train, test = odd_even_split(120)
+    rows = rank_feature_groups(
+        LinearDiscriminantAnalysis(), X, y, {"noise": [1], "signal": [0], "both noise": [1, 2]}, train, test
+    )
+    assert rows[0]["features"] == "signal" and rows[0]["accuracy"] > 0.9
+    assert [r["columns"] for r in rows if r["features"] == "both noise"] == [2]
