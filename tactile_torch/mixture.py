@@ -346,6 +346,7 @@ class PitmanYorGMM(ClusterMixin, BaseEstimator):
             if labels.shape != (n,):
                 raise ValueError(f"init as labels must have shape ({n},) like X's rows, got {labels.shape}")
             return np.unique(labels, return_inverse=True)[1].astype(np.int64).reshape(n)
+        k = min(k, np.unique(Xw, axis=0).shape[0])  # k-means cannot make more clusters than distinct points
         if k == 1:
             return np.zeros(n, dtype=np.int64)
         from sklearn.cluster import KMeans
