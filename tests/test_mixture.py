@@ -434,3 +434,50 @@ def test_predict_before_fit_and_wrong_width_raise():
 def test_prior_k_rejects_bad_parameters():
     with pytest.raises(ValueError, match="alpha > -discount"):
         pitman_yor_prior_k(5, -0.5, 0.2)
+
+
+# ------------------------------------------------------------------------------------------------
+# command line and report
+# ------------------------------------------------------------------------------------------------
+def test_cli_cluster_writes_the_clustering(tmp_path, capsys):
+    from tactile_torch.cli import PLANNED, main
+
+    assert "cluster" not in PLANNED
+    X, y = blobs(n_clusters=3, per=15, dim=2)
+    np.savez(tmp_path / "f.npz", features=X, labels=y)
+    out = tmp_path / "out"
+    args = [
+        "cluster",
+        "--data",
+        str(tmp_path / "f.npz"),
+        "--out",
+        str(out),
+        "--n-iter",
+        "40",
+        "--burn-in",
+        "10",
+    ]
+    assert main([*args, "--quiet", "--seed", "3"]) == 0
+    res = np.load(out / "clustering.npz")
+    assert pairwise_accuracy(y, res["labels"]) == 1.0 and res["means"].shape == (3, 2)
+    assert res["n_clusters_samples"].shape == (30,)
+    assert "pairwise accuracy of the MAP labels: 1.0000" in (out / "summary.txt").read_text()
+    np.savez(tmp_path / "bad.npz", X=X)
+    assert main(["cluster", "--data", str(tmp_path / "bad.npz"), "--out", str(out)]) == 2
+    assert "must hold an array 'features'" in capsys.readouterr().err
+
+
+def test_clustering_study_quick_mode_writes_its_section(tmp_path):
+    import json
+
+    from tactile_torch.studies import run_report
+
+    path = run_report(tmp_path, quick=True, only=["clustering"], log=lambda s: None)
+    text = path.read_text()
+    assert "## Clustering: how many surfaces" in text
+    assert "Pitman-Yor mixture (MAP sample)" in text and "variational DP mixture" in text
+    for name in ("clustering-posterior-k", "clustering-accuracy-along-chain", "clustering-discount"):
+        assert (tmp_path / "figures" / f"{name}.png").exists()
+    tables = json.loads((tmp_path / "report.json").read_text())["sections"][0]["tables"]
+    pyp = tables[0]["rows"][0]
+    assert pyp["method"].startswith("Pitman-Yor") and pyp["pairwise accuracy"] == 1.0
