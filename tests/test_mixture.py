@@ -481,3 +481,17 @@ def test_clustering_study_quick_mode_writes_its_section(tmp_path):
     tables = json.loads((tmp_path / "report.json").read_text())["sections"][0]["tables"]
     pyp = tables[0]["rows"][0]
     assert pyp["method"].startswith("Pitman-Yor") and pyp["pairwise accuracy"] == 1.0
+
+
+def test_learning_curve_rows():
+    from tactile_torch.studies.clustering import learning_curve, synthetic_clusters
+
+    X, y = synthetic_clusters(4, 6, seed=1)
+    rows = learning_curve(X, y, [1, 6], n_iter=40, burn_in=10, random_state=0)
+    assert [(r["per class"], r["prior"], r["points"]) for r in rows] == [
+        (1, "DP", 4),
+        (1, "PYP", 4),
+        (6, "DP", 24),
+        (6, "PYP", 24),
+    ]
+    assert rows[-1]["pairwise accuracy (MAP)"] == 1.0 and rows[-1]["MAP K"] == 4

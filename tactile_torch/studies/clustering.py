@@ -188,3 +188,39 @@ def run(section, ctx) -> None:
             }
         )
     section.table(rows, caption="Dirichlet process vs Pitman-Yor prior")
+
+
+def learning_curve(
+    X: np.ndarray,
+    y: np.ndarray,
+    per_class: list[int],
+    *,
+    n_iter: int,
+    burn_in: int,
+    random_state: int,
+    discounts: tuple[float | None, ...] = (0.0, None),
+) -> list[dict[str, Any]]:
+    """K found and pairwise accuracy when only the first ``m`` points of every class are clustered.
+
+    One row per ``m`` in ``per_class`` and per prior (``discount=0``: Dirichlet process, ``None``:
+    Pitman-Yor with d sampled).
+    """
+    rows = []
+    classes = np.unique(y)
+    for m in per_class:
+        keep = np.concatenate([np.flatnonzero(y == c)[:m] for c in classes])
+        for discount in discounts:
+            model = PitmanYorGMM(discount=discount, n_iter=n_iter, burn_in=burn_in, random_state=random_state)
+            model.set_params(progress=False).fit(X[keep])
+            post = model.n_clusters_posterior()
+            rows.append(
+                {
+                    "per class": m,
+                    "points": keep.size,
+                    "prior": "DP" if discount == 0.0 else "PYP",
+                    "posterior mode of K": max(post, key=post.get),
+                    "MAP K": model.n_clusters_,
+                    "pairwise accuracy (MAP)": pairwise_accuracy(y[keep], model.labels_),
+                }
+            )
+    return rows
