@@ -246,7 +246,7 @@ def test_posterior_of_k_agrees_with_the_independent_numpy_reference():
         discount=0.0, n_iter=4000, burn_in=300, n_split_merge=0, random_state=3, progress=False
     )
     ks = ours.fit(X).n_clusters_samples_
-    ref = reference_gibbs(X, n_iter=1500, discount=0.0, random_state=4)
+    ref = reference_gibbs(X, n_iter=1000, discount=0.0, random_state=4)
     ks_ref = ref["n_clusters"][200:]
     assert abs(ks.mean() - ks_ref.mean()) < 4 * math.hypot(_batch_se(ks), _batch_se(ks_ref, 20))
     al, al_ref = np.log(ours.alpha_samples_), np.log(ref["alpha"][200:])
