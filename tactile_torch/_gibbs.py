@@ -902,6 +902,22 @@ def _restricted_scan(X, i, j, idx, ns, lab, target, muA, LA, ldA, muB, LB, ldB, 
     return logq
 
 
+@njit(Tuple((i8, f8, f8))(A2, I1, I1, i8, I1, i8, A1, A1, A2, A1, A2, b1, b1, A1, A2, f8, RNG), cache=True)
+def _part_step(X, anchor, idx, ns, lab, want, mu0, sc, R, Rxi, W, use_lik, draw, mu, L, ldet_in, rng):
+    """:func:`component_step` for the part of a split holding ``anchor`` and the ``idx`` labelled ``want``.
+
+    Returns (number of points of the part, log density of the move, log|S|).
+    """
+    D = X.shape[1]
+    mean = np.empty(D)
+    scat = np.empty((D, D))
+    n = _group_stats(X, anchor, idx, ns, lab, want, mean, scat)
+    logq, ldet = component_step(
+        n if use_lik else 0, mean, scat, mu0, sc[2], W, R, Rxi, draw, mu, L, ldet_in, rng
+    )
+    return n, logq, ldet
+
+
 @njit(UniTuple(f8, 2)(A2, i8, i8, I1, i8, I1, A1, A2, A1, A2, i8, A1, A2, A1, A2, b1, RNG), cache=True)
 def _split_launch(X, i, j, idx, ns, lab, muA, LA, muB, LB, n_launch, sc, R, Rxi, W, use_lik, rng):
     """Launch state of a split: labels by nearest of x_i / x_j, then ``n_launch`` restricted Gibbs scans.
@@ -920,8 +936,6 @@ def _split_launch(X, i, j, idx, ns, lab, muA, LA, muB, LB, n_launch, sc, R, Rxi,
         lab[t] = 0 if di <= dj else 1
     muA[:] = X[i]
     muB[:] = X[j]
-    mean = np.empty(D)
-    scat = np.empty((D, D))
     anchA = np.array([i])
     anchB = np.array([j])
     ldA = 0.0
@@ -931,14 +945,12 @@ def _split_launch(X, i, j, idx, ns, lab, muA, LA, muB, LB, n_launch, sc, R, Rxi,
             _restricted_scan(
                 X, i, j, idx, ns, lab, lab, muA, LA, ldA, muB, LB, ldB, sc[1], use_lik, True, rng
             )
-        nA = _group_stats(X, anchA, idx, ns, lab, 0, mean, scat)
-        if not use_lik:
-            nA = 0
-        _, ldA = component_step(nA, mean, scat, muA.copy(), sc[2], W, R, Rxi, True, muA, LA, 0.0, rng)
-        nB = _group_stats(X, anchB, idx, ns, lab, 1, mean, scat)
-        if not use_lik:
-            nB = 0
-        _, ldB = component_step(nB, mean, scat, muB.copy(), sc[2], W, R, Rxi, True, muB, LB, 0.0, rng)
+        ldA = _part_step(
+            X, anchA, idx, ns, lab, 0, muA.copy(), sc, R, Rxi, W, use_lik, True, muA, LA, 0.0, rng
+        )[2]
+        ldB = _part_step(
+            X, anchB, idx, ns, lab, 1, muB.copy(), sc, R, Rxi, W, use_lik, True, muB, LB, 0.0, rng
+        )[2]
     return ldA, ldB
 
 
@@ -1014,8 +1026,6 @@ def split_merge_moves(
         anchA = np.array([i])
         anchB = np.array([j])
         anchM = np.array([i, j])
-        mean = np.empty(D)
-        scat = np.empty((D, D))
         # launch states, built the same way whichever move is proposed
         muA = np.empty(D)
         LA = np.empty((D, D))
@@ -1033,20 +1043,15 @@ def split_merge_moves(
             logq = _restricted_scan(
                 X, i, j, idx, ns, lab, lab, muA, LA, ldA, muB, LB, ldB, d, use_lik, True, rng
             )
-            nA = _group_stats(X, anchA, idx, ns, lab, 0, mean, scat)
-            newA_mu = np.empty(D)
-            newA_L = np.empty((D, D))
-            q, newA_ld = component_step(
-                nA if use_lik else 0, mean, scat, muA, beta, W, R, Rxi, True, newA_mu, newA_L, 0.0, rng
+            newA_mu, newB_mu = np.empty(D), np.empty(D)
+            newA_L, newB_L = np.empty((D, D)), np.empty((D, D))
+            nA, qA, newA_ld = _part_step(
+                X, anchA, idx, ns, lab, 0, muA, sc, R, Rxi, W, use_lik, True, newA_mu, newA_L, 0.0, rng
             )
-            logq += q
-            nB = _group_stats(X, anchB, idx, ns, lab, 1, mean, scat)
-            newB_mu = np.empty(D)
-            newB_L = np.empty((D, D))
-            q, newB_ld = component_step(
-                nB if use_lik else 0, mean, scat, muB, beta, W, R, Rxi, True, newB_mu, newB_L, 0.0, rng
+            nB, qB, newB_ld = _part_step(
+                X, anchB, idx, ns, lab, 1, muB, sc, R, Rxi, W, use_lik, True, newB_mu, newB_L, 0.0, rng
             )
-            logq += q
+            logq += qA + qB
             # reverse: the merge launch's final update landing on the current parameters
             logq_rev, _ = component_step(
                 nM, meanM, scatM, muM0, beta, W, R, Rxi, False, mu[ci].copy(), L[ci].copy(), ldet[ci], rng
@@ -1100,40 +1105,13 @@ def split_merge_moves(
             logq_rev = _restricted_scan(
                 X, i, j, idx, ns, lab, target, muA, LA, ldA, muB, LB, ldB, d, use_lik, False, rng
             )
-            nA = _group_stats(X, anchA, idx, ns, lab, 0, mean, scat)
-            q, _ = component_step(
-                nA if use_lik else 0,
-                mean,
-                scat,
-                muA,
-                beta,
-                W,
-                R,
-                Rxi,
-                False,
-                mu[ci].copy(),
-                L[ci].copy(),
-                ldet[ci],
-                rng,
-            )
-            logq_rev += q
-            nB = _group_stats(X, anchB, idx, ns, lab, 1, mean, scat)
-            q, _ = component_step(
-                nB if use_lik else 0,
-                mean,
-                scat,
-                muB,
-                beta,
-                W,
-                R,
-                Rxi,
-                False,
-                mu[cj].copy(),
-                L[cj].copy(),
-                ldet[cj],
-                rng,
-            )
-            logq_rev += q
+            nA, qA, _ = _part_step(
+                X, anchA, idx, ns, lab, 0, muA, sc, R, Rxi, W, use_lik, False, mu[ci].copy(), L[ci].copy(), ldet[ci], rng
+            )  # fmt: skip
+            nB, qB, _ = _part_step(
+                X, anchB, idx, ns, lab, 1, muB, sc, R, Rxi, W, use_lik, False, mu[cj].copy(), L[cj].copy(), ldet[cj], rng
+            )  # fmt: skip
+            logq_rev += qA + qB
             nC = nA + nB
             log_ratio = (
                 -math.log(alpha + d * (K - 1))
