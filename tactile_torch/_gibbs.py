@@ -95,6 +95,21 @@ def _logdet_chol(G):
     return 2.0 * s
 
 
+@njit(A2(A2), cache=True)
+def _tril_inverse(G):
+    """Inverse of a lower-triangular matrix (lower), by forward substitution column by column."""
+    D = G.shape[0]
+    Ginv = np.zeros((D, D))
+    for c in range(D):
+        Ginv[c, c] = 1.0 / G[c, c]
+        for r in range(c + 1, D):
+            s = 0.0
+            for k in range(c, r):
+                s += G[r, k] * Ginv[k, c]
+            Ginv[r, c] = -s / G[r, r]
+    return Ginv
+
+
 @njit(f8(A2, A2), cache=True)
 def _scale_factor(P, C):
     """Write into ``C`` a lower-triangular factor with ``C C^T = P^{-1}``; return ``log|P|``.
@@ -110,15 +125,7 @@ def _scale_factor(P, C):
             F[a, b] = P[D - 1 - a, D - 1 - b]
     G = np.empty((D, D))
     _cholesky(F, G)
-    # Ginv = G^{-1} (lower), by forward substitution column by column.
-    Ginv = np.zeros((D, D))
-    for c in range(D):
-        Ginv[c, c] = 1.0 / G[c, c]
-        for r in range(c + 1, D):
-            s = 0.0
-            for k in range(c, r):
-                s += G[r, k] * Ginv[k, c]
-            Ginv[r, c] = -s / G[r, r]
+    Ginv = _tril_inverse(G)
     for a in range(D):
         for b in range(D):
             C[a, b] = Ginv[D - 1 - b, D - 1 - a] if a >= b else 0.0
@@ -430,25 +437,11 @@ def _hyper_logp(which, x, D, K, n, cnt, act, alpha, d, sum_ldet, sum_tr, ldet_w)
     if which == _WHICH_ALPHA:
         if x > 700.0 or x < -700.0:
             return _NEG_INF
-        a = math.exp(x)
-        out = -0.5 * x - 0.5 * math.exp(-x)
-        out += math.lgamma(a + 1.0) - math.lgamma(a + n)
-        for k in range(1, K):
-            out += math.log(a + k * d)
-        return out
+        return -0.5 * x - 0.5 * math.exp(-x) + log_eppf(cnt, act, K, n, math.exp(x), d)
     # which == _WHICH_D
     if not (x < 1.0) or x < 0.0:
         return _NEG_INF
-    out = 0.0
-    for k in range(1, K):
-        v = alpha + k * x
-        if v <= 0.0:
-            return _NEG_INF
-        out += math.log(v)
-    l1d = math.lgamma(1.0 - x)
-    for t in range(K):
-        out += math.lgamma(cnt[act[t]] - x) - l1d
-    return out
+    return log_eppf(cnt, act, K, n, alpha, x)
 
 
 @njit(f8(RNG, i8, f8, f8, f8, f8, i8, i8, i8, I1, I1, f8, f8, f8, f8, f8), cache=True)
@@ -566,14 +559,7 @@ def allocate(X, z, cnt, mu, L, ldet, act, pos, fre, ist, sc, xi, GR, W, m, use_l
         lcnt[j] = math.log(cnt[j] - sc[1])
         lnorm[j] = 0.5 * ldet[j] - half
     # FR = GR^{-T} (upper): FR FR^T = R^{-1}; CW CW^T = V0 = (beta W)^{-1}
-    FR = np.zeros((D, D))
-    for c in range(D):
-        FR[c, c] = 1.0 / GR[c, c]
-        for r in range(c + 1, D):
-            acc = 0.0
-            for k in range(c, r):
-                acc += GR[r, k] * FR[c, k]
-            FR[c, r] = -acc / GR[r, r]
+    FR = np.ascontiguousarray(_tril_inverse(GR).T)
     CW = np.empty((D, D))
     ldet_v0 = -_scale_factor(sc[2] * W, CW)
     CW3 = CW.reshape((1, D, D))
