@@ -480,7 +480,7 @@ def test_clustering_study_quick_mode_writes_its_section(tmp_path):
         assert (tmp_path / "figures" / f"{name}.png").exists()
     tables = json.loads((tmp_path / "report.json").read_text())["sections"][0]["tables"]
     pyp = tables[0]["rows"][0]
-    assert pyp["method"].startswith("Pitman-Yor") and pyp["pairwise accuracy"] == 1.0
+    assert pyp["method"].startswith("Pitman-Yor") and pyp["pairwise accuracy"] > 0.9
 
 
 def test_learning_curve_rows():
