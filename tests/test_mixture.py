@@ -20,6 +20,7 @@ from tactile_torch.mixture import (
     gaussian_mixture_scores,
     pitman_yor_prior_k,
 )
+from tactile_torch.studies.clustering import have_vibration_features
 
 from .reference_mixture import reference_gibbs
 
@@ -495,3 +496,21 @@ def test_learning_curve_rows():
         (6, "PYP", 24),
     ]
     assert rows[-1]["pairwise accuracy (MAP)"] == 1.0 and rows[-1]["MAP K"] == 4
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(
+    not have_vibration_features(), reason="tactile_torch.signal (the vibration features) is not installed"
+)
+def test_real_accelerometer_sets_go_through_the_clustering_study(shared_data, tmp_path):
+    # real-data counterpart of test_clustering_study_quick_mode_writes_its_section (synthetic data)
+    from tactile_torch.report import Report
+    from tactile_torch.studies import RunContext
+    from tactile_torch.studies.clustering import real_data
+
+    shared_data("hapmat_imu5")
+    section = Report(tmp_path).section("real")
+    real_data(section, RunContext(quick=True), n_iter=60, burn_in=20)
+    rows = section.tables[-1]["rows"]
+    pyp = [r for r in rows if r["data set"] == "hapmat_imu5" and r["method"].startswith("Pitman-Yor")]
+    assert len(pyp) == 1 and pyp[0]["classes"] == 5 and 0.0 <= pyp[0]["pairwise accuracy"] <= 1.0
