@@ -163,7 +163,7 @@ def run(section, ctx) -> None:
         n_iter=n_iter,
         burn_in=burn_in,
         random_state=ctx.random_state,
-        max_components=n_clusters + (2 if quick else 12),
+        max_components=n_clusters + (2 if quick else 6),
     )
     model: PitmanYorGMM = out["model"]
     section.table(
