@@ -124,7 +124,7 @@ def vibration_features(
 def _study_data(ctx) -> tuple[np.ndarray, np.ndarray, str, int | None]:
     """(X, labels, description, window size) of the main experiment."""
     if have_vibration_features():
-        size, per, surfaces = (400, 10, 6) if ctx.quick else (1600, 50, 28)
+        size, per, surfaces = (400, 20, 6) if ctx.quick else (1600, 50, 28)
         X, y = vibration_features(ctx, size, per, surfaces)
         what = (
             f"the bundled synthetic stylus recordings, {surfaces} surfaces x {per} windows of W = {size} samples; "
@@ -247,7 +247,7 @@ def run(section, ctx) -> None:
 
 def _window_sizes(section, ctx, *, n_iter: int, burn_in: int) -> None:
     """K and pairwise accuracy for several window sizes W (the study: K = 28 found for W >= 400)."""
-    sizes, per, surfaces = ((200, 400), 10, 6) if ctx.quick else ((200, 400, 800, 1600), 50, 28)
+    sizes, per, surfaces = ((200, 400), 20, 6) if ctx.quick else ((200, 400, 800, 1600), 50, 28)
     rows = []
     for size in sizes:
         X, y = vibration_features(ctx, size, per, surfaces)
