@@ -16,7 +16,6 @@ NOT_BUILT_EXIT = 2
 
 # Subcommands of DESIGN.md that are listed but not built yet: name -> (help, where it will come from).
 PLANNED: dict[str, tuple[str, str]] = {
-    "cluster": ("discover surfaces with the Pitman-Yor mixture", "tactile_torch.mixture, issue 6"),
     "export": ("export a trained pipeline to one ONNX file", "issue 7"),
     "predict": ("classify a data set with an exported ONNX pipeline", "issue 7"),
     "stream": ("classify a live serial sensor stream", "tactile_torch.stream"),
@@ -98,6 +97,54 @@ def _bench(args: argparse.Namespace) -> int:
     return subprocess.call(cmd)
 
 
+def _cluster(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from .metrics import pairwise_accuracy
+    from .mixture import PitmanYorGMM
+
+    with np.load(args.data, allow_pickle=False) as data:
+        if "features" not in data:
+            print(
+                f"tactile-torch cluster: {args.data} must hold an array 'features' of shape (n, D) "
+                f"(and optionally 'labels' (n,)), found {sorted(data.files)}",
+                file=sys.stderr,
+            )
+            return 2
+        X = data["features"]
+        truth = data["labels"] if "labels" in data else None
+    init = int(args.init) if args.init.isdigit() else args.init
+    model = PitmanYorGMM(
+        alpha=args.alpha,
+        discount=args.discount,
+        n_iter=args.n_iter,
+        burn_in=args.burn_in,
+        init=init,
+        random_state=args.seed,
+        progress=not args.quiet,
+    ).fit(X)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    np.savez(
+        out / "clustering.npz",
+        labels=model.labels_,
+        means=model.means_,
+        covariances=model.covariances_,
+        precisions_cholesky=model.precisions_cholesky_,
+        weights=model.weights_,
+        n_clusters_samples=model.n_clusters_samples_,
+        alpha_samples=model.alpha_samples_,
+        discount_samples=model.discount_samples_,
+    )
+    summary = model.summary()
+    if truth is not None:
+        summary += f"\npairwise accuracy of the MAP labels: {pairwise_accuracy(truth, model.labels_):.4f}"
+    (out / "summary.txt").write_text(summary + "\n")
+    print(summary)
+    print(f"written: {out / 'clustering.npz'}, {out / 'summary.txt'}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     """Return the argument parser with every subcommand."""
     from . import __version__
@@ -150,6 +197,25 @@ def build_parser() -> argparse.ArgumentParser:
         "--allow-pickle", action="store_true", help="allow object arrays in a trusted vibration .npz"
     )
     p.set_defaults(handler=_train)
+
+    p = sub.add_parser(
+        "cluster",
+        help="discover surfaces with the Pitman-Yor mixture (how many, and which window is which)",
+        description="Fit tactile_torch.mixture.PitmanYorGMM to the 'features' array (n, D) of an .npz file; "
+        "write the MAP clustering and the posterior samples to OUT/clustering.npz and a summary to OUT/summary.txt.",
+    )
+    p.add_argument("--data", required=True, help=".npz with 'features' (n, D) and optionally 'labels' (n,)")
+    p.add_argument("--out", default="runs/cluster", help="output directory (default: runs/cluster)")
+    p.add_argument("--n-iter", type=int, default=2000, help="Gibbs sweeps, burn-in included (default: 2000)")
+    p.add_argument("--burn-in", type=int, default=500, help="sweeps discarded (default: 500)")
+    p.add_argument("--alpha", type=float, default=None, help="fix the concentration (default: sampled)")
+    p.add_argument("--discount", type=float, default=None, help="fix the discount; 0 = Dirichlet process")
+    p.add_argument(
+        "--init", default="kmeans", help="'kmeans' (default), 'one', or a number of k-means clusters"
+    )
+    p.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(handler=_cluster)
 
     for name, (help_text, issue) in PLANNED.items():
         p = sub.add_parser(name, help=f"{help_text} [not built yet]")
