@@ -9,29 +9,10 @@ from __future__ import annotations
 import argparse
 import subprocess
 import sys
-from collections.abc import Callable
 from pathlib import Path
 
 NOT_BUILT_EXIT = 2
-
-# Subcommands of DESIGN.md that are listed but not built yet: name -> (help, where it will come from).
-PLANNED: dict[str, tuple[str, str]] = {
-    "export": ("export a trained pipeline to one ONNX file", "issue 7"),
-    "predict": ("classify a data set with an exported ONNX pipeline", "issue 7"),
-    "stream": ("classify a live serial sensor stream", "tactile_torch.stream"),
-    "simulate-sensor": ("emulate a serial sensor from recorded or synthetic data", "tactile_torch.stream"),
-}
-
-
-def _not_built(name: str, issue: str) -> Callable[[argparse.Namespace], int]:
-    def handler(args: argparse.Namespace) -> int:
-        print(
-            f"tactile-torch {name}: not built yet ({issue}); nothing was done.",
-            file=sys.stderr,
-        )
-        return NOT_BUILT_EXIT
-
-    return handler
+"""Exit status when a command cannot do its work (e.g. ``bench`` outside a source checkout)."""
 
 
 def _report(args: argparse.Namespace) -> int:
@@ -41,6 +22,16 @@ def _report(args: argparse.Namespace) -> int:
     path = run_report(args.out, random_state=args.seed, quick=args.quick, only=only)
     print(f"report written to {path}")
     return 0
+
+
+def _print_class_report(rep) -> None:
+    print(f"{'class':<24} {'samples':>7} {'accuracy':>9} {'type I':>8} {'type II':>8}")
+    for row in rep.rows():
+        print(
+            f"{row['class']:<24} {row['samples']:>7} {row['accuracy']:>9.4f} "
+            f"{row['type I error']:>8.4f} {row['type II error']:>8.4f}"
+        )
+    print(f"overall accuracy {rep.overall_accuracy:.4f}")
 
 
 def _train(args: argparse.Namespace) -> int:
@@ -63,17 +54,10 @@ def _train(args: argparse.Namespace) -> int:
         test_size=args.test_size,
         random_state=args.seed,
     )
-    rep = model.report
     print(
         f"{args.method}: trained on {len(model.train_index)}, tested on {len(model.test_index)} held-out samples"
     )
-    print(f"{'class':<24} {'samples':>7} {'accuracy':>9} {'type I':>8} {'type II':>8}")
-    for row in rep.rows():
-        print(
-            f"{row['class']:<24} {row['samples']:>7} {row['accuracy']:>9.4f} "
-            f"{row['type I error']:>8.4f} {row['type II error']:>8.4f}"
-        )
-    print(f"overall accuracy {rep.overall_accuracy:.4f}")
+    _print_class_report(model.report)
     if args.out:
         print(f"model written to {save_model(args.out, model, features)}")
     return 0
@@ -99,20 +83,39 @@ def _bench(args: argparse.Namespace) -> int:
 
 def _cluster(args: argparse.Namespace) -> int:
     import numpy as np
+    import torch
 
     from .metrics import pairwise_accuracy
     from .mixture import PitmanYorGMM
+    from .pipeline import save_clustering_model
+    from .training import load_features
 
-    with np.load(args.data, allow_pickle=False) as data:
-        if "features" not in data:
-            print(
-                f"tactile-torch cluster: {args.data} must hold an array 'features' of shape (n, D) "
-                f"(and optionally 'labels' (n,)), found {sorted(data.files)}",
-                file=sys.stderr,
-            )
-            return 2
-        X = data["features"]
-        truth = data["labels"] if "labels" in data else None
+    with np.load(args.data, allow_pickle=False) as npz:
+        keys = set(npz.files)
+        if "features" in keys:  # labels optional: clustering does not need them
+            X, truth = npz["features"], (npz["labels"] if "labels" in keys else None)
+    if "features" in keys:
+        source = {"kind": "features", "n_features": int(X.shape[1]) if X.ndim == 2 else 0}
+    elif "signals" in keys:
+        features = load_features(
+            args.data, window=args.window, step=args.step, allow_pickle=args.allow_pickle
+        )
+        X, truth, source = features.X, features.y, dict(features.source)
+    else:
+        print(
+            f"tactile-torch cluster: {args.data} must hold vibration recordings ('signals') or a "
+            f"'features' array (n, D), found {sorted(keys)}",
+            file=sys.stderr,
+        )
+        return 2
+    kind = source["kind"]
+    transform = None
+    if kind == "vibration":
+        from .signal import ClusteringTransform
+
+        transform = ClusteringTransform(args.components).fit(torch.from_numpy(X))
+        X = transform(torch.from_numpy(X)).numpy()
+        print(f"{args.data}: {len(X)} windows of {args.window} samples -> {X.shape[1]} principal components")
     init = int(args.init) if args.init.isdigit() else args.init
     model = PitmanYorGMM(
         alpha=args.alpha,
@@ -136,12 +139,121 @@ def _cluster(args: argparse.Namespace) -> int:
         alpha_samples=model.alpha_samples_,
         discount_samples=model.discount_samples_,
     )
+    save_clustering_model(out / "model.pt", model, source=source, transform=transform)
     summary = model.summary()
     if truth is not None:
         summary += f"\npairwise accuracy of the MAP labels: {pairwise_accuracy(truth, model.labels_):.4f}"
     (out / "summary.txt").write_text(summary + "\n")
     print(summary)
-    print(f"written: {out / 'clustering.npz'}, {out / 'summary.txt'}")
+    print(
+        f"written: {out / 'clustering.npz'}, {out / 'summary.txt'}, {out / 'model.pt'} (tactile-torch export)"
+    )
+    return 0
+
+
+def _export(args: argparse.Namespace) -> int:
+    from .pipeline import export_pipeline, load_model_file, pipeline_from_model
+
+    pipeline = pipeline_from_model(load_model_file(args.model))
+    path = export_pipeline(pipeline, args.out)
+    size = path.stat().st_size / 1024
+    print(
+        f"exported {pipeline.name}: input ({pipeline.input_layout}) = {pipeline.input_shape}, "
+        f"{len(pipeline.class_names)} classes -> {path} ({size:.0f} KiB)"
+    )
+    return 0
+
+
+def _predict(args: argparse.Namespace) -> int:
+    # torch-free: onnxruntime and numpy only, as on the robot.
+    import numpy as np
+
+    from .metrics import class_report
+    from .runtime import OnnxPipeline
+
+    pipe = OnnxPipeline(args.model, intra_op_threads=args.threads)
+    data = pipe.read_npz(args.data, allow_pickle=args.allow_pickle)
+    labels = np.concatenate(
+        [pipe.predict(data.raw[i : i + args.batch]) for i in range(0, len(data.raw), args.batch)]
+    )
+    print(f"{pipe!r}: {len(labels)} samples of {args.data}")
+    if args.out:
+        np.savez(args.out, labels=labels, names=np.array(pipe.class_names)[labels])
+        print(f"labels written to {args.out}")
+    if data.labels is None:
+        counts = np.bincount(labels, minlength=len(pipe.class_names))
+        for name, n in zip(pipe.class_names, counts, strict=True):
+            print(f"{name:<24} {n:>7}")
+        return 0
+    if pipe.pipeline.endswith("-pyp"):
+        from .metrics import pairwise_accuracy
+
+        print(
+            f"{len(np.unique(labels))} components used; pairwise accuracy {pairwise_accuracy(data.labels, labels):.4f}"
+        )
+        return 0
+    known = data.labels >= 0
+    if not known.all():
+        print(f"{int((~known).sum())} samples of classes the model does not know are left out")
+    n = len(pipe.class_names)
+    _print_class_report(
+        class_report(data.labels[known], labels[known], labels=np.arange(n), names=pipe.class_names)
+    )
+    return 0
+
+
+def _stream(args: argparse.Namespace) -> int:
+    # torch-free: pyserial, numpy and onnxruntime only, as on the robot.
+    import time
+
+    import serial
+
+    from .runtime import OnnxPipeline
+    from .stream import WindowReader
+
+    pipe = OnnxPipeline(args.model, intra_op_threads=args.threads)
+    if "window_size" not in pipe.metadata:
+        print(f"tactile-torch stream: {args.model} does not take vibration windows", file=sys.stderr)
+        return 2
+    size = int(pipe.metadata["window_size"])
+    step = args.step or size // 2
+    port = serial.serial_for_url(args.port, baudrate=args.baud, timeout=args.timeout)
+    reader = WindowReader(port, window_size=size, step=step, max_windows=args.max_windows or None)
+    print(f"{pipe!r}: reading {args.port}, windows of {size} samples every {step}", flush=True)
+    for i, window in enumerate(reader):
+        start = time.perf_counter()
+        labels, scores = pipe.predict_scores(window)
+        ms = (time.perf_counter() - start) * 1e3
+        name = pipe.class_names[int(labels[0])] if pipe.class_names else str(int(labels[0]))
+        print(
+            f"{i:>6} {reader.samples:>9} {name:<24} score {float(scores[0].max()):+.3f} ({ms:.2f} ms)",
+            flush=True,
+        )
+    print(f"{reader.samples} samples read, {reader.skipped} lines skipped")
+    port.close()
+    return 0
+
+
+def _simulate_sensor(args: argparse.Namespace) -> int:
+    import numpy as np
+    import serial
+
+    from .stream import simulate_sensor
+
+    if args.data:
+        with np.load(args.data, allow_pickle=args.allow_pickle) as npz:
+            signals, rate = npz["signals"], float(npz["rate_hz"]) if "rate_hz" in npz.files else args.rate
+        recording = np.asarray(signals[args.recording], dtype=np.float32)
+    else:
+        from .data import make_vibration_recordings
+
+        rec = make_vibration_recordings(28, duration_s=args.seconds, random_state=args.seed)
+        recording, rate = rec.signals[args.recording % 28], rec.rate_hz
+    port = serial.serial_for_url(args.port, baudrate=args.baud)
+    print(f"writing {len(recording)} samples at {rate:g} Hz to {args.port}", flush=True)
+    n = simulate_sensor(port, recording, rate_hz=rate, realtime=not args.fast)
+    port.close()
+    print(f"{n} samples written")
     return 0
 
 
@@ -201,11 +313,23 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser(
         "cluster",
         help="discover surfaces with the Pitman-Yor mixture (how many, and which window is which)",
-        description="Fit tactile_torch.mixture.PitmanYorGMM to the 'features' array (n, D) of an .npz file; "
-        "write the MAP clustering and the posterior samples to OUT/clustering.npz and a summary to OUT/summary.txt.",
+        description="Fit tactile_torch.mixture.PitmanYorGMM to vibration recordings (windows -> 21 features -> "
+        "the unsupervised transform -> principal components) or to a 'features' array (n, D); write the MAP "
+        "clustering and the posterior samples to OUT/clustering.npz, a summary to OUT/summary.txt and the "
+        "model to OUT/model.pt (for tactile-torch export).",
     )
-    p.add_argument("--data", required=True, help=".npz with 'features' (n, D) and optionally 'labels' (n,)")
+    p.add_argument(
+        "--data",
+        required=True,
+        help="vibration recordings .npz ('signals'), or 'features' (n, D) and optionally 'labels' (n,)",
+    )
     p.add_argument("--out", default="runs/cluster", help="output directory (default: runs/cluster)")
+    p.add_argument("--window", type=int, default=800, help="recordings: window in samples (default: 800)")
+    p.add_argument("--step", type=int, default=None, help="recordings: window hop (default: the window)")
+    p.add_argument("--components", type=int, default=3, help="recordings: principal components (default: 3)")
+    p.add_argument(
+        "--allow-pickle", action="store_true", help="allow object arrays in a trusted vibration .npz"
+    )
     p.add_argument("--n-iter", type=int, default=2000, help="Gibbs sweeps, burn-in included (default: 2000)")
     p.add_argument("--burn-in", type=int, default=500, help="sweeps discarded (default: 500)")
     p.add_argument("--alpha", type=float, default=None, help="fix the concentration (default: sampled)")
@@ -217,9 +341,70 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(handler=_cluster)
 
-    for name, (help_text, issue) in PLANNED.items():
-        p = sub.add_parser(name, help=f"{help_text} [not built yet]")
-        p.set_defaults(handler=_not_built(name, issue))
+    p = sub.add_parser(
+        "export",
+        help="export a trained pipeline (raw input -> label and scores) to one ONNX file",
+        description="Read a model written by 'tactile-torch train --out' (SVMs) or 'tactile-torch cluster' "
+        "and write the whole inference graph, with its metadata, to one .onnx file (dynamic batch).",
+    )
+    p.add_argument("--model", required=True, help="model file (model.pt) written by train or cluster")
+    p.add_argument("--out", required=True, help="the .onnx file to write")
+    p.set_defaults(handler=_export)
+
+    p = sub.add_parser(
+        "predict",
+        help="classify a data file with an exported ONNX pipeline (onnxruntime, no torch); print a class report",
+    )
+    p.add_argument("--model", required=True, help="the .onnx bundle written by tactile-torch export")
+    p.add_argument("--data", required=True, help=".npz of DESIGN.md's formats (frames, signals or features)")
+    p.add_argument("--out", default="", help="also write the predicted labels and names to this .npz")
+    p.add_argument("--batch", type=int, default=256, help="samples per onnxruntime call (default: 256)")
+    p.add_argument("--threads", type=int, default=1, help="onnxruntime intra-op threads (default: 1)")
+    p.add_argument(
+        "--allow-pickle", action="store_true", help="allow object arrays in a trusted vibration .npz"
+    )
+    p.set_defaults(handler=_predict)
+
+    p = sub.add_parser(
+        "stream",
+        help="classify a live serial accelerometer stream with an exported vibration bundle",
+        description="Read 'x,y,z' lines (g) from a serial port (any pyserial URL, e.g. /dev/ttyUSB0, "
+        "socket://host:port, loop://), cut them into the bundle's windows and print each window's class.",
+    )
+    p.add_argument("--model", required=True, help="the .onnx vibration bundle")
+    p.add_argument("--port", required=True, help="serial port or pyserial URL")
+    p.add_argument("--baud", type=int, default=230400, help="baud rate (default: 230400)")
+    p.add_argument("--step", type=int, default=0, help="new samples between windows (default: half a window)")
+    p.add_argument(
+        "--timeout", type=float, default=2.0, help="stop after this many silent seconds (default: 2)"
+    )
+    p.add_argument(
+        "--max-windows", type=int, default=0, help="stop after this many windows (default: no limit)"
+    )
+    p.add_argument("--threads", type=int, default=1, help="onnxruntime intra-op threads (default: 1)")
+    p.set_defaults(handler=_stream)
+
+    p = sub.add_parser(
+        "simulate-sensor",
+        help="emulate the serial accelerometer: write a recorded or synthetic recording as 'x,y,z' lines",
+    )
+    p.add_argument(
+        "--port", required=True, help="serial port or pyserial URL (e.g. the other end of a pty pair)"
+    )
+    p.add_argument("--data", default="", help="vibration .npz to play (default: a synthetic surface)")
+    p.add_argument("--recording", type=int, default=0, help="index of the recording to play (default: 0)")
+    p.add_argument("--seconds", type=float, default=10.0, help="synthetic: length in seconds (default: 10)")
+    p.add_argument(
+        "--rate", type=float, default=800.0, help="sample rate when the file has none (default: 800)"
+    )
+    p.add_argument("--baud", type=int, default=230400, help="baud rate (default: 230400)")
+    p.add_argument("--fast", action="store_true", help="write as fast as possible instead of in real time")
+    p.add_argument("--seed", type=int, default=0, help="synthetic: random seed (default: 0)")
+    p.add_argument(
+        "--allow-pickle", action="store_true", help="allow object arrays in a trusted vibration .npz"
+    )
+    p.set_defaults(handler=_simulate_sensor)
+
     return parser
 
 

@@ -9,16 +9,19 @@ clustering against true labels (method 2, unsupervised).
 from __future__ import annotations
 
 import math
+import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-import torch
 
 
 def _as_label_array(labels: object, name: str) -> np.ndarray:
-    if isinstance(labels, torch.Tensor):
+    # torch is not imported here (the metrics serve the torch-free `predict` too): a tensor can only
+    # exist if its module is loaded.
+    torch = sys.modules.get("torch")
+    if torch is not None and isinstance(labels, torch.Tensor):
         labels = labels.detach().cpu().numpy()
     arr = np.asarray(labels)
     if arr.ndim != 1:

@@ -35,12 +35,34 @@ from __future__ import annotations
 
 import json
 from collections.abc import Mapping
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 LABELS_OUTPUT = "labels"
 SCORES_OUTPUT = "scores"
+
+
+@dataclass
+class LabelledInput:
+    """Raw input read from a data file by :meth:`OnnxPipeline.read_npz`.
+
+    Attributes
+    ----------
+    raw : ndarray
+        In the bundle's input layout (uint8 frames are kept uint8: :meth:`OnnxPipeline.validate`
+        scales them).
+    labels : ndarray of shape (N,) int64, or None
+        Class index into the bundle's ``class_names`` (-1: a class the bundle does not know); ``None``
+        when the file has no labels.
+    file_class_names : list of str or None
+        The file's own class names.
+    """
+
+    raw: np.ndarray
+    labels: np.ndarray | None
+    file_class_names: list[str] | None
 
 
 class OnnxPipeline:
@@ -160,6 +182,80 @@ class OnnxPipeline:
             return [str(int(label)) for label in labels]
         return [self.class_names[int(label)] for label in labels]
 
+    def read_npz(self, path: str | Path, *, allow_pickle: bool = False) -> LabelledInput:
+        """Read a data file of DESIGN.md's formats into this bundle's raw input (numpy only, no torch).
+
+        Image explorations (``frames`` uint8 ``(N, T, H, W, 3)``) become ``(N, T, 3, H, W)``; vibration
+        recordings (``signals`` ``(R, n, 3)``, or an object array with ``allow_pickle`` for trusted
+        files) are cut into windows of the bundle's ``window_size`` every ``step`` samples (its
+        metadata); a ``features`` matrix is passed as is. ``labels`` are mapped onto this bundle's
+        class names through the file's ``class_names``; a class the bundle does not know gets -1.
+
+        Raises ``ValueError`` when the file's kind does not fit the bundle (e.g. recordings for an
+        image bundle) or a key is missing.
+        """
+        path = Path(path)
+        if not path.is_file():
+            raise FileNotFoundError(f"data must name an existing .npz file, got {str(path)!r}")
+        with np.load(path, allow_pickle=allow_pickle) as npz:
+            arrays = {k: npz[k] for k in npz.files if k != "signals"}
+            if "signals" in npz.files:
+                try:
+                    arrays["signals"] = npz["signals"]
+                except ValueError as err:
+                    raise ValueError(
+                        f"{path} stores recordings of different lengths as an object array; pass "
+                        "allow_pickle=True (--allow-pickle) if you trust the file"
+                    ) from err
+        layout = self.input_layout
+        if "frames" in arrays and layout == "B,T,3,H,W":
+            frames = arrays["frames"]
+            if frames.ndim != 5 or frames.shape[-1] != 3:
+                raise ValueError(f"{path}: frames must be (N, T, H, W, 3) RGB, got {frames.shape}")
+            raw, labels = np.ascontiguousarray(frames.transpose(0, 1, 4, 2, 3)), arrays.get("labels")
+        elif "signals" in arrays and layout == "B,3,W":
+            raw, labels = self._windows(arrays["signals"], arrays.get("labels"))
+        elif "features" in arrays and layout == "B,F":
+            raw, labels = arrays["features"].astype(np.float32), arrays.get("labels")
+        else:
+            kinds = [k for k in ("frames", "signals", "features") if k in arrays]
+            raise ValueError(
+                f"{path} holds {kinds or sorted(arrays)}, which does not fit this {self.pipeline} bundle "
+                f"(input {layout})"
+            )
+        names = [str(c) for c in arrays["class_names"]] if "class_names" in arrays else None
+        if labels is not None and names is not None:
+            index = {name: i for i, name in enumerate(self.class_names)}
+            lookup = np.array([index.get(name, -1) for name in names], dtype=np.int64)
+            labels = lookup[np.asarray(labels, dtype=np.int64)]
+        elif labels is not None:
+            labels = np.asarray(labels, dtype=np.int64)
+        return LabelledInput(raw, labels, names)
+
+    def _windows(
+        self, signals: np.ndarray, labels: np.ndarray | None
+    ) -> tuple[np.ndarray, np.ndarray | None]:
+        if "window_size" not in self.metadata:
+            raise ValueError(f"{self.path} has no window_size in its metadata")
+        size = int(self.metadata["window_size"])
+        step = int(self.metadata.get("step", size))
+        parts, part_labels = [], []
+        for i, rec in enumerate(signals):  # recordings may differ in length: one strided view each
+            rec = np.asarray(rec, dtype=np.float32)
+            if rec.ndim != 2 or rec.shape[1] != 3:
+                raise ValueError(f"signals[{i}] must have shape (n, 3), got {rec.shape}")
+            if len(rec) < size:
+                continue
+            view = np.lib.stride_tricks.sliding_window_view(rec, size, axis=0)[::step]  # (n_w, 3, W)
+            parts.append(view)
+            if labels is not None:
+                part_labels.append(np.full(len(view), labels[i], dtype=np.int64))
+        if not parts:
+            raise ValueError(f"no recording holds window_size={size} samples")
+        return np.ascontiguousarray(np.concatenate(parts)), (
+            np.concatenate(part_labels) if labels is not None else None
+        )
+
     def __repr__(self) -> str:
         return (
             f"OnnxPipeline({str(self.path)!r}, pipeline={self.pipeline!r}, "
@@ -167,4 +263,4 @@ class OnnxPipeline:
         )
 
 
-__all__ = ["LABELS_OUTPUT", "SCORES_OUTPUT", "OnnxPipeline"]
+__all__ = ["LABELS_OUTPUT", "SCORES_OUTPUT", "LabelledInput", "OnnxPipeline"]

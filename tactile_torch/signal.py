@@ -352,13 +352,21 @@ def _level_estimate(a: torch.Tensor, lo: torch.Tensor, spread: torch.Tensor) -> 
 
 
 @functools.lru_cache(maxsize=16)
-def _upper_half_basis(width: int, dtype: torch.dtype) -> torch.Tensor:
-    """``(W, 2K)`` cos and sin of the K upper-half DFT bins (``W // 4 < k <= W // 2``), float64-accurate."""
+def _upper_half_basis_array(width: int) -> np.ndarray:
     k = np.arange(width // 4 + 1, width // 2 + 1)
     t = np.arange(width)
     # Reduce k * t modulo W in integers first, so the angles are exact to float64 rounding for any W.
     angle = (2 * np.pi / width) * (np.outer(t, k) % width)
-    return torch.from_numpy(np.concatenate([np.cos(angle), np.sin(angle)], axis=1)).to(dtype)
+    return np.concatenate([np.cos(angle), np.sin(angle)], axis=1)
+
+
+def _upper_half_basis(width: int, dtype: torch.dtype) -> torch.Tensor:
+    """``(W, 2K)`` cos and sin of the K upper-half DFT bins (``W // 4 < k <= W // 2``), float64-accurate.
+
+    Only the NumPy array is cached: a tensor made while tracing for export belongs to that trace, and
+    handing it to a second export in the same process breaks the second graph.
+    """
+    return torch.from_numpy(_upper_half_basis_array(width)).to(dtype)
 
 
 def _upper_half_amplitude_sum(d: torch.Tensor, *, basis: bool) -> torch.Tensor:

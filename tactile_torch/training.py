@@ -37,7 +37,8 @@ class FeatureSet:
     class_names : tuple of str
     source : dict
         How the features were made (``kind`` = ``"image"``, ``"vibration"`` or ``"features"``, plus
-        the window size, step and sample rate, or the fusion flag).
+        the window size, step and sample rate, or the fusion flag and the frame shape ``(T, 3, H, W)``,
+        or the number of features).
     """
 
     X: np.ndarray
@@ -92,14 +93,15 @@ def load_features(
         if names is None:
             uniq, labels = np.unique(labels, return_inverse=True)
             names = tuple(str(c) for c in uniq)
-        return FeatureSet(X, labels.astype(np.int64), names, {"kind": "features"})
+        return FeatureSet(X, labels.astype(np.int64), names, {"kind": "features", "n_features": X.shape[1]})
     if "frames" in keys:
         from .data.images import load_explorations
         from .image import exploration_features
 
         data = load_explorations(path)
         X = exploration_features(data.frames, fuse=fuse).double().numpy()
-        return FeatureSet(X, data.labels.numpy(), tuple(data.class_names), {"kind": "image", "fuse": fuse})
+        source = {"kind": "image", "fuse": fuse, "frame_shape": list(data.frames.shape[1:])}
+        return FeatureSet(X, data.labels.numpy(), tuple(data.class_names), source)
     if "signals" in keys:
         from .data.vibration import load_vibration_npz
         from .signal import window_features

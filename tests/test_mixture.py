@@ -441,9 +441,8 @@ def test_prior_k_rejects_bad_parameters():
 # command line and report
 # ------------------------------------------------------------------------------------------------
 def test_cli_cluster_writes_the_clustering(tmp_path, capsys):
-    from tactile_torch.cli import PLANNED, main
+    from tactile_torch.cli import main
 
-    assert "cluster" not in PLANNED
     X, y = blobs(n_clusters=3, per=15, dim=2)
     np.savez(tmp_path / "f.npz", features=X, labels=y)
     out = tmp_path / "out"
@@ -463,9 +462,10 @@ def test_cli_cluster_writes_the_clustering(tmp_path, capsys):
     assert pairwise_accuracy(y, res["labels"]) == 1.0 and res["means"].shape == (3, 2)
     assert res["n_clusters_samples"].shape == (30,)
     assert "pairwise accuracy of the MAP labels: 1.0000" in (out / "summary.txt").read_text()
+    assert (out / "model.pt").is_file()  # for tactile-torch export (tests/test_pipeline.py)
     np.savez(tmp_path / "bad.npz", X=X)
     assert main(["cluster", "--data", str(tmp_path / "bad.npz"), "--out", str(out)]) == 2
-    assert "must hold an array 'features'" in capsys.readouterr().err
+    assert "or a 'features' array (n, D), found ['X']" in capsys.readouterr().err
 
 
 def test_clustering_study_quick_mode_writes_its_section(tmp_path):

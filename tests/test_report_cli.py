@@ -5,7 +5,6 @@ import sys
 import matplotlib.pyplot as plt
 import pytest
 
-from tactile_torch.cli import NOT_BUILT_EXIT, PLANNED, main
 from tactile_torch.report import Report
 from tactile_torch.studies import STUDIES, run_report
 
@@ -49,9 +48,3 @@ def test_cli_help_lists_every_design_subcommand():
     ).stdout
     for name in ["train", "cluster", "export", "predict", "stream", "simulate-sensor", "bench", "report"]:
         assert name in out
-
-
-@pytest.mark.parametrize("name", sorted(PLANNED))
-def test_cli_unbuilt_subcommand_says_so_and_exits_nonzero(name, capsys):
-    assert main([name]) == NOT_BUILT_EXIT
-    assert f"tactile-torch {name}: not built yet" in capsys.readouterr().err

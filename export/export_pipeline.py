@@ -1,0 +1,49 @@
+"""Export a trained model to one ONNX bundle and check it against torch on a data file.
+
+Thin program over :mod:`tactile_torch.pipeline` (the same as ``tactile-torch export``, plus a parity
+check): the model file comes from ``tactile-torch train --out model.pt`` (SVMs) or
+``tactile-torch cluster`` (``OUT/model.pt``).
+
+Examples
+--------
+python export/export_pipeline.py --model runs/vib/model.pt --out runs/vib/model.onnx --check rec.npz
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+import numpy as np
+import torch
+
+from tactile_torch.pipeline import export_pipeline, load_model_file, pipeline_from_model
+from tactile_torch.runtime import OnnxPipeline
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--model", required=True, help="model file written by tactile-torch train or cluster")
+    parser.add_argument("--out", required=True, help="the .onnx bundle to write")
+    parser.add_argument("--check", default="", help="a data .npz to compare onnxruntime with torch on")
+    args = parser.parse_args(argv)
+    pipe = pipeline_from_model(load_model_file(args.model))
+    path = export_pipeline(pipe, args.out)
+    bundle = OnnxPipeline(path)
+    print(f"{bundle!r}: {path.stat().st_size / 1024:.0f} KiB")
+    if args.check:
+        raw = bundle.validate(bundle.read_npz(args.check).raw)
+        labels, scores = bundle.predict_scores(raw)
+        with torch.no_grad():
+            t_labels, t_scores = pipe(torch.from_numpy(raw))
+        agree = float((labels == t_labels.numpy()).mean())
+        diff = float(np.abs(scores - t_scores.numpy()).max())
+        print(f"{len(raw)} samples: labels agree {agree:.4f}, max score difference {diff:.2g}")
+        if agree < 1.0 or diff > 1e-5:
+            print("parity check FAILED", file=sys.stderr)
+            return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

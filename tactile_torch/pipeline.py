@@ -1,0 +1,418 @@
+"""Whole inference pipelines (raw input → label and scores) as torch modules, and their ONNX export.
+
+Three pipelines, each one :class:`InferencePipeline` = a front end (features, scaling) and a head that
+returns ``(labels, scores)``:
+
+========================  ==========================  ===============================================
+pipeline                  raw input                   graph
+========================  ==========================  ===============================================
+``image-<method>``        frames ``(B, T, 3, H, W)``  :class:`~tactile_torch.image.ExplorationFeatures`
+                          float in [0, 1]             → feature scale → SVM (hierarchical or not)
+``vibration-<method>``    windows ``(B, 3, W)`` in g  :class:`~tactile_torch.signal.WindowFeatures`
+                                                      → feature scale → SVM
+``vibration-pyp``         windows ``(B, 3, W)`` in g  window features → :class:`~tactile_torch.signal.
+                                                      ClusteringTransform` → MAP Pitman-Yor component
+``features-<method>``     features ``(B, F)``         feature scale → SVM, or → PYP component
+========================  ==========================  ===============================================
+
+Build them from the model files the command line writes: :func:`pipeline_from_model` reads a
+classifier written by ``tactile-torch train --out model.pt`` (:func:`tactile_torch.training.save_model`)
+or a clustering written by ``tactile-torch cluster`` (:func:`save_clustering_model`).
+:func:`export_pipeline` writes the pipeline to one ``.onnx`` file with a dynamic batch size and the
+metadata that :class:`tactile_torch.runtime.OnnxPipeline` reads (class names, input shape, window
+size, sample rate, thresholds, feature scale, library version).
+
+Labels index :attr:`InferencePipeline.class_names`; scores are the SVM's per-class scores
+(:class:`~tactile_torch.svm.SVMInference`) or the mixture's log responsibilities.
+
+Examples
+--------
+>>> model = load_model_file("model.pt")                      # doctest: +SKIP
+>>> pipe = pipeline_from_model(model)                        # doctest: +SKIP
+>>> export_pipeline(pipe, "model.onnx")                      # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import torch
+from torch import nn
+
+CLUSTERING_FORMAT = "tactile-torch/clustering"
+"""``format`` of the files written by :func:`save_clustering_model`."""
+
+
+class InferencePipeline(nn.Module):
+    """Raw input → ``(labels (B,) int64, scores (B, C))``: ``head(front(raw))``.
+
+    Parameters
+    ----------
+    front : nn.Module
+        Raw input → features (features, scaling); ``nn.Identity()`` for a feature-input pipeline.
+    head : nn.Module
+        Features → ``(labels, scores)`` (:class:`~tactile_torch.svm.SVMInference`,
+        :class:`~tactile_torch.mixture.GaussianMixtureClassifier`).
+    name : str
+        What the graph does, e.g. ``"vibration-hmsvm"`` (metadata ``tactile_torch.pipeline``).
+    input_shape : sequence of int or None
+        Shape of the raw input; ``None`` marks the free batch dimension (first).
+    input_layout : str
+        Names of the input dimensions, e.g. ``"B,3,W"``.
+    class_names : sequence of str
+        Name of each label.
+    metadata : dict, optional
+        Further metadata (window size, sample rate, thresholds ...), JSON-serialisable values.
+    """
+
+    def __init__(
+        self,
+        front: nn.Module,
+        head: nn.Module,
+        *,
+        name: str,
+        input_shape: list[int | None],
+        input_layout: str,
+        class_names: list[str],
+        metadata: dict | None = None,
+    ) -> None:
+        super().__init__()
+        if len(input_shape) != len(input_layout.split(",")):
+            raise ValueError(f"input_layout {input_layout!r} does not name the {len(input_shape)} input dims")
+        self.front = front
+        self.head = head
+        self.name = name
+        self.input_shape = list(input_shape)
+        self.input_layout = input_layout
+        self.class_names = [str(c) for c in class_names]
+        self.extra_metadata = dict(metadata or {})
+
+    def forward(self, raw: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        return self.head(self.front(raw))
+
+    def example_input(self, batch: int = 2, *, random_state: int = 0) -> torch.Tensor:
+        """Return a random float32 input of the pipeline's shape with ``batch`` rows (for export)."""
+        gen = torch.Generator().manual_seed(random_state)
+        shape = [batch, *self.input_shape[1:]]
+        x = torch.rand(shape, generator=gen)
+        return x if self.name.startswith("image") else x - 0.5
+
+    def metadata(self) -> dict[str, str]:
+        """Return the ONNX metadata properties of this pipeline (string values; JSON where structured)."""
+        from . import __version__
+
+        meta = {
+            "tactile_torch.pipeline": self.name,
+            "tactile_torch.version": __version__,
+            "input_shape": json.dumps(self.input_shape),
+            "input_layout": self.input_layout,
+            "class_names": json.dumps(self.class_names),
+        }
+        for key, value in self.extra_metadata.items():
+            meta[key] = value if isinstance(value, str) else json.dumps(value)
+        return meta
+
+    def extra_repr(self) -> str:
+        return f"name={self.name!r}, input=({self.input_layout})={self.input_shape}, classes={len(self.class_names)}"
+
+
+def _scaler(scale: np.ndarray) -> nn.Module:
+    from .signal import FeatureScaler
+
+    scaler = FeatureScaler()
+    scale = torch.as_tensor(np.asarray(scale, dtype=np.float32))
+    scaler.scale_, scaler.mean_ = scale, torch.zeros_like(scale)
+    return scaler
+
+
+def _front_end(source: dict) -> tuple[list[nn.Module], list[int | None], str, dict]:
+    """Return (modules, input shape, layout, metadata) of the raw-input part described by ``source``."""
+    kind = source.get("kind")
+    if kind == "vibration":
+        from .signal import WindowFeatures
+
+        window = int(source["window"])
+        meta = {
+            "window_size": window,
+            "step": int(source.get("step") or window),
+            "sample_rate_hz": float(source["rate_hz"]),
+        }
+        return [WindowFeatures(window)], [None, 3, window], "B,3,W", meta
+    if kind == "image":
+        from .image import DEFAULT_EDGE_THRESHOLD, DEFAULT_EROSION, DEFAULT_THRESHOLD, ExplorationFeatures
+
+        if "frame_shape" not in source:
+            raise ValueError("the model's source does not record the frame shape (T, 3, H, W); retrain it")
+        t, c, h, w = (int(v) for v in source["frame_shape"])
+        fuse = bool(source.get("fuse", True))
+        meta = {
+            "uint8_scale": repr(1 / 255),
+            "fuse": fuse,
+            "threshold": DEFAULT_THRESHOLD,
+            "erosion": DEFAULT_EROSION,
+            "edge_threshold": DEFAULT_EDGE_THRESHOLD,
+        }
+        return [ExplorationFeatures(fuse=fuse)], [None, t, c, h, w], "B,T,3,H,W", meta
+    if kind == "features":
+        n = int(source["n_features"])
+        return [], [None, n], "B,F", {}
+    raise ValueError(f"the model's source kind must be 'vibration', 'image' or 'features', got {kind!r}")
+
+
+def pipeline_from_model(model: dict) -> InferencePipeline:
+    """Build the inference pipeline of a model file's contents (see :func:`load_model_file`).
+
+    Classifiers: only the SVMs (``hmsvm``, ``svm``) export; LDA and kNN come from scikit-learn and have
+    no torch inference path, which raises ``ValueError``.
+    """
+    if not isinstance(model, dict) or "format" not in model:
+        raise TypeError(f"model must be the dict of a model file, got {type(model).__name__}")
+    if model["format"] == CLUSTERING_FORMAT:
+        return _clustering_pipeline(model)
+    estimator = model.get("estimator")
+    if not hasattr(estimator, "to_module"):
+        raise ValueError(
+            f"method {model.get('method')!r} has no exportable inference path: export an SVM "
+            "(train with --method hmsvm or --method svm)"
+        )
+    source = dict(model["source"])
+    source.setdefault("n_features", len(model["scale"]))
+    modules, shape, layout, meta = _front_end(source)
+    names = [model["class_names"][int(c)] for c in estimator.classes_]
+    meta.update(
+        method=model["method"],
+        feature_scale=[float(s) for s in model["scale"]],
+        kernel=estimator.kernel,
+        C=float(estimator.C),
+        gamma=float(estimator.gamma_),
+    )
+    if model.get("test_accuracy") is not None:
+        meta["test_accuracy"] = float(model["test_accuracy"])
+    front = nn.Sequential(*modules, _scaler(model["scale"]))
+    return InferencePipeline(
+        front,
+        estimator.to_module(),
+        name=f"{source['kind']}-{model['method']}",
+        input_shape=shape,
+        input_layout=layout,
+        class_names=names,
+        metadata=meta,
+    )
+
+
+def save_clustering_model(
+    path: str | Path,
+    mixture: object,
+    *,
+    source: dict,
+    transform: nn.Module | None = None,
+) -> Path:
+    """Write a fitted :class:`~tactile_torch.mixture.PitmanYorGMM` (and the transform before it) with ``torch.save``.
+
+    Parameters
+    ----------
+    path : str or Path
+    mixture : PitmanYorGMM
+        Fitted; its MAP sample is what the exported pipeline classifies with.
+    source : dict
+        How the mixture's input is made: ``{"kind": "vibration", "window", "step", "rate_hz"}`` (raw
+        windows → :class:`~tactile_torch.signal.WindowFeatures` → ``transform``) or
+        ``{"kind": "features", "n_features"}``.
+    transform : ClusteringTransform, optional
+        Required for ``kind="vibration"``.
+    """
+    if source.get("kind") == "vibration" and transform is None:
+        raise ValueError("a vibration clustering needs the fitted ClusteringTransform (transform=)")
+    module = mixture.to_module()
+    payload = {
+        "format": CLUSTERING_FORMAT,
+        "version": 1,
+        "source": dict(source),
+        "mixture": {k: v.clone() for k, v in module.state_dict().items()},
+        "n_components": int(module.means.shape[0]),
+        "summary": mixture.summary(),
+    }
+    if transform is not None:
+        payload["transform"] = {
+            "n_components": transform.n_components,
+            "standardize": transform.standardize,
+            "eps": transform.eps,
+            "state_dict": {k: v.clone() for k, v in transform.state_dict().items()},
+        }
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    torch.save(payload, path)
+    return path
+
+
+def _clustering_pipeline(model: dict) -> InferencePipeline:
+    from .mixture import GaussianMixtureClassifier
+
+    state = model["mixture"]
+    head = GaussianMixtureClassifier(state["means"], state["precisions_cholesky"], state["log_weights"])
+    source = dict(model["source"])
+    source.setdefault("n_features", int(state["means"].shape[1]))
+    modules, shape, layout, meta = _front_end(source)
+    if source["kind"] == "vibration":
+        from .signal import ClusteringTransform
+
+        spec = model["transform"]
+        transform = ClusteringTransform(
+            spec["n_components"], standardize=spec["standardize"], eps=spec["eps"]
+        )
+        transform.load_state_dict(spec["state_dict"])
+        modules.append(transform)
+    k = int(state["means"].shape[0])
+    meta["method"] = "pyp"
+    return InferencePipeline(
+        nn.Sequential(*modules),
+        head,
+        name=f"{source['kind']}-pyp",
+        input_shape=shape,
+        input_layout=layout,
+        class_names=[f"component {i}" for i in range(k)],
+        metadata=meta,
+    )
+
+
+def load_model_file(path: str | Path) -> dict:
+    """Read a model file written by ``tactile-torch train`` or ``tactile-torch cluster`` (trusted: unpickled)."""
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"model must name an existing model file, got {str(path)!r}")
+    payload = torch.load(path, weights_only=False)
+    known = ("tactile-torch/classifier", CLUSTERING_FORMAT)
+    if not isinstance(payload, dict) or payload.get("format") not in known:
+        raise ValueError(f"{path} is not a tactile-torch model file (format one of {known})")
+    return payload
+
+
+def export_pipeline(pipeline: InferencePipeline, path: str | Path, *, example_batch: int = 2) -> Path:
+    """Export ``pipeline`` to one ONNX file at ``path`` (dynamo exporter, dynamic batch, metadata); return it.
+
+    The outputs are named ``labels`` and ``scores`` and the input ``raw``, as
+    :class:`tactile_torch.runtime.OnnxPipeline` expects; ``onnx.checker`` validates the file.
+    """
+    from ._onnx import export_onnx
+    from .runtime import LABELS_OUTPUT, SCORES_OUTPUT
+
+    if not isinstance(pipeline, InferencePipeline):
+        raise TypeError(f"pipeline must be an InferencePipeline, got {type(pipeline).__name__}")
+    example = pipeline.example_input(example_batch)
+    return export_onnx(
+        pipeline.eval(),
+        (example,),
+        path,
+        input_names=["raw"],
+        output_names=[LABELS_OUTPUT, SCORES_OUTPUT],
+        metadata=pipeline.metadata(),
+    )
+
+
+@dataclass
+class Bundle:
+    """One exported default pipeline (see :func:`build_default_bundles`).
+
+    Attributes
+    ----------
+    pipeline : InferencePipeline
+        The torch pipeline that was exported.
+    path : Path
+        Its ``.onnx`` file.
+    raw : ndarray
+        Held-out raw input of the pipeline's shape (float32; frames in [0, 1]).
+    labels : ndarray of shape (N,) int64
+        True class of each row of ``raw`` (index into the data set's classes).
+    """
+
+    pipeline: InferencePipeline
+    path: Path
+    raw: np.ndarray
+    labels: np.ndarray
+
+
+def build_default_bundles(
+    out_dir: str | Path,
+    *,
+    quick: bool = False,
+    random_state: int = 0,
+    kinds: tuple[str, ...] = ("vibration-hmsvm", "vibration-pyp", "image-hmsvm"),
+    log=print,
+) -> dict[str, Bundle]:
+    """Train the three default pipelines on the bundled synthetic data, export them, return them by name.
+
+    ``vibration-hmsvm``: 28 synthetic surfaces, 60 s each at 800 Hz (``quick``: 10 s), W = 800
+    windows, odd windows held out, HM-SVM with C = 16 and gamma ``"scale"`` on unit-std features.
+    ``vibration-pyp``: the same windows → unsupervised transform (3 components) → Pitman-Yor mixture
+    (300 sweeps, ``quick``: 40). ``image-hmsvm``: 20 synthetic explorations per class (``quick``: 8)
+    of 100 frames of 96 x 96, half held out. Writes ``<name>.pt`` (the model file) and
+    ``<name>.onnx`` to ``out_dir``.
+    """
+    from .training import FeatureSet, save_model, train_classifier
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    built: dict[str, Bundle] = {}
+    if any(k.startswith("vibration") for k in kinds):
+        from .data.vibration import make_vibration_recordings
+        from .signal import window_features
+
+        rec = make_vibration_recordings(28, duration_s=10 if quick else 60, random_state=random_state)
+        ds = rec.windows(800)
+        X = window_features(ds.windows).double().numpy()
+        held_out = (ds.position % 2 == 1).numpy()
+        source = {"kind": "vibration", "window": 800, "step": 800, "rate_hz": rec.rate_hz}
+        raw, labels = ds.windows[held_out].numpy(), ds.labels[held_out].numpy()
+        if "vibration-hmsvm" in kinds:
+            train = FeatureSet(X[~held_out], ds.labels.numpy()[~held_out], ds.class_names, source)
+            model = train_classifier(train, "hmsvm", test_size=0.2, random_state=random_state)
+            path = save_model(out / "vibration-hmsvm.pt", model, train)
+            built["vibration-hmsvm"] = Bundle(pipeline_from_model(load_model_file(path)), path, raw, labels)
+        if "vibration-pyp" in kinds:
+            from .mixture import PitmanYorGMM
+            from .signal import ClusteringTransform
+
+            transform = ClusteringTransform(3).fit(torch.from_numpy(X[~held_out]))
+            pcs = transform(torch.from_numpy(X[~held_out])).numpy()
+            sweeps = 40 if quick else 300
+            mixture = PitmanYorGMM(
+                n_iter=sweeps, burn_in=sweeps // 4, random_state=random_state, progress=False
+            )
+            path = save_clustering_model(
+                out / "vibration-pyp.pt", mixture.fit(pcs), source=source, transform=transform
+            )
+            built["vibration-pyp"] = Bundle(pipeline_from_model(load_model_file(path)), path, raw, labels)
+    if "image-hmsvm" in kinds:
+        from .data.images import make_explorations
+        from .image import exploration_features
+
+        data = make_explorations(8 if quick else 20, random_state=random_state)
+        X = exploration_features(data.frames).double().numpy()
+        held_out = np.arange(len(X)) % 2 == 1
+        source = {"kind": "image", "fuse": True, "frame_shape": list(data.frames.shape[1:])}
+        train = FeatureSet(X[~held_out], data.labels.numpy()[~held_out], data.class_names, source)
+        model = train_classifier(train, "hmsvm", test_size=0.25, random_state=random_state)
+        path = save_model(out / "image-hmsvm.pt", model, train)
+        raw = data.frames[held_out].numpy().astype(np.float32) / 255
+        built["image-hmsvm"] = Bundle(
+            pipeline_from_model(load_model_file(path)), path, raw, data.labels[held_out].numpy()
+        )
+    for name, bundle in built.items():
+        bundle.path = export_pipeline(bundle.pipeline, out / f"{name}.onnx")
+        log(f"[bundles] {name}: {bundle.path} ({bundle.path.stat().st_size / 1024:.0f} KiB)")
+    return built
+
+
+__all__ = [
+    "CLUSTERING_FORMAT",
+    "Bundle",
+    "InferencePipeline",
+    "build_default_bundles",
+    "export_pipeline",
+    "load_model_file",
+    "pipeline_from_model",
+    "save_clustering_model",
+]

@@ -1,0 +1,206 @@
+"""Whole pipelines exported to one ONNX file: parity with torch, metadata, CLI export/predict/stream."""
+
+import io
+import json
+import os
+import subprocess
+import sys
+import textwrap
+import threading
+
+import numpy as np
+import pytest
+import serial
+import torch
+
+from tactile_torch import __version__
+from tactile_torch.cli import main
+from tactile_torch.data import make_vibration_recordings
+from tactile_torch.data.images import make_explorations, save_explorations
+from tactile_torch.pipeline import (
+    InferencePipeline,
+    export_pipeline,
+    load_model_file,
+    pipeline_from_model,
+)
+from tactile_torch.runtime import OnnxPipeline
+from tactile_torch.training import load_features, save_model, train_classifier
+
+from .conftest import require_shared_data
+
+
+def _assert_parity(
+    pipe: InferencePipeline, bundle: OnnxPipeline, raw: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Labels identical and scores within 1e-5 between the torch pipeline and onnxruntime."""
+    labels, scores = bundle.predict_scores(raw)
+    with torch.no_grad():
+        t_labels, t_scores = pipe(torch.from_numpy(bundle.validate(raw)))
+    np.testing.assert_array_equal(labels, t_labels.numpy())
+    np.testing.assert_allclose(scores, t_scores.numpy(), rtol=1e-5, atol=1e-5)
+    return labels, scores
+
+
+def _trained(tmp_path, data_path, method="hmsvm", **kwargs):
+    features = load_features(data_path, **kwargs)
+    model = train_classifier(features, method, random_state=0)
+    path = save_model(tmp_path / f"{method}.pt", model, features)
+    return features, model, path
+
+
+@pytest.fixture(scope="module")
+def vibration_npz(tmp_path_factory):
+    rec = make_vibration_recordings(6, duration_s=12, random_state=3)
+    return rec.save(tmp_path_factory.mktemp("vib") / "rec.npz")
+
+
+def _vibration_parity(tmp_path, data_path, window, method="hmsvm"):
+    features, model, model_path = _trained(tmp_path, data_path, method, window=window)
+    pipe = pipeline_from_model(load_model_file(model_path))
+    bundle = OnnxPipeline(export_pipeline(pipe, tmp_path / "vib.onnx", example_batch=2))
+    data = bundle.read_npz(data_path)
+    labels, _ = _assert_parity(pipe, bundle, data.raw[:13])  # exported at batch 2, run at 13
+    # the graph reproduces the estimator on the features computed by the library
+    np.testing.assert_array_equal(labels, model.predict(features.X[:13]))
+    np.testing.assert_array_equal(data.labels, features.y)
+    return bundle, features
+
+
+def test_vibration_pipeline_matches_torch_and_the_estimator(tmp_path, vibration_npz):
+    bundle, features = _vibration_parity(tmp_path, vibration_npz, window=400)
+    meta = bundle.metadata
+    assert bundle.pipeline == "vibration-hmsvm"
+    assert bundle.input_shape == (None, 3, 400)
+    assert bundle.class_names == list(features.class_names)
+    assert int(meta["window_size"]) == 400 and float(meta["sample_rate_hz"]) == 800.0
+    assert meta["tactile_torch.version"] == __version__
+    scale = np.array(json.loads(meta["feature_scale"]))
+    assert scale.shape == (21,) and (scale > 0).all()
+
+
+def test_vibration_pipeline_on_real_recordings(tmp_path):
+    from tactile_torch.data import load_hapmat_imu5
+
+    rec = load_hapmat_imu5(require_shared_data("hapmat_imu5"))
+    path = rec.save(tmp_path / "hapmat.npz")
+    _vibration_parity(tmp_path, path, window=100, method="svm")
+
+
+def test_image_pipeline_accepts_uint8_frames_and_matches_torch(tmp_path):
+    data = make_explorations(4, n_frames=6, frame_size=48, sensels=12, random_state=1)
+    path = save_explorations(tmp_path / "img.npz", data)
+    features, model, model_path = _trained(tmp_path, path)
+    pipe = pipeline_from_model(load_model_file(model_path))
+    bundle = OnnxPipeline(export_pipeline(pipe, tmp_path / "img.onnx"))
+    assert bundle.pipeline == "image-hmsvm" and bundle.input_shape == (None, 6, 3, 48, 48)
+    raw = bundle.read_npz(path).raw
+    assert raw.dtype == np.uint8 and raw.shape == (16, 6, 3, 48, 48)
+    labels, _ = _assert_parity(pipe, bundle, raw[:5])
+    np.testing.assert_array_equal(labels, model.predict(features.X[:5]))
+    # the torch pipeline on uint8 frames gives the same labels as on the [0, 1] floats
+    np.testing.assert_array_equal(pipe(torch.from_numpy(raw[:5]))[0].numpy(), labels)
+
+
+def test_models_without_an_inference_graph_are_refused(tmp_path, vibration_npz):
+    _, _, path = _trained(tmp_path, vibration_npz, "lda", window=400)
+    with pytest.raises(ValueError, match="method 'lda' has no exportable inference path"):
+        pipeline_from_model(load_model_file(path))
+    with pytest.raises(TypeError, match="model must be the dict of a model file"):
+        pipeline_from_model(["not", "a", "model"])
+    torch.save({"format": "other"}, tmp_path / "x.pt")
+    with pytest.raises(ValueError, match="not a tactile-torch model file"):
+        load_model_file(tmp_path / "x.pt")
+    with pytest.raises(FileNotFoundError, match="model must name an existing model file"):
+        load_model_file(tmp_path / "missing.pt")
+
+
+def test_cli_cluster_export_predict_round_trip(tmp_path, vibration_npz, capsys):
+    out = tmp_path / "cluster"
+    args = ["cluster", "--data", str(vibration_npz), "--window", "400", "--out", str(out)]
+    assert main([*args, "--n-iter", "60", "--burn-in", "20", "--quiet"]) == 0
+    onnx_path = tmp_path / "pyp.onnx"
+    assert main(["export", "--model", str(out / "model.pt"), "--out", str(onnx_path)]) == 0
+    assert "exported vibration-pyp" in capsys.readouterr().out
+    bundle = OnnxPipeline(onnx_path)
+    pipe = pipeline_from_model(load_model_file(out / "model.pt"))
+    data = bundle.read_npz(vibration_npz)
+    labels, scores = _assert_parity(pipe, bundle, data.raw[:9])
+    np.testing.assert_allclose(np.exp(scores).sum(1), 1.0, rtol=1e-5)  # log responsibilities
+    # the exported MAP component is the one the fitted clustering gave these windows
+    fitted = np.load(out / "clustering.npz")["labels"]
+    assert (labels == fitted[:9]).mean() >= 8 / 9
+    assert main(["predict", "--model", str(onnx_path), "--data", str(vibration_npz)]) == 0
+    assert "pairwise accuracy" in capsys.readouterr().out
+
+
+def test_cli_predict_prints_a_class_report_without_torch(tmp_path, vibration_npz):
+    _, model, model_path = _trained(tmp_path, vibration_npz, "svm", window=400)
+    onnx_path = tmp_path / "svm.onnx"
+    assert main(["export", "--model", str(model_path), "--out", str(onnx_path)]) == 0
+    code = textwrap.dedent(
+        f"""
+        import sys
+
+        class _NoTorch:
+            def find_spec(self, name, path=None, target=None):
+                if name == "torch" or name.startswith("torch."):
+                    raise ImportError("torch is not installed on this robot")
+                return None
+
+        sys.meta_path.insert(0, _NoTorch())
+        from tactile_torch.cli import main
+
+        sys.exit(main(["predict", "--model", {str(onnx_path)!r}, "--data", {str(vibration_npz)!r}]))
+        """
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    lines = out.stdout.splitlines()
+    assert lines[-1].startswith("overall accuracy")
+    accuracy = float(lines[-1].split()[-1])
+    features = load_features(vibration_npz, window=400)
+    assert accuracy == pytest.approx((model.predict(features.X) == features.y).mean(), abs=1e-4)
+
+
+def test_predict_refuses_data_of_the_wrong_kind(tmp_path, vibration_npz):
+    data = make_explorations(1, n_frames=2, frame_size=24, sensels=6, random_state=0)
+    image_path = save_explorations(tmp_path / "img.npz", data)
+    _, _, model_path = _trained(tmp_path, vibration_npz, "svm", window=400)
+    bundle = OnnxPipeline(
+        export_pipeline(pipeline_from_model(load_model_file(model_path)), tmp_path / "v.onnx")
+    )
+    with pytest.raises(ValueError, match=r"does not fit this vibration-svm bundle \(input B,3,W\)"):
+        bundle.read_npz(image_path)
+
+
+def test_cli_stream_classifies_a_simulated_sensor(tmp_path, vibration_npz, capsys, monkeypatch):
+    from tactile_torch.stream import format_sample, parse_sample, simulate_sensor
+
+    _, _, model_path = _trained(tmp_path, vibration_npz, "svm", window=400)
+    onnx_path = tmp_path / "svm.onnx"
+    assert main(["export", "--model", str(model_path), "--out", str(onnx_path)]) == 0
+    capsys.readouterr()
+    bundle = OnnxPipeline(onnx_path)
+    recording = np.load(vibration_npz)["signals"][2]
+    # Open the port before the sensor starts: opening a serial port discards what it has buffered.
+    master, slave = os.openpty()
+    port = serial.Serial(os.ttyname(slave), timeout=2.0)
+    opened = []
+    monkeypatch.setattr(serial, "serial_for_url", lambda url, **kw: opened.append((url, kw)) or port)
+    writer = threading.Thread(
+        target=simulate_sensor,
+        args=(io.FileIO(master, "wb", closefd=False), recording[:1000]),
+        kwargs={"realtime": False},
+    )
+    writer.start()
+    status = main(["stream", "--model", str(onnx_path), "--port", "/dev/robot-imu", "--max-windows", "4"])
+    writer.join()
+    os.close(master)
+    assert opened == [("/dev/robot-imu", {"baudrate": 230400, "timeout": 2.0})]
+    assert status == 0
+    out = capsys.readouterr().out
+    printed = [line.split()[2] for line in out.splitlines()[1:5]]
+    # windows of 400 every 200 samples of what went over the wire, as the bundle classifies them offline
+    sent = np.array([parse_sample(format_sample(s)) for s in recording[:1000]], dtype=np.float32)
+    windows = np.stack([sent[s : s + 400].T for s in (0, 200, 400, 600)])
+    assert printed == bundle.predict_names(windows)
