@@ -79,7 +79,9 @@ def main(argv: list[str] | None = None) -> int:
         print(markdown_table(result["rows"]), flush=True)
     if not args.quick:
         summary = ["# Benchmark results", "", "Written by `make bench`. One file per benchmark:", ""]
-        done = sorted(p.stem for p in RESULTS.glob("*.md") if p.stem != "summary" and not p.stem.endswith("-quick"))
+        done = sorted(
+            p.stem for p in RESULTS.glob("*.md") if p.stem != "summary" and not p.stem.endswith("-quick")
+        )
         summary += [f"- [{n}]({n}.md)" for n in done]
         (RESULTS / "summary.md").write_text("\n".join(summary) + "\n")
     return 0

@@ -49,6 +49,8 @@ torch.Size([2, 12])
 
 from __future__ import annotations
 
+import contextlib
+import functools
 import math
 
 import torch
@@ -56,6 +58,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from ._checks import check_finite, check_floating, check_positive, check_shape, check_tensor
+from ._parallel import map_blocks, serial_torch_ops
 
 DEFAULT_THRESHOLD = 240.0 / 255.0
 """Pressed-region threshold of the study (240 on the 0-255 scale)."""
@@ -71,8 +74,15 @@ FEATURE_NAMES = tuple(f"{image}_{stat}" for image in ("M", "A") for stat in STAT
 """Names of the 12 features of :func:`exploration_features` (magnitude first, then direction)."""
 HISTOGRAM_LEVELS = 256
 """Gray levels of the histogram behind :func:`otsu_threshold`."""
-CHUNK_PIXELS = 1 << 18
-"""Pixels (batch x frames x height x width) processed at once by :func:`exploration_features`."""
+CHUNK_PIXELS = 1 << 19
+"""Pixels (explorations x frames x height x width) of one block of :func:`exploration_features`."""
+_GRAY_INTEGER = tuple(round(w * 10_000) for w in GRAY_WEIGHTS)
+# 255 * 10_000 times the exact gray of uint8 RGB is the integer 2989 R + 5870 G + 1140 B.
+_GRAY_SCALE = 255 * 10_000
+# The float32 gray of uint8 RGB (six roundings of relative 2**-24 on a value <= 1) is within 1e-6 of
+# the exact one, i.e. within 2.6 units of the integer sum; pixels farther than this from the threshold
+# are decided on the integer alone.
+_GRAY_BAND = 4
 
 Threshold = float | torch.Tensor | str
 
@@ -140,25 +150,57 @@ def _check_threshold(threshold: Threshold, batch: int, name: str = "threshold") 
 
 
 # ------------------------------------------------------------------------------------------ kernels
-def _gray(frames: torch.Tensor, dtype: torch.dtype, work: torch.Tensor | None = None) -> torch.Tensor:
-    """(..., 3, H, W) → (..., H, W) in ``dtype``, with the reference's elementwise operations in its order.
-
-    ``work``: a float buffer of at least ``frames``' size along dim 1, reused across chunks for the
-    uint8 → float conversion (fresh large buffers cost page faults).
-    """
-    if frames.dtype == torch.uint8:
-        if work is not None and dtype == torch.get_default_dtype():
-            # one pass: the integers convert exactly, then divide in ``dtype`` (as .to(dtype) / 255)
-            x = torch.div(frames, 255.0, out=work[:, : frames.shape[1]])
-        else:
-            x = frames.to(dtype).div_(255.0)
-    else:
-        x = frames.to(dtype)
+def _gray(frames: torch.Tensor, dtype: torch.dtype) -> torch.Tensor:
+    """(..., 3, H, W) → (..., H, W) in ``dtype``, with the reference's elementwise operations in its order."""
+    x = frames.to(dtype).div_(255.0) if frames.dtype == torch.uint8 else frames.to(dtype)
     r, g, b = x.unbind(-3)
     gray = r * GRAY_WEIGHTS[0]
     gray += g * GRAY_WEIGHTS[1]
     gray += b * GRAY_WEIGHTS[2]
     return gray
+
+
+def _pressed(
+    frames: torch.Tensor, threshold: torch.Tensor, dtype: torch.dtype, temperature: float | None
+) -> torch.Tensor:
+    """Pressed region of (B, t, 3, H, W) frames: int8 {0, 1} (hard) or ``dtype`` (soft).
+
+    ``threshold``: shape () or (B,), ``dtype``. Hard on uint8 frames (not while exporting) the gray level
+    is never formed: :func:`_pressed_uint8` gives the same mask from integers.
+    """
+    if temperature is None and frames.dtype == torch.uint8 and not torch.compiler.is_exporting():
+        return _pressed_uint8(frames, threshold)
+    gray = _gray(frames, dtype)
+    return _pressure(gray, _threshold_tensor(threshold, gray), temperature)
+
+
+def _pressed_uint8(frames: torch.Tensor, threshold: torch.Tensor) -> torch.Tensor:
+    """``_pressure(_gray(frames, float32), threshold)`` for uint8 frames, bit for bit, in integers.
+
+    The exact gray times :data:`_GRAY_SCALE` is the integer ``S = 2989 R + 5870 G + 1140 B``; the
+    float32 gray is within :data:`_GRAY_BAND` units of it, so ``S`` decides every pixel but those
+    within the band around the threshold (rare: a few integers out of 2.55 million), which get the
+    float formula itself. About a third of the float path's memory traffic.
+    """
+    limit = threshold.to(torch.float32)
+    if limit.ndim:  # per exploration
+        limit = limit.view(-1, 1, 1, 1)
+        cut = limit.double() * _GRAY_SCALE
+        low = torch.ceil(cut - _GRAY_BAND).to(torch.int32)
+        high = torch.floor(cut + _GRAY_BAND).to(torch.int32) + 1
+    else:  # Python numbers: cheaper than a few tiny tensor ops per block
+        cut = float(limit) * _GRAY_SCALE  # exact: a float32 times a 22-bit integer
+        low, high = math.ceil(cut - _GRAY_BAND), math.floor(cut + _GRAY_BAND) + 1
+    # S < low: pressed whatever the rounding; S >= high: not pressed
+    r, g, b = (channel.to(torch.int32) for channel in frames.unbind(-3))
+    total = r.mul_(_GRAY_INTEGER[0]).add_(g, alpha=_GRAY_INTEGER[1]).add_(b, alpha=_GRAY_INTEGER[2])
+    mask = torch.lt(total, low, out=torch.empty(total.shape, dtype=torch.int8))
+    near = torch.lt(total, high, out=torch.empty(total.shape, dtype=torch.int8)).sub_(mask)  # 1 in the band
+    if int(near.amax()) > 0:  # (an int8 max is several times cheaper than torch.equal or any)
+        near = near.nonzero(as_tuple=True)
+        gray = _gray(frames.movedim(-3, -1)[near].view(-1, 3, 1, 1), torch.float32).view(-1)
+        mask[near] = torch.lt(gray, limit.expand(total.shape)[near]).to(torch.int8)
+    return mask
 
 
 def _window_pads(k: int) -> tuple[int, int]:
@@ -170,11 +212,13 @@ def _window_pads(k: int) -> tuple[int, int]:
 # the 1-D buffer (1 along a row, the padded width along a column), so every step is one long contiguous
 # elementwise operation instead of many short rows. Positions that mix rows or images land only in the
 # padding, which is cut off afterwards.
-def _window_min(x: torch.Tensor, k: int, stride: int, temperature: float | None) -> torch.Tensor:
+def _window_min(
+    x: torch.Tensor, k: int, stride: int, temperature: float | None, minimum=torch.minimum
+) -> torch.Tensor:
     """Minimum of ``x[q], x[q + stride], ..., x[q + (k-1) stride]`` for every ``q`` (1-D, shorter output).
 
     Hard: by doubling, windows of 1, 2, 4, ... from two shifted copies each and a last overlapping step,
-    about ``2 log2(k)`` elementwise minima, exact. Soft: ``-t * logsumexp(-x / t)`` over the window.
+    about ``2 log2(k)`` elementwise ``minimum`` s, exact. Soft: ``-t * logsumexp(-x / t)`` over the window.
     """
     n_out = x.shape[0] - (k - 1) * stride
     if temperature is not None:
@@ -183,28 +227,39 @@ def _window_min(x: torch.Tensor, k: int, stride: int, temperature: float | None)
     width = 1
     while 2 * width <= k:
         n = x.shape[0] - width * stride
-        x = torch.minimum(x[:n], x[width * stride : width * stride + n])
+        x = minimum(x[:n], x[width * stride : width * stride + n])
         width *= 2
     if width < k:
         offset = (k - width) * stride
-        return torch.minimum(x[:n_out], x[offset : offset + n_out])
+        return minimum(x[:n_out], x[offset : offset + n_out])
     return x[:n_out]
 
 
 def _erode(mask: torch.Tensor, k: int, temperature: float | None) -> torch.Tensor:
-    """Minimum filter of (..., H, W) by a k x k square, outside ignored (any dtype; soft: float)."""
+    """Minimum filter of (..., H, W) by a k x k square, outside ignored (float, or an int8 {0, 1} mask)."""
     if k == 1:
         return mask
     *lead, height, width = mask.shape
     before, after = _window_pads(k)
     # The maximum outside: the border never lowers the minimum (MATLAB imerode's padding).
     fill = math.inf if mask.is_floating_point() else 1
-    padded = F.pad(mask.reshape(-1, height, width), (before, after, before, after), value=fill)
-    padded_width = width + k - 1
+    # The minimum of {0, 1} bytes is their AND, which int64 words take for 8 pixels at once. Along
+    # columns a neighbour is a whole number of words away once the padded rows are (extra columns on
+    # the right only meet outputs that are cut off).
+    packed = not mask.is_floating_point() and not torch.compiler.is_exporting()
+    extra = -(width + k - 1) % 8 if packed else 0
+    padded = F.pad(mask.reshape(-1, height, width), (before, after + extra, before, after), value=fill)
+    padded_width = width + k - 1 + extra
     # The soft minimum over a square is separable exactly: logsumexp over a 2-D window is the logsumexp
-    # over rows of the per-row logsumexps.
-    flat = _window_min(padded.reshape(-1), k, 1, temperature)
-    flat = _window_min(flat, k, padded_width, temperature)
+    # over columns of the per-column logsumexps.
+    if packed:
+        words = _window_min(
+            padded.reshape(-1).view(torch.int64), k, padded_width // 8, None, torch.bitwise_and
+        )
+        flat = words.view(torch.int8)
+    else:
+        flat = _window_min(padded.reshape(-1), k, padded_width, temperature)
+    flat = _window_min(flat, k, 1, temperature)
     flat = F.pad(flat, (0, padded.numel() - flat.numel()))
     return flat.reshape(padded.shape)[:, :height, :width].reshape(*lead, height, width)
 
@@ -212,22 +267,26 @@ def _erode(mask: torch.Tensor, k: int, temperature: float | None) -> torch.Tenso
 def _sobel_flat(image: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
     """Unnormalised Sobel (gx, gy) of (N, H, W), 'reflect' border, as 1-D buffers for :func:`_unflat`."""
     # One repeated pixel on each side: scipy's 'reflect' (d c b a | a b c d) for a 3 x 3 kernel.
-    p = torch.cat([image[:, :1], image, image[:, -1:]], dim=1)
-    p = torch.cat([p[:, :, :1], p, p[:, :, -1:]], dim=2).reshape(-1)
+    p = F.pad(image, (1, 1, 1, 1), mode="replicate").reshape(-1)
     s, n = image.shape[-1] + 2, p.shape[0]
-    smooth_y = p[: n - 2 * s] + 2 * p[s : n - s] + p[2 * s :]
+    # a + 2 b as one op (2 b is exact, so the sum rounds once either way), then + c: the reference's order
+    smooth_y = torch.add(p[: n - 2 * s], p[s : n - s], alpha=2).add_(p[2 * s :])
     diff_y = p[2 * s :] - p[: n - 2 * s]
     gx = smooth_y[2:] - smooth_y[:-2]
-    gy = diff_y[:-2] + 2 * diff_y[1:-1] + diff_y[2:]
+    gy = torch.add(diff_y[:-2], diff_y[1:-1], alpha=2).add_(diff_y[2:])
     return gx, gy
 
 
-def _unflat(values: torch.Tensor, shape: torch.Size) -> torch.Tensor:
-    """Map a 1-D result of :func:`_sobel_flat` back to (..., H, W)."""
+def _unflat(values: torch.Tensor, shape: torch.Size, *, ring: bool = False) -> torch.Tensor:
+    """Map a 1-D result of :func:`_sobel_flat` back to (..., H, W).
+
+    ``ring=True``: return the contiguous (..., H + 2, W + 2) buffer instead, the result inside a
+    one-pixel ring of junk (values that mix rows), for reductions over frames that slice afterwards.
+    """
     height, width = shape[-2:]
     s = width + 2
-    full = F.pad(values, (s + 1, s + 1)).reshape(-1, height + 2, width + 2)
-    return full[:, 1:-1, 1:-1].reshape(shape)
+    full = F.pad(values, (s + 1, s + 1)).reshape(*shape[:-2], height + 2, width + 2)
+    return full if ring else full[..., 1:-1, 1:-1]
 
 
 def _sobel(image: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
@@ -236,11 +295,14 @@ def _sobel(image: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
     return _unflat(gx, image.shape), _unflat(gy, image.shape)
 
 
-def _edges(mask: torch.Tensor, edge_threshold: float, temperature: float | None) -> torch.Tensor:
-    """Edges of (..., H, W): {0, 1} in mask's dtype (hard) or float in (0, 1) (soft)."""
+def _edges(
+    mask: torch.Tensor, edge_threshold: float, temperature: float | None, *, ring: bool = False
+) -> torch.Tensor:
+    """Edges of (..., H, W): {0, 1} in mask's dtype (hard) or float in (0, 1) (soft); ``ring``: see
+    :func:`_unflat`."""
     gx, gy = _sobel_flat(mask.reshape(-1, *mask.shape[-2:]))
     # The squared magnitude keeps the soft edge differentiable where the gradient vanishes.
-    squared = gx * gx + gy * gy
+    squared = torch.addcmul(gx * gx, gy, gy)
     if temperature is not None:
         edges = torch.sigmoid((squared - edge_threshold * edge_threshold) / temperature)
     elif mask.is_floating_point():
@@ -250,7 +312,7 @@ def _edges(mask: torch.Tensor, edge_threshold: float, temperature: float | None)
         # ``squared > c`` is ``clamp(squared - c, 0, 1)``: int8 in place, no bool round trip.
         cut = min(math.floor(edge_threshold * edge_threshold), 32)
         edges = (squared.sub_(cut) if cut else squared).clamp_(0, 1)
-    return _unflat(edges, mask.shape)
+    return _unflat(edges, mask.shape, ring=ring)
 
 
 def _pressure(gray: torch.Tensor, threshold: torch.Tensor, temperature: float | None) -> torch.Tensor:
@@ -318,10 +380,11 @@ def _statistics(image: torch.Tensor) -> torch.Tensor:
     mean = values.mean(-1, keepdim=True)
     dev = values - mean
     sq = dev * dev
-    m2 = sq.mean(-1)
-    m3 = (sq * dev).mean(-1)
-    m4 = (sq * sq).mean(-1)
-    std = _safe_sqrt(sq.sum(-1) / max(n - 1, 1))
+    # Sums of products as matrix products (one dot per image): no image-sized temporary per moment.
+    m2 = sq.sum(-1) / n
+    m3 = (sq.unsqueeze(-2) @ dev.unsqueeze(-1)).reshape(m2.shape) / n
+    m4 = (sq.unsqueeze(-2) @ sq.unsqueeze(-1)).reshape(m2.shape) / n
+    std = _safe_sqrt(m2 * (n / max(n - 1, 1)))
     # Zero variance up to rounding (scipy.stats' criterion): skewness and kurtosis are defined as 0.
     resolution = torch.finfo(values.dtype).resolution
     constant = m2 <= (resolution * mean.squeeze(-1)) ** 2
@@ -332,10 +395,11 @@ def _statistics(image: torch.Tensor) -> torch.Tensor:
     position = 0.95 * (n - 1)
     lower = math.floor(position)
     fraction = position - lower
-    top = torch.topk(values, n - lower, dim=-1, largest=True, sorted=True).values
-    below, above = top[..., -1], top[..., max(n - lower - 2, 0)]
+    top = torch.topk(values, n - lower, dim=-1, largest=True, sorted=False).values
+    pair = torch.topk(top, min(2, n - lower), dim=-1, largest=False, sorted=True).values
+    below, above = pair[..., 0], pair[..., -1]
     p95 = below + (above - below) * fraction
-    mad = dev.abs().mean(-1)
+    mad = torch.linalg.vector_norm(dev, 1, dim=-1) / n
     return torch.stack([mean.squeeze(-1), std, skew, kurt, p95, mad], dim=-1).to(image.dtype)
 
 
@@ -353,8 +417,11 @@ def _or_accumulate(acc: torch.Tensor | None, edges: torch.Tensor, soft: bool) ->
         part = torch.where(below, torch.log1p(-torch.where(below, edges, 0.0)), -math.inf).sum(1)
     else:
         part = edges.amax(1)
-    if acc is None:
-        return part
+    return part if acc is None else _or_merge(acc, part, soft)
+
+
+def _or_merge(acc: torch.Tensor, part: torch.Tensor, soft: bool) -> torch.Tensor:
+    """Combine two results of :func:`_or_accumulate`."""
     return acc + part if soft else torch.maximum(acc, part)
 
 
@@ -649,30 +716,77 @@ def exploration_features(
     if frames_per_chunk is not None:
         check_positive(frames_per_chunk, "frames_per_chunk", integer=True)
     dtype = frames.dtype if frames.is_floating_point() else torch.float32
-    if torch.compiler.is_exporting():
-        chunk = n_frames
-    else:
-        chunk = frames_per_chunk or max(1, CHUNK_PIXELS // (batch * height * width))
-    starts = range(0, n_frames, chunk)
-    if isinstance(threshold, str):
-        hist = sum(_level_histogram(_gray(frames[:, s : s + chunk], dtype)) for s in starts)
-        threshold = _otsu_from_histogram(hist)
+    exporting = torch.compiler.is_exporting()
     soft = temperature is not None
-    fused = None
-    per_frame = []
-    work = torch.empty((batch, chunk, 3, height, width), dtype=dtype) if frames.dtype == torch.uint8 else None
-    for s in starts:
-        gray = _gray(frames[:, s : s + chunk], dtype, work)
-        # hard: the binary steps run on int8, a quarter of the memory traffic of float32, exact
-        mask = _pressure(gray, _threshold_tensor(threshold, gray), temperature)
-        edges = _edges(_erode(mask, int(erosion), temperature), float(edge_threshold), temperature)
-        if fuse:
-            fused = _or_accumulate(fused, edges, soft)
+    # The hard eager path runs blocks on Python threads with single-threaded torch ops (see
+    # tactile_torch._parallel); the soft path (autograd) and the export trace run in the caller's thread.
+    with serial_torch_ops() if not (soft or exporting) else contextlib.nullcontext(1) as threads:
+        if exporting:  # one block: no Python arithmetic on the symbolic batch size
+            blocks, per_row = [(slice(None), slice(None))], 1
         else:
-            per_frame.append(_image_features(edges.to(dtype)))
+            blocks, per_row = _blocks(batch, n_frames, height * width, frames_per_chunk)
+        if isinstance(threshold, str):
+            hists = map_blocks(lambda b: _level_histogram(_gray(frames[b], dtype)), blocks, threads)
+            threshold = _otsu_from_histogram(torch.cat([sum(row) for row in _rows(hists, per_row)]))
+        threshold = torch.as_tensor(threshold, dtype=dtype)
+        if threshold.ndim == 1:
+            threshold = threshold.expand(batch)
+        step = functools.partial(
+            _block_step,
+            frames=frames,
+            threshold=threshold,
+            erosion=int(erosion),
+            edge_threshold=float(edge_threshold),
+            temperature=temperature,
+            dtype=dtype,
+            fuse=fuse,
+        )
+        rows = _rows(map_blocks(step, blocks, threads), per_row)
+        if not fuse:
+            return torch.cat([torch.cat(row, dim=1) for row in rows]).reshape(batch, -1)
+        fused = torch.cat([functools.reduce(functools.partial(_or_merge, soft=soft), row) for row in rows])
+        fused = _or_finish(fused[:, 1:-1, 1:-1], soft).to(dtype)
+        if threads == 1:
+            return _image_features(fused)
+        return torch.cat(map_blocks(_image_features, fused.split(-(-batch // threads)), threads))
+
+
+def _blocks(
+    batch: int, n_frames: int, frame_pixels: int, frames_per_chunk: int | None
+) -> tuple[list[tuple[slice, slice]], int]:
+    """Blocks ``(explorations, frames)`` of about :data:`CHUNK_PIXELS` pixels, exploration-major, and
+    the number of blocks per row of explorations (whole explorations share a block when they fit)."""
+    n_t = min(n_frames, frames_per_chunk or max(1, CHUNK_PIXELS // frame_pixels))
+    n_b = max(1, CHUNK_PIXELS // (n_frames * frame_pixels)) if n_t == n_frames else 1
+    times = [slice(s, s + n_t) for s in range(0, n_frames, n_t)]
+    return [(slice(b, b + n_b), t) for b in range(0, batch, n_b) for t in times], len(times)
+
+
+def _rows(results: list, per_row: int) -> list[list]:
+    return [results[i : i + per_row] for i in range(0, len(results), per_row)]
+
+
+def _block_step(
+    block: tuple[slice, slice],
+    *,
+    frames: torch.Tensor,
+    threshold: torch.Tensor,
+    erosion: int,
+    edge_threshold: float,
+    temperature: float | None,
+    dtype: torch.dtype,
+    fuse: bool,
+) -> torch.Tensor:
+    """One block of :func:`exploration_features`: the partial OR (b, H + 2, W + 2) of its frames (the
+    image inside a junk ring, see :func:`_unflat`) if ``fuse``, else the features (b, t, 12) of each."""
+    explorations, _ = block
+    mask = _pressed(
+        frames[block], threshold[explorations] if threshold.ndim else threshold, dtype, temperature
+    )
+    edges = _edges(_erode(mask, erosion, temperature), edge_threshold, temperature, ring=fuse)
     if fuse:
-        return _image_features(_or_finish(fused, soft).to(dtype))
-    return torch.cat(per_frame, dim=1).reshape(batch, n_frames * len(FEATURE_NAMES))
+        return _or_accumulate(None, edges, temperature is not None)
+    return _image_features(edges.to(dtype))
 
 
 # ---------------------------------------------------------------------------------- module wrappers
