@@ -179,8 +179,11 @@ def _pressed_uint8(frames: torch.Tensor, threshold: torch.Tensor) -> torch.Tenso
 
     The exact gray times :data:`_GRAY_SCALE` is the integer ``S = 2989 R + 5870 G + 1140 B``; the
     float32 gray is within :data:`_GRAY_BAND` units of it, so ``S`` decides every pixel but those
-    within the band around the threshold (rare: a few integers out of 2.55 million), which get the
-    float formula itself. About a third of the float path's memory traffic.
+    within the band around the threshold (a few integers out of 2.55 million). For a single
+    threshold :func:`_integer_cut` usually finds one integer cut that is exact for every colour (one
+    comparison); otherwise (per-exploration thresholds, or a band value shared by colours on both
+    sides) the pixels in the band get the float formula itself. About a third of the float path's
+    memory traffic.
     """
     limit = threshold.to(torch.float32)
     if limit.ndim:  # per exploration
@@ -194,6 +197,9 @@ def _pressed_uint8(frames: torch.Tensor, threshold: torch.Tensor) -> torch.Tenso
     # S < low: pressed whatever the rounding; S >= high: not pressed
     r, g, b = (channel.to(torch.int32) for channel in frames.unbind(-3))
     total = r.mul_(_GRAY_INTEGER[0]).add_(g, alpha=_GRAY_INTEGER[1]).add_(b, alpha=_GRAY_INTEGER[2])
+    exact = None if limit.ndim else _integer_cut(float(limit))
+    if exact is not None:  # one comparison decides every colour
+        return torch.lt(total, exact, out=torch.empty(total.shape, dtype=torch.int8))
     mask = torch.lt(total, low, out=torch.empty(total.shape, dtype=torch.int8))
     near = torch.lt(total, high, out=torch.empty(total.shape, dtype=torch.int8)).sub_(mask)  # 1 in the band
     if int(near.amax()) > 0:  # (an int8 max is several times cheaper than torch.equal or any)
@@ -201,6 +207,31 @@ def _pressed_uint8(frames: torch.Tensor, threshold: torch.Tensor) -> torch.Tenso
         gray = _gray(frames.movedim(-3, -1)[near].view(-1, 3, 1, 1), torch.float32).view(-1)
         mask[near] = torch.lt(gray, limit.expand(total.shape)[near]).to(torch.int8)
     return mask
+
+
+@functools.lru_cache(maxsize=512)
+def _integer_cut(limit: float) -> int | None:
+    """The integer ``c`` such that ``gray < limit`` iff ``S < c`` for every uint8 colour, if one exists.
+
+    ``limit`` is a float32 value; ``gray`` is the float32 grayscale of :func:`_gray` and ``S`` the
+    integer of :func:`_pressed_uint8`. Only colours with ``S`` within :data:`_GRAY_BAND` of the
+    threshold can disagree with the order of ``S``: they are enumerated (at most one blue level per
+    red-green pair, the band being narrower than a blue step) and decided by :func:`_gray` itself.
+    ``None`` if a value of ``S`` in the band holds colours on both sides (then the caller decides
+    pixel by pixel). Cached: a few milliseconds per new threshold.
+    """
+    cut = limit * _GRAY_SCALE
+    low, high = math.ceil(cut - _GRAY_BAND), math.floor(cut + _GRAY_BAND) + 1
+    red, green = (c.reshape(-1) for c in torch.meshgrid(torch.arange(256), torch.arange(256), indexing="ij"))
+    rest = _GRAY_INTEGER[0] * red + _GRAY_INTEGER[1] * green
+    blue = -torch.div(rest - low, _GRAY_INTEGER[2], rounding_mode="floor")  # the least with S >= low
+    total = rest + _GRAY_INTEGER[2] * blue
+    keep = (blue >= 0) & (blue <= 255) & (total < high)
+    colours = torch.stack([red[keep], green[keep], blue[keep]], dim=1).to(torch.uint8)
+    pressed = _gray(colours.view(-1, 3, 1, 1), torch.float32).view(-1) < limit
+    total = total[keep]
+    exact = int(total[pressed].max()) + 1 if bool(pressed.any()) else low
+    return exact if bool((total[~pressed] >= exact).all()) else None
 
 
 def _window_pads(k: int) -> tuple[int, int]:
@@ -380,11 +411,10 @@ def _statistics(image: torch.Tensor) -> torch.Tensor:
     mean = values.mean(-1, keepdim=True)
     dev = values - mean
     sq = dev * dev
-    # Sums of products as matrix products (one dot per image): no image-sized temporary per moment.
-    m2 = sq.sum(-1) / n
-    m3 = (sq.unsqueeze(-2) @ dev.unsqueeze(-1)).reshape(m2.shape) / n
-    m4 = (sq.unsqueeze(-2) @ sq.unsqueeze(-1)).reshape(m2.shape) / n
-    std = _safe_sqrt(m2 * (n / max(n - 1, 1)))
+    m2 = sq.mean(-1)
+    m3 = (sq * dev).mean(-1)
+    m4 = (sq * sq).mean(-1)
+    std = _safe_sqrt(sq.sum(-1) / max(n - 1, 1))
     # Zero variance up to rounding (scipy.stats' criterion): skewness and kurtosis are defined as 0.
     resolution = torch.finfo(values.dtype).resolution
     constant = m2 <= (resolution * mean.squeeze(-1)) ** 2
@@ -399,7 +429,7 @@ def _statistics(image: torch.Tensor) -> torch.Tensor:
     pair = torch.topk(top, min(2, n - lower), dim=-1, largest=False, sorted=True).values
     below, above = pair[..., 0], pair[..., -1]
     p95 = below + (above - below) * fraction
-    mad = torch.linalg.vector_norm(dev, 1, dim=-1) / n
+    mad = dev.abs().mean(-1)
     return torch.stack([mean.squeeze(-1), std, skew, kurt, p95, mad], dim=-1).to(image.dtype)
 
 
@@ -674,8 +704,14 @@ def exploration_features(
     their six statistics each (order :data:`FEATURE_NAMES`). With ``fuse=False`` the same 12 statistics
     are taken of every frame's edge image and concatenated frame by frame (the study's ablation).
 
-    The frames are processed in chunks along the time axis (the OR is accumulated), so the memory stays
-    bounded whatever ``T``; uint8 frames are converted chunk by chunk. A blank exploration (no pressure
+    The work is cut into blocks of explorations x frames of about :data:`CHUNK_PIXELS` pixels (whole
+    explorations share a block when they fit; the OR is accumulated across a long exploration's
+    blocks), so the memory stays bounded whatever ``B`` and ``T``. In the hard mode the blocks run on
+    ``torch.get_num_threads()`` Python threads while torch's intra-op pool is held at one thread for
+    the duration of the call (a process-wide setting, restored on return, also on error); results do
+    not depend on the thread count. Hard mode on uint8 frames decides the pressed region on integers
+    (bit-identical to the float32 grayscale, see the notes of ``_pressed_uint8``). The soft mode and
+    the ONNX export trace run in the caller's thread, on one block. A blank exploration (no pressure
     anywhere) has an all-zero fused image and all-zero features.
 
     Parameters
@@ -694,8 +730,8 @@ def exploration_features(
         ``None``: the hard pipeline. Otherwise every step is smooth (soft threshold, soft erosion, soft
         edges, noisy-OR fusion), so gradients reach ``frames`` (float) and a tensor ``threshold``.
     frames_per_chunk : int, optional
-        Frames per chunk; default: as many as fit :data:`CHUNK_PIXELS` pixels (at least 1). While
-        exporting to ONNX all frames form one chunk.
+        Frames per block; default: as many as fit :data:`CHUNK_PIXELS` pixels (at least 1). While
+        exporting to ONNX all frames and explorations form one block.
 
     Returns
     -------

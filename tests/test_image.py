@@ -166,10 +166,12 @@ def _colours_near(threshold, width=200):
     return np.unique(np.concatenate(colours, axis=1), axis=1).astype(np.uint8)  # (3, n)
 
 
-@pytest.mark.parametrize("threshold", [240 / 255, 0.5, 100.5 / 255, 0.123456])
+@pytest.mark.parametrize("threshold", [240 / 255, 0.5, 100.5 / 255, 0.123456, 0.122])
 def test_uint8_pressed_region_equals_float32_reference_at_the_threshold(threshold):
-    # The uint8 path decides on the integer 2989 R + 5870 G + 1140 B and falls back on the float32
-    # formula within a band around the threshold: every colour near it must match the reference.
+    # The uint8 path decides on the integer 2989 R + 5870 G + 1140 B: by one cut where some integer
+    # cut is exact, else (0.122) by the float32 formula for the pixels within a band around the
+    # threshold. Every colour near the threshold must match the reference.
+    assert (image._integer_cut(float(np.float32(threshold))) is None) == (threshold == 0.122)
     colours = _colours_near(threshold)
     assert colours.shape[1] > 100
     frames = torch.from_numpy(colours).view(1, 1, 3, 1, -1)
