@@ -243,13 +243,11 @@ def _window_pads(k: int) -> tuple[int, int]:
 # the 1-D buffer (1 along a row, the padded width along a column), so every step is one long contiguous
 # elementwise operation instead of many short rows. Positions that mix rows or images land only in the
 # padding, which is cut off afterwards.
-def _window_min(
-    x: torch.Tensor, k: int, stride: int, temperature: float | None, minimum=torch.minimum
-) -> torch.Tensor:
+def _window_min(x: torch.Tensor, k: int, stride: int, temperature: float | None) -> torch.Tensor:
     """Minimum of ``x[q], x[q + stride], ..., x[q + (k-1) stride]`` for every ``q`` (1-D, shorter output).
 
     Hard: by doubling, windows of 1, 2, 4, ... from two shifted copies each and a last overlapping step,
-    about ``2 log2(k)`` elementwise ``minimum`` s, exact. Soft: ``-t * logsumexp(-x / t)`` over the window.
+    about ``2 log2(k)`` elementwise minima, exact. Soft: ``-t * logsumexp(-x / t)`` over the window.
     """
     n_out = x.shape[0] - (k - 1) * stride
     if temperature is not None:
@@ -258,39 +256,28 @@ def _window_min(
     width = 1
     while 2 * width <= k:
         n = x.shape[0] - width * stride
-        x = minimum(x[:n], x[width * stride : width * stride + n])
+        x = torch.minimum(x[:n], x[width * stride : width * stride + n])
         width *= 2
     if width < k:
         offset = (k - width) * stride
-        return minimum(x[:n_out], x[offset : offset + n_out])
+        return torch.minimum(x[:n_out], x[offset : offset + n_out])
     return x[:n_out]
 
 
 def _erode(mask: torch.Tensor, k: int, temperature: float | None) -> torch.Tensor:
-    """Minimum filter of (..., H, W) by a k x k square, outside ignored (float, or an int8 {0, 1} mask)."""
+    """Minimum filter of (..., H, W) by a k x k square, outside ignored (any dtype; soft: float)."""
     if k == 1:
         return mask
     *lead, height, width = mask.shape
     before, after = _window_pads(k)
     # The maximum outside: the border never lowers the minimum (MATLAB imerode's padding).
     fill = math.inf if mask.is_floating_point() else 1
-    # The minimum of {0, 1} bytes is their AND, which int64 words take for 8 pixels at once. Along
-    # columns a neighbour is a whole number of words away once the padded rows are (extra columns on
-    # the right only meet outputs that are cut off).
-    packed = not mask.is_floating_point() and not torch.compiler.is_exporting()
-    extra = -(width + k - 1) % 8 if packed else 0
-    padded = F.pad(mask.reshape(-1, height, width), (before, after + extra, before, after), value=fill)
-    padded_width = width + k - 1 + extra
+    padded = F.pad(mask.reshape(-1, height, width), (before, after, before, after), value=fill)
+    padded_width = width + k - 1
     # The soft minimum over a square is separable exactly: logsumexp over a 2-D window is the logsumexp
-    # over columns of the per-column logsumexps.
-    if packed:
-        words = _window_min(
-            padded.reshape(-1).view(torch.int64), k, padded_width // 8, None, torch.bitwise_and
-        )
-        flat = words.view(torch.int8)
-    else:
-        flat = _window_min(padded.reshape(-1), k, padded_width, temperature)
-    flat = _window_min(flat, k, 1, temperature)
+    # over rows of the per-row logsumexps.
+    flat = _window_min(padded.reshape(-1), k, 1, temperature)
+    flat = _window_min(flat, k, padded_width, temperature)
     flat = F.pad(flat, (0, padded.numel() - flat.numel()))
     return flat.reshape(padded.shape)[:, :height, :width].reshape(*lead, height, width)
 
