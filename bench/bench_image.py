@@ -86,8 +86,10 @@ def run(quick: bool) -> dict:
         "timed on fewer explorations; both per exploration.",
         "max rel. diff: largest |ours - scipy| / max(|scipy|, 1) over the 12 features of the timed "
         "explorations (ours in float32 from uint8, scipy in float64).",
-        "The time axis is processed in chunks (tactile_torch.image.CHUNK_PIXELS pixels) and the OR is "
-        "accumulated, so the memory does not grow with the number of frames; the uint8 input itself "
-        "is not counted in the peak (it exists before the call).",
+        "Ours works on blocks of explorations x frames (tactile_torch.image.CHUNK_PIXELS pixels) and "
+        "accumulates the OR, so the memory does not grow with the number of frames; at the default "
+        "thread count the blocks run on that many Python threads with torch's intra-op pool held at "
+        "one thread (tactile_torch._parallel). The uint8 input itself is not counted in the peak "
+        "(it exists before the call).",
     ]
     return {"rows": rows, "notes": notes}

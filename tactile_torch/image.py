@@ -49,6 +49,8 @@ torch.Size([2, 12])
 
 from __future__ import annotations
 
+import contextlib
+import functools
 import math
 
 import torch
@@ -56,6 +58,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from ._checks import check_finite, check_floating, check_positive, check_shape, check_tensor
+from ._parallel import map_blocks, serial_torch_ops
 
 DEFAULT_THRESHOLD = 240.0 / 255.0
 """Pressed-region threshold of the study (240 on the 0-255 scale)."""
@@ -71,8 +74,15 @@ FEATURE_NAMES = tuple(f"{image}_{stat}" for image in ("M", "A") for stat in STAT
 """Names of the 12 features of :func:`exploration_features` (magnitude first, then direction)."""
 HISTOGRAM_LEVELS = 256
 """Gray levels of the histogram behind :func:`otsu_threshold`."""
-CHUNK_PIXELS = 1 << 18
-"""Pixels (batch x frames x height x width) processed at once by :func:`exploration_features`."""
+CHUNK_PIXELS = 1 << 19
+"""Pixels (explorations x frames x height x width) of one block of :func:`exploration_features`."""
+_GRAY_INTEGER = tuple(round(w * 10_000) for w in GRAY_WEIGHTS)
+# 255 * 10_000 times the exact gray of uint8 RGB is the integer 2989 R + 5870 G + 1140 B.
+_GRAY_SCALE = 255 * 10_000
+# The float32 gray of uint8 RGB (six roundings of relative 2**-24 on a value <= 1) is within 1e-6 of
+# the exact one, i.e. within 2.6 units of the integer sum; pixels farther than this from the threshold
+# are decided on the integer alone.
+_GRAY_BAND = 4
 
 Threshold = float | torch.Tensor | str
 
@@ -140,25 +150,88 @@ def _check_threshold(threshold: Threshold, batch: int, name: str = "threshold") 
 
 
 # ------------------------------------------------------------------------------------------ kernels
-def _gray(frames: torch.Tensor, dtype: torch.dtype, work: torch.Tensor | None = None) -> torch.Tensor:
-    """(..., 3, H, W) → (..., H, W) in ``dtype``, with the reference's elementwise operations in its order.
-
-    ``work``: a float buffer of at least ``frames``' size along dim 1, reused across chunks for the
-    uint8 → float conversion (fresh large buffers cost page faults).
-    """
-    if frames.dtype == torch.uint8:
-        if work is not None and dtype == torch.get_default_dtype():
-            # one pass: the integers convert exactly, then divide in ``dtype`` (as .to(dtype) / 255)
-            x = torch.div(frames, 255.0, out=work[:, : frames.shape[1]])
-        else:
-            x = frames.to(dtype).div_(255.0)
-    else:
-        x = frames.to(dtype)
+def _gray(frames: torch.Tensor, dtype: torch.dtype) -> torch.Tensor:
+    """(..., 3, H, W) → (..., H, W) in ``dtype``, with the reference's elementwise operations in its order."""
+    x = frames.to(dtype).div_(255.0) if frames.dtype == torch.uint8 else frames.to(dtype)
     r, g, b = x.unbind(-3)
     gray = r * GRAY_WEIGHTS[0]
     gray += g * GRAY_WEIGHTS[1]
     gray += b * GRAY_WEIGHTS[2]
     return gray
+
+
+def _pressed(
+    frames: torch.Tensor, threshold: torch.Tensor, dtype: torch.dtype, temperature: float | None
+) -> torch.Tensor:
+    """Pressed region of (B, t, 3, H, W) frames: int8 {0, 1} (hard) or ``dtype`` (soft).
+
+    ``threshold``: shape () or (B,), ``dtype``. Hard on uint8 frames (not while exporting) the gray level
+    is never formed: :func:`_pressed_uint8` gives the same mask from integers.
+    """
+    if temperature is None and frames.dtype == torch.uint8 and not torch.compiler.is_exporting():
+        return _pressed_uint8(frames, threshold)
+    gray = _gray(frames, dtype)
+    return _pressure(gray, _threshold_tensor(threshold, gray), temperature)
+
+
+def _pressed_uint8(frames: torch.Tensor, threshold: torch.Tensor) -> torch.Tensor:
+    """``_pressure(_gray(frames, float32), threshold)`` for uint8 frames, bit for bit, in integers.
+
+    The exact gray times :data:`_GRAY_SCALE` is the integer ``S = 2989 R + 5870 G + 1140 B``; the
+    float32 gray is within :data:`_GRAY_BAND` units of it, so ``S`` decides every pixel but those
+    within the band around the threshold (a few integers out of 2.55 million). For a single
+    threshold :func:`_integer_cut` usually finds one integer cut that is exact for every colour (one
+    comparison); otherwise (per-exploration thresholds, or a band value shared by colours on both
+    sides) the pixels in the band get the float formula itself. About a third of the float path's
+    memory traffic.
+    """
+    limit = threshold.to(torch.float32)
+    if limit.ndim:  # per exploration
+        limit = limit.view(-1, 1, 1, 1)
+        cut = limit.double() * _GRAY_SCALE
+        low = torch.ceil(cut - _GRAY_BAND).to(torch.int32)
+        high = torch.floor(cut + _GRAY_BAND).to(torch.int32) + 1
+    else:  # Python numbers: cheaper than a few tiny tensor ops per block
+        cut = float(limit) * _GRAY_SCALE  # exact: a float32 times a 22-bit integer
+        low, high = math.ceil(cut - _GRAY_BAND), math.floor(cut + _GRAY_BAND) + 1
+    # S < low: pressed whatever the rounding; S >= high: not pressed
+    r, g, b = (channel.to(torch.int32) for channel in frames.unbind(-3))
+    total = r.mul_(_GRAY_INTEGER[0]).add_(g, alpha=_GRAY_INTEGER[1]).add_(b, alpha=_GRAY_INTEGER[2])
+    exact = None if limit.ndim else _integer_cut(float(limit))
+    if exact is not None:  # one comparison decides every colour
+        return torch.lt(total, exact, out=torch.empty(total.shape, dtype=torch.int8))
+    mask = torch.lt(total, low, out=torch.empty(total.shape, dtype=torch.int8))
+    near = torch.lt(total, high, out=torch.empty(total.shape, dtype=torch.int8)).sub_(mask)  # 1 in the band
+    if int(near.amax()) > 0:  # (an int8 max is several times cheaper than torch.equal or any)
+        near = near.nonzero(as_tuple=True)
+        gray = _gray(frames.movedim(-3, -1)[near].view(-1, 3, 1, 1), torch.float32).view(-1)
+        mask[near] = torch.lt(gray, limit.expand(total.shape)[near]).to(torch.int8)
+    return mask
+
+
+@functools.lru_cache(maxsize=512)
+def _integer_cut(limit: float) -> int | None:
+    """The integer ``c`` such that ``gray < limit`` iff ``S < c`` for every uint8 colour, if one exists.
+
+    ``limit`` is a float32 value; ``gray`` is the float32 grayscale of :func:`_gray` and ``S`` the
+    integer of :func:`_pressed_uint8`. Only colours with ``S`` within :data:`_GRAY_BAND` of the
+    threshold can disagree with the order of ``S``: they are enumerated (at most one blue level per
+    red-green pair, the band being narrower than a blue step) and decided by :func:`_gray` itself.
+    ``None`` if a value of ``S`` in the band holds colours on both sides (then the caller decides
+    pixel by pixel). Cached: a few milliseconds per new threshold.
+    """
+    cut = limit * _GRAY_SCALE
+    low, high = math.ceil(cut - _GRAY_BAND), math.floor(cut + _GRAY_BAND) + 1
+    red, green = (c.reshape(-1) for c in torch.meshgrid(torch.arange(256), torch.arange(256), indexing="ij"))
+    rest = _GRAY_INTEGER[0] * red + _GRAY_INTEGER[1] * green
+    blue = -torch.div(rest - low, _GRAY_INTEGER[2], rounding_mode="floor")  # the least with S >= low
+    total = rest + _GRAY_INTEGER[2] * blue
+    keep = (blue >= 0) & (blue <= 255) & (total < high)
+    colours = torch.stack([red[keep], green[keep], blue[keep]], dim=1).to(torch.uint8)
+    pressed = _gray(colours.view(-1, 3, 1, 1), torch.float32).view(-1) < limit
+    total = total[keep]
+    exact = int(total[pressed].max()) + 1 if bool(pressed.any()) else low
+    return exact if bool((total[~pressed] >= exact).all()) else None
 
 
 def _window_pads(k: int) -> tuple[int, int]:
@@ -212,22 +285,26 @@ def _erode(mask: torch.Tensor, k: int, temperature: float | None) -> torch.Tenso
 def _sobel_flat(image: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
     """Unnormalised Sobel (gx, gy) of (N, H, W), 'reflect' border, as 1-D buffers for :func:`_unflat`."""
     # One repeated pixel on each side: scipy's 'reflect' (d c b a | a b c d) for a 3 x 3 kernel.
-    p = torch.cat([image[:, :1], image, image[:, -1:]], dim=1)
-    p = torch.cat([p[:, :, :1], p, p[:, :, -1:]], dim=2).reshape(-1)
+    p = F.pad(image, (1, 1, 1, 1), mode="replicate").reshape(-1)
     s, n = image.shape[-1] + 2, p.shape[0]
-    smooth_y = p[: n - 2 * s] + 2 * p[s : n - s] + p[2 * s :]
+    # a + 2 b as one op (2 b is exact, so the sum rounds once either way), then + c: the reference's order
+    smooth_y = torch.add(p[: n - 2 * s], p[s : n - s], alpha=2).add_(p[2 * s :])
     diff_y = p[2 * s :] - p[: n - 2 * s]
     gx = smooth_y[2:] - smooth_y[:-2]
-    gy = diff_y[:-2] + 2 * diff_y[1:-1] + diff_y[2:]
+    gy = torch.add(diff_y[:-2], diff_y[1:-1], alpha=2).add_(diff_y[2:])
     return gx, gy
 
 
-def _unflat(values: torch.Tensor, shape: torch.Size) -> torch.Tensor:
-    """Map a 1-D result of :func:`_sobel_flat` back to (..., H, W)."""
+def _unflat(values: torch.Tensor, shape: torch.Size, *, ring: bool = False) -> torch.Tensor:
+    """Map a 1-D result of :func:`_sobel_flat` back to (..., H, W).
+
+    ``ring=True``: return the contiguous (..., H + 2, W + 2) buffer instead, the result inside a
+    one-pixel ring of junk (values that mix rows), for reductions over frames that slice afterwards.
+    """
     height, width = shape[-2:]
     s = width + 2
-    full = F.pad(values, (s + 1, s + 1)).reshape(-1, height + 2, width + 2)
-    return full[:, 1:-1, 1:-1].reshape(shape)
+    full = F.pad(values, (s + 1, s + 1)).reshape(*shape[:-2], height + 2, width + 2)
+    return full if ring else full[..., 1:-1, 1:-1]
 
 
 def _sobel(image: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
@@ -236,11 +313,14 @@ def _sobel(image: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
     return _unflat(gx, image.shape), _unflat(gy, image.shape)
 
 
-def _edges(mask: torch.Tensor, edge_threshold: float, temperature: float | None) -> torch.Tensor:
-    """Edges of (..., H, W): {0, 1} in mask's dtype (hard) or float in (0, 1) (soft)."""
+def _edges(
+    mask: torch.Tensor, edge_threshold: float, temperature: float | None, *, ring: bool = False
+) -> torch.Tensor:
+    """Edges of (..., H, W): {0, 1} in mask's dtype (hard) or float in (0, 1) (soft); ``ring``: see
+    :func:`_unflat`."""
     gx, gy = _sobel_flat(mask.reshape(-1, *mask.shape[-2:]))
     # The squared magnitude keeps the soft edge differentiable where the gradient vanishes.
-    squared = gx * gx + gy * gy
+    squared = torch.addcmul(gx * gx, gy, gy)
     if temperature is not None:
         edges = torch.sigmoid((squared - edge_threshold * edge_threshold) / temperature)
     elif mask.is_floating_point():
@@ -250,7 +330,7 @@ def _edges(mask: torch.Tensor, edge_threshold: float, temperature: float | None)
         # ``squared > c`` is ``clamp(squared - c, 0, 1)``: int8 in place, no bool round trip.
         cut = min(math.floor(edge_threshold * edge_threshold), 32)
         edges = (squared.sub_(cut) if cut else squared).clamp_(0, 1)
-    return _unflat(edges, mask.shape)
+    return _unflat(edges, mask.shape, ring=ring)
 
 
 def _pressure(gray: torch.Tensor, threshold: torch.Tensor, temperature: float | None) -> torch.Tensor:
@@ -332,8 +412,9 @@ def _statistics(image: torch.Tensor) -> torch.Tensor:
     position = 0.95 * (n - 1)
     lower = math.floor(position)
     fraction = position - lower
-    top = torch.topk(values, n - lower, dim=-1, largest=True, sorted=True).values
-    below, above = top[..., -1], top[..., max(n - lower - 2, 0)]
+    top = torch.topk(values, n - lower, dim=-1, largest=True, sorted=False).values
+    pair = torch.topk(top, min(2, n - lower), dim=-1, largest=False, sorted=True).values
+    below, above = pair[..., 0], pair[..., -1]
     p95 = below + (above - below) * fraction
     mad = dev.abs().mean(-1)
     return torch.stack([mean.squeeze(-1), std, skew, kurt, p95, mad], dim=-1).to(image.dtype)
@@ -353,8 +434,11 @@ def _or_accumulate(acc: torch.Tensor | None, edges: torch.Tensor, soft: bool) ->
         part = torch.where(below, torch.log1p(-torch.where(below, edges, 0.0)), -math.inf).sum(1)
     else:
         part = edges.amax(1)
-    if acc is None:
-        return part
+    return part if acc is None else _or_merge(acc, part, soft)
+
+
+def _or_merge(acc: torch.Tensor, part: torch.Tensor, soft: bool) -> torch.Tensor:
+    """Combine two results of :func:`_or_accumulate`."""
     return acc + part if soft else torch.maximum(acc, part)
 
 
@@ -607,8 +691,14 @@ def exploration_features(
     their six statistics each (order :data:`FEATURE_NAMES`). With ``fuse=False`` the same 12 statistics
     are taken of every frame's edge image and concatenated frame by frame (the study's ablation).
 
-    The frames are processed in chunks along the time axis (the OR is accumulated), so the memory stays
-    bounded whatever ``T``; uint8 frames are converted chunk by chunk. A blank exploration (no pressure
+    The work is cut into blocks of explorations x frames of about :data:`CHUNK_PIXELS` pixels (whole
+    explorations share a block when they fit; the OR is accumulated across a long exploration's
+    blocks), so the memory stays bounded whatever ``B`` and ``T``. In the hard mode the blocks run on
+    ``torch.get_num_threads()`` Python threads while torch's intra-op pool is held at one thread for
+    the duration of the call (a process-wide setting, restored on return, also on error); results do
+    not depend on the thread count. Hard mode on uint8 frames decides the pressed region on integers
+    (bit-identical to the float32 grayscale, see the notes of ``_pressed_uint8``). The soft mode and
+    the ONNX export trace run in the caller's thread, on one block. A blank exploration (no pressure
     anywhere) has an all-zero fused image and all-zero features.
 
     Parameters
@@ -627,8 +717,8 @@ def exploration_features(
         ``None``: the hard pipeline. Otherwise every step is smooth (soft threshold, soft erosion, soft
         edges, noisy-OR fusion), so gradients reach ``frames`` (float) and a tensor ``threshold``.
     frames_per_chunk : int, optional
-        Frames per chunk; default: as many as fit :data:`CHUNK_PIXELS` pixels (at least 1). While
-        exporting to ONNX all frames form one chunk.
+        Frames per block; default: as many as fit :data:`CHUNK_PIXELS` pixels (at least 1). While
+        exporting to ONNX all frames and explorations form one block.
 
     Returns
     -------
@@ -649,30 +739,77 @@ def exploration_features(
     if frames_per_chunk is not None:
         check_positive(frames_per_chunk, "frames_per_chunk", integer=True)
     dtype = frames.dtype if frames.is_floating_point() else torch.float32
-    if torch.compiler.is_exporting():
-        chunk = n_frames
-    else:
-        chunk = frames_per_chunk or max(1, CHUNK_PIXELS // (batch * height * width))
-    starts = range(0, n_frames, chunk)
-    if isinstance(threshold, str):
-        hist = sum(_level_histogram(_gray(frames[:, s : s + chunk], dtype)) for s in starts)
-        threshold = _otsu_from_histogram(hist)
+    exporting = torch.compiler.is_exporting()
     soft = temperature is not None
-    fused = None
-    per_frame = []
-    work = torch.empty((batch, chunk, 3, height, width), dtype=dtype) if frames.dtype == torch.uint8 else None
-    for s in starts:
-        gray = _gray(frames[:, s : s + chunk], dtype, work)
-        # hard: the binary steps run on int8, a quarter of the memory traffic of float32, exact
-        mask = _pressure(gray, _threshold_tensor(threshold, gray), temperature)
-        edges = _edges(_erode(mask, int(erosion), temperature), float(edge_threshold), temperature)
-        if fuse:
-            fused = _or_accumulate(fused, edges, soft)
+    # The hard eager path runs blocks on Python threads with single-threaded torch ops (see
+    # tactile_torch._parallel); the soft path (autograd) and the export trace run in the caller's thread.
+    with serial_torch_ops() if not (soft or exporting) else contextlib.nullcontext(1) as threads:
+        if exporting:  # one block: no Python arithmetic on the symbolic batch size
+            blocks, per_row = [(slice(None), slice(None))], 1
         else:
-            per_frame.append(_image_features(edges.to(dtype)))
+            blocks, per_row = _blocks(batch, n_frames, height * width, frames_per_chunk)
+        if isinstance(threshold, str):
+            hists = map_blocks(lambda b: _level_histogram(_gray(frames[b], dtype)), blocks, threads)
+            threshold = _otsu_from_histogram(torch.cat([sum(row) for row in _rows(hists, per_row)]))
+        threshold = torch.as_tensor(threshold, dtype=dtype)
+        if threshold.ndim == 1:
+            threshold = threshold.expand(batch)
+        step = functools.partial(
+            _block_step,
+            frames=frames,
+            threshold=threshold,
+            erosion=int(erosion),
+            edge_threshold=float(edge_threshold),
+            temperature=temperature,
+            dtype=dtype,
+            fuse=fuse,
+        )
+        rows = _rows(map_blocks(step, blocks, threads), per_row)
+        if not fuse:
+            return torch.cat([torch.cat(row, dim=1) for row in rows]).reshape(batch, -1)
+        fused = torch.cat([functools.reduce(functools.partial(_or_merge, soft=soft), row) for row in rows])
+        fused = _or_finish(fused[:, 1:-1, 1:-1], soft).to(dtype)
+        if threads == 1:
+            return _image_features(fused)
+        return torch.cat(map_blocks(_image_features, fused.split(-(-batch // threads)), threads))
+
+
+def _blocks(
+    batch: int, n_frames: int, frame_pixels: int, frames_per_chunk: int | None
+) -> tuple[list[tuple[slice, slice]], int]:
+    """Blocks ``(explorations, frames)`` of about :data:`CHUNK_PIXELS` pixels, exploration-major, and
+    the number of blocks per row of explorations (whole explorations share a block when they fit)."""
+    n_t = min(n_frames, frames_per_chunk or max(1, CHUNK_PIXELS // frame_pixels))
+    n_b = max(1, CHUNK_PIXELS // (n_frames * frame_pixels)) if n_t == n_frames else 1
+    times = [slice(s, s + n_t) for s in range(0, n_frames, n_t)]
+    return [(slice(b, b + n_b), t) for b in range(0, batch, n_b) for t in times], len(times)
+
+
+def _rows(results: list, per_row: int) -> list[list]:
+    return [results[i : i + per_row] for i in range(0, len(results), per_row)]
+
+
+def _block_step(
+    block: tuple[slice, slice],
+    *,
+    frames: torch.Tensor,
+    threshold: torch.Tensor,
+    erosion: int,
+    edge_threshold: float,
+    temperature: float | None,
+    dtype: torch.dtype,
+    fuse: bool,
+) -> torch.Tensor:
+    """One block of :func:`exploration_features`: the partial OR (b, H + 2, W + 2) of its frames (the
+    image inside a junk ring, see :func:`_unflat`) if ``fuse``, else the features (b, t, 12) of each."""
+    explorations, _ = block
+    mask = _pressed(
+        frames[block], threshold[explorations] if threshold.ndim else threshold, dtype, temperature
+    )
+    edges = _edges(_erode(mask, erosion, temperature), edge_threshold, temperature, ring=fuse)
     if fuse:
-        return _image_features(_or_finish(fused, soft).to(dtype))
-    return torch.cat(per_frame, dim=1).reshape(batch, n_frames * len(FEATURE_NAMES))
+        return _or_accumulate(None, edges, temperature is not None)
+    return _image_features(edges.to(dtype))
 
 
 # ---------------------------------------------------------------------------------- module wrappers

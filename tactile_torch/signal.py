@@ -66,16 +66,14 @@ torch.Size([19, 21])
 
 from __future__ import annotations
 
-import contextlib
 import functools
-from collections.abc import Iterator
-from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import torch
 from torch import nn
 
 from ._checks import check_finite, check_floating, check_positive, check_shape, check_tensor
+from ._parallel import map_blocks, serial_torch_ops
 
 AXES = ("x", "y", "z")
 AXIS_FEATURES = ("var", "skew", "kurt", "m5", "tv", "cross", "hf")
@@ -203,43 +201,21 @@ def window_features(windows: torch.Tensor) -> torch.Tensor:
         stats = _row_statistics(windows.reshape(-1, width), exact=True)
         features = _features_from_statistics(stats, width).to(windows.dtype)
         return features.reshape(*windows.shape[:-2], len(FEATURE_NAMES))
-    with _serial_torch_ops() as threads:
+    with serial_torch_ops() as threads:
         _check_windows(windows)
         lead, width = windows.shape[:-2], windows.shape[-1]
         rows = windows.reshape(-1, width)  # (B * 3, W): every feature is a function of one row
         size = max(3, _BLOCK_SAMPLES // width)
         blocks = [rows[i : i + size] for i in range(0, len(rows), size)]  # blocks of windows, not windows
         statistics = functools.partial(_row_statistics, exact=False, grad=torch.is_grad_enabled())
-        if threads > 1 and len(blocks) > 1:
-            with ThreadPoolExecutor(min(threads, len(blocks))) as pool:
-                stats = torch.cat(list(pool.map(statistics, blocks)))
-        elif blocks:
-            stats = torch.cat([statistics(block) for block in blocks])
+        if blocks:
+            stats = torch.cat(map_blocks(statistics, blocks, threads))
         else:  # no window
             stats = rows.new_zeros((0, 9), dtype=torch.float64)
         # A window holds NaN or inf iff its range does (min and max propagate them): the check is free.
         if not bool(torch.isfinite(stats[:, 0]).all()):
             check_finite(windows, "windows")  # raises, saying where
         return _features_from_statistics(stats, width).to(windows.dtype).reshape(*lead, len(FEATURE_NAMES))
-
-
-@contextlib.contextmanager
-def _serial_torch_ops() -> Iterator[int]:
-    """Run torch ops on one intra-op thread inside the block; yield the thread count it had before.
-
-    A block's dozens of short passes cost less than one synchronisation of torch's thread pool (on a
-    loaded 2-core machine a parallel ``floor`` or small FFT stalls for milliseconds), so the eager
-    path parallelises over blocks instead, each running single-threaded ops. The setting is global
-    to the process and is restored on exit.
-    """
-    threads = torch.get_num_threads()
-    if threads > 1:
-        torch.set_num_threads(1)
-    try:
-        yield threads
-    finally:
-        if threads > 1:
-            torch.set_num_threads(threads)
 
 
 def _row_statistics(a: torch.Tensor, *, exact: bool, grad: bool = True) -> torch.Tensor:

@@ -153,6 +153,68 @@ def test_pressure_mask_fixed_and_per_exploration_thresholds():
     assert per[0, 0, 0].tolist() == [1.0, 0.0, 0.0, 0.0] and per[1, 0, 0].tolist() == [1.0, 1.0, 0.0, 0.0]
 
 
+def _colours_near(threshold, width=200):
+    """Every uint8 RGB colour whose exact gray is within ``width`` / 2550000 of ``threshold``."""
+    r, g = (a.ravel() for a in np.meshgrid(np.arange(256), np.arange(256), indexing="ij"))
+    cut = float(np.float32(threshold)) * 2_550_000
+    centre = (cut - 2989 * r - 5870 * g) / 1140
+    colours = []
+    for shift in range(-1, 2):  # width / 1140 < 1: the nearest blue levels suffice
+        b = np.round(centre).astype(int) + shift
+        keep = (b >= 0) & (b <= 255) & (np.abs(2989 * r + 5870 * g + 1140 * b - cut) <= width)
+        colours.append(np.stack([r[keep], g[keep], b[keep]]))
+    return np.unique(np.concatenate(colours, axis=1), axis=1).astype(np.uint8)  # (3, n)
+
+
+@pytest.mark.parametrize("threshold", [240 / 255, 0.5, 100.5 / 255, 0.123456, 0.122])
+def test_uint8_pressed_region_equals_float32_reference_at_the_threshold(threshold):
+    # The uint8 path decides on the integer 2989 R + 5870 G + 1140 B: by one cut where some integer
+    # cut is exact, else (0.122) by the float32 formula for the pixels within a band around the
+    # threshold. Every colour near the threshold must match the reference.
+    assert (image._integer_cut(float(np.float32(threshold))) is None) == (threshold == 0.122)
+    colours = _colours_near(threshold)
+    assert colours.shape[1] > 100
+    frames = torch.from_numpy(colours).view(1, 1, 3, 1, -1)
+    got = image._pressed(frames, torch.tensor(threshold, dtype=torch.float32), torch.float32, None)
+    want = ref.grayscale(colours[:, None, :], np.float32) < np.float32(threshold)
+    assert got.dtype == torch.int8
+    np.testing.assert_array_equal(got.view(-1).numpy(), want.ravel())
+    assert 0 < want.sum() < want.size  # colours on both sides
+
+
+def test_uint8_pressed_region_with_per_exploration_thresholds():
+    thresholds = (0.6, 240 / 255, 0.31)
+    columns = [_colours_near(t) for t in thresholds]
+    n = min(c.shape[1] for c in columns)
+    frames = torch.from_numpy(np.stack([c[:, :n] for c in columns])).view(3, 1, 3, 1, n)
+    per = torch.tensor(thresholds, dtype=torch.float32)
+    got = image._pressed(frames, per, torch.float32, None)
+    naive_errors = 0
+    for k, t in enumerate(thresholds):
+        want = ref.grayscale(columns[k][:, None, :n], np.float32) < np.float32(t)
+        np.testing.assert_array_equal(got[k].view(-1).numpy(), want.ravel())
+        exact = columns[k][:, :n].astype(np.int64).T @ np.array([2989, 5870, 1140])
+        naive_errors += int(np.sum((exact < float(np.float32(t)) * 2_550_000) != want.ravel()))
+    assert naive_errors > 0  # the integer rule alone would be wrong here: the fallback is exercised
+
+
+def test_threaded_blocks_equal_one_thread_and_restore_the_thread_count(realistic):
+    before = torch.get_num_threads()
+    try:
+        torch.set_num_threads(1)
+        serial = image.exploration_features(
+            realistic, frames_per_chunk=2, threshold=torch.tensor([0.9, 0.8, 0.7, 0.6])
+        )
+        torch.set_num_threads(2)
+        threaded = image.exploration_features(
+            realistic, frames_per_chunk=2, threshold=torch.tensor([0.9, 0.8, 0.7, 0.6])
+        )
+        assert torch.get_num_threads() == 2
+    finally:
+        torch.set_num_threads(before)
+    torch.testing.assert_close(threaded, serial, rtol=0, atol=0)
+
+
 def test_fuse_edges_is_logical_or():
     edges = (torch.rand(3, 5, 6, 7, generator=torch.Generator().manual_seed(6)) > 0.8).float()
     np.testing.assert_array_equal(
