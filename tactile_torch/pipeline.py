@@ -7,7 +7,7 @@ returns ``(labels, scores)``:
 pipeline                  raw input                   graph
 ========================  ==========================  ===============================================
 ``image-<method>``        frames ``(B, T, 3, H, W)``  :class:`~tactile_torch.image.ExplorationFeatures`
-                          float in [0, 1]             → feature scale → SVM (hierarchical or not)
+                          uint8 RGB                   → feature scale → SVM (hierarchical or not)
 ``vibration-<method>``    windows ``(B, 3, W)`` in g  :class:`~tactile_torch.signal.WindowFeatures`
                                                       → feature scale → SVM
 ``vibration-pyp``         windows ``(B, 3, W)`` in g  window features → :class:`~tactile_torch.signal.
@@ -93,12 +93,18 @@ class InferencePipeline(nn.Module):
     def forward(self, raw: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         return self.head(self.front(raw))
 
+    @property
+    def input_dtype(self) -> torch.dtype:
+        """dtype of the raw input the graph takes: uint8 for image frames, float32 otherwise."""
+        return torch.uint8 if self.input_layout == "B,T,3,H,W" else torch.float32
+
     def example_input(self, batch: int = 2, *, random_state: int = 0) -> torch.Tensor:
-        """Return a random float32 input of the pipeline's shape with ``batch`` rows (for export)."""
+        """Return a random input of the pipeline's shape and dtype with ``batch`` rows (for export)."""
         gen = torch.Generator().manual_seed(random_state)
         shape = [batch, *self.input_shape[1:]]
-        x = torch.rand(shape, generator=gen)
-        return x if self.name.startswith("image") else x - 0.5
+        if self.input_dtype == torch.uint8:
+            return torch.randint(0, 256, shape, generator=gen, dtype=torch.uint8)
+        return torch.rand(shape, generator=gen) - 0.5
 
     def metadata(self) -> dict[str, str]:
         """Return the ONNX metadata properties of this pipeline (string values; JSON where structured)."""
@@ -149,7 +155,6 @@ def _front_end(source: dict) -> tuple[list[nn.Module], list[int | None], str, di
         t, c, h, w = (int(v) for v in source["frame_shape"])
         fuse = bool(source.get("fuse", True))
         meta = {
-            "uint8_scale": repr(1 / 255),
             "fuse": fuse,
             "threshold": DEFAULT_THRESHOLD,
             "erosion": DEFAULT_EROSION,
@@ -323,7 +328,7 @@ class Bundle:
     path : Path
         Its ``.onnx`` file.
     raw : ndarray
-        Held-out raw input of the pipeline's shape (float32; frames in [0, 1]).
+        Held-out raw input of the pipeline's shape (uint8 frames, float32 windows).
     labels : ndarray of shape (N,) int64
         True class of each row of ``raw`` (index into the data set's classes).
     """
@@ -396,7 +401,7 @@ def build_default_bundles(
         train = FeatureSet(X[~held_out], data.labels.numpy()[~held_out], data.class_names, source)
         model = train_classifier(train, "hmsvm", test_size=0.25, random_state=random_state)
         path = save_model(out / "image-hmsvm.pt", model, train)
-        raw = data.frames[held_out].numpy().astype(np.float32) / 255
+        raw = data.frames[held_out].numpy()
         built["image-hmsvm"] = Bundle(
             pipeline_from_model(load_model_file(path)), path, raw, data.labels[held_out].numpy()
         )

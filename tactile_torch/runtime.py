@@ -40,6 +40,7 @@ from pathlib import Path
 
 import numpy as np
 
+_ONNX_DTYPES = {"tensor(uint8)": "uint8", "tensor(float)": "float32", "tensor(double)": "float64"}
 LABELS_OUTPUT = "labels"
 SCORES_OUTPUT = "scores"
 
@@ -88,6 +89,8 @@ class OnnxPipeline:
         Expected input shape; ``None`` marks a free dimension (the batch).
     input_layout : str
         Names of the input dimensions, e.g. ``"B,T,3,H,W"``.
+    input_dtype : numpy.dtype
+        dtype the graph takes (uint8 for image frames, float32 for windows and features).
     """
 
     def __init__(self, path: str | Path, *, intra_op_threads: int = 1, inter_op_threads: int = 1) -> None:
@@ -121,6 +124,7 @@ class OnnxPipeline:
         self.class_names: list[str] = json.loads(names) if names else []
         scale = self.metadata.get("uint8_scale")
         self._uint8_scale = float(scale) if scale else None
+        self.input_dtype = np.dtype(_ONNX_DTYPES.get(self._input.type, "float32"))
 
     def _declared_shape(self) -> tuple[int | None, ...]:
         if "input_shape" in self.metadata:
@@ -133,11 +137,12 @@ class OnnxPipeline:
         return self.metadata.get("tactile_torch.pipeline", "unknown")
 
     def validate(self, raw: object) -> np.ndarray:
-        """Return ``raw`` as a float32 array of the model's input shape, or raise a clear error.
+        """Return ``raw`` in the graph's input dtype and shape, or raise a clear error.
 
-        uint8 input is scaled by the bundle's ``uint8_scale`` when it declares one (image bundles:
-        8-bit frames to [0, 1]); float64 is cast to float32; other dtypes, a wrong rank or size, and
-        NaN or inf values raise.
+        Bundles whose graph takes uint8 (image frames) take uint8 as is and float frames in [0, 1]
+        rounded to the 256 levels. Float bundles cast float64 to float32 and scale uint8 input by the
+        bundle's ``uint8_scale`` when it declares one. Other dtypes, a wrong rank or size, and NaN or
+        inf values raise.
         """
         if not isinstance(raw, np.ndarray):
             raise TypeError(f"raw must be a numpy.ndarray, got {type(raw).__name__}")
@@ -151,6 +156,8 @@ class OnnxPipeline:
             )
         if raw.shape[0] == 0:
             raise ValueError(f"raw must hold at least one sample (batch size >= 1), got shape {raw.shape}")
+        if self.input_dtype == np.uint8:
+            return self._as_uint8(raw)
         if raw.dtype == np.uint8 and self._uint8_scale is not None:
             return raw.astype(np.float32) * np.float32(self._uint8_scale)
         if raw.dtype not in (np.float32, np.float64):
@@ -160,6 +167,24 @@ class OnnxPipeline:
         if not np.isfinite(raw).all():
             raise ValueError(f"raw must be finite, got {int((~np.isfinite(raw)).sum())} NaN/inf value(s)")
         return raw
+
+    def _as_uint8(self, raw: np.ndarray) -> np.ndarray:
+        # 8-bit bundles (image frames): uint8 passes as is; float frames in [0, 1] are quantised to the
+        # nearest of the 256 levels (exact for frames that were uint8 / 255).
+        if raw.dtype == np.uint8:
+            return np.ascontiguousarray(raw)
+        if raw.dtype not in (np.float32, np.float64):
+            raise TypeError(
+                f"raw must have dtype uint8 (0-255), float32 or float64 (in [0, 1]), got {raw.dtype}"
+            )
+        if not np.isfinite(raw).all():
+            raise ValueError(f"raw must be finite, got {int((~np.isfinite(raw)).sum())} NaN/inf value(s)")
+        lo, hi = float(raw.min()), float(raw.max())
+        if lo < 0.0 or hi > 1.0:
+            raise ValueError(
+                f"raw float frames must be in [0, 1] (or uint8 0-255), got values in [{lo:g}, {hi:g}]"
+            )
+        return np.rint(raw * 255.0).astype(np.uint8)
 
     def run(self, raw: np.ndarray) -> Mapping[str, np.ndarray]:
         """Return every output of the graph for validated ``raw``, by name."""

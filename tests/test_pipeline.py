@@ -97,8 +97,15 @@ def test_image_pipeline_accepts_uint8_frames_and_matches_torch(tmp_path):
     assert raw.dtype == np.uint8 and raw.shape == (16, 6, 3, 48, 48)
     labels, _ = _assert_parity(pipe, bundle, raw[:5])
     np.testing.assert_array_equal(labels, model.predict(features.X[:5]))
-    # the torch pipeline on uint8 frames gives the same labels as on the [0, 1] floats
-    np.testing.assert_array_equal(pipe(torch.from_numpy(raw[:5]))[0].numpy(), labels)
+    # the graph takes the frames as uint8; float frames in [0, 1] are quantised to the same levels
+    assert bundle.input_dtype == np.uint8
+    np.testing.assert_array_equal(bundle.predict(raw[:5].astype(np.float32) / 255), labels)
+    with pytest.raises(ValueError, match=r"raw float frames must be in \[0, 1\]"):
+        bundle.predict(raw[:1].astype(np.float32))
+    with pytest.raises(TypeError, match="raw must have dtype uint8"):
+        bundle.predict(raw[:1].astype(np.int16))
+    # the torch pipeline on [0, 1] floats gives the same labels as on uint8 frames
+    np.testing.assert_array_equal(pipe(torch.from_numpy(raw[:5]).float() / 255)[0].numpy(), labels)
 
 
 def test_models_without_an_inference_graph_are_refused(tmp_path, vibration_npz):
