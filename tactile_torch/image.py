@@ -161,15 +161,27 @@ def _gray(frames: torch.Tensor, dtype: torch.dtype) -> torch.Tensor:
 
 
 def _pressed(
-    frames: torch.Tensor, threshold: torch.Tensor, dtype: torch.dtype, temperature: float | None
+    frames: torch.Tensor,
+    threshold: torch.Tensor,
+    dtype: torch.dtype,
+    temperature: float | None,
+    integer_cut: int | None = None,
 ) -> torch.Tensor:
     """Pressed region of (B, t, 3, H, W) frames: int8 {0, 1} (hard) or ``dtype`` (soft).
 
     ``threshold``: shape () or (B,), ``dtype``. Hard on uint8 frames (not while exporting) the gray level
-    is never formed: :func:`_pressed_uint8` gives the same mask from integers.
+    is never formed: :func:`_pressed_uint8` gives the same mask from integers. While exporting, an
+    ``integer_cut`` (:func:`_integer_cut` of the threshold) does the same in the graph: the integer
+    gray ``S`` as one MatMul over the colour axis (integers below 2^24: exact in float32 in any
+    order), then ``S < integer_cut``, instead of a division and five elementwise passes.
     """
-    if temperature is None and frames.dtype == torch.uint8 and not torch.compiler.is_exporting():
-        return _pressed_uint8(frames, threshold)
+    if temperature is None and frames.dtype == torch.uint8:
+        if not torch.compiler.is_exporting():
+            return _pressed_uint8(frames, threshold)
+        if integer_cut is not None:
+            weights = torch.tensor([_GRAY_INTEGER], dtype=torch.float32)  # (1, 3)
+            total = torch.matmul(weights, frames.flatten(-2).to(torch.float32))  # (..., 1, H * W)
+            return (total < integer_cut).to(torch.int8).reshape(*frames.shape[:-3], *frames.shape[-2:])
     gray = _gray(frames, dtype)
     return _pressure(gray, _threshold_tensor(threshold, gray), temperature)
 
@@ -751,6 +763,9 @@ def exploration_features(
         if isinstance(threshold, str):
             hists = map_blocks(lambda b: _level_histogram(_gray(frames[b], dtype)), blocks, threads)
             threshold = _otsu_from_histogram(torch.cat([sum(row) for row in _rows(hists, per_row)]))
+        exact_cut = None
+        if exporting and not soft and frames.dtype == torch.uint8 and isinstance(threshold, float | int):
+            exact_cut = _integer_cut(float(torch.tensor(threshold, dtype=torch.float32)))
         threshold = torch.as_tensor(threshold, dtype=dtype)
         if threshold.ndim == 1:
             threshold = threshold.expand(batch)
@@ -763,6 +778,7 @@ def exploration_features(
             temperature=temperature,
             dtype=dtype,
             fuse=fuse,
+            integer_cut=exact_cut,
         )
         rows = _rows(map_blocks(step, blocks, threads), per_row)
         if not fuse:
@@ -799,12 +815,17 @@ def _block_step(
     temperature: float | None,
     dtype: torch.dtype,
     fuse: bool,
+    integer_cut: int | None = None,
 ) -> torch.Tensor:
     """One block of :func:`exploration_features`: the partial OR (b, H + 2, W + 2) of its frames (the
     image inside a junk ring, see :func:`_unflat`) if ``fuse``, else the features (b, t, 12) of each."""
     explorations, _ = block
     mask = _pressed(
-        frames[block], threshold[explorations] if threshold.ndim else threshold, dtype, temperature
+        frames[block],
+        threshold[explorations] if threshold.ndim else threshold,
+        dtype,
+        temperature,
+        integer_cut,
     )
     edges = _edges(_erode(mask, erosion, temperature), edge_threshold, temperature, ring=fuse)
     if fuse:
