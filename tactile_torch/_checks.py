@@ -118,3 +118,32 @@ def torch_generator(random_state: RandomState) -> torch.Generator:
         return random_state
     seed = int(numpy_rng(random_state).integers(0, 2**62))
     return torch.Generator().manual_seed(seed)
+
+
+def as_feature_matrix(X: object, name: str = "X", n_features: int | None = None) -> np.ndarray:
+    """Return a feature matrix (array-like or tensor) as a C-contiguous float64 ``(n, F)`` array.
+
+    Raises ``TypeError`` if ``X`` is not numeric, ``ValueError`` if it is not 2-D, is empty, has not
+    ``n_features`` columns (when given) or holds NaN/inf (saying how many and where the first is).
+    """
+    if isinstance(X, torch.Tensor):
+        X = X.detach().cpu().numpy()
+    try:
+        arr = np.asarray(X, dtype=np.float64)
+    except (TypeError, ValueError) as err:
+        raise TypeError(
+            f"{name} must be a numeric array of shape (n_samples, n_features), got {type(X).__name__}"
+        ) from err
+    if arr.ndim != 2:
+        raise ValueError(f"{name} must have shape (n_samples, n_features), got {arr.shape}")
+    if arr.shape[0] == 0 or arr.shape[1] == 0:
+        raise ValueError(f"{name} must hold at least 1 sample and 1 feature, got shape {arr.shape}")
+    if n_features is not None and arr.shape[1] != n_features:
+        raise ValueError(f"{name} must have {n_features} features (as in fit), got shape {arr.shape}")
+    bad = ~np.isfinite(arr)
+    if bad.any():
+        first = tuple(int(i) for i in np.argwhere(bad)[0])
+        raise ValueError(
+            f"{name} must be finite, got {int(bad.sum())} NaN/inf value(s) (first at index {first})"
+        )
+    return np.ascontiguousarray(arr)

@@ -22,7 +22,7 @@ import torch
 from scipy.linalg import solve_triangular
 from sklearn.base import BaseEstimator, ClusterMixin
 
-from ._checks import RandomState, numpy_rng
+from ._checks import RandomState, as_feature_matrix, numpy_rng
 
 __all__ = [
     "GaussianMixtureClassifier",
@@ -38,29 +38,7 @@ W_FLOOR = 1e-10
 _TRACE_NAMES = ("n_clusters", "alpha", "discount", "beta", "log_posterior")
 
 
-def _as_features(X: object, name: str = "X", n_features: int | None = None) -> np.ndarray:
-    """Validate a feature matrix (array-like or tensor) and return it as a float64 (n, D) array."""
-    if isinstance(X, torch.Tensor):
-        X = X.detach().cpu().numpy()
-    try:
-        arr = np.asarray(X, dtype=np.float64)
-    except (TypeError, ValueError) as err:
-        raise TypeError(
-            f"{name} must be a real-valued array of shape (n_samples, n_features): {err}"
-        ) from None
-    if arr.ndim != 2:
-        raise ValueError(f"{name} must have shape (n_samples, n_features), got {arr.shape}")
-    if arr.shape[0] < 1 or arr.shape[1] < 1:
-        raise ValueError(f"{name} must have at least 1 sample and 1 feature, got shape {arr.shape}")
-    if n_features is not None and arr.shape[1] != n_features:
-        raise ValueError(f"{name} must have {n_features} features (as in fit), got shape {arr.shape}")
-    bad = ~np.isfinite(arr)
-    if bad.any():
-        first = tuple(int(i) for i in np.argwhere(bad)[0])
-        raise ValueError(
-            f"{name} must be finite, got {int(bad.sum())} NaN/inf value(s) (first at index {first})"
-        )
-    return np.ascontiguousarray(arr)
+_as_features = as_feature_matrix
 
 
 def _whitening(X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

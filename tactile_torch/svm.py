@@ -47,7 +47,7 @@ import torch
 from sklearn.base import BaseEstimator, ClassifierMixin
 from sklearn.utils.validation import check_is_fitted
 
-from ._checks import RandomState, check_positive, numpy_rng
+from ._checks import RandomState, as_feature_matrix, check_positive, numpy_rng
 
 KERNELS = ("rbf", "linear")
 
@@ -942,27 +942,7 @@ class SVMInference(torch.nn.Module):
 SOLVERS = ("active-set", "smo")
 
 
-def _as_features(X: object, name: str = "X") -> np.ndarray:
-    """Return ``X`` as a C-contiguous float64 array of shape (n, F), or raise a clear error."""
-    if isinstance(X, torch.Tensor):
-        X = X.detach().cpu().numpy()
-    try:
-        arr = np.asarray(X, dtype=np.float64)
-    except (TypeError, ValueError) as err:
-        raise TypeError(
-            f"{name} must be a numeric array of shape (n_samples, n_features), got {type(X).__name__}"
-        ) from err
-    if arr.ndim != 2:
-        raise ValueError(f"{name} must have shape (n_samples, n_features), got {arr.shape}")
-    if arr.shape[0] == 0 or arr.shape[1] == 0:
-        raise ValueError(f"{name} must hold at least one sample and one feature, got shape {arr.shape}")
-    bad = ~np.isfinite(arr)
-    if bad.any():
-        first = tuple(int(i) for i in np.argwhere(bad)[0])
-        raise ValueError(
-            f"{name} must be finite, got {int(bad.sum())} NaN/inf value(s) (first at index {first})"
-        )
-    return np.ascontiguousarray(arr)
+_as_features = as_feature_matrix
 
 
 def _check_training_data(X: object, y: object) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
+import textwrap
 from pathlib import Path
 
 import pytest
@@ -40,3 +43,23 @@ def pytest_sessionfinish(session, exitstatus):
     if exitstatus == 0 and _passed == 0 and not session.config.option.collectonly:
         session.exitstatus = pytest.ExitCode.TESTS_FAILED
         print("\nno test passed in this run: treating it as a failure")
+
+
+_NO_TORCH = """
+import sys
+
+class _NoTorch:
+    def find_spec(self, name, path=None, target=None):
+        if name == "torch" or name.startswith("torch."):
+            raise ImportError("torch is not installed on this robot")
+        return None
+
+sys.meta_path.insert(0, _NoTorch())
+"""
+
+
+def run_without_torch(code: str) -> subprocess.CompletedProcess:
+    """Run Python ``code`` in a fresh interpreter where importing torch fails (as on the robot)."""
+    return subprocess.run(
+        [sys.executable, "-c", _NO_TORCH + textwrap.dedent(code)], capture_output=True, text=True
+    )

@@ -3,9 +3,6 @@
 import io
 import json
 import os
-import subprocess
-import sys
-import textwrap
 import threading
 
 import numpy as np
@@ -26,7 +23,7 @@ from tactile_torch.pipeline import (
 from tactile_torch.runtime import OnnxPipeline
 from tactile_torch.training import load_features, save_model, train_classifier
 
-from .conftest import require_shared_data
+from .conftest import require_shared_data, run_without_torch
 
 
 def _assert_parity(
@@ -144,23 +141,13 @@ def test_cli_predict_prints_a_class_report_without_torch(tmp_path, vibration_npz
     _, model, model_path = _trained(tmp_path, vibration_npz, "svm", window=400)
     onnx_path = tmp_path / "svm.onnx"
     assert main(["export", "--model", str(model_path), "--out", str(onnx_path)]) == 0
-    code = textwrap.dedent(
+    out = run_without_torch(
         f"""
-        import sys
-
-        class _NoTorch:
-            def find_spec(self, name, path=None, target=None):
-                if name == "torch" or name.startswith("torch."):
-                    raise ImportError("torch is not installed on this robot")
-                return None
-
-        sys.meta_path.insert(0, _NoTorch())
         from tactile_torch.cli import main
 
         sys.exit(main(["predict", "--model", {str(onnx_path)!r}, "--data", {str(vibration_npz)!r}]))
         """
     )
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert out.returncode == 0, out.stderr
     lines = out.stdout.splitlines()
     assert lines[-1].startswith("overall accuracy")

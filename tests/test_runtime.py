@@ -1,7 +1,4 @@
 import json
-import subprocess
-import sys
-import textwrap
 
 import numpy as np
 import pytest
@@ -9,6 +6,8 @@ import torch
 
 from tactile_torch._onnx import export_onnx
 from tactile_torch.runtime import OnnxPipeline
+
+from .conftest import run_without_torch
 
 
 class _NearestMean(torch.nn.Module):
@@ -85,17 +84,8 @@ def test_bad_construction(tmp_path, bundle):
 
 
 def test_runtime_runs_where_torch_cannot_be_imported(bundle):
-    code = textwrap.dedent(
+    out = run_without_torch(
         f"""
-        import sys
-
-        class _NoTorch:
-            def find_spec(self, name, path=None, target=None):
-                if name == "torch" or name.startswith("torch."):
-                    raise ImportError("torch is not installed on this robot")
-                return None
-
-        sys.meta_path.insert(0, _NoTorch())
         import numpy as np
         from tactile_torch.runtime import OnnxPipeline
 
@@ -103,5 +93,6 @@ def test_runtime_runs_where_torch_cannot_be_imported(bundle):
         print(pipe.predict(np.zeros((1, 3, 16), np.float32)).tolist(), "torch" in sys.modules)
         """
     )
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.returncode == 0, out.stderr
+    out = out.stdout
     assert out.split() == ["[0]", "False"]
