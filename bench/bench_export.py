@@ -16,11 +16,10 @@ from __future__ import annotations
 
 import tempfile
 
-import numpy as np
 import torch
 
 from bench.common import threads, time_call
-from tactile_torch.pipeline import build_default_bundles
+from tactile_torch.pipeline import build_default_bundles, compare_with_runtime
 from tactile_torch.runtime import OnnxPipeline
 
 TITLE = "Exported pipelines: onnxruntime vs eager torch (latency at batch 1, throughput)"
@@ -33,12 +32,8 @@ def _measure(name: str, bundle, quick: bool) -> dict:
     pipe = bundle.pipeline.eval()
     onnx_1 = OnnxPipeline(bundle.path, intra_op_threads=1)
     onnx_default = OnnxPipeline(bundle.path, intra_op_threads=0)
-    labels, scores = onnx_1.predict_scores(bundle.raw)
-    with torch.no_grad():
-        t_labels, t_scores = pipe(torch.from_numpy(bundle.raw))
-    agree = float((labels == t_labels.numpy()).mean())
-    t_scores = t_scores.numpy()
-    diff = float((np.abs(scores - t_scores) / np.maximum(np.abs(t_scores), 1.0)).max())
+    agree, diff = compare_with_runtime(pipe, onnx_1, bundle.raw)
+    labels = onnx_1.predict(bundle.raw)
     accuracy = float((labels == bundle.labels).mean()) if not name.endswith("pyp") else float("nan")
     n_calls = 20 if quick else (100 if image else 2000)
     x1, xb = torch.from_numpy(one), torch.from_numpy(batch)

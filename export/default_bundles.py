@@ -15,10 +15,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-import numpy as np
-import torch
-
-from tactile_torch.pipeline import build_default_bundles
+from tactile_torch.pipeline import build_default_bundles, compare_with_runtime
 from tactile_torch.runtime import OnnxPipeline
 
 
@@ -30,15 +27,13 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     status = 0
     for name, bundle in build_default_bundles(args.out, quick=args.quick, random_state=args.seed).items():
-        labels, scores = OnnxPipeline(bundle.path).predict_scores(bundle.raw)
-        with torch.no_grad():
-            t_labels, t_scores = bundle.pipeline(torch.from_numpy(bundle.raw))
-        agree = float((labels == t_labels.numpy()).mean())
-        diff = float(np.abs(scores - t_scores.numpy()).max())
-        quality = (
-            "" if name.endswith("pyp") else f"held-out accuracy {(labels == bundle.labels).mean():.4f}, "
+        onnx = OnnxPipeline(bundle.path)
+        agree, diff = compare_with_runtime(bundle.pipeline, onnx, bundle.raw)
+        accuracy = (onnx.predict(bundle.raw) == bundle.labels).mean()
+        quality = "" if name.endswith("pyp") else f"held-out accuracy {accuracy:.4f}, "
+        print(
+            f"{name}: {quality}onnxruntime vs torch: labels agree {agree:.4f}, max rel. score diff {diff:.2g}"
         )
-        print(f"{name}: {quality}onnxruntime vs torch: labels agree {agree:.4f}, max score diff {diff:.2g}")
         status |= int(agree < 1.0 or diff > 1e-5)
     return status
 

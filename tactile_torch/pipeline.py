@@ -317,6 +317,22 @@ def export_pipeline(pipeline: InferencePipeline, path: str | Path, *, example_ba
     )
 
 
+def compare_with_runtime(pipeline: InferencePipeline, bundle: object, raw: np.ndarray) -> tuple[float, float]:
+    """Run ``raw`` through the torch ``pipeline`` and its exported ``bundle`` (an ``OnnxPipeline``).
+
+    Returns ``(agreement, difference)``: the share of identical labels and the largest score difference
+    relative to ``max(|score|, 1)`` (the mixture's log responsibilities reach hundreds in float32).
+    """
+    raw = bundle.validate(raw)
+    labels, scores = bundle.predict_scores(raw)
+    with torch.no_grad():
+        t_labels, t_scores = pipeline(torch.from_numpy(raw))
+    t_scores = t_scores.numpy()
+    agreement = float((labels == t_labels.numpy()).mean())
+    difference = float((np.abs(scores - t_scores) / np.maximum(np.abs(t_scores), 1.0)).max())
+    return agreement, difference
+
+
 @dataclass
 class Bundle:
     """One exported default pipeline (see :func:`build_default_bundles`).
@@ -416,6 +432,7 @@ __all__ = [
     "Bundle",
     "InferencePipeline",
     "build_default_bundles",
+    "compare_with_runtime",
     "export_pipeline",
     "load_model_file",
     "pipeline_from_model",
