@@ -16,6 +16,7 @@ from tactile_torch.data import make_vibration_recordings
 from tactile_torch.data.images import make_explorations, save_explorations
 from tactile_torch.pipeline import (
     InferencePipeline,
+    compare_with_runtime,
     export_pipeline,
     load_model_file,
     pipeline_from_model,
@@ -60,6 +61,8 @@ def _vibration_parity(tmp_path, data_path, window, method="hmsvm"):
     # the graph reproduces the estimator on the features computed by the library
     np.testing.assert_array_equal(labels, model.predict(features.X[:13]))
     np.testing.assert_array_equal(data.labels, features.y)
+    agreement, difference = compare_with_runtime(pipe, bundle, data.raw[:13])
+    assert agreement == 1.0 and difference < 1e-5
     return bundle, features
 
 
