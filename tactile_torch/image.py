@@ -53,6 +53,7 @@ import contextlib
 import functools
 import math
 
+import numpy as np
 import torch
 import torch.nn.functional as F
 from torch import nn
@@ -221,8 +222,30 @@ def _pressed_uint8(frames: torch.Tensor, threshold: torch.Tensor) -> torch.Tenso
     return mask
 
 
-@functools.lru_cache(maxsize=512)
-def _integer_cut(limit: float) -> int | None:
+def _float32(value: float) -> float:
+    """``value`` rounded to float32 (the threshold as the float32 comparisons see it)."""
+    return float(np.float32(value))  # NumPy, not a tensor: also called while tracing for export
+
+
+class _CutCache:
+    """Memo of :func:`_find_integer_cut` per float32 threshold; ``known`` looks up without computing."""
+
+    def __init__(self, size: int = 512) -> None:
+        self._cuts: dict[float, int | None] = {}
+        self._size = size
+
+    def __call__(self, limit: float) -> int | None:
+        if limit not in self._cuts:
+            if len(self._cuts) >= self._size:
+                self._cuts.clear()
+            self._cuts[limit] = _find_integer_cut(limit)
+        return self._cuts[limit]
+
+    def known(self, limit: float) -> int | None:
+        return self._cuts.get(limit)
+
+
+def _find_integer_cut(limit: float) -> int | None:
     """The integer ``c`` such that ``gray < limit`` iff ``S < c`` for every uint8 colour, if one exists.
 
     ``limit`` is a float32 value; ``gray`` is the float32 grayscale of :func:`_gray` and ``S`` the
@@ -244,6 +267,9 @@ def _integer_cut(limit: float) -> int | None:
     total = total[keep]
     exact = int(total[pressed].max()) + 1 if bool(pressed.any()) else low
     return exact if bool((total[~pressed] >= exact).all()) else None
+
+
+_integer_cut = _CutCache()
 
 
 def _window_pads(k: int) -> tuple[int, int]:
@@ -444,6 +470,12 @@ def _or_accumulate(acc: torch.Tensor | None, edges: torch.Tensor, soft: bool) ->
         # gradient finite (e = 1 only where a sigmoid saturated, whose own gradient is 0).
         below = edges < 1.0
         part = torch.where(below, torch.log1p(-torch.where(below, edges, 0.0)), -math.inf).sum(1)
+    elif torch.compiler.is_exporting():
+        # onnxruntime reduces int8 over a middle axis slowly; a count by one MatMul is several times
+        # faster and exact (at most T ones per pixel): OR = count > 0.
+        ones = torch.ones(1, edges.shape[1], dtype=torch.float32)
+        count = torch.matmul(ones, edges.flatten(2).to(torch.float32))  # (B, 1, H * W)
+        part = (count > 0).to(edges.dtype).reshape(edges.shape[0], *edges.shape[2:])
     else:
         part = edges.amax(1)
     return part if acc is None else _or_merge(acc, part, soft)
@@ -765,7 +797,9 @@ def exploration_features(
             threshold = _otsu_from_histogram(torch.cat([sum(row) for row in _rows(hists, per_row)]))
         exact_cut = None
         if exporting and not soft and frames.dtype == torch.uint8 and isinstance(threshold, float | int):
-            exact_cut = _integer_cut(float(torch.tensor(threshold, dtype=torch.float32)))
+            # Only a cut found eagerly before (ExplorationFeatures does it on construction): searching
+            # for it here would be traced into the graph. Without one, the float grayscale is exported.
+            exact_cut = _integer_cut.known(_float32(threshold))
         threshold = torch.as_tensor(threshold, dtype=dtype)
         if threshold.ndim == 1:
             threshold = threshold.expand(batch)
@@ -926,6 +960,8 @@ class ExplorationFeatures(nn.Module):
         super().__init__()
         self.fuse = fuse
         self.threshold = threshold
+        if temperature is None and isinstance(threshold, float | int) and 0 < threshold <= 1:
+            _integer_cut(_float32(threshold))  # found eagerly now, so that an export can use it
         self.erosion = erosion
         self.edge_threshold = edge_threshold
         self.temperature = temperature
