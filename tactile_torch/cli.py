@@ -257,6 +257,12 @@ def _simulate_sensor(args: argparse.Namespace) -> int:
     return 0
 
 
+def _add_allow_pickle(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--allow-pickle", action="store_true", help="allow object arrays in a trusted vibration .npz"
+    )
+
+
 def build_parser() -> argparse.ArgumentParser:
     """Return the argument parser with every subcommand."""
     from . import __version__
@@ -305,9 +311,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--test-size", type=float, default=0.25, help="held-out share for the report (default: 0.25)"
     )
     p.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
-    p.add_argument(
-        "--allow-pickle", action="store_true", help="allow object arrays in a trusted vibration .npz"
-    )
+    _add_allow_pickle(p)
     p.set_defaults(handler=_train)
 
     p = sub.add_parser(
@@ -327,9 +331,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--window", type=int, default=800, help="recordings: window in samples (default: 800)")
     p.add_argument("--step", type=int, default=None, help="recordings: window hop (default: the window)")
     p.add_argument("--components", type=int, default=3, help="recordings: principal components (default: 3)")
-    p.add_argument(
-        "--allow-pickle", action="store_true", help="allow object arrays in a trusted vibration .npz"
-    )
+    _add_allow_pickle(p)
     p.add_argument("--n-iter", type=int, default=2000, help="Gibbs sweeps, burn-in included (default: 2000)")
     p.add_argument("--burn-in", type=int, default=500, help="sweeps discarded (default: 500)")
     p.add_argument("--alpha", type=float, default=None, help="fix the concentration (default: sampled)")
@@ -360,9 +362,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default="", help="also write the predicted labels and names to this .npz")
     p.add_argument("--batch", type=int, default=256, help="samples per onnxruntime call (default: 256)")
     p.add_argument("--threads", type=int, default=1, help="onnxruntime intra-op threads (default: 1)")
-    p.add_argument(
-        "--allow-pickle", action="store_true", help="allow object arrays in a trusted vibration .npz"
-    )
+    _add_allow_pickle(p)
     p.set_defaults(handler=_predict)
 
     p = sub.add_parser(
@@ -400,9 +400,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--baud", type=int, default=230400, help="baud rate (default: 230400)")
     p.add_argument("--fast", action="store_true", help="write as fast as possible instead of in real time")
     p.add_argument("--seed", type=int, default=0, help="synthetic: random seed (default: 0)")
-    p.add_argument(
-        "--allow-pickle", action="store_true", help="allow object arrays in a trusted vibration .npz"
-    )
+    _add_allow_pickle(p)
     p.set_defaults(handler=_simulate_sensor)
 
     return parser
