@@ -18,6 +18,7 @@ $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet $(TORCH)
 	$(PY) -m pip install --quiet -e '.[dev]'
+	$(PY) -m tactile_torch.warmup
 	$(PY) -c "import torch, sys; ok = torch.__version__.startswith('2.13.0') and torch.version.cuda is None; print('torch', torch.__version__, 'cuda', torch.version.cuda); sys.exit(0 if ok else 'expected the CPU build of torch 2.13.0')"
 	touch $(STAMP)
 

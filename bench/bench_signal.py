@@ -26,7 +26,7 @@ import numpy as np
 import torch
 
 from bench.common import peak_memory_mib, threads, time_call
-from tactile_torch.data.vibration import make_vibration_dataset
+from tactile_torch.data.stylus import make_vibration_dataset
 from tactile_torch.signal import WindowFeatures, window_features
 from tests import reference_signal as ref
 

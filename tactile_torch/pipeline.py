@@ -378,7 +378,7 @@ def build_default_bundles(
     out.mkdir(parents=True, exist_ok=True)
     built: dict[str, Bundle] = {}
     if any(k.startswith("vibration") for k in kinds):
-        from .data.vibration import make_vibration_recordings
+        from .data.stylus import make_vibration_recordings
         from .signal import window_features
 
         rec = make_vibration_recordings(28, duration_s=10 if quick else 60, random_state=random_state)

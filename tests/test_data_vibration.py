@@ -20,7 +20,8 @@ from tactile_torch.data import (
     make_vibration_recordings,
     save_vibration_npz,
 )
-from tactile_torch.data.vibration import QUANTUM_G, SURFACES, Surface, read_csv_recording
+from tactile_torch.data.stylus import SURFACES, Surface
+from tactile_torch.data.vibration import QUANTUM_G, read_csv_recording
 from tactile_torch.signal import clustering_features, window_features
 from tests.conftest import require_shared_data
 

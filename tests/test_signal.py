@@ -13,7 +13,8 @@ from hypothesis import strategies as st
 from sklearn.exceptions import NotFittedError
 
 import tactile_torch.signal as signal
-from tactile_torch.data.vibration import QUANTUM_G, make_vibration_recordings
+from tactile_torch.data.stylus import make_vibration_recordings
+from tactile_torch.data.vibration import QUANTUM_G
 from tactile_torch.signal import (
     FEATURE_NAMES,
     ClusteringTransform,

@@ -421,6 +421,6 @@ def test_svc_matches_libsvm_on_real_vibration_windows(name, shared_data):
 
 def test_svc_matches_libsvm_on_synthetic_vibration_windows():
     pytest.importorskip("tactile_torch.signal", reason="needs tactile_torch.signal (issue 4)")
-    from tactile_torch.data.vibration import make_vibration_recordings
+    from tactile_torch.data.stylus import make_vibration_recordings
 
     _check_against_libsvm(make_vibration_recordings(6, duration_s=20.0, random_state=0), 400)

@@ -2,7 +2,8 @@
 
 Submodules (imported on demand, so that this package stays free of torch):
 ``images`` - tactile-image explorations (seeded generator, ``.npz`` loader and saver);
-``vibration`` - triaxial recordings and windows (seeded generator, ``.npz``/CSV loaders);
+``vibration`` - triaxial recordings and windows (``.npz``/CSV loaders and savers);
+``stylus`` - the seeded simulator of the study's stylus recordings;
 ``recordings`` - loaders of the shared real IMU data sets.
 
 Real data sets live outside the repository, in ``../shared/data/<name>/`` (each with a
@@ -42,8 +43,8 @@ _LAZY = {
     "VibrationWindows": "vibration",
     "load_vibration_csv": "vibration",
     "load_vibration_npz": "vibration",
-    "make_vibration_dataset": "vibration",
-    "make_vibration_recordings": "vibration",
+    "make_vibration_dataset": "stylus",
+    "make_vibration_recordings": "stylus",
     "save_vibration_npz": "vibration",
     "load_borealtc_imu": "recordings",
     "load_hapmat_imu5": "recordings",

@@ -26,7 +26,7 @@ def bundled_recordings(ctx):
 
     Cached in ``ctx`` under :data:`RECORDINGS_KEY`, so every study of the run uses the same data.
     """
-    from ..data.vibration import make_vibration_recordings
+    from ..data.stylus import make_vibration_recordings
 
     duration = 6.0 if ctx.quick else 120.0
     return ctx.cached(
@@ -42,7 +42,7 @@ def _command(ctx) -> str:
 
 
 def run(section, ctx) -> None:
-    from ..data.vibration import surface_table
+    from ..data.stylus import surface_table
     from ..signal import window_features
 
     rec = bundled_recordings(ctx)
