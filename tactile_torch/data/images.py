@@ -23,6 +23,12 @@ grooves, long dashes look like lines, a rectangular grid with one wide pitch loo
 fingertip-sized contact, and the path covers a random part of the surface. ``docs/image.md`` gives the
 accuracy simple classifiers reach on the method-1 features of this set.
 
+The knobs that decide how hard the set is are arguments of :func:`make_explorations`: the sensel pitch
+(``sensel_pitch_mm``), the fingertip's size (``contact_mm``), the texture's spatial scale
+(``texture_scale``), the share of look-alike objects (``near_duplicates``, :data:`NEAR_DUPLICATES`)
+and the sensor noise (``noise_counts``). Their defaults give the set above; conclusions drawn on it
+should be checked at other settings (``tactile_torch.studies.claims`` does).
+
 The ``.npz`` format (DESIGN.md): ``frames`` uint8 ``(N, T, H, W, 3)`` RGB, ``labels`` int64 ``(N,)``,
 ``class_names`` str ``(C,)``, optional ``groups`` int64 ``(N,)``; raw pressure maps ``(N, T, H, W)``
 float are accepted in place of ``frames`` and rendered with :func:`render_pressure`.
@@ -31,7 +37,7 @@ float are accepted in place of ``frames`` and rendered with :func:`render_pressu
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -97,6 +103,21 @@ OBJECTS: tuple[SurfaceObject, ...] = (
     SurfaceObject("plastic canvas mesh", "grid", 5.0, 2.0, 1.0),
 )
 """The simulated objects: four per class, an embossed sheet and three household objects each."""
+
+NEAR_DUPLICATES: tuple[SurfaceObject, ...] = (
+    SurfaceObject("beaded rows", "dots", 8.0, 3.5, 0.6, 0.0, 4.0),
+    SurfaceObject("long-dash sheet", "dashes", 7.0, 3.0, 0.6, 0.0, 12.0, 11.0),
+    SurfaceObject("fine ribbed sheet", "horizontal_lines", 4.0, 2.0, 0.6),
+    SurfaceObject("wide grid", "grid", 7.0, 3.0, 0.6, 0.0, 30.0),
+)
+"""One look-alike object per class, close to another class inside a fingertip-sized contact: touching
+beads in rows and dashes with 1 mm gaps (both look like lines), lines at 4 mm (three sensels: the
+texture blurs away), a grid whose second family of lines is 30 mm apart (lines, mostly)."""
+
+DEFAULT_CONTACT_MM = (6.0, 9.0)
+"""Range of the fingertip pad's semi-axis along the finger (mm); the pad is 1.3 times narrower across."""
+DEFAULT_NOISE_COUNTS = 1.5
+"""Standard deviation of the sensor noise (counts)."""
 
 
 @dataclass
@@ -233,10 +254,16 @@ def make_explorations(
     objects: tuple[SurfaceObject, ...] = OBJECTS,
     random_state: RandomState = None,
     keep_pressure: bool = False,
+    sensel_pitch_mm: float = SENSEL_PITCH_MM,
+    contact_mm: tuple[float, float] = DEFAULT_CONTACT_MM,
+    texture_scale: float = 1.0,
+    near_duplicates: float = 0.0,
+    noise_counts: float = DEFAULT_NOISE_COUNTS,
 ) -> ImageExplorations:
     """Return ``n_per_class`` simulated explorations of each class (objects drawn evenly within a class).
 
-    See the module docstring for the model. Deterministic for a given ``random_state``.
+    See the module docstring for the model. Deterministic for a given ``random_state``; with the
+    default knobs (the last five arguments) the result is the same as before the knobs existed.
 
     Parameters
     ----------
@@ -246,18 +273,33 @@ def make_explorations(
     frame_size : int >= sensels
         Side of the displayed frames in pixels.
     sensels : int >= 4
-        Sensels per side of the sensor (pitch :data:`SENSEL_PITCH_MM`).
+        Sensels per side of the sensor (pitch ``sensel_pitch_mm``).
     objects : tuple of SurfaceObject
         The objects to simulate; their ``pattern`` must be one of :data:`CLASS_NAMES`.
     random_state : int, numpy.random.Generator, torch.Generator or None
     keep_pressure : bool
         Also return the sensel readings (``pressure``).
+    sensel_pitch_mm : float > 0
+        Distance between sensel centres (default :data:`SENSEL_PITCH_MM`): a larger pitch is a coarser
+        sensor over a larger area (``sensels`` stays the count per side).
+    contact_mm : (float, float)
+        Range of the fingertip pad's semi-axis (mm), drawn per exploration: a larger pad covers more
+        texture periods per frame.
+    texture_scale : float > 0
+        Multiplies every object's pitches and element sizes (not the relief): below 1 the textures
+        get finer than the sensels can resolve.
+    near_duplicates : float in [0, 1]
+        Share of each class's explorations made on that class's look-alike object
+        (:data:`NEAR_DUPLICATES`, appended to ``objects``) instead of ``objects``.
+    noise_counts : float >= 0
+        Standard deviation of the sensor noise in counts (default 1.5).
 
     Returns
     -------
     ImageExplorations
         ``frames`` (N, T, 3, frame_size, frame_size) uint8 with N = 4 * n_per_class, in class order;
-        ``groups`` holds each exploration's index in ``objects``.
+        ``groups`` holds each exploration's index in ``objects`` (followed by :data:`NEAR_DUPLICATES`
+        when ``near_duplicates > 0``).
 
     Examples
     --------
@@ -273,21 +315,42 @@ def make_explorations(
     unknown = sorted({o.pattern for o in objects} - set(CLASS_NAMES))
     if unknown:
         raise ValueError(f"objects must have patterns among {CLASS_NAMES}, got {unknown}")
+    check_positive(sensel_pitch_mm, "sensel_pitch_mm")
+    check_positive(texture_scale, "texture_scale")
+    check_positive(noise_counts, "noise_counts", strict=False)
+    if len(contact_mm) != 2 or not 0.0 < float(contact_mm[0]) <= float(contact_mm[1]) < math.inf:
+        raise ValueError(f"contact_mm must be a range (low, high) with 0 < low <= high, got {contact_mm}")
+    if not 0.0 <= float(near_duplicates) <= 1.0:
+        raise ValueError(f"near_duplicates must be a share in [0, 1], got {near_duplicates}")
     rng = numpy_rng(random_state)
     per_class = {c: [i for i, o in enumerate(objects) if o.pattern == c] for c in CLASS_NAMES}
     missing = [c for c, idx in per_class.items() if not idx]
     if missing:
         raise ValueError(f"objects must include every class, missing {missing}")
     labels = np.repeat(np.arange(len(CLASS_NAMES)), n_per_class)
+    n_alike = round(float(near_duplicates) * n_per_class)
+    if n_alike:
+        objects = (*objects, *NEAR_DUPLICATES)
+    alike = {o.pattern: len(objects) - len(NEAR_DUPLICATES) + k for k, o in enumerate(NEAR_DUPLICATES)}
     groups = np.concatenate(
-        [np.resize(rng.permutation(per_class[c]), n_per_class) for c in CLASS_NAMES]
-    )  # objects evenly (and in random order) within each class
+        [
+            np.concatenate(
+                [np.resize(rng.permutation(per_class[c]), n_per_class - n_alike), np.full(n_alike, alike[c])]
+            ).astype(np.int64)
+            for c in CLASS_NAMES
+        ]
+    )  # objects evenly (and in random order) within each class, then the look-alikes
+    if texture_scale != 1.0:
+        objects = tuple(_scaled(o, float(texture_scale)) for o in objects)
     gen = torch_generator(rng)
     frames, pressure = [], []
     batch = max(1, (1 << 22) // (n_frames * (sensels * _OVERSAMPLE) ** 2))
+    sensor = _Sensor(
+        float(sensel_pitch_mm), (float(contact_mm[0]), float(contact_mm[1])), float(noise_counts)
+    )
     for start in range(0, len(labels), batch):
         chunk = groups[start : start + batch]
-        p = _simulate_pressure([objects[i] for i in chunk], n_frames, sensels, rng, gen)
+        p = _simulate_pressure([objects[i] for i in chunk], n_frames, sensels, rng, gen, sensor)
         frames.append(render_pressure(p, frame_size))
         if keep_pressure:
             pressure.append(p)
@@ -300,13 +363,38 @@ def make_explorations(
     )
 
 
+@dataclass(frozen=True)
+class _Sensor:
+    """The knobs of :func:`make_explorations` that act inside the simulation."""
+
+    pitch_mm: float = SENSEL_PITCH_MM
+    contact_mm: tuple[float, float] = DEFAULT_CONTACT_MM
+    noise_counts: float = DEFAULT_NOISE_COUNTS
+
+
+def _scaled(obj: SurfaceObject, factor: float) -> SurfaceObject:
+    """``obj`` with its pitches and element sizes multiplied by ``factor`` (relief unchanged)."""
+    return replace(
+        obj,
+        pitch_mm=obj.pitch_mm * factor,
+        size_mm=obj.size_mm * factor,
+        length_mm=obj.length_mm * factor,
+        pitch2_mm=None if obj.pitch2_mm is None else obj.pitch2_mm * factor,
+    )
+
+
 def _simulate_pressure(
-    objs: list[SurfaceObject], n_frames: int, sensels: int, rng: np.random.Generator, gen: torch.Generator
+    objs: list[SurfaceObject],
+    n_frames: int,
+    sensels: int,
+    rng: np.random.Generator,
+    gen: torch.Generator,
+    sensor: _Sensor = _Sensor(),
 ) -> torch.Tensor:
     """Sensel readings (n, T, S, S) in counts for one explorations per object in ``objs``."""
     n = len(objs)
     fine = sensels * _OVERSAMPLE
-    extent = sensels * SENSEL_PITCH_MM
+    extent = sensels * sensor.pitch_mm
     axis = (torch.arange(fine, dtype=torch.float32) + 0.5) * (extent / fine)  # mm, fine-grid centres
     y, x = torch.meshgrid(axis, axis, indexing="ij")
 
@@ -337,7 +425,7 @@ def _simulate_pressure(
     amplitude = rng.uniform(0.15, 0.35, (n, 2, 1)) * extent
     wander = np.stack([_smooth_noise(rng, n, t, (3.0, 12.0)), _smooth_noise(rng, n, t, (3.0, 12.0))], 1)
     path = centre + amplitude * wander / np.maximum(np.abs(wander).max(-1, keepdims=True), 1e-9)
-    semi_axis = rng.uniform(6.0, 9.0, (n, 1))  # mm along the finger; 1.3 times shorter across
+    semi_axis = rng.uniform(*sensor.contact_mm, (n, 1))  # mm along the finger; 1.3 times shorter across
     finger = rng.uniform(0, np.pi, (n, 1))
 
     def frames_tensor(a: np.ndarray) -> torch.Tensor:
@@ -359,7 +447,7 @@ def _simulate_pressure(
         n, n_frames, sensels, sensels
     )
     gain = 1.0 + 0.05 * torch.randn(n, 1, sensels, sensels, generator=gen)
-    readings = readings * gain + 1.5 * torch.randn(readings.shape, generator=gen)
+    readings = readings * gain + sensor.noise_counts * torch.randn(readings.shape, generator=gen)
     readings = torch.round(readings).clamp(0.0, SATURATION)
     return torch.where(readings < NOISE_THRESHOLD, 0.0, readings)
 
@@ -493,6 +581,7 @@ def load_drimus_grasps(
 __all__ = [
     "CLASS_NAMES",
     "DRIMUS",
+    "NEAR_DUPLICATES",
     "OBJECTS",
     "ImageExplorations",
     "SurfaceObject",

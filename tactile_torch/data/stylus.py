@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, fields, replace
 
 import numpy as np
 
@@ -162,6 +162,7 @@ _TILT_DEG = 12.0  # the probe leans forward: gravity shows mostly on z, a little
 _NOISE_LSB = 1.2  # sensor noise, RMS in LSB
 _JITTER = 0.08  # log-normal spread of every surface parameter from one seed to another
 _SESSION_JITTER = 0.04  # and from one session (re-mounting) to the next
+_WEAR = (-0.04, 0.01)  # range of the linear gain drift over one recording
 
 
 def surface_table(n_surfaces: int = 28) -> list[Surface]:
@@ -183,6 +184,10 @@ def make_vibration_recordings(
     rate_hz: float = SAMPLE_RATE_HZ,
     surfaces: Sequence[Surface] | None = None,
     random_state: RandomState = None,
+    noise_lsb: float = _NOISE_LSB,
+    session_jitter: float = _SESSION_JITTER,
+    alike_distance: float = 1.0,
+    wear: tuple[float, float] = _WEAR,
 ) -> VibrationRecordings:
     """Simulate stylus recordings of ``n_surfaces`` surfaces, ``n_sessions`` recordings each.
 
@@ -204,6 +209,10 @@ def make_vibration_recordings(
     8 % drawn per seed (alike surfaces share their partner's jitter, so they stay alike) and by 4 %
     per session.
 
+    The knobs that decide how hard the set is (``noise_lsb``, ``session_jitter``, ``alike_distance``,
+    ``wear``) default to the values above; with the defaults the result is the same as before they
+    existed.
+
     Parameters
     ----------
     n_surfaces : int
@@ -217,6 +226,16 @@ def make_vibration_recordings(
     surfaces : sequence of Surface, optional
         Your own surfaces instead of :func:`surface_table` (``alike_of`` names one of them).
     random_state : int, numpy or torch Generator, or None
+    noise_lsb : float >= 0
+        Sensor noise, RMS in LSB of 3.9 mg (default 1.2).
+    session_jitter : float >= 0
+        Log-normal spread of every surface parameter from one session to the next (default 0.04):
+        larger values make recordings of one surface on different days less alike.
+    alike_distance : float >= 0
+        How far each ``alike_of`` surface lies from its partner, as a share of the tabulated
+        difference: 1 as in :data:`SURFACES`, 0 identical (near-duplicate surfaces), 2 twice as far.
+    wear : (float, float)
+        Range of the linear gain drift over a recording (default ``(-0.04, 0.01)``: -4 % ... +1 %).
 
     Returns
     -------
@@ -235,19 +254,27 @@ def make_vibration_recordings(
     check_positive(n_sessions, "n_sessions", integer=True)
     check_positive(duration_s, "duration_s")
     check_positive(rate_hz, "rate_hz")
+    check_positive(noise_lsb, "noise_lsb", strict=False)
+    check_positive(session_jitter, "session_jitter", strict=False)
+    check_positive(alike_distance, "alike_distance", strict=False)
+    if len(wear) != 2 or not -1.0 < float(wear[0]) <= float(wear[1]) < math.inf:
+        raise ValueError(f"wear must be a range (low, high) with -1 < low <= high, got {wear}")
     n = round(duration_s * rate_hz)
     if n < 2:
         raise ValueError(f"duration_s * rate_hz must give at least 2 samples, got {n}")
     seed = int(numpy_rng(random_state).integers(2**63))
     index = {s.name: i for i, s in enumerate(table)}
+    sensor = _Stylus(float(noise_lsb), (float(wear[0]), float(wear[1])))
     signals, labels, sessions = [], [], []
     for i, surface in enumerate(table):
         family = index.get(surface.alike_of, i)
         jitter = np.random.default_rng([seed, family, 0]).lognormal(0.0, _JITTER, size=8)
+        if family != i and alike_distance != 1.0:
+            surface = _toward(table[family], surface, float(alike_distance))
         for k in range(n_sessions):
             rng = np.random.default_rng([seed, i, k + 1])
-            session_jitter = rng.lognormal(0.0, _SESSION_JITTER, size=8)
-            signals.append(_simulate(surface, jitter * session_jitter, n, float(rate_hz), rng))
+            spread = rng.lognormal(0.0, session_jitter, size=8)
+            signals.append(_simulate(surface, jitter * spread, n, float(rate_hz), rng, sensor))
             labels.append(i)
             sessions.append(f"{surface.name}/{k}")
     return VibrationRecordings(
@@ -257,6 +284,26 @@ def make_vibration_recordings(
         rate_hz=float(rate_hz),
         session=np.array(sessions),
     )
+
+
+@dataclass(frozen=True)
+class _Stylus:
+    """The knobs of :func:`make_vibration_recordings` that act inside the simulation."""
+
+    noise_lsb: float = _NOISE_LSB
+    wear: tuple[float, float] = _WEAR
+
+
+_NUMERIC_FIELDS = tuple(f.name for f in fields(Surface) if f.type == "float")
+
+
+def _toward(partner: Surface, surface: Surface, distance: float) -> Surface:
+    """``surface`` moved to ``partner + distance * (surface - partner)`` in every numeric parameter."""
+    moved = {
+        name: max(0.0, getattr(partner, name) + distance * (getattr(surface, name) - getattr(partner, name)))
+        for name in _NUMERIC_FIELDS
+    }
+    return replace(surface, **moved)
 
 
 def _lowpass_noise(
@@ -272,7 +319,12 @@ def _lowpass_noise(
 
 
 def _simulate(
-    surface: Surface, jitter: np.ndarray, n: int, rate: float, rng: np.random.Generator
+    surface: Surface,
+    jitter: np.ndarray,
+    n: int,
+    rate: float,
+    rng: np.random.Generator,
+    sensor: _Stylus = _Stylus(),
 ) -> np.ndarray:
     """One recording ``(n, 3)`` float32 in g of ``surface`` with parameters scaled by ``jitter`` (8,)."""
     rms, corner, hardness_hz, texture_mm, impact_g, slip_hz, slip_g, event_rate = (
@@ -356,13 +408,13 @@ def _simulate(
     vib = rough + np.fft.irfft(excited, n)
 
     # 6. wear drift and slow wander of the gain
-    drift = 1.0 + rng.uniform(-0.04, 0.01) * t / t[-1] + 0.01 * _lowpass_noise(rng, (), n, rate, 0.2)
+    drift = 1.0 + rng.uniform(*sensor.wear) * t / t[-1] + 0.01 * _lowpass_noise(rng, (), n, rate, 0.2)
     vib *= drift
 
     # 7. gravity, sensor noise, quantisation, clipping
     tilt = np.deg2rad(_TILT_DEG + rng.normal(0.0, 1.0))
     vib += np.array([np.sin(tilt), 0.0, np.cos(tilt)])[:, None]
-    vib += rng.normal(0.0, _NOISE_LSB * QUANTUM_G, size=vib.shape)
+    vib += rng.normal(0.0, sensor.noise_lsb * QUANTUM_G, size=vib.shape)
     top = math.floor(RANGE_G / QUANTUM_G)
     codes = np.clip(np.rint(vib / QUANTUM_G), -top, top)
     return (codes * QUANTUM_G).T.astype(np.float32)
