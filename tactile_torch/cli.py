@@ -19,7 +19,7 @@ def _report(args: argparse.Namespace) -> int:
     from .studies import run_report
 
     only = [s for s in args.only.split(",") if s] if args.only else None
-    path = run_report(args.out, random_state=args.seed, quick=args.quick, only=only)
+    path = run_report(args.out, random_state=args.seed, quick=args.quick, only=only, full=args.full)
     print(f"report written to {path}")
     return 0
 
@@ -277,7 +277,13 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("report", help="run every pipeline on the bundled data and write a report (make run)")
     p.add_argument("--out", default="runs/latest", help="output directory (default: runs/latest)")
     p.add_argument("--seed", type=int, default=0, help="random seed of the whole run (default: 0)")
-    p.add_argument("--quick", action="store_true", help="smaller data and fewer iterations, for a smoke test")
+    mode = p.add_mutually_exclusive_group()
+    mode.add_argument(
+        "--quick", action="store_true", help="smaller data and fewer iterations, for a smoke test"
+    )
+    mode.add_argument(
+        "--full", action="store_true", help="the complete sweeps (breaking points, claims): minutes more"
+    )
     p.add_argument("--only", default="", help="comma-separated study names to run (default: all)")
     p.set_defaults(handler=_report)
 

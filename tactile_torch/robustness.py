@@ -1,0 +1,719 @@
+"""Breaking points: how far each degradation can go before a model's accuracy falls halfway to chance.
+
+A :class:`Degradation` is a small declarative record: what it degrades (``kinds`` of raw input), where
+it acts (``stage``), the levels to sweep from mildest to harshest, and a pure function that applies one
+level. :func:`sweep` evaluates clone-able scikit-learn estimators on their raw input (frames
+``(N, T, 3, H, W)`` or pressure maps ``(N, T, H, W)``, signal windows ``(N, 3, W)``, or features
+``(N, F)``) under every level, by grouped cross-validation, and returns one :class:`Curve` per factor
+and model with its :class:`BreakingPoint`. :func:`breaking_points` is the same for one estimator.
+
+Where a degradation acts (``stage``):
+
+==============  ========================================================================================
+``"features"``  the classifier's input, at test time: the output of every step before the last one of
+                a :class:`~sklearn.pipeline.Pipeline` (features, standardised when a scaler precedes
+                the classifier), or the raw input of a bare classifier. The study's Table 3.
+``"test"``      the raw test input only; the model was trained on clean data (a disturbance met at
+                run time: noise on the images or the signals).
+``"retrain"``   the raw training and test input alike, the model retrained at each level (a sensor or
+                protocol setting: fewer frames, coarser sensels, shorter windows, lower rate, coarser
+                quantisation, smaller range).
+``"train"``     the training split only (fewer training samples per class: the learning curve).
+``"parameter"`` a parameter of the model's ``features`` step (the erosion element), retrained.
+``"time"``      the split: train on the first part of every recording, test on later parts (drift).
+==============  ========================================================================================
+
+The breaking point of a curve is the first level at which accuracy is at or below
+``chance + (clean - chance) / 2``, ``chance = 1 / n_classes``, interpolated linearly between the
+last level above and the first at or below (in the level's value, or between the two levels' names
+when the levels are not numbers). Its 95 % interval comes from a cluster bootstrap over the groups
+(resampling whole recordings, objects or sessions with their pooled test predictions; the model is
+not refitted): 2.5th and 97.5th percentiles of the replicates' breaking points, a replicate that
+never falls counting as beyond the harshest level.
+
+Examples
+--------
+>>> from sklearn.discriminant_analysis import LinearDiscriminantAnalysis
+>>> rng = np.random.default_rng(0)
+>>> X = rng.normal(size=(60, 4)) + np.repeat(np.eye(3, 4) * 3, 20, axis=0)
+>>> y = np.repeat(np.arange(3), 20)
+>>> curves = breaking_points(LinearDiscriminantAnalysis(), X, y, factors=["feature SNR"], random_state=0)
+>>> curves[0].breaking.status
+'reached'
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import torch
+
+from . import noise
+from ._checks import RandomState, check_positive, numpy_rng
+
+KINDS = ("image", "vibration", "features")
+STAGES = ("features", "test", "retrain", "train", "parameter", "time")
+CONFIDENCE = 0.95
+
+
+def _image_noise(frames: torch.Tensor, level: tuple[float, float], generator: int) -> torch.Tensor:
+    """:func:`tactile_torch.noise.gaussian_image_noise`, rounded back to uint8 for uint8 frames
+    (like MATLAB's ``imnoise`` on a uint8 image)."""
+    mean, var = level
+    noisy = noise.gaussian_image_noise(frames, mean, var, generator=generator)
+    if frames.dtype == torch.uint8:
+        return torch.round(noisy * 255.0).to(torch.uint8)
+    return noisy
+
+
+def _float_op(op: Callable) -> Callable:
+    """Apply ``op(x, level)`` to a float copy of integer windows."""
+
+    def apply(x: torch.Tensor, level: Any, generator: int) -> torch.Tensor:
+        return op(x if x.is_floating_point() else x.float(), level)
+
+    return apply
+
+
+# --------------------------------------------------------------------------------- the records
+@dataclass(frozen=True)
+class Degradation:
+    """One factor to sweep: a declarative record and the pure function that applies one level.
+
+    Attributes
+    ----------
+    name : str
+        Unique name (``"feature SNR"``), used to pick factors and to seed their randomness.
+    kinds : tuple of str
+        Raw inputs it applies to, among :data:`KINDS`.
+    stage : str
+        Where it acts, among :data:`STAGES` (see the module docstring).
+    levels : tuple
+        Levels from mildest to harshest. Levels the data cannot take (more frames than recorded, a
+        window longer than the data's) are dropped when sweeping.
+    unit : str
+        What a level is (``"dB"``, ``"frames"``).
+    description : str
+        One line for tables and charts.
+    apply : callable or None
+        ``"features"``/``"test"``/``"retrain"``: ``apply(x, level, generator) -> x`` on a tensor;
+        ``"train"``: ``apply(y_train, level, rng) -> indices`` of the kept training samples;
+        ``"parameter"``: ``apply(context, level) -> {parameter: value}`` for the ``features`` step;
+        ``"time"``: unused.
+    random : bool
+        Whether the function draws random numbers (then ``n_trials`` draws are averaged).
+    limit : str or None
+        Which size of the data bounds the levels: ``"frames"`` (T), ``"pixels"`` (min(H, W) // 2),
+        ``"samples"`` (W), ``"train_per_class"``; levels above it are dropped.
+    needs : tuple of str
+        Keys that must be in the sweep's ``context`` (e.g. ``"pitch_px"``); without them the factor is
+        skipped with a note.
+    ndim : int or None
+        Only for raw input of this many dimensions (image noise: RGB frames, 5).
+    path : tuple of int or None
+        For a grid of levels (Table 4), the indices of the levels whose curve decides the breaking
+        point (the grid's diagonal); ``None``: all levels in order.
+    log_x : bool
+        Draw the levels on a log axis.
+    """
+
+    name: str
+    kinds: tuple[str, ...]
+    stage: str
+    levels: tuple
+    unit: str
+    description: str
+    apply: Callable | None = None
+    random: bool = False
+    limit: str | None = None
+    needs: tuple[str, ...] = ()
+    ndim: int | None = None
+    path: tuple[int, ...] | None = None
+    log_x: bool = False
+
+    def label(self, level: Any) -> str:
+        """Return a level as text with its unit (three significant digits)."""
+        if isinstance(level, tuple):
+            return "(" + ", ".join(f"{v:.3g}" for v in level) + ")"
+        return f"{level:.3g} {self.unit}".strip() if isinstance(level, int | float) else str(level)
+
+
+def _awgn(x: torch.Tensor, level: float, generator: int) -> torch.Tensor:
+    return noise.awgn(x, float(level), generator=generator)
+
+
+def _sensor_noise(x: torch.Tensor, level: float, generator: int) -> torch.Tensor:
+    return noise.gaussian_noise(x if x.is_floating_point() else x.float(), float(level), generator=generator)
+
+
+def _per_class(y: np.ndarray, level: int, rng: np.random.Generator) -> np.ndarray:
+    """Indices of at most ``level`` randomly chosen samples of every class of ``y``."""
+    keep = [rng.permutation(np.flatnonzero(y == c))[: int(level)] for c in np.unique(y)]
+    return np.sort(np.concatenate(keep))
+
+
+def _erosion_from_pitch(context: Mapping[str, Any], level: float) -> dict[str, int]:
+    return {"erosion": max(1, round(float(level) * float(context["pitch_px"])))}
+
+
+IMAGE_NOISE_MEANS = (0.1, 0.2, 0.3, 0.4, 0.5)
+IMAGE_NOISE_VARIANCES = (0.01, 0.03, 0.05, 0.07, 0.09)
+SNR_DB = (30, 25, 20, 15, 10, 8, 5, 3, 1, -3)
+
+FACTORS: tuple[Degradation, ...] = (
+    Degradation(
+        "feature SNR",
+        ("image", "vibration", "features"),
+        "features",
+        SNR_DB,
+        "dB",
+        "white Gaussian noise on the classifier's input at this signal-to-noise ratio (study, Table 3)",
+        _awgn,
+        random=True,
+    ),
+    Degradation(
+        "image noise",
+        ("image",),
+        "test",
+        tuple((m, v) for m in IMAGE_NOISE_MEANS for v in IMAGE_NOISE_VARIANCES),
+        "(mean, variance)",
+        "Gaussian noise of this (mean, variance) on the raw 0-1 frames, clipped (study, Table 4: the 5 x 5 "
+        "grid; breaking point along its diagonal)",
+        _image_noise,
+        random=True,
+        ndim=5,
+        path=tuple(5 * k + k for k in range(5)),
+    ),
+    Degradation(
+        "frames",
+        ("image",),
+        "retrain",
+        (100, 50, 30, 20, 10, 5, 3, 2, 1),
+        "frames",
+        "only the first frames of every exploration (a shorter exploration), retrained",
+        lambda x, level, generator: noise.keep_frames(x, level),
+        limit="frames",
+        log_x=True,
+    ),
+    Degradation(
+        "sensel grid",
+        ("image",),
+        "retrain",
+        (1, 2, 3, 4, 6, 8, 12, 16),
+        "x coarser",
+        "sensels this many times larger per side (block mean, shown at the same size), retrained",
+        lambda x, level, generator: noise.coarsen_grid(x, level),
+        limit="pixels",
+        log_x=True,
+    ),
+    Degradation(
+        "erosion / pitch",
+        ("image",),
+        "parameter",
+        (0.05, 0.1, 0.25, 0.5, 0.75, 1.0, 1.5, 2.0),
+        "x pitch",
+        "side of the erosion square relative to the texture pitch (context pitch_px), retrained",
+        _erosion_from_pitch,
+        needs=("pitch_px",),
+    ),
+    Degradation(
+        "window",
+        ("vibration",),
+        "retrain",
+        (1600, 800, 400, 200, 100, 50, 25, 12),
+        "samples",
+        "only the first samples of every window (a shorter window), retrained",
+        lambda x, level, generator: noise.crop_windows(x, level),
+        limit="samples",
+        log_x=True,
+    ),
+    Degradation(
+        "sensor noise",
+        ("vibration",),
+        "test",
+        (0.002, 0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.5, 1.0),
+        "g",
+        "white Gaussian noise of this standard deviation on the raw test windows",
+        _sensor_noise,
+        random=True,
+        log_x=True,
+    ),
+    Degradation(
+        "quantisation",
+        ("vibration",),
+        "retrain",
+        (0.0039, 0.01, 0.02, 0.05, 0.1, 0.2, 0.5, 1.0),
+        "g",
+        "samples rounded to this step (an ADC's resolution), retrained",
+        _float_op(noise.quantize),
+        log_x=True,
+    ),
+    Degradation(
+        "saturation",
+        ("vibration",),
+        "retrain",
+        (4.0, 2.0, 1.0, 0.5, 0.2, 0.1, 0.05, 0.02),
+        "g",
+        "samples clipped to ± this range, retrained",
+        _float_op(noise.saturate),
+        log_x=True,
+    ),
+    Degradation(
+        "sample rate",
+        ("vibration",),
+        "retrain",
+        (2, 4, 8, 16, 32),
+        "x lower",
+        "windows resampled to this fraction of the rate (anti-aliased), retrained",
+        lambda x, level, generator: noise.downsample(x if x.is_floating_point() else x.float(), level),
+        limit="samples",
+        log_x=True,
+    ),
+    Degradation(
+        "training samples",
+        ("image", "vibration", "features"),
+        "train",
+        (200, 100, 50, 20, 10, 5, 3, 2),
+        "per class",
+        "at most this many training samples per class (learning curve)",
+        _per_class,
+        random=True,
+        limit="train_per_class",
+        log_x=True,
+    ),
+    Degradation(
+        "drift",
+        ("vibration",),
+        "time",
+        (0.51, 0.65, 0.79, 0.93),
+        "of the recording",
+        "trained on the first 30 % of every recording, tested on the later 70 % cut into 5 segments (level: "
+        "the segment's centre; the first segment, centred at 0.37, is the clean reference)",
+        needs=("position", "recording"),
+    ),
+)
+"""The default factors, in report order."""
+
+DRIFT_TRAIN_SHARE = 0.3
+"""Share of every recording that trains in the drift factor; the rest is cut into five test segments."""
+DRIFT_SEGMENTS = 5
+
+
+def factor(name: str) -> Degradation:
+    """Return the default factor called ``name`` (see :data:`FACTORS`)."""
+    for f in FACTORS:
+        if f.name == name:
+            return f
+    raise ValueError(f"factor must be one of {[f.name for f in FACTORS]}, got {name!r}")
+
+
+def factors_for(kind: str) -> tuple[Degradation, ...]:
+    """Return the default factors that apply to raw input of ``kind`` (see :data:`KINDS`)."""
+    if kind not in KINDS:
+        raise ValueError(f"kind must be one of {KINDS}, got {kind!r}")
+    return tuple(f for f in FACTORS if kind in f.kinds)
+
+
+# ------------------------------------------------------------------------------------- results
+@dataclass(frozen=True)
+class BreakingPoint:
+    """Where a curve falls halfway from its clean accuracy to chance.
+
+    Positions count along the curve's path: 0 is the clean input, ``k`` its ``k``-th level (from 1),
+    ``math.inf`` beyond the harshest level tested.
+
+    Attributes
+    ----------
+    status : str
+        ``"reached"``; ``"not reached"`` (never at or below the threshold); ``"fit failed"`` (never at
+        or below the threshold while the model could be fitted, and not at the next level, which is
+        then its breaking level); ``"at chance"`` (the clean accuracy is not above chance).
+    position, low, high : float
+        The breaking position and its 95 % bootstrap interval.
+    threshold : float
+        ``chance + (clean - chance) / 2``.
+    text : str
+        The breaking level and its interval in the factor's unit, e.g. ``"8.3 dB [5.1 dB, 11 dB]"``.
+    level : float or None
+        The breaking level as a number (when reached between two numeric levels).
+    """
+
+    status: str
+    position: float
+    low: float
+    high: float
+    threshold: float
+    text: str
+    level: float | None = None
+
+
+@dataclass
+class Curve:
+    """Accuracy of one model under one factor, level by level, with its breaking point.
+
+    Attributes
+    ----------
+    factor : Degradation
+    model : str
+    levels : tuple
+        The levels evaluated (those the data allows; fewer when a fit failed), mildest first.
+    accuracy, low, high : ndarray of shape (len(levels),)
+        Accuracy of the pooled test predictions and its 95 % cluster-bootstrap interval.
+    clean, clean_low, clean_high : float
+        The same without degradation (drift: on the segment right after training).
+    chance : float
+        ``1 / n_classes``.
+    breaking : BreakingPoint
+    note : str
+        Why the curve stops early (a level at which the model could not be fitted), or ``""``.
+    """
+
+    factor: Degradation
+    model: str
+    levels: tuple
+    accuracy: np.ndarray
+    low: np.ndarray
+    high: np.ndarray
+    clean: float
+    clean_low: float
+    clean_high: float
+    chance: float
+    breaking: BreakingPoint
+    note: str = ""
+
+    def path(self) -> tuple[list, np.ndarray, np.ndarray, np.ndarray]:
+        """The levels, accuracies and bounds along the breaking path (Table 4: the grid's diagonal)."""
+        idx = [i for i in (self.factor.path or range(len(self.levels))) if i < len(self.levels)]
+        return [self.levels[i] for i in idx], self.accuracy[idx], self.low[idx], self.high[idx]
+
+
+@dataclass
+class SweepResult:
+    """What :func:`sweep` returns: the curves, the factors skipped and why, and the folds used."""
+
+    curves: list[Curve]
+    skipped: list[tuple[str, str]] = field(default_factory=list)
+    n_splits: int = 0
+    kind: str = ""
+
+    def by_factor(self) -> dict[str, list[Curve]]:
+        """Curves grouped by factor name, in sweep order."""
+        out: dict[str, list[Curve]] = {}
+        for c in self.curves:
+            out.setdefault(c.factor.name, []).append(c)
+        return out
+
+
+# ------------------------------------------------------------------------------------------ API
+def infer_kind(X: object) -> str:
+    """Return the kind of raw input from its shape: ``"image"``, ``"vibration"`` or ``"features"``."""
+    shape = tuple(getattr(X, "shape", ()))
+    if (len(shape) == 5 and shape[2] == 3) or len(shape) == 4:
+        return "image"
+    if len(shape) == 3 and shape[1] == 3:
+        return "vibration"
+    if len(shape) == 2:
+        return "features"
+    raise ValueError(
+        "X must be frames (N, T, 3, H, W), pressure maps (N, T, H, W), windows (N, 3, W) or features "
+        f"(N, F), got shape {shape}"
+    )
+
+
+def recording_blocks(recording: object, position: object, n_blocks: int = 5) -> np.ndarray:
+    """Return group ids that cut every recording into ``n_blocks`` runs of consecutive windows.
+
+    For grouped folds on data with one recording per class: neighbouring windows stay in one fold
+    (only the block borders touch), so a fold never tests a window whose neighbour trained.
+
+    Parameters
+    ----------
+    recording : array-like of shape (N,)
+        Recording of each window.
+    position : array-like of shape (N,)
+        Index of each window within its recording (time order, from 0).
+    n_blocks : int >= 1
+
+    Examples
+    --------
+    >>> recording_blocks([0, 0, 0, 0, 1, 1], [0, 1, 2, 3, 0, 1], n_blocks=2).tolist()
+    [0, 0, 1, 1, 2, 3]
+    """
+    check_positive(n_blocks, "n_blocks", integer=True)
+    recording, position = np.asarray(recording), np.asarray(position)
+    if recording.shape != position.shape or recording.ndim != 1:
+        raise ValueError(
+            f"recording and position must be 1-D of one length, got {recording.shape} and {position.shape}"
+        )
+    ids = np.zeros(len(recording), dtype=np.int64)
+    for offset, r in enumerate(np.unique(recording)):
+        at = recording == r
+        count = int(position[at].max()) + 1
+        ids[at] = offset * n_blocks + np.minimum(position[at] * n_blocks // count, n_blocks - 1)
+    return np.unique(ids, return_inverse=True)[1]
+
+
+def _check_inputs(X: object, y: object, groups: object) -> tuple[np.ndarray, np.ndarray]:
+    if not isinstance(X, torch.Tensor | np.ndarray):
+        raise TypeError(f"X must be a torch.Tensor or numpy.ndarray, got {type(X).__name__}")
+    y = y.numpy() if isinstance(y, torch.Tensor) else np.asarray(y)
+    n = X.shape[0]
+    if y.shape != (n,):
+        raise ValueError(f"y must have shape ({n},) (one label per sample of X), got {y.shape}")
+    if len(np.unique(y)) < 2:
+        raise ValueError(f"y must hold at least 2 classes, got {len(np.unique(y))}")
+    groups = np.arange(n) if groups is None else groups
+    groups = groups.numpy() if isinstance(groups, torch.Tensor) else np.asarray(groups)
+    if groups.shape != (n,):
+        raise ValueError(f"groups must have shape ({n},) (one group per sample of X), got {groups.shape}")
+    return y, groups
+
+
+def _allowed_levels(f: Degradation, X: Any, y: np.ndarray, folds: list) -> tuple:
+    """The factor's levels that the data allows (see :attr:`Degradation.limit`)."""
+    if f.limit is None:
+        return tuple(f.levels)
+    if f.limit == "frames":
+        top = X.shape[1] - 1
+    elif f.limit == "pixels":
+        top = min(X.shape[-2:]) // 2
+    elif f.limit == "samples":
+        top = X.shape[-1] - 1 if f.stage == "retrain" and f.name == "window" else X.shape[-1] // 4
+    else:  # "train_per_class": fewer than the smallest class has in any training fold
+        top = min(int(np.bincount(y[tr])[np.unique(y[tr])].min()) for tr, _ in folds) - 1
+    return tuple(v for v in f.levels if v <= top)
+
+
+def sweep(
+    models: Mapping[str, Any] | Any,
+    X: torch.Tensor | np.ndarray,
+    y: object,
+    groups: object = None,
+    kind: str | None = None,
+    *,
+    factors: Iterable[Degradation | str] | None = None,
+    context: Mapping[str, Any] | None = None,
+    n_splits: int = 5,
+    n_trials: int = 3,
+    n_bootstrap: int = 1000,
+    random_state: RandomState = None,
+    progress: bool = False,
+) -> SweepResult:
+    """Sweep every factor over every model; return the accuracy curves and their breaking points.
+
+    Parameters
+    ----------
+    models : estimator or mapping of name to estimator
+        Clone-able scikit-learn classifiers on the raw input ``X``. In a
+        :class:`~sklearn.pipeline.Pipeline` whose first step is named ``"features"``, that step is
+        fitted once per fold and data variant for all the models that share it (same class and
+        parameters); one that needs no fit (scikit-learn's ``requires_fit`` tag, e.g. a
+        ``FunctionTransformer``) runs once on the whole set.
+    X : tensor or ndarray
+        Frames ``(N, T, 3, H, W)``, pressure maps ``(N, T, H, W)``, windows ``(N, 3, W)`` or features
+        ``(N, F)``, in the type the models take.
+    y : array-like of shape (N,)
+    groups : array-like of shape (N,), optional
+        Recording, object or session of each sample: folds never split a group (stratified grouped
+        folds) and the bootstrap resamples groups. Default: every sample its own group.
+    kind : str, optional
+        ``"image"``, ``"vibration"`` or ``"features"``; default (and checked against) the shape of ``X``.
+    factors : iterable of Degradation or names, optional
+        Default: :func:`factors_for` ``kind``. Factors whose ``needs`` are missing from ``context``, or
+        that do not apply to ``X``, are skipped and listed in the result's ``skipped``.
+    context : mapping, optional
+        ``pitch_px``: the texture pitch in pixels (erosion factor); ``position``: fraction of its
+        recording elapsed at each sample, in [0, 1), and ``recording``: recording of each sample (drift).
+    n_splits : int
+        Folds (at most as many as the rarest class has groups).
+    n_trials : int
+        Draws of every random degradation, averaged per sample.
+    n_bootstrap : int
+        Bootstrap replicates for the intervals.
+    random_state : int, numpy or torch Generator, or None
+        Folds, noise and bootstrap. With an int, every model meets the same folds and noise draws.
+    progress : bool
+        A progress bar per factor (tqdm, on stderr).
+
+    Returns
+    -------
+    SweepResult
+
+    Raises
+    ------
+    ValueError
+        For inputs of the wrong shape, fewer than 2 classes or groups per class, an unknown factor, or
+        a model that cannot be fitted on the clean folds.
+    """
+    from tqdm.auto import tqdm
+
+    from . import _sweep
+
+    y, groups = _check_inputs(X, y, groups)
+    found = infer_kind(X)
+    kind = found if kind is None else kind
+    if kind not in KINDS or kind != found:
+        raise ValueError(
+            f"kind must be one of {KINDS} and match X of shape {tuple(X.shape)} ({found!r}), got {kind!r}"
+        )
+    for value, name in ((n_splits, "n_splits"), (n_trials, "n_trials"), (n_bootstrap, "n_bootstrap")):
+        check_positive(value, name, integer=True)
+    models = dict(models) if isinstance(models, Mapping) else {"model": models}
+    if not models:
+        raise ValueError("models must hold at least one estimator, got an empty mapping")
+    context = dict(context or {})
+    chosen = (
+        factors_for(kind)
+        if factors is None
+        else tuple(factor(f) if isinstance(f, str) else f for f in factors)
+    )
+    seed = int(numpy_rng(random_state).integers(2**62))
+    folds = _sweep.make_folds(y, groups, n_splits, seed)
+    chance = 1.0 / len(np.unique(y))
+    base = _sweep.Models(models)
+    whole = base.whole(X, y)
+    clean, fitted, feats = _sweep.fit_predict(base, X, y, folds, whole)
+    for name, value in clean.items():
+        if isinstance(value, str):
+            raise ValueError(f"models[{name!r}] could not be fitted on the clean folds: {value}")
+    result = SweepResult(curves=[], n_splits=len(folds), kind=kind)
+    for f in chosen:
+        missing = [k for k in f.needs if k not in context]
+        if missing or kind not in f.kinds or (f.ndim is not None and X.ndim != f.ndim):
+            why = (
+                f"needs {missing} in context" if missing else f"does not apply to X of shape {tuple(X.shape)}"
+            )
+            result.skipped.append((f.name, why))
+            continue
+        if f.stage == "time":
+            drift = _sweep.drift_rows(f, base, X, y, context, whole, DRIFT_TRAIN_SHARE, DRIFT_SEGMENTS)
+            if drift is None:
+                result.skipped.append(
+                    (f.name, "recordings too short: fewer than two test segments hold samples")
+                )
+                continue
+            rows, levels, group_of = drift
+        else:
+            levels = _allowed_levels(f, X, y, folds)
+            if not levels:
+                result.skipped.append((f.name, f"no level applies to X of shape {tuple(X.shape)}"))
+                continue
+            rows = {m: [clean[m]] for m in base.names}
+            bar = tqdm(total=len(levels), desc=f.name, disable=not progress, leave=False)
+            for level in levels:
+                got = _sweep.evaluate(
+                    f, level, base, fitted, feats, whole, X, y, folds, context, n_trials, seed
+                )
+                for m, value in got.items():
+                    if not isinstance(rows[m][-1], str):
+                        rows[m].append(value)
+                bar.update()
+            bar.close()
+            group_of = groups
+        for m in base.names:
+            result.curves.append(
+                _sweep.build_curve(f, m, levels, rows[m], group_of, chance, n_bootstrap, seed)
+            )
+    return result
+
+
+def breaking_points(
+    estimator: Any,
+    X: torch.Tensor | np.ndarray,
+    y: object,
+    groups: object = None,
+    kind: str | None = None,
+    **kwargs: Any,
+) -> list[Curve]:
+    """Return the curves (with breaking points) of one estimator under every factor of ``kind``.
+
+    The entry point for one model: :func:`sweep` with ``{"model": estimator}``; keyword arguments are
+    :func:`sweep`'s. Each curve's ``breaking`` holds the level, its interval and a text.
+    """
+    return sweep({"model": estimator}, X, y, groups, kind, **kwargs).curves
+
+
+# --------------------------------------------------------------------------------- presentation
+def breaking_table(curves: Iterable[Curve]) -> list[dict[str, Any]]:
+    """Return one row per curve: factor, model, clean accuracy with its interval, the halfway
+    threshold, the breaking level with its 95 % interval, and a note."""
+    return [
+        {
+            "factor": c.factor.name,
+            "model": c.model,
+            "clean accuracy [95 % CI]": f"{c.clean:.3f} [{c.clean_low:.3f}, {c.clean_high:.3f}]",
+            "halfway to chance": round(c.breaking.threshold, 3),
+            "breaks at [95 % CI]": c.breaking.text,
+            "note": c.note,
+        }
+        for c in curves
+    ]
+
+
+def plot_factor(curves: Sequence[Curve], *, ax: Any = None) -> Any:
+    """Return a figure of accuracy against level for every curve of one factor.
+
+    Lines are the accuracies along the breaking path with their 95 % bands; the clean accuracy is the
+    first point (at the left, marked "clean"), dotted lines the halfway thresholds, the dashed grey line
+    chance, and triangles the breaking levels. Severity grows to the right.
+    """
+    import matplotlib.pyplot as plt
+
+    if not curves:
+        raise ValueError("curves must hold at least one curve, got none")
+    f = curves[0].factor
+    fig = ax.figure if ax is not None else plt.subplots(figsize=(6.4, 3.8))[0]
+    ax = ax if ax is not None else fig.axes[0]
+    longest = max(curves, key=lambda c: len(c.path()[0]))
+    labels = ["clean"] + [f.label(v) for v in longest.path()[0]]
+    for i, c in enumerate(curves):
+        _, acc, low, high = c.path()
+        x = np.arange(len(acc) + 1)
+        colour = f"C{i}"
+        ax.plot(x, np.r_[c.clean, acc], marker="o", ms=3, color=colour, label=c.model)
+        ax.fill_between(x, np.r_[c.clean_low, low], np.r_[c.clean_high, high], color=colour, alpha=0.15)
+        ax.axhline(c.breaking.threshold, color=colour, ls=":", lw=0.8)
+        if c.breaking.status == "reached":
+            ax.plot([c.breaking.position], [c.breaking.threshold], marker="v", ms=8, color=colour)
+    ax.axhline(curves[0].chance, color="grey", ls="--", lw=0.8, label="chance")
+    ax.set_xticks(
+        np.arange(len(labels)), labels, rotation=45 if len(labels) > 6 else 0, ha="right", fontsize=7
+    )
+    ax.set_xlabel(f"{f.name} ({f.unit})")
+    ax.set_ylabel("accuracy")
+    ax.set_ylim(0.0, 1.02)
+    ax.set_title(f.description, fontsize=8, wrap=True)
+    ax.legend(fontsize=7, loc="lower left")
+    ax.grid(alpha=0.3)
+    return fig
+
+
+def plot_grid(curve: Curve, means: Sequence[float], variances: Sequence[float]) -> Any:
+    """Return a heat map of a grid factor's accuracies (Table 4: rows mean, columns variance); cells at
+    or below the halfway threshold are hatched."""
+    import matplotlib.pyplot as plt
+
+    acc = {lvl: a for lvl, a in zip(curve.levels, curve.accuracy, strict=True)}
+    grid = np.array([[acc.get((m, v), np.nan) for v in variances] for m in means])
+    fig, ax = plt.subplots(figsize=(4.6, 3.8))
+    image = ax.imshow(grid, vmin=curve.chance, vmax=1.0, cmap="viridis", origin="upper")
+    for i, j in np.ndindex(grid.shape):
+        if np.isfinite(grid[i, j]):
+            broken = grid[i, j] <= curve.breaking.threshold
+            ax.text(
+                j, i, f"{grid[i, j]:.2f}", ha="center", va="center", fontsize=7, color="w" if broken else "k"
+            )
+            if broken:
+                ax.add_patch(plt.Rectangle((j - 0.5, i - 0.5), 1, 1, fill=False, hatch="//", ec="w", lw=0))
+    ax.set_xticks(range(len(variances)), [f"{v:g}" for v in variances])
+    ax.set_yticks(range(len(means)), [f"{m:g}" for m in means])
+    ax.set_xlabel("noise variance")
+    ax.set_ylabel("noise mean")
+    ax.set_title(
+        f"{curve.model}: clean {curve.clean:.2f}, halfway {curve.breaking.threshold:.2f}", fontsize=8
+    )
+    fig.colorbar(image, ax=ax, label="accuracy")
+    return fig

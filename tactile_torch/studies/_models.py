@@ -1,0 +1,98 @@
+"""The candidate models of the breaking-point and claims sections, on raw input.
+
+Each is a scikit-learn :class:`~sklearn.pipeline.Pipeline` ``features → scaler → classifier`` whose
+``features`` step is a :class:`~sklearn.preprocessing.FunctionTransformer` around the method's
+features (:func:`tactile_torch.image.exploration_features`,
+:func:`tactile_torch.signal.window_features`), so that :mod:`tactile_torch.robustness` can degrade the
+raw input, the features or the training split of any of them.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+
+STUDY_FRAME_PX = 96
+"""Frame side for which the study's 10-pixel erosion is kept; other frames scale it (see :func:`erosion_for`)."""
+
+
+def image_features(frames, fuse: bool = True, erosion: int = 10) -> np.ndarray:
+    """Method-1 features of frames ``(N, T, 3, H, W)`` as a float64 array (fused 12, or 12 per frame)."""
+    from ..image import exploration_features
+
+    return exploration_features(torch.as_tensor(frames), fuse=fuse, erosion=int(erosion)).double().numpy()
+
+
+def vibration_features(windows) -> np.ndarray:
+    """The 21 features of windows ``(N, 3, W)`` as a float64 array."""
+    from ..signal import window_features
+
+    return window_features(torch.as_tensor(windows)).double().numpy()
+
+
+def erosion_for(frames) -> int:
+    """The study's 10-pixel erosion scaled to the frame: ``round(10 min(H, W) / 96)``, at least 1."""
+    return max(1, round(10 * min(frames.shape[-2:]) / STUDY_FRAME_PX))
+
+
+def _pipeline(features, classifier, *, scale: bool = True):
+    from sklearn.pipeline import Pipeline
+    from sklearn.preprocessing import StandardScaler
+
+    steps = [("features", features)]
+    if scale:
+        steps.append(("scaler", StandardScaler()))
+    return Pipeline([*steps, ("classifier", classifier)])
+
+
+def classifiers(random_state: int, *, svm_c: float = 10.0, svm_gamma="scale") -> dict:
+    """The study's classifiers: HM-SVM, LDA, kNN (k = 3, city-block, inverse-distance weights).
+
+    kNN searches a ball tree: the same neighbours as brute force, and an order of magnitude faster
+    than scikit-learn's brute-force city-block distances on a busy 2-core machine (measured).
+    """
+    from sklearn.discriminant_analysis import LinearDiscriminantAnalysis
+    from sklearn.neighbors import KNeighborsClassifier
+
+    from ..svm import HierarchicalSVC
+
+    return {
+        "HM-SVM": HierarchicalSVC(C=svm_c, gamma=svm_gamma, random_state=random_state),
+        "LDA": LinearDiscriminantAnalysis(),
+        "kNN": KNeighborsClassifier(
+            n_neighbors=3, metric="cityblock", weights="distance", algorithm="ball_tree"
+        ),
+    }
+
+
+def image_candidates(random_state: int, *, erosion: int = 10, names: tuple[str, ...] | None = None) -> dict:
+    """Method-1 candidates on raw frames: fused (12) features with HM-SVM (the study's model), LDA and
+    kNN, and the per-frame concatenation (12 per frame) with LDA and HM-SVM."""
+    from sklearn.preprocessing import FunctionTransformer
+
+    def features(fuse: bool):
+        return FunctionTransformer(image_features, kw_args={"fuse": fuse, "erosion": erosion})
+
+    clf = classifiers(random_state)
+    models = {f"fused + {name}": _pipeline(features(True), model) for name, model in clf.items()}
+    models["concatenated + LDA"] = _pipeline(features(False), classifiers(random_state)["LDA"])
+    models["concatenated + HM-SVM"] = _pipeline(features(False), classifiers(random_state)["HM-SVM"])
+    return {k: v for k, v in models.items() if names is None or k in names}
+
+
+def vibration_candidates(random_state: int, *, names: tuple[str, ...] | None = None) -> dict:
+    """Method-2 candidates on raw windows: the 21 features scaled to unit standard deviation, with the
+    study's RBF SVM (C = 16, gamma = 0.0186; libsvm's one-vs-one, which the ``vibration_classification``
+    section shows to be as accurate as our HM-SVM on these features and which fits many times faster),
+    LDA and kNN."""
+    from sklearn.preprocessing import FunctionTransformer, StandardScaler
+    from sklearn.svm import SVC
+
+    clf = classifiers(random_state)
+    clf["HM-SVM"] = SVC(C=16.0, gamma=0.0186)
+    models = {}
+    for name, model in clf.items():
+        pipe = _pipeline(FunctionTransformer(vibration_features), model)
+        pipe.set_params(scaler=StandardScaler(with_mean=False))  # the study's unit-std scaling
+        models[f"21 features + {'RBF SVM' if name == 'HM-SVM' else name}"] = pipe
+    return {k: v for k, v in models.items() if names is None or k in names}
