@@ -89,12 +89,31 @@ def last_input(rest: Any, Z: Any) -> tuple[Any, Any]:
     return Z, rest
 
 
+def signature(step: Any) -> str:
+    """A key equal for feature steps of one class with equal parameters (which fit and transform alike);
+    a parameter that cannot be pickled (a lambda) counts by identity."""
+    import pickle
+
+    import joblib
+
+    params = step.get_params(deep=True)
+    try:
+        return joblib.hash((type(step), params))
+    except (pickle.PicklingError, TypeError, AttributeError):
+        safe = {}
+        for name, value in params.items():
+            try:
+                pickle.dumps(value)
+                safe[name] = value
+            except (pickle.PicklingError, TypeError, AttributeError):
+                safe[name] = ("unpicklable", id(value))
+        return joblib.hash((type(step), safe))
+
+
 class Models:
     """Models split into shared ``features`` steps (by signature) and per-model rests."""
 
     def __init__(self, models: Mapping[str, Any], params: Mapping[str, Any] | None = None) -> None:
-        import joblib
-
         self.models = dict(models)
         self.names = list(models)
         self.steps: dict[str, Any] = {}
@@ -111,7 +130,7 @@ class Models:
                 except ValueError as err:
                     self.errors[name] = str(err)
                     continue
-            key = "identity" if step is None else joblib.hash((type(step), step.get_params(deep=True)))
+            key = "identity" if step is None else signature(step)
             self.steps.setdefault(key, step)
             self.signature[name] = key
             self.rest[name] = rest

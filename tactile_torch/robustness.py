@@ -601,19 +601,24 @@ def sweep(
             if not levels:
                 result.skipped.append((f.name, f"no level applies to X of shape {tuple(X.shape)}"))
                 continue
-            rows = {m: [clean[m]] for m in base.names}
+            names = base.names
+            if f.stage == "parameter":  # a model without the parameter is not swept (not broken)
+                probe = _sweep.Models(models, f.apply(context, levels[0]))
+                result.skipped += [(f"{f.name} for {m}", why) for m, why in probe.errors.items()]
+                names = [m for m in names if m not in probe.errors]
+            rows = {m: [clean[m]] for m in names}
             bar = tqdm(total=len(levels), desc=f.name, disable=not progress, leave=False)
             for level in levels:
                 got = _sweep.evaluate(
                     f, level, base, fitted, feats, whole, X, y, folds, context, n_trials, seed
                 )
-                for m, value in got.items():
+                for m in rows:
                     if not isinstance(rows[m][-1], str):
-                        rows[m].append(value)
+                        rows[m].append(got[m])
                 bar.update()
             bar.close()
             group_of = groups
-        for m in base.names:
+        for m in rows:
             result.curves.append(
                 _sweep.build_curve(f, m, levels, rows[m], group_of, chance, n_bootstrap, seed)
             )
