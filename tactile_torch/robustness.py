@@ -46,6 +46,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -56,7 +57,6 @@ from ._checks import RandomState, check_positive, numpy_rng
 
 KINDS = ("image", "vibration", "features")
 STAGES = ("features", "test", "retrain", "train", "parameter", "time")
-CONFIDENCE = 0.95
 
 
 def _image_noise(frames: torch.Tensor, level: tuple[float, float], generator: int) -> torch.Tensor:
@@ -106,8 +106,10 @@ class Degradation:
     random : bool
         Whether the function draws random numbers (then ``n_trials`` draws are averaged).
     limit : str or None
-        Which size of the data bounds the levels: ``"frames"`` (T), ``"pixels"`` (min(H, W) // 2),
-        ``"samples"`` (W), ``"train_per_class"``; levels above it are dropped.
+        Which size of the data bounds the levels (levels above the bound are dropped): ``"frames"``
+        (below T), ``"pixels"`` (up to min(H, W) / 2), ``"samples"`` (below W), ``"decimation"`` (up to
+        W / 4: at least 4 samples left), ``"train_per_class"`` (below the smallest class of a
+        training fold).
     needs : tuple of str
         Keys that must be in the sweep's ``context`` (e.g. ``"pitch_px"``); without them the factor is
         skipped with a note.
@@ -269,7 +271,7 @@ FACTORS: tuple[Degradation, ...] = (
         "x lower",
         "windows resampled to this fraction of the rate (anti-aliased), retrained",
         lambda x, level, generator: noise.downsample(x if x.is_floating_point() else x.float(), level),
-        limit="samples",
+        limit="decimation",
         log_x=True,
     ),
     Degradation(
@@ -481,7 +483,9 @@ def _allowed_levels(f: Degradation, X: Any, y: np.ndarray, folds: list) -> tuple
     elif f.limit == "pixels":
         top = min(X.shape[-2:]) // 2
     elif f.limit == "samples":
-        top = X.shape[-1] - 1 if f.stage == "retrain" and f.name == "window" else X.shape[-1] // 4
+        top = X.shape[-1] - 1
+    elif f.limit == "decimation":
+        top = X.shape[-1] // 4
     else:  # "train_per_class": fewer than the smallest class has in any training fold
         top = min(int(np.bincount(y[tr])[np.unique(y[tr])].min()) for tr, _ in folds) - 1
     return tuple(v for v in f.levels if v <= top)
@@ -722,3 +726,60 @@ def plot_grid(curve: Curve, means: Sequence[float], variances: Sequence[float]) 
     )
     fig.colorbar(image, ax=ax, label="accuracy")
     return fig
+
+
+def write_breaking_points(
+    result: SweepResult, out_dir: str | Path, *, title: str = "Breaking points"
+) -> Path:
+    """Write a sweep's table and charts to ``out_dir``; return the path of the markdown file.
+
+    Writes ``breaking_points.md`` (the table of :func:`breaking_table`, the skipped factors and one
+    chart per factor), ``breaking_points.json`` (every curve: levels, accuracies, intervals, breaking
+    point) and ``breaking-<factor>.png``.
+    """
+    import json
+
+    import matplotlib.pyplot as plt
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    rows = breaking_table(result.curves)
+    columns = list(rows[0]) if rows else []
+    lines = [f"# {title}", "", f"{result.n_splits} grouped folds; 95 % cluster-bootstrap intervals.", ""]
+    if rows:
+        lines += ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
+        lines += ["| " + " | ".join(str(r[c]).replace("|", "\\|") for c in columns) + " |" for r in rows]
+    lines += [""] + [f"- not swept: {name} ({why})" for name, why in result.skipped]
+    for name, curves in result.by_factor().items():
+        slug = "".join(ch if ch.isalnum() else "-" for ch in name.lower()).strip("-")
+        fig = plot_factor(curves)
+        fig.savefig(out / f"breaking-{slug}.png", dpi=110, bbox_inches="tight")
+        plt.close(fig)
+        lines += ["", f"![{name}](breaking-{slug}.png)"]
+    md = out / "breaking_points.md"
+    md.write_text("\n".join(lines) + "\n")
+    curves = [
+        {
+            "factor": c.factor.name,
+            "unit": c.factor.unit,
+            "model": c.model,
+            "levels": [list(v) if isinstance(v, tuple) else v for v in c.levels],
+            "accuracy": c.accuracy.tolist(),
+            "low": c.low.tolist(),
+            "high": c.high.tolist(),
+            "clean": [c.clean, c.clean_low, c.clean_high],
+            "chance": c.chance,
+            "breaking": {
+                "status": c.breaking.status,
+                "text": c.breaking.text,
+                "level": c.breaking.level,
+                "threshold": c.breaking.threshold,
+            },
+            "note": c.note,
+        }
+        for c in result.curves
+    ]
+    (out / "breaking_points.json").write_text(
+        json.dumps({"curves": curves, "skipped": result.skipped}, indent=1)
+    )
+    return md

@@ -12,6 +12,7 @@ from tactile_torch import image
 from tactile_torch.data.images import (
     CLASS_NAMES,
     DISPLAY_FLOOR,
+    NEAR_DUPLICATES,
     OBJECTS,
     ImageExplorations,
     SurfaceObject,
@@ -151,6 +152,50 @@ def test_generator_rejects_bad_arguments():
         make_explorations(1, objects=(*OBJECTS, SurfaceObject("x", "waves", 5.0, 2.0, 1.0)))
     with pytest.raises(ValueError, match=r"pressure must have shape \(N, T, h, w\)"):
         render_pressure(torch.zeros(4, 4))
+
+
+def test_generator_knobs_change_the_sensor_and_the_surfaces():
+    base = dict(n_frames=4, frame_size=32, sensels=8, random_state=3, keep_pressure=True)
+    plain = make_explorations(2, **base)
+    explicit = make_explorations(
+        2,
+        sensel_pitch_mm=4 / 3,
+        contact_mm=(6.0, 9.0),
+        texture_scale=1.0,
+        near_duplicates=0.0,
+        noise_counts=1.5,
+        **base,
+    )
+    assert torch.equal(plain.frames, explicit.frames)  # the defaults are the documented values
+    for knob in (
+        {"sensel_pitch_mm": 2.5},
+        {"contact_mm": (10.0, 12.0)},
+        {"texture_scale": 0.5},
+        {"noise_counts": 8.0},
+    ):
+        assert not torch.equal(make_explorations(2, **base, **knob).pressure, plain.pressure), knob
+    alike = make_explorations(4, near_duplicates=0.5, **base)
+    objects = (*OBJECTS, *NEAR_DUPLICATES)
+    for label, group in zip(alike.labels.tolist(), alike.groups.tolist(), strict=True):
+        assert objects[group].pattern == CLASS_NAMES[label]
+    assert (alike.groups >= len(OBJECTS)).sum().item() == 8  # half of each class's 4
+    quiet = make_explorations(2, noise_counts=0.0, **base)
+    assert quiet.pressure[quiet.pressure > 0].min() >= 3.0  # readings below the noise threshold stay 0
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "error", "match"),
+    [
+        ({"sensel_pitch_mm": 0.0}, ValueError, "sensel_pitch_mm must be > 0"),
+        ({"texture_scale": -1.0}, ValueError, "texture_scale must be > 0"),
+        ({"noise_counts": -0.5}, ValueError, "noise_counts must be >= 0"),
+        ({"contact_mm": (9.0, 6.0)}, ValueError, r"contact_mm must be a range \(low, high\)"),
+        ({"near_duplicates": 1.5}, ValueError, r"near_duplicates must be a share in \[0, 1\]"),
+    ],
+)
+def test_generator_knob_errors(kwargs, error, match):
+    with pytest.raises(error, match=match):
+        make_explorations(1, n_frames=2, frame_size=16, sensels=8, **kwargs)
 
 
 def test_image_features_study_quick_writes_figures_and_tables(tmp_path):

@@ -140,6 +140,46 @@ def test_generator_errors(kwargs, error, match):
         make_vibration_recordings(**kwargs)
 
 
+def test_generator_knobs():
+    base = dict(n_surfaces=3, duration_s=1.0, random_state=4)
+    plain = make_vibration_recordings(**base)
+    same = make_vibration_recordings(
+        **base, noise_lsb=1.2, session_jitter=0.04, alike_distance=1.0, wear=(-0.04, 0.01)
+    )
+    assert all(np.array_equal(a, b) for a, b in zip(plain.signals, same.signals, strict=True))
+    noisy = make_vibration_recordings(**base, noise_lsb=40.0)
+    # glass (rms 0.03 g) with 40 LSB of noise: the noise dominates its vibration
+    assert np.std(noisy.signals[0][:, 1]) > 3 * np.std(plain.signals[0][:, 1])
+    # steel is alike_of aluminium: at distance 0 it takes aluminium's parameters (and shares its jitter)
+    from tactile_torch.data.stylus import _toward
+
+    steel, aluminium = SURFACES[2], SURFACES[1]
+    assert steel.alike_of == aluminium.name
+    merged = _toward(aluminium, steel, 0.0)
+    assert (
+        merged.rms_g == aluminium.rms_g and merged.corner_hz == aluminium.corner_hz and merged.name == "steel"
+    )
+    assert _toward(aluminium, steel, 1.0) == steel
+    far = make_vibration_recordings(**base, alike_distance=3.0)
+    assert not np.array_equal(far.signals[2], plain.signals[2]) and np.array_equal(
+        far.signals[0], plain.signals[0]
+    )
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"noise_lsb": -1.0}, "noise_lsb must be >= 0"),
+        ({"session_jitter": -0.1}, "session_jitter must be >= 0"),
+        ({"alike_distance": -1.0}, "alike_distance must be >= 0"),
+        ({"wear": (0.1, -0.1)}, r"wear must be a range \(low, high\)"),
+    ],
+)
+def test_generator_knob_errors(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        make_vibration_recordings(2, duration_s=0.5, **kwargs)
+
+
 def test_dataset_errors():
     with pytest.raises(ValueError, match="multiple of n_sessions"):
         make_vibration_dataset(n_surfaces=2, windows_per_surface=5, window_size=100, n_sessions=2)

@@ -352,3 +352,43 @@ def test_a_model_failing_on_clean_folds_is_an_error():
     X, y = _blobs(n_per_class=4)
     with pytest.raises(ValueError, match=r"models\['m'\] could not be fitted on the clean folds"):
         sweep({"m": _NeedsLarge()}, X, y, n_splits=4, random_state=0)
+
+
+def test_drift_positions_outside_the_recording_are_an_error():
+    X, y, recording, position = _drifting_windows(n_win=5)
+    with pytest.raises(
+        ValueError, match=r"context position must be the fraction of the recording in \[0, 1\)"
+    ):
+        sweep(
+            {"m": _pipe()},
+            X,
+            y,
+            recording,
+            factors=["drift"],
+            context={"position": position, "recording": recording},
+        )
+
+
+def test_docs_list_every_factor():
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[1] / "docs" / "robustness.md").read_text()
+    for f in FACTORS:
+        assert f"| {f.name} |" in text, f.name
+
+
+def test_write_breaking_points(tmp_path):
+    import json
+
+    from tactile_torch.robustness import write_breaking_points
+
+    X, y = _blobs()
+    result = sweep(
+        {"nc": NearestCentroid()}, X, y, factors=["feature SNR", "drift"], n_trials=1, random_state=0
+    )
+    md = write_breaking_points(result, tmp_path / "out")
+    text = md.read_text()
+    assert "| feature SNR | nc |" in text and "not swept: drift" in text
+    assert (tmp_path / "out" / "breaking-feature-snr.png").read_bytes()[:4] == b"\x89PNG"
+    data = json.loads((tmp_path / "out" / "breaking_points.json").read_text())
+    assert data["curves"][0]["accuracy"] == result.curves[0].accuracy.tolist()
