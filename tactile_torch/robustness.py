@@ -694,9 +694,28 @@ def plot_factor(curves: Sequence[Curve], *, ax: Any = None) -> Any:
     ax.set_xlabel(f"{f.name} ({f.unit})")
     ax.set_ylabel("accuracy")
     ax.set_ylim(0.0, 1.02)
-    ax.set_title(f.description, fontsize=8, wrap=True)
+    ax.set_title(f.name, fontsize=9)
     ax.legend(fontsize=7, loc="lower left")
     ax.grid(alpha=0.3)
+    return fig
+
+
+def plot_factors(curves: Iterable[Curve], *, columns: int = 4) -> Any:
+    """Return one figure with a panel per factor (:func:`plot_factor`), every candidate's curve in each."""
+    import matplotlib.pyplot as plt
+
+    by: dict[str, list[Curve]] = {}
+    for c in curves:
+        by.setdefault(c.factor.name, []).append(c)
+    if not by:
+        raise ValueError("curves must hold at least one curve, got none")
+    rows = -(-len(by) // columns)
+    fig, axes = plt.subplots(rows, columns, figsize=(4.2 * columns, 3.4 * rows), squeeze=False)
+    for ax, group in zip(axes.flat, by.values(), strict=False):
+        plot_factor(group, ax=ax)
+    for ax in list(axes.flat)[len(by) :]:
+        ax.set_visible(False)
+    fig.tight_layout()
     return fig
 
 

@@ -19,7 +19,7 @@ def test_breaking_points_and_claims_sections_quick(tmp_path):
     assert {r["factor"] for r in image_rows} >= {"feature SNR", "image noise", "frames", "sensel grid"}
     vib_rows = tables["method 2"]["rows"]
     assert {r["factor"] for r in vib_rows} >= {"window", "sensor noise", "quantisation", "sample rate"}
-    for name in ("breaking-method-1-frames", "breaking-method-2-window", "breaking-fig4-noise-stages"):
+    for name in ("breaking-method-1", "breaking-method-2", "breaking-fig4-noise-stages"):
         assert (tmp_path / "figures" / f"{name}.png").exists()
     where = next(t for t in claims["tables"] if t["caption"].startswith("Where fusion helps"))
     sources = [r["source"] for r in where["rows"]]

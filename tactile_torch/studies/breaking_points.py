@@ -68,6 +68,11 @@ SHORT_LEVELS = {
     "saturation": (0.5, 0.05, 0.01),
     "sample rate": (4, 16, 32),
 }
+FULL_ONLY = ("image noise", "sensel grid")
+"""Factors left to ``--full`` (and the quick smoke run): each level rewrites every pixel of every frame
+(Gaussian numbers for the whole set, or a coarser grid shown again at full size), several seconds per
+level even on this section's subset. The image_classification section shows image noise on the
+diagonal of Table 4 in every run."""
 FIG4_NOISE = ((0.0, 0.0), (0.1, 0.01), (0.3, 0.05), (0.5, 0.09))
 """The four noise settings (mean, variance) of the Fig. 4 figure; (0, 0) is the clean frame."""
 
@@ -87,6 +92,8 @@ def _factors(kind: str, ctx):
 
     chosen = []
     for f in factors_for(kind):
+        if _mode(ctx) == "default" and f.name in FULL_ONLY:
+            continue
         if _mode(ctx) != "full" and f.name in SHORT_LEVELS:
             levels = tuple(
                 tuple(round(v, 6) for v in lvl) if isinstance(lvl, tuple) else lvl
@@ -192,8 +199,8 @@ def vibration_sweep(ctx, progress: bool = True):
 
 
 def add_results(section, result, *, name: str, study_model: str) -> None:
-    """Add a sweep's breaking table, one chart per factor and the skipped factors to ``section``."""
-    from ..robustness import breaking_table, plot_factor
+    """Add a sweep's breaking table, a chart per factor (panels of one figure) and the skipped factors."""
+    from ..robustness import breaking_table, plot_factors
 
     section.table(
         breaking_table(result.curves),
@@ -201,15 +208,16 @@ def add_results(section, result, *, name: str, study_model: str) -> None:
         "95 % cluster-bootstrap interval in brackets, over the pooled test predictions of "
         f"{result.n_splits} folds)",
     )
-    for factor_name, curves in result.by_factor().items():
-        section.figure(
-            plot_factor(curves),
-            f"breaking-{name}-{factor_name}",
-            f"{name}, {factor_name}: accuracy of every candidate (band: 95 % interval; dotted: halfway "
-            f"threshold; triangle: breaking point). The study's model is {study_model}.",
-        )
+    factors = list(result.by_factor().values())
+    section.figure(
+        plot_factors(result.curves),
+        f"breaking-{name}",
+        f"{name}: accuracy of every candidate against each factor (one panel per factor; band: 95 % interval; "
+        f"dotted: halfway threshold; triangle: breaking point; the study's model is {study_model}). "
+        + " ".join(f"**{group[0].factor.name}**: {group[0].factor.description}." for group in factors),
+    )
     if result.skipped:
-        section.text("Not swept here: " + "; ".join(f"{name} ({why})" for name, why in result.skipped) + ".")
+        section.text("Not swept here: " + "; ".join(f"{n} ({why})" for n, why in result.skipped) + ".")
 
 
 def _grid(section, result, ctx) -> None:
@@ -218,9 +226,10 @@ def _grid(section, result, ctx) -> None:
     grid = [c for c in result.curves if c.factor.name == "image noise" and c.factor.path is not None]
     if not grid:
         section.text(
-            "Image noise: the default run sweeps the diagonal of the study's Table 4 (mean 0.1 ... 0.5 with "
-            "variance 0.01 ... 0.09); `--full` sweeps the whole 5 x 5 grid: "
-            f"`{_command(dataclasses.replace(ctx, quick=False, full=True))}`."
+            "Image noise on the study's 5 x 5 grid of Table 4 and the sensel grid run under `--full` (every level "
+            "rewrites every pixel of every frame): "
+            f"`{_command(dataclasses.replace(ctx, quick=False, full=True))}`; the `image_classification` "
+            "section shows image noise on Table 4's diagonal in every run."
         )
         return
     for c in grid:

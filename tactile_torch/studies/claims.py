@@ -43,10 +43,31 @@ KNOBS = {
     "noise_counts": (6.0,),
     "n_frames": (20, 100),
 }
-SIZES = {  # synthetic explorations per class and frames, for the generated image sets
-    "quick": {"per_class": 4, "frames": 10, "stylus_s": 12.0, "folds": 2},
-    "default": {"per_class": 12, "frames": 30, "stylus_s": 60.0, "folds": 5},
-    "full": {"per_class": 30, "frames": 100, "stylus_s": 120.0, "folds": 5},
+SIZES = {  # generated image sets (explorations per class, frames; the knob map's), stylus seconds, folds
+    "quick": {
+        "per_class": 4,
+        "frames": 10,
+        "knob_per_class": 4,
+        "knob_frames": 10,
+        "stylus_s": 12.0,
+        "folds": 2,
+    },
+    "default": {
+        "per_class": 12,
+        "frames": 30,
+        "knob_per_class": 0,
+        "knob_frames": 0,
+        "stylus_s": 30.0,
+        "folds": 5,
+    },
+    "full": {
+        "per_class": 30,
+        "frames": 100,
+        "knob_per_class": 20,
+        "knob_frames": 50,
+        "stylus_s": 120.0,
+        "folds": 5,
+    },
 }
 WINDOW_SECONDS = (0.25, 0.5, 1.0, 2.0)  # the study's W = 200 ... 1600 at 800 Hz
 
@@ -81,7 +102,7 @@ def image_sources(ctx) -> list[dict]:
     if shared_data_dir("drimus_sdh_tactile") is not None:
         from ..data.images import load_drimus_grasps
 
-        for sensor in ("ts1_f1_proximal", "ts2_f1_distal"):
+        for sensor in ("ts1_f1_proximal", "ts2_f1_distal") if _mode(ctx) == "full" else ("ts1_f1_proximal",):
             sources.append(
                 {
                     "name": f"drimus_sdh_tactile {sensor} (real)",
@@ -218,8 +239,8 @@ def knob_map(ctx) -> list[dict]:
     rows = []
     for knob, values in KNOBS.items():
         for value in values:
-            kwargs = {"n_frames": size["frames"]} | {knob: value}
-            data = make_explorations(size["per_class"], random_state=ctx.random_state + 2, **kwargs)
+            kwargs = {"n_frames": size["knob_frames"]} | {knob: value}
+            data = make_explorations(size["knob_per_class"], random_state=ctx.random_state + 2, **kwargs)
             fused, concat = _features(data, 10)
             y = data.labels.numpy()
             preds, n = _predictions(fused, concat, y, None, size["folds"], ctx.random_state, ctx.quick)
@@ -418,8 +439,9 @@ def _run(section, ctx) -> None:
         knobs = knob_map(ctx)
         section.table(
             _summary(knobs, key="source"),
-            caption=f"The fusion map along each generator knob (one at a time, {size['per_class']} "
-            f"explorations per class, {size['frames']} frames unless n_frames is the knob)",
+            caption=f"The fusion map along each generator knob (one at a time, {size['knob_per_class']} "
+            f"explorations per class, {size['knob_frames']} frames unless n_frames is the knob; stratified "
+            "5-fold)",
         )
         section.table(knobs, caption="Every knob setting, classifier and verdict")
     else:
