@@ -369,16 +369,18 @@ def build_curve(
     low, high = np.nanpercentile(boot, [2.5, 97.5], axis=1)
     idx = [i for i in (f.path or range(len(levels))) if i < len(levels)]
     path = [0] + [i + 1 for i in idx]
-    position = float(crossing(acc[path][:, None], chance)[0])
-    reps = crossing(boot[path], chance)
-    lo_pos = float(np.percentile(reps, 2.5, method="lower"))
-    hi_pos = float(np.percentile(reps, 97.5, method="higher"))
+    position = lo_pos = hi_pos = math.inf
+    if len(path) > 1:  # no level left when the model could not be fitted at the first one
+        position = float(crossing(acc[path][:, None], chance)[0])
+        reps = crossing(boot[path], chance)
+        lo_pos = float(np.percentile(reps, 2.5, method="lower"))
+        hi_pos = float(np.percentile(reps, 97.5, method="higher"))
     path_levels = [levels[i] for i in idx]
     threshold = chance + (acc[0] - chance) / 2.0
     value = None
     if acc[0] <= chance:
         status, text = "at chance", "clean accuracy at chance"
-    elif not path_levels:
+    elif not path_levels and failed is None:
         status, text = "not reached", "no level evaluated"
     elif math.isfinite(position):
         status, (text, value) = "reached", level_text(f, path_levels, position)

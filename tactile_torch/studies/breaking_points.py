@@ -99,7 +99,7 @@ def _factors(kind: str, ctx):
                 tuple(round(v, 6) for v in lvl) if isinstance(lvl, tuple) else lvl
                 for lvl in SHORT_LEVELS[f.name]
             )
-            f = dataclasses.replace(f, levels=levels[:2] if ctx.quick else levels, path=None)
+            f = dataclasses.replace(f, levels=levels[-2:] if ctx.quick else levels, path=None)
         chosen.append(f)
     return chosen
 

@@ -126,7 +126,7 @@ def _predictions(fused, concat, y, groups, folds: int, random_state: int, quick:
     from sklearn.pipeline import make_pipeline
     from sklearn.preprocessing import StandardScaler
 
-    from ._models import classifiers
+    from ._models import IMAGE_SVM_C, classifiers
 
     n = int(min(folds, np.bincount(y)[np.unique(y)].min()))
     schemes = {"stratified": (StratifiedKFold(n, shuffle=True, random_state=random_state), None)}
@@ -134,7 +134,7 @@ def _predictions(fused, concat, y, groups, folds: int, random_state: int, quick:
         schemes["unseen objects"] = (GroupKFold(n), groups)
     preds = {}
     for scheme, (cv, grp) in schemes.items():
-        for clf_name, clf in classifiers(random_state).items():
+        for clf_name, clf in classifiers(random_state, svm_c=IMAGE_SVM_C).items():
             if quick and clf_name == "HM-SVM":
                 continue  # the quick sets have too few explorations per class to train it
             for feats, X in (("fused", fused), ("concatenated", concat)):
