@@ -73,7 +73,7 @@ import torch
 from torch import nn
 
 from ._checks import check_finite, check_floating, check_positive, check_shape, check_tensor
-from ._parallel import map_blocks, serial_torch_ops
+from ._parallel import map_blocks, serial_torch_ops_in_this_thread
 
 AXES = ("x", "y", "z")
 AXIS_FEATURES = ("var", "skew", "kurt", "m5", "tv", "cross", "hf")
@@ -187,9 +187,9 @@ def window_features(windows: torch.Tensor) -> torch.Tensor:
     crossings an elementwise bisection, both exportable and equal to the eager results (tested).
 
     The eager path works on blocks of windows small enough to stay in the CPU cache and runs them
-    on ``torch.get_num_threads()`` Python threads, holding torch's intra-op pool at one thread for
-    the duration of the call (restored after); results do not depend on the thread count. Memory:
-    a few MiB beyond the output, whatever the batch.
+    on ``torch.get_num_threads()`` threads, each running its torch ops on one thread (a setting of
+    that thread only: ``torch.set_num_threads``, global to the process, is never called); results do
+    not depend on the thread count. Memory: a few MiB beyond the output, whatever the batch.
 
     Examples
     --------
@@ -201,13 +201,14 @@ def window_features(windows: torch.Tensor) -> torch.Tensor:
         stats = _row_statistics(windows.reshape(-1, width), exact=True)
         features = _features_from_statistics(stats, width).to(windows.dtype)
         return features.reshape(*windows.shape[:-2], len(FEATURE_NAMES))
-    with serial_torch_ops() as threads:
-        _check_windows(windows)
-        lead, width = windows.shape[:-2], windows.shape[-1]
-        rows = windows.reshape(-1, width)  # (B * 3, W): every feature is a function of one row
-        size = max(3, _BLOCK_SAMPLES // width)
-        blocks = [rows[i : i + size] for i in range(0, len(rows), size)]  # blocks of windows, not windows
-        statistics = functools.partial(_row_statistics, exact=False, grad=torch.is_grad_enabled())
+    _check_windows(windows)
+    lead, width = windows.shape[:-2], windows.shape[-1]
+    rows = windows.reshape(-1, width)  # (B * 3, W): every feature is a function of one row
+    size = max(3, _BLOCK_SAMPLES // width)
+    blocks = [rows[i : i + size] for i in range(0, len(rows), size)]  # blocks of windows, not windows
+    statistics = functools.partial(_row_statistics, exact=False, grad=torch.is_grad_enabled())
+    threads = torch.get_num_threads()
+    with serial_torch_ops_in_this_thread():
         if blocks:
             stats = torch.cat(map_blocks(statistics, blocks, threads))
         else:  # no window
@@ -215,7 +216,8 @@ def window_features(windows: torch.Tensor) -> torch.Tensor:
         # A window holds NaN or inf iff its range does (min and max propagate them): the check is free.
         if not bool(torch.isfinite(stats[:, 0]).all()):
             check_finite(windows, "windows")  # raises, saying where
-        return _features_from_statistics(stats, width).to(windows.dtype).reshape(*lead, len(FEATURE_NAMES))
+        features = _features_from_statistics(stats, width)
+    return features.to(windows.dtype).reshape(*lead, len(FEATURE_NAMES))
 
 
 def _row_statistics(a: torch.Tensor, *, exact: bool, grad: bool = True) -> torch.Tensor:
