@@ -83,7 +83,6 @@ def _bench(args: argparse.Namespace) -> int:
 
 def _cluster(args: argparse.Namespace) -> int:
     import numpy as np
-    import torch
 
     from .metrics import pairwise_accuracy
     from .mixture import PitmanYorGMM
@@ -113,8 +112,8 @@ def _cluster(args: argparse.Namespace) -> int:
     if kind == "vibration":
         from .signal import ClusteringTransform
 
-        transform = ClusteringTransform(args.components).fit(torch.from_numpy(X))
-        X = transform(torch.from_numpy(X)).numpy()
+        transform = ClusteringTransform(args.components).fit(X)
+        X = transform.transform(X)
         print(f"{args.data}: {len(X)} windows of {args.window} samples -> {X.shape[1]} principal components")
     init = int(args.init) if args.init.isdigit() else args.init
     model = PitmanYorGMM(

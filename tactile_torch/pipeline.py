@@ -126,12 +126,10 @@ class InferencePipeline(nn.Module):
 
 
 def _scaler(scale: np.ndarray) -> nn.Module:
-    from .signal import FeatureScaler
+    from .signal import ScaleFeatures
 
-    scaler = FeatureScaler()
     scale = torch.as_tensor(np.asarray(scale, dtype=np.float32))
-    scaler.scale_, scaler.mean_ = scale, torch.zeros_like(scale)
-    return scaler
+    return ScaleFeatures(torch.zeros_like(scale), scale)
 
 
 def _front_end(source: dict) -> tuple[list[nn.Module], list[int | None], str, dict]:
@@ -245,7 +243,7 @@ def save_clustering_model(
             "n_components": transform.n_components,
             "standardize": transform.standardize,
             "eps": transform.eps,
-            "state_dict": {k: v.clone() for k, v in transform.state_dict().items()},
+            "state_dict": {k: v.clone() for k, v in transform.to_module().state_dict().items()},
         }
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -262,14 +260,13 @@ def _clustering_pipeline(model: dict) -> InferencePipeline:
     source.setdefault("n_features", int(state["means"].shape[1]))
     modules, shape, layout, meta = _front_end(source)
     if source["kind"] == "vibration":
-        from .signal import ClusteringTransform
+        from .signal import ClusteringProjection
 
         spec = model["transform"]
-        transform = ClusteringTransform(
-            spec["n_components"], standardize=spec["standardize"], eps=spec["eps"]
+        fitted = {name.rstrip("_"): value for name, value in spec["state_dict"].items()}  # also older files
+        modules.append(
+            ClusteringProjection(fitted["mean"], fitted["scale"], fitted["components"], eps=spec["eps"])
         )
-        transform.load_state_dict(spec["state_dict"])
-        modules.append(transform)
     k = int(state["means"].shape[0])
     meta["method"] = "pyp"
     return InferencePipeline(
@@ -396,8 +393,8 @@ def build_default_bundles(
             from .mixture import PitmanYorGMM
             from .signal import ClusteringTransform
 
-            transform = ClusteringTransform(3).fit(torch.from_numpy(X[~held_out]))
-            pcs = transform(torch.from_numpy(X[~held_out])).numpy()
+            transform = ClusteringTransform(3).fit(X[~held_out])
+            pcs = transform.transform(X[~held_out])
             sweeps = 40 if quick else 300
             mixture = PitmanYorGMM(
                 n_iter=sweeps, burn_in=sweeps // 4, random_state=random_state, progress=False

@@ -392,7 +392,7 @@ def _vibration_binary_tasks(rec, size):
     position = ds.position.numpy()
     train, test = np.flatnonzero(position % 2 == 0), np.flatnonzero(position % 2 == 1)
     feats = window_features(ds.windows).double()
-    X = FeatureScaler().fit(feats[torch.from_numpy(train)])(feats).numpy()
+    X = FeatureScaler().fit(feats[torch.from_numpy(train)]).transform(feats).numpy()
     y = ds.labels.numpy()
     for k in range(min(3, len(rec.class_names))):
         yield X[train], y[train] == k, X[test]

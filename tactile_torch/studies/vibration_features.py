@@ -155,7 +155,7 @@ def _clustering_scatter(section, ds, feats) -> None:
     from ..signal import ClusteringTransform
 
     transform = ClusteringTransform(n_components=3).fit(feats)
-    comps = transform(feats).numpy()
+    comps = transform.transform(feats).numpy()
     labels = ds.labels.numpy()
     fig, ax = plt.subplots(figsize=(7, 5.5))
     for c, name in enumerate(ds.class_names):
@@ -171,7 +171,7 @@ def _clustering_scatter(section, ds, feats) -> None:
     ax.set_xlabel("PC 1")
     ax.set_ylabel("PC 2")
     ax.legend(fontsize=5, ncol=2, markerscale=2, loc="best")
-    ratio = transform.explained_variance_ratio_.numpy()
+    ratio = transform.explained_variance_ratio_
     fig.tight_layout()
     section.figure(
         fig,
