@@ -20,6 +20,7 @@ import argparse
 from pathlib import Path
 
 from tactile_torch.cli import main as cli
+from tactile_torch.model_selection import VIBRATION_STUDY_C, VIBRATION_STUDY_GAMMA
 from tactile_torch.studies import run_report
 
 SECTIONS = {
@@ -29,7 +30,7 @@ SECTIONS = {
 # The classifier each study trains on a user's file, and its defaults (method 2: the study's C, gamma).
 TRAIN = {
     "image": ["--method", "hmsvm"],
-    "vibration": ["--method", "hmsvm", "--C", "16", "--gamma", "0.0186"],
+    "vibration": ["--method", "hmsvm", "--C", str(VIBRATION_STUDY_C), "--gamma", str(VIBRATION_STUDY_GAMMA)],
 }
 
 
