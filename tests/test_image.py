@@ -20,7 +20,7 @@ from tactile_torch.image import _integer_cut, _kernels, _scheduler
 
 from . import reference_image as ref
 
-# DESIGN.md tolerances: float64 1e-10; float32 1e-5 relative (plus 1e-5 absolute for features near 0,
+# The project's tolerances: float64 1e-10; float32 1e-5 relative (plus 1e-5 absolute for features near 0,
 # e.g. a direction mean of 0.004 that sums thousands of values up to pi in float32).
 TOL = {torch.float64: {"rtol": 1e-10, "atol": 1e-10}, torch.float32: {"rtol": 1e-5, "atol": 1e-5}}
 NP_DTYPE = {torch.float64: np.float64, torch.float32: np.float32}
@@ -110,7 +110,7 @@ def test_gradient_statistics_match_scipy(dtype):
     got = image.gradient_statistics(x)
     want = np.stack([ref.statistics(a.astype(np.float64)) for a in x.numpy()])
     np.testing.assert_allclose(got.double().numpy(), want, **TOL[dtype])
-    # the DESIGN.md conventions, spelled out once against scipy/numpy directly
+    # the conventions of docs/image.md, spelled out once against scipy/numpy directly
     v = x[0].double().numpy().ravel()
     np.testing.assert_allclose(
         got[0].double().numpy(),

@@ -33,7 +33,7 @@ CROSS = [FEATURE_NAMES.index(f"{a}_cross") for a in "xyz"]
 
 
 def assert_features_match(ours, want, dtype, windows):
-    """DESIGN.md tolerances: relative ``rtol`` (1e-5 float32, 1e-10 float64) on every feature.
+    """The project's tolerances: relative ``rtol`` (1e-5 float32, 1e-10 float64) on every feature.
 
     The standardised moments are dimensionless and of order one, so their tolerance is ``rtol``
     absolute as well (a symmetric window's skewness is ~0, where a relative test means nothing);

@@ -9,7 +9,7 @@ Without ``--data`` it writes the report sections of the study (``image``: HM-SVM
 fused and unfused features, 5 rounds of 60/20/20 with C and gamma chosen on validation, class
 report, McNemar, timing, robustness to feature and image noise; ``vibration``: the HM-SVM on the 21
 scaled features, stratified 10-fold grid search, odd/even accuracy, feature ranking, agreement with
-libsvm). With ``--data`` (a ``.npz`` of DESIGN.md) it trains the study's classifier on that file
+libsvm). With ``--data`` (a ``.npz`` of image explorations or vibration recordings) it trains the study's classifier on that file
 (``tactile-torch train``) and saves it. The logic lives in ``tactile_torch.studies`` and
 ``tactile_torch.training``.
 """

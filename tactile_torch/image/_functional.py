@@ -133,8 +133,9 @@ def erode(
         Side of the square (1: no erosion).
     temperature : float, optional
         ``None``: exact minimum. Otherwise the soft minimum ``-t * logsumexp(-x / t)`` over the window
-        (below the minimum by at most ``t * log(size**2)``); it materialises the windows (``size``
-        times the input's memory), as suits the small inputs of training, not bulk feature extraction.
+        (below the minimum by at most ``t * log(size**2)``); under autograd it keeps ``2 * size``
+        input-sized terms for the backward pass, as suits the small inputs of training, not bulk
+        feature extraction.
 
     Returns
     -------

@@ -1,4 +1,4 @@
-"""Vibration features of accelerometer windows (method 2 of DESIGN.md), as batched torch ops.
+"""Vibration features of accelerometer windows (method 2: surfaces from vibration), as batched torch ops.
 
 A triaxial recording ``(n, 3)`` is cut into windows ``(B, 3, W)`` by :func:`sliding_windows`;
 :func:`window_features` summarises every window by 21 numbers, 7 per axis in axis-major order

@@ -16,7 +16,7 @@ AXES = ("x", "y", "z")
 AXIS_FEATURES = ("var", "skew", "kurt", "m5", "tv", "cross", "hf")
 FEATURE_NAMES = tuple(f"{axis}_{name}" for axis in AXES for name in AXIS_FEATURES)
 N_THRESHOLDS = 20
-# The unsupervised path keeps these per-axis features (DESIGN.md): sqrt(var), log tv, log cross, log hf.
+# The study's unsupervised path keeps these per-axis features: sqrt(var), log tv, log cross, log hf.
 CLUSTERING_FEATURE_NAMES = tuple(
     f"{axis}_{name}" for axis in AXES for name in ("sqrt_var", "log_tv", "log_cross", "log_hf")
 )

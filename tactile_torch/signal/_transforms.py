@@ -28,7 +28,7 @@ def clustering_features(features: torch.Tensor, *, eps: float = 1e-6) -> torch.T
 
     Per axis: ``sqrt(var)``, ``log(tv + eps)``, ``log1p(cross)``, ``log(hf + eps)``
     (:data:`CLUSTERING_FEATURE_NAMES`); skewness, kurtosis and the fifth moment are dropped
-    (DESIGN.md). The offsets keep a constant window (``var = tv = cross = hf = 0``) finite:
+    (the study's unsupervised path). The offsets keep a constant window (``var = tv = cross = hf = 0``) finite:
     ``log(0 + eps)`` for ``tv`` and ``hf`` (``eps`` in the signal's unit, default 1e-6 g, far below
     the 3.9 mg resolution of the sensor, so ``log(x + eps) = log(x)`` to within 3e-4 for every
     non-constant quantised window), and ``log1p`` for the integer crossing count (``log1p(0) = 0``;
@@ -139,7 +139,7 @@ class FeatureScaler(OneToOneFeatureMixin, TransformerMixin, BaseEstimator):
     """Scales each feature to unit standard deviation, with the scale fitted on training features.
 
     ``transform(X) = (X - mean_) / scale_``; ``scale_`` is the per-feature standard deviation of the
-    training features (``ddof=1``), ``mean_`` their mean if ``center=True`` else 0 (DESIGN.md scales
+    training features (``ddof=1``), ``mean_`` their mean if ``center=True`` else 0 (the study scales
     without centring; an RBF kernel does not care). A feature that is constant in the training data
     gets ``scale_ = 1`` (as scikit-learn's ``StandardScaler``), so nothing is divided by zero.
 
@@ -283,7 +283,7 @@ class ClusteringTransform(ClassNamePrefixFeaturesOutMixin, TransformerMixin, Bas
         Offset in the logarithms (see :func:`clustering_features`), > 0.
     features : {"window", "passthrough"}, default "window"
         ``"window"``: ``X`` holds the 21 features of :func:`window_features` and is mapped by
-        :func:`clustering_features` first (DESIGN.md's unsupervised path). ``"passthrough"``: the
+        :func:`clustering_features` first (the study's unsupervised path). ``"passthrough"``: the
         columns of ``X`` are standardised and projected as they are (features of another kind).
 
     Attributes
