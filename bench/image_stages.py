@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import argparse
 import importlib.util
-import subprocess
 import sys
 import tempfile
 import time
@@ -26,7 +25,7 @@ import torch
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from bench.common import DEFAULT_THREADS, threads  # noqa: E402
+from bench.common import DEFAULT_THREADS, source_at, threads  # noqa: E402
 from tactile_torch import image  # noqa: E402
 from tactile_torch.data.images import make_explorations  # noqa: E402
 from tactile_torch.image import _kernels, _scheduler  # noqa: E402
@@ -41,13 +40,7 @@ after = types.SimpleNamespace(
 
 
 def _load(revision: str):
-    source = subprocess.run(
-        ["git", "show", f"{revision}:tactile_torch/image.py"],
-        cwd=ROOT,
-        check=True,
-        capture_output=True,
-        text=True,
-    ).stdout
+    source = source_at(revision, "tactile_torch/image.py")
     path = Path(tempfile.mkdtemp()) / "image_before.py"
     path.write_text(source)
     spec = importlib.util.spec_from_file_location("tactile_torch._image_before", path)
