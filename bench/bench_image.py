@@ -89,7 +89,7 @@ def run(quick: bool) -> dict:
         "Ours works on blocks of explorations x frames (tactile_torch.image.CHUNK_PIXELS pixels) and "
         "accumulates the OR, so the memory does not grow with the number of frames; at the default "
         "thread count the blocks run on that many Python threads, each running its torch ops on one "
-        "thread (a per-thread setting, tactile_torch._parallel). The uint8 input itself is not counted in the peak "
-        "(it exists before the call).",
+        "thread (a per-thread setting, tactile_torch._parallel). The uint8 input itself is not "
+        "counted in the peak (it exists before the call).",
     ]
     return {"rows": rows, "notes": notes}

@@ -53,10 +53,8 @@ def _expected_failures(estimator) -> dict[str, str]:
 
 @parametrize_with_checks(
     [
-        FeatureScaler(),
         FeatureScaler(center=True),
         ClusteringTransform(n_components=1, features="passthrough"),
-        ClusteringTransform(n_components=1, standardize=False, features="passthrough"),
         ClusteringTransform(),
     ],
     expected_failed_checks=_expected_failures,

@@ -17,7 +17,7 @@ from ._constants import GRAY_WEIGHTS, HISTOGRAM_LEVELS
 
 
 def _gray(frames: torch.Tensor, dtype: torch.dtype) -> torch.Tensor:
-    """(..., 3, H, W) → (..., H, W) in ``dtype``, with the reference's elementwise operations in its order."""
+    """(..., 3, H, W) → (..., H, W) gray in ``dtype``: the reference's elementwise operations, in order."""
     x = frames.to(dtype).div_(255.0) if frames.dtype == torch.uint8 else frames.to(dtype)
     r, g, b = x.unbind(-3)
     gray = r * GRAY_WEIGHTS[0]

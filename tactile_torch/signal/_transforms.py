@@ -27,9 +27,9 @@ def clustering_features(features: torch.Tensor, *, eps: float = 1e-6) -> torch.T
     """Return the 12 per-axis features of the unsupervised path from the 21 window features.
 
     Per axis: ``sqrt(var)``, ``log(tv + eps)``, ``log1p(cross)``, ``log(hf + eps)``
-    (:data:`CLUSTERING_FEATURE_NAMES`); skewness, kurtosis and the fifth moment are dropped
-    (the study's unsupervised path). The offsets keep a constant window (``var = tv = cross = hf = 0``) finite:
-    ``log(0 + eps)`` for ``tv`` and ``hf`` (``eps`` in the signal's unit, default 1e-6 g, far below
+    (:data:`CLUSTERING_FEATURE_NAMES`); skewness, kurtosis and the fifth moment are dropped (the
+    study's unsupervised path). The offsets keep a constant window (``var = tv = cross = hf = 0``)
+    finite: ``log(0 + eps)`` for ``tv`` and ``hf`` (``eps`` in the signal's unit, default 1e-6 g, far below
     the 3.9 mg resolution of the sensor, so ``log(x + eps) = log(x)`` to within 3e-4 for every
     non-constant quantised window), and ``log1p`` for the integer crossing count (``log1p(0) = 0``;
     ``log1p(n) - log(n) < 1/n``, under 0.01 for the hundreds of crossings of real windows). All four
