@@ -13,6 +13,26 @@ from pathlib import Path
 
 NOT_BUILT_EXIT = 2
 """Exit status when a command cannot do its work (e.g. ``bench`` outside a source checkout)."""
+BAD_INPUT_EXIT = 2
+"""Exit status for bad input (a missing or malformed file, a wrong option), after one line on stderr."""
+INTERNAL_ERROR_EXIT = 1
+"""Exit status for an unexpected error (a bug): one line on stderr, the traceback with ``--debug``."""
+
+TRAIN_EXTRA = "train"
+TRAIN_MODULES = ("torch", "kornia", "scipy", "sklearn", "numba", "matplotlib", "onnx", "onnxscript", "tqdm")
+"""Modules of the ``[train]`` extra (pyproject.toml); the robot install has numpy, onnxruntime, pyserial."""
+NEEDS_TRAIN_EXTRA = ("report", "bench", "train", "cluster", "export", "tradeoff")
+"""Commands that need the ``[train]`` extra; ``predict``, ``stream`` and ``simulate-sensor --data`` do not."""
+
+
+class UsageError(ValueError):
+    """Bad command-line input detected by a handler (reported in one line, like any ``ValueError``)."""
+
+
+def _data_name(paths: str | Path | list) -> str:
+    from .formats import data_name
+
+    return data_name(paths)
 
 
 def _report(args: argparse.Namespace) -> int:
@@ -38,22 +58,30 @@ def _train(args: argparse.Namespace) -> int:
     from .training import load_features, save_model, train_classifier
 
     gamma = args.gamma if args.gamma == "scale" else float(args.gamma)
+    if args.out and args.method not in ("hmsvm", "svm"):
+        raise UsageError(
+            f"--out: method {args.method!r} has no exportable inference path, so it has no model file; "
+            "save an SVM (--method hmsvm or svm) or drop --out"
+        )
     features = load_features(
         args.data, window=args.window, step=args.step, fuse=not args.no_fuse, allow_pickle=args.allow_pickle
     )
     print(
-        f"{args.data}: {features.X.shape[0]} samples x {features.X.shape[1]} features "
+        f"{_data_name(args.data)}: {features.X.shape[0]} samples x {features.X.shape[1]} features "
         f"({features.source['kind']}), {len(features.class_names)} classes"
     )
-    model = train_classifier(
-        features,
-        args.method,
-        C=args.C,
-        gamma=gamma,
-        kernel=args.kernel,
-        test_size=args.test_size,
-        random_state=args.seed,
-    )
+    try:
+        model = train_classifier(
+            features,
+            args.method,
+            C=args.C,
+            gamma=gamma,
+            kernel=args.kernel,
+            test_size=args.test_size,
+            random_state=args.seed,
+        )
+    except ValueError as err:  # e.g. a class with one sample: name the file it came from
+        raise ValueError(f"{_data_name(args.data)}: {err}") from err
     print(
         f"{args.method}: trained on {len(model.train_index)}, tested on {len(model.test_index)} held-out samples"
     )
@@ -85,29 +113,26 @@ def _cluster(args: argparse.Namespace) -> int:
     import numpy as np
     import torch
 
+    from .formats import read_data
     from .metrics import pairwise_accuracy
     from .mixture import PitmanYorGMM
     from .pipeline import save_clustering_model
     from .training import load_features
 
-    with np.load(args.data, allow_pickle=False) as npz:
-        keys = set(npz.files)
-        if "features" in keys:  # labels optional: clustering does not need them
-            X, truth = npz["features"], (npz["labels"] if "labels" in keys else None)
-    if "features" in keys:
-        source = {"kind": "features", "n_features": int(X.shape[1]) if X.ndim == 2 else 0}
-    elif "signals" in keys:
+    data = read_data(args.data, allow_pickle=args.allow_pickle)
+    if data.kind == "features":  # labels optional: clustering does not need them
+        X, truth = data.features, data.labels
+        source = {"kind": "features", "n_features": int(X.shape[1])}
+    elif data.kind == "vibration":
         features = load_features(
             args.data, window=args.window, step=args.step, allow_pickle=args.allow_pickle
         )
         X, truth, source = features.X, features.y, dict(features.source)
     else:
-        print(
-            f"tactile-torch cluster: {args.data} must hold vibration recordings ('signals') or a "
-            f"'features' array (n, D), found {sorted(keys)}",
-            file=sys.stderr,
+        raise UsageError(
+            f"{_data_name(args.data)}: --data must hold vibration recordings ('signals') or a 'features' "
+            f"array (n, D) to cluster, got {data.kind} data"
         )
-        return 2
     kind = source["kind"]
     transform = None
     if kind == "vibration":
@@ -115,7 +140,10 @@ def _cluster(args: argparse.Namespace) -> int:
 
         transform = ClusteringTransform(args.components).fit(torch.from_numpy(X))
         X = transform(torch.from_numpy(X)).numpy()
-        print(f"{args.data}: {len(X)} windows of {args.window} samples -> {X.shape[1]} principal components")
+        print(
+            f"{_data_name(args.data)}: {len(X)} windows of {args.window} samples -> "
+            f"{X.shape[1]} principal components"
+        )
     init = int(args.init) if args.init.isdigit() else args.init
     model = PitmanYorGMM(
         alpha=args.alpha,
@@ -139,14 +167,14 @@ def _cluster(args: argparse.Namespace) -> int:
         alpha_samples=model.alpha_samples_,
         discount_samples=model.discount_samples_,
     )
-    save_clustering_model(out / "model.pt", model, source=source, transform=transform)
+    save_clustering_model(out / "model.npz", model, source=source, transform=transform)
     summary = model.summary()
     if truth is not None:
         summary += f"\npairwise accuracy of the MAP labels: {pairwise_accuracy(truth, model.labels_):.4f}"
     (out / "summary.txt").write_text(summary + "\n")
     print(summary)
     print(
-        f"written: {out / 'clustering.npz'}, {out / 'summary.txt'}, {out / 'model.pt'} (tactile-torch export)"
+        f"written: {out / 'clustering.npz'}, {out / 'summary.txt'}, {out / 'model.npz'} (tactile-torch export)"
     )
     return 0
 
@@ -173,28 +201,32 @@ def _predict(args: argparse.Namespace) -> int:
 
     pipe = OnnxPipeline(args.model, intra_op_threads=args.threads)
     data = pipe.read_npz(args.data, allow_pickle=args.allow_pickle)
+    mismatch = pipe.sample_rate_mismatch(data.rate_hz)
+    if mismatch:
+        print(f"tactile-torch predict: warning: {_data_name(args.data)}: {mismatch}", file=sys.stderr)
     labels = np.concatenate(
         [pipe.predict(data.raw[i : i + args.batch]) for i in range(0, len(data.raw), args.batch)]
     )
-    print(f"{pipe!r}: {len(labels)} samples of {args.data}")
+    print(f"{pipe!r}: {len(labels)} samples of {_data_name(args.data)}")
     if args.out:
-        np.savez(args.out, labels=labels, names=np.array(pipe.class_names)[labels])
+        from .formats import write_npz
+
+        write_npz(args.out, {"labels": labels, "names": np.array(pipe.class_names)[labels]})
         print(f"labels written to {args.out}")
-    if data.labels is None:
+    if data.labels is not None and pipe.pipeline.endswith("-pyp"):
+        from .metrics import pairwise_accuracy
+
+        accuracy = pairwise_accuracy(data.file_labels, labels)  # the file's classes vs the components
+        print(f"{len(np.unique(labels))} components used; pairwise accuracy {accuracy:.4f}")
+        return 0
+    known = None if data.labels is None else data.labels >= 0
+    if known is not None and not known.all():
+        print(f"{int((~known).sum())} samples of classes the model does not know are left out")
+    if known is None or not known.any():
         counts = np.bincount(labels, minlength=len(pipe.class_names))
         for name, n in zip(pipe.class_names, counts, strict=True):
             print(f"{name:<24} {n:>7}")
         return 0
-    if pipe.pipeline.endswith("-pyp"):
-        from .metrics import pairwise_accuracy
-
-        print(
-            f"{len(np.unique(labels))} components used; pairwise accuracy {pairwise_accuracy(data.labels, labels):.4f}"
-        )
-        return 0
-    known = data.labels >= 0
-    if not known.all():
-        print(f"{int((~known).sum())} samples of classes the model does not know are left out")
     n = len(pipe.class_names)
     _print_class_report(
         class_report(data.labels[known], labels[known], labels=np.arange(n), names=pipe.class_names)
@@ -259,7 +291,9 @@ def _simulate_sensor(args: argparse.Namespace) -> int:
 
 def _add_allow_pickle(p: argparse.ArgumentParser) -> None:
     p.add_argument(
-        "--allow-pickle", action="store_true", help="allow object arrays in a trusted vibration .npz"
+        "--allow-pickle",
+        action="store_true",
+        help="read the pickled recordings of a trusted vibration .npz written by tactile-torch 0.1",
     )
 
 
@@ -272,6 +306,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="Recognise surfaces from tactile images and vibration; train, cluster, export, run.",
     )
     parser.add_argument("--version", action="version", version=f"tactile-torch {__version__}")
+    parser.add_argument("--debug", action="store_true", help="show the traceback of an error")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
     p = sub.add_parser("report", help="run every pipeline on the bundled data and write a report (make run)")
@@ -292,7 +327,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--data",
         required=True,
-        help="a .npz of DESIGN.md's formats (frames, signals) or with a features matrix",
+        nargs="+",
+        help="a .npz of docs/formats.md (frames, signals or features), or CSV logs t,x,y,z (class from the "
+        "file name: cork_1.csv -> cork)",
     )
     p.add_argument(
         "--method",
@@ -300,7 +337,9 @@ def build_parser() -> argparse.ArgumentParser:
         choices=["hmsvm", "svm", "lda", "knn"],
         help="classifier (default: hmsvm)",
     )
-    p.add_argument("--out", default="", help="write the trained model here (torch.save), e.g. model.pt")
+    p.add_argument(
+        "--out", default="", help="write the trained SVM's model file here (no pickle), e.g. model.npz"
+    )
     p.add_argument("--C", type=float, default=16.0, help="SVM penalty (default: 16)")
     p.add_argument("--gamma", default="scale", help="RBF width, a float or 'scale' (default)")
     p.add_argument("--kernel", default="rbf", choices=["rbf", "linear"], help="SVM kernel (default: rbf)")
@@ -320,12 +359,14 @@ def build_parser() -> argparse.ArgumentParser:
         description="Fit tactile_torch.mixture.PitmanYorGMM to vibration recordings (windows -> 21 features -> "
         "the unsupervised transform -> principal components) or to a 'features' array (n, D); write the MAP "
         "clustering and the posterior samples to OUT/clustering.npz, a summary to OUT/summary.txt and the "
-        "model to OUT/model.pt (for tactile-torch export).",
+        "model to OUT/model.npz (for tactile-torch export).",
     )
     p.add_argument(
         "--data",
         required=True,
-        help="vibration recordings .npz ('signals'), or 'features' (n, D) and optionally 'labels' (n,)",
+        nargs="+",
+        help="vibration recordings (.npz with 'signals', or CSV logs), or a .npz with 'features' (n, D) "
+        "and optionally 'labels' (n,)",
     )
     p.add_argument("--out", default="runs/cluster", help="output directory (default: runs/cluster)")
     p.add_argument("--window", type=int, default=800, help="recordings: window in samples (default: 800)")
@@ -349,7 +390,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="Read a model written by 'tactile-torch train --out' (SVMs) or 'tactile-torch cluster' "
         "and write the whole inference graph, with its metadata, to one .onnx file (dynamic batch).",
     )
-    p.add_argument("--model", required=True, help="model file (model.pt) written by train or cluster")
+    p.add_argument("--model", required=True, help="model file (model.npz) written by train or cluster")
     p.add_argument("--out", required=True, help="the .onnx file to write")
     p.set_defaults(handler=_export)
 
@@ -358,7 +399,12 @@ def build_parser() -> argparse.ArgumentParser:
         help="classify a data file with an exported ONNX pipeline (onnxruntime, no torch); print a class report",
     )
     p.add_argument("--model", required=True, help="the .onnx bundle written by tactile-torch export")
-    p.add_argument("--data", required=True, help=".npz of DESIGN.md's formats (frames, signals or features)")
+    p.add_argument(
+        "--data",
+        required=True,
+        nargs="+",
+        help="a .npz of docs/formats.md (frames, signals or features), or CSV logs t,x,y,z",
+    )
     p.add_argument("--out", default="", help="also write the predicted labels and names to this .npz")
     p.add_argument("--batch", type=int, default=256, help="samples per onnxruntime call (default: 256)")
     p.add_argument("--threads", type=int, default=1, help="onnxruntime intra-op threads (default: 1)")
@@ -403,13 +449,79 @@ def build_parser() -> argparse.ArgumentParser:
     _add_allow_pickle(p)
     p.set_defaults(handler=_simulate_sensor)
 
+    for p in sub.choices.values():  # --debug is accepted after the command too
+        p.add_argument(
+            "--debug", action="store_true", default=argparse.SUPPRESS, help="show the traceback of an error"
+        )
     return parser
 
 
+def _missing_train_modules() -> list[str]:
+    import importlib.util
+
+    return [name for name in TRAIN_MODULES if importlib.util.find_spec(name) is None]
+
+
+def _one_line(err: BaseException) -> str:
+    text = " ".join(str(err).split())
+    if isinstance(err, FileNotFoundError) and err.filename and not text.startswith(str(err.filename)):
+        text = f"{err.filename}: {err.strerror or 'no such file'}"  # OSError's own "[Errno 2] ..." form
+    return text or type(err).__name__
+
+
 def main(argv: list[str] | None = None) -> int:
-    """Run the command line; return the exit status."""
+    """Run the command line; return the exit status.
+
+    Bad input (a missing, empty or malformed file, a model of the wrong kind, a missing optional
+    dependency) prints one line ``tactile-torch <command>: <file>: <what is wrong>`` on stderr and
+    returns :data:`BAD_INPUT_EXIT`; any other error prints one line and returns
+    :data:`INTERNAL_ERROR_EXIT`. ``--debug`` shows the traceback instead.
+    """
     args = build_parser().parse_args(argv)
-    return int(args.handler(args))
+    debug = bool(getattr(args, "debug", False))
+    prefix = f"tactile-torch {args.command}"
+    if args.command in NEEDS_TRAIN_EXTRA:
+        missing = _missing_train_modules()
+        if missing:
+            print(
+                f"{prefix}: needs the training extra, which is not installed here (missing: "
+                f"{', '.join(missing)}): pip install 'tactile-torch[{TRAIN_EXTRA}]'",
+                file=sys.stderr,
+            )
+            return BAD_INPUT_EXIT
+    try:
+        return int(args.handler(args))
+    except KeyboardInterrupt:
+        if debug:
+            raise
+        print(f"{prefix}: interrupted", file=sys.stderr)
+        return 130
+    except ModuleNotFoundError as err:
+        if debug:
+            raise
+        if (err.name or "").split(".")[0] in TRAIN_MODULES:
+            print(
+                f"{prefix}: needs the training extra ({err.name} is not installed): "
+                f"pip install 'tactile-torch[{TRAIN_EXTRA}]'",
+                file=sys.stderr,
+            )
+            return BAD_INPUT_EXIT
+        print(f"{prefix}: {_one_line(err)} (rerun with --debug for the traceback)", file=sys.stderr)
+        return INTERNAL_ERROR_EXIT
+    except (ValueError, TypeError, OSError) as err:
+        if debug:
+            raise
+        print(f"{prefix}: {_one_line(err)}", file=sys.stderr)
+        return BAD_INPUT_EXIT
+    except Exception as err:
+        if debug:
+            raise
+        print(
+            f"{prefix}: internal error: {type(err).__name__}: {_one_line(err)} (rerun with --debug for "
+            "the traceback, and please report it)",
+            file=sys.stderr,
+        )
+        return INTERNAL_ERROR_EXIT
 
 
 if __name__ == "__main__":  # pragma: no cover
