@@ -459,7 +459,13 @@ def build_parser() -> argparse.ArgumentParser:
 def _missing_train_modules() -> list[str]:
     import importlib.util
 
-    return [name for name in TRAIN_MODULES if importlib.util.find_spec(name) is None]
+    def missing(name: str) -> bool:
+        try:
+            return importlib.util.find_spec(name) is None
+        except (ImportError, ValueError):  # a broken or blocked installation counts as missing
+            return True
+
+    return [name for name in TRAIN_MODULES if missing(name)]
 
 
 def _one_line(err: BaseException) -> str:
