@@ -145,11 +145,8 @@ def test_debug_shows_the_traceback(files, capsys):
 
 
 def test_the_console_script_prints_no_traceback(files):
-    out = subprocess.run(
-        [sys.executable, "-m", "tactile_torch.cli", "train", "--data", str(files / "shape.npz")],
-        capture_output=True,
-        text=True,
-    )
+    argv = ["predict", "--model", str(files / "m.onnx"), "--data", str(files / "shape.npz")]
+    out = subprocess.run([sys.executable, "-m", "tactile_torch.cli", *argv], capture_output=True, text=True)
     assert out.returncode == BAD_INPUT_EXIT
     assert out.stderr.count("\n") == 1 and "Traceback" not in out.stderr
     assert "shape.npz: signals must have shape (R, n, 3)" in out.stderr
