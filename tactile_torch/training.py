@@ -108,7 +108,7 @@ def load_features(
     try:
         cut = window_recordings(data.signals, window, step)
     except ValueError as err:
-        raise ValueError(f"{where}: {err} (--window)") from None
+        raise ValueError(f"{where}: {err}; pass a smaller window (--window)") from None
     X = window_features(torch.from_numpy(cut.windows)).double().numpy()
     source = {"kind": "vibration", "window": window, "step": step or window, "rate_hz": data.rate_hz}
     return FeatureSet(X, data.labels[cut.recording], data.class_names, source)
