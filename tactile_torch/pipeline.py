@@ -19,8 +19,9 @@ Build them from the model files the command line writes: :func:`pipeline_from_mo
 classifier written by ``tactile-torch train --out model.npz`` (:func:`tactile_torch.training.save_model`)
 or a clustering written by ``tactile-torch cluster`` (:func:`save_clustering_model`); model files
 are read and validated by :mod:`tactile_torch.model_file` (no pickle). :func:`export_pipeline`
-writes the pipeline to one ``.onnx`` file with a dynamic batch size and the metadata that :class:`tactile_torch.runtime.OnnxPipeline` reads (class names, input shape, window
-size, sample rate, thresholds, feature scale, library version).
+writes the pipeline to one ``.onnx`` file with a dynamic batch size and the metadata that
+:class:`tactile_torch.runtime.OnnxPipeline` reads (class names, input shape, window size, sample
+rate, thresholds, feature scale, library version).
 
 Labels index :attr:`InferencePipeline.class_names`; scores are the SVM's per-class scores
 (:class:`~tactile_torch.svm.SVMInference`) or the mixture's log responsibilities.
