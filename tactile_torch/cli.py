@@ -267,15 +267,17 @@ def _stream(args: argparse.Namespace) -> int:
 
 
 def _simulate_sensor(args: argparse.Namespace) -> int:
-    import numpy as np
     import serial
 
     from .stream import simulate_sensor
 
-    if args.data:
-        with np.load(args.data, allow_pickle=args.allow_pickle) as npz:
-            signals, rate = npz["signals"], float(npz["rate_hz"]) if "rate_hz" in npz.files else args.rate
-        recording = np.asarray(signals[args.recording], dtype=np.float32)
+    if args.data:  # any layout of docs/formats.md, incl. recordings of different lengths
+        from .formats import read_recordings
+
+        data = read_recordings(args.data, allow_pickle=args.allow_pickle, default_rate_hz=args.rate)
+        if not 0 <= args.recording < len(data):
+            raise UsageError(f"--recording must be in 0..{len(data) - 1} ({args.data}), got {args.recording}")
+        recording, rate = data.signals[args.recording], data.rate_hz
     else:
         from .data import make_vibration_recordings
 

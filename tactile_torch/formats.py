@@ -351,19 +351,25 @@ def write_explorations(path: PathLike, data: ExplorationArrays) -> Path:
 
 
 # ------------------------------------------------------------------------------------ vibration
-def read_recordings(path: PathLike, *, allow_pickle: bool = False) -> RecordingArrays:
+def read_recordings(
+    path: PathLike, *, allow_pickle: bool = False, default_rate_hz: float | None = None
+) -> RecordingArrays:
     """Read a vibration-recordings ``.npz``; see the module docstring for the fields.
 
     Reads the three layouts of ``signals``: ``(R, n, 3)``; concatenated ``(sum n_i, 3)`` with
     ``lengths``; and, only with ``allow_pickle=True`` (a trusted file), the object array of
     ``(n_i, 3)`` recordings that tactile-torch 0.1 wrote for recordings of different lengths.
+    ``default_rate_hz`` stands in for a missing ``rate_hz`` (a file written by another tool).
 
     Raises ``ValueError`` naming the file and the field for a missing key, a wrong shape, integer
     signals (raw counts where g are expected), NaN/inf, labels outside ``class_names`` or a
     non-positive ``rate_hz``.
     """
     path = Path(path)
-    return _recordings(read_npz(path, allow_pickle=allow_pickle), path)
+    arrays = read_npz(path, allow_pickle=allow_pickle)
+    if default_rate_hz is not None:
+        arrays.setdefault("rate_hz", np.float64(default_rate_hz))
+    return _recordings(arrays, path)
 
 
 def _recordings(arrays: dict[str, np.ndarray], path: Path) -> RecordingArrays:

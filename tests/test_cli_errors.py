@@ -232,3 +232,27 @@ def test_train_modules_match_the_train_extra():
     assert not set(TRAIN_MODULES) & names(project["dependencies"])
     torch_pin = [r for r in project["optional-dependencies"]["train"] if r.startswith("torch")]
     assert torch_pin == [f"torch=={torch.__version__.split('+')[0]}"]  # never let pip pick another torch
+
+
+def test_simulate_sensor_plays_any_layout(tmp_path, monkeypatch, capsys):
+    import io
+
+    import serial
+
+    from tactile_torch.formats import RecordingArrays, write_recordings
+    from tactile_torch.stream import parse_sample
+
+    rng = np.random.default_rng(0)
+    signals = [rng.normal(0, 0.1, (n, 3)).astype(np.float32) for n in (300, 450)]
+    path = write_recordings(
+        tmp_path / "ragged.npz", RecordingArrays(signals, np.array([0, 1]), ("a", "b"), 800.0)
+    )
+    wire = io.BytesIO()
+    wire.close = lambda: None
+    monkeypatch.setattr(serial, "serial_for_url", lambda url, **kw: wire)
+    argv = ["simulate-sensor", "--data", str(path), "--recording", "1", "--port", "x", "--fast"]
+    assert main(argv) == 0
+    sent = np.array([parse_sample(line) for line in wire.getvalue().splitlines()])
+    np.testing.assert_allclose(sent, signals[1], atol=5e-6)  # 5 decimals on the wire
+    assert main([*argv[:4], "2", *argv[5:]]) == BAD_INPUT_EXIT
+    assert "--recording must be in 0..1" in capsys.readouterr().err
