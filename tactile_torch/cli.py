@@ -208,10 +208,27 @@ STREAM_DISCONNECTED_EXIT = 4
 """Exit status of ``stream`` when the port failed and was not (or could not be) reconnected."""
 
 
+def _at_least(minimum: float, kind: type = float):
+    """Return an argparse type: a number of ``kind`` >= ``minimum``, else a one-line usage error."""
+
+    def parse(text: str):
+        try:
+            value = kind(text)
+        except ValueError:
+            what = "an integer" if kind is int else "a number"
+            raise argparse.ArgumentTypeError(f"expected {what}, got {text!r}") from None
+        if not value >= minimum:
+            raise argparse.ArgumentTypeError(f"expected a number >= {minimum:g}, got {text!r}")
+        return value
+
+    return parse
+
+
 def _stream(args: argparse.Namespace) -> int:
     # torch-free: pyserial, numpy and onnxruntime only, as on the robot.
     import math
 
+    import numpy as np
     import serial
 
     from .runtime import OnnxPipeline
@@ -225,6 +242,12 @@ def _stream(args: argparse.Namespace) -> int:
     size = int(pipe.metadata["window_size"])
     step = args.step or size // 2
     rate = float(pipe.metadata["sample_rate_hz"]) if "sample_rate_hz" in pipe.metadata else None
+    if args.time_unit == "samples" and rate is None:
+        print(
+            f"tactile-torch stream: --time-unit samples needs the sample rate, which {args.model} lacks",
+            file=sys.stderr,
+        )
+        return 2
     info = sys.stderr if args.json else sys.stdout  # --json: stdout holds nothing but the JSON lines
 
     def say(message: str) -> None:
@@ -257,6 +280,9 @@ def _stream(args: argparse.Namespace) -> int:
         file=info,
         flush=True,
     )
+    pipe.predict_scores(
+        np.zeros((1, 3, size), np.float32)
+    )  # the first call allocates: not in a window's latency
     status = 0
     try:
         for result in classify_windows(reader, pipe, vote=vote):
@@ -432,16 +458,29 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--model", required=True, help="the .onnx vibration bundle")
     p.add_argument("--port", required=True, help="serial port or pyserial URL")
     p.add_argument("--baud", type=int, default=230400, help="baud rate (default: 230400)")
-    p.add_argument("--step", type=int, default=0, help="new samples between windows (default: half a window)")
     p.add_argument(
-        "--max-windows", type=int, default=0, help="stop after this many windows (default: no limit)"
+        "--step",
+        type=_at_least(0, int),
+        default=0,
+        help="new samples between windows (default: half a window)",
     )
-    p.add_argument("--threads", type=int, default=1, help="onnxruntime intra-op threads (default: 1)")
+    p.add_argument(
+        "--max-windows",
+        type=_at_least(0, int),
+        default=0,
+        help="stop after this many windows (default: no limit)",
+    )
+    p.add_argument(
+        "--threads", type=_at_least(0, int), default=1, help="onnxruntime intra-op threads (default: 1)"
+    )
     p.add_argument(
         "--json", action="store_true", help="one JSON object per window on stdout (docs/stream.md)"
     )
     p.add_argument(
-        "--vote", type=int, default=1, help="also give the vote over the last N windows (default: 1, no vote)"
+        "--vote",
+        type=_at_least(1, int),
+        default=1,
+        help="also give the vote over the last N windows (default: 1, no vote)",
     )
     p.add_argument(
         "--vote-method",
@@ -455,25 +494,25 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--idle-timeout",
         "--timeout",
-        type=float,
+        type=_at_least(0),
         default=10.0,
         help="give up after this many seconds without a sample; 0: never (default: 10)",
     )
     p.add_argument(
         "--start-timeout",
-        type=float,
+        type=_at_least(0),
         default=60.0,
         help="wait this long for the first sample; 0: forever (default: 60)",
     )
     p.add_argument(
         "--silence",
-        type=float,
+        type=_at_least(0.01),
         default=0.5,
         help="seconds without a sample reported as a silence, which ends the window (default: 0.5)",
     )
     p.add_argument(
         "--range",
-        type=float,
+        type=_at_least(0),
         default=0.0,
         help="reject samples beyond +-RANGE g (default: the bundle's sensor_range_g, else 5 for the ADXL345)",
     )

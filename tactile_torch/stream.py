@@ -153,6 +153,10 @@ def sensor_range_g(metadata: dict[str, str], default: float = DEFAULT_RANGE_G) -
     return range_g
 
 
+def _giving_up(limit: float) -> str:
+    return "no time limit" if math.isinf(limit) else f"giving up after {limit:g} s"
+
+
 def _check_number(value: object, name: str, *, minimum: float = 0.0, strict: bool = True) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
         raise TypeError(f"{name} must be a number, got {type(value).__name__}")
@@ -401,9 +405,10 @@ class WindowReader:
         partial = b""
         try:
             port = self._reopen(None) if self._opens else self._open()
-            name = self._name or self._port_name(port)
+            name = self._port_name(port)
             read = self._reader_of(port)
             while True:
+                before = clock()
                 try:
                     chunk = read()
                 except OSError as err:
@@ -431,6 +436,9 @@ class WindowReader:
                     if partial:
                         yield partial, now
                     return
+                if now - before < 1e-3:  # a port without a read timeout, or a file at its end: do not spin
+                    self._sleep(0.01)
+                    now = clock()
                 waited = now - self._last_sample_at
                 limit = self.idle_timeout_s if self.samples else self.start_timeout_s
                 if waited >= limit:
@@ -444,13 +452,13 @@ class WindowReader:
                         self._emit(
                             "silence",
                             f"no sample for {waited:.1f} s after {self.samples} samples; waiting "
-                            f"(giving up after {limit:g} s)",
+                            f"({_giving_up(limit)})",
                         )
                         yield None, now
                     else:
                         self._emit(
                             "waiting",
-                            f"no data yet on {name} after {waited:.1f} s (giving up after {limit:g} s)",
+                            f"no data yet on {name} after {waited:.1f} s ({_giving_up(limit)})",
                         )
         finally:
             self._close(port)

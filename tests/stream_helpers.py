@@ -111,8 +111,18 @@ def expected_axis(window: np.ndarray) -> str:
     return "xyz"[int(np.argmax((window.astype(np.float32) ** 2).mean(axis=1)))]
 
 
-def energy_bundle(path: Path, *, window: int = 64, rate_hz: float = 800.0, step: int | None = None) -> Path:
-    """Write a vibration bundle: scores = per-axis mean square over the window, label = their argmax."""
+def energy_bundle(
+    path: Path,
+    *,
+    window: int = 64,
+    rate_hz: float = 800.0,
+    step: int | None = None,
+    drop: tuple[str, ...] = (),
+) -> Path:
+    """Write a vibration bundle: scores = per-axis mean square over the window, label = their argmax.
+
+    ``drop`` leaves metadata keys out (e.g. ``("window_size",)`` for a bundle that is not a vibration one).
+    """
     import onnx
     from onnx import TensorProto, helper
 
@@ -141,7 +151,7 @@ def energy_bundle(path: Path, *, window: int = 64, rate_hz: float = 800.0, step:
         "step": str(step or window),
         "sample_rate_hz": str(float(rate_hz)),
     }
-    helper.set_model_props(model, meta)
+    helper.set_model_props(model, {k: v for k, v in meta.items() if k not in drop})
     onnx.checker.check_model(model)
     onnx.save(model, path)
     return path

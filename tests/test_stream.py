@@ -523,3 +523,18 @@ def test_floods_of_gap_events_are_counted_not_printed():
         == "gap in t from 0.09875 to 0.2 s: 80 sample(s) missing (and 15 more not shown before it)"
     )
     assert "more not shown" not in events[6].message
+
+
+def test_a_real_recording_with_its_own_time_column_streams_without_false_gaps(shared_data):
+    # HapMat (real IMU, 100 Hz, t written as "0.01"-step text): the t steps of a real log are not exact
+    # multiples of the period; the reader must find no gap and cut the offline sliding windows
+    path = shared_data("hapmat_imu5") / "Wood_1.csv"
+    table = np.loadtxt(path, delimiter=",", skiprows=1, usecols=(0, 1, 2, 3))
+    lines = path.read_bytes().splitlines()[1:]
+    stream = b"".join(b",".join(line.split(b",")[:4]) + b"\n" for line in lines if line)  # time,accel_x,y,z
+    reader = WindowReader(io.BytesIO(stream), window_size=100, step=50, rate_hz=100.0)
+    windows = list(reader)
+    assert reader.samples == len(table) and reader.gaps == reader.skipped == reader.lost == 0
+    expected = sliding_window_view(table[:, 1:].astype(np.float32), 100, axis=0)[::50]
+    np.testing.assert_array_equal(np.concatenate([w.data for w in windows]), expected)
+    assert all(w.rate_hz == pytest.approx(100.0, rel=1e-3) and w.flags == () for w in windows)

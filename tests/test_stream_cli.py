@@ -75,8 +75,10 @@ class _Writer(threading.Thread):
             raise self.error
 
 
-def _stream(model, sensor, *args):
-    return main(["stream", "--model", model, "--port", sensor.path, "--json", *args])
+def _stream(model, sensor, *args, json_lines=True):
+    return main(
+        ["stream", "--model", model, "--port", sensor.path, *(["--json"] if json_lines else []), *args]
+    )
 
 
 def _records(out):
@@ -169,9 +171,7 @@ def test_reconnect_reopens_the_port_with_backoff(model, tmp_path, opened, capsys
         sensor.write_samples(rec[24:], _t(100, 24))
 
     writer = _Writer(script)
-    status = main(
-        ["stream", "--model", model, "--port", sensor.path, "--json", "--reconnect", "--max-windows", "4"]
-    )
+    status = _stream(model, sensor, "--reconnect", "--max-windows", "4")
     writer.finish()
     sensor.close()
     out, err = capsys.readouterr()
@@ -239,9 +239,7 @@ def test_an_out_of_range_sample_without_the_range_check_gets_no_label(model, sen
     lines = [format_sample(s) for s in rec]
     lines[3] = b"1e30,0,1\n"
     writer = _Writer(lambda: (opened(1), sensor_pty.write(b"".join(lines))))
-    status = main(
-        ["stream", "--model", model, "--port", sensor_pty.path, "--range", "inf", "--max-windows", "3"]
-    )
+    status = _stream(model, sensor_pty, "--range", "inf", "--max-windows", "3", json_lines=False)
     writer.finish()
     out = capsys.readouterr().out.splitlines()
     assert status == 0
@@ -257,9 +255,7 @@ def test_garbage_is_reported_with_each_window_not_only_at_the_end(model, sensor_
         lines.insert(i, b"#noise\n")
 
     writer = _Writer(lambda: (opened(1), sensor_pty.write(b"".join(lines))))
-    status = main(
-        ["stream", "--model", model, "--port", sensor_pty.path, "--step", "16", "--max-windows", "3"]
-    )
+    status = _stream(model, sensor_pty, "--step", "16", "--max-windows", "3", json_lines=False)
     writer.finish()
     out = capsys.readouterr().out.splitlines()
     assert status == 0
@@ -319,6 +315,27 @@ def test_simulate_sensor_plays_a_recording_on_a_pty():
     t = np.array([p[0] for p in map(parse_line, data.splitlines()) if p is not None])
     assert len(t) >= 300 and t[-1] == pytest.approx(399 / RATE)  # opening the port may cut the start
     np.testing.assert_allclose(np.diff(t), 1 / RATE, atol=2e-6)
+
+
+@pytest.mark.parametrize(
+    ("args", "match"),
+    [
+        (["--vote", "0"], "argument --vote: expected a number >= 1, got '0'"),
+        (["--silence", "-1"], "argument --silence: expected a number >= 0.01, got '-1'"),
+        (["--idle-timeout", "soon"], "argument --idle-timeout/--timeout: expected a number, got 'soon'"),
+        (["--step", "1.5"], "argument --step: expected an integer, got '1.5'"),
+    ],
+)
+def test_stream_bad_options_are_one_usage_error(model, args, match, capsys):
+    with pytest.raises(SystemExit) as exit_:
+        main(["stream", "--model", model, "--port", "/dev/null", *args])
+    assert exit_.value.code == 2 and capsys.readouterr().err.splitlines()[-1].endswith(match)
+
+
+def test_stream_refuses_a_bundle_that_takes_no_windows(tmp_path, capsys):
+    model = energy_bundle(tmp_path / "features.onnx", drop=("window_size",))
+    assert main(["stream", "--model", str(model), "--port", "/dev/null"]) == 2
+    assert capsys.readouterr().err.strip() == f"tactile-torch stream: {model} does not take vibration windows"
 
 
 def test_simulate_sensor_needs_a_port_or_a_pty(capsys):
