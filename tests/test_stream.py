@@ -430,7 +430,7 @@ def test_a_long_fast_stream_over_a_pty_loses_no_sample():
 
 
 def test_memory_does_not_grow_with_the_stream():
-    # tracemalloc's peak while reading 4x more samples stays the same (the ring, one window, one chunk)
+    # tracemalloc's peak while reading 3x more samples stays the same (the ring, one window, one chunk)
     def peak(n):
         source = io.BytesIO(_timed_lines(_recording(n, seed=3), np.arange(n) / 800.0))
         tracemalloc.start()
@@ -441,7 +441,7 @@ def test_memory_does_not_grow_with_the_stream():
         tracemalloc.stop()
         return used
 
-    small, large = peak(4_000), peak(16_000)
+    small, large = peak(4_000), peak(12_000)
     assert large < small + 16_000, (small, large)  # one kept window would add 9.6 kB
 
 

@@ -104,7 +104,7 @@ def test_late_sensor_and_pause_are_waited_for_and_reported(model, sensor_pty, op
         opened(1)
         time.sleep(1.0)  # the stream started before the sensor
         sensor_pty.write_samples(rec[:40], _t(0, 40))
-        time.sleep(2.5)  # the sensor pauses
+        time.sleep(2.0)  # the sensor pauses
         sensor_pty.write_samples(rec[40:], _t(40, 40))
 
     writer = _Writer(sensor)
@@ -299,9 +299,12 @@ def test_json_and_vote_lines_are_read_by_another_process(model, tmp_path):
     assert [d[2] for d in decided] == votes
 
 
-def test_simulate_sensor_plays_a_recording_on_a_pty():
+def test_simulate_sensor_plays_a_recording_on_a_pty(tmp_path):
+    rec, _ = axis_recording("z", 400)
+    data = tmp_path / "rec.npz"
+    np.savez(data, signals=rec[None].astype(np.float32), labels=[0], class_names=["z"], rate_hz=RATE)
     proc = subprocess.Popen(
-        [sys.executable, "-m", "tactile_torch.cli", "simulate-sensor", "--pty", "--seconds", "0.5", "--timestamps"],
+        [sys.executable, "-m", "tactile_torch.cli", "simulate-sensor", "--pty", "--data", str(data), "--timestamps"],
         stdout=subprocess.PIPE, text=True,
     )  # fmt: skip
     path = re.match(r"sensor on (\S+):", proc.stdout.readline()).group(1)
