@@ -234,14 +234,38 @@ def _predict(args: argparse.Namespace) -> int:
     return 0
 
 
+STREAM_NO_DATA_EXIT = 3
+"""Exit status of ``stream`` when no sample came within the start or idle timeout."""
+STREAM_DISCONNECTED_EXIT = 4
+"""Exit status of ``stream`` when the port failed and was not (or could not be) reconnected."""
+
+
+def _at_least(minimum: float, kind: type = float):
+    """Return an argparse type: a number of ``kind`` >= ``minimum``, else a one-line usage error."""
+
+    def parse(text: str):
+        try:
+            value = kind(text)
+        except ValueError:
+            what = "an integer" if kind is int else "a number"
+            raise argparse.ArgumentTypeError(f"expected {what}, got {text!r}") from None
+        if not value >= minimum:
+            raise argparse.ArgumentTypeError(f"expected a number >= {minimum:g}, got {text!r}")
+        return value
+
+    return parse
+
+
 def _stream(args: argparse.Namespace) -> int:
     # torch-free: pyserial, numpy and onnxruntime only, as on the robot.
-    import time
+    import math
 
+    import numpy as np
     import serial
 
     from .runtime import OnnxPipeline
-    from .stream import WindowReader
+    from .stream import StreamDisconnected, StreamTimeout, WindowReader, sensor_range_g
+    from .stream_output import WindowVote, classify_windows, result_json, result_text
 
     pipe = OnnxPipeline(args.model, intra_op_threads=args.threads)
     if "window_size" not in pipe.metadata:
@@ -249,28 +273,81 @@ def _stream(args: argparse.Namespace) -> int:
         return 2
     size = int(pipe.metadata["window_size"])
     step = args.step or size // 2
-    port = serial.serial_for_url(args.port, baudrate=args.baud, timeout=args.timeout)
-    reader = WindowReader(port, window_size=size, step=step, max_windows=args.max_windows or None)
-    print(f"{pipe!r}: reading {args.port}, windows of {size} samples every {step}", flush=True)
-    for i, window in enumerate(reader):
-        start = time.perf_counter()
-        labels, scores = pipe.predict_scores(window)
-        ms = (time.perf_counter() - start) * 1e3
-        name = pipe.class_names[int(labels[0])] if pipe.class_names else str(int(labels[0]))
+    rate = float(pipe.metadata["sample_rate_hz"]) if "sample_rate_hz" in pipe.metadata else None
+    if args.time_unit == "samples" and rate is None:
         print(
-            f"{i:>6} {reader.samples:>9} {name:<24} score {float(scores[0].max()):+.3f} ({ms:.2f} ms)",
-            flush=True,
+            f"tactile-torch stream: --time-unit samples needs the sample rate, which {args.model} lacks",
+            file=sys.stderr,
         )
-    print(f"{reader.samples} samples read, {reader.skipped} lines skipped")
-    port.close()
-    return 0
+        return 2
+    info = sys.stderr if args.json else sys.stdout  # --json: stdout holds nothing but the JSON lines
+
+    def say(message: str) -> None:
+        print(f"tactile-torch stream: {message}", file=sys.stderr, flush=True)
+
+    def open_port():
+        return serial.serial_for_url(args.port, baudrate=args.baud, timeout=min(0.1, args.silence / 2))
+
+    reader = WindowReader(
+        open_port,
+        window_size=size,
+        step=step,
+        max_windows=args.max_windows or None,
+        rate_hz=rate,
+        time_unit=args.time_unit,
+        range_g=args.range or sensor_range_g(pipe.metadata),
+        silence_s=args.silence,
+        idle_timeout_s=args.idle_timeout or math.inf,
+        start_timeout_s=args.start_timeout or math.inf,
+        reconnect=args.reconnect,
+        on_event=lambda event: say(event.message),
+        name=args.port,
+    )
+    vote = WindowVote(args.vote, args.vote_method, pipe.class_names) if args.vote > 1 else None
+    # Each classified window goes to every consumer in turn (issue 13's --discover adds one here).
+    write = result_json if args.json else result_text
+    consumers = [lambda result: print(write(result), flush=True)]
+    print(
+        f"{pipe!r}: reading {args.port}, windows of {size} samples every {step}, range ±{reader.range_g:g} g",
+        file=info,
+        flush=True,
+    )
+    pipe.predict_scores(
+        np.zeros((1, 3, size), np.float32)
+    )  # the first call allocates: not in a window's latency
+    status = 0
+    try:
+        for result in classify_windows(reader, pipe, vote=vote):
+            for consume in consumers:
+                consume(result)
+    except StreamTimeout as err:
+        say(str(err))
+        status = STREAM_NO_DATA_EXIT
+    except StreamDisconnected as err:
+        say(str(err))
+        status = STREAM_DISCONNECTED_EXIT
+    except KeyboardInterrupt:
+        status = 130
+    print(
+        f"{reader.samples} samples read, {reader.windows} windows, {reader.skipped} lines skipped, "
+        f"{reader.rejected} samples out of range, {reader.gaps} gaps ({reader.lost} samples known lost), "
+        f"{reader.reconnects} reconnections",
+        file=info,
+        flush=True,
+    )
+    return status
 
 
 def _simulate_sensor(args: argparse.Namespace) -> int:
+    import contextlib
+
     import serial
 
-    from .stream import simulate_sensor
+    from .stream import pseudo_terminal, simulate_sensor
 
+    if bool(args.port) == args.pty:
+        print("tactile-torch simulate-sensor: give either --port PORT or --pty", file=sys.stderr)
+        return 2
     if args.data:  # any layout of docs/formats.md, incl. recordings of different lengths
         from .formats import read_recordings
 
@@ -283,10 +360,14 @@ def _simulate_sensor(args: argparse.Namespace) -> int:
 
         rec = make_vibration_recordings(28, duration_s=args.seconds, random_state=args.seed)
         recording, rate = rec.signals[args.recording % 28], rec.rate_hz
-    port = serial.serial_for_url(args.port, baudrate=args.baud)
-    print(f"writing {len(recording)} samples at {rate:g} Hz to {args.port}", flush=True)
-    n = simulate_sensor(port, recording, rate_hz=rate, realtime=not args.fast)
-    port.close()
+    with contextlib.ExitStack() as stack:
+        if args.pty:
+            port, name = stack.enter_context(pseudo_terminal())
+            print(f"sensor on {name}: read it with tactile-torch stream --port {name}", flush=True)
+        else:
+            port, name = stack.enter_context(serial.serial_for_url(args.port, baudrate=args.baud)), args.port
+        print(f"writing {len(recording)} samples at {rate:g} Hz to {name}", flush=True)
+        n = simulate_sensor(port, recording, rate_hz=rate, realtime=not args.fast, timestamps=args.timestamps)
     print(f"{n} samples written")
     return 0
 
@@ -416,20 +497,79 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser(
         "stream",
         help="classify a live serial accelerometer stream with an exported vibration bundle",
-        description="Read 'x,y,z' lines (g) from a serial port (any pyserial URL, e.g. /dev/ttyUSB0, "
-        "socket://host:port, loop://), cut them into the bundle's windows and print each window's class.",
+        description="Read 'x,y,z' or 't,x,y,z' lines (g) from a serial port (any pyserial URL, e.g. "
+        "/dev/ttyUSB0, socket://host:port, loop://), cut them into the bundle's windows and print each "
+        "window's class. Silence, disconnection, gaps in t, samples out of range and garbage lines are "
+        "reported on stderr; no window spans a gap. Exit status: 0 done, 3 no data within the timeout, "
+        "4 port failed (see docs/stream.md).",
     )
     p.add_argument("--model", required=True, help="the .onnx vibration bundle")
     p.add_argument("--port", required=True, help="serial port or pyserial URL")
     p.add_argument("--baud", type=int, default=230400, help="baud rate (default: 230400)")
-    p.add_argument("--step", type=int, default=0, help="new samples between windows (default: half a window)")
     p.add_argument(
-        "--timeout", type=float, default=2.0, help="stop after this many silent seconds (default: 2)"
+        "--step",
+        type=_at_least(0, int),
+        default=0,
+        help="new samples between windows (default: half a window)",
     )
     p.add_argument(
-        "--max-windows", type=int, default=0, help="stop after this many windows (default: no limit)"
+        "--max-windows",
+        type=_at_least(0, int),
+        default=0,
+        help="stop after this many windows (default: no limit)",
     )
-    p.add_argument("--threads", type=int, default=1, help="onnxruntime intra-op threads (default: 1)")
+    p.add_argument(
+        "--threads", type=_at_least(0, int), default=1, help="onnxruntime intra-op threads (default: 1)"
+    )
+    p.add_argument(
+        "--json", action="store_true", help="one JSON object per window on stdout (docs/stream.md)"
+    )
+    p.add_argument(
+        "--vote",
+        type=_at_least(1, int),
+        default=1,
+        help="also give the vote over the last N windows (default: 1, no vote)",
+    )
+    p.add_argument(
+        "--vote-method",
+        default="majority",
+        choices=["majority", "mean"],
+        help="majority of the labels, or argmax of the mean scores (default: majority)",
+    )
+    p.add_argument(
+        "--reconnect", action="store_true", help="reopen the port with backoff when it fails (default: exit)"
+    )
+    p.add_argument(
+        "--idle-timeout",
+        "--timeout",
+        type=_at_least(0),
+        default=10.0,
+        help="give up after this many seconds without a sample; 0: never (default: 10)",
+    )
+    p.add_argument(
+        "--start-timeout",
+        type=_at_least(0),
+        default=60.0,
+        help="wait this long for the first sample; 0: forever (default: 60)",
+    )
+    p.add_argument(
+        "--silence",
+        type=_at_least(0.01),
+        default=0.5,
+        help="seconds without a sample reported as a silence, which ends the window (default: 0.5)",
+    )
+    p.add_argument(
+        "--range",
+        type=_at_least(0),
+        default=0.0,
+        help="reject samples beyond +-RANGE g (default: the bundle's sensor_range_g, else 5 for the ADXL345)",
+    )
+    p.add_argument(
+        "--time-unit",
+        default="s",
+        choices=["s", "ms", "us", "samples"],
+        help="unit of the t field of t,x,y,z lines; 'samples' for a sample counter (default: s)",
+    )
     p.set_defaults(handler=_stream)
 
     p = sub.add_parser(
@@ -437,7 +577,12 @@ def build_parser() -> argparse.ArgumentParser:
         help="emulate the serial accelerometer: write a recorded or synthetic recording as 'x,y,z' lines",
     )
     p.add_argument(
-        "--port", required=True, help="serial port or pyserial URL (e.g. the other end of a pty pair)"
+        "--port", default="", help="serial port or pyserial URL (e.g. the other end of a pty pair)"
+    )
+    p.add_argument(
+        "--pty",
+        action="store_true",
+        help="instead of --port, open a pseudo-terminal and print the port to read",
     )
     p.add_argument("--data", default="", help="vibration .npz to play (default: a synthetic surface)")
     p.add_argument("--recording", type=int, default=0, help="index of the recording to play (default: 0)")
@@ -447,6 +592,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--baud", type=int, default=230400, help="baud rate (default: 230400)")
     p.add_argument("--fast", action="store_true", help="write as fast as possible instead of in real time")
+    p.add_argument("--timestamps", action="store_true", help="write 't,x,y,z' lines (t in seconds)")
     p.add_argument("--seed", type=int, default=0, help="synthetic: random seed (default: 0)")
     _add_allow_pickle(p)
     p.set_defaults(handler=_simulate_sensor)

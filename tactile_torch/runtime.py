@@ -46,6 +46,25 @@ LABELS_OUTPUT = "labels"
 SCORES_OUTPUT = "scores"
 
 
+class NonFiniteScoresError(ValueError):
+    """The graph gave NaN or infinite scores for some samples, so no label is returned for them.
+
+    Attributes
+    ----------
+    rows : ndarray of int
+        The samples (batch rows) whose scores are not all finite.
+    """
+
+    def __init__(self, rows: np.ndarray, batch: int) -> None:
+        self.rows = rows
+        shown = ", ".join(str(int(r)) for r in rows[:5]) + (", ..." if len(rows) > 5 else "")
+        super().__init__(
+            f"the bundle gave non-finite scores for {len(rows)} of {batch} sample(s) (rows {shown}), so no "
+            "label is returned: values far outside the sensor's range (e.g. a corrupted 1e30 sample) "
+            "overflow the features"
+        )
+
+
 @dataclass
 class LabelledInput:
     """Raw input read from a data file by :meth:`OnnxPipeline.read_npz`.
@@ -210,9 +229,18 @@ class OnnxPipeline:
         return np.rint(raw * 255.0).astype(np.uint8)
 
     def run(self, raw: np.ndarray) -> Mapping[str, np.ndarray]:
-        """Return every output of the graph for validated ``raw``, by name."""
+        """Return every output of the graph for validated ``raw``, by name.
+
+        Raises :class:`NonFiniteScoresError` when a sample's scores are not all finite: a label is
+        never returned with a NaN or infinite score.
+        """
         values = self.session.run(None, {self._input.name: self.validate(raw)})
-        return dict(zip(self._outputs, values, strict=True))
+        out = dict(zip(self._outputs, values, strict=True))
+        scores = out[SCORES_OUTPUT]
+        finite = np.isfinite(scores.reshape(len(scores), -1)).all(axis=1)
+        if not finite.all():
+            raise NonFiniteScoresError(np.flatnonzero(~finite), len(scores))
+        return out
 
     def predict(self, raw: np.ndarray) -> np.ndarray:
         """Return the predicted label of each sample, shape ``(B,)`` int64."""
@@ -310,4 +338,4 @@ class OnnxPipeline:
         )
 
 
-__all__ = ["LABELS_OUTPUT", "SCORES_OUTPUT", "LabelledInput", "OnnxPipeline"]
+__all__ = ["LABELS_OUTPUT", "SCORES_OUTPUT", "LabelledInput", "NonFiniteScoresError", "OnnxPipeline"]

@@ -190,7 +190,7 @@ def test_cli_stream_classifies_a_simulated_sensor(tmp_path, vibration_npz, capsy
     status = main(["stream", "--model", str(onnx_path), "--port", "/dev/robot-imu", "--max-windows", "4"])
     writer.join()
     os.close(master)
-    assert opened == [("/dev/robot-imu", {"baudrate": 230400, "timeout": 2.0})]
+    assert opened == [("/dev/robot-imu", {"baudrate": 230400, "timeout": 0.1})]
     assert status == 0
     out = capsys.readouterr().out
     printed = [line.split()[2] for line in out.splitlines()[1:5]]
