@@ -45,7 +45,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--data", default="", help="train on this .npz instead of running the study")
     args, extra = parser.parse_known_args(argv)
     if args.data:
-        model = str(Path(args.out) / f"{args.study}.pt")
+        model = str(Path(args.out) / f"{args.study}.npz")
         cmd = ["train", "--data", args.data, *TRAIN[args.study], "--seed", str(args.seed), "--out", model]
         return cli([*cmd, *extra])  # e.g. --window 400 --C 64 (later options win)
     path = run_report(args.out, random_state=args.seed, quick=args.quick, only=SECTIONS[args.study])
