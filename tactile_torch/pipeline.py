@@ -389,16 +389,17 @@ def build_default_bundles(
     built: dict[str, Bundle] = {}
     if any(k.startswith("vibration") for k in kinds):
         from .data.stylus import make_vibration_recordings
+        from .model_selection import odd_even_split
         from .signal import window_features
 
         rec = make_vibration_recordings(28, duration_s=10 if quick else 60, random_state=random_state)
         ds = rec.windows(800)
         X = window_features(ds.windows).double().numpy()
-        held_out = (ds.position % 2 == 1).numpy()
+        fit_on, held_out = odd_even_split(ds.position)  # the study's split: even-numbered windows held out
         source = {"kind": "vibration", "window": 800, "step": 800, "rate_hz": rec.rate_hz}
         raw, labels = ds.windows[held_out].numpy(), ds.labels[held_out].numpy()
         if "vibration-hmsvm" in kinds:
-            train = FeatureSet(X[~held_out], ds.labels.numpy()[~held_out], ds.class_names, source)
+            train = FeatureSet(X[fit_on], ds.labels.numpy()[fit_on], ds.class_names, source)
             model = train_classifier(train, "hmsvm", test_size=0.2, random_state=random_state)
             path = save_model(out / "vibration-hmsvm.npz", model, train)
             built["vibration-hmsvm"] = Bundle(pipeline_from_model(load_model_file(path)), path, raw, labels)
@@ -406,8 +407,8 @@ def build_default_bundles(
             from .mixture import PitmanYorGMM
             from .signal import ClusteringTransform
 
-            transform = ClusteringTransform(3).fit(X[~held_out])
-            pcs = transform.transform(X[~held_out])
+            transform = ClusteringTransform(3).fit(X[fit_on])
+            pcs = transform.transform(X[fit_on])
             sweeps = 40 if quick else 300
             mixture = PitmanYorGMM(
                 n_iter=sweeps, burn_in=sweeps // 4, random_state=random_state, progress=False
