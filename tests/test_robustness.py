@@ -218,7 +218,11 @@ def test_a_model_that_cannot_be_fitted_breaks_there():
     assert "3 per class" in curve.breaking.text and "needs 10 samples" in curve.note
     first = dataclasses.replace(f, levels=(3, 2))  # cannot be fitted at the first level already
     curve = sweep({"m": _NeedsLarge()}, X, y, factors=[first], n_splits=3, random_state=0).curves[0]
-    assert curve.levels == () and curve.breaking.status == "fit failed" and curve.breaking.text.startswith("3 per")
+    assert (
+        curve.levels == ()
+        and curve.breaking.status == "fit failed"
+        and curve.breaking.text.startswith("3 per")
+    )
 
 
 def _tiny_frames(n_per_class=4, seed=0):
