@@ -299,6 +299,8 @@ FACTORS: tuple[Degradation, ...] = (
 )
 """The default factors, in report order."""
 
+DEFAULT_TRIALS = 3
+"""Draws per level of a random factor that a per-factor ``n_trials`` mapping does not name."""
 DRIFT_TRAIN_SHARE = 0.3
 """Share of every recording that trains in the drift factor; the rest is cut into five test segments."""
 DRIFT_SEGMENTS = 5
@@ -501,7 +503,7 @@ def sweep(
     factors: Iterable[Degradation | str] | None = None,
     context: Mapping[str, Any] | None = None,
     n_splits: int = 5,
-    n_trials: int = 3,
+    n_trials: int | Mapping[str, int] = 3,
     n_bootstrap: int = 1000,
     random_state: RandomState = None,
     progress: bool = False,
@@ -533,8 +535,9 @@ def sweep(
         recording elapsed at each sample, in [0, 1), and ``recording``: recording of each sample (drift).
     n_splits : int
         Folds (at most as many as the rarest class has groups).
-    n_trials : int
-        Draws of every random degradation, averaged per sample.
+    n_trials : int or mapping of factor name to int
+        Draws of every random degradation, averaged per sample; a mapping gives them per factor (3 for a
+        factor it does not name), e.g. the study's 10 for the feature SNR and 1 for image noise.
     n_bootstrap : int
         Bootstrap replicates for the intervals.
     random_state : int, numpy or torch Generator, or None
@@ -563,8 +566,12 @@ def sweep(
         raise ValueError(
             f"kind must be one of {KINDS} and match X of shape {tuple(X.shape)} ({found!r}), got {kind!r}"
         )
-    for value, name in ((n_splits, "n_splits"), (n_trials, "n_trials"), (n_bootstrap, "n_bootstrap")):
+    trials = dict(n_trials) if isinstance(n_trials, Mapping) else {}
+    default_trials = DEFAULT_TRIALS if isinstance(n_trials, Mapping) else n_trials
+    for value, name in ((n_splits, "n_splits"), (default_trials, "n_trials"), (n_bootstrap, "n_bootstrap")):
         check_positive(value, name, integer=True)
+    for key, value in trials.items():
+        check_positive(value, f"n_trials[{key!r}]", integer=True)
     models = dict(models) if isinstance(models, Mapping) else {"model": models}
     if not models:
         raise ValueError("models must hold at least one estimator, got an empty mapping")
@@ -613,9 +620,8 @@ def sweep(
             rows = {m: [clean[m]] for m in names}
             bar = tqdm(total=len(levels), desc=f.name, disable=not progress, leave=False)
             for level in levels:
-                got = _sweep.evaluate(
-                    f, level, base, fitted, feats, whole, X, y, folds, context, n_trials, seed
-                )
+                n = trials.get(f.name, default_trials)
+                got = _sweep.evaluate(f, level, base, fitted, feats, whole, X, y, folds, context, n, seed)
                 for m in rows:
                     if not isinstance(rows[m][-1], str):
                         rows[m].append(got[m])

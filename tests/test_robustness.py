@@ -399,3 +399,14 @@ def test_write_breaking_points(tmp_path):
     assert (tmp_path / "out" / "breaking-feature-snr.png").read_bytes()[:4] == b"\x89PNG"
     data = json.loads((tmp_path / "out" / "breaking_points.json").read_text())
     assert data["curves"][0]["accuracy"] == result.curves[0].accuracy.tolist()
+
+
+def test_trials_per_factor():
+    X, y = _blobs()
+    one = sweep(
+        {"nc": NearestCentroid()}, X, y, factors=["feature SNR"], n_trials={"feature SNR": 1}, random_state=0
+    )
+    same = sweep({"nc": NearestCentroid()}, X, y, factors=["feature SNR"], n_trials=1, random_state=0)
+    assert np.array_equal(one.curves[0].accuracy, same.curves[0].accuracy)
+    with pytest.raises(ValueError, match=r"n_trials\['feature SNR'\] must be > 0"):
+        sweep({"nc": NearestCentroid()}, X, y, n_trials={"feature SNR": 0})

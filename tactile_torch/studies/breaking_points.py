@@ -28,8 +28,7 @@ SIZES = {
         "frames": 10,
         "seconds": 6.0,
         "folds": 2,
-        "trials": 1,
-        "image_noise_trials": 1,
+        "trials": {"feature SNR": 1, "image noise": 1, "sensor noise": 1, "training samples": 1},
         "image_models": ("fused + LDA", "fused + kNN"),  # 3 per class: too few for the HM-SVM
         "vibration_models": ("21 features + RBF SVM", "21 features + LDA"),
     },
@@ -38,8 +37,7 @@ SIZES = {
         "frames": 30,
         "seconds": 15.0,
         "folds": 3,
-        "trials": 2,
-        "image_noise_trials": 1,
+        "trials": {"feature SNR": 2, "image noise": 1, "sensor noise": 2, "training samples": 2},
         "image_models": ("fused + HM-SVM", "fused + LDA", "fused + kNN"),
         "vibration_models": ("21 features + RBF SVM", "21 features + LDA", "21 features + kNN"),
     },
@@ -48,8 +46,8 @@ SIZES = {
         "frames": 100,
         "seconds": 120.0,
         "folds": 5,
-        "trials": 10,  # the study's 10 trials per SNR
-        "image_noise_trials": 1,  # 25 cells x 160 explorations of 100 frames each
+        # the study's 10 trials per SNR; one draw of image noise (25 cells x 160 explorations x 100 frames)
+        "trials": {"feature SNR": 10, "image noise": 1, "sensor noise": 10, "training samples": 3},
         "image_models": None,  # every candidate
         "vibration_models": None,
     },
@@ -148,30 +146,18 @@ def image_sweep(ctx, progress: bool = True):
     size = SIZES[_mode(ctx)]
     frames, labels, _, pitch_px, _ = image_data(ctx)
     models = image_candidates(ctx.random_state, names=size["image_models"])
-    factors = _factors("image", ctx)
-    result = None
-    # Image noise draws a whole exploration set of Gaussian numbers per level and trial: fewer trials.
-    for chosen, trials in (
-        ([f for f in factors if f.name != "image noise"], size["trials"]),
-        ([f for f in factors if f.name == "image noise"], size["image_noise_trials"]),
-    ):
-        part = sweep(
-            models,
-            frames,
-            labels,
-            None,  # explorations are independent recordings (see the section text)
-            factors=chosen,
-            context={"pitch_px": pitch_px},
-            n_splits=size["folds"],
-            n_trials=trials,
-            random_state=ctx.random_state,
-            progress=progress,
-        )
-        if result is None:
-            result = part
-        else:
-            result.curves += part.curves
-            result.skipped += part.skipped
+    result = sweep(
+        models,
+        frames,
+        labels,
+        None,  # explorations are independent recordings (see the section text)
+        factors=_factors("image", ctx),
+        context={"pitch_px": pitch_px},
+        n_splits=size["folds"],
+        n_trials=size["trials"],
+        random_state=ctx.random_state,
+        progress=progress,
+    )
     return result, frames, labels, pitch_px
 
 
@@ -324,7 +310,9 @@ def _run(section, ctx) -> None:
         f"{frames.shape[-2]}x{frames.shape[-1]} px; folds stratified over explorations (each one an independent "
         "recording; objects recur across folds as in the study's protocol; the `claims` section also tests on "
         f"unseen objects). Texture pitch for the erosion factor: {pitch_px:.1f} px (median over the objects). "
-        f"{size['trials']} draw(s) per noise level."
+        "Draws per level of the random factors: "
+        + ", ".join(f"{name} {n}" for name, n in size["trials"].items())
+        + "."
     )
     add_results(section, result, name="method 1", study_model="fused + HM-SVM")
     _grid(section, result, ctx)
