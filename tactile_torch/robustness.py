@@ -754,9 +754,11 @@ def plot_grid(curve: Curve, means: Sequence[float], variances: Sequence[float]) 
 
 
 def write_breaking_points(
-    result: SweepResult, out_dir: str | Path, *, title: str = "Breaking points"
+    result: SweepResult | Sequence[Curve], out_dir: str | Path, *, title: str = "Breaking points"
 ) -> Path:
-    """Write a sweep's table and charts to ``out_dir``; return the path of the markdown file.
+    """Write a sweep's table and charts to ``out_dir`` (``DIR`` of ``tactile-torch tradeoff``); return
+    the path of the markdown file. ``result`` is a :class:`SweepResult` or the curves of
+    :func:`breaking_points`.
 
     Writes ``breaking_points.md`` (the table of :func:`breaking_table`, the skipped factors and one
     chart per factor), ``breaking_points.json`` (every curve: levels, accuracies, intervals, breaking
@@ -766,11 +768,14 @@ def write_breaking_points(
 
     import matplotlib.pyplot as plt
 
+    if not isinstance(result, SweepResult):
+        result = SweepResult(curves=list(result))
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     rows = breaking_table(result.curves)
     columns = list(rows[0]) if rows else []
-    lines = [f"# {title}", "", f"{result.n_splits} grouped folds; 95 % cluster-bootstrap intervals.", ""]
+    folds = f"{result.n_splits} grouped folds; " if result.n_splits else ""
+    lines = [f"# {title}", "", f"{folds}95 % cluster-bootstrap intervals.", ""]
     if rows:
         lines += ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
         lines += ["| " + " | ".join(str(r[c]).replace("|", "\\|") for c in columns) + " |" for r in rows]

@@ -410,3 +410,4 @@ def test_trials_per_factor():
     assert np.array_equal(one.curves[0].accuracy, same.curves[0].accuracy)
     with pytest.raises(ValueError, match=r"n_trials\['feature SNR'\] must be > 0"):
         sweep({"nc": NearestCentroid()}, X, y, n_trials={"feature SNR": 0})
+    assert write_breaking_points(result.curves, tmp_path / "curves").exists()  # the curves of breaking_points
