@@ -399,6 +399,7 @@ def test_write_breaking_points(tmp_path):
     assert (tmp_path / "out" / "breaking-feature-snr.png").read_bytes()[:4] == b"\x89PNG"
     data = json.loads((tmp_path / "out" / "breaking_points.json").read_text())
     assert data["curves"][0]["accuracy"] == result.curves[0].accuracy.tolist()
+    assert write_breaking_points(result.curves, tmp_path / "curves").exists()  # the curves of breaking_points
 
 
 def test_trials_per_factor():
@@ -410,4 +411,3 @@ def test_trials_per_factor():
     assert np.array_equal(one.curves[0].accuracy, same.curves[0].accuracy)
     with pytest.raises(ValueError, match=r"n_trials\['feature SNR'\] must be > 0"):
         sweep({"nc": NearestCentroid()}, X, y, n_trials={"feature SNR": 0})
-    assert write_breaking_points(result.curves, tmp_path / "curves").exists()  # the curves of breaking_points
