@@ -753,26 +753,47 @@ def plot_grid(curve: Curve, means: Sequence[float], variances: Sequence[float]) 
     return fig
 
 
-def write_breaking_points(
-    result: SweepResult | Sequence[Curve], out_dir: str | Path, *, title: str = "Breaking points"
-) -> Path:
-    """Write a sweep's table and charts to ``out_dir`` (``DIR`` of ``tactile-torch tradeoff``); return
-    the path of the markdown file. ``result`` is a :class:`SweepResult` or the curves of
-    :func:`breaking_points`.
-
-    Writes ``breaking_points.md`` (the table of :func:`breaking_table`, the skipped factors and one
-    chart per factor), ``breaking_points.json`` (every curve: levels, accuracies, intervals, breaking
-    point) and ``breaking-<factor>.png``.
-    """
-    import json
-
+def breaking_summary(result: SweepResult | Sequence[Curve], out_dir: str | Path) -> dict[str, Any]:
+    """Write one chart per factor to ``out_dir`` (``breaking-<factor>.png``) and return
+    ``{"rows": breaking_table(...), "figures": [paths], "skipped": [...]}``: what a results file such as
+    ``tactile-torch tradeoff``'s ``tradeoff.json`` / ``tradeoff.md`` holds about breaking points."""
     import matplotlib.pyplot as plt
 
     if not isinstance(result, SweepResult):
         result = SweepResult(curves=list(result))
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    rows = breaking_table(result.curves)
+    figures = []
+    for name, curves in result.by_factor().items():
+        slug = "".join(ch if ch.isalnum() else "-" for ch in name.lower()).strip("-")
+        fig = plot_factor(curves)
+        figures.append(out / f"breaking-{slug}.png")
+        fig.savefig(figures[-1], dpi=110, bbox_inches="tight")
+        plt.close(fig)
+    return {
+        "rows": breaking_table(result.curves),
+        "figures": [str(p) for p in figures],
+        "skipped": [list(s) for s in result.skipped],
+    }
+
+
+def write_breaking_points(
+    result: SweepResult | Sequence[Curve], out_dir: str | Path, *, title: str = "Breaking points"
+) -> Path:
+    """Write a sweep's table and charts to ``out_dir``; return the path of the markdown file.
+
+    ``result`` is a :class:`SweepResult` or the curves of :func:`breaking_points`. Writes
+    ``breaking_points.md`` (the table of :func:`breaking_table`, the skipped factors and one chart per
+    factor, see :func:`breaking_summary`), ``breaking_points.json`` (every curve: levels, accuracies,
+    intervals, breaking point) and ``breaking-<factor>.png``.
+    """
+    import json
+
+    if not isinstance(result, SweepResult):
+        result = SweepResult(curves=list(result))
+    out = Path(out_dir)
+    summary = breaking_summary(result, out)
+    rows = summary["rows"]
     columns = list(rows[0]) if rows else []
     folds = f"{result.n_splits} grouped folds; " if result.n_splits else ""
     lines = [f"# {title}", "", f"{folds}95 % cluster-bootstrap intervals.", ""]
@@ -780,12 +801,7 @@ def write_breaking_points(
         lines += ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
         lines += ["| " + " | ".join(str(r[c]).replace("|", "\\|") for c in columns) + " |" for r in rows]
     lines += [""] + [f"- not swept: {name} ({why})" for name, why in result.skipped]
-    for name, curves in result.by_factor().items():
-        slug = "".join(ch if ch.isalnum() else "-" for ch in name.lower()).strip("-")
-        fig = plot_factor(curves)
-        fig.savefig(out / f"breaking-{slug}.png", dpi=110, bbox_inches="tight")
-        plt.close(fig)
-        lines += ["", f"![{name}](breaking-{slug}.png)"]
+    lines += ["", *(f"![{Path(p).stem}]({Path(p).name})" for p in summary["figures"])]
     md = out / "breaking_points.md"
     md.write_text("\n".join(lines) + "\n")
     curves = [

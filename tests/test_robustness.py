@@ -387,7 +387,7 @@ def test_docs_list_every_factor():
 def test_write_breaking_points(tmp_path):
     import json
 
-    from tactile_torch.robustness import write_breaking_points
+    from tactile_torch.robustness import breaking_summary, write_breaking_points
 
     X, y = _blobs()
     result = sweep(
@@ -400,6 +400,9 @@ def test_write_breaking_points(tmp_path):
     data = json.loads((tmp_path / "out" / "breaking_points.json").read_text())
     assert data["curves"][0]["accuracy"] == result.curves[0].accuracy.tolist()
     assert write_breaking_points(result.curves, tmp_path / "curves").exists()  # the curves of breaking_points
+    summary = breaking_summary(result, tmp_path / "hook")  # tradeoff's results hook: rows and figures
+    assert summary["rows"] == breaking_table(result.curves) and summary["skipped"][0][0] == "drift"
+    assert [p.rsplit("/", 1)[1] for p in summary["figures"]] == ["breaking-feature-snr.png"]
 
 
 def test_trials_per_factor():
