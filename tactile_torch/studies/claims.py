@@ -214,11 +214,13 @@ def _features(data, erosion: int):
 
 def fusion_map(ctx, sources: list[dict]) -> tuple[list[dict], list[dict]]:
     """Rows of claim 1 and of claim 2 on every source."""
+    from tqdm.auto import tqdm
+
     from .image_features import features
 
     size = SIZES[_mode(ctx)]
     rows, unseen = [], []
-    for s in sources:
+    for s in tqdm(sources, desc="claims: image sources", disable=ctx.quick, leave=False):
         if s["name"].startswith("bundled generator (default"):
             cached = features(ctx)  # computed by the image_features section with the study's erosion
             fused, concat = cached["fused"], cached["unfused"]
@@ -233,19 +235,21 @@ def fusion_map(ctx, sources: list[dict]) -> tuple[list[dict], list[dict]]:
 
 def knob_map(ctx) -> list[dict]:
     """Fusion gain with one generator knob at a time away from its default (``--full``)."""
+    from tqdm.auto import tqdm
+
     from ..data.images import make_explorations
 
     size = SIZES[_mode(ctx)]
     rows = []
-    for knob, values in KNOBS.items():
-        for value in values:
-            kwargs = {"n_frames": size["knob_frames"]} | {knob: value}
-            data = make_explorations(size["knob_per_class"], random_state=ctx.random_state + 2, **kwargs)
-            fused, concat = _features(data, 10)
-            y = data.labels.numpy()
-            preds, n = _predictions(fused, concat, y, None, size["folds"], ctx.random_state, ctx.quick)
-            for row in _fusion_rows(f"{knob} = {value}", preds, y, n):
-                rows.append({"knob": knob, "value": str(value), **row})
+    settings = [(knob, value) for knob, values in KNOBS.items() for value in values]
+    for knob, value in tqdm(settings, desc="claims: generator knobs", disable=ctx.quick, leave=False):
+        kwargs = {"n_frames": size["knob_frames"]} | {knob: value}
+        data = make_explorations(size["knob_per_class"], random_state=ctx.random_state + 2, **kwargs)
+        fused, concat = _features(data, 10)
+        y = data.labels.numpy()
+        preds, n = _predictions(fused, concat, y, None, size["folds"], ctx.random_state, ctx.quick)
+        for row in _fusion_rows(f"{knob} = {value}", preds, y, n):
+            rows.append({"knob": knob, "value": str(value), **row})
     return rows
 
 
