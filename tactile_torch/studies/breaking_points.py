@@ -334,3 +334,82 @@ def _run(section, ctx) -> None:
         "(C = 16, gamma = 0.0186) on the 21 features scaled to unit standard deviation."
     )
     add_results(section, result, name="method 2", study_model="21 features + RBF SVM")
+    _real_sets(section, ctx, progress)
+
+
+def _real_sets(section, ctx, progress: bool) -> None:
+    """The same sweeps on real data under ``--full`` (when ``../shared/data`` is present): are the
+    breaking points a property of the method or of the bundled generator? HapMat (100 Hz IMU, 5
+    materials) for method 2, the Drimus pressure-array grasps (5 objects) for method 1."""
+    from ..data import shared_data_dir
+    from ..robustness import recording_blocks, sweep
+    from ._models import erosion_for, image_candidates, vibration_candidates
+
+    size = SIZES[_mode(ctx)]
+    done = []
+    if not ctx.full:
+        section.text(
+            "The same sweeps on real data (`hapmat_imu5` for method 2, `drimus_sdh_tactile` for method 1) run "
+            f"under `--full`: `{_command(dataclasses.replace(ctx, quick=False, full=True))}`."
+        )
+        return
+    if shared_data_dir("hapmat_imu5") is not None:
+        from ..data import load_hapmat_imu5
+
+        rec = load_hapmat_imu5()
+        ds = rec.windows(round(rec.rate_hz))  # 1 s windows, as W = 800 at 800 Hz
+        recording, position = ds.recording.numpy(), ds.position.numpy()
+        result = sweep(
+            vibration_candidates(ctx.random_state, names=size["vibration_models"]),
+            ds.windows,
+            ds.labels.numpy(),
+            recording_blocks(recording, position, n_blocks=5),
+            factors=_factors("vibration", ctx),
+            context={
+                "position": (position + 0.5) / np.bincount(recording)[recording],
+                "recording": recording,
+            },
+            n_splits=size["folds"],
+            n_trials=size["trials"],
+            random_state=ctx.random_state,
+            progress=progress,
+        )
+        section.text(
+            f"**Method 2 on real data**: `hapmat_imu5` (an IMU on a stick swiped over 5 materials, one 60 s "
+            f"recording each, 100 Hz; {len(ds)} windows of 1 s = {ds.windows.shape[-1]} samples; folds grouped "
+            "by blocks of consecutive windows). Its levels are the same numbers as the stylus's (g, samples), "
+            "on a signal 8 times slower and of a different scale."
+        )
+        add_results(section, result, name="method 2, hapmat_imu5", study_model="21 features + RBF SVM")
+        done.append("hapmat_imu5")
+    if shared_data_dir("drimus_sdh_tactile") is not None:
+        from ..data.images import load_drimus_grasps
+
+        data = load_drimus_grasps()
+        erosion = erosion_for(data.frames)
+        models = image_candidates(
+            ctx.random_state, erosion=erosion, names=("fused + LDA", "concatenated + LDA")
+        )
+        result = sweep(
+            models,
+            data.frames,
+            data.labels.numpy(),
+            None,
+            factors=_factors("image", ctx),
+            n_splits=size["folds"],
+            n_trials=size["trials"],
+            random_state=ctx.random_state,
+            progress=progress,
+        )
+        section.text(
+            f"**Method 1 on real data**: `drimus_sdh_tactile` (a Schunk hand's 14 x 6 pressure array, 5 grasped "
+            f"objects, {len(data)} grasps of {data.frames.shape[1]} frames rendered at "
+            f"{data.frames.shape[-2]}x{data.frames.shape[-1]} px; erosion {erosion} px, the study's 10 px scaled to "
+            "the frame; objects, not textures, so no texture pitch: the erosion factor is not swept)."
+        )
+        add_results(section, result, name="method 1, drimus_sdh_tactile", study_model="fused + LDA")
+        done.append("drimus_sdh_tactile")
+    if not done:
+        section.text(
+            "The real data sets were not found (`../shared/data`): breaking points on the bundled data only."
+        )
