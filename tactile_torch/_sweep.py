@@ -70,15 +70,24 @@ def stateless(step: Any) -> bool:
 
 
 def with_params(step: Any, params: Mapping[str, Any]) -> Any:
-    """A clone of ``step`` with ``params`` set (into ``kw_args`` for a ``FunctionTransformer``)."""
+    """A clone of ``step`` with ``params`` set (into ``kw_args`` for a ``FunctionTransformer`` whose
+    function takes them)."""
+    import inspect
+
     from sklearn.preprocessing import FunctionTransformer
 
     step = clone(step)
     names = step.get_params(deep=False)
     if all(k in names for k in params):
         return step.set_params(**params)
-    if isinstance(step, FunctionTransformer):
-        return step.set_params(kw_args={**(step.kw_args or {}), **params})
+    if isinstance(step, FunctionTransformer) and step.func is not None:
+        try:
+            accepted = inspect.signature(step.func).parameters
+        except (TypeError, ValueError):  # a builtin without a signature
+            accepted = {}
+        takes_any = any(p.kind is inspect.Parameter.VAR_KEYWORD for p in accepted.values())
+        if takes_any or all(k in accepted for k in params):
+            return step.set_params(kw_args={**(step.kw_args or {}), **params})
     raise ValueError(f"the features step {type(step).__name__} has no parameter(s) {sorted(params)}")
 
 

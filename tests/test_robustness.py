@@ -266,8 +266,22 @@ def test_every_image_factor_runs_on_tiny_frames():
 
 
 def test_parameter_factor_skips_models_without_the_parameter():
-    plain = _pipe(_mean_features)  # a FunctionTransformer whose function takes no erosion: kw_args get it
-    assert _sweep.with_params(plain.steps[0][1], {"erosion": 3}).kw_args == {"erosion": 3}
+    from tactile_torch.studies._models import image_features
+
+    fused = _pipe(image_features)  # a FunctionTransformer whose function takes erosion: kw_args get it
+    assert _sweep.with_params(fused.steps[0][1], {"erosion": 3}).kw_args == {"erosion": 3}
+    with pytest.raises(ValueError, match=r"has no parameter\(s\) \['erosion'\]"):
+        _sweep.with_params(_pipe(_mean_features).steps[0][1], {"erosion": 3})  # its function takes none
+    frames, y = _tiny_frames()
+    result = sweep(
+        {"plain": _pipe(_mean_features)},
+        frames,
+        y,
+        factors=["erosion / pitch"],
+        context={"pitch_px": 4},
+        n_splits=2,
+    )
+    assert result.curves == [] and result.skipped[0][0] == "erosion / pitch for plain"
     scaler_first = Pipeline([("features", StandardScaler()), ("c", NearestCentroid())])
     X, yb = _blobs()
     result = sweep(
