@@ -299,6 +299,22 @@ FACTORS: tuple[Degradation, ...] = (
 )
 """The default factors, in report order."""
 
+QUICK_LEVELS: dict[str, tuple] = {
+    "feature SNR": (20, 10, 5, 1, -3),
+    "image noise": ((0.1, 0.01), (0.3, 0.05), (0.5, 0.09)),  # on Table 4's diagonal
+    "frames": (20, 10, 5),
+    "sensel grid": (2, 4, 8),
+    "erosion / pitch": (0.25, 0.5, 1.0),
+    "training samples": (8, 4, 2),
+    "window": (200, 50, 25),
+    "sensor noise": (0.01, 0.03, 0.1),
+    "quantisation": (0.1, 0.5, 1.0),
+    "saturation": (0.5, 0.05, 0.01),
+    "sample rate": (4, 16, 32),
+}
+"""Shorter level lists for a quick sweep (``make run``'s section, ``tactile-torch tradeoff --quick``):
+``dataclasses.replace(factor(name), levels=QUICK_LEVELS[name], path=None)``."""
+
 DEFAULT_TRIALS = 3
 """Draws per level of a random factor that a per-factor ``n_trials`` mapping does not name."""
 DRIFT_TRAIN_SHARE = 0.3

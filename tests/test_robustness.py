@@ -119,6 +119,12 @@ def test_factors_are_declared_for_their_kinds():
     }
     assert {f.name for f in factors_for("vibration")} >= {"window", "sensor noise", "quantisation", "drift"}
     assert len(factor("image noise").levels) == 25 and len(factor("image noise").path) == 5
+    from tactile_torch.robustness import QUICK_LEVELS
+
+    for name, levels in QUICK_LEVELS.items():  # quick lists are sublists of the records', mildest first
+        full = factor(name).levels
+        assert all(v in full for v in levels), name
+        assert [full.index(v) for v in levels] == sorted(full.index(v) for v in levels), name
     with pytest.raises(ValueError, match="factor must be one of"):
         factor("nope")
     with pytest.raises(ValueError, match="kind must be one of"):

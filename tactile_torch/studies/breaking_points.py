@@ -52,20 +52,6 @@ SIZES = {
         "vibration_models": None,
     },
 }
-# Levels of the default and quick runs (the full run sweeps every level of the records).
-SHORT_LEVELS = {
-    "feature SNR": (20, 10, 5, 1, -3),
-    "image noise": tuple((m, 0.2 * m - 0.01) for m in (0.1, 0.3, 0.5)),  # on Table 4's diagonal
-    "frames": (20, 10, 5, 2),
-    "sensel grid": (2, 4, 8),
-    "erosion / pitch": (0.25, 0.5, 1.0, 2.0),
-    "training samples": (8, 4, 2),
-    "window": (200, 50, 25),
-    "sensor noise": (0.01, 0.03, 0.1),
-    "quantisation": (0.1, 0.5, 1.0),
-    "saturation": (0.5, 0.05, 0.01),
-    "sample rate": (4, 16, 32),
-}
 FULL_ONLY = ("image noise", "sensel grid")
 """Factors left to ``--full`` (and the quick smoke run): each level rewrites every pixel of every frame
 (Gaussian numbers for the whole set, or a coarser grid shown again at full size), several seconds per
@@ -86,17 +72,14 @@ def _command(ctx, only: str = "breaking_points") -> str:
 
 def _factors(kind: str, ctx):
     """The factors of ``kind`` at this run's levels (the full run: every level of the records)."""
-    from ..robustness import factors_for
+    from ..robustness import QUICK_LEVELS, factors_for
 
     chosen = []
     for f in factors_for(kind):
         if _mode(ctx) == "default" and f.name in FULL_ONLY:
             continue
-        if _mode(ctx) != "full" and f.name in SHORT_LEVELS:
-            levels = tuple(
-                tuple(round(v, 6) for v in lvl) if isinstance(lvl, tuple) else lvl
-                for lvl in SHORT_LEVELS[f.name]
-            )
+        if _mode(ctx) != "full" and f.name in QUICK_LEVELS:
+            levels = QUICK_LEVELS[f.name]
             f = dataclasses.replace(f, levels=levels[-2:] if ctx.quick else levels, path=None)
         chosen.append(f)
     return chosen
