@@ -305,11 +305,11 @@ QUICK_LEVELS: dict[str, tuple] = {
     "frames": (20, 10, 5),
     "sensel grid": (2, 4, 8),
     "erosion / pitch": (0.25, 0.5, 1.0),
-    "training samples": (8, 4, 2),
+    "training samples": (10, 5, 2),
     "window": (200, 50, 25),
-    "sensor noise": (0.01, 0.03, 0.1),
+    "sensor noise": (0.01, 0.02, 0.05, 0.1),
     "quantisation": (0.1, 0.5, 1.0),
-    "saturation": (0.5, 0.05, 0.01),
+    "saturation": (0.5, 0.05, 0.02),
     "sample rate": (4, 16, 32),
 }
 """Shorter level lists for a quick sweep (``make run``'s section, ``tactile-torch tradeoff --quick``):
