@@ -19,7 +19,7 @@ def _report(args: argparse.Namespace) -> int:
     from .studies import run_report
 
     only = [s for s in args.only.split(",") if s] if args.only else None
-    path = run_report(args.out, random_state=args.seed, quick=args.quick, only=only)
+    path = run_report(args.out, random_state=args.seed, quick=args.quick, only=only, full=args.full)
     print(f"report written to {path}")
     return 0
 
@@ -257,6 +257,64 @@ def _simulate_sensor(args: argparse.Namespace) -> int:
     return 0
 
 
+def _tradeoff(args: argparse.Namespace) -> int:
+    from .tradeoff import run_tradeoff, summary_lines, write_outputs
+
+    def number_or(name: str, text: str, *words: str) -> str | float | int:
+        if text in words:
+            return text
+        try:
+            return int(text) if text.isdigit() else float(text)
+        except ValueError:
+            raise ValueError(f"--{name} must be one of {list(words)} or a number, got {text!r}") from None
+
+    def int_list(name: str, text: str) -> list[int] | None:
+        if not text:
+            return None
+        if not all(part.strip().isdigit() for part in text.split(",")):
+            raise ValueError(f"--{name} must be comma-separated whole numbers, got {text!r}")
+        return [int(part) for part in text.split(",")]
+
+    options = [f"--data {' '.join(args.data)}", f"--out {args.out}", *(["--quick"] if args.quick else [])]
+    defaults = vars(build_parser().parse_args(["tradeoff", "--data", "-"]))
+    names = ("folds", "window", "windows", "frame_rate", "threshold", "erosion", "contact", "max_per_class")
+    names += ("classifiers", "features", "seed")
+    for name in names:
+        if getattr(args, name) != defaults[name]:
+            options.append(f"--{name.replace('_', '-')} {getattr(args, name)}")
+    command = "tactile-torch tradeoff " + " ".join(options)
+    try:
+        result = run_tradeoff(
+            args.data,
+            quick=args.quick,
+            n_folds=args.folds,
+            window=args.window,
+            windows=int_list("windows", args.windows),
+            frame_rate_hz=args.frame_rate,
+            threshold=number_or("threshold", args.threshold, "auto", "otsu", "display"),
+            erosion=number_or("erosion", args.erosion, "relative"),
+            contact=args.contact,
+            max_per_class=number_or("max-per-class", args.max_per_class, "auto"),
+            classifiers=args.classifiers.split(",") if args.classifiers else None,
+            features=args.features.split(",") if args.features else None,
+            out_dir=args.out,
+            random_state=args.seed,
+            allow_pickle=args.allow_pickle,
+            progress=not args.quiet,
+            log=(lambda line: None) if args.quiet else (lambda line: print(line, file=sys.stderr)),
+        )
+        paths = write_outputs(result, args.out, command=command)
+    except (ValueError, TypeError, FileNotFoundError) as err:
+        if args.debug:
+            raise
+        print(f"tactile-torch tradeoff: {err}", file=sys.stderr)
+        return 2
+    for line in summary_lines(result):
+        print(line)
+    print(f"written: {', '.join(str(p) for p in paths.values())} ({result.seconds:.0f} s)")
+    return 0
+
+
 def _add_allow_pickle(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--allow-pickle", action="store_true", help="allow object arrays in a trusted vibration .npz"
@@ -279,6 +337,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0, help="random seed of the whole run (default: 0)")
     p.add_argument("--quick", action="store_true", help="smaller data and fewer iterations, for a smoke test")
     p.add_argument("--only", default="", help="comma-separated study names to run (default: all)")
+    p.add_argument("--full", action="store_true", help="full-size studies where they exist (beyond make run)")
     p.set_defaults(handler=_report)
 
     p = sub.add_parser("bench", help="run the benchmarks and write bench/results (make bench)")
@@ -402,6 +461,51 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0, help="synthetic: random seed (default: 0)")
     _add_allow_pickle(p)
     p.set_defaults(handler=_simulate_sensor)
+
+    p = sub.add_parser(
+        "tradeoff",
+        help="speed against accuracy: evaluate candidate models on your data and recommend the simplest adequate one",
+        description="Cross-validate candidate models (HM-SVM, SVC, LDA, kNN, nearest class mean on every feature set) "
+        "on a data file, export each to ONNX and time it, and write OUT/tradeoff.json, OUT/tradeoff.md and charts of "
+        "accuracy against latency, size and time to a decision; the recommendation is the cheapest model on the "
+        "Pareto front within one standard error of the best (docs/tradeoff.md).",
+    )
+    p.add_argument(
+        "--data",
+        required=True,
+        nargs="+",
+        help="an image-exploration, pressure-map, vibration or feature .npz, or vibration CSV logs (t,x,y,z)",
+    )
+    p.add_argument("--out", default="runs/tradeoff", help="output directory (default: runs/tradeoff)")
+    p.add_argument("--quick", action="store_true", help="fewer candidates and at most 60 samples per class")
+    p.add_argument("--folds", type=int, default=5, help="cross-validation folds (default: 5)")
+    p.add_argument(
+        "--window", type=int, default=None, help="vibration: reference window in samples (default: 800)"
+    )
+    p.add_argument("--windows", default="", help="vibration: window sizes to try (default: 200,400,800,1600)")
+    p.add_argument(
+        "--frame-rate", type=float, default=None, help="explorations: frames/s (default: file or 10)"
+    )
+    p.add_argument(
+        "--threshold", default="auto", help="image threshold: auto (default), otsu, display or a number"
+    )
+    p.add_argument("--erosion", default="relative", help="erosion in pixels, or relative (default)")
+    p.add_argument(
+        "--contact",
+        default="raises",
+        choices=["raises", "lowers", "auto"],
+        help="pressure maps: does contact raise (default) or lower the reading",
+    )
+    p.add_argument("--max-per-class", default="auto", help="samples kept per class (default: 60 quick, 300)")
+    p.add_argument("--classifiers", default="", help="comma-separated subset of HM-SVM,SVC,LDA,kNN,NCM")
+    p.add_argument(
+        "--features", default="", help="comma-separated feature-set name prefixes (e.g. fused,top)"
+    )
+    p.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
+    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    p.add_argument("--debug", action="store_true", help="show the traceback of an error")
+    _add_allow_pickle(p)
+    p.set_defaults(handler=_tradeoff)
 
     return parser
 

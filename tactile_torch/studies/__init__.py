@@ -26,6 +26,7 @@ STUDIES: list[str] = [
     "vibration_features",  # method 2: windows and 21 features (tactile_torch.signal)
     "vibration_classification",  # method 2: RBF SVM, feature ranking (tactile_torch.svm)
     "clustering",  # method 2: Pitman-Yor mixture (tactile_torch.mixture)
+    "tradeoff",  # issue 12: speed against accuracy, the simplest adequate model (tactile_torch.tradeoff)
 ]
 
 
@@ -36,6 +37,7 @@ class RunContext:
     random_state: int = 0
     quick: bool = False
     out_dir: Path = Path("runs/latest")
+    full: bool = False  # tactile-torch report --full: the full-size studies (beyond make run's budget)
     cache: dict[str, Any] = field(default_factory=dict)
 
     def cached(self, key: str, make: Callable[[], Any]) -> Any:
@@ -52,15 +54,20 @@ def run_report(
     quick: bool = False,
     only: list[str] | None = None,
     log: Callable[[str], None] = print,
+    full: bool = False,
 ) -> Path:
-    """Run the studies (all, or those named in ``only``) and write the report; return its path."""
+    """Run the studies (all, or those named in ``only``) and write the report; return its path.
+
+    ``full`` runs the full-size version of the studies that have one (beyond ``make run``'s budget).
+    """
     unknown = sorted(set(only or []) - set(STUDIES))
     if unknown:
         raise ValueError(f"only must name studies among {STUDIES}, got unknown {unknown}")
     out_dir = Path(out_dir)
-    ctx = RunContext(random_state=random_state, quick=quick, out_dir=out_dir)
+    ctx = RunContext(random_state=random_state, quick=quick, out_dir=out_dir, full=full)
     report = Report(out_dir)
     cmd = f"tactile-torch report --out {out_dir} --seed {random_state}" + (" --quick" if quick else "")
+    cmd += " --full" if full else ""
     report.preamble.append(f"Written by `{cmd}` (`make run` runs it with the defaults).")
     missing = []
     for name in STUDIES:
