@@ -19,7 +19,7 @@ def _report(args: argparse.Namespace) -> int:
     from .studies import run_report
 
     only = [s for s in args.only.split(",") if s] if args.only else None
-    path = run_report(args.out, random_state=args.seed, quick=args.quick, only=only)
+    path = run_report(args.out, random_state=args.seed, quick=args.quick, full=args.full, only=only)
     print(f"report written to {path}")
     return 0
 
@@ -81,72 +81,101 @@ def _bench(args: argparse.Namespace) -> int:
     return subprocess.call(cmd)
 
 
-def _cluster(args: argparse.Namespace) -> int:
+def _cluster_data(args: argparse.Namespace):
+    """Return (X, true labels or None, source, transform) of the cluster command's --data, or an error line."""
     import numpy as np
     import torch
+
+    with np.load(args.data, allow_pickle=args.allow_pickle) as npz:
+        keys = set(npz.files)
+        labels = np.asarray(npz["labels"]) if "labels" in keys else None
+        if "features" in keys:  # labels optional: clustering does not need them
+            X = np.asarray(npz["features"])
+            if X.ndim != 2 or (labels is not None and labels.shape != (len(X),)):
+                shape = None if labels is None else labels.shape
+                return f"{args.data}: 'features' must be (n, D) and 'labels' (n,), got {X.shape} and {shape}"
+            return X, labels, {"kind": "features", "n_features": int(X.shape[1])}, None
+        if "signals" not in keys:
+            return f"{args.data} must hold vibration recordings ('signals') or a 'features' array (n, D), found {sorted(keys)}"
+        if "rate_hz" not in keys:
+            return f"{args.data}: vibration recordings need 'rate_hz' (the sample rate) next to 'signals'"
+        try:
+            signals = list(npz["signals"])
+        except ValueError:
+            return f"{args.data} stores recordings of different lengths as an object array: pass --allow-pickle if you trust it"
+        rate = float(npz["rate_hz"])
+        names = [str(c) for c in npz["class_names"]] if "class_names" in keys else None
+    from .data.vibration import VibrationRecordings
+    from .signal import ClusteringTransform, window_features
+
+    # labels and class names are optional: without them every recording is its own "class" for the
+    # window cutter, and no accuracy is reported
+    codes = np.arange(len(signals)) if labels is None else np.unique(labels, return_inverse=True)[1]
+    if names is None or labels is None:
+        names = [str(v) for v in (np.arange(len(signals)) if labels is None else np.unique(labels))]
+    rec = VibrationRecordings(signals=signals, labels=codes, class_names=tuple(names), rate_hz=rate)
+    ds = rec.windows(args.window, args.step)
+    if len(ds) == 0:
+        return f"{args.data}: no recording holds --window {args.window} samples"
+    feats = window_features(ds.windows.to(torch.float64))
+    transform = ClusteringTransform(args.components).fit(feats)
+    X = transform(feats).numpy()
+    print(f"{args.data}: {len(X)} windows of {args.window} samples -> {X.shape[1]} principal components")
+    source = {"kind": "vibration", "window": args.window, "step": args.step or args.window, "rate_hz": rate}
+    return X, (None if labels is None else ds.labels.numpy()), source, transform
+
+
+def _cluster(args: argparse.Namespace) -> int:
+    import numpy as np
 
     from .metrics import pairwise_accuracy
     from .mixture import PitmanYorGMM
     from .pipeline import save_clustering_model
-    from .training import load_features
 
-    with np.load(args.data, allow_pickle=False) as npz:
-        keys = set(npz.files)
-        if "features" in keys:  # labels optional: clustering does not need them
-            X, truth = npz["features"], (npz["labels"] if "labels" in keys else None)
-    if "features" in keys:
-        source = {"kind": "features", "n_features": int(X.shape[1]) if X.ndim == 2 else 0}
-    elif "signals" in keys:
-        features = load_features(
-            args.data, window=args.window, step=args.step, allow_pickle=args.allow_pickle
-        )
-        X, truth, source = features.X, features.y, dict(features.source)
-    else:
-        print(
-            f"tactile-torch cluster: {args.data} must hold vibration recordings ('signals') or a "
-            f"'features' array (n, D), found {sorted(keys)}",
-            file=sys.stderr,
-        )
+    data = _cluster_data(args)
+    if isinstance(data, str):
+        print(f"tactile-torch cluster: {data}", file=sys.stderr)
         return 2
-    kind = source["kind"]
-    transform = None
-    if kind == "vibration":
-        from .signal import ClusteringTransform
-
-        transform = ClusteringTransform(args.components).fit(torch.from_numpy(X))
-        X = transform(torch.from_numpy(X)).numpy()
-        print(f"{args.data}: {len(X)} windows of {args.window} samples -> {X.shape[1]} principal components")
+    X, truth, source, transform = data
     init = int(args.init) if args.init.isdigit() else args.init
     model = PitmanYorGMM(
         alpha=args.alpha,
         discount=args.discount,
         n_iter=args.n_iter,
         burn_in=args.burn_in,
+        n_chains=args.chains,
         init=init,
         random_state=args.seed,
         progress=not args.quiet,
     ).fit(X)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
+    ks = model.n_clusters_summary_
     np.savez(
         out / "clustering.npz",
         labels=model.labels_,
+        map_labels=model.map_labels_,
         means=model.means_,
         covariances=model.covariances_,
         precisions_cholesky=model.precisions_cholesky_,
         weights=model.weights_,
         n_clusters_samples=model.n_clusters_samples_,
+        n_clusters_interval=np.array(ks["interval"]),
         alpha_samples=model.alpha_samples_,
         discount_samples=model.discount_samples_,
     )
     save_clustering_model(out / "model.pt", model, source=source, transform=transform)
     summary = model.summary()
     if truth is not None:
-        summary += f"\npairwise accuracy of the MAP labels: {pairwise_accuracy(truth, model.labels_):.4f}"
+        summary += (
+            f"\npairwise accuracy: point estimate {pairwise_accuracy(truth, model.labels_):.4f}, "
+            f"MAP sample {pairwise_accuracy(truth, model.map_labels_):.4f}"
+        )
     (out / "summary.txt").write_text(summary + "\n")
     print(summary)
     print(
-        f"written: {out / 'clustering.npz'}, {out / 'summary.txt'}, {out / 'model.pt'} (tactile-torch export)"
+        f"written: {out / 'clustering.npz'}, {out / 'summary.txt'}, {out / 'model.pt'} (tactile-torch export: "
+        f"the point estimate's {model.n_clusters_} components)"
     )
     return 0
 
@@ -161,6 +190,8 @@ def _export(args: argparse.Namespace) -> int:
         f"exported {pipeline.name}: input ({pipeline.input_layout}) = {pipeline.input_shape}, "
         f"{len(pipeline.class_names)} classes -> {path} ({size:.0f} KiB)"
     )
+    if "k_exported" in pipeline.extra_metadata:  # a clustering: say which K, and why
+        print(pipeline.extra_metadata["k_exported"])
     return 0
 
 
@@ -220,11 +251,23 @@ def _stream(args: argparse.Namespace) -> int:
     port = serial.serial_for_url(args.port, baudrate=args.baud, timeout=args.timeout)
     reader = WindowReader(port, window_size=size, step=step, max_windows=args.max_windows or None)
     print(f"{pipe!r}: reading {args.port}, windows of {size} samples every {step}", flush=True)
+    discovery = _stream_discovery(args, pipe)
+    if isinstance(discovery, str):
+        print(f"tactile-torch stream: {discovery}", file=sys.stderr)
+        return 2
     for i, window in enumerate(reader):
         start = time.perf_counter()
-        labels, scores = pipe.predict_scores(window)
+        out = pipe.run(window)
+        labels, scores = out["labels"], out["scores"]
         ms = (time.perf_counter() - start) * 1e3
         name = pipe.class_names[int(labels[0])] if pipe.class_names else str(int(labels[0]))
+        if discovery is not None:
+            verdict = discovery.update(int(labels[0]), bool(out["novel"][0]))
+            name = verdict.name + (" (novel)" if verdict.novel else "")
+            if verdict.proposed:
+                print(
+                    f"new surface proposed: {verdict.name} ({verdict.run} novel windows in a row)", flush=True
+                )
         print(
             f"{i:>6} {reader.samples:>9} {name:<24} score {float(scores[0].max()):+.3f} ({ms:.2f} ms)",
             flush=True,
@@ -232,6 +275,17 @@ def _stream(args: argparse.Namespace) -> int:
     print(f"{reader.samples} samples read, {reader.skipped} lines skipped")
     port.close()
     return 0
+
+
+def _stream_discovery(args: argparse.Namespace, pipe):
+    """The stream's SurfaceDiscovery for --discover N (None without it), or an error line."""
+    if not args.discover:
+        return None
+    from .discovery import NOVEL_OUTPUT, SurfaceDiscovery
+
+    if NOVEL_OUTPUT not in [o.name for o in pipe.session.get_outputs()]:
+        return f"--discover needs a clustering bundle with a '{NOVEL_OUTPUT}' output (tactile-torch cluster, then export)"
+    return SurfaceDiscovery(args.discover, pipe.class_names)
 
 
 def _simulate_sensor(args: argparse.Namespace) -> int:
@@ -278,6 +332,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default="runs/latest", help="output directory (default: runs/latest)")
     p.add_argument("--seed", type=int, default=0, help="random seed of the whole run (default: 0)")
     p.add_argument("--quick", action="store_true", help="smaller data and fewer iterations, for a smoke test")
+    p.add_argument(
+        "--full", action="store_true", help="also the study-size experiments (minutes, not seconds)"
+    )
     p.add_argument("--only", default="", help="comma-separated study names to run (default: all)")
     p.set_defaults(handler=_report)
 
@@ -318,14 +375,16 @@ def build_parser() -> argparse.ArgumentParser:
         "cluster",
         help="discover surfaces with the Pitman-Yor mixture (how many, and which window is which)",
         description="Fit tactile_torch.mixture.PitmanYorGMM to vibration recordings (windows -> 21 features -> "
-        "the unsupervised transform -> principal components) or to a 'features' array (n, D); write the MAP "
-        "clustering and the posterior samples to OUT/clustering.npz, a summary to OUT/summary.txt and the "
-        "model to OUT/model.pt (for tactile-torch export).",
+        "the unsupervised transform -> principal components) or to a 'features' array (n, D); labels and "
+        "class names are optional. Write the point estimate of the clustering (and the MAP sample, the "
+        "posterior samples of K) to OUT/clustering.npz, a summary (posterior of K first) to OUT/summary.txt "
+        "and the model to OUT/model.pt (for tactile-torch export).",
     )
     p.add_argument(
         "--data",
         required=True,
-        help="vibration recordings .npz ('signals'), or 'features' (n, D) and optionally 'labels' (n,)",
+        help="vibration recordings .npz ('signals', 'rate_hz'; 'labels', 'class_names' optional), or "
+        "'features' (n, D) and optionally 'labels' (n,)",
     )
     p.add_argument("--out", default="runs/cluster", help="output directory (default: runs/cluster)")
     p.add_argument("--window", type=int, default=800, help="recordings: window in samples (default: 800)")
@@ -334,6 +393,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_allow_pickle(p)
     p.add_argument("--n-iter", type=int, default=2000, help="Gibbs sweeps, burn-in included (default: 2000)")
     p.add_argument("--burn-in", type=int, default=500, help="sweeps discarded (default: 500)")
+    p.add_argument("--chains", type=int, default=4, help="independent chains, run in parallel (default: 4)")
     p.add_argument("--alpha", type=float, default=None, help="fix the concentration (default: sampled)")
     p.add_argument("--discount", type=float, default=None, help="fix the discount; 0 = Dirichlet process")
     p.add_argument(
@@ -382,6 +442,13 @@ def build_parser() -> argparse.ArgumentParser:
         "--max-windows", type=int, default=0, help="stop after this many windows (default: no limit)"
     )
     p.add_argument("--threads", type=int, default=1, help="onnxruntime intra-op threads (default: 1)")
+    p.add_argument(
+        "--discover",
+        type=int,
+        default=0,
+        metavar="N",
+        help="clustering bundles: propose a new surface after N consecutive novel windows (default: off)",
+    )
     p.set_defaults(handler=_stream)
 
     p = sub.add_parser(

@@ -280,7 +280,10 @@ def test_overlapping_clusters_give_a_sensible_answer():
     X = np.concatenate([rng.normal(m, 1.0, size=(60, 2)) for m in ((0, 0), (2.5, 0), (0, 2.5))])
     y = np.repeat(np.arange(3), 60)
     model = PitmanYorGMM(n_iter=600, burn_in=200, random_state=0, progress=False).fit(X)
-    assert 2 <= model.n_clusters_ <= 5
+    # the point estimate: three substantial clusters (a few outliers may sit alone), inside the posterior of K
+    assert 2 <= (np.bincount(model.labels_) >= 9).sum() <= 4
+    lo, hi = model.n_clusters_summary_["interval"]
+    assert lo <= model.n_clusters_ <= hi
     assert pairwise_accuracy(y, model.labels_) > 0.8
 
 
@@ -661,15 +664,51 @@ def test_cli_cluster_writes_the_clustering(tmp_path, capsys):
         "--burn-in",
         "10",
     ]
-    assert main([*args, "--quiet", "--seed", "3"]) == 0
+    assert main([*args, "--quiet", "--seed", "3", "--chains", "2"]) == 0
     res = np.load(out / "clustering.npz")
     assert pairwise_accuracy(y, res["labels"]) == 1.0 and res["means"].shape == (3, 2)
-    assert res["n_clusters_samples"].shape == (30,)
-    assert "pairwise accuracy of the MAP labels: 1.0000" in (out / "summary.txt").read_text()
+    assert res["n_clusters_samples"].shape == (60,)  # 2 chains x 30 sweeps after burn-in
+    summary = (out / "summary.txt").read_text()
+    assert summary.splitlines()[1].startswith("K, posterior: mode 3")
+    assert "pairwise accuracy: point estimate 1.0000" in summary
     assert (out / "model.pt").is_file()  # for tactile-torch export (tests/test_pipeline.py)
     np.savez(tmp_path / "bad.npz", X=X)
     assert main(["cluster", "--data", str(tmp_path / "bad.npz"), "--out", str(out)]) == 2
     assert "or a 'features' array (n, D), found ['X']" in capsys.readouterr().err
+
+
+def test_cli_cluster_takes_recordings_without_labels_or_class_names(tmp_path, capsys):
+    from tactile_torch.cli import main
+    from tactile_torch.data.stylus import make_vibration_recordings
+
+    rec = make_vibration_recordings(3, duration_s=4.0, random_state=0)
+    signals = np.stack(rec.signals)
+    out = tmp_path / "out"
+    common = [
+        "--window",
+        "400",
+        "--n-iter",
+        "30",
+        "--burn-in",
+        "10",
+        "--chains",
+        "2",
+        "--quiet",
+        "--out",
+        str(out),
+    ]
+    np.savez(tmp_path / "nolabels.npz", signals=signals, rate_hz=rec.rate_hz)
+    assert main(["cluster", "--data", str(tmp_path / "nolabels.npz"), *common]) == 0
+    assert "pairwise accuracy" not in (out / "summary.txt").read_text()  # nothing to compare with
+    np.savez(tmp_path / "nonames.npz", signals=signals, rate_hz=rec.rate_hz, labels=rec.labels)
+    assert main(["cluster", "--data", str(tmp_path / "nonames.npz"), *common]) == 0
+    assert "pairwise accuracy: point estimate" in (out / "summary.txt").read_text()
+    capsys.readouterr()
+    np.savez(tmp_path / "norate.npz", signals=signals)
+    assert main(["cluster", "--data", str(tmp_path / "norate.npz"), *common]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.endswith("vibration recordings need 'rate_hz' (the sample rate) next to 'signals'")
+    assert len(err.splitlines()) == 1
 
 
 def test_clustering_study_quick_mode_writes_its_section(tmp_path):
@@ -680,15 +719,22 @@ def test_clustering_study_quick_mode_writes_its_section(tmp_path):
     path = run_report(tmp_path, quick=True, only=["clustering"], log=lambda s: None)
     text = path.read_text()
     assert "## Clustering: how many surfaces" in text
-    assert "Pitman-Yor mixture (MAP sample)" in text and "variational DP mixture" in text
-    for name in ("clustering-posterior-k", "clustering-accuracy-along-chain", "clustering-discount"):
-        assert (tmp_path / "figures" / f"{name}.png").exists()
+    assert "Pitman-Yor mixture: point estimate" in text and "variational DP mixture" in text
+    assert "Table 1" in text and "Novelty" in text and "R-hat" in text
+    for name in (
+        "clustering-posterior-k",
+        "clustering-similarity",
+        "clustering-accuracy-along-chain",
+        "clustering-discount",
+        "clustering-confusion",
+        "clustering-learning-curve",
+    ):
+        assert (tmp_path / "figures" / f"{name}.png").exists(), name
     tables = json.loads((tmp_path / "report.json").read_text())["sections"][0]["tables"]
-    pyp = tables[0]["rows"][0]
-    kmeans = tables[0]["rows"][1]
-    # a smoke run on few windows: the mixture must find a plausible K and do about as well as k-means given K
+    pyp, kmeans = tables[0]["rows"][0], tables[0]["rows"][2]
+    # a smoke run on 6 windows of 6 surfaces (two pairs deliberately alike): a plausible K and accuracy
     assert pyp["method"].startswith("Pitman-Yor") and 2 <= pyp["K found"] <= 2 * kmeans["K found"]
-    assert pyp["pairwise accuracy"] > min(0.85, kmeans["pairwise accuracy"] - 0.05)
+    assert pyp["pairwise accuracy"] > 0.7
 
 
 def test_learning_curve_rows():
@@ -702,22 +748,24 @@ def test_learning_curve_rows():
         (6, "DP", 24),
         (6, "PYP", 24),
     ]
-    assert rows[-1]["pairwise accuracy (MAP)"] == 1.0 and rows[-1]["MAP K"] == 4
+    assert rows[-1]["pairwise accuracy"] == 1.0 and rows[-1]["K point estimate"] == 4
 
 
-@pytest.mark.slow
-@pytest.mark.skipif(
-    not have_vibration_features(), reason="tactile_torch.signal (the vibration features) is not installed"
-)
 def test_real_accelerometer_sets_go_through_the_clustering_study(shared_data, tmp_path):
     # real-data counterpart of test_clustering_study_quick_mode_writes_its_section (synthetic data)
+    if not have_vibration_features():
+        pytest.skip("tactile_torch.signal (the vibration features) is not installed")
     from tactile_torch.report import Report
     from tactile_torch.studies import RunContext
     from tactile_torch.studies.clustering import real_data
 
     shared_data("hapmat_imu5")
     section = Report(tmp_path).section("real")
-    real_data(section, RunContext(quick=True), n_iter=60, burn_in=20)
-    rows = section.tables[-1]["rows"]
-    pyp = [r for r in rows if r["data set"] == "hapmat_imu5" and r["method"].startswith("Pitman-Yor")]
-    assert len(pyp) == 1 and pyp[0]["classes"] == 5 and 0.0 <= pyp[0]["pairwise accuracy"] <= 1.0
+    real_data(section, RunContext(quick=True), n_iter=40, burn_in=15)
+    k_rows, novelty_rows = section.tables[-2]["rows"], section.tables[-1]["rows"]
+    row = next(r for r in k_rows if r["data set"] == "hapmat_imu5")
+    assert row["classes"] == 5 and 0.0 <= row["pairwise accuracy (point estimate)"] <= 1.0
+    lo, hi = (float(v) for v in row["K 95% interval"].strip("[]").split(","))
+    assert lo <= row["K posterior mode"] <= hi
+    nov = next(r for r in novelty_rows if r["data"] == "hapmat_imu5")
+    assert 0.0 <= nov["recall (samples)"] <= 1.0 and 0.0 <= nov["false alarms (samples)"] <= 1.0
