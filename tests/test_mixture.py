@@ -769,3 +769,33 @@ def test_real_accelerometer_sets_go_through_the_clustering_study(shared_data, tm
     assert lo <= row["K posterior mode"] <= hi
     nov = next(r for r in novelty_rows if r["data"] == "hapmat_imu5")
     assert 0.0 <= nov["recall (samples)"] <= 1.0 and 0.0 <= nov["false alarms (samples)"] <= 1.0
+
+
+def test_cli_stream_discover_proposes_a_surface_the_clustering_never_saw(tmp_path, monkeypatch, capsys):
+    import io
+
+    import serial
+
+    from tactile_torch.cli import main
+    from tactile_torch.data.stylus import SURFACES, make_vibration_recordings
+    from tactile_torch.stream import format_sample
+
+    known = [SURFACES[0], SURFACES[5], SURFACES[7]]  # glass, cork, rubber
+    rec = make_vibration_recordings(surfaces=known, duration_s=8.0, random_state=0)
+    np.savez(tmp_path / "rec.npz", signals=np.stack(rec.signals), rate_hz=rec.rate_hz)
+    out = tmp_path / "cl"
+    common = ["--window", "400", "--n-iter", "60", "--burn-in", "20", "--chains", "2", "--quiet"]
+    assert main(["cluster", "--data", str(tmp_path / "rec.npz"), "--out", str(out), *common]) == 0
+    assert main(["export", "--model", str(out / "model.pt"), "--out", str(tmp_path / "cl.onnx")]) == 0
+    # the stream: a known surface, then one the clustering never saw (the coarsest sandpaper)
+    unseen = make_vibration_recordings(surfaces=[SURFACES[27]], duration_s=4.0, random_state=1).signals[0]
+    stream = np.concatenate([rec.signals[0][:2000], unseen])
+    lines = b"".join(format_sample(s) for s in stream)
+    monkeypatch.setattr(serial, "serial_for_url", lambda *a, **k: io.BytesIO(lines))
+    capsys.readouterr()
+    args = ["stream", "--model", str(tmp_path / "cl.onnx"), "--port", "test://", "--step", "400"]
+    assert main([*args, "--discover", "3"]) == 0
+    printed = capsys.readouterr().out
+    assert "new surface proposed: new surface 1" in printed
+    windows = [line for line in printed.splitlines() if " ms)" in line]
+    assert "novel" not in "".join(windows[:5]) and "new surface 1" in windows[-1]

@@ -28,7 +28,7 @@ _NOVELTY_DRAWS = 64
 # At most this many saved partitions (all chains) estimate the expected loss of the point estimate.
 _POINT_ESTIMATE_SAMPLES = 200
 # At most this many saved partitions per chain enter the posterior predictive of predict/predict_proba.
-_PREDICTIVE_SAMPLES = 100
+_PREDICTIVE_SAMPLES = 50
 _LOG_2PI = math.log(2.0 * math.pi)
 
 
