@@ -751,6 +751,7 @@ def test_learning_curve_rows():
     assert rows[-1]["pairwise accuracy"] == 1.0 and rows[-1]["K point estimate"] == 4
 
 
+@pytest.mark.slow
 def test_real_accelerometer_sets_go_through_the_clustering_study(shared_data, tmp_path):
     # real-data counterpart of test_clustering_study_quick_mode_writes_its_section (synthetic data)
     if not have_vibration_features():

@@ -15,8 +15,8 @@ drift over each recording) and, when present, on the real accelerometer sets of 
   Dirichlet process vs Pitman-Yor;
 - new surfaces: surfaces withheld from training, novelty recall and false alarms.
 
-``make run`` runs a reduced size (20 training windows of W = 800 per surface) within its time
-budget; ``tactile-torch report --full`` runs the study's size (W = 1600, up to 50 windows per
+``make run`` runs a reduced size (20 training windows of W = 800 per surface, 4 chains x 700
+sweeps) within its time budget; ``tactile-torch report --full`` runs the study's size (W = 1600, up to 50 windows per
 surface, longer chains, every window size). Where :mod:`tactile_torch.signal` is not installed,
 seeded Gaussian clusters in 3-D stand in.
 """
