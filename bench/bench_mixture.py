@@ -92,7 +92,7 @@ def run(quick: bool) -> dict:
     imp, fit = warm_startup_seconds()
     rows.append(
         {
-            "what": "import tactile_torch.mixture + default fit of 100 points (4 chains x 2000 sweeps), warm",
+            "what": "import tactile_torch.mixture + default fit of 100 points (4 chains x 1000 sweeps), warm",
             "N": 100,
             "seconds": imp + fit,
             "import_s": imp,

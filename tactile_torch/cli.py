@@ -391,8 +391,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--step", type=int, default=None, help="recordings: window hop (default: the window)")
     p.add_argument("--components", type=int, default=3, help="recordings: principal components (default: 3)")
     _add_allow_pickle(p)
-    p.add_argument("--n-iter", type=int, default=2000, help="Gibbs sweeps, burn-in included (default: 2000)")
-    p.add_argument("--burn-in", type=int, default=500, help="sweeps discarded (default: 500)")
+    p.add_argument(
+        "--n-iter", type=int, default=1000, help="Gibbs sweeps per chain, burn-in included (default: 1000)"
+    )
+    p.add_argument("--burn-in", type=int, default=250, help="sweeps discarded per chain (default: 250)")
     p.add_argument("--chains", type=int, default=4, help="independent chains, run in parallel (default: 4)")
     p.add_argument("--alpha", type=float, default=None, help="fix the concentration (default: sampled)")
     p.add_argument("--discount", type=float, default=None, help="fix the discount; 0 = Dirichlet process")
