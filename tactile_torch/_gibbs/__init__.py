@@ -24,9 +24,41 @@ reproducible and shares no global state; chains with their own generators run in
 
 from __future__ import annotations
 
-from .chain import SETTINGS, TRACE_NAMES, Settings, init_components, run_sweeps
-from .split_merge import MERGE_ACCEPTED, MERGE_PROPOSED, SPLIT_ACCEPTED, SPLIT_PROPOSED
-from .state import STATE, ChainState, copy_state, log_joint, new_state
+import hashlib
+from pathlib import Path
+
+
+def _drop_stale_kernels() -> None:
+    """Delete numba's cached kernels of this package when any of its sources changed.
+
+    numba keys a cached kernel on its own file only, but the entry kernels of ``chain`` have every
+    helper of the sibling modules compiled into them: an edit of ``linalg.py`` alone would leave a
+    stale ``run_sweeps`` in the cache. A fingerprint of all the package's sources, kept next to the
+    cache, catches that (an upgrade or an edit); the next import recompiles, as ``make install`` does.
+    """
+    here = Path(__file__).parent
+    digest = hashlib.sha256(b"".join(p.read_bytes() for p in sorted(here.glob("*.py")))).hexdigest()
+    cache = here / "__pycache__"
+    stamp = cache / "kernels.sha256"
+    try:
+        if stamp.read_text() == digest:
+            return
+    except OSError:
+        pass
+    try:
+        cache.mkdir(exist_ok=True)
+        for f in (*cache.glob("*.nbi"), *cache.glob("*.nbc")):
+            f.unlink()
+        stamp.write_text(digest)
+    except OSError:  # a read-only installation: numba then compiles in memory or in NUMBA_CACHE_DIR
+        pass
+
+
+_drop_stale_kernels()
+
+from .chain import SETTINGS, TRACE_NAMES, Settings, init_components, run_sweeps  # noqa: E402
+from .split_merge import MERGE_ACCEPTED, MERGE_PROPOSED, SPLIT_ACCEPTED, SPLIT_PROPOSED  # noqa: E402
+from .state import STATE, ChainState, copy_state, log_joint, new_state  # noqa: E402
 
 __all__ = [
     "MERGE_ACCEPTED",

@@ -1,9 +1,10 @@
 """Small dense linear algebra on D x D matrices for the Gibbs kernels, and the numba types they share.
 
-D is small (3 in the study): plain loops beat the overhead of a LAPACK call. Every kernel of the
-package is compiled once, for the exact types below (and cached on disk), rather than once per
-combination of argument types met at its call sites (numba specialises on literal arguments),
-which multiplied the compile time.
+D is small (3 in the study): plain loops beat the overhead of a LAPACK call. The entry kernels of the
+package (:func:`tactile_torch._gibbs.chain.run_sweeps`, ``init_components``) are compiled eagerly for
+the exact types below and cached on disk; the helpers here and in the sibling modules carry no
+signature and are compiled into them, so that importing the package loads a handful of cache
+entries instead of one per helper (what made the start-up slow).
 """
 
 from __future__ import annotations
@@ -18,7 +19,6 @@ f8, i8, b1, void = types.float64, types.int64, types.boolean, types.void
 A1, A2, A3 = (types.Array(types.float64, k, "C") for k in (1, 2, 3))
 I1 = types.Array(types.int64, 1, "C")
 RNG = numba.typeof(np.random.default_rng(0))
-UniTuple, Tuple = types.UniTuple, types.Tuple
 
 LOG2PI = math.log(2.0 * math.pi)
 LOGPI = math.log(math.pi)
