@@ -20,8 +20,10 @@ Examples
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import sys
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import TextIO
 
 NOVEL_OUTPUT = "novel"
 """Name of the novelty-flag output of an exported mixture graph."""
@@ -106,4 +108,38 @@ class SurfaceDiscovery:
         return WindowVerdict(self._known(int(label)), True, False, self._run)
 
 
-__all__ = ["NOVEL_OUTPUT", "SurfaceDiscovery", "WindowVerdict"]
+def stream_consumer(pipeline, n_consecutive: int, out: TextIO = sys.stdout) -> Callable[[object], None]:
+    """Return a consumer of ``tactile-torch stream``'s window results that proposes new surfaces.
+
+    ``pipeline`` is the :class:`~tactile_torch.runtime.OnnxPipeline` of an exported clustering; each
+    result's window is run through it for its ``novel`` output (a second, ~1 ms inference: the
+    stream's classifier does not keep that output) and fed to a :class:`SurfaceDiscovery`. Novel
+    windows and proposals are printed to ``out``. Raises ``ValueError`` when the bundle has no
+    ``novel`` output.
+    """
+    outputs = [o.name for o in pipeline.session.get_outputs()]
+    if NOVEL_OUTPUT not in outputs:
+        raise ValueError(
+            f"--discover needs a clustering bundle with a '{NOVEL_OUTPUT}' output (tactile-torch cluster, then "
+            f"export), got outputs {outputs}"
+        )
+    discovery = SurfaceDiscovery(n_consecutive, pipeline.class_names)
+
+    def consume(result) -> None:
+        if result.label is None:  # non-finite scores: nothing to say
+            return
+        novel = bool(pipeline.run(result.window.data)[NOVEL_OUTPUT][0])
+        verdict = discovery.update(result.label, novel)
+        if verdict.proposed:
+            print(
+                f"new surface proposed: {verdict.name} ({verdict.run} novel windows in a row)",
+                file=out,
+                flush=True,
+            )
+        if verdict.novel:
+            print(f"  novel window -> {verdict.name}", file=out, flush=True)
+
+    return consume
+
+
+__all__ = ["NOVEL_OUTPUT", "SurfaceDiscovery", "WindowVerdict", "stream_consumer"]

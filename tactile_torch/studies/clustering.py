@@ -187,7 +187,7 @@ def study_windows(ctx) -> dict[str, Any]:
         feats = window_features(ds.windows[torch.as_tensor(keep)].to(torch.float64))
         train = pos < sz["train"]
         transform = ClusteringTransform(n_components=3).fit(feats[torch.as_tensor(train)])
-        X = transform(feats).numpy()
+        X = np.asarray(transform.transform(feats))
         block = (pos - sz["train"]) // sz["test"]
         worn = [
             replace(s, rms_g=0.85 * s.rms_g, texture=0.85 * s.texture, impact_g=0.85 * s.impact_g)
@@ -204,7 +204,7 @@ def study_windows(ctx) -> dict[str, Any]:
             "X": X[train],
             "y": y[train],
             "tests": [(X[block == b], y[block == b]) for b in range(5)],
-            "session2": (transform(f2).numpy(), later.labels.numpy()[second]),
+            "session2": (np.asarray(transform.transform(f2)), later.labels.numpy()[second]),
             "transform": transform,
         }
 
@@ -546,7 +546,7 @@ def _window_sizes(section, ctx, sz: dict) -> None:
     for size in (200, 400, 800, 1600):
         ds = bundled_recordings(ctx).windows(size, max_per_recording=50)
         feats = window_features(ds.windows.to(torch.float64))
-        X = ClusteringTransform(n_components=3).fit(feats)(feats).numpy()
+        X = np.asarray(ClusteringTransform(n_components=3).fit_transform(feats))
         y = ds.labels.numpy()
         model = PitmanYorGMM(
             n_iter=sz["n_iter"] // 2,
@@ -585,7 +585,7 @@ def real_windows(name: str, per: int) -> tuple[np.ndarray, np.ndarray, np.ndarra
         ]
     )
     feats = window_features(ds.windows[torch.as_tensor(keep)].to(torch.float64))
-    X = ClusteringTransform(n_components=3).fit(feats)(feats).numpy()
+    X = np.asarray(ClusteringTransform(n_components=3).fit_transform(feats))
     return X, labels[keep], ds.position.numpy()[keep], len(rec.class_names)
 
 
