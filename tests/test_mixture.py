@@ -766,7 +766,13 @@ def test_cli_stream_discover_proposes_a_surface_the_clustering_never_saw(tmp_pat
 
     known = [SURFACES[0], SURFACES[5], SURFACES[7]]  # glass, cork, rubber
     rec = make_vibration_recordings(surfaces=known, duration_s=8.0, random_state=0)
-    np.savez(tmp_path / "rec.npz", signals=np.stack(rec.signals), rate_hz=rec.rate_hz)
+    np.savez(
+        tmp_path / "rec.npz",
+        signals=np.stack(rec.signals),
+        rate_hz=rec.rate_hz,
+        labels=rec.labels,
+        class_names=np.array(rec.class_names),
+    )
     out = tmp_path / "cl"
     common = ["--window", "400", "--n-iter", "60", "--burn-in", "20", "--chains", "2", "--quiet"]
     assert main(["cluster", "--data", str(tmp_path / "rec.npz"), "--out", str(out), *common]) == 0
@@ -777,7 +783,17 @@ def test_cli_stream_discover_proposes_a_surface_the_clustering_never_saw(tmp_pat
     lines = b"".join(format_sample(s) for s in stream)
     monkeypatch.setattr(serial, "serial_for_url", lambda *a, **k: io.BytesIO(lines))
     capsys.readouterr()
-    args = ["stream", "--model", str(tmp_path / "cl.onnx"), "--port", "test://", "--step", "400"]
+    args = [
+        "stream",
+        "--model",
+        str(tmp_path / "cl.onnx"),
+        "--port",
+        "test://",
+        "--step",
+        "400",
+        "--max-windows",
+        "13",
+    ]
     assert main([*args, "--discover", "3"]) == 0
     printed = capsys.readouterr().out
     assert "new surface proposed: new surface 1" in printed
