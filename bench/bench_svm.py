@@ -239,7 +239,7 @@ def run(quick: bool) -> dict:
         f"standardised; {N_TEST} test samples; C={C}, gamma='scale' (same float for both), "
         f"cache {CACHE_MB:.0f} MiB for both.",
         "Ratios are libsvm time / ours: > 1 means ours is faster.",
-        "Targets (issue 5): HM-SVM fit no slower than libsvm's multi-class fit (fit ratio >= 1 on the "
+        "Targets: HM-SVM fit no slower than libsvm's multi-class fit (fit ratio >= 1 on the "
         "multi-class rows); prediction >= 5x faster per sample at batch 1000 (predict @1000 ratio >= 5); "
         "accuracy within 0.5 points.",
         "'HM-SVM with libsvm nodes' rows: the tree of our HM-SVM (same 2-means splits) with every node "

@@ -392,7 +392,7 @@ def _vibration_binary_tasks(rec, size):
     position = ds.position.numpy()
     train, test = np.flatnonzero(position % 2 == 0), np.flatnonzero(position % 2 == 1)
     feats = window_features(ds.windows).double()
-    X = FeatureScaler().fit(feats[torch.from_numpy(train)])(feats).numpy()
+    X = FeatureScaler().fit(feats[torch.from_numpy(train)]).transform(feats).numpy()
     y = ds.labels.numpy()
     for k in range(min(3, len(rec.class_names))):
         yield X[train], y[train] == k, X[test]
@@ -411,7 +411,6 @@ def _check_against_libsvm(rec, size):
 
 @pytest.mark.parametrize("name", ["hapmat_imu5", "borealtc_imu"])
 def test_svc_matches_libsvm_on_real_vibration_windows(name, shared_data):
-    pytest.importorskip("tactile_torch.signal", reason="needs tactile_torch.signal (issue 4)")
     from tactile_torch import data
 
     root = shared_data(name)
@@ -420,7 +419,6 @@ def test_svc_matches_libsvm_on_real_vibration_windows(name, shared_data):
 
 
 def test_svc_matches_libsvm_on_synthetic_vibration_windows():
-    pytest.importorskip("tactile_torch.signal", reason="needs tactile_torch.signal (issue 4)")
     from tactile_torch.data.stylus import make_vibration_recordings
 
     _check_against_libsvm(make_vibration_recordings(6, duration_s=20.0, random_state=0), 400)

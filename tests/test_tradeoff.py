@@ -196,7 +196,7 @@ def test_bad_input_gets_one_clear_line(tmp_path, recordings, capsys):
     with pytest.raises(FileNotFoundError, match="no such file"):
         load_tradeoff_data(tmp_path / "missing.npz")
     (tmp_path / "notes.txt").write_text("x")
-    with pytest.raises(ValueError, match=r"one \.npz file or one or more \.csv"):
+    with pytest.raises(ValueError, match=r"notes\.txt: expected a data file"):
         load_tradeoff_data(tmp_path / "notes.txt")
     np.savez(tmp_path / "other.npz", pictures=np.zeros(3))
     with pytest.raises(ValueError, match="expected image explorations"):

@@ -3,7 +3,8 @@
 Runs, at the study's scale (10,000 sweeps by default), on the features of ``--data``:
 
 - the comparison with k-means / EM given K, EM + BIC and the variational DP mixture (Table 2),
-- the posterior over K and the MAP clustering (Fig. 9), the posterior of the discount (Fig. 15),
+- the posterior over K (mode, median, 95 % interval), the point estimate of the clustering (minimum
+  expected Variation of Information) and the MAP sample, convergence across chains (R-hat, ESS),
 - the learning curve (1 ... 50 windows per surface) for the Dirichlet-process and Pitman-Yor priors,
 
 and writes a report (``report.md``, ``report.json``, figures) under ``--out``. The logic lives in
@@ -22,6 +23,7 @@ import sys
 
 import numpy as np
 
+from tactile_torch.formats import read_features
 from tactile_torch.report import Report
 from tactile_torch.studies.clustering import cluster_and_compare, learning_curve, synthetic_clusters
 
@@ -32,8 +34,8 @@ def load_features(name: str, seed: int, quick: bool) -> tuple[np.ndarray, np.nda
         n_clusters, per = (8, 20) if quick else (28, 50)
         X, y = synthetic_clusters(n_clusters, per, seed=seed)
         return X, y, f"{n_clusters} seeded Gaussian clusters x {per} points in D = 3"
-    with np.load(name, allow_pickle=False) as data:
-        return data["features"], data["labels"], f"features and labels of {name}"
+    data = read_features(name, require_labels=True)  # docs/formats.md: one line naming a bad field
+    return data.features, data.labels, f"features and labels of {name}"
 
 
 def main(argv: list[str] | None = None) -> int:

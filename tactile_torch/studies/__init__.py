@@ -17,8 +17,7 @@ from typing import Any
 
 from ..report import Report
 
-# Report order. Each entry is a module of this package with TITLE and run(section, ctx); a study
-# whose module does not exist yet is listed in the report as not built rather than silently dropped.
+# Report order. Each entry is a module of this package with TITLE and run(section, ctx).
 STUDIES: list[str] = [
     "environment",
     "image_features",  # method 1: tactile-image pipeline (tactile_torch.image)
@@ -26,7 +25,7 @@ STUDIES: list[str] = [
     "vibration_features",  # method 2: windows and 21 features (tactile_torch.signal)
     "vibration_classification",  # method 2: RBF SVM, feature ranking (tactile_torch.svm)
     "clustering",  # method 2: Pitman-Yor mixture (tactile_torch.mixture)
-    "tradeoff",  # issue 12: speed against accuracy, the simplest adequate model (tactile_torch.tradeoff)
+    "tradeoff",  # speed against accuracy, the simplest adequate model (tactile_torch.tradeoff)
 ]
 
 
@@ -36,8 +35,8 @@ class RunContext:
 
     random_state: int = 0
     quick: bool = False
+    full: bool = False  # --full: the study-size experiments that do not fit make run's time budget
     out_dir: Path = Path("runs/latest")
-    full: bool = False  # tactile-torch report --full: the full-size studies (beyond make run's budget)
     cache: dict[str, Any] = field(default_factory=dict)
 
     def cached(self, key: str, make: Callable[[], Any]) -> Any:
@@ -52,34 +51,24 @@ def run_report(
     *,
     random_state: int = 0,
     quick: bool = False,
+    full: bool = False,
     only: list[str] | None = None,
     log: Callable[[str], None] = print,
-    full: bool = False,
 ) -> Path:
-    """Run the studies (all, or those named in ``only``) and write the report; return its path.
-
-    ``full`` runs the full-size version of the studies that have one (beyond ``make run``'s budget).
-    """
+    """Run the studies (all, or those named in ``only``) and write the report; return its path."""
     unknown = sorted(set(only or []) - set(STUDIES))
     if unknown:
         raise ValueError(f"only must name studies among {STUDIES}, got unknown {unknown}")
     out_dir = Path(out_dir)
-    ctx = RunContext(random_state=random_state, quick=quick, out_dir=out_dir, full=full)
+    ctx = RunContext(random_state=random_state, quick=quick, full=full, out_dir=out_dir)
     report = Report(out_dir)
     cmd = f"tactile-torch report --out {out_dir} --seed {random_state}" + (" --quick" if quick else "")
     cmd += " --full" if full else ""
     report.preamble.append(f"Written by `{cmd}` (`make run` runs it with the defaults).")
-    missing = []
     for name in STUDIES:
         if only and name not in only:
             continue
-        try:
-            module = importlib.import_module(f"{__name__}.{name}")
-        except ModuleNotFoundError as err:
-            if err.name != f"{__name__}.{name}":
-                raise
-            missing.append(name)
-            continue
+        module = importlib.import_module(f"{__name__}.{name}")
         section = report.section(module.TITLE)
         start = time.perf_counter()
         log(f"[report] {module.TITLE} ...")
@@ -87,9 +76,4 @@ def run_report(
         seconds = time.perf_counter() - start
         section.text(f"_Section computed in {seconds:.1f} s._")
         log(f"[report] {module.TITLE}: {seconds:.1f} s")
-    if missing:
-        report.preamble.append(
-            "Not built yet, so not in this report: " + ", ".join(f"`{m}`" for m in missing) + "."
-        )
-        log(f"[report] not built yet: {', '.join(missing)}")
     return report.write()

@@ -38,18 +38,10 @@ def _command(ctx) -> str:
 
 
 def _vibration_data(ctx):
-    from ..tradeoff.inputs import TradeoffData
+    from ..tradeoff.inputs import vibration_data
     from .vibration_features import bundled_recordings
 
-    rec = bundled_recordings(ctx)
-    return TradeoffData(
-        kind="vibration",
-        class_names=tuple(rec.class_names),
-        description=f"bundled stylus recordings: {len(rec)} surfaces, {rec.durations_s[0]:g} s each at "
-        f"{rec.rate_hz:g} Hz",
-        recordings=rec,
-        rate_hz=float(rec.rate_hz),
-    )
+    return vibration_data(bundled_recordings(ctx), "bundled stylus recordings")
 
 
 def _image_data(ctx):

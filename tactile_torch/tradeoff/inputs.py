@@ -78,7 +78,8 @@ class TradeoffData:
     kind : {"vibration", "image", "pressure", "features"}
     class_names : tuple of str
     description : str
-    recordings : VibrationRecordings or None
+    recordings : RecordingArrays, VibrationRecordings or None
+        Anything with ``signals``, ``labels``, ``class_names``, ``rate_hz`` and ``session``.
     raw : ndarray or None
         Frames, pressure maps or features (not vibration).
     labels, groups : ndarray or None
@@ -103,120 +104,79 @@ class TradeoffData:
     precomputed: dict[str, tuple[np.ndarray, float]] = field(default_factory=dict)
 
 
-def _csv_class(path: Path) -> str:
-    # <class>/<any>.csv (one folder per class) or <class>_<k>.csv (one file per recording)
-    stem = path.stem.rsplit("_", 1)[0] if "_" in path.stem else path.stem
-    return stem
-
-
 def load_tradeoff_data(
     paths: str | Path | Sequence[str | Path],
     *,
     frame_rate_hz: float | None = None,
     allow_pickle: bool = False,
 ) -> TradeoffData:
-    """Read a data file (or CSV logs) of DESIGN.md's formats for :func:`~tactile_torch.tradeoff.run_tradeoff`.
+    """Read a data file (or CSV logs) for :func:`~tactile_torch.tradeoff.run_tradeoff`, with
+    :func:`tactile_torch.formats.read_data` (docs/formats.md).
 
     Parameters
     ----------
     paths : path or sequence of paths
         One ``.npz`` (image explorations ``frames``, raw pressure maps ``frames`` ``(N, T, H, W)``
-        float, vibration recordings ``signals`` or a ``features`` matrix), or vibration CSV logs
-        ``t,x,y,z`` (one recording per file; class = the file name before its last ``_``, or the
-        folder name when every file sits in a folder named after its class, as ``cork/run1.csv``).
+        float, vibration recordings ``signals`` or a ``features`` matrix with ``labels``), or vibration
+        CSV logs ``t,x,y,z`` (one recording per file, class from the file name).
     frame_rate_hz : float, optional
-        Frames per second of explorations (default: the file's ``rate_hz`` if any, else 10).
+        Frames per second of explorations (default 10, the study's).
     allow_pickle : bool
-        Vibration files with recordings of different lengths need it (trusted files only).
+        Legacy vibration files that pickled recordings of different lengths (trusted files only).
 
     Raises
     ------
     ValueError
-        For an unknown file kind or missing keys (one line naming the file).
+        For an unknown file kind, a missing key or labels (one line naming the file).
     FileNotFoundError
         If a path does not exist.
     """
-    paths = [Path(paths)] if isinstance(paths, str | Path) else [Path(p) for p in paths]
-    if not paths:
-        raise ValueError("data must name at least one file, got none")
-    for p in paths:
-        if not p.is_file():
-            raise FileNotFoundError(f"data must name existing files, got {str(p)!r} (no such file)")
-    suffixes = {p.suffix.lower() for p in paths}
-    if suffixes == {".csv"}:
-        from ..data.vibration import load_vibration_csv
+    from ..formats import data_name, read_data
 
-        folders = {p.parent.name for p in paths}
-        by_folder = len(folders) > 1 and all(p.parent.name for p in paths)
-        names = [p.parent.name if by_folder else _csv_class(p) for p in paths]
-        rec = load_vibration_csv(paths, class_names=names)
-        return _vibration(rec, f"{len(paths)} CSV logs")
-    if suffixes != {".npz"} or len(paths) != 1:
-        raise ValueError(
-            f"data must be one .npz file or one or more .csv logs, got {[str(p) for p in paths]}"
-        )
-    path = paths[0]
-    with np.load(path, allow_pickle=False) as npz:
-        keys = set(npz.files)
-        file_rate = float(npz["rate_hz"]) if "rate_hz" in keys and npz["rate_hz"].ndim == 0 else None
-        frames_ndim = npz["frames"].ndim if "frames" in keys else 0
-    if "signals" in keys:
-        from ..data.vibration import load_vibration_npz
-
-        return _vibration(load_vibration_npz(path, allow_pickle=allow_pickle), path.name)
-    if "frames" in keys:
-        from ..data.images import load_explorations
-
-        data = load_explorations(path)
+    data = read_data(paths, allow_pickle=allow_pickle)
+    name = Path(data_name(paths)).name
+    if data.kind == "vibration":
+        return vibration_data(data, name)
+    if data.kind == "image":
         notes = []
-        rate = frame_rate_hz or file_rate
-        if rate is None:
-            rate = DEFAULT_FRAME_RATE_HZ
-            notes.append(f"frame rate not in the file: {rate:g} frames/s assumed (--frame-rate to set it)")
-        kind = "pressure" if frames_ndim == 4 else "image"
-        raw = data.pressure.numpy() if kind == "pressure" else data.frames.numpy()
+        if frame_rate_hz is None:
+            frame_rate_hz = DEFAULT_FRAME_RATE_HZ
+            notes.append(f"frame rate not given: {frame_rate_hz:g} frames/s assumed (--frame-rate to set it)")
+        kind = "pressure" if data.frames is None else "image"
+        raw = data.pressure if kind == "pressure" else np.ascontiguousarray(data.frames.transpose(0, 1, 4, 2, 3))
+        what = "taxels (raw pressure maps)" if kind == "pressure" else "pixels (RGB)"
         return TradeoffData(
             kind=kind,
             class_names=tuple(data.class_names),
-            description=f"{path.name}: {len(data)} explorations of {raw.shape[1]} frames of "
-            f"{raw.shape[-2]} x {raw.shape[-1]} {'taxels (raw pressure maps)' if kind == 'pressure' else 'pixels (RGB)'}",
+            description=f"{name}: {len(data)} explorations of {raw.shape[1]} frames of "
+            f"{raw.shape[-2]} x {raw.shape[-1]} {what}",
             raw=raw,
-            labels=data.labels.numpy(),
-            groups=None if data.groups is None else data.groups.numpy(),
-            rate_hz=float(rate),
+            labels=data.labels,
+            groups=data.groups,
+            rate_hz=float(frame_rate_hz),
             notes=notes,
         )
-    if "features" in keys:
-        from ..training import load_features
-
-        feats = load_features(path)
-        with np.load(path, allow_pickle=False) as npz:
-            groups = np.asarray(npz["groups"]) if "groups" in npz.files else None
-        if groups is not None and groups.shape != feats.y.shape:
-            raise ValueError(f"{path}: groups must have shape {feats.y.shape}, got {groups.shape}")
-        return TradeoffData(
-            kind="features",
-            class_names=tuple(feats.class_names),
-            description=f"{path.name}: {feats.X.shape[0]} samples x {feats.X.shape[1]} features",
-            raw=feats.X,
-            labels=feats.y,
-            groups=groups,
-        )
-    raise ValueError(
-        f"{path}: expected image explorations ('frames'), vibration recordings ('signals') or a feature "
-        f"matrix ('features'), got keys {sorted(keys)}"
+    if data.labels is None:
+        raise ValueError(f"{data_name(paths)}: a feature file needs 'labels' next to 'features' to compare models")
+    return TradeoffData(
+        kind="features",
+        class_names=tuple(data.class_names),
+        description=f"{name}: {data.features.shape[0]} samples x {data.features.shape[1]} features",
+        raw=data.features,
+        labels=data.labels,
     )
 
 
-def _vibration(rec: object, name: str) -> TradeoffData:
-    lengths = [len(s) for s in rec.signals]
+def vibration_data(recordings: object, name: str) -> TradeoffData:
+    """Wrap recordings (``signals``, ``labels``, ``class_names``, ``rate_hz``, ``session``) for the study."""
+    lengths = [len(s) for s in recordings.signals]
     return TradeoffData(
         kind="vibration",
-        class_names=tuple(rec.class_names),
-        description=f"{name}: {len(rec)} recordings of {min(lengths)}-{max(lengths)} samples at "
-        f"{rec.rate_hz:g} Hz, {len(rec.class_names)} classes",
-        recordings=rec,
-        rate_hz=float(rec.rate_hz),
+        class_names=tuple(recordings.class_names),
+        description=f"{name}: {len(recordings.signals)} recordings of {min(lengths)}-{max(lengths)} samples at "
+        f"{recordings.rate_hz:g} Hz, {len(recordings.class_names)} classes",
+        recordings=recordings,
+        rate_hz=float(recordings.rate_hz),
     )
 
 
@@ -321,11 +281,11 @@ def vibration_samples(
                 f"{longest} samples = {longest / recordings.rate_hz:g} s at {recordings.rate_hz:g} Hz); "
                 "choose a shorter --window"
             )
-    ds = recordings.windows(window)
-    X = ds.windows.numpy()
-    y = ds.labels.numpy()
-    recording = ds.recording.numpy()
-    position = ds.position.numpy()
+    from ..formats import window_recordings
+
+    ds = window_recordings(recordings.signals, window)
+    X, recording, position = ds.windows, ds.recording, ds.position
+    y = np.asarray(recordings.labels)[recording]
     rate = float(recordings.rate_hz)
     session = recordings.session if recordings.session is not None else np.arange(len(recordings))
     group = _group_ids(np.asarray(session))[recording]
@@ -409,5 +369,6 @@ __all__ = [
     "exploration_samples",
     "load_tradeoff_data",
     "sample_folds",
+    "vibration_data",
     "vibration_samples",
 ]
