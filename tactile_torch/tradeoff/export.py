@@ -25,11 +25,8 @@ candidate's file against the pipeline's on held-out samples).
 from __future__ import annotations
 
 import contextlib
-import io
 import json
-import logging
 import math
-import warnings
 from pathlib import Path
 
 import numpy as np
@@ -108,29 +105,6 @@ def share_tree_depth(head: nn.Module) -> None:
         head.depth = -(-depth // DEPTH_STEP) * DEPTH_STEP
 
 
-def _quiet_export(module: nn.Module, args: tuple, dynamic_shapes: tuple, input_names: list[str]):
-    """``torch.onnx.export(dynamo=True)`` with the given dynamic shapes, quietly; return the ModelProto."""
-    logger = logging.getLogger("torch.onnx")
-    level = logger.level
-    logger.setLevel(logging.ERROR)
-    try:
-        with warnings.catch_warnings(), contextlib.redirect_stdout(io.StringIO()):
-            warnings.simplefilter("ignore")
-            program = torch.onnx.export(
-                module,
-                args,
-                dynamo=True,
-                dynamic_shapes=dynamic_shapes,
-                input_names=input_names,
-                output_names=["labels", "scores"],
-                optimize=True,
-                verbose=False,
-            )
-    finally:
-        logger.setLevel(level)
-    return program.model_proto
-
-
 def export_front(step: object, example: np.ndarray, path: str | Path) -> Path:
     """Export the fitted ``features`` step's module (input ``raw``, dynamic batch; output ``features``).
 
@@ -157,8 +131,6 @@ def export_head(modules: list[nn.Module], n_inputs: int, path: str | Path) -> Pa
     Inputs: ``features`` ``(B, n_inputs)`` and one per buffer (named after it); outputs ``labels``
     and ``scores``. :func:`bind_head` turns the buffer inputs into a candidate's initializers.
     """
-    import onnx
-
     lifted = _Lifted(nn.Sequential(*modules).eval())
     buffers = dict(lifted.module.named_buffers())
     example = torch.zeros(2, n_inputs, dtype=torch.float32)
@@ -167,12 +139,14 @@ def export_head(modules: list[nn.Module], n_inputs: int, path: str | Path) -> Pa
     dims = [
         {i: torch.export.Dim.DYNAMIC for i in range(t.ndim) if t.shape[i] > 1} for t in (example, *values)
     ]
-    model = _quiet_export(lifted, (example, *values), (dims[0], tuple(dims[1:])), ["features", *lifted.names])
-    onnx.checker.check_model(model, full_check=True)
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    onnx.save(model, str(path))
-    return path
+    return export_onnx(
+        lifted,
+        (example, *values),
+        path,
+        input_names=["features", *lifted.names],
+        output_names=["labels", "scores"],
+        dynamic_shapes=(dims[0], tuple(dims[1:])),
+    )
 
 
 def bind_head(template: object, modules: list[nn.Module]) -> object:

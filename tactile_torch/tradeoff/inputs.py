@@ -143,7 +143,11 @@ def load_tradeoff_data(
             frame_rate_hz = DEFAULT_FRAME_RATE_HZ
             notes.append(f"frame rate not given: {frame_rate_hz:g} frames/s assumed (--frame-rate to set it)")
         kind = "pressure" if data.frames is None else "image"
-        raw = data.pressure if kind == "pressure" else np.ascontiguousarray(data.frames.transpose(0, 1, 4, 2, 3))
+        raw = (
+            data.pressure
+            if kind == "pressure"
+            else np.ascontiguousarray(data.frames.transpose(0, 1, 4, 2, 3))
+        )
         what = "taxels (raw pressure maps)" if kind == "pressure" else "pixels (RGB)"
         return TradeoffData(
             kind=kind,
@@ -157,7 +161,9 @@ def load_tradeoff_data(
             notes=notes,
         )
     if data.labels is None:
-        raise ValueError(f"{data_name(paths)}: a feature file needs 'labels' next to 'features' to compare models")
+        raise ValueError(
+            f"{data_name(paths)}: a feature file needs 'labels' next to 'features' to compare models"
+        )
     return TradeoffData(
         kind="features",
         class_names=tuple(data.class_names),
