@@ -323,8 +323,8 @@ def test_tradeoff_command_on_vibration_recordings(tmp_path, capsys):
 
 
 def test_tradeoff_on_small_taxel_arrays(tmp_path):
-    """Raw pressure maps of a 6 x 6 array (raw counts) through the same command: fused, per-frame, per-taxel."""
-    from tactile_torch.tradeoff import run_tradeoff
+    """Raw pressure maps of a 6 x 6 array (raw counts, resting at 200) through the same study."""
+    from tactile_torch.tradeoff import run_tradeoff, write_outputs
 
     data = make_explorations(3, n_frames=6, frame_size=24, sensels=6, random_state=1, keep_pressure=True)
     path = tmp_path / "taxels.npz"
@@ -349,6 +349,14 @@ def test_tradeoff_on_small_taxel_arrays(tmp_path):
     assert features == ["fused 12", "per-taxel 252"]
     assert all(r["onnx_agreement"] == 1.0 for r in result.rows)
     assert "stratified" in result.splits["pressure"]
+    assert result.study_model is None  # no HM-SVM among the candidates
+    # the hook for the breaking-point study: its rows go into the JSON and the markdown
+    result.breaking_points = {
+        "rows": [{"factor": "frames", "candidate": "LDA | fused 12", "breaking point": 3.0}]
+    }
+    paths = write_outputs(result, tmp_path / "o")
+    assert json.loads(paths["json"].read_text())["breaking_points"]["rows"][0]["breaking point"] == 3.0
+    assert "## Breaking points" in paths["md"].read_text()
 
 
 @pytest.mark.slow
@@ -372,3 +380,42 @@ def test_tradeoff_on_real_taxel_arrays(tmp_path):
     )
     result = run_tradeoff(path, quick=True, out_dir=tmp_path / "o", progress=False, log=lambda s: None)
     assert len(result.rows) >= 5 and result.row(result.recommended)["pareto"]
+
+
+def _tiny_model(value: float, path):
+    """Write a one-node ONNX model (an identity) to ``path``; the value only tags the job."""
+    import onnx
+    from onnx import TensorProto, helper
+
+    graph = helper.make_graph(
+        [helper.make_node("Identity", ["x"], ["y"])],
+        f"g{value}",
+        [helper.make_tensor_value_info("x", TensorProto.FLOAT, [1])],
+        [helper.make_tensor_value_info("y", TensorProto.FLOAT, [1])],
+    )
+    onnx.save(helper.make_model(graph), str(path))
+    return path
+
+
+def test_export_pool_runs_jobs_once_and_survives_a_dead_background_process(tmp_path):
+    from tactile_torch.tradeoff.export import ExportPool
+
+    calls = []
+
+    def failing(path):
+        calls.append(path)
+        raise RuntimeError("cannot export this")
+
+    with ExportPool(tmp_path / "parts", background=False) as pool:
+        pool.submit("bad", failing)
+        for _ in range(2):  # the error again, without a second attempt
+            with pytest.raises(RuntimeError, match="cannot export this"):
+                pool.result("bad")
+        assert len(calls) == 1
+    with ExportPool(tmp_path / "parts", background=True) as pool:
+        pool._process.kill()
+        pool._process.wait()
+        pool.submit("job", _tiny_model, 1.0)  # cannot reach the background process: runs here
+        assert pool.result("job").graph.name == "g1.0"
+        assert pool.result("job") is pool.result("job")
+    assert not (tmp_path / "parts").exists()

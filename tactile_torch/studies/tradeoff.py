@@ -84,13 +84,16 @@ def _image_data(ctx):
 
 
 def _show(section, ctx, title: str, result, out: Path, paths: dict) -> None:
-    from ..tradeoff.output import summary_lines, table_rows
+    from ..tradeoff.output import describe, summary_lines, table_rows
 
     section.text(
         f"### {title}\n\n{result.data.description}. "
         + " ".join(f"`{k}`: {v}." for k, v in result.splits.items())
     )
-    section.text("\n".join(f"**{line}**  " for line in summary_lines(result)))
+    lines = [f"**{line}**  " for line in summary_lines(result)]
+    if result.study_model is not None and result.row(result.study_model)["decision_s"] is not None:
+        lines.append(f"the study's model: {describe(result.row(result.study_model))}")
+    section.text("\n".join(lines))
     section.table(
         table_rows(result),
         caption=f"{title}: every candidate, cheapest (time to a decision) first; accuracy = mean over folds",

@@ -231,10 +231,10 @@ def export_and_time(
     Returns the number of distinct exported parts the files join."""
     from ..metrics import time_per_sample
     from ..runtime import OnnxPipeline
-    from .export import bind_head, export_front, export_head, head_key, join
+    from .export import bind_head, export_fixed_head, export_front, export_head, head_key, join
 
     out_dir = Path(out_dir)
-    plans = []
+    plans, n_features_of = [], {}
     for res in results:  # queue every export first: the background process works while this one does
         cand, model = res.candidate, res.model
         if model is None:
@@ -252,6 +252,7 @@ def export_and_time(
             res.notes.append(f"no ONNX export: {err}")
             continue
         n_features = int(step.transform(raw[:1]).shape[1])
+        n_features_of[cand.name] = n_features
         head = ("head", *head_key(modules, n_features))
         pool.submit(head, export_head, modules, n_features, background=False)
         plans.append((res, raw, front, head, modules))
@@ -269,12 +270,13 @@ def export_and_time(
         if s.window is not None:
             meta.update(window_size=s.window, step=s.window)
         try:
-            path = join(
-                pool.result(front),
-                bind_head(pool.result(head), modules),
-                out_dir / f"{_slug(cand.name)}.onnx",
-                meta,
-            )
+            try:
+                classifier = bind_head(pool.result(head), modules)
+            except Exception:  # a structure that cannot be exported with free sizes: this candidate alone
+                plain = ("plain head", cand.name)
+                pool.submit(plain, export_fixed_head, modules, n_features_of[cand.name], background=False)
+                classifier = pool.result(plain)
+            path = join(pool.result(front), classifier, out_dir / f"{_slug(cand.name)}.onnx", meta)
             pipe = OnnxPipeline(path)
             res.onnx_agreement = float(np.mean(classes[pipe.predict(raw)] == res.parity_predictions))
             res.latency_ms = 1e3 * time_per_sample(pipe.predict, raw[:1])

@@ -149,6 +149,18 @@ def export_head(modules: list[nn.Module], n_inputs: int, path: str | Path) -> Pa
     )
 
 
+def export_fixed_head(modules: list[nn.Module], n_inputs: int, path: str | Path) -> Path:
+    """Export ``nn.Sequential(*modules)`` with its fitted tensors as constants (the fallback when a
+    structure cannot be exported with free sizes); input ``features`` ``(B, n_inputs)``."""
+    return export_onnx(
+        nn.Sequential(*modules).eval(),
+        (torch.zeros(2, n_inputs, dtype=torch.float32),),
+        path,
+        input_names=["features"],
+        output_names=["labels", "scores"],
+    )
+
+
 def bind_head(template: object, modules: list[nn.Module]) -> object:
     """Return a copy of an exported head ``template`` with the buffers of ``modules`` as initializers."""
     import onnx
@@ -234,7 +246,8 @@ class ExportPool:
         if self._process is not None:
             if exc[0] is not None:  # an error here: the queued exports are not wanted any more
                 self._process.kill()
-            self._process.stdin.close()
+            with contextlib.suppress(OSError):  # a process that died has left a broken pipe
+                self._process.stdin.close()
             self._process.wait()
             self._process.stdout.close()
         if self._private is not None:
@@ -252,35 +265,46 @@ class ExportPool:
             return
         path = self.parts_dir / f"part-{len(self._jobs)}.onnx"
         self.exports += 1
+        self._jobs[key] = (fn, (*args, path))
         if self._process is None or not background:
-            self._jobs[key] = (fn, (*args, path))
             return
         job = self._private / f"job-{len(self._jobs)}.pkl"
         job.write_bytes(pickle.dumps((fn, (*args, path))))
-        self._process.stdin.write(f"{job}\n")
-        self._process.stdin.flush()
-        self._jobs[key] = path
+        try:
+            self._process.stdin.write(f"{job}\n")
+            self._process.stdin.flush()
+        except OSError:  # the background process is gone: the job runs here when needed
+            return
         self._queue.append(key)
 
-    def _wait(self, key: object) -> Path:
+    def _wait(self, key: object) -> Path | None:
+        """The background answer for ``key``: its file, or ``None`` if it failed there."""
         while key not in self._answers:
             line = self._process.stdout.readline()
-            if not line:
-                raise RuntimeError("the background export process stopped unexpectedly")
+            if not line:  # the process died: what it had not answered runs here
+                self._answers.update((k, "error") for k in self._queue if k not in self._answers)
+                break
             self._answers[self._queue[len(self._answers)]] = line.rstrip("\n")
         status, _, message = self._answers[key].partition(" ")
-        if status != "ok":
-            raise RuntimeError(f"export in the background process failed: {message}")
-        return Path(message)
+        return Path(message) if status == "ok" else None
 
     def result(self, key: object) -> object:
-        """Return the ONNX model of job ``key`` (running it here if it was not sent to the background)."""
+        """Return the ONNX model of job ``key``.
+
+        A job that was not sent to the background, or that failed there, runs here; an error is
+        raised again for every later request of the same key (no second attempt).
+        """
         import onnx
 
         if key not in self._models:
-            job = self._jobs[key]
-            path = job[0](*job[1]) if isinstance(job, tuple) else self._wait(key)
-            self._models[key] = onnx.load(str(path))
+            fn, args = self._jobs[key]
+            path = self._wait(key) if key in self._queue else None
+            try:
+                self._models[key] = onnx.load(str(path if path is not None else fn(*args)))
+            except Exception as err:
+                self._models[key] = err
+        if isinstance(self._models[key], Exception):
+            raise self._models[key]
         return self._models[key]
 
 
@@ -290,6 +314,7 @@ __all__ = [
     "Standardize",
     "absorb_rbf_gamma",
     "bind_head",
+    "export_fixed_head",
     "export_front",
     "export_head",
     "head_key",

@@ -151,9 +151,10 @@ def write_outputs(result: TradeoffResult, out_dir: str | Path, *, command: str =
         "candidates": result.rows,
         "recommended": result.recommended,
         "runner_up": result.runner_up,
+        "study_model": result.study_model,
         "notes": result.notes,
         "seconds": result.seconds,
-        "breaking_points": None,  # issue 12 points 4-5 (tactile_torch.robustness) fill this in
+        "breaking_points": result.breaking_points,  # see TradeoffResult.breaking_points
     }
     paths["json"] = out / "tradeoff.json"
     paths["json"].write_text(json.dumps(doc, indent=1, default=_json_default) + "\n")
@@ -205,24 +206,45 @@ def table_rows(result: TradeoffResult) -> list[dict]:
     return out
 
 
+def _table(rows: list[dict]) -> list[str]:
+    """Markdown lines of a table given as dicts (columns: every key, in order of appearance)."""
+    if not rows:
+        return []
+    columns = list(dict.fromkeys(k for r in rows for k in r))
+    lines = ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
+    for r in rows:
+        cells = (r.get(c, "") for c in columns)
+        lines.append(
+            "| "
+            + " | ".join(
+                format(v, ".4g") if isinstance(v, float) else str(v).replace("|", "\\|") for v in cells
+            )
+            + " |"
+        )
+    return [*lines, ""]
+
+
 def markdown(result: TradeoffResult, *, command: str = "", figures: dict[str, Path] | None = None) -> str:
     """Return ``tradeoff.md``."""
-    rows = table_rows(result)
-    columns = list(rows[0])
     lines = ["# Speed against accuracy: which model this data needs", ""]
     if command:
         lines += ["Written by:", "", f"```\n{command}\n```", ""]
     lines += [f"Data: {result.data.description}.", ""]
     lines += [f"- `{key}`: {split}" for key, split in result.splits.items()]
-    lines += ["", *(f"**{line}**  " for line in summary_lines(result)), ""]
-    lines += [f"Cost: {COST}.", "", f"Rule: {RULE} (docs/tradeoff.md says why).", ""]
-    lines += ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
-    for r in rows:
-        cells = [format(v, ".4g") if isinstance(v, float) else str(v).replace("|", "\\|") for v in r.values()]
-        lines.append("| " + " | ".join(cells) + " |")
+    lines += ["", *(f"**{line}**  " for line in summary_lines(result))]
+    if result.study_model is not None and result.row(result.study_model)["decision_s"] is not None:
+        lines.append(f"the study's model: {describe(result.row(result.study_model))}")
     lines.append("")
+    lines += [f"Cost: {COST}.", "", f"Rule: {RULE} (docs/tradeoff.md says why).", ""]
+    lines += _table(table_rows(result))
     for kind, rel in (figures or {}).items():
         lines += [f"![accuracy vs {kind}]({rel.as_posix()})", ""]
+    if result.breaking_points:
+        lines += ["## Breaking points", "", *_table(result.breaking_points.get("rows") or [])]
+        lines += [
+            f"![breaking point]({Path(p).as_posix()})" for p in result.breaking_points.get("figures") or []
+        ]
+        lines.append("")
     issues = [(r["name"], n) for r in result.rows for n in r["notes"]]
     agreement = [r for r in result.rows if r["onnx_agreement"] is not None and r["onnx_agreement"] < 1.0]
     if result.notes or issues or agreement:

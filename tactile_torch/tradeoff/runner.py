@@ -51,6 +51,16 @@ class TradeoffResult:
     seconds : float
     exports : int
         Distinct exported parts (feature graphs and classifier structures) the candidates' files join.
+    study_model : str or None
+        The studies' own model among the candidates: the HM-SVM on the reference feature set (fused 12
+        for images, the 21 features at the reference window for vibration), if it was evaluated.
+    inputs : dict of str to Samples
+        The raw inputs and folds the candidates were evaluated on (for further sweeps of the
+        candidates' estimators, e.g. breaking points under degraded input).
+    breaking_points : dict or None
+        Filled by a breaking-point study of the candidates (issue 12, points 4-5) before
+        :func:`~.output.write_outputs`: ``{"rows": [...], "figures": [paths]}`` and anything
+        JSON-serialisable; written to ``tradeoff.json`` and as a table and charts in ``tradeoff.md``.
     """
 
     data: TradeoffData
@@ -62,12 +72,22 @@ class TradeoffResult:
     notes: list[str] = field(default_factory=list)
     seconds: float = 0.0
     exports: int = 0
+    study_model: str | None = None
+    inputs: dict[str, Samples] = field(default_factory=dict, repr=False)
+    breaking_points: dict | None = None
 
     def row(self, name: str) -> dict:
         """Return the row of candidate ``name``."""
         for r in self.rows:
             if r["name"] == name:
                 return r
+        raise KeyError(name)
+
+    def result(self, name: str) -> CandidateResult:
+        """Return the :class:`~.evaluation.CandidateResult` of candidate ``name`` (its estimator, fitted model)."""
+        for res in self.results:
+            if res.candidate.name == name:
+                return res
         raise KeyError(name)
 
 
@@ -280,7 +300,17 @@ def execute_plan(
         notes=plan.notes,
         seconds=plan.seconds + time.perf_counter() - start,
         exports=parts,
+        study_model=_study_model(plan),
+        inputs=inputs,
     )
+
+
+def _study_model(plan: TradeoffPlan) -> str | None:
+    reference = plan.candidates[0].features if plan.candidates else None
+    for cand in plan.candidates:
+        if cand.classifier == "HM-SVM" and cand.features == reference:
+            return cand.name
+    return None
 
 
 def run_tradeoff(

@@ -43,6 +43,7 @@ from torch import nn
 from ..image import (
     DEFAULT_EROSION,
     DEFAULT_THRESHOLD,
+    GRAY_WEIGHTS,
     ExplorationFeatures,
     exploration_features,
     otsu_threshold,
@@ -392,8 +393,6 @@ class TaxelFeatures(nn.Module):
 
     def forward(self, raw: torch.Tensor) -> torch.Tensor:
         if self.rgb:
-            from ..image import GRAY_WEIGHTS
-
             x = raw.to(torch.float32) / 255.0 if raw.dtype == torch.uint8 else raw.to(torch.float32)
             weights = torch.tensor(GRAY_WEIGHTS, dtype=torch.float32).reshape(1, 1, 3, 1, 1)
             raw = 1.0 - (x * weights).sum(2)
@@ -489,8 +488,13 @@ def single_feature_accuracy(X: np.ndarray, y: np.ndarray) -> np.ndarray:
     counts = np.bincount(index, minlength=len(classes)).astype(np.float64)
     means = np.stack([np.bincount(index, weights=col, minlength=len(classes)) for col in X.T], axis=1)
     means /= counts[:, None]  # (C, F)
-    nearest = np.abs(X[:, None, :] - means[None, :, :]).argmin(axis=1)  # (N, F)
-    return (nearest == index[:, None]).mean(axis=0)
+    scores = np.empty(X.shape[1])
+    step = max(1, (1 << 22) // max(1, X.shape[0] * len(classes)))  # columns per block: bounded memory
+    for start in range(0, X.shape[1], step):
+        block = slice(start, start + step)
+        nearest = np.abs(X[:, None, block] - means[None, :, block]).argmin(axis=1)  # (N, columns)
+        scores[block] = (nearest == index[:, None]).mean(axis=0)
+    return scores
 
 
 class RankedFeatureSelector(TransformerMixin, BaseEstimator):
