@@ -376,9 +376,10 @@ def test_tradeoff_on_real_taxel_arrays(tmp_path):
         frames=np.stack(maps),
         labels=np.array(labels),
         class_names=np.array(list("ABCDE")),
-        rate_hz=15.0,
     )
-    result = run_tradeoff(path, quick=True, out_dir=tmp_path / "o", progress=False, log=lambda s: None)
+    result = run_tradeoff(
+        path, quick=True, frame_rate_hz=15.0, out_dir=tmp_path / "o", progress=False, log=lambda s: None
+    )
     assert len(result.rows) >= 5 and result.row(result.recommended)["pareto"]
 
 
@@ -419,3 +420,12 @@ def test_export_pool_runs_jobs_once_and_survives_a_dead_background_process(tmp_p
         assert pool.result("job").graph.name == "g1.0"
         assert pool.result("job") is pool.result("job")
     assert not (tmp_path / "parts").exists()
+
+
+@pytest.mark.slow
+def test_report_section_smoke_run(tmp_path):
+    from tactile_torch.studies import run_report
+
+    text = run_report(tmp_path, quick=True, only=["tradeoff"], log=lambda s: None).read_text()
+    assert text.count("**recommended: ") == 2 and "accuracy-vs-decision.png" in text
+    assert json.loads((tmp_path / "tradeoff" / "vibration" / "tradeoff.json").read_text())["recommended"]

@@ -131,10 +131,8 @@ def _vibration_inputs(
     notes: list[str],
 ) -> tuple[list[int], dict[str, Samples]]:
     rec = data.recordings
-    if window is not None:
-        vibration_samples(
-            rec, window, n_folds=n_folds, max_per_class=2 * n_folds
-        )  # raises if it does not fit
+    if window is not None:  # raises, naming the window, when it does not fit the recordings
+        vibration_samples(rec, window, n_folds=n_folds, max_per_class=2 * n_folds)
     tried = list(windows) if windows is not None else sorted({*WINDOW_SIZES, *([window] if window else [])})
     allowed, reasons = allowed_windows(rec, tried, n_folds=n_folds)
     notes.extend(reasons)
@@ -202,7 +200,45 @@ def plan_tradeoff(
     allow_pickle: bool = False,
     log: Callable[[str], None] = print,
 ) -> TradeoffPlan:
-    """Read the data, cut the raw inputs, make the folds and the candidates (the parameters of :func:`run_tradeoff`)."""
+    """Read the data, cut the raw inputs, make the folds and the candidates.
+
+    Parameters
+    ----------
+    data : path(s) or TradeoffData
+        See :func:`~.inputs.load_tradeoff_data`.
+    quick : bool
+        Fewer candidates (every classifier on the reference feature set, HM-SVM and LDA on the others;
+        two window sizes; one best-ranked subset) and at most 60 samples per class.
+    n_folds : int
+        Cross-validation folds (fewer when a class has fewer samples or groups).
+    window : int, optional
+        Vibration: the reference window (default: the study's 800 samples, or the largest allowed
+        below it); ``windows`` overrides the list of sizes tried (default 200, 400, 800, 1600).
+    frame_rate_hz : float, optional
+        Explorations: frames per second (default 10, the study's).
+    threshold : "auto", "otsu", "display" or float
+        Image pipeline's pressed threshold. RGB frames: ``"auto"`` takes the study's 240/255 for
+        displays with a white background, Otsu's threshold of each training fold's histogram
+        otherwise; a float is a gray level in (0, 1]. Raw pressure maps: ``"auto"`` is ``"display"``
+        (see :class:`~.transformers.PressureImageFeatures`); a float is a fraction of the pressure scale.
+    erosion : "relative" or int
+    contact : {"raises", "lowers", "auto"}
+        Raw pressure maps: which way contact moves a reading.
+    max_per_class : int, None or "auto"
+        Samples kept per class and raw input (evenly spaced); ``"auto"``: 60 (quick) or 300.
+    classifiers : sequence of str, optional
+        Only these of :data:`~.candidates.CLASSIFIERS`.
+    features : sequence of str, optional
+        Only the feature sets whose name starts with one of these (e.g. ``["fused", "per-taxel"]``).
+    random_state : int
+    allow_pickle : bool
+    log : callable
+        Receives one line per stage.
+
+    Returns
+    -------
+    TradeoffPlan
+    """
     from .._checks import check_positive
     from .evaluation import features_key
 
@@ -316,86 +352,39 @@ def _study_model(plan: TradeoffPlan) -> str | None:
 def run_tradeoff(
     data: str | Path | Sequence[str | Path] | TradeoffData,
     *,
-    quick: bool = False,
-    n_folds: int = 5,
-    window: int | None = None,
-    windows: Sequence[int] | None = None,
-    frame_rate_hz: float | None = None,
-    threshold: float | str = "auto",
-    erosion: int | str = "relative",
-    contact: str = "raises",
-    max_per_class: int | str | None = "auto",
-    classifiers: Sequence[str] | None = None,
-    features: Sequence[str] | None = None,
     out_dir: str | Path = "runs/tradeoff",
-    random_state: int = 0,
-    allow_pickle: bool = False,
     progress: bool = True,
     background: bool = True,
     log: Callable[[str], None] = print,
+    **options: object,
 ) -> TradeoffResult:
     """Evaluate every candidate model on a data file and recommend the simplest that does the job.
+
+    Plans the study (:func:`plan_tradeoff`, which takes ``data`` and ``options``: ``quick``,
+    ``n_folds``, ``window``, ``windows``, ``frame_rate_hz``, ``threshold``, ``erosion``, ``contact``,
+    ``max_per_class``, ``classifiers``, ``features``, ``random_state``, ``allow_pickle``), then
+    cross-validates, exports and times the candidates (:func:`execute_plan`).
 
     Parameters
     ----------
     data : path(s) or TradeoffData
         See :func:`~.inputs.load_tradeoff_data`.
-    quick : bool
-        Fewer candidates (every classifier on the reference feature set, HM-SVM and LDA on the others;
-        two window sizes; one best-ranked subset) and at most 60 samples per class.
-    n_folds : int
-        Cross-validation folds (fewer when a class has fewer samples or groups).
-    window : int, optional
-        Vibration: the reference window (default: the study's 800 samples, or the largest allowed
-        below it); ``windows`` overrides the list of sizes tried (default 200, 400, 800, 1600).
-    frame_rate_hz : float, optional
-        Explorations: frames per second (default the file's ``rate_hz``, else 10).
-    threshold : "auto", "otsu", "display" or float
-        Image pipeline's pressed threshold. RGB frames: ``"auto"`` takes the study's 240/255 for
-        displays with a white background, Otsu's threshold of each training fold's histogram
-        otherwise; a float is a gray level in (0, 1]. Raw pressure maps: ``"auto"`` is ``"display"``
-        (see :class:`~.transformers.PressureImageFeatures`); a float is a fraction of the pressure scale.
-    erosion : "relative" or int
-    contact : {"raises", "lowers", "auto"}
-        Raw pressure maps: which way contact moves a reading.
-    max_per_class : int, None or "auto"
-        Samples kept per class and raw input (evenly spaced); ``"auto"``: 60 (quick) or 300.
-    classifiers : sequence of str, optional
-        Only these of :data:`~.candidates.CLASSIFIERS`.
-    features : sequence of str, optional
-        Only the feature sets whose name starts with one of these (e.g. ``["fused", "per-taxel"]``).
     out_dir : path
         The candidates' ``.onnx`` files go to ``out_dir / "models"``.
-    random_state : int
-    allow_pickle : bool
     progress : bool
         Progress bars (stderr).
     background : bool
         Export the feature graphs in a second process while cross-validating.
     log : callable
         Receives one line per stage.
+    **options
+        See :func:`plan_tradeoff`.
 
     Returns
     -------
     TradeoffResult
     """
-    plan = plan_tradeoff(
-        data,
-        quick=quick,
-        n_folds=n_folds,
-        window=window,
-        windows=windows,
-        frame_rate_hz=frame_rate_hz,
-        threshold=threshold,
-        erosion=erosion,
-        contact=contact,
-        max_per_class=max_per_class,
-        classifiers=classifiers,
-        features=features,
-        random_state=random_state,
-        allow_pickle=allow_pickle,
-        log=log,
-    )
+    plan = plan_tradeoff(data, log=log, **options)
     with ExportPool(Path(out_dir) / "models" / "parts", background=background) as pool:
         return execute_plan(plan, pool, out_dir=out_dir, progress=progress, log=log)
 
