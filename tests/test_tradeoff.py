@@ -176,6 +176,7 @@ def test_time_block_folds_never_split_neighbouring_windows(recordings):
             te = set(where[test][where[test][:, 0] == rec][:, 1])
             assert not any(p + 1 in te or p - 1 in te for p in tr)
         assert set(np.unique(s.y[test])) == set(range(4))  # every recording in every test fold
+        assert not set(s.groups[train]) & set(s.groups[test])  # the groups say what the folds kept apart
     assert "time blocks" in s.split
 
 
@@ -188,6 +189,7 @@ def test_recording_grouped_folds(recordings):
     assert len(s.folds) == 3 and "grouped by session" in s.split
     for train, test in s.folds:
         assert not set(recs[train]) & set(recs[test])
+        assert not set(s.groups[train]) & set(s.groups[test])
     with pytest.raises(ValueError, match="longer than every recording of class"):
         vibration_samples(recordings, 20000, n_folds=5)
 

@@ -56,6 +56,10 @@ class Samples:
     window : int or None
     index : ndarray or None
         Explorations and feature rows: the rows of the file kept (``max_per_class``).
+    groups : ndarray or None
+        What the folds keep on one side: recording (or session), a recording's time block, or the
+        file's ``groups``; ``None`` for plain stratified folds. For further grouped sweeps of the same
+        samples (e.g. breaking points).
     """
 
     key: str
@@ -67,6 +71,7 @@ class Samples:
     split: str
     window: int | None = None
     index: np.ndarray | None = None
+    groups: np.ndarray | None = None
 
 
 @dataclass
@@ -308,7 +313,17 @@ def vibration_samples(
             random_state=random_state,
         )
         split = f"{len(keep)} windows; {split}"
-        return Samples(f"windows-{window}", X[keep], y[keep], folds, "B,3,W", window / rate, split, window)
+        return Samples(
+            f"windows-{window}",
+            X[keep],
+            y[keep],
+            folds,
+            "B,3,W",
+            window / rate,
+            split,
+            window,
+            groups=group[keep],
+        )
     # One recording for some class: consecutive time blocks of every recording, a guard window between.
     n_windows = np.bincount(recording, minlength=len(recordings))[np.unique(recording)]
     blocks = min(n_folds, int(n_windows.min() // 2))  # every later block keeps a window after its guard
@@ -329,7 +344,18 @@ def vibration_samples(
         f"{len(keep)} windows; {blocks} folds of consecutive time blocks of every recording (a class has a single recording); "
         "the first window of each later block is dropped so that no neighbouring windows are split"
     )
-    return Samples(f"windows-{window}", X[keep], y[keep], folds, "B,3,W", window / rate, split, window)
+    blocks_of = recording * blocks + block  # a recording's time block: what the folds keep together
+    return Samples(
+        f"windows-{window}",
+        X[keep],
+        y[keep],
+        folds,
+        "B,3,W",
+        window / rate,
+        split,
+        window,
+        groups=blocks_of[keep],
+    )
 
 
 def allowed_windows(
@@ -362,7 +388,7 @@ def exploration_samples(
     key = {"image": "frames", "pressure": "pressure", "features": "features"}[data.kind]
     acquisition = 0.0 if data.kind == "features" else X.shape[1] / float(data.rate_hz)
     split = f"{len(keep)} {what}; {split}"
-    return Samples(key, X, y, folds, layout, acquisition, split, index=keep)
+    return Samples(key, X, y, folds, layout, acquisition, split, index=keep, groups=groups)
 
 
 __all__ = [
