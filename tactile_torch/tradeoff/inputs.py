@@ -312,28 +312,35 @@ def vibration_samples(
             group_label="session" if recordings.session is not None else "recording",
             random_state=random_state,
         )
-        split = f"{len(keep)} windows; {split}"
-        return Samples(
-            f"windows-{window}",
-            X[keep],
-            y[keep],
-            folds,
-            "B,3,W",
-            window / rate,
-            split,
-            window,
-            groups=group[keep],
+    else:  # one recording for some class: consecutive time blocks of every recording, a guard between
+        group, keep, folds, split = _time_blocks(
+            recording, position, y, window, n_folds, max_per_class, names
         )
-    # One recording for some class: consecutive time blocks of every recording, a guard window between.
-    n_windows = np.bincount(recording, minlength=len(recordings))[np.unique(recording)]
+    split = f"{len(keep)} windows; {split}"
+    X, y, group = X[keep], y[keep], group[keep]
+    return Samples(f"windows-{window}", X, y, folds, "B,3,W", window / rate, split, window, groups=group)
+
+
+def _time_blocks(
+    recording: np.ndarray,
+    position: np.ndarray,
+    y: np.ndarray,
+    window: int,
+    n_folds: int,
+    max_per_class: int | None,
+    names: Sequence[str],
+) -> tuple[np.ndarray, np.ndarray, list[Fold], str]:
+    """Time-block folds: ``(block of each window, windows kept, folds over the kept ones, description)``."""
+    present = np.unique(recording)
+    n_windows = np.bincount(recording)[present]
     blocks = min(n_folds, int(n_windows.min() // 2))  # every later block keeps a window after its guard
     if blocks < 2:
-        short = names[int(y[recording == np.unique(recording)[n_windows.argmin()]][0])]
+        short = names[int(y[recording == present[n_windows.argmin()]][0])]
         raise ValueError(
             f"window: {window} samples leaves a recording of class {short!r} only {n_windows.min()} window(s); "
             "time-block folds need at least 4 (two blocks of two, one a guard): choose a shorter --window"
         )
-    count = np.bincount(recording, minlength=len(recordings))[recording]
+    count = np.bincount(recording)[recording]
     block = position * blocks // count
     guard = (position > 0) & (block != (position - 1) * blocks // count)
     keep = np.flatnonzero(~guard)
@@ -341,21 +348,10 @@ def vibration_samples(
     folds = [(np.flatnonzero(block[keep] != b), np.flatnonzero(block[keep] == b)) for b in range(blocks)]
     _check_folds(folds, y[keep], names, "windows")
     split = (
-        f"{len(keep)} windows; {blocks} folds of consecutive time blocks of every recording (a class has a single recording); "
+        f"{blocks} folds of consecutive time blocks of every recording (a class has a single recording); "
         "the first window of each later block is dropped so that no neighbouring windows are split"
     )
-    blocks_of = recording * blocks + block  # a recording's time block: what the folds keep together
-    return Samples(
-        f"windows-{window}",
-        X[keep],
-        y[keep],
-        folds,
-        "B,3,W",
-        window / rate,
-        split,
-        window,
-        groups=blocks_of[keep],
-    )
+    return recording * blocks + block, keep, folds, split
 
 
 def allowed_windows(
