@@ -25,6 +25,7 @@ STUDIES: list[str] = [
     "vibration_features",  # method 2: windows and 21 features (tactile_torch.signal)
     "vibration_classification",  # method 2: RBF SVM, feature ranking (tactile_torch.svm)
     "clustering",  # method 2: Pitman-Yor mixture (tactile_torch.mixture)
+    "tradeoff",  # speed against accuracy, the simplest adequate model (tactile_torch.tradeoff)
     "breaking_points",  # both methods: where each model breaks (tactile_torch.robustness)
     "claims",  # both methods: do the conclusions hold on other generators and real data?
 ]
@@ -32,15 +33,11 @@ STUDIES: list[str] = [
 
 @dataclass
 class RunContext:
-    """What every study gets: the seed, the size of the run and a cache of shared intermediate data.
-
-    ``quick`` is the smoke run (tests), ``full`` the complete sweeps (``tactile-torch report --full``);
-    neither is the default ``make run``.
-    """
+    """What every study gets: the seed, the size of the run and a cache of shared intermediate data."""
 
     random_state: int = 0
     quick: bool = False
-    full: bool = False
+    full: bool = False  # --full: the study-size experiments that do not fit make run's time budget
     out_dir: Path = Path("runs/latest")
     cache: dict[str, Any] = field(default_factory=dict)
 
@@ -56,18 +53,14 @@ def run_report(
     *,
     random_state: int = 0,
     quick: bool = False,
+    full: bool = False,
     only: list[str] | None = None,
     log: Callable[[str], None] = print,
-    full: bool = False,
 ) -> Path:
-    """Run the studies (all, or those named in ``only``) and write the report; return its path.
-
-    ``quick``: the smoke run; ``full``: the complete sweeps (minutes more); not both."""
+    """Run the studies (all, or those named in ``only``) and write the report; return its path."""
     unknown = sorted(set(only or []) - set(STUDIES))
     if unknown:
         raise ValueError(f"only must name studies among {STUDIES}, got unknown {unknown}")
-    if quick and full:
-        raise ValueError("quick and full exclude each other, got both")
     out_dir = Path(out_dir)
     ctx = RunContext(random_state=random_state, quick=quick, full=full, out_dir=out_dir)
     report = Report(out_dir)
