@@ -414,6 +414,7 @@ def _tradeoff(args: argparse.Namespace) -> int:
         return [int(part) for part in text.split(",")]
 
     options = [f"--data {' '.join(args.data)}", f"--out {args.out}", *(["--quick"] if args.quick else [])]
+    options += ["--no-breaking"] if args.no_breaking else []
     defaults = vars(build_parser().parse_args(["tradeoff", "--data", "-"]))
     names = ("folds", "window", "windows", "frame_rate", "threshold", "erosion", "contact", "max_per_class")
     names += ("classifiers", "features", "seed")
@@ -440,6 +441,12 @@ def _tradeoff(args: argparse.Namespace) -> int:
         progress=not args.quiet,
         log=(lambda line: None) if args.quiet else (lambda line: print(line, file=sys.stderr)),
     )
+    if not args.no_breaking:  # where the recommended and the study's model break (docs/robustness.md)
+        from .tradeoff.breaking import add_breaking_points
+
+        add_breaking_points(
+            result, args.out, quick=args.quick, random_state=args.seed, progress=not args.quiet
+        )
     paths = write_outputs(result, args.out, command=command)
     for line in summary_lines(result):
         print(line)
@@ -727,6 +734,11 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
+    p.add_argument(
+        "--no-breaking",
+        action="store_true",
+        help="skip the breaking points of the recommended and the study's model (docs/robustness.md)",
+    )
     _add_allow_pickle(p)
     p.set_defaults(handler=_tradeoff)
 

@@ -288,7 +288,7 @@ def test_tradeoff_command_on_vibration_recordings(tmp_path, capsys):
         "--classifiers",
         "LDA,NCM",
     ]
-    assert main([*argv, "--windows", "400", "--folds", "3"]) == 0
+    assert main([*argv, "--windows", "400", "--folds", "3", "--no-breaking"]) == 0  # see the next test
     printed = capsys.readouterr().out.splitlines()
     assert printed[0].startswith("recommended: ") and printed[1].startswith("runner-up:")
     doc = json.loads((out / "tradeoff.json").read_text())
@@ -322,6 +322,36 @@ def test_tradeoff_command_on_vibration_recordings(tmp_path, capsys):
 
     pipe = OnnxPipeline(out / "models" / rec_row["onnx_file"])
     assert pipe.predict(rec.windows(pipe.input_shape[-1]).windows.numpy()[:5]).shape == (5,)
+
+
+def test_tradeoff_command_writes_the_breaking_points(tmp_path, capsys):
+    """The recommended and the study's model swept by tactile_torch.robustness: table and charts in DIR."""
+    rec = make_vibration_recordings(3, duration_s=6, n_sessions=2, random_state=5)
+    path = rec.save(tmp_path / "rec.npz")
+    out = tmp_path / "study"
+    argv = [
+        "tradeoff",
+        "--data",
+        str(path),
+        "--out",
+        str(out),
+        "--quick",
+        "--quiet",
+        "--classifiers",
+        "LDA,HM-SVM",
+    ]
+    assert main([*argv, "--windows", "400", "--folds", "3"]) == 0
+    doc = json.loads((out / "tradeoff.json").read_text())
+    rows = doc["breaking_points"]["rows"]
+    models = {r["model"] for r in rows}
+    assert any(m.startswith("recommended") for m in models) and any("study's model" in m for m in models)
+    assert {r["factor"] for r in rows} >= {"feature SNR", "sensor noise", "window", "training samples"}
+    assert all(r["breaks at [95 % CI]"] for r in rows)
+    for figure in doc["breaking_points"]["figures"]:
+        assert (out / figure).read_bytes()[:4] == b"\x89PNG"
+    md = (out / "tradeoff.md").read_text()
+    assert "## Breaking points" in md and "breaking-sensor-noise.png" in md
+    assert "drift" in str(doc["breaking_points"]["skipped"])  # no positions within recordings here
 
 
 def test_tradeoff_on_small_taxel_arrays(tmp_path):
