@@ -11,7 +11,7 @@ import importlib
 import sys
 import time
 
-COMPILED_MODULES = ("tactile_torch._gibbs",)
+COMPILED_MODULES = ("tactile_torch._gibbs", "tactile_torch.svm._smo", "tactile_torch.svm.tree")
 """Modules whose import compiles (or loads from the on-disk cache) numba kernels."""
 
 
