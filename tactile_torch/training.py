@@ -5,7 +5,7 @@ vibration recordings: ``signals``) and computes its features (:func:`tactile_tor
 or windows and :func:`tactile_torch.signal.window_features`); a ``.npz`` with a ready ``features``
 matrix (``(N, F)``, ``labels``, optional ``class_names``) is accepted too. :func:`train_classifier`
 holds out a stratified test part, scales every feature to unit standard deviation on the training
-part (DESIGN.md; the scale is kept with the model), fits the HM-SVM, a one-vs-rest SVM, LDA or kNN
+part (DESIGN.md; the scale is kept with the model), fits the HM-SVM, a one-vs-one SVM, LDA or kNN
 (k = 3, city-block, inverse-distance weights) and reports on the test part. :func:`save_model` writes
 everything needed to classify new data with ``torch.save``: the fitted estimator, the scale, the
 class names, how the features were made, and the state of the SVM's inference module
@@ -125,7 +125,7 @@ def make_classifier(
     kernel: str = "rbf",
     random_state: RandomState = None,
 ):
-    """Return an unfitted classifier: ``hmsvm``, ``svm`` (one-vs-rest), ``lda`` or ``knn``."""
+    """Return an unfitted classifier: ``hmsvm``, ``svm`` (one-vs-one), ``lda`` or ``knn``."""
     if method == "hmsvm":
         from .svm import HierarchicalSVC
 

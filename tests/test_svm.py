@@ -26,7 +26,7 @@ from tactile_torch.svm import (
     split_classes,
     tree_descent,
 )
-from tactile_torch.svm.solver import BinaryProblem, solve, solve_path
+from tactile_torch.svm.solver import ProblemSet, solve_set
 from tests import reference_svm as ref
 
 
@@ -75,10 +75,10 @@ def test_compiled_smo_takes_libsvm_steps(name, kind, C):
     X, y = BINARY[name]
     gamma = scale_gamma(X)
     lib = ref.libsvm(X, y, C=C, kind=kind, gamma=gamma)
-    problem = BinaryProblem.of(np.flatnonzero(y == 0), np.flatnonzero(y == 1))
-    sol = solve(KernelData.of(X, kind, gamma), problem, C, shrink_every=1000)
-    assert sol.n_iter == lib.n_iter_[0]
-    assert sol.rho == pytest.approx(-lib._intercept_[0], abs=1e-9)
+    problem = ProblemSet.of([(np.flatnonzero(y == 0), np.flatnonzero(y == 1))])
+    (sol,) = solve_set(KernelData.of(X, kind, gamma), problem, [C], shrink_every=1000)
+    assert sol.n_iter[0] == lib.n_iter_[0]
+    assert sol.rho[0] == pytest.approx(-lib._intercept_[0], abs=1e-9)
     coef = np.zeros(X.shape[0])
     coef[problem.rows] = sol.alpha * problem.y
     np.testing.assert_allclose(coef[lib.support_], lib._dual_coef_[0], atol=1e-8)
@@ -124,13 +124,15 @@ def test_solution_satisfies_libsvm_stopping_rule_and_bias():
 def test_warm_start_along_C_reaches_the_cold_solution():
     X, y = BINARY["moons"]
     data = KernelData.of(X, "rbf", 0.5)
-    problem = BinaryProblem.of(np.flatnonzero(y == 0), np.flatnonzero(y == 1))
-    path = solve_path(data, problem, [0.5, 4.0, 32.0])
+    half = X.shape[0] // 2  # two problems solved together: the first and the second half
+    sides = [(np.flatnonzero(y[:half] == 0), np.flatnonzero(y[:half] == 1))]
+    sides.append((half + np.flatnonzero(y[half:] == 0), half + np.flatnonzero(y[half:] == 1)))
+    problems = ProblemSet.of(sides)
+    path = solve_set(data, problems, [0.5, 4.0, 32.0], threads=2)
     for warm in path:
-        cold = solve(data, problem, warm.C)
-        assert warm.objective == pytest.approx(cold.objective, rel=1e-3)
-        assert warm.C == cold.C and warm.alpha.max() <= warm.C
-    assert path[-1].n_iter < solve(data, problem, 32.0).n_iter  # the warm start saves iterations
+        (cold,) = solve_set(data, problems, [warm.C])
+        np.testing.assert_allclose(warm.objective, cold.objective, rtol=1e-3)
+        assert warm.alpha.max() <= warm.C and warm.converged.all()
 
 
 def test_duplicated_samples_and_constant_feature_work():

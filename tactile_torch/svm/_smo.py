@@ -579,6 +579,104 @@ def smo(
     return n_iter, rho, obj / 2.0, converged
 
 
+@njit(
+    void(
+        R2,
+        R1,
+        RF2,
+        RI1,
+        R1,
+        RI1,
+        RI1,
+        f8,
+        f8,
+        i8,
+        f8,
+        i8,
+        i8,
+        i8,
+        R1,
+        R1,
+        R1,
+        f8,
+        A1,
+        A1,
+        A1,
+        I1,
+        A1,
+        A1,
+        types.Array(b1, 1, "C"),
+    ),
+    cache=True,
+    nogil=True,
+)
+def smo_many(
+    XT,
+    sq,
+    K,
+    rows,
+    y,
+    offsets,
+    which,
+    C,
+    gamma,
+    kind,
+    tol,
+    max_iter,
+    shrink_every,
+    cache_bytes,
+    alpha_prev,
+    grad_prev,
+    grad_bar_prev,
+    ratio,
+    alpha,
+    grad,
+    grad_bar,
+    n_iter,
+    rho,
+    objective,
+    converged,
+):
+    """Run :func:`smo` on the problems ``which`` of a set stored end to end.
+
+    Problem ``p`` is ``rows[offsets[p]:offsets[p + 1]]`` with labels ``y[...]``; its solution goes
+    to the same slice of ``alpha``, ``grad`` and ``grad_bar``, its iterations, ``rho``, objective
+    and convergence to ``n_iter[p]``, ``rho[p]``, ``objective[p]``, ``converged[p]``. ``ratio > 0``
+    warm-starts each problem from its solution at ``C / ratio`` in the ``*_prev`` arrays (``alpha``
+    and ``G_bar`` scale with C, and so does ``G + 1``); ``ratio = 0``: cold starts. One call for
+    many small problems (one-vs-one pairs, tree nodes) spares a Python round trip per problem.
+    """
+    warm = 1 if ratio > 0.0 else 0
+    for k in range(which.shape[0]):
+        p = which[k]
+        a, b = offsets[p], offsets[p + 1]
+        for t in range(a, b):
+            if warm:
+                alpha[t] = alpha_prev[t] * ratio
+                grad[t] = (grad_prev[t] + 1.0) * ratio - 1.0
+                grad_bar[t] = grad_bar_prev[t] * ratio
+            else:
+                alpha[t] = 0.0
+        n_iter[p], rho[p], objective[p], converged[p] = smo(
+            XT,
+            sq,
+            K,
+            rows[a:b],
+            y[a:b],
+            C,
+            gamma,
+            kind,
+            tol,
+            max_iter,
+            shrink_every,
+            cache_bytes,
+            alpha[a:b],
+            grad[a:b],
+            grad_bar[a:b],
+            warm,
+        )
+
+
 # --------------------------------------------------------------------------------------------------
 # kernel blocks and decision values
 # --------------------------------------------------------------------------------------------------

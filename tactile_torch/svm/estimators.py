@@ -30,12 +30,14 @@ from .._parallel import map_blocks
 from . import _smo
 from .inference import SVMInference, ovo_tables
 from .kernels import KERNELS, KernelData, scale_gamma
-from .solver import BinaryProblem, DualSolution, solve_all
-from .tree import TreeNode, build_tree
+from .solver import ProblemSet, Solutions, solve_set
+from .tree import build_tree
 
-# Predictions of at most this many rows per thread run on fewer threads (a thread's start costs
-# more than a few rows of kernel).
-_ROWS_PER_THREAD = 64
+# Prediction runs on several threads only when a block of rows holds at least this many kernel
+# values (about a millisecond of work: a thread's round trip, or a wait for a busy core, costs more
+# than a few rows), in up to 4 blocks per thread so that a slow thread delays little.
+_KERNEL_VALUES_PER_BLOCK = 100_000
+_BLOCKS_PER_THREAD = 4
 
 
 def resolve_threads(n_jobs: int | None) -> int:
@@ -67,11 +69,6 @@ def _check_2d(X: object) -> None:
             f"X must have shape (n_samples, n_features), got {X.shape} (Reshape your data: "
             "X.reshape(1, -1) for one sample, X.reshape(-1, 1) for one feature)"
         )
-
-
-def _signed(sol: DualSolution, problem: BinaryProblem) -> np.ndarray:
-    """libsvm's coefficients ``y_i a_i`` of a solution (positive for the problem's first class)."""
-    return sol.alpha * problem.y
 
 
 class _KernelMachine(ClassifierMixin, BaseEstimator):
@@ -159,21 +156,19 @@ class _KernelMachine(ClassifierMixin, BaseEstimator):
         if kernel_data is None:
             kernel_data, rows = KernelData.of(X, self.kernel, first.gamma_), None
         problems = first._problems(X, y_index)
-        mapped = problems if rows is None else [BinaryProblem(rows[p.rows], p.y) for p in problems]
-        threads = resolve_threads(self.n_jobs)
-        solutions = solve_all(
+        solutions = solve_set(
             kernel_data,
-            mapped,
+            problems if rows is None else problems.remapped(rows),
             Cs,
-            threads=threads,
+            threads=resolve_threads(self.n_jobs),
             cache_bytes=int(self.cache_size * 2**20),
             tol=self.tol,
             max_iter=self.max_iter,
         )
-        for k, model in enumerate(models):
+        for model, sol in zip(models, solutions, strict=True):
             model._copy_fitted(first)  # classes_, n_features_in_, gamma_, the tree
-            model._store(X, y_index, problems, [sols[k] for sols in solutions])
-        if not all(sol.converged for sols in solutions for sol in sols):
+            model._store(X, y_index, problems, sol)
+        if not all(sol.converged.all() for sol in solutions):
             warnings.warn(
                 f"the SVM solver stopped at max_iter={self.max_iter} before libsvm's stopping rule "
                 f"held (gap <= tol={self.tol}); the solution is not optimal (raise max_iter)",
@@ -200,11 +195,23 @@ class _KernelMachine(ClassifierMixin, BaseEstimator):
         self._copy_fitted(model)
         return self
 
-    def _support(self, y_index: np.ndarray, used: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Support vectors grouped by class (libsvm's order) and their count per class."""
+    def _support(self, y_index: np.ndarray, problems: ProblemSet, sol: Solutions) -> np.ndarray:
+        """Set ``support_``, ``support_vectors_`` and ``n_support_`` (support vectors of any problem,
+        grouped by class as libsvm groups them); return each sample's column in them (-1: none)."""
+        used = np.zeros(y_index.shape[0], dtype=bool)
+        used[problems.rows[sol.alpha > 0]] = True
         grouped = np.argsort(y_index, kind="stable")
-        support = grouped[used[grouped]]
-        return support, np.bincount(y_index[support], minlength=self.classes_.shape[0]).astype(np.int32)
+        self.support_ = grouped[used[grouped]]
+        self.n_support_ = np.bincount(y_index[self.support_], minlength=self.classes_.shape[0]).astype(
+            np.int32
+        )
+        column = np.full(y_index.shape[0], -1, dtype=np.int64)
+        column[self.support_] = np.arange(self.support_.shape[0])
+        return column
+
+    def _store_results(self, sol: Solutions) -> None:
+        self.n_iter_ = sol.n_iter.astype(np.int32)
+        self.objective_ = sol.objective.copy()
 
     def _store_kernel_tables(self) -> None:
         """Arrays the compiled prediction reads, derived once from the fitted attributes."""
@@ -225,9 +232,11 @@ class _KernelMachine(ClassifierMixin, BaseEstimator):
     def _decisions(self, X: np.ndarray, kernel_fn, n_out: int) -> np.ndarray:
         """Run a compiled decision kernel over the rows of ``X`` on up to ``n_jobs`` threads."""
         out = np.empty((X.shape[0], n_out))
-        threads = max(1, min(resolve_threads(self.n_jobs), X.shape[0] // _ROWS_PER_THREAD))
-        step = -(-X.shape[0] // threads) if X.shape[0] else 1
-        blocks = [slice(start, start + step) for start in range(0, X.shape[0], step)]
+        n = X.shape[0]
+        rows_per_block = max(1, _KERNEL_VALUES_PER_BLOCK // max(1, self.support_.shape[0]))
+        threads = max(1, min(resolve_threads(self.n_jobs), n // rows_per_block))
+        step = max(rows_per_block, -(-n // (threads * _BLOCKS_PER_THREAD))) if threads > 1 else max(n, 1)
+        blocks = [slice(start, start + step) for start in range(0, n, step)]
 
         def run(block: slice) -> None:
             kernel_fn(X[block], out[block])
@@ -376,40 +385,36 @@ class SVC(_KernelMachine):
             return "binary"
         return self.multi_class
 
-    def _problems(self, X: np.ndarray, y_index: np.ndarray) -> list[BinaryProblem]:
+    def _problems(self, X: np.ndarray, y_index: np.ndarray) -> ProblemSet:
         members = [np.flatnonzero(y_index == k) for k in range(self.classes_.shape[0])]
         mode = self._mode()
         if mode == "binary":
-            return [BinaryProblem.of(members[0], members[1])]
+            return ProblemSet.of([(members[0], members[1])])
         if mode == "ovr":
-            return [BinaryProblem.of(np.flatnonzero(y_index != k), members[k]) for k in range(len(members))]
-        n = len(members)
-        return [BinaryProblem.of(members[i], members[j]) for i in range(n) for j in range(i + 1, n)]
+            return ProblemSet.of([(np.flatnonzero(y_index != k), members[k]) for k in range(len(members))])
+        first, second = np.triu_indices(len(members), 1)
+        return ProblemSet.of([(members[i], members[j]) for i, j in zip(first, second, strict=True)])
 
-    def _store(
-        self, X: np.ndarray, y_index: np.ndarray, problems: list[BinaryProblem], sols: list[DualSolution]
-    ) -> None:
-        n = X.shape[0]
-        coef = np.zeros((len(problems), n))  # libsvm's y_i a_i, positive for the first class
-        for k, (problem, sol) in enumerate(zip(problems, sols, strict=True)):
-            coef[k, problem.rows] = _signed(sol, problem)
-        self.support_, self.n_support_ = self._support(y_index, (coef != 0).any(axis=0))
+    def _store(self, X: np.ndarray, y_index: np.ndarray, problems: ProblemSet, sol: Solutions) -> None:
+        column = self._support(y_index, problems, sol)
         self.support_vectors_ = X[self.support_]
-        rho = np.array([sol.rho for sol in sols])
-        mode = self._mode()
-        if mode == "ovo":
-            n_class = self.classes_.shape[0]
-            dual = np.zeros((n_class - 1, self.support_.shape[0]))
-            sv_class = y_index[self.support_]
-            for p, (i, j) in enumerate(zip(*np.triu_indices(n_class, 1), strict=True)):
-                dual[j - 1, sv_class == i] = coef[p, self.support_[sv_class == i]]
-                dual[i, sv_class == j] = coef[p, self.support_[sv_class == j]]
-            self.dual_coef_, self.intercept_ = dual, -rho
+        nz = sol.alpha > 0
+        sample, problem = problems.rows[nz], problems.problem_of[nz]
+        coef = (sol.alpha * problems.y)[nz]  # libsvm's y_i a_i, positive for the first class
+        n_class = self.classes_.shape[0]
+        if self._mode() == "ovo":
+            first, second = np.triu_indices(n_class, 1)
+            # libsvm's layout: a class-i coefficient of the pair (i, j) in row j - 1, a class-j one in row i
+            row = np.where(y_index[sample] == first[problem], second[problem] - 1, first[problem])
+            self.dual_coef_ = np.zeros((n_class - 1, self.support_.shape[0]))
+            self.dual_coef_[row, column[sample]] = coef
+            self.intercept_ = -sol.rho
         else:
-            # Toward the problem's second class (classes_[1], the class against the rest).
-            self.dual_coef_, self.intercept_ = -coef[:, self.support_], rho
-        self.n_iter_ = np.array([sol.n_iter for sol in sols], dtype=np.int32)
-        self.objective_ = np.array([sol.objective for sol in sols])
+            # Toward each problem's second class: classes_[1], or the class against the rest.
+            self.dual_coef_ = np.zeros((len(problems), self.support_.shape[0]))
+            self.dual_coef_[problem, column[sample]] = -coef
+            self.intercept_ = sol.rho.copy()
+        self._store_results(sol)
         self._store_kernel_tables()
         self._fitted_coef_t = np.ascontiguousarray(self.dual_coef_.T)
 
@@ -553,51 +558,48 @@ class HierarchicalSVC(_KernelMachine):
         self.n_jobs = n_jobs
         self.random_state = random_state
 
-    def _problems(self, X: np.ndarray, y_index: np.ndarray) -> list[BinaryProblem]:
+    def _problems(self, X: np.ndarray, y_index: np.ndarray) -> ProblemSet:
         n_class = self.classes_.shape[0]
-        onehot = np.eye(n_class)[y_index]
-        counts = onehot.sum(0)
-        means = (onehot.T @ X) / counts[:, None]
+        counts = np.bincount(y_index, minlength=n_class)
+        sums = [np.bincount(y_index, weights=X[:, f], minlength=n_class) for f in range(X.shape[1])]
+        means = np.stack(sums, axis=1) / counts[:, None]
         self._fitted_tree = build_tree(
             self.classes_, means, counts, n_init=self.n_init, random_state=self.random_state
         )
-        problems = []
+        sides = []
         for node in self._fitted_tree.nodes():
             if not node.is_leaf:
                 side = np.zeros(n_class, dtype=np.int8)  # 1: left group, 2: right group
                 side[node.left.members], side[node.right.members] = 1, 2
                 of_sample = side[y_index]
-                problems.append(
-                    BinaryProblem.of(np.flatnonzero(of_sample == 1), np.flatnonzero(of_sample == 2))
-                )
-        return problems
+                sides.append((np.flatnonzero(of_sample == 1), np.flatnonzero(of_sample == 2)))
+        return ProblemSet.of(sides)
 
-    def _store(
-        self, X: np.ndarray, y_index: np.ndarray, problems: list[BinaryProblem], sols: list[DualSolution]
-    ) -> None:
+    def _store(self, X: np.ndarray, y_index: np.ndarray, problems: ProblemSet, sol: Solutions) -> None:
         self.tree_ = self._fitted_tree.copy()
-        internal = [node for node in self.tree_.nodes() if not node.is_leaf]
-        n = X.shape[0]
-        coef = np.zeros((len(problems), n))  # toward the right (second) group
-        for k, (problem, sol) in enumerate(zip(problems, sols, strict=True)):
-            coef[k, problem.rows] = -_signed(sol, problem)
-        self.support_, self.n_support_ = self._support(y_index, (coef != 0).any(axis=0))
+        column = self._support(y_index, problems, sol)
         self.support_vectors_ = X[self.support_]
-        self.dual_coef_ = coef[:, self.support_]
-        self.intercept_ = np.array([sol.rho for sol in sols])
-        self.n_iter_ = np.array([sol.n_iter for sol in sols], dtype=np.int32)
-        self.objective_ = np.array([sol.objective for sol in sols])
-        for column, (node, problem, sol) in enumerate(zip(internal, problems, sols, strict=True)):
-            node.column = column
-            node.svc = self._node_svc(X, node, problem, sol, coef[column])
+        nz = sol.alpha > 0
+        sample, problem = problems.rows[nz], problems.problem_of[nz]
+        # Toward the right (second) group of each node.
+        self.dual_coef_ = np.zeros((len(problems), self.support_.shape[0]))
+        self.dual_coef_[problem, column[sample]] = -(sol.alpha * problems.y)[nz]
+        self.intercept_ = sol.rho.copy()
+        self._store_results(sol)
+        internal = [node for node in self.tree_.nodes() if not node.is_leaf]
+        for k, node in enumerate(internal):
+            node.column = k
+            part = slice(problems.offsets[k], problems.offsets[k + 1])
+            node.svc = self._node_svc(X, problems.rows[part], problems.y[part], sol.alpha[part], sol, k)
         self._index_tree()
         self._store_kernel_tables()
         self._fitted_coef_t = np.ascontiguousarray(self.dual_coef_.T)
 
     def _node_svc(
-        self, X: np.ndarray, node: TreeNode, problem: BinaryProblem, sol: DualSolution, coef: np.ndarray
+        self, X: np.ndarray, rows: np.ndarray, y: np.ndarray, a: np.ndarray, sol: Solutions, k: int
     ) -> SVC:
-        """The node's binary SVM as a fitted :class:`SVC` (labels False: left, True: right)."""
+        """Node ``k``'s binary SVM as a fitted :class:`SVC` (labels False: left, True: right;
+        ``support_`` indexes the whole training set)."""
         svc = SVC(
             C=self.C,
             kernel=self.kernel,
@@ -609,17 +611,14 @@ class HierarchicalSVC(_KernelMachine):
         )
         svc.classes_ = np.array([False, True])
         svc.n_features_in_, svc.gamma_ = self.n_features_in_, self.gamma_
-        right = np.zeros(X.shape[0], dtype=bool)
-        right[problem.rows[problem.y < 0]] = True
-        used = coef != 0
-        grouped = np.concatenate([np.flatnonzero(used & ~right), np.flatnonzero(used & right)])
-        svc.support_ = grouped
-        svc.n_support_ = np.array([int((used & ~right).sum()), int((used & right).sum())], dtype=np.int32)
-        svc.support_vectors_ = X[grouped]
-        svc.dual_coef_ = coef[grouped][None, :]
-        svc.intercept_ = np.array([sol.rho])
-        svc.n_iter_ = np.array([sol.n_iter], dtype=np.int32)
-        svc.objective_ = np.array([sol.objective])
+        used = a > 0  # left samples come first, as libsvm groups them
+        svc.support_ = rows[used]
+        svc.n_support_ = np.array([int((used & (y > 0)).sum()), int((used & (y < 0)).sum())], dtype=np.int32)
+        svc.support_vectors_ = X[svc.support_]
+        svc.dual_coef_ = -(a * y)[used][None, :]
+        svc.intercept_ = sol.rho[k : k + 1].copy()
+        svc.n_iter_ = sol.n_iter[k : k + 1].astype(np.int32)
+        svc.objective_ = sol.objective[k : k + 1].copy()
         svc._store_kernel_tables()
         svc._fitted_coef_t = np.ascontiguousarray(svc.dual_coef_.T)
         return svc

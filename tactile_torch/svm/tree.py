@@ -9,7 +9,6 @@ from the on-disk cache).
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -51,18 +50,10 @@ def split_classes(means: np.ndarray, *, n_init: int = 10, random_state: RandomSt
     if k == 2:
         return np.array([False, True])
     rng = numpy_rng(random_state)
-    best, best_inertia = None, math.inf
-    for _ in range(n_init):
-        first = int(rng.integers(k))
-        group, inertia = _two_means(means, first, float(rng.random()))
-        if inertia < 0.0:
-            break  # every mean is the same point
-        if inertia < best_inertia - 1e-12:
-            # Orient so that the group holding the first class is the negative one.
-            best, best_inertia = (group if not group[0] else ~group), inertia
-    if best is None:
-        best = np.arange(k) >= k // 2
-    return best
+    group = np.zeros(k, dtype=bool)
+    if not _best_split(means, rng.integers(k, size=n_init), rng.random(n_init), group):
+        return np.arange(k) >= k // 2  # every mean is the same point
+    return group
 
 
 @njit(
@@ -112,6 +103,31 @@ def _two_means(means, first, u):
     for c in range(k):
         inertia += np.sum((means[c] - centres[int(group[c])]) ** 2)
     return group, inertia
+
+
+@njit(
+    types.boolean(
+        types.Array(types.float64, 2, "C", readonly=True),
+        types.Array(types.int64, 1, "C", readonly=True),
+        types.Array(types.float64, 1, "C", readonly=True),
+        types.Array(types.boolean, 1, "C"),
+    ),
+    cache=True,
+)
+def _best_split(means, firsts, uniforms, best):
+    """Write into ``best`` the restart of :func:`_two_means` with the lowest inertia (oriented so
+    that the first class is in the negative group); return False if every mean is the same point."""
+    best_inertia = np.inf
+    for r in range(firsts.shape[0]):
+        group, inertia = _two_means(means, firsts[r], uniforms[r])
+        if inertia < 0.0:
+            return False
+        if inertia < best_inertia - 1e-12:
+            flip = group[0]
+            for c in range(group.shape[0]):
+                best[c] = group[c] != flip
+            best_inertia = inertia
+    return True
 
 
 @dataclass
