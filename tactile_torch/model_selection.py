@@ -39,7 +39,6 @@ from sklearn.utils._param_validation import Interval, Options
 from sklearn.utils.validation import check_is_fitted
 
 from ._checks import RandomState, numpy_rng
-from ._parallel import map_blocks
 
 
 @dataclass(frozen=True)
@@ -342,8 +341,8 @@ class SVMGridSearchCV(MetaEstimatorMixin, ClassifierMixin, BaseEstimator):
 
     def fit(self, X: object, y: object) -> SVMGridSearchCV:
         """Run the search on ``X`` (n_samples, n_features) and labels ``y``; return ``self``."""
-        from .svm.estimators import resolve_threads
         from .svm.kernels import KernelData
+        from .svm.threads import resolve_threads, run_blocks
 
         self._validate_params()
         if not supports_batched_search(self.estimator):
@@ -383,7 +382,7 @@ class SVMGridSearchCV(MetaEstimatorMixin, ClassifierMixin, BaseEstimator):
             def run(split, estimator=estimator, Cs=Cs, shared=shared):
                 return _path_scores(estimator, X, y, split, Cs, shared)
 
-            per_split = map_blocks(run, splits, threads)
+            per_split = run_blocks(run, splits, threads)
             for k, accuracy in enumerate(per_split):
                 for i, c in zip(members, c_values, strict=True):
                     scores[i, k] = accuracy[Cs.index(float(c))]

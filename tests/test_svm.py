@@ -498,3 +498,19 @@ def test_svc_matches_libsvm_on_synthetic_vibration_windows():
     from tactile_torch.data.stylus import make_vibration_recordings
 
     _check_against_libsvm(make_vibration_recordings(6, duration_s=20.0, random_state=0), 400)
+
+
+def test_run_blocks_keeps_order_and_raises_the_first_error():
+    from tactile_torch.svm.threads import resolve_threads, run_blocks
+
+    assert run_blocks(lambda b: b * b, list(range(20)), threads=3) == [b * b for b in range(20)]
+    assert run_blocks(lambda b: b, [], threads=2) == []
+    assert resolve_threads(None) == torch.get_num_threads() and resolve_threads(3) == 3
+
+    def fail(b):
+        if b == 7:
+            raise RuntimeError("block 7")
+        return b
+
+    with pytest.raises(RuntimeError, match="block 7"):
+        run_blocks(fail, list(range(12)), threads=2)

@@ -12,7 +12,6 @@ of an increasing sequence, each warm-started from the previous, which the batche
 
 from __future__ import annotations
 
-import os
 import warnings
 from collections.abc import Sequence
 from numbers import Integral, Real
@@ -26,11 +25,11 @@ from sklearn.utils._param_validation import Interval, Options, StrOptions
 from sklearn.utils.multiclass import check_classification_targets
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-from .._parallel import map_blocks
 from . import _smo
 from .inference import SVMInference, ovo_tables
 from .kernels import KERNELS, KernelData, scale_gamma
 from .solver import ProblemSet, Solutions, solve_set
+from .threads import resolve_threads, run_blocks
 from .tree import build_tree
 
 # Prediction runs on several threads only when a block of rows holds at least this many kernel
@@ -38,16 +37,6 @@ from .tree import build_tree
 # than a few rows), in up to 4 blocks per thread so that a slow thread delays little.
 _KERNEL_VALUES_PER_BLOCK = 100_000
 _BLOCKS_PER_THREAD = 4
-
-
-def resolve_threads(n_jobs: int | None) -> int:
-    """Threads for ``n_jobs``: ``None`` -> ``torch.get_num_threads()`` (the library's thread budget,
-    which the caller may set), ``-1`` -> every core, else ``n_jobs``."""
-    if n_jobs is None:
-        return max(1, torch.get_num_threads())
-    if n_jobs == -1:
-        return os.cpu_count() or 1
-    return int(n_jobs)
 
 
 def _as_numpy(value: object) -> object:
@@ -241,7 +230,7 @@ class _KernelMachine(ClassifierMixin, BaseEstimator):
         def run(block: slice) -> None:
             kernel_fn(X[block], out[block])
 
-        map_blocks(run, blocks, threads)
+        run_blocks(run, blocks, threads)
         return out
 
     def _dense_margins(self, X: np.ndarray) -> np.ndarray:
@@ -718,4 +707,4 @@ class HierarchicalSVC(_KernelMachine):
         )
 
 
-__all__ = ["SVC", "HierarchicalSVC", "resolve_threads"]
+__all__ = ["SVC", "HierarchicalSVC"]

@@ -8,8 +8,8 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from .._parallel import map_blocks
 from . import _smo
+from .threads import run_blocks
 
 KERNELS = ("rbf", "linear")
 """The kernels the solver and the inference graph implement."""
@@ -111,7 +111,7 @@ class KernelData:
         def fill(block: tuple[int, int]) -> None:
             _smo.kernel_block(X, rows.sq, rows.XT, rows.sq, rows.gamma, rows.kind, K, *block)
 
-        map_blocks(fill, blocks, threads)
+        run_blocks(fill, blocks, threads)
         return cls(_EMPTY_X, rows.sq, K, _smo.PRECOMPUTED, float(gamma))
 
 

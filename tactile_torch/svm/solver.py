@@ -29,9 +29,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._parallel import map_blocks
 from . import _smo
 from .kernels import KernelData
+from .threads import run_blocks
 
 SHRINK_EVERY = 100
 """Iterations between two shrinking passes (libsvm: ``min(n, 1000)``); measured 17 % faster on the
@@ -190,7 +190,7 @@ def solve_set(
                 sol.converged,
             )
 
-    map_blocks(run, tasks, threads)
+    run_blocks(run, tasks, threads)
     return out
 
 
