@@ -6,7 +6,7 @@ trained on the bundled synthetic data and exported. For each:
 
 - latency of one sample (batch 1): median and p99 over many calls, onnxruntime with one intra-op
   thread (:class:`tactile_torch.runtime.OnnxPipeline`, input validation included) against the eager
-  torch pipeline at one thread; the issue's targets are a W = 800 window under 1 ms and an
+  torch pipeline at one thread; the targets are a W = 800 window under 1 ms and an
   exploration under 20 ms (median), both faster than eager torch;
 - throughput (samples per second) on a batch, at one thread and at the default thread count;
 - the file size, and the agreement of the labels (must be 1.0) and the largest score difference.

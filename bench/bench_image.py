@@ -88,8 +88,8 @@ def run(quick: bool) -> dict:
         "explorations (ours in float32 from uint8, scipy in float64).",
         "Ours works on blocks of explorations x frames (tactile_torch.image.CHUNK_PIXELS pixels) and "
         "accumulates the OR, so the memory does not grow with the number of frames; at the default "
-        "thread count the blocks run on that many Python threads with torch's intra-op pool held at "
-        "one thread (tactile_torch._parallel). The uint8 input itself is not counted in the peak "
-        "(it exists before the call).",
+        "thread count the blocks run on that many Python threads, each running its torch ops on one "
+        "thread (a per-thread setting, tactile_torch._parallel). The uint8 input itself is not "
+        "counted in the peak (it exists before the call).",
     ]
     return {"rows": rows, "notes": notes}

@@ -6,7 +6,7 @@ default thread count, on synthetic stylus windows (quantised, so the crossings h
 - ``ours``: ``window_features`` on the whole batch;
 - ``reference loop``: ``tests.reference_signal.window_features_loop``, what a researcher writes (a loop
   over windows and axes calling ``scipy.stats.skew/kurtosis/moment``, ``numpy.fft.rfft`` and a loop
-  over the 20 thresholds); the issue's target is 20x its throughput at one thread. It is slow, so it
+  over the 20 thresholds); the target is 20x its throughput at one thread. It is slow, so it
   runs on a subset of the batch (windows per second do not depend on the batch size for a loop);
 - ``reference vectorised``: ``window_features_vectorized``, the same with ``axis=`` arguments over the
   whole batch, the fastest plain NumPy/SciPy version we wrote.
@@ -94,11 +94,12 @@ def run(quick: bool) -> dict:
         "Data: make_vibration_dataset(28, window_size=W, random_state=0), float32 windows in g, quantised "
         "to 3.9 mg (exact threshold ties).",
         "x loop = ours / reference loop (per-window scipy.stats + numpy.fft + loop over thresholds), the "
-        "issue's target is >= 20 at 1 thread; x vectorised = ours / the same with axis= arguments.",
+        "target is >= 20 at 1 thread; x vectorised = ours / the same with axis= arguments.",
         "max rel err: largest relative difference from the references over all 21 features (standardised "
         "moments relative to max(|value|, 1)); crossings equal: exact equality of the counts.",
-        "ours parallelises over blocks of windows (torch's intra-op pool is held at 1 thread during the "
-        "call); the references use NumPy's BLAS threads where they can (the FFT and moments are single-threaded).",
+        "ours parallelises over blocks of windows on Python threads, each running its torch ops on one "
+        "thread (a per-thread setting, tactile_torch._parallel); the references use NumPy's BLAS threads "
+        "where they can (the FFT and moments are single-threaded).",
     ]
     rows.append(_onnx_latency(quick))
     return {"rows": rows, "notes": notes}

@@ -413,7 +413,7 @@ def run(quick: bool) -> dict:
         f"cache {CACHE_MB:.0f} MiB for both.",
         "Ratios are libsvm (or scikit-learn) time / ours: > 1 means ours is faster. Fit times are the "
         "fastest of 3 fits below 10,000 samples (1 above); predict times medians.",
-        "Targets (issue 11): HM-SVM fit no slower than libsvm's one-vs-one (fit ratio >= 1 on the "
+        "Targets: HM-SVM fit no slower than libsvm's one-vs-one (fit ratio >= 1 on the "
         "'HM-SVM vs libsvm OvO' rows at 1 thread, 2 the target) with accuracy within 0.5 points; "
         "binary SVC fit within 1.5x of libsvm (fit ratio >= 0.67 on the binary rows); grid search >= 3x "
         "faster than GridSearchCV(SVC()) at 1 thread choosing the same parameters or within the folds' "
@@ -426,6 +426,8 @@ def run(quick: bool) -> dict:
         "C = 16, gamma = 0.0186 at the centre); 'ours at reference's choice - reference' and the folds' "
         "standard error (std / sqrt(folds) at the reference's choice) say whether a different choice is "
         "within noise.",
+        "Binary rows: 'dual objective rel diff' and the support sets' symmetric difference (ties: samples "
+        "within 1e-2 of the margin by libsvm's decision function) compare our solution with libsvm's.",
         "The machine is a 2-core machine shared with other developers' jobs: ratios are measured in one "
         "process, the reference and ours back to back, so that load affects both.",
     ]

@@ -10,8 +10,10 @@ import contextlib
 import gc
 import os
 import statistics
+import subprocess
 import time
 from collections.abc import Callable, Iterator
+from pathlib import Path
 
 import torch
 from threadpoolctl import threadpool_limits
@@ -73,6 +75,14 @@ def peak_memory_mib(fn: Callable[[], object]) -> float:
     base = _status_kib("VmRSS")
     fn()
     return (_status_kib("VmHWM") - base) / 1024.0
+
+
+def source_at(revision: str, path: str) -> str:
+    """The text of ``path`` (relative to the repository's root) at git ``revision``."""
+    root = Path(__file__).resolve().parents[1]
+    return subprocess.run(
+        ["git", "show", f"{revision}:{path}"], cwd=root, check=True, capture_output=True, text=True
+    ).stdout
 
 
 def machine() -> dict:

@@ -2,7 +2,8 @@
 
     python bench/image_stages.py --before 4cc95be
 
-Loads ``tactile_torch/image.py`` of ``--before`` (``git show``) next to the current one and times, per
+Loads ``tactile_torch/image.py`` of ``--before`` (``git show``; a revision from before the module became
+the ``tactile_torch/image/`` package) next to the current package and times, per
 100-frame exploration, each hard-mode stage alone (CPU time, fastest of 7) on one block of the current
 code (``CHUNK_PIXELS`` pixels of one exploration), the statistics of 8 fused images, and the whole call (wall time, fastest of 5) at one
 thread and at the default thread count. Prints a Markdown table. Not part of ``make bench`` (it needs
@@ -13,10 +14,10 @@ from __future__ import annotations
 
 import argparse
 import importlib.util
-import subprocess
 import sys
 import tempfile
 import time
+import types
 from pathlib import Path
 
 import torch
@@ -24,19 +25,22 @@ import torch
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from bench.common import DEFAULT_THREADS, threads  # noqa: E402
-from tactile_torch import image as after  # noqa: E402
+from bench.common import DEFAULT_THREADS, source_at, threads  # noqa: E402
+from tactile_torch import image  # noqa: E402
 from tactile_torch.data.images import make_explorations  # noqa: E402
+from tactile_torch.image import _kernels, _scheduler  # noqa: E402
+
+# The current code under the names the single-module revisions used.
+after = types.SimpleNamespace(
+    **vars(_kernels),
+    _pressed=_scheduler.pressed,
+    exploration_features=image.exploration_features,
+    CHUNK_PIXELS=image.CHUNK_PIXELS,
+)
 
 
 def _load(revision: str):
-    source = subprocess.run(
-        ["git", "show", f"{revision}:tactile_torch/image.py"],
-        cwd=ROOT,
-        check=True,
-        capture_output=True,
-        text=True,
-    ).stdout
+    source = source_at(revision, "tactile_torch/image.py")
     path = Path(tempfile.mkdtemp()) / "image_before.py"
     path.write_text(source)
     spec = importlib.util.spec_from_file_location("tactile_torch._image_before", path)
@@ -93,11 +97,11 @@ def main() -> None:
                 rows.setdefault(name, []).extend(
                     1e3 * scale * _best(s[name], 7, time.thread_time) for s in (old_stages, new_stages)
                 )
-            image = (
+            fused = (
                 torch.rand(len(frames), size, size, generator=torch.Generator().manual_seed(0)) > 0.9
             ).float()
             rows.setdefault("statistics of the fused image", []).extend(
-                1e3 * _best(lambda m=m, x=image: m._image_features(x), 7, time.thread_time) / len(frames)
+                1e3 * _best(lambda m=m, x=fused: m._image_features(x), 7, time.thread_time) / len(frames)
                 for m in (before, after)
             )
         for n in sorted({1, DEFAULT_THREADS}):

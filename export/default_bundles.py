@@ -1,6 +1,6 @@
 """Train the three default pipelines on the bundled synthetic data and export each to one ONNX file.
 
-Thin program over :func:`tactile_torch.pipeline.build_default_bundles`: writes ``<name>.pt`` and
+Thin program over :func:`tactile_torch.pipeline.build_default_bundles`: writes ``<name>.npz`` and
 ``<name>.onnx`` for ``vibration-hmsvm``, ``vibration-pyp`` and ``image-hmsvm`` and prints, per bundle,
 the held-out accuracy and the agreement of onnxruntime with torch.
 

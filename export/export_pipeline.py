@@ -1,12 +1,12 @@
 """Export a trained model to one ONNX bundle and check it against torch on a data file.
 
 Thin program over :mod:`tactile_torch.pipeline` (the same as ``tactile-torch export``, plus a parity
-check): the model file comes from ``tactile-torch train --out model.pt`` (SVMs) or
-``tactile-torch cluster`` (``OUT/model.pt``).
+check): the model file comes from ``tactile-torch train --out model.npz`` (SVMs) or
+``tactile-torch cluster`` (``OUT/model.npz``).
 
 Examples
 --------
-python export/export_pipeline.py --model runs/vib/model.pt --out runs/vib/model.onnx --check rec.npz
+python export/export_pipeline.py --model runs/vib/model.npz --out runs/vib/model.onnx --check rec.npz
 """
 
 from __future__ import annotations

@@ -75,12 +75,6 @@ def check_finite(x: torch.Tensor, name: str) -> torch.Tensor:
     return x
 
 
-def check_nonempty(x: torch.Tensor, name: str, dim: int, what: str, minimum: int = 1) -> None:
-    """Raise ``ValueError`` if dimension ``dim`` of ``x`` has fewer than ``minimum`` entries."""
-    if x.shape[dim] < minimum:
-        raise ValueError(f"{name} must have at least {minimum} {what}, got shape {tuple(x.shape)}")
-
-
 def check_positive(value: object, name: str, *, strict: bool = True, integer: bool = False) -> None:
     """Raise unless ``value`` is a (strictly) positive real (or integer) number."""
     kind = numbers.Integral if integer else numbers.Real

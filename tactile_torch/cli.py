@@ -13,6 +13,36 @@ from pathlib import Path
 
 NOT_BUILT_EXIT = 2
 """Exit status when a command cannot do its work (e.g. ``bench`` outside a source checkout)."""
+BAD_INPUT_EXIT = 2
+"""Exit status for bad input (a missing or malformed file, a wrong option), after one line on stderr."""
+INTERNAL_ERROR_EXIT = 1
+"""Exit status for an unexpected error (a bug): one line on stderr, the traceback with ``--debug``."""
+
+TRAIN_EXTRA = "train"
+TRAIN_MODULES = (
+    "torch",
+    "scipy",
+    "sklearn",
+    "numba",
+    "matplotlib",
+    "onnx",
+    "onnxscript",
+    "tqdm",
+    "threadpoolctl",
+)
+"""Modules of the ``[train]`` extra (pyproject.toml); the robot install has numpy, onnxruntime, pyserial."""
+NEEDS_TRAIN_EXTRA = ("report", "bench", "train", "cluster", "export", "tradeoff")
+"""Commands that need the ``[train]`` extra; ``predict``, ``stream`` and ``simulate-sensor --data`` do not."""
+
+
+class UsageError(ValueError):
+    """Bad command-line input detected by a handler (reported in one line, like any ``ValueError``)."""
+
+
+def _data_name(paths: str | Path | list) -> str:
+    from .formats import data_name
+
+    return data_name(paths)
 
 
 def _report(args: argparse.Namespace) -> int:
@@ -38,22 +68,30 @@ def _train(args: argparse.Namespace) -> int:
     from .training import load_features, save_model, train_classifier
 
     gamma = args.gamma if args.gamma == "scale" else float(args.gamma)
+    if args.out and args.method not in ("hmsvm", "svm"):
+        raise UsageError(
+            f"--out: method {args.method!r} has no exportable inference path, so it has no model file; "
+            "save an SVM (--method hmsvm or svm) or drop --out"
+        )
     features = load_features(
         args.data, window=args.window, step=args.step, fuse=not args.no_fuse, allow_pickle=args.allow_pickle
     )
     print(
-        f"{args.data}: {features.X.shape[0]} samples x {features.X.shape[1]} features "
+        f"{_data_name(args.data)}: {features.X.shape[0]} samples x {features.X.shape[1]} features "
         f"({features.source['kind']}), {len(features.class_names)} classes"
     )
-    model = train_classifier(
-        features,
-        args.method,
-        C=args.C,
-        gamma=gamma,
-        kernel=args.kernel,
-        test_size=args.test_size,
-        random_state=args.seed,
-    )
+    try:
+        model = train_classifier(
+            features,
+            args.method,
+            C=args.C,
+            gamma=gamma,
+            kernel=args.kernel,
+            test_size=args.test_size,
+            random_state=args.seed,
+        )
+    except ValueError as err:  # e.g. a class with one sample: name the file it came from
+        raise ValueError(f"{_data_name(args.data)}: {err}") from err
     print(
         f"{args.method}: trained on {len(model.train_index)}, tested on {len(model.test_index)} held-out samples"
     )
@@ -83,39 +121,38 @@ def _bench(args: argparse.Namespace) -> int:
 
 def _cluster(args: argparse.Namespace) -> int:
     import numpy as np
-    import torch
 
+    from .formats import read_data
     from .metrics import pairwise_accuracy
     from .mixture import PitmanYorGMM
     from .pipeline import save_clustering_model
     from .training import load_features
 
-    with np.load(args.data, allow_pickle=False) as npz:
-        keys = set(npz.files)
-        if "features" in keys:  # labels optional: clustering does not need them
-            X, truth = npz["features"], (npz["labels"] if "labels" in keys else None)
-    if "features" in keys:
-        source = {"kind": "features", "n_features": int(X.shape[1]) if X.ndim == 2 else 0}
-    elif "signals" in keys:
+    data = read_data(args.data, allow_pickle=args.allow_pickle)
+    if data.kind == "features":  # labels optional: clustering does not need them
+        X, truth = data.features, data.labels
+        source = {"kind": "features", "n_features": int(X.shape[1])}
+    elif data.kind == "vibration":
         features = load_features(
             args.data, window=args.window, step=args.step, allow_pickle=args.allow_pickle
         )
         X, truth, source = features.X, features.y, dict(features.source)
     else:
-        print(
-            f"tactile-torch cluster: {args.data} must hold vibration recordings ('signals') or a "
-            f"'features' array (n, D), found {sorted(keys)}",
-            file=sys.stderr,
+        raise UsageError(
+            f"{_data_name(args.data)}: --data must hold vibration recordings ('signals') or a 'features' "
+            f"array (n, D) to cluster, got {data.kind} data"
         )
-        return 2
     kind = source["kind"]
     transform = None
     if kind == "vibration":
         from .signal import ClusteringTransform
 
-        transform = ClusteringTransform(args.components).fit(torch.from_numpy(X))
-        X = transform(torch.from_numpy(X)).numpy()
-        print(f"{args.data}: {len(X)} windows of {args.window} samples -> {X.shape[1]} principal components")
+        transform = ClusteringTransform(args.components).fit(X)
+        X = transform.transform(X)
+        print(
+            f"{_data_name(args.data)}: {len(X)} windows of {args.window} samples -> "
+            f"{X.shape[1]} principal components"
+        )
     init = int(args.init) if args.init.isdigit() else args.init
     model = PitmanYorGMM(
         alpha=args.alpha,
@@ -139,14 +176,14 @@ def _cluster(args: argparse.Namespace) -> int:
         alpha_samples=model.alpha_samples_,
         discount_samples=model.discount_samples_,
     )
-    save_clustering_model(out / "model.pt", model, source=source, transform=transform)
+    save_clustering_model(out / "model.npz", model, source=source, transform=transform)
     summary = model.summary()
     if truth is not None:
         summary += f"\npairwise accuracy of the MAP labels: {pairwise_accuracy(truth, model.labels_):.4f}"
     (out / "summary.txt").write_text(summary + "\n")
     print(summary)
     print(
-        f"written: {out / 'clustering.npz'}, {out / 'summary.txt'}, {out / 'model.pt'} (tactile-torch export)"
+        f"written: {out / 'clustering.npz'}, {out / 'summary.txt'}, {out / 'model.npz'} (tactile-torch export)"
     )
     return 0
 
@@ -173,28 +210,32 @@ def _predict(args: argparse.Namespace) -> int:
 
     pipe = OnnxPipeline(args.model, intra_op_threads=args.threads)
     data = pipe.read_npz(args.data, allow_pickle=args.allow_pickle)
+    mismatch = pipe.sample_rate_mismatch(data.rate_hz)
+    if mismatch:
+        print(f"tactile-torch predict: warning: {_data_name(args.data)}: {mismatch}", file=sys.stderr)
     labels = np.concatenate(
         [pipe.predict(data.raw[i : i + args.batch]) for i in range(0, len(data.raw), args.batch)]
     )
-    print(f"{pipe!r}: {len(labels)} samples of {args.data}")
+    print(f"{pipe!r}: {len(labels)} samples of {_data_name(args.data)}")
     if args.out:
-        np.savez(args.out, labels=labels, names=np.array(pipe.class_names)[labels])
+        from .formats import write_npz
+
+        write_npz(args.out, {"labels": labels, "names": np.array(pipe.class_names)[labels]})
         print(f"labels written to {args.out}")
-    if data.labels is None:
+    if data.labels is not None and pipe.pipeline.endswith("-pyp"):
+        from .metrics import pairwise_accuracy
+
+        accuracy = pairwise_accuracy(data.file_labels, labels)  # the file's classes vs the components
+        print(f"{len(np.unique(labels))} components used; pairwise accuracy {accuracy:.4f}")
+        return 0
+    known = None if data.labels is None else data.labels >= 0
+    if known is not None and not known.all():
+        print(f"{int((~known).sum())} samples of classes the model does not know are left out")
+    if known is None or not known.any():
         counts = np.bincount(labels, minlength=len(pipe.class_names))
         for name, n in zip(pipe.class_names, counts, strict=True):
             print(f"{name:<24} {n:>7}")
         return 0
-    if pipe.pipeline.endswith("-pyp"):
-        from .metrics import pairwise_accuracy
-
-        print(
-            f"{len(np.unique(labels))} components used; pairwise accuracy {pairwise_accuracy(data.labels, labels):.4f}"
-        )
-        return 0
-    known = data.labels >= 0
-    if not known.all():
-        print(f"{int((~known).sum())} samples of classes the model does not know are left out")
     n = len(pipe.class_names)
     _print_class_report(
         class_report(data.labels[known], labels[known], labels=np.arange(n), names=pipe.class_names)
@@ -202,14 +243,38 @@ def _predict(args: argparse.Namespace) -> int:
     return 0
 
 
+STREAM_NO_DATA_EXIT = 3
+"""Exit status of ``stream`` when no sample came within the start or idle timeout."""
+STREAM_DISCONNECTED_EXIT = 4
+"""Exit status of ``stream`` when the port failed and was not (or could not be) reconnected."""
+
+
+def _at_least(minimum: float, kind: type = float):
+    """Return an argparse type: a number of ``kind`` >= ``minimum``, else a one-line usage error."""
+
+    def parse(text: str):
+        try:
+            value = kind(text)
+        except ValueError:
+            what = "an integer" if kind is int else "a number"
+            raise argparse.ArgumentTypeError(f"expected {what}, got {text!r}") from None
+        if not value >= minimum:
+            raise argparse.ArgumentTypeError(f"expected a number >= {minimum:g}, got {text!r}")
+        return value
+
+    return parse
+
+
 def _stream(args: argparse.Namespace) -> int:
     # torch-free: pyserial, numpy and onnxruntime only, as on the robot.
-    import time
+    import math
 
+    import numpy as np
     import serial
 
     from .runtime import OnnxPipeline
-    from .stream import WindowReader
+    from .stream import StreamDisconnected, StreamTimeout, WindowReader, sensor_range_g
+    from .stream_output import WindowVote, classify_windows, result_json, result_text
 
     pipe = OnnxPipeline(args.model, intra_op_threads=args.threads)
     if "window_size" not in pipe.metadata:
@@ -217,49 +282,110 @@ def _stream(args: argparse.Namespace) -> int:
         return 2
     size = int(pipe.metadata["window_size"])
     step = args.step or size // 2
-    port = serial.serial_for_url(args.port, baudrate=args.baud, timeout=args.timeout)
-    reader = WindowReader(port, window_size=size, step=step, max_windows=args.max_windows or None)
-    print(f"{pipe!r}: reading {args.port}, windows of {size} samples every {step}", flush=True)
-    for i, window in enumerate(reader):
-        start = time.perf_counter()
-        labels, scores = pipe.predict_scores(window)
-        ms = (time.perf_counter() - start) * 1e3
-        name = pipe.class_names[int(labels[0])] if pipe.class_names else str(int(labels[0]))
+    rate = float(pipe.metadata["sample_rate_hz"]) if "sample_rate_hz" in pipe.metadata else None
+    if args.time_unit == "samples" and rate is None:
         print(
-            f"{i:>6} {reader.samples:>9} {name:<24} score {float(scores[0].max()):+.3f} ({ms:.2f} ms)",
-            flush=True,
+            f"tactile-torch stream: --time-unit samples needs the sample rate, which {args.model} lacks",
+            file=sys.stderr,
         )
-    print(f"{reader.samples} samples read, {reader.skipped} lines skipped")
-    port.close()
-    return 0
+        return 2
+    info = sys.stderr if args.json else sys.stdout  # --json: stdout holds nothing but the JSON lines
+
+    def say(message: str) -> None:
+        print(f"tactile-torch stream: {message}", file=sys.stderr, flush=True)
+
+    def open_port():
+        return serial.serial_for_url(args.port, baudrate=args.baud, timeout=min(0.1, args.silence / 2))
+
+    reader = WindowReader(
+        open_port,
+        window_size=size,
+        step=step,
+        max_windows=args.max_windows or None,
+        rate_hz=rate,
+        time_unit=args.time_unit,
+        range_g=args.range or sensor_range_g(pipe.metadata),
+        silence_s=args.silence,
+        idle_timeout_s=args.idle_timeout or math.inf,
+        start_timeout_s=args.start_timeout or math.inf,
+        reconnect=args.reconnect,
+        on_event=lambda event: say(event.message),
+        name=args.port,
+    )
+    vote = WindowVote(args.vote, args.vote_method, pipe.class_names) if args.vote > 1 else None
+    # Each classified window goes to every consumer in turn.
+    write = result_json if args.json else result_text
+    consumers = [lambda result: print(write(result), flush=True)]
+    print(
+        f"{pipe!r}: reading {args.port}, windows of {size} samples every {step}, range ±{reader.range_g:g} g",
+        file=info,
+        flush=True,
+    )
+    pipe.predict_scores(
+        np.zeros((1, 3, size), np.float32)
+    )  # the first call allocates: not in a window's latency
+    status = 0
+    try:
+        for result in classify_windows(reader, pipe, vote=vote):
+            for consume in consumers:
+                consume(result)
+    except StreamTimeout as err:
+        say(str(err))
+        status = STREAM_NO_DATA_EXIT
+    except StreamDisconnected as err:
+        say(str(err))
+        status = STREAM_DISCONNECTED_EXIT
+    except KeyboardInterrupt:
+        status = 130
+    print(
+        f"{reader.samples} samples read, {reader.windows} windows, {reader.skipped} lines skipped, "
+        f"{reader.rejected} samples out of range, {reader.gaps} gaps ({reader.lost} samples known lost), "
+        f"{reader.reconnects} reconnections",
+        file=info,
+        flush=True,
+    )
+    return status
 
 
 def _simulate_sensor(args: argparse.Namespace) -> int:
-    import numpy as np
+    import contextlib
+
     import serial
 
-    from .stream import simulate_sensor
+    from .stream import pseudo_terminal, simulate_sensor
 
-    if args.data:
-        with np.load(args.data, allow_pickle=args.allow_pickle) as npz:
-            signals, rate = npz["signals"], float(npz["rate_hz"]) if "rate_hz" in npz.files else args.rate
-        recording = np.asarray(signals[args.recording], dtype=np.float32)
+    if bool(args.port) == args.pty:
+        print("tactile-torch simulate-sensor: give either --port PORT or --pty", file=sys.stderr)
+        return 2
+    if args.data:  # any layout of docs/formats.md, incl. recordings of different lengths
+        from .formats import read_recordings
+
+        data = read_recordings(args.data, allow_pickle=args.allow_pickle, default_rate_hz=args.rate)
+        if not 0 <= args.recording < len(data):
+            raise UsageError(f"--recording must be in 0..{len(data) - 1} ({args.data}), got {args.recording}")
+        recording, rate = data.signals[args.recording], data.rate_hz
     else:
         from .data import make_vibration_recordings
 
         rec = make_vibration_recordings(28, duration_s=args.seconds, random_state=args.seed)
         recording, rate = rec.signals[args.recording % 28], rec.rate_hz
-    port = serial.serial_for_url(args.port, baudrate=args.baud)
-    print(f"writing {len(recording)} samples at {rate:g} Hz to {args.port}", flush=True)
-    n = simulate_sensor(port, recording, rate_hz=rate, realtime=not args.fast)
-    port.close()
+    with contextlib.ExitStack() as stack:
+        if args.pty:
+            port, name = stack.enter_context(pseudo_terminal())
+            print(f"sensor on {name}: read it with tactile-torch stream --port {name}", flush=True)
+        else:
+            port, name = stack.enter_context(serial.serial_for_url(args.port, baudrate=args.baud)), args.port
+        print(f"writing {len(recording)} samples at {rate:g} Hz to {name}", flush=True)
+        n = simulate_sensor(port, recording, rate_hz=rate, realtime=not args.fast, timestamps=args.timestamps)
     print(f"{n} samples written")
     return 0
 
 
 def _add_allow_pickle(p: argparse.ArgumentParser) -> None:
     p.add_argument(
-        "--allow-pickle", action="store_true", help="allow object arrays in a trusted vibration .npz"
+        "--allow-pickle",
+        action="store_true",
+        help="read the pickled recordings of a trusted vibration .npz written by tactile-torch 0.1",
     )
 
 
@@ -272,6 +398,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="Recognise surfaces from tactile images and vibration; train, cluster, export, run.",
     )
     parser.add_argument("--version", action="version", version=f"tactile-torch {__version__}")
+    parser.add_argument("--debug", action="store_true", help="show the traceback of an error")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
     p = sub.add_parser("report", help="run every pipeline on the bundled data and write a report (make run)")
@@ -292,7 +419,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--data",
         required=True,
-        help="a .npz of DESIGN.md's formats (frames, signals) or with a features matrix",
+        nargs="+",
+        help="a .npz of docs/formats.md (frames, signals or features), or CSV logs t,x,y,z (class from the "
+        "file name: cork_1.csv -> cork)",
     )
     p.add_argument(
         "--method",
@@ -300,7 +429,9 @@ def build_parser() -> argparse.ArgumentParser:
         choices=["hmsvm", "svm", "lda", "knn"],
         help="classifier (default: hmsvm)",
     )
-    p.add_argument("--out", default="", help="write the trained model here (torch.save), e.g. model.pt")
+    p.add_argument(
+        "--out", default="", help="write the trained SVM's model file here (no pickle), e.g. model.npz"
+    )
     p.add_argument("--C", type=float, default=16.0, help="SVM penalty (default: 16)")
     p.add_argument("--gamma", default="scale", help="RBF width, a float or 'scale' (default)")
     p.add_argument("--kernel", default="rbf", choices=["rbf", "linear"], help="SVM kernel (default: rbf)")
@@ -320,12 +451,14 @@ def build_parser() -> argparse.ArgumentParser:
         description="Fit tactile_torch.mixture.PitmanYorGMM to vibration recordings (windows -> 21 features -> "
         "the unsupervised transform -> principal components) or to a 'features' array (n, D); write the MAP "
         "clustering and the posterior samples to OUT/clustering.npz, a summary to OUT/summary.txt and the "
-        "model to OUT/model.pt (for tactile-torch export).",
+        "model to OUT/model.npz (for tactile-torch export).",
     )
     p.add_argument(
         "--data",
         required=True,
-        help="vibration recordings .npz ('signals'), or 'features' (n, D) and optionally 'labels' (n,)",
+        nargs="+",
+        help="vibration recordings (.npz with 'signals', or CSV logs), or a .npz with 'features' (n, D) "
+        "and optionally 'labels' (n,)",
     )
     p.add_argument("--out", default="runs/cluster", help="output directory (default: runs/cluster)")
     p.add_argument("--window", type=int, default=800, help="recordings: window in samples (default: 800)")
@@ -349,7 +482,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="Read a model written by 'tactile-torch train --out' (SVMs) or 'tactile-torch cluster' "
         "and write the whole inference graph, with its metadata, to one .onnx file (dynamic batch).",
     )
-    p.add_argument("--model", required=True, help="model file (model.pt) written by train or cluster")
+    p.add_argument("--model", required=True, help="model file (model.npz) written by train or cluster")
     p.add_argument("--out", required=True, help="the .onnx file to write")
     p.set_defaults(handler=_export)
 
@@ -358,7 +491,12 @@ def build_parser() -> argparse.ArgumentParser:
         help="classify a data file with an exported ONNX pipeline (onnxruntime, no torch); print a class report",
     )
     p.add_argument("--model", required=True, help="the .onnx bundle written by tactile-torch export")
-    p.add_argument("--data", required=True, help=".npz of DESIGN.md's formats (frames, signals or features)")
+    p.add_argument(
+        "--data",
+        required=True,
+        nargs="+",
+        help="a .npz of docs/formats.md (frames, signals or features), or CSV logs t,x,y,z",
+    )
     p.add_argument("--out", default="", help="also write the predicted labels and names to this .npz")
     p.add_argument("--batch", type=int, default=256, help="samples per onnxruntime call (default: 256)")
     p.add_argument("--threads", type=int, default=1, help="onnxruntime intra-op threads (default: 1)")
@@ -368,20 +506,79 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser(
         "stream",
         help="classify a live serial accelerometer stream with an exported vibration bundle",
-        description="Read 'x,y,z' lines (g) from a serial port (any pyserial URL, e.g. /dev/ttyUSB0, "
-        "socket://host:port, loop://), cut them into the bundle's windows and print each window's class.",
+        description="Read 'x,y,z' or 't,x,y,z' lines (g) from a serial port (any pyserial URL, e.g. "
+        "/dev/ttyUSB0, socket://host:port, loop://), cut them into the bundle's windows and print each "
+        "window's class. Silence, disconnection, gaps in t, samples out of range and garbage lines are "
+        "reported on stderr; no window spans a gap. Exit status: 0 done, 3 no data within the timeout, "
+        "4 port failed (see docs/stream.md).",
     )
     p.add_argument("--model", required=True, help="the .onnx vibration bundle")
     p.add_argument("--port", required=True, help="serial port or pyserial URL")
     p.add_argument("--baud", type=int, default=230400, help="baud rate (default: 230400)")
-    p.add_argument("--step", type=int, default=0, help="new samples between windows (default: half a window)")
     p.add_argument(
-        "--timeout", type=float, default=2.0, help="stop after this many silent seconds (default: 2)"
+        "--step",
+        type=_at_least(0, int),
+        default=0,
+        help="new samples between windows (default: half a window)",
     )
     p.add_argument(
-        "--max-windows", type=int, default=0, help="stop after this many windows (default: no limit)"
+        "--max-windows",
+        type=_at_least(0, int),
+        default=0,
+        help="stop after this many windows (default: no limit)",
     )
-    p.add_argument("--threads", type=int, default=1, help="onnxruntime intra-op threads (default: 1)")
+    p.add_argument(
+        "--threads", type=_at_least(0, int), default=1, help="onnxruntime intra-op threads (default: 1)"
+    )
+    p.add_argument(
+        "--json", action="store_true", help="one JSON object per window on stdout (docs/stream.md)"
+    )
+    p.add_argument(
+        "--vote",
+        type=_at_least(1, int),
+        default=1,
+        help="also give the vote over the last N windows (default: 1, no vote)",
+    )
+    p.add_argument(
+        "--vote-method",
+        default="majority",
+        choices=["majority", "mean"],
+        help="majority of the labels, or argmax of the mean scores (default: majority)",
+    )
+    p.add_argument(
+        "--reconnect", action="store_true", help="reopen the port with backoff when it fails (default: exit)"
+    )
+    p.add_argument(
+        "--idle-timeout",
+        "--timeout",
+        type=_at_least(0),
+        default=10.0,
+        help="give up after this many seconds without a sample; 0: never (default: 10)",
+    )
+    p.add_argument(
+        "--start-timeout",
+        type=_at_least(0),
+        default=60.0,
+        help="wait this long for the first sample; 0: forever (default: 60)",
+    )
+    p.add_argument(
+        "--silence",
+        type=_at_least(0.01),
+        default=0.5,
+        help="seconds without a sample reported as a silence, which ends the window (default: 0.5)",
+    )
+    p.add_argument(
+        "--range",
+        type=_at_least(0),
+        default=0.0,
+        help="reject samples beyond +-RANGE g (default: the bundle's sensor_range_g, else 5 for the ADXL345)",
+    )
+    p.add_argument(
+        "--time-unit",
+        default="s",
+        choices=["s", "ms", "us", "samples"],
+        help="unit of the t field of t,x,y,z lines; 'samples' for a sample counter (default: s)",
+    )
     p.set_defaults(handler=_stream)
 
     p = sub.add_parser(
@@ -389,7 +586,12 @@ def build_parser() -> argparse.ArgumentParser:
         help="emulate the serial accelerometer: write a recorded or synthetic recording as 'x,y,z' lines",
     )
     p.add_argument(
-        "--port", required=True, help="serial port or pyserial URL (e.g. the other end of a pty pair)"
+        "--port", default="", help="serial port or pyserial URL (e.g. the other end of a pty pair)"
+    )
+    p.add_argument(
+        "--pty",
+        action="store_true",
+        help="instead of --port, open a pseudo-terminal and print the port to read",
     )
     p.add_argument("--data", default="", help="vibration .npz to play (default: a synthetic surface)")
     p.add_argument("--recording", type=int, default=0, help="index of the recording to play (default: 0)")
@@ -399,17 +601,90 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--baud", type=int, default=230400, help="baud rate (default: 230400)")
     p.add_argument("--fast", action="store_true", help="write as fast as possible instead of in real time")
+    p.add_argument("--timestamps", action="store_true", help="write 't,x,y,z' lines (t in seconds)")
     p.add_argument("--seed", type=int, default=0, help="synthetic: random seed (default: 0)")
     _add_allow_pickle(p)
     p.set_defaults(handler=_simulate_sensor)
 
+    for p in sub.choices.values():  # --debug is accepted after the command too
+        p.add_argument(
+            "--debug", action="store_true", default=argparse.SUPPRESS, help="show the traceback of an error"
+        )
     return parser
 
 
+def _missing_train_modules() -> list[str]:
+    import importlib.util
+
+    def missing(name: str) -> bool:
+        try:
+            return importlib.util.find_spec(name) is None
+        except (ImportError, ValueError):  # a broken or blocked installation counts as missing
+            return True
+
+    return [name for name in TRAIN_MODULES if missing(name)]
+
+
+def _one_line(err: BaseException) -> str:
+    text = " ".join(str(err).split())
+    if isinstance(err, FileNotFoundError) and err.filename and not text.startswith(str(err.filename)):
+        text = f"{err.filename}: {err.strerror or 'no such file'}"  # OSError's own "[Errno 2] ..." form
+    return text or type(err).__name__
+
+
 def main(argv: list[str] | None = None) -> int:
-    """Run the command line; return the exit status."""
+    """Run the command line; return the exit status.
+
+    Bad input (a missing, empty or malformed file, a model of the wrong kind, a missing optional
+    dependency) prints one line ``tactile-torch <command>: <file>: <what is wrong>`` on stderr and
+    returns :data:`BAD_INPUT_EXIT`; any other error prints one line and returns
+    :data:`INTERNAL_ERROR_EXIT`. ``--debug`` shows the traceback instead.
+    """
     args = build_parser().parse_args(argv)
-    return int(args.handler(args))
+    debug = bool(getattr(args, "debug", False))
+    prefix = f"tactile-torch {args.command}"
+    if args.command in NEEDS_TRAIN_EXTRA:
+        missing = _missing_train_modules()
+        if missing:
+            print(
+                f"{prefix}: needs the training extra, which is not installed here (missing: "
+                f"{', '.join(missing)}): pip install 'tactile-torch[{TRAIN_EXTRA}]'",
+                file=sys.stderr,
+            )
+            return BAD_INPUT_EXIT
+    try:
+        return int(args.handler(args))
+    except KeyboardInterrupt:
+        if debug:
+            raise
+        print(f"{prefix}: interrupted", file=sys.stderr)
+        return 130
+    except ModuleNotFoundError as err:
+        if debug:
+            raise
+        if (err.name or "").split(".")[0] in TRAIN_MODULES:
+            print(
+                f"{prefix}: needs the training extra ({err.name} is not installed): "
+                f"pip install 'tactile-torch[{TRAIN_EXTRA}]'",
+                file=sys.stderr,
+            )
+            return BAD_INPUT_EXIT
+        print(f"{prefix}: {_one_line(err)} (rerun with --debug for the traceback)", file=sys.stderr)
+        return INTERNAL_ERROR_EXIT
+    except (ValueError, TypeError, OSError) as err:
+        if debug:
+            raise
+        print(f"{prefix}: {_one_line(err)}", file=sys.stderr)
+        return BAD_INPUT_EXIT
+    except Exception as err:
+        if debug:
+            raise
+        print(
+            f"{prefix}: internal error: {type(err).__name__}: {_one_line(err)} (rerun with --debug for "
+            "the traceback, and please report it)",
+            file=sys.stderr,
+        )
+        return INTERNAL_ERROR_EXIT
 
 
 if __name__ == "__main__":  # pragma: no cover

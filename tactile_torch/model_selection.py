@@ -40,6 +40,11 @@ from sklearn.utils.validation import check_is_fitted
 
 from ._checks import RandomState, numpy_rng
 
+VIBRATION_STUDY_C = 16.0
+"""Method 2: the RBF SVM's penalty ``C`` the study chose (stratified 10-fold CV)."""
+VIBRATION_STUDY_GAMMA = 0.0186
+"""Method 2: the RBF kernel's ``gamma`` the study chose, on features scaled to unit std."""
+
 
 @dataclass(frozen=True)
 class Split:
@@ -50,12 +55,12 @@ class Split:
     test: np.ndarray
 
 
-def _labels(y: object) -> np.ndarray:
+def _labels(y: object, name: str = "y") -> np.ndarray:
     if hasattr(y, "detach"):
         y = y.detach().cpu().numpy()
     y = np.asarray(y)
     if y.ndim != 1:
-        raise ValueError(f"y must be a 1-D array of labels, got shape {y.shape}")
+        raise ValueError(f"{name} must be a 1-D array, got shape {y.shape}")
     return y
 
 
@@ -442,19 +447,36 @@ def _path_scores(estimator, X, y, split, Cs, shared) -> list[float]:
     return [float(np.mean(model.predict(X_test) == y[test])) for model in models]
 
 
-def odd_even_split(n: int) -> tuple[np.ndarray, np.ndarray]:
+def odd_even_split(position: int | object) -> tuple[np.ndarray, np.ndarray]:
     """Return ``(train, test)`` indices: odd-numbered windows train, even-numbered ones test.
 
-    Windows are numbered from 1 in recording order, as in method 2's study (so index 0, the first
-    window, is odd and trains).
+    Windows are numbered from 1 in recording order, as in method 2's study (so the first window of a
+    recording, numbered 1, is odd and trains).
+
+    Parameters
+    ----------
+    position : int or array-like of shape (n,)
+        The number of windows of one recording, or the index of every window inside its own
+        recording (``VibrationWindows.position``), for windows of several recordings.
 
     Examples
     --------
     >>> odd_even_split(5)
     (array([0, 2, 4]), array([1, 3]))
+    >>> odd_even_split([0, 1, 2, 0, 1])  # two recordings: windows 1, 2, 3 and 1, 2
+    (array([0, 2, 3]), array([1, 4]))
     """
-    idx = np.arange(n)
-    return idx[0::2], idx[1::2]
+    if isinstance(position, Integral) and not isinstance(position, bool):
+        if position < 0:
+            raise ValueError(f"position must be a number of windows >= 0, got {position}")
+        position = np.arange(position)
+    else:
+        position = _labels(position, "position")
+        if not np.issubdtype(position.dtype, np.integer) or (position < 0).any():
+            raise ValueError(
+                "position must hold the windows' indices (integers >= 0) inside their recordings"
+            )
+    return np.flatnonzero(position % 2 == 0), np.flatnonzero(position % 2 == 1)
 
 
 def rank_feature_groups(
@@ -486,6 +508,8 @@ def rank_feature_groups(
 
 
 __all__ = [
+    "VIBRATION_STUDY_C",
+    "VIBRATION_STUDY_GAMMA",
     "ProtocolResult",
     "SVMGridSearchCV",
     "Split",

@@ -11,23 +11,24 @@ pipeline                  raw input                   graph
 ``vibration-<method>``    windows ``(B, 3, W)`` in g  :class:`~tactile_torch.signal.WindowFeatures`
                                                       → feature scale → SVM
 ``vibration-pyp``         windows ``(B, 3, W)`` in g  window features → :class:`~tactile_torch.signal.
-                                                      ClusteringTransform` → MAP Pitman-Yor component
+                                                      ClusteringProjection` → MAP Pitman-Yor component
 ``features-<method>``     features ``(B, F)``         feature scale → SVM, or → PYP component
 ========================  ==========================  ===============================================
 
 Build them from the model files the command line writes: :func:`pipeline_from_model` reads a
-classifier written by ``tactile-torch train --out model.pt`` (:func:`tactile_torch.training.save_model`)
-or a clustering written by ``tactile-torch cluster`` (:func:`save_clustering_model`).
-:func:`export_pipeline` writes the pipeline to one ``.onnx`` file with a dynamic batch size and the
-metadata that :class:`tactile_torch.runtime.OnnxPipeline` reads (class names, input shape, window
-size, sample rate, thresholds, feature scale, library version).
+classifier written by ``tactile-torch train --out model.npz`` (:func:`tactile_torch.training.save_model`)
+or a clustering written by ``tactile-torch cluster`` (:func:`save_clustering_model`); model files
+are read and validated by :mod:`tactile_torch.model_file` (no pickle). :func:`export_pipeline`
+writes the pipeline to one ``.onnx`` file with a dynamic batch size and the metadata that
+:class:`tactile_torch.runtime.OnnxPipeline` reads (class names, input shape, window size, sample
+rate, thresholds, feature scale, library version).
 
 Labels index :attr:`InferencePipeline.class_names`; scores are the SVM's per-class scores
 (:class:`~tactile_torch.svm.SVMInference`) or the mixture's log responsibilities.
 
 Examples
 --------
->>> model = load_model_file("model.pt")                      # doctest: +SKIP
+>>> model = load_model_file("model.npz")                     # doctest: +SKIP
 >>> pipe = pipeline_from_model(model)                        # doctest: +SKIP
 >>> export_pipeline(pipe, "model.onnx")                      # doctest: +SKIP
 """
@@ -42,8 +43,10 @@ import numpy as np
 import torch
 from torch import nn
 
-CLUSTERING_FORMAT = "tactile-torch/clustering"
-"""``format`` of the files written by :func:`save_clustering_model`."""
+from .model_file import FORMAT, ModelFile, load_model_file
+
+CLUSTERING_FORMAT = FORMAT
+"""``format`` of model files (:data:`tactile_torch.model_file.FORMAT`); kept for old imports."""
 
 
 class InferencePipeline(nn.Module):
@@ -126,12 +129,10 @@ class InferencePipeline(nn.Module):
 
 
 def _scaler(scale: np.ndarray) -> nn.Module:
-    from .signal import FeatureScaler
+    from .signal import ScaleFeatures
 
-    scaler = FeatureScaler()
     scale = torch.as_tensor(np.asarray(scale, dtype=np.float32))
-    scaler.scale_, scaler.mean_ = scale, torch.zeros_like(scale)
-    return scaler
+    return ScaleFeatures(torch.zeros_like(scale), scale)
 
 
 def _front_end(source: dict) -> tuple[list[nn.Module], list[int | None], str, dict]:
@@ -167,44 +168,62 @@ def _front_end(source: dict) -> tuple[list[nn.Module], list[int | None], str, di
     raise ValueError(f"the model's source kind must be 'vibration', 'image' or 'features', got {kind!r}")
 
 
-def pipeline_from_model(model: dict) -> InferencePipeline:
-    """Build the inference pipeline of a model file's contents (see :func:`load_model_file`).
+def pipeline_from_model(model: ModelFile | str | Path) -> InferencePipeline:
+    """Build the inference pipeline of a model file (a :class:`~tactile_torch.model_file.ModelFile`,
+    or its path) written by ``tactile-torch train --out`` or ``tactile-torch cluster``.
 
-    Classifiers: only the SVMs (``hmsvm``, ``svm``) export; LDA and kNN come from scikit-learn and have
-    no torch inference path, which raises ``ValueError``.
+    The torch modules are rebuilt from the file's arrays: the front end from ``source`` (window
+    features, or exploration features), then the feature scale and the SVM's inference path, or the
+    clustering transform and the MAP mixture.
     """
-    if not isinstance(model, dict) or "format" not in model:
-        raise TypeError(f"model must be the dict of a model file, got {type(model).__name__}")
-    if model["format"] == CLUSTERING_FORMAT:
-        return _clustering_pipeline(model)
-    estimator = model.get("estimator")
-    if not hasattr(estimator, "to_module"):
-        raise ValueError(
-            f"method {model.get('method')!r} has no exportable inference path: export an SVM "
-            "(train with --method hmsvm or --method svm)"
+    if isinstance(model, str | Path):
+        model = load_model_file(model)
+    if not isinstance(model, ModelFile):
+        raise TypeError(
+            f"model must be a ModelFile (tactile_torch.model_file.load_model_file(path)) or a path, "
+            f"got {type(model).__name__}"
         )
-    source = dict(model["source"])
-    source.setdefault("n_features", len(model["scale"]))
+    if model.kind == "clustering":
+        return _clustering_pipeline(model)
+    source = model.source
     modules, shape, layout, meta = _front_end(source)
-    names = [model["class_names"][int(c)] for c in estimator.classes_]
+    head = model.header["head"]
+    params = model.header.get("params", {})
     meta.update(
-        method=model["method"],
-        feature_scale=[float(s) for s in model["scale"]],
-        kernel=estimator.kernel,
-        C=float(estimator.C),
-        gamma=float(estimator.gamma_),
+        method=model.method,
+        feature_scale=[float(s) for s in model.arrays["scale"]],
+        kernel=head["kernel"],
+        gamma=float(head["gamma"]),
     )
-    if model.get("test_accuracy") is not None:
-        meta["test_accuracy"] = float(model["test_accuracy"])
-    front = nn.Sequential(*modules, _scaler(model["scale"]))
+    if "C" in params:
+        meta["C"] = float(params["C"])
+    if model.header.get("test_accuracy") is not None:
+        meta["test_accuracy"] = float(model.header["test_accuracy"])
+    front = nn.Sequential(*modules, _scaler(model.arrays["scale"]))
     return InferencePipeline(
         front,
-        estimator.to_module(),
-        name=f"{source['kind']}-{model['method']}",
+        _svm_head(head, model.part("head")),
+        name=f"{source['kind']}-{model.method}",
         input_shape=shape,
         input_layout=layout,
-        class_names=names,
+        class_names=model.class_names,
         metadata=meta,
+    )
+
+
+def _svm_head(settings: dict, arrays: dict[str, np.ndarray]) -> nn.Module:
+    """The SVM's inference module from a model file's ``head`` settings and arrays."""
+    from .svm import SVMInference
+
+    tensors = {name: torch.from_numpy(np.array(value)) for name, value in arrays.items()}
+    core = ("support_vectors", "dual_coef", "intercept")
+    return SVMInference(
+        *(tensors.pop(name) for name in core),
+        kernel=settings["kernel"],
+        gamma=settings["gamma"],
+        mode=settings["mode"],
+        tree=tensors or None,
+        depth=settings["depth"],
     )
 
 
@@ -215,7 +234,10 @@ def save_clustering_model(
     source: dict,
     transform: nn.Module | None = None,
 ) -> Path:
-    """Write a fitted :class:`~tactile_torch.mixture.PitmanYorGMM` (and the transform before it) with ``torch.save``.
+    """Write a fitted :class:`~tactile_torch.mixture.PitmanYorGMM` (and the transform before it) to a model file.
+
+    The file (:mod:`tactile_torch.model_file`, no pickle) holds the MAP mixture's arrays, the
+    fitted transform's, ``source`` and the posterior summary.
 
     Parameters
     ----------
@@ -229,48 +251,48 @@ def save_clustering_model(
     transform : ClusteringTransform, optional
         Required for ``kind="vibration"``.
     """
+    from .model_file import save_model_file
+
     if source.get("kind") == "vibration" and transform is None:
         raise ValueError("a vibration clustering needs the fitted ClusteringTransform (transform=)")
     module = mixture.to_module()
-    payload = {
-        "format": CLUSTERING_FORMAT,
-        "version": 1,
+    k = int(module.means.shape[0])
+    header = {
+        "kind": "clustering",
+        "method": "pyp",
+        "class_names": [f"component {i}" for i in range(k)],
         "source": dict(source),
-        "mixture": {k: v.clone() for k, v in module.state_dict().items()},
-        "n_components": int(module.means.shape[0]),
+        "head": {"type": "gaussian-mixture"},
         "summary": mixture.summary(),
     }
+    arrays = {f"head.{name}": buf.numpy() for name, buf in module.named_buffers()}
     if transform is not None:
-        payload["transform"] = {
-            "n_components": transform.n_components,
-            "standardize": transform.standardize,
-            "eps": transform.eps,
-            "state_dict": {k: v.clone() for k, v in transform.state_dict().items()},
+        header["transform"] = {
+            "type": "clustering",
+            "n_components": int(transform.n_components),
+            "standardize": bool(transform.standardize),
+            "eps": float(transform.eps),
         }
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    torch.save(payload, path)
-    return path
+        fitted = ("mean_", "scale_", "components_", "explained_variance_", "explained_variance_ratio_")
+        arrays.update({f"transform.{name}": getattr(transform, name) for name in fitted})
+    return save_model_file(path, header, arrays)
 
 
-def _clustering_pipeline(model: dict) -> InferencePipeline:
+def _clustering_pipeline(model: ModelFile) -> InferencePipeline:
     from .mixture import GaussianMixtureClassifier
 
-    state = model["mixture"]
+    state = model.part("head")
     head = GaussianMixtureClassifier(state["means"], state["precisions_cholesky"], state["log_weights"])
-    source = dict(model["source"])
-    source.setdefault("n_features", int(state["means"].shape[1]))
+    source = model.source
     modules, shape, layout, meta = _front_end(source)
-    if source["kind"] == "vibration":
-        from .signal import ClusteringTransform
+    spec = model.header.get("transform")
+    if spec is not None:
+        from .signal import ClusteringProjection
 
-        spec = model["transform"]
-        transform = ClusteringTransform(
-            spec["n_components"], standardize=spec["standardize"], eps=spec["eps"]
+        fitted = {name: torch.from_numpy(np.array(v)) for name, v in model.part("transform").items()}
+        modules.append(
+            ClusteringProjection(fitted["mean_"], fitted["scale_"], fitted["components_"], eps=spec["eps"])
         )
-        transform.load_state_dict(spec["state_dict"])
-        modules.append(transform)
-    k = int(state["means"].shape[0])
     meta["method"] = "pyp"
     return InferencePipeline(
         nn.Sequential(*modules),
@@ -278,21 +300,9 @@ def _clustering_pipeline(model: dict) -> InferencePipeline:
         name=f"{source['kind']}-pyp",
         input_shape=shape,
         input_layout=layout,
-        class_names=[f"component {i}" for i in range(k)],
+        class_names=model.class_names,
         metadata=meta,
     )
-
-
-def load_model_file(path: str | Path) -> dict:
-    """Read a model file written by ``tactile-torch train`` or ``tactile-torch cluster`` (trusted: unpickled)."""
-    path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"model must name an existing model file, got {str(path)!r}")
-    payload = torch.load(path, weights_only=False)
-    known = ("tactile-torch/classifier", CLUSTERING_FORMAT)
-    if not isinstance(payload, dict) or payload.get("format") not in known:
-        raise ValueError(f"{path} is not a tactile-torch model file (format one of {known})")
-    return payload
 
 
 def export_pipeline(pipeline: InferencePipeline, path: str | Path, *, example_batch: int = 2) -> Path:
@@ -369,7 +379,7 @@ def build_default_bundles(
     windows, odd windows held out, HM-SVM with C = 16 and gamma ``"scale"`` on unit-std features.
     ``vibration-pyp``: the same windows → unsupervised transform (3 components) → Pitman-Yor mixture
     (300 sweeps, ``quick``: 40). ``image-hmsvm``: 20 synthetic explorations per class (``quick``: 8)
-    of 100 frames of 96 x 96, half held out. Writes ``<name>.pt`` (the model file) and
+    of 100 frames of 96 x 96, half held out. Writes ``<name>.npz`` (the model file) and
     ``<name>.onnx`` to ``out_dir``.
     """
     from .training import FeatureSet, save_model, train_classifier
@@ -379,31 +389,32 @@ def build_default_bundles(
     built: dict[str, Bundle] = {}
     if any(k.startswith("vibration") for k in kinds):
         from .data.stylus import make_vibration_recordings
+        from .model_selection import odd_even_split
         from .signal import window_features
 
         rec = make_vibration_recordings(28, duration_s=10 if quick else 60, random_state=random_state)
         ds = rec.windows(800)
         X = window_features(ds.windows).double().numpy()
-        held_out = (ds.position % 2 == 1).numpy()
+        fit_on, held_out = odd_even_split(ds.position)  # the study's split: even-numbered windows held out
         source = {"kind": "vibration", "window": 800, "step": 800, "rate_hz": rec.rate_hz}
         raw, labels = ds.windows[held_out].numpy(), ds.labels[held_out].numpy()
         if "vibration-hmsvm" in kinds:
-            train = FeatureSet(X[~held_out], ds.labels.numpy()[~held_out], ds.class_names, source)
+            train = FeatureSet(X[fit_on], ds.labels.numpy()[fit_on], ds.class_names, source)
             model = train_classifier(train, "hmsvm", test_size=0.2, random_state=random_state)
-            path = save_model(out / "vibration-hmsvm.pt", model, train)
+            path = save_model(out / "vibration-hmsvm.npz", model, train)
             built["vibration-hmsvm"] = Bundle(pipeline_from_model(load_model_file(path)), path, raw, labels)
         if "vibration-pyp" in kinds:
             from .mixture import PitmanYorGMM
             from .signal import ClusteringTransform
 
-            transform = ClusteringTransform(3).fit(torch.from_numpy(X[~held_out]))
-            pcs = transform(torch.from_numpy(X[~held_out])).numpy()
+            transform = ClusteringTransform(3).fit(X[fit_on])
+            pcs = transform.transform(X[fit_on])
             sweeps = 40 if quick else 300
             mixture = PitmanYorGMM(
                 n_iter=sweeps, burn_in=sweeps // 4, random_state=random_state, progress=False
             )
             path = save_clustering_model(
-                out / "vibration-pyp.pt", mixture.fit(pcs), source=source, transform=transform
+                out / "vibration-pyp.npz", mixture.fit(pcs), source=source, transform=transform
             )
             built["vibration-pyp"] = Bundle(pipeline_from_model(load_model_file(path)), path, raw, labels)
     if "image-hmsvm" in kinds:
@@ -416,7 +427,7 @@ def build_default_bundles(
         source = {"kind": "image", "fuse": True, "frame_shape": list(data.frames.shape[1:])}
         train = FeatureSet(X[~held_out], data.labels.numpy()[~held_out], data.class_names, source)
         model = train_classifier(train, "hmsvm", test_size=0.25, random_state=random_state)
-        path = save_model(out / "image-hmsvm.pt", model, train)
+        path = save_model(out / "image-hmsvm.npz", model, train)
         raw = data.frames[held_out].numpy()
         built["image-hmsvm"] = Bundle(
             pipeline_from_model(load_model_file(path)), path, raw, data.labels[held_out].numpy()

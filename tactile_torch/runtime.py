@@ -34,15 +34,35 @@ array([3, 3, 17])
 from __future__ import annotations
 
 import json
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+_KIND_KEYS = {"image": "frames", "vibration": "signals", "features": "features"}
 _ONNX_DTYPES = {"tensor(uint8)": "uint8", "tensor(float)": "float32", "tensor(double)": "float64"}
 LABELS_OUTPUT = "labels"
 SCORES_OUTPUT = "scores"
+
+
+class NonFiniteScoresError(ValueError):
+    """The graph gave NaN or infinite scores for some samples, so no label is returned for them.
+
+    Attributes
+    ----------
+    rows : ndarray of int
+        The samples (batch rows) whose scores are not all finite.
+    """
+
+    def __init__(self, rows: np.ndarray, batch: int) -> None:
+        self.rows = rows
+        shown = ", ".join(str(int(r)) for r in rows[:5]) + (", ..." if len(rows) > 5 else "")
+        super().__init__(
+            f"the bundle gave non-finite scores for {len(rows)} of {batch} sample(s) (rows {shown}), so no "
+            "label is returned: values far outside the sensor's range (e.g. a corrupted 1e30 sample) "
+            "overflow the features"
+        )
 
 
 @dataclass
@@ -59,11 +79,28 @@ class LabelledInput:
         when the file has no labels.
     file_class_names : list of str or None
         The file's own class names.
+    rate_hz : float or None
+        Sample rate of vibration recordings (``None`` for other data).
+    file_labels : ndarray of shape (N,) int64, or None
+        The file's own labels (indices into ``file_class_names``), e.g. to score a clustering.
     """
 
     raw: np.ndarray
     labels: np.ndarray | None
     file_class_names: list[str] | None
+    rate_hz: float | None = None
+    file_labels: np.ndarray | None = None
+
+
+def _onnx_error(path: Path, err: Exception) -> str:
+    with path.open("rb") as f:
+        head = f.read(4)
+    if not head:
+        return "empty file"
+    if head.startswith(b"PK"):
+        return "a .npz archive: a model file? export it first with 'tactile-torch export'"
+    first = str(err).strip().splitlines()
+    return first[0][:200] if first else type(err).__name__
 
 
 class OnnxPipeline:
@@ -108,7 +145,12 @@ class OnnxPipeline:
         options.intra_op_num_threads = intra_op_threads
         options.inter_op_num_threads = inter_op_threads
         self.path = path
-        self.session = ort.InferenceSession(str(path), options, providers=["CPUExecutionProvider"])
+        try:
+            self.session = ort.InferenceSession(str(path), options, providers=["CPUExecutionProvider"])
+        except Exception as err:  # onnxruntime raises its own exception types, with long messages
+            raise ValueError(
+                f"{path}: not an ONNX bundle onnxruntime can load ({_onnx_error(path, err)})"
+            ) from None
         self.metadata: dict[str, str] = dict(self.session.get_modelmeta().custom_metadata_map)
         self._input = self.session.get_inputs()[0]
         self._outputs = [o.name for o in self.session.get_outputs()]
@@ -187,9 +229,18 @@ class OnnxPipeline:
         return np.rint(raw * 255.0).astype(np.uint8)
 
     def run(self, raw: np.ndarray) -> Mapping[str, np.ndarray]:
-        """Return every output of the graph for validated ``raw``, by name."""
+        """Return every output of the graph for validated ``raw``, by name.
+
+        Raises :class:`NonFiniteScoresError` when a sample's scores are not all finite: a label is
+        never returned with a NaN or infinite score.
+        """
         values = self.session.run(None, {self._input.name: self.validate(raw)})
-        return dict(zip(self._outputs, values, strict=True))
+        out = dict(zip(self._outputs, values, strict=True))
+        scores = out[SCORES_OUTPUT]
+        finite = np.isfinite(scores.reshape(len(scores), -1)).all(axis=1)
+        if not finite.all():
+            raise NonFiniteScoresError(np.flatnonzero(~finite), len(scores))
+        return out
 
     def predict(self, raw: np.ndarray) -> np.ndarray:
         """Return the predicted label of each sample, shape ``(B,)`` int64."""
@@ -207,78 +258,77 @@ class OnnxPipeline:
             return [str(int(label)) for label in labels]
         return [self.class_names[int(label)] for label in labels]
 
-    def read_npz(self, path: str | Path, *, allow_pickle: bool = False) -> LabelledInput:
-        """Read a data file of DESIGN.md's formats into this bundle's raw input (numpy only, no torch).
+    def read_npz(
+        self, path: str | Path | Sequence[str | Path], *, allow_pickle: bool = False
+    ) -> LabelledInput:
+        """Read a data file into this bundle's raw input (:func:`tactile_torch.formats.read_data`).
 
         Image explorations (``frames`` uint8 ``(N, T, H, W, 3)``) become ``(N, T, 3, H, W)``; vibration
-        recordings (``signals`` ``(R, n, 3)``, or an object array with ``allow_pickle`` for trusted
-        files) are cut into windows of the bundle's ``window_size`` every ``step`` samples (its
-        metadata); a ``features`` matrix is passed as is. ``labels`` are mapped onto this bundle's
-        class names through the file's ``class_names``; a class the bundle does not know gets -1.
+        recordings (a ``.npz`` or CSV logs) are cut into windows of the bundle's ``window_size``
+        every ``step`` samples (its metadata); a ``features`` matrix is passed as is. ``labels`` are
+        mapped onto this bundle's class names through the file's ``class_names``; a class the
+        bundle does not know gets -1. ``allow_pickle`` only serves old vibration files that stored
+        recordings of different lengths as a pickled object array (trusted files only).
 
-        Raises ``ValueError`` when the file's kind does not fit the bundle (e.g. recordings for an
-        image bundle) or a key is missing.
+        Raises ``ValueError`` naming the file when it does not fit the bundle (e.g. recordings for
+        an image bundle, recordings shorter than one window) or breaks the format (see
+        ``docs/formats.md``).
         """
-        path = Path(path)
-        if not path.is_file():
-            raise FileNotFoundError(f"data must name an existing .npz file, got {str(path)!r}")
-        with np.load(path, allow_pickle=allow_pickle) as npz:
-            arrays = {k: npz[k] for k in npz.files if k != "signals"}
-            if "signals" in npz.files:
-                try:
-                    arrays["signals"] = npz["signals"]
-                except ValueError as err:
-                    raise ValueError(
-                        f"{path} stores recordings of different lengths as an object array; pass "
-                        "allow_pickle=True (--allow-pickle) if you trust the file"
-                    ) from err
-        layout = self.input_layout
-        if "frames" in arrays and layout == "B,T,3,H,W":
-            frames = arrays["frames"]
-            if frames.ndim != 5 or frames.shape[-1] != 3:
-                raise ValueError(f"{path}: frames must be (N, T, H, W, 3) RGB, got {frames.shape}")
-            raw, labels = np.ascontiguousarray(frames.transpose(0, 1, 4, 2, 3)), arrays.get("labels")
-        elif "signals" in arrays and layout == "B,3,W":
-            raw, labels = self._windows(arrays["signals"], arrays.get("labels"))
-        elif "features" in arrays and layout == "B,F":
-            raw, labels = arrays["features"].astype(np.float32), arrays.get("labels")
+        from .formats import data_name, read_data, window_recordings
+
+        data = read_data(path, allow_pickle=allow_pickle)
+        where = data_name(path)
+        layout, rate = self.input_layout, None
+        if data.kind == "image" and layout == "B,T,3,H,W":
+            if data.frames is None:
+                raise ValueError(
+                    f"{where}: frames must be uint8 RGB (N, T, H, W, 3) for this {self.pipeline} bundle, "
+                    f"got float pressure maps {data.pressure.shape}: render them first "
+                    "(tactile_torch.data.images.render_pressure)"
+                )
+            raw, labels = np.ascontiguousarray(data.frames.transpose(0, 1, 4, 2, 3)), data.labels
+        elif data.kind == "vibration" and layout == "B,3,W":
+            if "window_size" not in self.metadata:
+                raise ValueError(f"{self.path}: no window_size in the bundle's metadata")
+            size = int(self.metadata["window_size"])
+            try:
+                cut = window_recordings(data.signals, size, int(self.metadata.get("step", size)))
+            except ValueError as err:
+                raise ValueError(f"{where}: {err}, the window of this {self.pipeline} bundle") from None
+            raw, labels, rate = cut.windows, data.labels[cut.recording], data.rate_hz
+        elif data.kind == "features" and layout == "B,F":
+            raw, labels = data.features.astype(np.float32), data.labels
         else:
-            kinds = [k for k in ("frames", "signals", "features") if k in arrays]
             raise ValueError(
-                f"{path} holds {kinds or sorted(arrays)}, which does not fit this {self.pipeline} bundle "
-                f"(input {layout})"
+                f"{where} holds {data.kind} data ({_KIND_KEYS[data.kind]}), which does not fit this "
+                f"{self.pipeline} bundle (input {layout})"
             )
-        names = [str(c) for c in arrays["class_names"]] if "class_names" in arrays else None
+        names = list(data.class_names) if data.class_names is not None else None
+        file_labels = labels
         if labels is not None and names is not None:
             index = {name: i for i, name in enumerate(self.class_names)}
             lookup = np.array([index.get(name, -1) for name in names], dtype=np.int64)
-            labels = lookup[np.asarray(labels, dtype=np.int64)]
-        elif labels is not None:
-            labels = np.asarray(labels, dtype=np.int64)
-        return LabelledInput(raw, labels, names)
+            labels = lookup[labels]
+        return LabelledInput(raw, labels, names, rate, file_labels)
 
-    def _windows(
-        self, signals: np.ndarray, labels: np.ndarray | None
-    ) -> tuple[np.ndarray, np.ndarray | None]:
-        if "window_size" not in self.metadata:
-            raise ValueError(f"{self.path} has no window_size in its metadata")
-        size = int(self.metadata["window_size"])
-        step = int(self.metadata.get("step", size))
-        parts, part_labels = [], []
-        for i, rec in enumerate(signals):  # recordings may differ in length: one strided view each
-            rec = np.asarray(rec, dtype=np.float32)
-            if rec.ndim != 2 or rec.shape[1] != 3:
-                raise ValueError(f"signals[{i}] must have shape (n, 3), got {rec.shape}")
-            if len(rec) < size:
-                continue
-            view = np.lib.stride_tricks.sliding_window_view(rec, size, axis=0)[::step]  # (n_w, 3, W)
-            parts.append(view)
-            if labels is not None:
-                part_labels.append(np.full(len(view), labels[i], dtype=np.int64))
-        if not parts:
-            raise ValueError(f"no recording holds window_size={size} samples")
-        return np.ascontiguousarray(np.concatenate(parts)), (
-            np.concatenate(part_labels) if labels is not None else None
+    def sample_rate_mismatch(self, rate_hz: float | None) -> str | None:
+        """Return a one-line warning when data sampled at ``rate_hz`` do not match the bundle's rate.
+
+        ``None`` when the rates agree within 1 %, or when either is unknown. Windows of data recorded
+        at another rate span another duration and frequency band than the model was trained on, so
+        its predictions may be meaningless; resample the data (``VibrationRecordings.resample``).
+        """
+        want = self.metadata.get("sample_rate_hz")
+        if rate_hz is None or want is None:
+            return None
+        want = float(want)
+        if abs(rate_hz / want - 1.0) <= 0.01:
+            return None
+        size = int(self.metadata.get("window_size", 0))
+        return (
+            f"the data are sampled at {rate_hz:g} Hz but this {self.pipeline} bundle was trained at "
+            f"{want:g} Hz (a window of {size} samples lasts {size / rate_hz:g} s here, {size / want:g} s "
+            "in training); predictions may be meaningless: resample the data or retrain"
         )
 
     def __repr__(self) -> str:
@@ -288,4 +338,4 @@ class OnnxPipeline:
         )
 
 
-__all__ = ["LABELS_OUTPUT", "SCORES_OUTPUT", "LabelledInput", "OnnxPipeline"]
+__all__ = ["LABELS_OUTPUT", "SCORES_OUTPUT", "LabelledInput", "NonFiniteScoresError", "OnnxPipeline"]

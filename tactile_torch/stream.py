@@ -1,177 +1,619 @@
-"""Stream a triaxial accelerometer over a serial line, cut it into windows, classify them live.
+"""Read a triaxial accelerometer from a serial line and cut it into windows, through the line's faults.
 
-Runs on the robot's computer with numpy, pyserial and onnxruntime only: importing this module never
-imports torch.
+Runs on the robot's computer with numpy and pyserial only: importing this module never imports torch
+(the classification of the windows is in :mod:`tactile_torch.stream_output`).
 
 Wire protocol (what :func:`simulate_sensor` writes and :class:`WindowReader` reads): one ASCII line
-per sample, ``x,y,z`` in g (or ``t,x,y,z``, the first field ignored), terminated by ``\\n`` (``\\r\\n``
-accepted). At 800 Hz a line of ~20 bytes needs about 16 kB/s, i.e. a baud rate of 230400 or more on
-a real UART. Lines that do not parse (a partial line at start-up, a glitch) or that hold NaN/inf are
-skipped and counted in :attr:`WindowReader.skipped`, never passed on.
+per sample, ``x,y,z`` in g, or ``t,x,y,z`` with ``t`` a number (seconds by default; milliseconds,
+microseconds or a sample counter with ``time_unit``), terminated by ``\\n`` (``\\r\\n`` accepted). At
+800 Hz a line of ~20 bytes needs about 16 kB/s, i.e. a baud rate of 230400 or more on a real UART.
+
+What the reader does with a real line's faults (each is counted in an attribute and, where it changes
+what is classified, reported through ``on_event``):
+
+- a line that does not parse (a partial line at start-up, binary noise, NaN, 2 or 5 fields,
+  ``ERR,x,y,z``, a 3-field line in a timestamped stream) is skipped and counted (:attr:`skipped`, and
+  per window in :attr:`Window.skipped`); a window whose span holds one is flagged ``"skipped"``;
+- a sample outside the sensor's range (``|value| > range_g``, ±5 g for the ADXL345 by default) is
+  rejected (:attr:`rejected`) and, since a sample is then known to be missing, ends the segment;
+- a gap: ``t`` not advancing by one sample period (more than 1.5 periods: samples dropped; zero or
+  negative: a spliced recording or a sensor reset), a silence of ``silence_s`` seconds, a
+  reconnection, or a rejected sample. No window ever spans a gap: the reader starts a new window
+  after it, so the next window comes ``window_size`` samples later;
+- silence is reported (``"silence"``, then ``"resumed"``) and ends the iteration with
+  :class:`StreamTimeout` only after ``idle_timeout_s`` (``start_timeout_s`` before the first sample);
+- a failing port (the writer closed it, the adapter was unplugged) raises :class:`StreamDisconnected`,
+  or with ``reconnect=True`` is reopened with exponential backoff.
+
+Memory is bounded: the reader keeps a ring of ``2 * window_size`` samples and at most one partial
+line of ``max_line_bytes``.
 
 Examples
 --------
->>> import serial                                          # doctest: +SKIP
->>> port = serial.Serial("/dev/ttyUSB0", 230400, timeout=1)  # doctest: +SKIP
->>> reader = WindowReader(port, window_size=800, step=400)  # doctest: +SKIP
->>> for window in reader:                                   # (1, 3, 800) float32   doctest: +SKIP
-...     print(pipeline.predict_names(window))               # doctest: +SKIP
+>>> import serial                                                  # doctest: +SKIP
+>>> open_port = lambda: serial.Serial("/dev/ttyUSB0", 230400, timeout=0.1)  # doctest: +SKIP
+>>> reader = WindowReader(open_port, window_size=800, step=400, rate_hz=800,
+...                       idle_timeout_s=10, reconnect=True)      # doctest: +SKIP
+>>> for window in reader:                                          # doctest: +SKIP
+...     print(window.index, pipeline.predict_names(window.data))  # (1, 3, 800) float32
 """
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable, Iterator
+from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
 
+from .wire import format_sample, parse_line, parse_sample, pseudo_terminal, simulate_sensor
 
-class _LineSource(Protocol):
-    def readline(self) -> bytes: ...
+DEFAULT_RANGE_G = 5.0
+"""Range of the ADXL345 as configured in the vibration study (DESIGN.md, method 2), in g."""
+
+RANGE_METADATA_KEY = "sensor_range_g"
+"""Bundle metadata key that, when present, gives the sensor's range in g (see :func:`sensor_range_g`)."""
+
+TIME_UNITS = ("s", "ms", "us", "samples")
+"""Units the ``t`` field may be in; ``"samples"`` is a sample counter (one per sample)."""
+
+GAP_TOLERANCE = 0.5
+"""A step of ``t`` longer than ``(1 + GAP_TOLERANCE)`` sample periods is a gap (at least one sample lost)."""
+
+RATE_TOLERANCE = 0.05
+"""A window whose ``t`` span gives a rate off the expected one by more than this share is flagged ``"rate"``."""
+
+_RATE_RUN = 16  # consecutive equal off-period steps of t after which the stream's own rate is adopted
+_EVENT_INTERVAL_S = (
+    1.0  # gap/range events beyond _EVENTS_PER_INTERVAL in this interval are counted, not shown
+)
+_EVENTS_PER_INTERVAL = 5
 
 
-class _LineSink(Protocol):
-    def write(self, data: bytes) -> int | None: ...
+class _ReadablePort(Protocol):
+    def read(self, size: int = ...) -> bytes: ...
 
 
-def parse_sample(line: bytes | str) -> tuple[float, float, float] | None:
-    """Return the ``(x, y, z)`` sample of one protocol line, or ``None`` if it is not a finite sample.
+class StreamTimeout(TimeoutError):
+    """No sample arrived for longer than the reader's idle timeout (or start timeout)."""
 
-    >>> parse_sample(b"0.01,-0.02,1.0\\r\\n")
-    (0.01, -0.02, 1.0)
-    >>> parse_sample(b"12.5,0,0,1")          # t,x,y,z: the time is ignored
-    (0.0, 0.0, 1.0)
-    >>> parse_sample(b"0.1,nan,1") is None
-    True
+
+class StreamDisconnected(ConnectionError):
+    """The port failed (writer closed it, adapter unplugged) and reconnection is off or gave up."""
+
+
+@dataclass(frozen=True)
+class StreamEvent:
+    """Something a user should hear about while the stream runs (not a window).
+
+    Attributes
+    ----------
+    kind : str
+        ``"waiting"`` (no data yet), ``"first"`` (first sample), ``"silence"``, ``"resumed"``, ``"gap"``,
+        ``"range"`` (a sample out of range), ``"rate"`` (``t`` runs at another rate than expected),
+        ``"disconnected"``, ``"reconnected"``.
+    message : str
+        One line for a person.
     """
-    if isinstance(line, bytes):
-        try:
-            line = line.decode("ascii")
-        except UnicodeDecodeError:
-            return None
-    fields = line.strip().split(",")
-    if len(fields) not in (3, 4):
-        return None
-    try:
-        x, y, z = (float(v) for v in fields[-3:])
-    except ValueError:
-        return None
-    if not all(np.isfinite((x, y, z))):
-        return None
-    return x, y, z
+
+    kind: str
+    message: str
 
 
-def format_sample(sample: np.ndarray) -> bytes:
-    """Return the protocol line of one ``(3,)`` sample in g (5 decimals: finer than the 3.9 mg LSB)."""
-    return f"{sample[0]:.5f},{sample[1]:.5f},{sample[2]:.5f}\n".encode("ascii")
+@dataclass(frozen=True)
+class Window:
+    """One window cut from the stream, with what happened on the line since the previous window.
+
+    Attributes
+    ----------
+    data : ndarray of shape (1, 3, W), float32
+        The window in g, axes first (the bundles' input layout).
+    index : int
+        0-based count of windows yielded so far.
+    end_sample : int
+        Samples accepted so far; the window holds samples ``end_sample - W`` to ``end_sample - 1``.
+    read_at : float
+        Reader clock (``time.monotonic`` by default) when the window's last sample was read from the
+        port: the start of the window's latency.
+    t_start, t_end : float or None
+        ``t`` of the first and last sample in seconds, ``None`` when the lines have no ``t``.
+    rate_hz : float or None
+        The rate the window's ``t`` span gives, ``None`` without ``t``.
+    skipped, rejected, gaps : int
+        Lines skipped, samples rejected out of range and gaps since the previous window.
+    flags : tuple of str
+        ``"skipped"`` when a skipped line lies inside the window's span (without ``t`` a skipped line
+        may have been a sample, so the window may lack one); ``"rate"`` when ``rate_hz`` is off the
+        expected rate by more than :data:`RATE_TOLERANCE`.
+    """
+
+    data: np.ndarray
+    index: int
+    end_sample: int
+    read_at: float
+    t_start: float | None = None
+    t_end: float | None = None
+    rate_hz: float | None = None
+    skipped: int = 0
+    rejected: int = 0
+    gaps: int = 0
+    flags: tuple[str, ...] = ()
+
+
+def sensor_range_g(metadata: dict[str, str], default: float = DEFAULT_RANGE_G) -> float:
+    """Return the sensor range (g) a bundle's metadata declares (:data:`RANGE_METADATA_KEY`), else ``default``."""
+    value = metadata.get(RANGE_METADATA_KEY)
+    if value is None:
+        return float(default)
+    range_g = float(value)
+    if not (math.isfinite(range_g) and range_g > 0):
+        raise ValueError(f"metadata {RANGE_METADATA_KEY} must be a number > 0, got {value!r}")
+    return range_g
+
+
+def _giving_up(limit: float) -> str:
+    return "no time limit" if math.isinf(limit) else f"giving up after {limit:g} s"
+
+
+def _check_number(value: object, name: str, *, minimum: float = 0.0, strict: bool = True) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
+        raise TypeError(f"{name} must be a number, got {type(value).__name__}")
+    value = float(value)
+    if math.isnan(value) or value < minimum or (strict and value == minimum):
+        raise ValueError(f"{name} must be {'>' if strict else '>='} {minimum:g}, got {value:g}")
+    return value
+
+
+def _check_count(value: object, name: str, minimum: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < minimum:
+        raise ValueError(f"{name} must be an int >= {minimum}, got {value!r}")
+    return int(value)
 
 
 class WindowReader:
-    """Iterate over windows ``(1, 3, window_size)`` float32 cut from a serial line stream.
+    """Iterate over :class:`Window` objects cut from a serial line stream, through its faults.
 
-    The first window is yielded once ``window_size`` samples have arrived, then one every ``step``
-    new samples (``step = window_size``: disjoint windows). Iteration ends when the source returns an
-    empty line (a timeout on a serial port, or the end of a stream), or after ``max_windows``.
+    The first window of a segment (the stream since its start or its last gap) is yielded once
+    ``window_size`` samples have arrived, then one every ``step`` new samples (``step = window_size``:
+    disjoint windows). See the module docstring for the faults handled and how.
 
     Parameters
     ----------
-    source : object with ``readline() -> bytes``
-        A ``serial.Serial`` (set a ``timeout``), ``serial.serial_for_url("loop://")`` or a file.
+    source : readable object, or a callable with no argument that returns one
+        Something with ``read(size) -> bytes``: a ``serial.Serial`` opened with a short ``timeout``
+        (0.1 s), ``serial.serial_for_url("loop://")``, a file. A callable (e.g. a function that opens
+        the port) is called when iteration starts and again to reconnect; the reader then closes the
+        ports it opened.
     window_size : int
-        Samples per window W (e.g. 800 = 1 s at 800 Hz).
+        Samples per window W (e.g. 800 = 1 s at 800 Hz), at least 2.
     step : int, optional
         Samples between window starts; defaults to ``window_size``.
     max_windows : int, optional
         Stop after this many windows.
+    rate_hz : float, optional
+        The sample rate the windows must have (the bundle's ``sample_rate_hz``). Needed to detect gaps
+        from ``t``; without it, ``t`` is checked only for going back.
+    time_unit : {"s", "ms", "us", "samples"}, default "s"
+        Unit of the ``t`` field; ``"samples"`` reads it as a sample counter (needs ``rate_hz``).
+    range_g : float, default 5.0
+        Samples with a value beyond ``±range_g`` are rejected (:func:`sensor_range_g` reads it from a
+        bundle); ``math.inf`` turns the check off.
+    silence_s : float, default 0.5
+        Seconds without a sample after which a silence is reported and the segment ends.
+    idle_timeout_s : float, optional
+        Seconds without a sample after which iteration raises :class:`StreamTimeout` (``math.inf``:
+        never). ``None`` (the default) ends iteration at the first empty read instead, as at the end
+        of a file.
+    start_timeout_s : float, optional
+        The same before the first sample; defaults to ``idle_timeout_s``.
+    reconnect : bool, default False
+        Reopen a failed port (``source`` must be a callable) with exponential backoff, until
+        ``idle_timeout_s`` has passed without a sample; otherwise raise :class:`StreamDisconnected`.
+    backoff_s : tuple of float, default (0.5, 8.0)
+        First and longest wait between reconnection attempts; the wait doubles after each failure.
+    on_event : callable, optional
+        Called with each :class:`StreamEvent`.
+    max_line_bytes : int, default 256
+        A partial line longer than this (binary noise with no newline) is dropped as skipped.
+    name : str, optional
+        What to call the port in messages (default: the port's ``name`` or ``port`` attribute).
+    clock, sleep : callable
+        Time source and sleep function (``time.monotonic``, ``time.sleep``); tests replace them.
 
     Attributes
     ----------
     samples : int
-        Samples accepted so far.
+        Samples accepted.
     skipped : int
-        Lines skipped because they did not parse or were not finite.
+        Lines skipped (did not parse).
+    rejected : int
+        Samples rejected out of range.
+    gaps : int
+        Gaps (from ``t``, silences, reconnections and rejected samples).
+    lost : int
+        Samples known to be missing (from the steps of ``t``).
+    windows : int
+        Windows yielded.
+    reconnects : int
+        Successful reconnections.
     """
 
     def __init__(
         self,
-        source: _LineSource,
+        source: _ReadablePort | Callable[[], _ReadablePort],
         *,
         window_size: int,
         step: int | None = None,
         max_windows: int | None = None,
+        rate_hz: float | None = None,
+        time_unit: str = "s",
+        range_g: float = DEFAULT_RANGE_G,
+        silence_s: float = 0.5,
+        idle_timeout_s: float | None = None,
+        start_timeout_s: float | None = None,
+        reconnect: bool = False,
+        backoff_s: tuple[float, float] = (0.5, 8.0),
+        on_event: Callable[[StreamEvent], None] | None = None,
+        max_line_bytes: int = 256,
+        name: str | None = None,
+        clock: Callable[[], float] = time.monotonic,
+        sleep: Callable[[float], None] = time.sleep,
     ) -> None:
-        if not hasattr(source, "readline"):
+        opens = callable(source) and not hasattr(source, "read")
+        if not opens and not hasattr(source, "read"):
             raise TypeError(
-                f"source must have a readline() method (e.g. serial.Serial), got {type(source).__name__}"
+                "source must have a read(size) method (e.g. serial.Serial) or be a callable that "
+                f"opens one, got {type(source).__name__}"
             )
-        step = window_size if step is None else step
-        for name, value in (("window_size", window_size), ("step", step)):
-            if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
-                raise ValueError(f"{name} must be an int >= 1, got {value!r}")
-        if window_size < 2:
-            raise ValueError(f"window_size must be >= 2 samples, got {window_size}")
-        self.source = source
-        self.window_size = int(window_size)
-        self.step = int(step)
-        self.max_windows = max_windows
-        self.samples = 0
-        self.skipped = 0
+        if reconnect and not opens:
+            raise ValueError("reconnect=True needs source to be a callable that opens the port")
+        window_size = _check_count(window_size, "window_size", 2)
+        self.step = window_size if step is None else _check_count(step, "step", 1)
+        self.max_windows = None if max_windows is None else _check_count(max_windows, "max_windows", 1)
+        if time_unit not in TIME_UNITS:
+            raise ValueError(f"time_unit must be one of {TIME_UNITS}, got {time_unit!r}")
+        if time_unit == "samples" and rate_hz is None:
+            raise ValueError("time_unit='samples' (a sample counter) needs rate_hz")
+        self.rate_hz = None if rate_hz is None else _check_number(rate_hz, "rate_hz")
+        self.range_g = _check_number(range_g, "range_g")
+        self.silence_s = _check_number(silence_s, "silence_s")
+        self.idle_timeout_s = (
+            None if idle_timeout_s is None else _check_number(idle_timeout_s, "idle_timeout_s")
+        )
+        start = idle_timeout_s if start_timeout_s is None else start_timeout_s
+        self.start_timeout_s = None if start is None else _check_number(start, "start_timeout_s")
+        if len(backoff_s) != 2:
+            raise ValueError(f"backoff_s must be (first, longest) seconds, got {backoff_s!r}")
+        first, longest = (_check_number(b, "backoff_s") for b in backoff_s)
+        self.backoff_s = (first, max(first, longest))
+        self.max_line_bytes = _check_count(max_line_bytes, "max_line_bytes", 16)
+        self.window_size = window_size
+        self.time_unit = time_unit
+        self.reconnect = bool(reconnect)
+        self.on_event = on_event
+        self._source = source
+        self._opens = opens
+        self._name = name
+        self._clock = clock
+        self._sleep = sleep
+        self.samples = self.skipped = self.rejected = self.gaps = self.lost = 0
+        self.windows = self.reconnects = 0
+        self._event_window: dict[str, tuple[float, int]] = {}
+        self._held_events: dict[str, int] = {}
 
-    def __iter__(self) -> Iterator[np.ndarray]:
-        w = self.window_size
-        # Ring of 2W samples written twice (at i and i + W) so that the last W samples are always one
-        # contiguous slice: no copy per sample, one copy per window.
-        ring = np.zeros((2 * w, 3), dtype=np.float32)
-        emitted = 0
-        since_last = 0
-        while self.max_windows is None or emitted < self.max_windows:
-            line = self.source.readline()
-            if not line:
+    # -- events ---------------------------------------------------------------------------------
+
+    def _emit(self, kind: str, message: str, *, repeated: bool = False) -> None:
+        if self.on_event is None:
+            return
+        if repeated:  # gaps and rejections can come in floods: a few lines per interval, then a count
+            now = self._clock()
+            start, shown = self._event_window.get(kind, (-math.inf, 0))
+            if now - start >= _EVENT_INTERVAL_S:
+                start, shown = now, 0
+            if shown >= _EVENTS_PER_INTERVAL:
+                self._held_events[kind] = self._held_events.get(kind, 0) + 1
                 return
-            sample = parse_sample(line)
-            if sample is None:
+            self._event_window[kind] = (start, shown + 1)
+            held = self._held_events.pop(kind, 0)
+            if held:
+                message += f" (and {held} more not shown before it)"
+        self.on_event(StreamEvent(kind, message))
+
+    def _port_name(self, port: object) -> str:
+        if self._name:
+            return self._name
+        name = getattr(port, "port", None) or getattr(port, "name", None)
+        return str(name) if name else type(port).__name__
+
+    # -- the port -------------------------------------------------------------------------------
+
+    def _open(self) -> _ReadablePort:
+        port = self._source() if self._opens else self._source
+        if not hasattr(port, "read"):
+            raise TypeError(f"source() must return a port with read(size), got {type(port).__name__}")
+        return port
+
+    def _close(self, port: object) -> None:
+        if self._opens and port is not None:
+            try:
+                port.close()
+            except OSError:
+                pass
+
+    @staticmethod
+    def _reader_of(port: _ReadablePort) -> Callable[[], bytes]:
+        # Read what has arrived, without waiting for more: a serial port says how much is waiting
+        # (read(1) then blocks up to the port's timeout); raw files and pipes return what they have.
+        if hasattr(type(port), "in_waiting"):  # on the class: the property itself fails on a dead port
+            return lambda: port.read(port.in_waiting or 1)
+        read = getattr(port, "read1", None) or port.read
+        return lambda: read(65536)
+
+    def _reopen(self, error: Exception | None) -> _ReadablePort:
+        """Open the port: at the start (``error`` None) or after ``error``, with exponential backoff.
+
+        Without ``reconnect`` only one attempt is made. The wait doubles after each failure and is
+        reset only when a sample arrives, so a port that opens but fails at once is not retried in a
+        tight loop. Gives up with :class:`StreamDisconnected` once the idle (or start) timeout has
+        passed without a sample.
+        """
+        name = self._name or "the port"
+        reopening = error is not None
+        if reopening:
+            self._emit("disconnected", f"{name} disconnected ({error}); reconnecting")
+        started, attempts = self._clock(), 0
+        while True:
+            if error is not None:
+                limit = self.idle_timeout_s if self.samples else self.start_timeout_s
+                waited = self._clock() - self._last_sample_at
+                if limit is not None and waited + self._delay > limit:
+                    raise StreamDisconnected(
+                        f"{name}: gave up reconnecting after {attempts} attempt(s), {waited:.1f} s without a "
+                        f"sample (idle timeout {limit:g} s): {error}"
+                    )
+                self._sleep(self._delay)
+                self._delay = min(2 * self._delay, self.backoff_s[1])
+            attempts += 1
+            try:
+                port = self._open()
+            except OSError as err:
+                if not self.reconnect:
+                    raise StreamDisconnected(f"could not open {name}: {err}") from err
+                error = err
+                continue
+            if reopening or attempts > 1:
+                self.reconnects += reopening
+                self._emit(
+                    "reconnected",
+                    f"{self._port_name(port)} open after {self._clock() - started:.1f} s ({attempts} attempt(s))",
+                )
+            return port
+
+    # -- iteration ------------------------------------------------------------------------------
+
+    def _lines(self) -> Iterator[tuple[bytes | None, float]]:
+        """Yield ``(line, read time)`` from the port; ``(None, time)`` marks a break (silence, reconnection).
+
+        Owns the port: reads what has arrived, keeps the partial line, reports silence, raises
+        :class:`StreamTimeout` and :class:`StreamDisconnected`, and reconnects.
+        """
+        clock = self._clock
+        port = None
+        partial = b""
+        try:
+            port = self._reopen(None) if self._opens else self._open()
+            name = self._port_name(port)
+            read = self._reader_of(port)
+            while True:
+                before = clock()
+                try:
+                    chunk = read()
+                except OSError as err:
+                    if not self.reconnect:
+                        raise StreamDisconnected(
+                            f"{name} disconnected after {self.samples} samples: {err}"
+                        ) from err
+                    self._close(port)
+                    port = self._reopen(err)
+                    read = self._reader_of(port)
+                    partial = b""
+                    yield None, clock()
+                    continue
+                now = clock()
+                if chunk:
+                    lines = (partial + chunk).split(b"\n")
+                    partial = lines.pop()
+                    if len(partial) > self.max_line_bytes:  # noise without newlines: drop it
+                        self.skipped += 1
+                        partial = b""
+                    for line in lines:
+                        yield line, now
+                    continue
+                if self.idle_timeout_s is None:  # end of input; the last line may lack its newline
+                    if partial:
+                        yield partial, now
+                    return
+                if now - before < 1e-3:  # a port without a read timeout, or a file at its end: do not spin
+                    self._sleep(0.01)
+                    now = clock()
+                waited = now - self._last_sample_at
+                limit = self.idle_timeout_s if self.samples else self.start_timeout_s
+                if waited >= limit:
+                    raise StreamTimeout(
+                        f"{name}: {'no sample' if self.samples else 'no data'} for {waited:.1f} s "
+                        f"(timeout {limit:g} s); {self.samples} samples read, {self.skipped} lines skipped"
+                    )
+                if waited >= self.silence_s and not self._silent:
+                    self._silent = True
+                    if self.samples:
+                        self._emit(
+                            "silence",
+                            f"no sample for {waited:.1f} s after {self.samples} samples; waiting "
+                            f"({_giving_up(limit)})",
+                        )
+                        yield None, now
+                    else:
+                        self._emit(
+                            "waiting",
+                            f"no data yet on {name} after {waited:.1f} s ({_giving_up(limit)})",
+                        )
+        finally:
+            self._close(port)
+
+    def _time_gap(self, t: float) -> bool:
+        """Check the step from the previous ``t`` (seconds); return whether it is a gap."""
+        prev, self._prev_t = self._prev_t, t
+        if prev is None:
+            return False
+        dt = t - prev
+        if dt > 0.0:
+            if self._period is None:
+                return False
+            ratio = dt / self._period
+            if 1.0 - GAP_TOLERANCE <= ratio <= 1.0 + GAP_TOLERANCE:
+                self._odd_run = 0
+                return False
+            self._learn_rate(dt)
+            if ratio < 1.0 + GAP_TOLERANCE:  # faster than expected: no sample lost
+                return False
+            missing = max(1, round(ratio) - 1)
+            self.lost += missing
+            what = f"{missing} sample(s) missing"
+        else:
+            what = "t went back (a spliced recording or a sensor reset)"
+        self.gaps += 1
+        self._emit("gap", f"gap in t from {prev:.6g} to {t:.6g} s: {what}", repeated=True)
+        return True
+
+    def _learn_rate(self, dt: float) -> None:
+        # A run of equal steps off the expected period means the sensor runs at another rate (not a
+        # burst of drops, which gives one long step): adopt it for the gap checks, and say so once.
+        same = abs(dt - self._odd_step) <= 0.1 * self._odd_step
+        self._odd_run = self._odd_run + 1 if same else 1
+        if not same:
+            self._odd_step = dt
+        if self._odd_run < _RATE_RUN:
+            return
+        step, expected = self._odd_step, self._period
+        self._emit(
+            "rate",
+            f"t advances {step * 1e3:.4g} ms per sample ({1 / step:.4g} Hz), not {expected * 1e3:.4g} ms "
+            f"({1 / expected:.4g} Hz): gaps are now judged at {1 / step:.4g} Hz; windows are flagged 'rate'",
+        )
+        self._period, self._odd_run = step, 0
+
+    def __iter__(self) -> Iterator[Window]:
+        w, step, range_g = self.window_size, self.step, self.range_g
+        units = {"s": 1.0, "ms": 1e-3, "us": 1e-6}
+        unit = units[self.time_unit] if self.time_unit in units else 1.0 / self.rate_hz
+        self._period = None if self.rate_hz is None else 1.0 / self.rate_hz
+        self._prev_t, self._odd_step, self._odd_run = None, 0.0, 0
+        self._last_sample_at, self._silent = self._clock(), False
+        self._delay = self.backoff_s[0]
+        # Ring of 2W samples written twice (at i and i + W) so that the last W samples are always one
+        # contiguous slice: no copy per sample, one per window. Beside it, per sample, its t and the
+        # count of lines skipped before it (to flag windows whose span holds a skipped line).
+        ring = np.zeros((2 * w, 3), dtype=np.float32)
+        ring_t = [0.0] * w
+        ring_skipped = [0] * w
+        count = since_window = 0  # samples in the current segment, samples since the last window
+        timed: bool | None = None  # whether the lines carry t (set by the first sample of a connection)
+        at_window = (0, 0, 0)  # skipped, rejected, gaps at the previous window
+        for line, now in self._lines():
+            if line is None:  # silence or reconnection: a gap, and the format may change
+                count, timed, self._prev_t = 0, None, None
+                self.gaps += 1
+                continue
+            parsed = parse_line(line)
+            if parsed is None or (timed and parsed[0] is None):
                 self.skipped += 1
                 continue
+            t, x, y, z = parsed
+            if not (-range_g <= x <= range_g and -range_g <= y <= range_g and -range_g <= z <= range_g):
+                # a sample is known to be missing here: end the segment
+                self.rejected += 1
+                self.gaps += count > 0
+                count, self._prev_t = 0, None
+                self._emit(
+                    "range",
+                    f"a sample out of the sensor's range ±{range_g:g} g was rejected: ({x:g}, {y:g}, {z:g})",
+                    repeated=True,
+                )
+                continue
+            if self._silent or not self.samples:
+                waited = now - self._last_sample_at
+                if self._silent and self.samples:
+                    self._emit("resumed", f"samples again after {waited:.1f} s of silence")
+                elif waited >= self.silence_s:
+                    self._emit("first", f"first sample after {waited:.1f} s")
+                self._silent = False
+            self._last_sample_at = now
+            if t is not None:
+                if not timed:  # the lines now carry t: what came before is another segment
+                    self.gaps += count > 0
+                    timed, count = True, 0
+                t *= unit
+                if self._time_gap(t):
+                    count = 0
+            elif timed is None:
+                timed = False
+            if not count:  # a segment starts: the connection works, so the next failure waits little
+                self._delay = self.backoff_s[0]
             i = self.samples % w
-            ring[i] = ring[i + w] = sample
+            ring[i] = ring[i + w] = (x, y, z)
+            ring_t[i] = t or 0.0
+            ring_skipped[i] = self.skipped
             self.samples += 1
-            since_last += 1
-            if self.samples >= w and (self.samples == w or since_last >= self.step):
-                since_last = 0
-                start = self.samples % w
-                emitted += 1
-                yield np.ascontiguousarray(ring[start : start + w].T)[None]
+            count += 1
+            since_window += 1
+            if count < w or (count > w and since_window < step):
+                continue
+            since_window = 0
+            start = self.samples % w
+            flags = ("skipped",) if self.skipped > ring_skipped[start] else ()
+            rate = None if t is None else (w - 1) / (t - ring_t[start])
+            if (
+                rate is not None
+                and self.rate_hz is not None
+                and abs(rate / self.rate_hz - 1) > RATE_TOLERANCE
+            ):
+                flags += ("rate",)
+            totals = (self.skipped, self.rejected, self.gaps)
+            window = Window(
+                data=np.ascontiguousarray(ring[start : start + w].T)[None],
+                index=self.windows,
+                end_sample=self.samples,
+                read_at=now,
+                t_start=None if t is None else ring_t[start],
+                t_end=t,
+                rate_hz=rate,
+                skipped=totals[0] - at_window[0],
+                rejected=totals[1] - at_window[1],
+                gaps=totals[2] - at_window[2],
+                flags=flags,
+            )
+            at_window = totals
+            self.windows += 1
+            yield window
+            if self.max_windows is not None and self.windows >= self.max_windows:
+                return
 
 
-def simulate_sensor(
-    sink: _LineSink,
-    recording: np.ndarray,
-    *,
-    rate_hz: float = 800.0,
-    realtime: bool = True,
-    sleep: Callable[[float], None] = time.sleep,
-) -> int:
-    """Write a recording ``(n, 3)`` in g to ``sink`` as protocol lines; return the number of samples.
-
-    With ``realtime=True`` the lines are paced at ``rate_hz`` against a monotonic clock (no drift
-    accumulates); otherwise they are written as fast as the sink takes them.
-    """
-    recording = np.asarray(recording)
-    if recording.ndim != 2 or recording.shape[1] != 3:
-        raise ValueError(f"recording must have shape (n, 3), got {recording.shape}")
-    if not np.isfinite(recording).all():
-        raise ValueError("recording must be finite, got NaN or inf samples")
-    if not rate_hz > 0:
-        raise ValueError(f"rate_hz must be > 0, got {rate_hz}")
-    start = time.perf_counter()
-    for i, sample in enumerate(recording):
-        if realtime:
-            lag = start + i / rate_hz - time.perf_counter()
-            if lag > 0:
-                sleep(lag)
-        sink.write(format_sample(sample))
-    return len(recording)
-
-
-__all__ = ["WindowReader", "format_sample", "parse_sample", "simulate_sensor"]
+__all__ = [
+    "DEFAULT_RANGE_G",
+    "RANGE_METADATA_KEY",
+    "StreamDisconnected",
+    "StreamEvent",
+    "StreamTimeout",
+    "Window",
+    "WindowReader",
+    "format_sample",
+    "parse_line",
+    "parse_sample",
+    "pseudo_terminal",
+    "sensor_range_g",
+    "simulate_sensor",
+]

@@ -1,19 +1,20 @@
 """Train a classifier on a data file and save it: what ``tactile-torch train`` runs.
 
-:func:`load_features` reads one ``.npz`` of DESIGN.md's formats (image explorations: ``frames``;
-vibration recordings: ``signals``) and computes its features (:func:`tactile_torch.image.exploration_features`,
-or windows and :func:`tactile_torch.signal.window_features`); a ``.npz`` with a ready ``features``
-matrix (``(N, F)``, ``labels``, optional ``class_names``) is accepted too. :func:`train_classifier`
-holds out a stratified test part, scales every feature to unit standard deviation on the training
-part (DESIGN.md; the scale is kept with the model), fits the HM-SVM, a one-vs-one SVM, LDA or kNN
-(k = 3, city-block, inverse-distance weights) and reports on the test part. :func:`save_model` writes
-everything needed to classify new data with ``torch.save``: the fitted estimator, the scale, the
-class names, how the features were made, and the state of the SVM's inference module
-(:class:`tactile_torch.svm.SVMInference`) for export.
+:func:`load_features` reads a data file of ``docs/formats.md`` through :mod:`tactile_torch.formats`
+(image explorations: ``frames``; vibration recordings: ``signals`` or CSV logs; a ready ``features``
+matrix) and computes its features (:func:`tactile_torch.image.exploration_features`, or windows and
+:func:`tactile_torch.signal.window_features`). :func:`train_classifier` holds out a stratified test
+part, scales every feature to unit standard deviation on the training part (DESIGN.md; the scale is
+kept with the model), fits the HM-SVM, a one-vs-one SVM, LDA or kNN (k = 3, city-block,
+inverse-distance weights) and reports on the test part. :func:`save_model` writes an SVM's model
+file (:mod:`tactile_torch.model_file`: plain arrays and a JSON header, no pickle) with everything the
+export needs: the scale, the class names, how the features were made and the arrays of the SVM's
+inference module (:class:`tactile_torch.svm.SVMInference`).
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -22,7 +23,8 @@ import numpy as np
 from ._checks import RandomState, check_positive, numpy_rng
 
 METHODS = ("hmsvm", "svm", "lda", "knn")
-MODEL_FORMAT = "tactile-torch/classifier"
+MODEL_FORMAT = "tactile-torch/model"
+"""``format`` of model files (:data:`tactile_torch.model_file.FORMAT`; kept for old imports)."""
 
 
 @dataclass
@@ -48,73 +50,68 @@ class FeatureSet:
 
 
 def load_features(
-    path: str | Path,
+    path: str | Path | Sequence[str | Path],
     *,
     window: int = 800,
     step: int | None = None,
     fuse: bool = True,
     allow_pickle: bool = False,
 ) -> FeatureSet:
-    """Read a ``.npz`` data file and return its features.
+    """Read a data file (:func:`tactile_torch.formats.read_data`) and return its features.
 
     Parameters
     ----------
-    path : str or Path
+    path : path or sequence of paths
         Image explorations (``frames``), vibration recordings (``signals``) or a feature matrix
-        (``features``), each with ``labels`` (and ``class_names``).
+        (``features``) in one ``.npz``, each with ``labels`` (and ``class_names``); or CSV logs
+        ``t,x,y,z`` (one recording each, class from the file name). See ``docs/formats.md``.
     window, step : int
         Vibration windows: length and hop in samples (default hop: ``window``, no overlap).
     fuse : bool
         Image explorations: fused (12) or per-frame (T x 12) features.
     allow_pickle : bool
-        Vibration files whose recordings differ in length store them as an object array, which
-        needs unpickling: allow it only for files you trust.
+        Only for vibration files written by tactile-torch 0.1 with recordings of different lengths
+        (a pickled object array): allow it only for files you trust.
 
     Returns
     -------
     FeatureSet
+
+    Raises
+    ------
+    FileNotFoundError, ValueError
+        One line naming the file and the field (see :mod:`tactile_torch.formats`); labels are
+        required here.
     """
-    path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"data must name an existing .npz file, got {str(path)!r}")
-    with np.load(path, allow_pickle=False) as npz:
-        keys = set(npz.files)
-        if "features" in keys:
-            X = np.asarray(npz["features"], dtype=np.float64)
-            if "labels" not in keys:
-                raise ValueError(f"{path}: a feature .npz needs 'labels' next to 'features'")
-            labels = np.asarray(npz["labels"])
-            names = tuple(str(c) for c in npz["class_names"]) if "class_names" in keys else None
-    if "features" in keys:
-        if X.ndim != 2 or labels.shape != (X.shape[0],):
-            raise ValueError(
-                f"{path}: features must have shape (N, F) and labels (N,), got {X.shape} and {labels.shape}"
-            )
-        if names is None:
-            uniq, labels = np.unique(labels, return_inverse=True)
-            names = tuple(str(c) for c in uniq)
-        return FeatureSet(X, labels.astype(np.int64), names, {"kind": "features", "n_features": X.shape[1]})
-    if "frames" in keys:
-        from .data.images import load_explorations
+    from .formats import data_name, read_data
+
+    data = read_data(path, allow_pickle=allow_pickle)
+    where = data_name(path)
+    if data.kind == "features":
+        if data.labels is None:
+            raise ValueError(f"{where}: missing 'labels'; training needs labels (N,) next to 'features'")
+        source = {"kind": "features", "n_features": data.features.shape[1]}
+        return FeatureSet(data.features, data.labels, data.class_names, source)
+    if data.kind == "image":
+        from .data.images import explorations_from_arrays
         from .image import exploration_features
 
-        data = load_explorations(path)
-        X = exploration_features(data.frames, fuse=fuse).double().numpy()
-        source = {"kind": "image", "fuse": fuse, "frame_shape": list(data.frames.shape[1:])}
-        return FeatureSet(X, data.labels.numpy(), tuple(data.class_names), source)
-    if "signals" in keys:
-        from .data.vibration import load_vibration_npz
-        from .signal import window_features
+        images = explorations_from_arrays(data)
+        X = exploration_features(images.frames, fuse=fuse).double().numpy()
+        source = {"kind": "image", "fuse": fuse, "frame_shape": list(images.frames.shape[1:])}
+        return FeatureSet(X, data.labels, data.class_names, source)
+    import torch
 
-        rec = load_vibration_npz(path, allow_pickle=allow_pickle)
-        ds = rec.windows(window, step)
-        X = window_features(ds.windows).double().numpy()
-        source = {"kind": "vibration", "window": window, "step": step or window, "rate_hz": rec.rate_hz}
-        return FeatureSet(X, ds.labels.numpy(), tuple(ds.class_names), source)
-    raise ValueError(
-        f"{path}: expected an image (.npz with 'frames'), vibration ('signals') or feature ('features') "
-        f"file, got keys {sorted(keys)}"
-    )
+    from .formats import window_recordings
+    from .signal import window_features
+
+    try:
+        cut = window_recordings(data.signals, window, step)
+    except ValueError as err:
+        raise ValueError(f"{where}: {err}; pass a smaller window (--window)") from None
+    X = window_features(torch.from_numpy(cut.windows)).double().numpy()
+    source = {"kind": "vibration", "window": window, "step": step or window, "rate_hz": data.rate_hz}
+    return FeatureSet(X, data.labels[cut.recording], data.class_names, source)
 
 
 def make_classifier(
@@ -183,6 +180,17 @@ def train_classifier(
     if not 0.0 < test_size < 1.0:
         raise ValueError(f"test_size must be in (0, 1), got {test_size!r}")
     check_positive(C, "C")
+    counts = np.bincount(features.y, minlength=len(features.class_names))
+    if (counts == 1).any():
+        lonely = [features.class_names[i] for i in np.flatnonzero(counts == 1)]
+        raise ValueError(
+            f"labels: every class needs at least 2 samples (one to train on, one to test), "
+            f"class(es) {lonely} have 1"
+        )
+    if (counts > 0).sum() < 2:
+        raise ValueError(
+            f"labels: training needs at least 2 classes with samples, got {int((counts > 0).sum())}"
+        )
     seed = int(numpy_rng(random_state).integers(2**31))
     index = np.arange(features.X.shape[0])
     train, test = train_test_split(index, test_size=test_size, stratify=features.y, random_state=seed)
@@ -197,48 +205,61 @@ def train_classifier(
 
 
 def save_model(path: str | Path, model: TrainedModel, features: FeatureSet) -> Path:
-    """Write the model with ``torch.save``; return ``path``.
+    """Write a trained SVM (``hmsvm`` or ``svm``) to a model file; return ``path``.
 
-    The file holds a dict: ``format``, ``method``, ``estimator`` (the fitted scikit-learn-style object),
-    ``scale`` (F,), ``class_names``, ``source`` (how features are made) and, for the SVMs,
-    ``inference`` (``mode``, ``kernel``, ``gamma``, ``depth`` and the ``state_dict`` of
-    :class:`tactile_torch.svm.SVMInference`, which gives labels and scores from scaled features).
+    The file (:mod:`tactile_torch.model_file`, no pickle) holds the feature ``scale``, the class
+    names in the order of the SVM's labels, how features are made (``source``), the
+    hyper-parameters, the held-out accuracy and the arrays of the SVM's inference path
+    (:class:`tactile_torch.svm.SVMInference`: support vectors, dual coefficients, intercepts and,
+    for the HM-SVM, the tree tables), which is what ``tactile-torch export`` turns into ONNX.
+
+    Raises
+    ------
+    ValueError
+        For LDA and kNN, which have no exportable inference path (they serve as the study's
+        baselines; persist them with scikit-learn's own tools if needed).
     """
-    import torch
+    if not hasattr(model.estimator, "to_module"):
+        raise ValueError(
+            f"method {model.method!r} has no exportable inference path, so it has no model file: "
+            "save an SVM (--method hmsvm or --method svm)"
+        )
+    from .model_file import save_model_file
 
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    payload = {
-        "format": MODEL_FORMAT,
-        "version": 1,
-        "method": model.method,
-        "estimator": model.estimator,
-        "scale": model.scale,
-        "class_names": list(features.class_names),
-        "source": dict(features.source),
-        "test_accuracy": model.report.overall_accuracy,
+    module = model.estimator.to_module()
+    params = {
+        k: v
+        for k, v in model.estimator.get_params().items()
+        if isinstance(v, str | int | float | bool) and k != "random_state"
     }
-    if hasattr(model.estimator, "to_module"):
-        module = model.estimator.to_module()
-        payload["inference"] = {
+    header = {
+        "kind": "classifier",
+        "method": model.method,
+        "class_names": [str(features.class_names[int(c)]) for c in model.estimator.classes_],
+        "source": dict(features.source),
+        "params": params,
+        "test_accuracy": float(model.report.overall_accuracy),
+        "head": {
+            "type": "svm",
             "mode": module.mode,
             "kernel": module.kernel,
-            "gamma": module.gamma,
-            "depth": module.depth,
-            "state_dict": module.state_dict(),
-        }
-    torch.save(payload, path)
-    return path
+            "gamma": float(module.gamma),
+            "depth": int(module.depth),
+        },
+    }
+    arrays = {"scale": np.asarray(model.scale, dtype=np.float64)}
+    arrays.update({f"head.{name}": buf.numpy() for name, buf in module.named_buffers()})
+    return save_model_file(path, header, arrays)
 
 
-def load_model(path: str | Path) -> dict:
-    """Read a model written by :func:`save_model` (a trusted file: it is unpickled)."""
-    import torch
+def load_model(path: str | Path):
+    """Read and validate a classifier's model file (see :func:`tactile_torch.model_file.load_model_file`).
 
-    payload = torch.load(Path(path), weights_only=False)
-    if not isinstance(payload, dict) or payload.get("format") != MODEL_FORMAT:
-        raise ValueError(f"{path} is not a tactile-torch classifier written by save_model")
-    return payload
+    Returns a :class:`tactile_torch.model_file.ModelFile`; nothing in it is unpickled.
+    """
+    from .model_file import load_model_file
+
+    return load_model_file(path, kind="classifier")
 
 
 __all__ = [

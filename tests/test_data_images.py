@@ -98,14 +98,14 @@ def test_npz_with_raw_pressure_maps_is_rendered(tmp_path, small):
 @pytest.mark.parametrize(
     ("arrays", "match"),
     [
-        ({"labels": np.zeros(1, np.int64), "class_names": np.array(["a"])}, r"missing key\(s\) \['frames'\]"),
+        ({"labels": np.zeros(1, np.int64), "class_names": np.array(["a"])}, r"bad\.npz: missing 'frames'"),
         (
             {
                 "frames": np.zeros((1, 2, 4, 4, 3), np.float32),
                 "labels": np.zeros(1),
                 "class_names": np.array(["a"]),
             },
-            r"frames must be uint8 \(N, T, H, W, 3\)",
+            r"frames must be uint8 RGB \(N, T, H, W, 3\)",
         ),
         (
             {
@@ -113,7 +113,7 @@ def test_npz_with_raw_pressure_maps_is_rendered(tmp_path, small):
                 "labels": np.zeros(3, np.int64),
                 "class_names": np.array(["a"]),
             },
-            r"labels must be int64 of shape \(2,\)",
+            r"labels must be integers of shape \(2,\)",
         ),
         (
             {
@@ -130,7 +130,7 @@ def test_npz_with_raw_pressure_maps_is_rendered(tmp_path, small):
                 "class_names": np.array(["a"]),
                 "groups": np.zeros(2, np.int64),
             },
-            r"groups must have shape \(1,\)",
+            r"groups must be integers of shape \(1,\)",
         ),
     ],
 )

@@ -166,20 +166,32 @@ def test_npz_round_trip(tmp_path, lengths):
     rec = _small(lengths)
     path = save_vibration_npz(tmp_path / "rec.npz", rec)
     ragged = len(set(lengths)) > 1
-    with np.load(path, allow_pickle=True) as raw:
-        assert raw["signals"].dtype == (object if ragged else np.float32)
+    with np.load(path, allow_pickle=False) as raw:  # no pickle in either layout
+        assert raw["signals"].shape == ((750, 3) if ragged else (2, 300, 3))
+        assert raw["signals"].dtype == np.float32 and ("lengths" in raw.files) == ragged
         assert raw["labels"].dtype == np.int64 and raw["class_names"].dtype.kind == "U"
-    back = load_vibration_npz(path, allow_pickle=ragged)
+    back = load_vibration_npz(path)
     assert all(np.array_equal(a, b) for a, b in zip(rec.signals, back.signals, strict=True))
     assert back.labels.tolist() == rec.labels.tolist() and back.class_names == ("a", "b")
     assert back.rate_hz == 800.0 and back.session.tolist() == ["s0", "s1"]
-    assert load_vibration_npz(rec.save(tmp_path / "again.npz"), allow_pickle=ragged).class_names == ("a", "b")
+    assert load_vibration_npz(rec.save(tmp_path / "again.npz")).class_names == ("a", "b")
+
+
+def test_legacy_pickled_ragged_files_load_only_when_allowed(tmp_path):
+    rec = _small((300, 450))
+    signals = np.empty(2, dtype=object)
+    signals[:] = rec.signals
+    path = tmp_path / "old.npz"  # what tactile-torch 0.1 wrote for recordings of different lengths
+    np.savez(path, signals=signals, labels=rec.labels, class_names=np.array(["a", "b"]), rate_hz=800.0)
+    with pytest.raises(ValueError, match=r"old\.npz: signals is a pickled object array.*allow_pickle=True"):
+        load_vibration_npz(path)
+    back = load_vibration_npz(path, allow_pickle=True)
+    assert [len(s) for s in back.signals] == [300, 450]
+    again = load_vibration_npz(back.save(tmp_path / "new.npz"))  # re-saved: no pickle any more
+    assert all(np.array_equal(a, b) for a, b in zip(rec.signals, again.signals, strict=True))
 
 
 def test_npz_errors(tmp_path):
-    path = save_vibration_npz(tmp_path / "ragged.npz", _small((300, 450)))
-    with pytest.raises(ValueError, match="allow_pickle=True"):
-        load_vibration_npz(path)
     np.savez(tmp_path / "missing.npz", signals=np.zeros((1, 10, 3)), labels=np.zeros(1, np.int64))
     with pytest.raises(ValueError, match="missing"):
         load_vibration_npz(tmp_path / "missing.npz")
@@ -227,7 +239,7 @@ def test_windows_of_recordings():
     assert ds.recording.tolist() == [0] * 5 + [1] * 8 and ds.position.tolist()[5:8] == [0, 1, 2]
     assert len(rec.windows(400)) == 1  # the short recording gives none
     assert len(rec.windows(100, max_per_recording=2)) == 4
-    with pytest.raises(ValueError, match="no recording has size=500"):
+    with pytest.raises(ValueError, match="no recording holds a window of 500 samples"):
         rec.windows(500)
 
 
@@ -286,7 +298,7 @@ def test_csv_loader(tmp_path):
 @pytest.mark.parametrize(
     ("content", "kwargs", "error", "match"),
     [
-        ("", {}, ValueError, "is empty"),
+        ("", {}, ValueError, "empty file"),
         ("t,x,y\n0,1,2\n0.01,1,2\n", {}, ValueError, "missing"),
         ("0,1,2,3\n0.01,1,2,3\n", {"columns": ("t", "x", "y", "z")}, ValueError, "no header"),
         ("t,x,y,z\n0,1,2,3\n0.01,1,2\n", {}, ValueError, "number"),

@@ -16,10 +16,11 @@ from hypothesis import strategies as st
 from tactile_torch import image
 from tactile_torch._onnx import export_onnx, run_onnx
 from tactile_torch.data.images import make_explorations
+from tactile_torch.image import _integer_cut, _kernels, _scheduler
 
 from . import reference_image as ref
 
-# DESIGN.md tolerances: float64 1e-10; float32 1e-5 relative (plus 1e-5 absolute for features near 0,
+# The project's tolerances: float64 1e-10; float32 1e-5 relative (plus 1e-5 absolute for features near 0,
 # e.g. a direction mean of 0.004 that sums thousands of values up to pi in float32).
 TOL = {torch.float64: {"rtol": 1e-10, "atol": 1e-10}, torch.float32: {"rtol": 1e-5, "atol": 1e-5}}
 NP_DTYPE = {torch.float64: np.float64, torch.float32: np.float32}
@@ -96,7 +97,7 @@ def test_sobel_edges_matches_reference_and_gradient_matches_scipy_sobel():
 
 def test_sobel_is_unnormalised_with_reflect_border():
     ramp = torch.arange(6.0, dtype=torch.float64).expand(5, 6).clone()
-    gx, gy = image._sobel(ramp)
+    gx, gy = _kernels._sobel(ramp)
     np.testing.assert_array_equal(gx.numpy(), ndi.sobel(ramp.numpy(), axis=1))
     assert float(gx[2, 2]) == 8.0 and float(gx[2, 0]) == 4.0 and float(gy.abs().max()) == 0.0
 
@@ -109,7 +110,7 @@ def test_gradient_statistics_match_scipy(dtype):
     got = image.gradient_statistics(x)
     want = np.stack([ref.statistics(a.astype(np.float64)) for a in x.numpy()])
     np.testing.assert_allclose(got.double().numpy(), want, **TOL[dtype])
-    # the DESIGN.md conventions, spelled out once against scipy/numpy directly
+    # the conventions of docs/image.md, spelled out once against scipy/numpy directly
     v = x[0].double().numpy().ravel()
     np.testing.assert_allclose(
         got[0].double().numpy(),
@@ -171,15 +172,25 @@ def test_uint8_pressed_region_equals_float32_reference_at_the_threshold(threshol
     # The uint8 path decides on the integer 2989 R + 5870 G + 1140 B: by one cut where some integer
     # cut is exact, else (0.122) by the float32 formula for the pixels within a band around the
     # threshold. Every colour near the threshold must match the reference.
-    assert (image._integer_cut(float(np.float32(threshold))) is None) == (threshold == 0.122)
+    assert (_integer_cut.integer_cut(float(np.float32(threshold))) is None) == (threshold == 0.122)
     colours = _colours_near(threshold)
     assert colours.shape[1] > 100
     frames = torch.from_numpy(colours).view(1, 1, 3, 1, -1)
-    got = image._pressed(frames, torch.tensor(threshold, dtype=torch.float32), torch.float32, None)
+    got = _scheduler.pressed(frames, torch.tensor(threshold, dtype=torch.float32), torch.float32, None)
     want = ref.grayscale(colours[:, None, :], np.float32) < np.float32(threshold)
     assert got.dtype == torch.int8
     np.testing.assert_array_equal(got.view(-1).numpy(), want.ravel())
     assert 0 < want.sum() < want.size  # colours on both sides
+
+
+def test_integer_cut_uses_the_float32_grayscale_of_every_colour():
+    # integer_cut decides the colours near a threshold with a NumPy copy of the float32 grayscale (so
+    # that it is the same eagerly and while tracing for export): it must equal the torch kernel's
+    # gray, bit for bit, on all 2^24 uint8 colours
+    code = torch.arange(1 << 24, dtype=torch.int32)
+    colours = torch.stack([code >> 16, (code >> 8) & 255, code & 255], dim=1).to(torch.uint8)
+    ours = _kernels._gray(colours.view(-1, 3, 1, 1), torch.float32).view(-1).numpy()
+    np.testing.assert_array_equal(_integer_cut.gray_float32(colours.numpy()), ours)
 
 
 def test_uint8_pressed_region_with_per_exploration_thresholds():
@@ -188,7 +199,7 @@ def test_uint8_pressed_region_with_per_exploration_thresholds():
     n = min(c.shape[1] for c in columns)
     frames = torch.from_numpy(np.stack([c[:, :n] for c in columns])).view(3, 1, 3, 1, n)
     per = torch.tensor(thresholds, dtype=torch.float32)
-    got = image._pressed(frames, per, torch.float32, None)
+    got = _scheduler.pressed(frames, per, torch.float32, None)
     naive_errors = 0
     for k, t in enumerate(thresholds):
         want = ref.grayscale(columns[k][:, None, :n], np.float32) < np.float32(t)
@@ -198,7 +209,7 @@ def test_uint8_pressed_region_with_per_exploration_thresholds():
     assert naive_errors > 0  # the integer rule alone would be wrong here: the fallback is exercised
 
 
-def test_threaded_blocks_equal_one_thread_and_restore_the_thread_count(realistic):
+def test_threaded_blocks_equal_one_thread_and_leave_the_thread_count(realistic):
     before = torch.get_num_threads()
     try:
         torch.set_num_threads(1)
@@ -390,13 +401,22 @@ def test_single_step_functions_validate_their_input():
 
 
 # --------------------------------------------------------------------------------------------- ONNX
+class _PlainFunction(torch.nn.Module):
+    def forward(self, frames):
+        return image.exploration_features(frames, erosion=4)
+
+
 def test_onnx_export_of_the_inference_path_matches_onnxruntime(tmp_path, realistic):
-    # as in a fresh process: the integer cut of the threshold is found when the module is built,
-    # not while tracing (a search inside the trace cannot be exported)
-    image._integer_cut._cuts.clear()
-    module = image.ExplorationFeatures(fuse=True, erosion=4)
-    assert image._integer_cut.known(image._float32(image.DEFAULT_THRESHOLD)) is not None
+    import onnx
+    from onnx import numpy_helper
+
+    # The plain function, not the module: nothing has to be prepared before tracing. The graph holds
+    # the integer gray 2989 R + 5870 G + 1140 B (the exact integer cut, a pure function of the
+    # threshold), whatever ran before in this process.
+    module = _PlainFunction()
     path = export_onnx(module, (realistic[:2, :6],), tmp_path / "features.onnx", input_names=["frames"])
+    weights = [numpy_helper.to_array(t).ravel().tolist() for t in onnx.load(str(path)).graph.initializer]
+    assert [2989.0, 5870.0, 1140.0] in weights
     frames = realistic[:, 6:]  # another batch size and other frames
     (got,) = run_onnx(path, frames)
     np.testing.assert_allclose(got, module(frames).numpy(), rtol=1e-5, atol=1e-5)

@@ -462,10 +462,10 @@ def test_cli_cluster_writes_the_clustering(tmp_path, capsys):
     assert pairwise_accuracy(y, res["labels"]) == 1.0 and res["means"].shape == (3, 2)
     assert res["n_clusters_samples"].shape == (30,)
     assert "pairwise accuracy of the MAP labels: 1.0000" in (out / "summary.txt").read_text()
-    assert (out / "model.pt").is_file()  # for tactile-torch export (tests/test_pipeline.py)
+    assert (out / "model.npz").is_file()  # for tactile-torch export (tests/test_pipeline.py)
     np.savez(tmp_path / "bad.npz", X=X)
     assert main(["cluster", "--data", str(tmp_path / "bad.npz"), "--out", str(out)]) == 2
-    assert "or a 'features' array (n, D), found ['X']" in capsys.readouterr().err
+    assert "or a feature matrix ('features'), found keys ['X']" in capsys.readouterr().err
 
 
 def test_clustering_study_quick_mode_writes_its_section(tmp_path):

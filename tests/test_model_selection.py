@@ -1,5 +1,6 @@
 import numpy as np
 import pytest
+import torch
 from joblib import parallel_backend
 from sklearn.base import clone
 from sklearn.datasets import make_blobs
@@ -97,6 +98,13 @@ def test_stratified_grid_search_is_gridsearchcv_or_batched():
 def test_odd_even_split():
     train, test = odd_even_split(7)
     assert train.tolist() == [0, 2, 4, 6] and test.tolist() == [1, 3, 5]
+    # windows of several recordings, numbered inside each recording (VibrationWindows.position)
+    train, test = odd_even_split(torch.tensor([0, 1, 2, 0, 1, 2, 3]))
+    assert train.tolist() == [0, 2, 3, 5] and test.tolist() == [1, 4, 6]
+    with pytest.raises(ValueError, match="position must hold the windows' indices"):
+        odd_even_split(np.array([0.5, 1.0]))
+    with pytest.raises(ValueError, match="position must be a 1-D array"):
+        odd_even_split(np.zeros((2, 2), dtype=int))
 
 
 def test_rank_feature_groups_puts_the_informative_feature_first():

@@ -96,3 +96,19 @@ def test_runtime_runs_where_torch_cannot_be_imported(bundle):
     assert out.returncode == 0, out.stderr
     out = out.stdout
     assert out.split() == ["[0]", "False"]
+
+
+def test_no_label_is_returned_with_a_non_finite_score(bundle):
+    from tactile_torch.runtime import NonFiniteScoresError
+
+    pipe = OnnxPipeline(bundle)
+    raw = np.zeros((4, 3, 16), np.float32)
+    raw[2, 0, 5] = 1e30  # finite input; its square overflows float32 in the scores
+    with pytest.raises(
+        NonFiniteScoresError, match=r"non-finite scores for 1 of 4 sample\(s\) \(rows 2\)"
+    ) as err:
+        pipe.predict(raw)
+    np.testing.assert_array_equal(err.value.rows, [2])
+    with pytest.raises(ValueError, match="no label is returned"):
+        pipe.predict_scores(raw)
+    assert pipe.predict(raw[[0, 1, 3]]).shape == (3,)

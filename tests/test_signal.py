@@ -20,6 +20,7 @@ from tactile_torch.signal import (
     ClusteringTransform,
     FeatureScaler,
     WindowFeatures,
+    _features,
     clustering_features,
     sliding_windows,
     window_features,
@@ -32,7 +33,7 @@ CROSS = [FEATURE_NAMES.index(f"{a}_cross") for a in "xyz"]
 
 
 def assert_features_match(ours, want, dtype, windows):
-    """DESIGN.md tolerances: relative ``rtol`` (1e-5 float32, 1e-10 float64) on every feature.
+    """The project's tolerances: relative ``rtol`` (1e-5 float32, 1e-10 float64) on every feature.
 
     The standardised moments are dimensionless and of order one, so their tolerance is ``rtol``
     absolute as well (a symmetric window's skewness is ~0, where a relative test means nothing);
@@ -115,7 +116,7 @@ def test_crossings_exact_when_samples_lie_on_thresholds(dtype):
     np.testing.assert_array_equal(ours, want)
     rows = torch.from_numpy(x).reshape(-1, 300)
     lo_t, spread = rows.amin(-1, keepdim=True), rows.amax(-1, keepdim=True) - rows.amin(-1, keepdim=True)
-    bisect = signal._crossings(rows, lo_t, spread, exact=True).reshape(64, 3).numpy()
+    bisect = _features._crossings(rows, lo_t, spread, exact=True).reshape(64, 3).numpy()
     np.testing.assert_array_equal(bisect, want)
 
 
@@ -284,7 +285,7 @@ def test_batched_equals_per_window(batch, size, quantised, seed):
 def test_blocking_does_not_change_results(monkeypatch):
     x = torch.randn(40, 3, 100, generator=torch.Generator().manual_seed(0))
     whole = window_features(x)
-    monkeypatch.setattr(signal, "_BLOCK_SAMPLES", 300)  # one window per block
+    monkeypatch.setattr(_features, "_BLOCK_SAMPLES", 300)  # one window per block
     torch.testing.assert_close(window_features(x), whole, rtol=1e-6, atol=1e-7)
 
 
@@ -312,52 +313,96 @@ def features(surfaces):
 
 def test_feature_scaler(features):
     scaler = FeatureScaler().fit(features)
-    scaled = scaler(features)
+    scaled = scaler.transform(features)
+    assert isinstance(scaled, torch.Tensor) and scaled.dtype == features.dtype
     std = scaled.std(0, correction=1)
     constant = features.std(0) == 0
     torch.testing.assert_close(std[~constant], torch.ones(int((~constant).sum())), rtol=1e-5, atol=0)
-    assert torch.equal(scaler.mean_, torch.zeros(21))
-    centred = FeatureScaler(center=True).fit(features)(features)
+    assert np.array_equal(scaler.mean_, np.zeros(21))
+    want = np.std(features.double().numpy(), axis=0, ddof=1)
+    np.testing.assert_allclose(scaler.scale_[~constant.numpy()], want[~constant.numpy()], rtol=1e-12)
+    centred = FeatureScaler(center=True).fit(features).transform(features)
     torch.testing.assert_close(centred.mean(0), torch.zeros(21), atol=1e-4, rtol=0)
     # a constant feature gets scale 1 rather than a division by zero
-    const = FeatureScaler().fit(torch.ones(5, 3))
-    assert torch.equal(const.scale_, torch.ones(3))
-    # fitted values live in buffers: a state dict restores them into a fresh module
-    fresh = FeatureScaler()
-    fresh.load_state_dict(scaler.state_dict())
-    assert torch.equal(fresh(features), scaled)
+    const = FeatureScaler().fit(np.ones((5, 3)))
+    assert np.array_equal(const.scale_, np.ones(3))
+    # arrays in, arrays out; the module form gives the same numbers
+    np.testing.assert_allclose(scaler.transform(features.numpy()), scaled.numpy(), rtol=0, atol=0)
+    torch.testing.assert_close(scaler.to_module()(features), scaled, rtol=0, atol=0)
+    # the module's buffers restore it: a state dict round trip
+    module = signal.ScaleFeatures(torch.zeros(21), torch.ones(21))
+    module.load_state_dict(scaler.to_module().state_dict())
+    torch.testing.assert_close(module(features), scaled, rtol=0, atol=0)
+
+
+def test_transforms_keep_gradients(features):
+    x = features[:6].double().requires_grad_()
+    scaler = FeatureScaler().fit(features.double())
+    transform = ClusteringTransform().fit(features.double())
+    assert torch.autograd.gradcheck(scaler.transform, (x,))
+    assert torch.autograd.gradcheck(transform.transform, (x,))
 
 
 @pytest.mark.parametrize(
     ("call", "error", "match"),
     [
-        (lambda: FeatureScaler()(torch.zeros(2, 21)), NotFittedError, "not fitted"),
-        (lambda: FeatureScaler().fit(torch.zeros(1, 21)), ValueError, "at least 2 rows"),
-        (lambda: FeatureScaler().fit(torch.zeros(4, 21, dtype=torch.int64)), TypeError, "floating"),
-        (lambda: FeatureScaler().fit(torch.full((4, 21), float("nan"))), ValueError, "finite"),
+        (lambda: FeatureScaler().transform(torch.zeros(2, 21)), NotFittedError, "not fitted"),
+        (lambda: FeatureScaler().to_module(), NotFittedError, "not fitted"),
+        (lambda: FeatureScaler().fit(torch.zeros(1, 21)), ValueError, "1 sample"),
         (
-            lambda: FeatureScaler().fit(torch.ones(4, 21) * torch.arange(4.0)[:, None])(torch.zeros(2, 20)),
-            ValueError,
-            r"shape \(B, 21\)",
+            lambda: FeatureScaler().fit(torch.zeros(4, 21, dtype=torch.int64)),
+            TypeError,
+            "X must have a floating",
         ),
-        (lambda: ClusteringTransform()(torch.zeros(2, 21)), NotFittedError, "not fitted"),
-        (lambda: ClusteringTransform(n_components=0), ValueError, "n_components must be > 0"),
-        (lambda: ClusteringTransform(n_components=13), ValueError, "n_components must be <= 12"),
-        (lambda: ClusteringTransform().fit(torch.zeros(5, 20)), ValueError, r"shape \(B, 21\)"),
+        (lambda: FeatureScaler().fit(torch.full((4, 21), float("nan"))), ValueError, "NaN"),
+        (lambda: FeatureScaler(center="yes").fit(torch.ones(4, 21)), ValueError, "'center' parameter"),
+        (
+            lambda: (
+                FeatureScaler()
+                .fit(torch.ones(4, 21) * torch.arange(4.0)[:, None])
+                .transform(torch.zeros(2, 20))
+            ),
+            ValueError,
+            "X has 20 features, but FeatureScaler is expecting 21",
+        ),
+        (lambda: ClusteringTransform().transform(torch.zeros(2, 21)), NotFittedError, "not fitted"),
+        (lambda: ClusteringTransform(n_components=0).fit(torch.ones(4, 21)), ValueError, "'n_components'"),
+        (lambda: ClusteringTransform(eps=0.0).fit(torch.ones(4, 21)), ValueError, "'eps' parameter"),
+        (lambda: ClusteringTransform(features="raw").fit(torch.ones(4, 21)), ValueError, "'features'"),
+        (
+            lambda: ClusteringTransform(n_components=13).fit(torch.ones(20, 21)),
+            ValueError,
+            "n_components must be <= ",
+        ),
+        (lambda: ClusteringTransform().fit(torch.zeros(5, 20)), ValueError, "21 window features"),
+        (lambda: ClusteringTransform().fit(-torch.ones(5, 21)), ValueError, ">= 0"),
         (lambda: clustering_features(-torch.ones(2, 21)), ValueError, ">= 0"),
         (lambda: clustering_features(torch.ones(2, 21), eps=0.0), ValueError, "eps must be > 0"),
     ],
 )
-def test_fitted_module_errors(call, error, match):
+def test_transform_errors(call, error, match):
     with pytest.raises(error, match=match):
         call()
+
+
+def test_hyper_parameters_are_stored_unchanged_and_validated_at_fit():
+    transform = ClusteringTransform(n_components=-1, eps=-1.0)  # nothing is checked in __init__
+    assert transform.get_params() == {
+        "n_components": -1,
+        "standardize": True,
+        "eps": -1.0,
+        "features": "window",
+    }
+    with pytest.raises(ValueError, match="parameter of ClusteringTransform must be"):
+        transform.fit(torch.ones(4, 21))
 
 
 @pytest.mark.parametrize("dtype", [torch.float32, torch.float64])
 def test_clustering_transform_matches_reference(features, dtype):
     train, test = features[::2].to(dtype), features[1::2].to(dtype)
     transform = ClusteringTransform(n_components=3).fit(train)
-    ours = transform(test)
+    ours = transform.transform(test)
+    assert ours.dtype == dtype
     want = ref.clustering_pca(train.double().numpy(), test.double().numpy(), n_components=3)
     tol = 1e-4 if dtype == torch.float32 else 1e-9
     np.testing.assert_allclose(ours.double().numpy(), want, rtol=tol, atol=tol)
@@ -365,6 +410,11 @@ def test_clustering_transform_matches_reference(features, dtype):
     ratio = transform.explained_variance_ratio_
     assert (ratio[:-1] >= ratio[1:]).all() and float(ratio.sum()) <= 1.0 + 1e-6
     assert transform.fit_transform(train).shape == (len(train), 3)
+    np.testing.assert_allclose(transform.transform(test.numpy()), ours.numpy(), rtol=0, atol=0)
+    # features="passthrough" on the mapped features is the same projection
+    mapped = clustering_features(train.double())
+    passthrough = ClusteringTransform(n_components=3, features="passthrough").fit(mapped)
+    np.testing.assert_allclose(passthrough.components_, transform.components_, rtol=1e-9, atol=1e-12)
 
 
 # --------------------------------------------------------------------------------------------
@@ -392,7 +442,9 @@ def test_onnx_parity(surfaces, tmp_path):
     size = 400
     x = torch.from_numpy(_test_windows(surfaces, size, np.float32))
     feats = window_features(x)
-    model = _Inference(size, FeatureScaler().fit(feats), ClusteringTransform().fit(feats))
+    model = _Inference(
+        size, FeatureScaler().fit(feats).to_module(), ClusteringTransform().fit(feats).to_module()
+    )
     path = export_onnx(model, (x[:2],), tmp_path / "features.onnx", input_names=["windows"])
     ops = {node.op_type for node in onnx.load(str(path)).graph.node}
     assert "DFT" not in ops and "MatMul" in ops  # the spectrum is a MatMul with the upper-half basis

@@ -1,7 +1,5 @@
 import json
 
-import pytest
-
 from tactile_torch.studies import run_report
 
 
@@ -11,7 +9,6 @@ def _tables(path):
 
 
 def test_image_classification_study_quick(tmp_path):
-    pytest.importorskip("tactile_torch.image", reason="needs tactile_torch.image (issue 3)")
     path = run_report(
         tmp_path, quick=True, only=["image_features", "image_classification"], log=lambda s: None
     )
@@ -33,7 +30,6 @@ def test_image_classification_study_quick(tmp_path):
 
 
 def test_vibration_classification_study_quick(tmp_path):
-    pytest.importorskip("tactile_torch.signal", reason="needs tactile_torch.signal (issue 4)")
     path = run_report(
         tmp_path, quick=True, only=["vibration_features", "vibration_classification"], log=lambda s: None
     )

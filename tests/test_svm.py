@@ -465,7 +465,7 @@ def _vibration_windows(rec, size):
     position = ds.position.numpy()
     train, test = np.flatnonzero(position % 2 == 0), np.flatnonzero(position % 2 == 1)
     feats = window_features(ds.windows).double()
-    X = FeatureScaler().fit(feats[torch.from_numpy(train)])(feats).numpy()
+    X = FeatureScaler().fit(feats[torch.from_numpy(train)]).transform(feats).numpy()
     y = ds.labels.numpy()
     return X[train], y[train], X[test]
 

@@ -4,8 +4,15 @@ import torch
 from sklearn.datasets import make_blobs
 
 from tactile_torch.cli import main
-from tactile_torch.svm import SVMInference
-from tactile_torch.training import load_features, load_model, make_classifier, train_classifier
+from tactile_torch.pipeline import pipeline_from_model
+from tactile_torch.training import (
+    FeatureSet,
+    load_features,
+    load_model,
+    make_classifier,
+    save_model,
+    train_classifier,
+)
 
 
 @pytest.fixture
@@ -19,7 +26,7 @@ def feature_npz(tmp_path):
 
 def test_cli_train_prints_a_class_report_and_saves_the_model(feature_npz, tmp_path, capsys):
     path, X, _ = feature_npz
-    out = tmp_path / "model.pt"
+    out = tmp_path / "model.npz"
     assert main(["train", "--data", str(path), "--method", "hmsvm", "--out", str(out), "--C", "10"]) == 0
     text = capsys.readouterr().out
     assert "120 samples x 5 features (features), 3 classes" in text
@@ -27,25 +34,30 @@ def test_cli_train_prints_a_class_report_and_saves_the_model(feature_npz, tmp_pa
     for name in ("cork", "felt", "glass", "mean", "overall accuracy"):
         assert name in text
     saved = load_model(out)
-    assert saved["class_names"] == ["cork", "felt", "glass"] and saved["method"] == "hmsvm"
-    assert saved["scale"].shape == (5,) and saved["scale"][2] > 50 * saved["scale"][0]  # per-feature std
-    # The saved inference state rebuilds a module that gives the estimator's labels on scaled data.
-    inf = saved["inference"]
-    state = inf["state_dict"]
-    tree = {k: state[k] for k in ("left", "right", "column", "leaf_label", "path_sign")}
-    module = SVMInference(
-        state["support_vectors"],
-        state["dual_coef"],
-        state["intercept"],
-        kernel=inf["kernel"],
-        gamma=inf["gamma"],
-        mode=inf["mode"],
-        tree=tree,
-        depth=inf["depth"],
-    )
-    scaled = X / saved["scale"]
-    labels, _ = module(torch.tensor(scaled))
-    np.testing.assert_array_equal(labels.numpy(), saved["estimator"].predict(scaled))
+    assert saved.class_names == ["cork", "felt", "glass"] and saved.method == "hmsvm"
+    scale = saved.arrays["scale"]
+    assert scale.shape == (5,) and scale[2] > 50 * scale[0]  # per-feature std
+    assert saved.header["params"]["C"] == 10.0 and saved.header["head"]["mode"] == "tree"
+    # The saved arrays rebuild the SVM's inference path: the estimator's labels on scaled data.
+    model = train_classifier(load_features(path), "hmsvm", C=10.0, random_state=0)  # what the CLI fitted
+    np.testing.assert_array_equal(model.scale, scale)
+    head = pipeline_from_model(saved).head
+    labels, _ = head(torch.tensor(X / scale))
+    np.testing.assert_array_equal(labels.numpy(), model.estimator.predict(X / scale))
+
+
+def test_save_model_writes_svms_only_and_train_needs_two_samples_per_class(feature_npz, tmp_path):
+    features = load_features(feature_npz[0])
+    lda = train_classifier(features, "lda", random_state=0)
+    with pytest.raises(ValueError, match="method 'lda' has no exportable inference path"):
+        save_model(tmp_path / "lda.npz", lda, features)
+    assert not (tmp_path / "lda.npz").exists()
+    y = features.y.copy()
+    y[y == 2] = 1
+    y[0] = 2  # class 'glass' keeps a single sample
+    lonely = FeatureSet(features.X, y, features.class_names, features.source)
+    with pytest.raises(ValueError, match=r"every class needs at least 2 samples.*\['glass'\] have 1"):
+        train_classifier(lonely, "svm")
 
 
 @pytest.mark.parametrize("method", ["svm", "lda", "knn"])
@@ -63,19 +75,19 @@ def test_train_classifier_methods(feature_npz, method):
 
 
 def test_training_errors(tmp_path, feature_npz):
-    with pytest.raises(FileNotFoundError, match=r"data must name an existing \.npz file"):
+    with pytest.raises(FileNotFoundError, match=r"missing\.npz: no such file"):
         load_features(tmp_path / "missing.npz")
     bad = tmp_path / "bad.npz"
     np.savez(bad, something=np.zeros(3))
-    with pytest.raises(ValueError, match=r"expected an image .*got keys \['something'\]"):
+    with pytest.raises(ValueError, match=r"expected image explorations .*found keys \['something'\]"):
         load_features(bad)
     with pytest.raises(ValueError, match="method must be one of"):
         make_classifier("forest")
     with pytest.raises(ValueError, match="test_size must be in \\(0, 1\\)"):
         train_classifier(load_features(feature_npz[0]), test_size=1.5)
-    not_model = tmp_path / "x.pt"
-    torch.save({"a": 1}, not_model)
-    with pytest.raises(ValueError, match=r"not a tactile-torch classifier"):
+    not_model = tmp_path / "x.npz"
+    np.savez(not_model, a=np.zeros(2))
+    with pytest.raises(ValueError, match=r"x\.npz: not a tactile-torch model file"):
         load_model(not_model)
 
 
@@ -89,6 +101,7 @@ def test_train_program_trains_the_study_classifier_on_a_file(feature_npz, tmp_pa
     spec.loader.exec_module(module)
     path, _, _ = feature_npz
     assert module.main(["vibration", "--data", str(path), "--out", str(tmp_path), "--C", "4"]) == 0
-    saved = load_model(tmp_path / "vibration.pt")
-    assert saved["method"] == "hmsvm" and saved["estimator"].C == 4.0 and saved["estimator"].gamma == 0.0186
+    saved = load_model(tmp_path / "vibration.npz")
+    assert saved.method == "hmsvm" and saved.header["params"]["C"] == 4.0
+    assert saved.header["params"]["gamma"] == 0.0186 == saved.header["head"]["gamma"]
     assert "overall accuracy" in capsys.readouterr().out

@@ -9,7 +9,7 @@ Without ``--data`` it writes the report sections of the study (``image``: HM-SVM
 fused and unfused features, 5 rounds of 60/20/20 with C and gamma chosen on validation, class
 report, McNemar, timing, robustness to feature and image noise; ``vibration``: the HM-SVM on the 21
 scaled features, stratified 10-fold grid search, odd/even accuracy, feature ranking, agreement with
-libsvm). With ``--data`` (a ``.npz`` of DESIGN.md) it trains the study's classifier on that file
+libsvm). With ``--data`` (a ``.npz`` of image explorations or vibration recordings) it trains the study's classifier on that file
 (``tactile-torch train``) and saves it. The logic lives in ``tactile_torch.studies`` and
 ``tactile_torch.training``.
 """
@@ -20,6 +20,7 @@ import argparse
 from pathlib import Path
 
 from tactile_torch.cli import main as cli
+from tactile_torch.model_selection import VIBRATION_STUDY_C, VIBRATION_STUDY_GAMMA
 from tactile_torch.studies import run_report
 
 SECTIONS = {
@@ -29,7 +30,7 @@ SECTIONS = {
 # The classifier each study trains on a user's file, and its defaults (method 2: the study's C, gamma).
 TRAIN = {
     "image": ["--method", "hmsvm"],
-    "vibration": ["--method", "hmsvm", "--C", "16", "--gamma", "0.0186"],
+    "vibration": ["--method", "hmsvm", "--C", str(VIBRATION_STUDY_C), "--gamma", str(VIBRATION_STUDY_GAMMA)],
 }
 
 
@@ -44,7 +45,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--data", default="", help="train on this .npz instead of running the study")
     args, extra = parser.parse_known_args(argv)
     if args.data:
-        model = str(Path(args.out) / f"{args.study}.pt")
+        model = str(Path(args.out) / f"{args.study}.npz")
         cmd = ["train", "--data", args.data, *TRAIN[args.study], "--seed", str(args.seed), "--out", model]
         return cli([*cmd, *extra])  # e.g. --window 400 --C 64 (later options win)
     path = run_report(args.out, random_state=args.seed, quick=args.quick, only=SECTIONS[args.study])

@@ -22,6 +22,7 @@ import sys
 
 import numpy as np
 
+from tactile_torch.formats import read_features
 from tactile_torch.report import Report
 from tactile_torch.studies.clustering import cluster_and_compare, learning_curve, synthetic_clusters
 
@@ -32,8 +33,8 @@ def load_features(name: str, seed: int, quick: bool) -> tuple[np.ndarray, np.nda
         n_clusters, per = (8, 20) if quick else (28, 50)
         X, y = synthetic_clusters(n_clusters, per, seed=seed)
         return X, y, f"{n_clusters} seeded Gaussian clusters x {per} points in D = 3"
-    with np.load(name, allow_pickle=False) as data:
-        return data["features"], data["labels"], f"features and labels of {name}"
+    data = read_features(name, require_labels=True)  # docs/formats.md: one line naming a bad field
+    return data.features, data.labels, f"features and labels of {name}"
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -37,7 +37,7 @@ def shared_data_dir(name: str | None = None) -> Path | None:
     return None
 
 
-# Vibration recordings (issue 4), imported on first use so that this package stays light to import.
+# Vibration recordings, imported on first use so that this package stays light to import.
 _LAZY = {
     "VibrationRecordings": "vibration",
     "VibrationWindows": "vibration",

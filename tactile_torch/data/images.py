@@ -366,18 +366,21 @@ def _simulate_pressure(
 
 # ------------------------------------------------------------------------------------------ .npz io
 def save_explorations(path: str | Path, data: ImageExplorations) -> Path:
-    """Write ``data`` to ``path`` in the ``.npz`` format of DESIGN.md (frames channels-last); return ``path``."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    arrays = {
-        "frames": data.frames.permute(0, 1, 3, 4, 2).contiguous().numpy(),
-        "labels": data.labels.numpy().astype(np.int64),
-        "class_names": np.asarray(data.class_names, dtype=str),
-    }
-    if data.groups is not None:
-        arrays["groups"] = data.groups.numpy().astype(np.int64)
-    np.savez_compressed(path, **arrays)
-    return path
+    """Write ``data`` to ``path`` in the image ``.npz`` format (frames channels-last); return the path.
+
+    See :func:`tactile_torch.formats.write_explorations` (``.npz`` is appended when missing, as
+    :func:`numpy.savez` does).
+    """
+    from ..formats import ExplorationArrays, write_explorations
+
+    arrays = ExplorationArrays(
+        frames=data.frames.permute(0, 1, 3, 4, 2).contiguous().numpy(),
+        pressure=None,
+        labels=data.labels.numpy().astype(np.int64),
+        class_names=tuple(data.class_names),
+        groups=None if data.groups is None else data.groups.numpy().astype(np.int64),
+    )
+    return write_explorations(path, arrays)
 
 
 def load_explorations(path: str | Path, *, frame_size: int | None = None) -> ImageExplorations:
@@ -385,41 +388,31 @@ def load_explorations(path: str | Path, *, frame_size: int | None = None) -> Ima
 
     ``frames`` uint8 ``(N, T, H, W, 3)`` become ``(N, T, 3, H, W)``; raw pressure maps ``(N, T, H, W)``
     (float) are rendered with :func:`render_pressure` (to ``frame_size`` if given) and kept in
-    ``pressure``. Raises ``ValueError`` naming the key for a missing key or a wrong shape or dtype.
+    ``pressure``. Raises ``ValueError`` naming the file and the key for a missing key or a wrong
+    shape or dtype (:func:`tactile_torch.formats.read_explorations`).
     """
-    with np.load(Path(path), allow_pickle=False) as npz:
-        missing = [k for k in ("frames", "labels", "class_names") if k not in npz.files]
-        if missing:
-            raise ValueError(
-                f"{path}: missing key(s) {missing}; an image .npz needs frames, labels, class_names"
-            )
-        raw, labels, names = npz["frames"], npz["labels"], npz["class_names"]
-        groups = npz["groups"] if "groups" in npz.files else None
-    n = raw.shape[0] if raw.ndim else 0
+    from ..formats import read_explorations
+
+    return explorations_from_arrays(read_explorations(path), frame_size=frame_size)
+
+
+def explorations_from_arrays(arrays, *, frame_size: int | None = None) -> ImageExplorations:
+    """Return :class:`ImageExplorations` (tensors, channels first) of a file's validated arrays.
+
+    ``arrays`` is a :class:`tactile_torch.formats.ExplorationArrays`; pressure maps are rendered
+    with :func:`render_pressure` (to ``frame_size`` if given).
+    """
     pressure = None
-    if raw.ndim == 5 and raw.shape[-1] == 3 and raw.dtype == np.uint8:
-        frames = torch.from_numpy(raw).permute(0, 1, 4, 2, 3).contiguous()
-    elif raw.ndim == 4 and np.issubdtype(raw.dtype, np.floating):
-        pressure = torch.from_numpy(raw.astype(np.float32))
-        frames = render_pressure(pressure, frame_size)
+    if arrays.frames is not None:
+        frames = torch.from_numpy(arrays.frames).permute(0, 1, 4, 2, 3).contiguous()
     else:
-        raise ValueError(
-            f"{path}: frames must be uint8 (N, T, H, W, 3) or float pressure maps (N, T, H, W), "
-            f"got {raw.dtype} {raw.shape}"
-        )
-    if labels.shape != (n,) or not np.issubdtype(labels.dtype, np.integer):
-        raise ValueError(f"{path}: labels must be int64 of shape ({n},), got {labels.dtype} {labels.shape}")
-    if names.ndim != 1 or (n and (labels.min() < 0 or labels.max() >= len(names))):
-        raise ValueError(
-            f"{path}: labels must index class_names (C={names.shape}), got range {labels.min()}..{labels.max()}"
-        )
-    if groups is not None and groups.shape != (n,):
-        raise ValueError(f"{path}: groups must have shape ({n},), got {groups.shape}")
+        pressure = torch.from_numpy(np.ascontiguousarray(arrays.pressure, dtype=np.float32))
+        frames = render_pressure(pressure, frame_size)
     return ImageExplorations(
         frames=frames,
-        labels=torch.from_numpy(labels.astype(np.int64)),
-        class_names=tuple(str(c) for c in names),
-        groups=None if groups is None else torch.from_numpy(groups.astype(np.int64)),
+        labels=torch.from_numpy(arrays.labels.astype(np.int64)),
+        class_names=tuple(arrays.class_names),
+        groups=None if arrays.groups is None else torch.from_numpy(arrays.groups.astype(np.int64)),
         pressure=pressure,
     )
 
@@ -496,6 +489,7 @@ __all__ = [
     "OBJECTS",
     "ImageExplorations",
     "SurfaceObject",
+    "explorations_from_arrays",
     "jet",
     "load_drimus_grasps",
     "load_explorations",

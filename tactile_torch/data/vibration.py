@@ -4,7 +4,8 @@
 ``labels``, ``class_names``, ``rate_hz``, optional ``session``); :meth:`~VibrationRecordings.windows`
 cuts them into the ``(N, 3, W)`` windows of :func:`tactile_torch.signal.window_features`. The
 seeded stylus simulator lives in :mod:`tactile_torch.data.stylus` (its names stay importable from
-here too).
+here too). Files are read and written by :mod:`tactile_torch.formats` (NumPy only; ``docs/formats.md``);
+the functions here turn them into :class:`VibrationRecordings`.
 
 Examples
 --------
@@ -16,8 +17,6 @@ torch.Size([4, 3, 400])
 
 from __future__ import annotations
 
-import csv
-import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from fractions import Fraction
@@ -27,6 +26,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .._checks import check_positive
+from ..formats import read_csv_recording
 
 if TYPE_CHECKING:
     import torch
@@ -136,33 +136,15 @@ class VibrationRecordings:
         """
         import torch
 
-        from ..signal import sliding_windows
+        from ..formats import window_recordings
 
         check_positive(size, "size", integer=True)
-        parts, labels, recording, position = [], [], [], []
-        for i, s in enumerate(self.signals):  # recordings differ in length: one unfold each
-            if len(s) < size:
-                continue
-            w = sliding_windows(torch.from_numpy(s), size, step)
-            if max_per_recording is not None:
-                w = w[:max_per_recording]
-            parts.append(w)
-            labels.append(np.full(len(w), self.labels[i]))
-            recording.append(np.full(len(w), i))
-            position.append(np.arange(len(w)))
-        if not parts:
-            raise ValueError(
-                f"no recording has size={size} samples (longest: {max(map(len, self.signals), default=0)})"
-            )
-
-        def as_long(parts: list[np.ndarray]) -> torch.Tensor:
-            return torch.from_numpy(np.concatenate(parts).astype(np.int64))
-
+        cut = window_recordings(self.signals, size, step, max_per_recording=max_per_recording)
         return VibrationWindows(
-            windows=torch.cat(parts).contiguous(),
-            labels=as_long(labels),
-            recording=as_long(recording),
-            position=as_long(position),
+            windows=torch.from_numpy(cut.windows),
+            labels=torch.from_numpy(self.labels[cut.recording]),
+            recording=torch.from_numpy(cut.recording),
+            position=torch.from_numpy(cut.position),
             class_names=self.class_names,
             rate_hz=self.rate_hz,
         )
@@ -219,130 +201,39 @@ class VibrationWindows:
 
 
 def save_vibration_npz(path: str | Path, recordings: VibrationRecordings) -> Path:
-    """Write ``recordings`` to a ``.npz`` file in the vibration format of DESIGN.md; return the path.
+    """Write ``recordings`` to a ``.npz`` file in the vibration format; return the path written.
 
     Equal-length recordings are stored as one float32 array ``signals`` ``(R, n, 3)``; recordings of
-    different lengths as an object array of ``(n_i, 3)`` arrays (which needs ``allow_pickle=True``
-    to load).
+    different lengths as their samples concatenated ``(sum n_i, 3)`` plus ``lengths`` ``(R,)``: no
+    pickle either way (:func:`tactile_torch.formats.write_recordings`, ``docs/formats.md``).
     """
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    lengths = {len(s) for s in recordings.signals}
-    if len(lengths) <= 1 and recordings.signals:
-        signals = np.stack(recordings.signals)
-    else:
-        signals = np.empty(len(recordings.signals), dtype=object)
-        signals[:] = recordings.signals
-    arrays = {
-        "signals": signals,
-        "labels": recordings.labels,
-        "class_names": np.array(recordings.class_names, dtype=str),
-        "rate_hz": np.float64(recordings.rate_hz),
-    }
-    if recordings.session is not None:
-        arrays["session"] = recordings.session
-    np.savez_compressed(path, **arrays)
-    return path if path.suffix == ".npz" else path.with_name(path.name + ".npz")
+    from ..formats import RecordingArrays, write_recordings
+
+    arrays = RecordingArrays(
+        recordings.signals, recordings.labels, recordings.class_names, recordings.rate_hz, recordings.session
+    )
+    return write_recordings(path, arrays)
 
 
 def load_vibration_npz(path: str | Path, *, allow_pickle: bool = False) -> VibrationRecordings:
-    """Read a vibration ``.npz`` (``signals``, ``labels``, ``class_names``, ``rate_hz``[, ``session``]).
+    """Read a vibration ``.npz`` (``signals``, ``labels``, ``class_names``, ``rate_hz``[, ``lengths``, ``session``]).
 
-    ``signals`` is float ``(R, n, 3)`` in g, or an object array of ``(n_i, 3)`` recordings; the latter
-    is pickled, so it loads only with ``allow_pickle=True`` (only for files you trust: unpickling can
-    run arbitrary code).
-
-    Raises
-    ------
-    ValueError
-        If a key is missing, a shape is wrong, or ragged signals are read without ``allow_pickle``.
-    """
-    with np.load(path, allow_pickle=allow_pickle) as data:
-        missing = sorted({"signals", "labels", "class_names", "rate_hz"} - set(data.files))
-        if missing:
-            raise ValueError(f"{path} must hold signals, labels, class_names and rate_hz; missing {missing}")
-        try:
-            signals = data["signals"]
-        except ValueError as err:
-            raise ValueError(
-                f"{path} stores recordings of different lengths as an object array; load it with "
-                "allow_pickle=True if you trust the file"
-            ) from err
-        if signals.dtype != object and signals.ndim != 3:
-            raise ValueError(f"signals in {path} must have shape (R, n, 3), got {signals.shape}")
-        return VibrationRecordings(
-            signals=list(signals),
-            labels=data["labels"],
-            class_names=tuple(data["class_names"].tolist()),
-            rate_hz=float(data["rate_hz"]),
-            session=data["session"] if "session" in data.files else None,
-        )
-
-
-def read_csv_recording(
-    path: str | Path, *, columns: Sequence[str] | None = None, scale: float = 1.0
-) -> tuple[np.ndarray, float]:
-    """Read one CSV log of time and three accelerations; return ``(signal (n, 3) float32, rate_hz)``.
-
-    The file has a time column in seconds and x, y, z accelerations, comma-separated. With a header
-    line, the columns are found by name: ``columns`` (4 names: time, x, y, z) if given, else ``t``
-    or ``time`` and ``x``, ``y``, ``z`` (case-insensitive); without one, the first four columns are
-    taken in that order. Accelerations are multiplied by ``scale`` (e.g. ``1 / 9.80665`` for m/s^2
-    → g). The rate is ``1 / median(dt)``; samples are taken as uniformly spaced (a warning says when
-    a step deviates from the median by more than 5 %).
+    ``signals`` is float ``(R, n, 3)`` in g, or the concatenated samples ``(sum n_i, 3)`` of
+    recordings of different lengths with ``lengths`` ``(R,)``. Files written by tactile-torch 0.1
+    stored the latter as a pickled object array: those load only with ``allow_pickle=True`` (only for
+    files you trust: unpickling can run arbitrary code); re-save them to drop the pickle.
 
     Raises
     ------
     ValueError
-        If a column is missing, a value is not a finite number, there are fewer than 2 rows, or the
-        time stamps do not strictly increase.
+        One line naming the file and the field: a missing key, a wrong shape or dtype (integer
+        counts where g are expected), NaN/inf, or a pickled array read without ``allow_pickle``
+        (:func:`tactile_torch.formats.read_recordings`).
     """
-    path = Path(path)
-    with path.open(newline="") as f:
-        first = next(csv.reader(f), None)
-    if first is None:
-        raise ValueError(f"{path} is empty")
-    try:
-        [float(v) for v in first]
-        header = None
-    except ValueError:
-        header = [h.strip().lower() for h in first]
-    if header is None:
-        if columns is not None:
-            raise ValueError(f"{path} has no header line, so columns={list(columns)} cannot be found")
-        index = [0, 1, 2, 3]
-    else:
-        wanted = [c.lower() for c in columns] if columns is not None else None
-        if wanted is not None and len(wanted) != 4:
-            raise ValueError(f"columns must name 4 columns (time, x, y, z), got {list(columns)}")
-        if wanted is None:
-            wanted = ["time" if "time" in header else "t", "x", "y", "z"]
-        absent = [c for c in wanted if c not in header]
-        if absent:
-            raise ValueError(f"{path} must have columns {wanted}, missing {absent} (header: {header})")
-        index = [header.index(c) for c in wanted]
-    try:
-        table = np.loadtxt(path, delimiter=",", skiprows=0 if header is None else 1, usecols=index, ndmin=2)
-    except ValueError as err:
-        raise ValueError(f"{path}: every value of columns {index} must be a number ({err})") from err
-    if len(table) < 2:
-        raise ValueError(f"{path} must hold at least 2 samples, got {len(table)}")
-    if not np.isfinite(table).all():
-        raise ValueError(f"{path} must hold finite values, got {int((~np.isfinite(table)).sum())} NaN/inf")
-    dt = np.diff(table[:, 0])
-    if (dt <= 0).any():
-        raise ValueError(
-            f"{path}: time stamps must strictly increase, row {int(np.argmax(dt <= 0)) + 1} does not"
-        )
-    step = float(np.median(dt))
-    rate = float(f"{1.0 / step:.9g}")  # 0.01 s steps written as text give 100.00000000000213 Hz
-    if np.abs(dt - step).max() > 0.05 * step:
-        warnings.warn(
-            f"{path}: time steps vary by up to {np.abs(dt - step).max() / step:.0%} of the median; "
-            "the samples are taken as uniformly spaced",
-            stacklevel=2,
-        )
-    return (table[:, 1:] * scale).astype(np.float32), rate
+    from ..formats import read_recordings
+
+    data = read_recordings(path, allow_pickle=allow_pickle)
+    return VibrationRecordings(data.signals, data.labels, data.class_names, data.rate_hz, data.session)
 
 
 def load_vibration_csv(

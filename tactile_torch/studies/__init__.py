@@ -17,8 +17,7 @@ from typing import Any
 
 from ..report import Report
 
-# Report order. Each entry is a module of this package with TITLE and run(section, ctx); a study
-# whose module does not exist yet is listed in the report as not built rather than silently dropped.
+# Report order. Each entry is a module of this package with TITLE and run(section, ctx).
 STUDIES: list[str] = [
     "environment",
     "image_features",  # method 1: tactile-image pipeline (tactile_torch.image)
@@ -62,17 +61,10 @@ def run_report(
     report = Report(out_dir)
     cmd = f"tactile-torch report --out {out_dir} --seed {random_state}" + (" --quick" if quick else "")
     report.preamble.append(f"Written by `{cmd}` (`make run` runs it with the defaults).")
-    missing = []
     for name in STUDIES:
         if only and name not in only:
             continue
-        try:
-            module = importlib.import_module(f"{__name__}.{name}")
-        except ModuleNotFoundError as err:
-            if err.name != f"{__name__}.{name}":
-                raise
-            missing.append(name)
-            continue
+        module = importlib.import_module(f"{__name__}.{name}")
         section = report.section(module.TITLE)
         start = time.perf_counter()
         log(f"[report] {module.TITLE} ...")
@@ -80,9 +72,4 @@ def run_report(
         seconds = time.perf_counter() - start
         section.text(f"_Section computed in {seconds:.1f} s._")
         log(f"[report] {module.TITLE}: {seconds:.1f} s")
-    if missing:
-        report.preamble.append(
-            "Not built yet, so not in this report: " + ", ".join(f"`{m}`" for m in missing) + "."
-        )
-        log(f"[report] not built yet: {', '.join(missing)}")
     return report.write()

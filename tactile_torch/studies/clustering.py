@@ -116,7 +116,7 @@ def vibration_features(
         ds = bundled_recordings(ctx).windows(window_size, max_per_recording=per_surface)
         keep = torch.ones(len(ds), dtype=torch.bool) if n_surfaces is None else ds.labels < n_surfaces
         feats = window_features(ds.windows[keep].to(torch.float64))
-        return ClusteringTransform(n_components=3).fit(feats)(feats).numpy(), ds.labels[keep].numpy()
+        return ClusteringTransform(n_components=3).fit_transform(feats).numpy(), ds.labels[keep].numpy()
 
     return ctx.cached(f"clustering_vibration_{window_size}_{per_surface}_{n_surfaces}", make)
 
@@ -297,7 +297,7 @@ def real_data(section, ctx, *, n_iter: int, burn_in: int) -> None:
             ]
         )
         feats = window_features(ds.windows[torch.as_tensor(keep)].to(torch.float64))
-        X = ClusteringTransform(n_components=3).fit(feats)(feats).numpy()
+        X = ClusteringTransform(n_components=3).fit_transform(feats).numpy()
         y = labels[keep]
         out = cluster_and_compare(
             X,

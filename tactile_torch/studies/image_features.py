@@ -107,20 +107,27 @@ def _stage_figure(data, index: int):
     fused = image.fuse_edges(edges)
     # the frame with the largest pressed area shows every stage best
     t = int(mask[0].sum((-1, -2)).argmax())
+    n_frames = frames.shape[1]
     panels = [
-        ("RGB frame", frames[0, t].permute(1, 2, 0).numpy(), None),
-        ("grayscale", gray[0, t].numpy(), "gray"),
-        ("pressed (I < 240/255)", mask[0, t].numpy(), "gray_r"),
-        (f"eroded ({image.DEFAULT_EROSION}x{image.DEFAULT_EROSION})", eroded[0, t].numpy(), "gray_r"),
-        ("Sobel edges", edges[0, t].numpy(), "gray_r"),
-        (f"fused ({frames.shape[1]} frames)", fused[0].numpy(), "gray_r"),
+        (f"1. RGB, frame {t}", frames[0, t].permute(1, 2, 0).numpy(), None),
+        ("2. grayscale I", gray[0, t].numpy(), "gray"),
+        ("3. pressed: I < 240/255", mask[0, t].numpy(), "gray_r"),
+        (f"4. eroded ({image.DEFAULT_EROSION}x{image.DEFAULT_EROSION})", eroded[0, t].numpy(), "gray_r"),
+        ("5. Sobel edges", edges[0, t].numpy(), "gray_r"),
+        (f"6. fused: OR of the\nedge images of all {n_frames} frames", fused[0].numpy(), "gray_r"),
     ]
-    fig, axes = plt.subplots(1, len(panels), figsize=(2.4 * len(panels), 2.7))
+    fig, axes = plt.subplots(1, len(panels), figsize=(2.6 * len(panels), 3.2), sharex=True, sharey=True)
     for ax, (title, img, cmap) in zip(axes, panels, strict=True):
         ax.imshow(img, cmap=cmap, vmin=0, vmax=1 if cmap else None, interpolation="nearest")
         ax.set_title(title, fontsize=9)
-        ax.set_xticks([])
-        ax.set_yticks([])
+        ax.set_xlabel("x (px)", fontsize=8)
+        ax.tick_params(labelsize=7)
+    axes[0].set_ylabel("y (px)", fontsize=8)
+    # steps 1-5 act on one frame; step 6 combines step 5 over every frame: framed apart
+    for spine in axes[-1].spines.values():
+        spine.set_edgecolor("tab:red")
+        spine.set_linewidth(1.5)
+    fig.tight_layout()
     return fig, t
 
 
@@ -144,10 +151,11 @@ def _fused_figure(data):
         )
         axes[1, col].imshow(image.fuse_edges(edges)[0].numpy(), cmap="gray_r", interpolation="nearest")
         for ax in axes[:, col]:
-            ax.set_xticks([])
-            ax.set_yticks([])
-    axes[0, 0].set_ylabel("mean display darkness", fontsize=8)
-    axes[1, 0].set_ylabel("fused edges", fontsize=8)
+            ax.tick_params(labelsize=7)
+        axes[1, col].set_xlabel("x (px)", fontsize=8)
+    axes[0, 0].set_ylabel("mean display darkness\ny (px)", fontsize=8)
+    axes[1, 0].set_ylabel("fused edges (OR over frames)\ny (px)", fontsize=8)
+    fig.tight_layout()
     return fig
 
 
@@ -188,8 +196,9 @@ def run(section, ctx) -> None:
     section.figure(
         fig,
         "image-pipeline-stages",
-        f"Pipeline stages of exploration 0 ({data.class_names[int(data.labels[0])]}), frame {frame}; "
-        "the last panel fuses all frames by logical OR.",
+        f"Pipeline stages of exploration 0 ({data.class_names[int(data.labels[0])]}): steps 1-5 on frame "
+        f"{frame} (black = 1 in the binary images), step 6 the logical OR of the Sobel edge images (step 5) "
+        f"of all {data.frames.shape[1]} frames, the image whose gradient statistics are the 12 features.",
     )
     section.figure(
         _fused_figure(data),

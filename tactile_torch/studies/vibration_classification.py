@@ -44,7 +44,7 @@ def scaled_features(windows, train: np.ndarray) -> np.ndarray:
 
     feats = window_features(windows).double()
     scaler = FeatureScaler().fit(feats[torch.from_numpy(train)])
-    return scaler(feats).numpy()
+    return scaler.transform(feats).numpy()
 
 
 def run(section, ctx) -> None:

@@ -26,7 +26,7 @@ from sklearn.utils.multiclass import check_classification_targets
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from . import _smo
-from .inference import SVMInference, ovo_tables
+from .inference import SVMInference
 from .kernels import KERNELS, KernelData, scale_gamma
 from .solver import ProblemSet, Solutions, solve_set
 from .threads import resolve_threads, run_blocks
@@ -457,10 +457,7 @@ class SVC(_KernelMachine):
         check_is_fitted(self)
         mode = self._mode()
         sv, coef, intercept = self._module_tensors(dtype)
-        tables = None
-        if mode == "ovo":
-            tables = ovo_tables(self.dual_coef_, self.n_support_, dtype)
-            coef = tables.pop("class_coef")
+        tables = {"n_support": torch.from_numpy(self.n_support_.astype(np.int64))} if mode == "ovo" else None
         return SVMInference(
             sv, coef, intercept, kernel=self.kernel, gamma=self.gamma_, mode=mode, tables=tables
         )

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 from typing import ClassVar
 
-import numpy as np
 import torch
 
 from .kernels import kernel_matrix
@@ -181,30 +180,25 @@ def ovo_votes(decisions: torch.Tensor, pair_classes: torch.Tensor) -> tuple[torc
     return labels, scores
 
 
-def ovo_tables(dual_coef: np.ndarray, n_support: np.ndarray, dtype: torch.dtype) -> dict[str, torch.Tensor]:
-    """Return the tables of :func:`ovo_decisions` and :func:`ovo_votes` from libsvm's layout
-    (``dual_coef`` of shape (K - 1, S), ``n_support`` of shape (K,))."""
-    n_class = n_support.shape[0]
-    starts = np.concatenate([[0], np.cumsum(n_support)])
-    width = max(1, int(n_support.max()))
-    class_index = np.zeros((n_class, width), dtype=np.int64)
-    class_coef = np.zeros((n_class, width, n_class - 1))
-    for c in range(n_class):
-        cols = np.arange(starts[c], starts[c + 1])
-        class_index[c, : cols.size] = cols
-        class_coef[c, : cols.size] = dual_coef[:, cols].T
-    pairs = [(i, j) for i in range(n_class) for j in range(i + 1, n_class)]
-    pair_index = np.array(
-        [[i * (n_class - 1) + j - 1 for i, j in pairs], [j * (n_class - 1) + i for i, j in pairs]]
-    )
-    pair_classes = np.zeros((2, len(pairs), n_class))
-    for p, (i, j) in enumerate(pairs):
-        pair_classes[0, p, i] = pair_classes[1, p, j] = 1.0
+def ovo_tables(n_support: torch.Tensor, dtype: torch.dtype) -> dict[str, torch.Tensor]:
+    """Return the tables of :func:`ovo_decisions` and :func:`ovo_votes` for support vectors grouped
+    by class (``n_support`` of shape (K,)): ``class_index`` (K, M) with ``class_mask`` (K, M) (1 on
+    a class's own columns, 0 on the padding), ``pair_index`` and ``pair_classes``."""
+    counts = n_support.long()
+    n_class = counts.shape[0]
+    starts = torch.cumsum(counts, 0) - counts
+    width = max(1, int(counts.max()))
+    offsets = torch.arange(width)[None, :]
+    class_mask = offsets < counts[:, None]
+    class_index = torch.where(class_mask, starts[:, None] + offsets, 0)
+    first, second = torch.triu_indices(n_class, n_class, 1)
+    pair_index = torch.stack([first * (n_class - 1) + second - 1, second * (n_class - 1) + first])
+    eye = torch.eye(n_class, dtype=dtype)
     return {
-        "class_index": torch.from_numpy(class_index),
-        "class_coef": torch.tensor(class_coef, dtype=dtype),
-        "pair_index": torch.from_numpy(pair_index),
-        "pair_classes": torch.tensor(pair_classes, dtype=dtype),
+        "class_index": class_index,
+        "class_mask": class_mask.to(dtype),
+        "pair_index": pair_index,
+        "pair_classes": torch.stack([eye[first], eye[second]]),
     }
 
 
@@ -219,8 +213,8 @@ class SVMInference(torch.nn.Module):
     - ``"binary"``: scores ``[-f, f]``;
     - ``"ovr"`` (one-vs-rest): the per-class decision values, labels by arg-max;
     - ``"ovo"`` (one-vs-one, libsvm's and scikit-learn's default): :func:`ovo_decisions`, then
-      libsvm's votes and scikit-learn's scores (:func:`ovo_votes`); ``dual_coef`` holds the padded
-      per-class coefficients (``class_coef``);
+      libsvm's votes and scikit-learn's scores (:func:`ovo_votes`); ``dual_coef`` in libsvm's layout
+      (K - 1, S), ``intercept`` one per pair, and the support vectors per class ``n_support``;
     - ``"tree"`` (HM-SVM): :func:`path_scores`, labels by :func:`tree_descent`.
 
     The support vectors of every decision function are stored once. Exports to ONNX with
@@ -230,15 +224,15 @@ class SVMInference(torch.nn.Module):
     Parameters
     ----------
     support_vectors : tensor of shape (S, F)
-    dual_coef : tensor
-        (n_outputs, S) for ``binary``, ``ovr`` and ``tree``; (K, M, K - 1) for ``ovo``.
-    intercept : tensor of shape (n_outputs,)
+    dual_coef : tensor of shape (n_outputs, S)
+        For ``ovo``, libsvm's layout (K - 1, S).
+    intercept : tensor of shape (n_outputs,) (``ovo``: one per pair)
     kernel : {"rbf", "linear"}
     gamma : float
     mode : {"binary", "ovr", "ovo", "tree"}
     tables : dict of str to tensor, optional
         The mode's further buffers: ``left``, ``right``, ``column``, ``leaf_label``, ``path_sign``
-        (tree); ``class_index``, ``pair_index``, ``pair_classes`` (ovo).
+        (tree); ``n_support`` (ovo: the other tables are derived from it, not saved).
     depth : int
         Depth of the tree (``tree`` mode).
     tree : dict, optional
@@ -248,7 +242,7 @@ class SVMInference(torch.nn.Module):
     TABLES: ClassVar[dict[str, tuple[str, ...]]] = {
         "binary": (),
         "ovr": (),
-        "ovo": ("class_index", "pair_index", "pair_classes"),
+        "ovo": ("n_support",),
         "tree": ("left", "right", "column", "leaf_label", "path_sign"),
     }
 
@@ -278,6 +272,9 @@ class SVMInference(torch.nn.Module):
         self.register_buffer("intercept", intercept)
         for name in self.TABLES[mode]:
             self.register_buffer(name, tables[name])
+        if mode == "ovo":
+            for name, value in ovo_tables(tables["n_support"], dual_coef.dtype).items():
+                self.register_buffer(name, value, persistent=False)
 
     @classmethod
     def from_state(
@@ -300,9 +297,9 @@ class SVMInference(torch.nn.Module):
         x = x.to(self.support_vectors.dtype)
         if self.mode == "ovo":
             values = kernel_matrix(x, self.support_vectors, kernel=self.kernel, gamma=self.gamma)
-            decisions = ovo_decisions(
-                values, self.class_index, self.dual_coef, self.pair_index, self.intercept
-            )
+            # Each class's coefficients in its K - 1 pairs, padded like class_index: (K, M, K - 1).
+            class_coef = self.dual_coef[:, self.class_index].permute(1, 2, 0) * self.class_mask[:, :, None]
+            decisions = ovo_decisions(values, self.class_index, class_coef, self.pair_index, self.intercept)
             return ovo_votes(decisions, self.pair_classes)
         margins = svm_margins(
             x, self.support_vectors, self.dual_coef, self.intercept, kernel=self.kernel, gamma=self.gamma

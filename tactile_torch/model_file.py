@@ -1,0 +1,404 @@
+"""Model files: what ``tactile-torch train --out`` and ``cluster`` write and ``export`` reads.
+
+A model file is a ``.npz`` archive of plain numeric arrays plus one JSON header (a string array named
+``header``), read with ``numpy.load(allow_pickle=False)``: loading one parses JSON and ``.npy``
+headers and copies numbers, so a crafted file cannot run code (``torch.load`` unpickles, and even
+its ``weights_only=True`` mode runs an unpickler over the file; this format has none). This module
+needs NumPy only, so a robot can read and check a model file's header without torch.
+
+Layout (format version 1, ``docs/formats.md``):
+
+``header`` (JSON)
+    ``format`` = ``"tactile-torch/model"``, ``format_version``, ``library_version``, ``kind``
+    (``"classifier"`` or ``"clustering"``), ``method`` (``hmsvm``, ``svm``, ``pyp``), ``class_names``
+    (in the order of the head's labels), ``source`` (how the raw input becomes features: ``kind``
+    ``"vibration"`` with ``window``, ``step``, ``rate_hz``; ``"image"`` with ``fuse``,
+    ``frame_shape`` ``[T, 3, H, W]``; ``"features"`` with ``n_features``), ``head`` (its ``type``
+    and settings), optional ``transform``, ``params`` (hyper-parameters), ``test_accuracy``,
+    ``summary``.
+``scale`` ``(F,)``
+    classifiers: the training standard deviation each feature is divided by.
+``head.<name>``
+    the head's arrays: an SVM's ``support_vectors`` ``(S, F)``, ``dual_coef`` ``(M, S)``,
+    ``intercept`` ``(M,)`` (and the tree tables of a hierarchical SVM); a mixture's ``means``
+    ``(K, D)``, ``precisions_cholesky`` ``(K, D, D)``, ``log_weights`` ``(K,)``.
+``transform.<name>``
+    clusterings of vibration windows: the fitted attributes of the
+    :class:`~tactile_torch.signal.ClusteringTransform` (``mean_``, ``scale_``, ``components_``, ...).
+
+:func:`load_model_file` validates all of it against :data:`HEADS` and :data:`TRANSFORMS` (field
+types, shapes that agree with each other, finite values, indices in range) and refuses anything else
+with one line naming the file and the field. What the arrays mean is the business of
+:mod:`tactile_torch.training` (classifiers) and :mod:`tactile_torch.pipeline` (clusterings, and
+building the torch pipeline from any model file).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import zipfile
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .formats import PathLike, read_npz, write_npz
+
+FORMAT = "tactile-torch/model"
+FORMAT_VERSION = 1
+"""Version of the layout written here; files of a newer version are refused with a clear message."""
+KINDS = ("classifier", "clustering")
+HEADER = "header"
+
+# Shapes name dimensions (the same name must have the same size everywhere in one file: F is the
+# number of features the head takes, C the number of classes, ...); "f" arrays are float and finite,
+# "i" arrays integers.
+HEADS: dict[str, dict] = {
+    "svm": {
+        "arrays": {
+            "support_vectors": (("S", "F"), "f"),
+            "dual_coef": (("M", "S"), "f"),
+            "intercept": (("M",), "f"),
+        },
+        # per mode: further arrays, and the number of decision functions M for C classes
+        "modes": {
+            "binary": ({}, lambda c: 1),
+            "ovr": ({}, lambda c: c),
+            # one-vs-one (libsvm's layout): dual_coef (C - 1, S), one intercept per pair of classes
+            "ovo": ({"intercept": (("P",), "f"), "n_support": (("C",), "i")}, lambda c: c - 1),
+            "tree": (
+                {
+                    "left": (("N",), "i"),
+                    "right": (("N",), "i"),
+                    "column": (("N",), "i"),
+                    "leaf_label": (("N",), "i"),
+                    "path_sign": (("C", "M"), "i"),
+                },
+                lambda c: c - 1,
+            ),
+        },
+        "settings": {"mode": str, "kernel": str, "gamma": float, "depth": int},
+    },
+    "gaussian-mixture": {
+        "arrays": {
+            "means": (("C", "F"), "f"),
+            "precisions_cholesky": (("C", "F", "F"), "f"),
+            "log_weights": (("C",), "f"),
+        },
+        "settings": {},
+    },
+}
+"""The heads a model file may hold: arrays (shape, float/int), modes and settings."""
+
+TRANSFORMS: dict[str, dict] = {
+    "clustering": {
+        "arrays": {
+            "mean_": (("G",), "f"),
+            "scale_": (("G",), "f"),
+            "components_": (("F", "G"), "f"),
+            "explained_variance_": (("F",), "f"),
+            "explained_variance_ratio_": (("F",), "f"),
+        },
+        "settings": {"n_components": int, "standardize": bool, "eps": float},
+    },
+}
+"""Transforms between the front end's features and the head (their output size is the head's F)."""
+
+DIMENSIONS = {
+    "C": "classes: len(class_names)",
+    "F": "features the head takes",
+    "S": "support vectors",
+    "M": "decision functions",
+    "P": "pairs of classes",
+    "N": "tree nodes",
+    "G": "clustering features",
+}
+"""What each named dimension of :data:`HEADS` and :data:`TRANSFORMS` counts (for error messages)."""
+METHODS = {"classifier": ("hmsvm", "svm"), "clustering": ("pyp",)}
+VIBRATION_FEATURES = 21  # window_features: 7 per axis
+IMAGE_FEATURES = 12  # exploration_features per fused image (or per frame without fusion)
+
+
+@dataclass(frozen=True)
+class ModelFile:
+    """The validated contents of a model file.
+
+    Attributes
+    ----------
+    header : dict
+        The JSON header (see the module docstring).
+    arrays : dict of str to ndarray
+        Every array by name (``scale``, ``head.<name>``, ``transform.<name>``).
+    path : Path or None
+        Where it was read from.
+    """
+
+    header: dict
+    arrays: dict[str, np.ndarray] = field(repr=False)
+    path: Path | None = None
+
+    @property
+    def kind(self) -> str:
+        """``"classifier"`` or ``"clustering"``."""
+        return self.header["kind"]
+
+    @property
+    def method(self) -> str:
+        """``"hmsvm"``, ``"svm"`` or ``"pyp"``."""
+        return self.header["method"]
+
+    @property
+    def class_names(self) -> list[str]:
+        """Name of each label of the head."""
+        return list(self.header["class_names"])
+
+    @property
+    def source(self) -> dict:
+        """How raw input becomes the features: ``{"kind": "vibration", "window", "step", "rate_hz"}`` ..."""
+        return dict(self.header["source"])
+
+    def part(self, prefix: str) -> dict[str, np.ndarray]:
+        """Return the arrays stored under ``prefix.`` (``"head"``, ``"transform"``), without the prefix."""
+        start = prefix + "."
+        return {k[len(start) :]: v for k, v in self.arrays.items() if k.startswith(start)}
+
+
+def save_model_file(path: PathLike, header: Mapping, arrays: Mapping[str, np.ndarray]) -> Path:
+    """Validate and write a model file (atomically: no truncated file is ever left at ``path``).
+
+    ``header`` gets ``format``, ``format_version`` and ``library_version`` filled in; it must be
+    JSON-serialisable. Returns ``path`` (written as given, whatever its extension).
+    """
+    from . import __version__
+
+    header = {
+        "format": FORMAT,
+        "format_version": FORMAT_VERSION,
+        "library_version": __version__,
+        **dict(header),
+    }
+    arrays = {k: np.asarray(v) for k, v in arrays.items()}
+    if HEADER in arrays:
+        raise ValueError(f"arrays must not be named {HEADER!r} (the JSON header)")
+    validate_model(header, arrays, where="model")
+    return write_npz(path, {HEADER: np.array(json.dumps(header)), **arrays})
+
+
+def load_model_file(path: PathLike, *, kind: str | None = None) -> ModelFile:
+    """Read and validate a model file; ``kind`` (``"classifier"``/``"clustering"``) restricts it.
+
+    Raises
+    ------
+    FileNotFoundError
+        If ``path`` does not exist.
+    ValueError
+        One line naming the file and what is wrong: not a model file (e.g. a data file or an ONNX
+        bundle), empty, truncated or corrupt, a pickle-based ``torch.save`` file, a newer format
+        version, a missing or malformed field, arrays whose shapes disagree, non-finite values.
+    """
+    path = Path(path)
+    _refuse_torch_save(path)
+    arrays = read_npz(path, what="tactile-torch model file")
+    if HEADER not in arrays:
+        raise ValueError(
+            f"{path}: not a tactile-torch model file (no '{HEADER}'; it holds {sorted(arrays)}: a data "
+            "file?); model files come from 'tactile-torch train --out' or 'tactile-torch cluster'"
+        )
+    raw = arrays.pop(HEADER)
+    if raw.ndim != 0 or raw.dtype.kind != "U":
+        raise ValueError(f"{path}: {HEADER} must be one JSON string, got {raw.dtype} {raw.shape}")
+    try:
+        header = json.loads(str(raw[()]))
+    except json.JSONDecodeError as err:
+        raise ValueError(f"{path}: {HEADER} is not valid JSON ({err})") from None
+    validate_model(header, arrays, where=str(path))
+    if kind is not None and header["kind"] != kind:
+        raise ValueError(f"{path}: expected a {kind} model file, got a {header['kind']} ({header['method']})")
+    return ModelFile(header, arrays, path)
+
+
+def _refuse_torch_save(path: Path) -> None:
+    # torch.save writes a zip holding "<name>/data.pkl": say what it is rather than "not a model file".
+    try:
+        with zipfile.ZipFile(path) as z:
+            pickled = any(name.endswith("data.pkl") for name in z.namelist())
+    except (zipfile.BadZipFile, OSError, ValueError):
+        return  # read_npz gives the precise reason
+    if pickled:
+        raise ValueError(
+            f"{path}: a torch.save (pickle) file, e.g. a model.pt of tactile-torch 0.1; model files are "
+            "no longer unpickled (a crafted one runs code when loaded): train or cluster again to write "
+            "the safe format (docs/formats.md)"
+        )
+
+
+# ------------------------------------------------------------------------------------ validation
+def _fail(where: str, message: str) -> None:
+    raise ValueError(f"{where}: {message}")
+
+
+def _check_type(where: str, name: str, value: object, want: type) -> None:
+    ok = (
+        isinstance(value, bool)
+        if want is bool
+        else isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
+        if want is float
+        else isinstance(value, want) and not isinstance(value, bool)
+    )
+    if not ok:
+        _fail(where, f"{name} must be {want.__name__}, got {value!r}")
+
+
+def _check_settings(where: str, prefix: str, spec: Mapping, given: object, known: Mapping) -> dict:
+    if not isinstance(given, dict) or given.get("type") not in known:
+        _fail(where, f"{prefix}.type must be one of {sorted(known)}, got {given!r:.80}")
+    for name, want in spec.items():
+        if name not in given:
+            _fail(where, f"{prefix}.{name} is missing")
+        _check_type(where, f"{prefix}.{name}", given[name], want)
+    return given
+
+
+def _check_arrays(where: str, prefix: str, spec: Mapping, arrays: Mapping, dims: dict[str, int]) -> None:
+    """Check ``prefix.<name>`` arrays against ``spec``; bind named dimensions in ``dims``."""
+    for name, (shape, kind) in spec.items():
+        key = f"{prefix}.{name}" if prefix else name
+        if key not in arrays:
+            _fail(where, f"array {key!r} is missing")
+        value = arrays[key]
+        if value.ndim != len(shape):
+            _fail(where, f"{key} must have shape ({', '.join(shape)}), got {value.shape}")
+        for axis, (dim, size) in enumerate(zip(shape, value.shape, strict=True)):
+            if dims.setdefault(dim, size) != size:
+                _fail(
+                    where,
+                    f"{key} has shape {value.shape}: axis {axis} ({DIMENSIONS[dim]}) must be {dims[dim]} "
+                    f"to agree with the rest of the file, got {size}",
+                )
+        if kind == "f":
+            if not np.issubdtype(value.dtype, np.floating):
+                _fail(where, f"{key} must be float, got {value.dtype}")
+            if not np.isfinite(value).all():
+                _fail(where, f"{key} must be finite, got {int((~np.isfinite(value)).sum())} NaN/inf value(s)")
+        elif not np.issubdtype(value.dtype, np.integer):
+            _fail(where, f"{key} must be integers, got {value.dtype}")
+
+
+def _check_source(where: str, source: object) -> int | None:
+    """Validate ``source``; return the number of features the front end makes (None: not fixed here)."""
+    if not isinstance(source, dict):
+        _fail(where, f"source must be an object, got {source!r:.80}")
+    kind = source.get("kind")
+    if kind == "vibration":
+        for name, want in (("window", int), ("step", int), ("rate_hz", float)):
+            _check_type(where, f"source.{name}", source.get(name), want)
+        if source["window"] < 2 or source["step"] < 1 or source["rate_hz"] <= 0:
+            _fail(where, f"source must have window >= 2, step >= 1 and rate_hz > 0, got {source}")
+        return VIBRATION_FEATURES
+    if kind == "image":
+        _check_type(where, "source.fuse", source.get("fuse"), bool)
+        shape = source.get("frame_shape")
+        if not (
+            isinstance(shape, list)
+            and len(shape) == 4
+            and all(isinstance(v, int) and not isinstance(v, bool) and v >= 1 for v in shape)
+            and shape[1] == 3
+        ):
+            _fail(where, f"source.frame_shape must be [T, 3, H, W], got {shape!r:.80}")
+        return IMAGE_FEATURES if source["fuse"] else IMAGE_FEATURES * shape[0]
+    if kind == "features":
+        _check_type(where, "source.n_features", source.get("n_features"), int)
+        if source["n_features"] < 1:
+            _fail(where, f"source.n_features must be >= 1, got {source['n_features']}")
+        return source["n_features"]
+    _fail(where, f"source.kind must be 'vibration', 'image' or 'features', got {kind!r}")
+    return None
+
+
+def validate_model(header: object, arrays: Mapping[str, np.ndarray], *, where: str = "model") -> None:
+    """Raise ``ValueError`` (``"<where>: <what is wrong>"``) unless header and arrays form a valid model."""
+    if not isinstance(header, dict) or header.get("format") != FORMAT:
+        got = header.get("format") if isinstance(header, dict) else type(header).__name__
+        _fail(where, f"not a tactile-torch model file (header format must be {FORMAT!r}, got {got!r})")
+    version = header.get("format_version")
+    if not isinstance(version, int) or isinstance(version, bool) or version < 1:
+        _fail(where, f"format_version must be an int >= 1, got {version!r}")
+    if version > FORMAT_VERSION:
+        _fail(
+            where,
+            f"written by a newer tactile-torch ({header.get('library_version')}, model format version "
+            f"{version}); this one ({FORMAT_VERSION}) cannot read it: upgrade tactile-torch",
+        )
+    kind = header.get("kind")
+    if kind not in KINDS:
+        _fail(where, f"kind must be one of {KINDS}, got {kind!r}")
+    if header.get("method") not in METHODS[kind]:
+        _fail(where, f"method of a {kind} must be one of {METHODS[kind]}, got {header.get('method')!r}")
+    names = header.get("class_names")
+    if not isinstance(names, list) or not names or not all(isinstance(c, str) for c in names):
+        _fail(where, f"class_names must be a non-empty list of strings, got {names!r:.80}")
+    n_features = _check_source(where, header.get("source"))
+    dims: dict[str, int] = {"C": len(names)}
+    head = _check_settings(where, "head", {}, header.get("head"), HEADS)
+    spec = HEADS[head["type"]]
+    _check_settings(where, "head", spec["settings"], head, HEADS)
+    head_arrays = dict(spec["arrays"])
+    if "modes" in spec:
+        if head["mode"] not in spec["modes"]:
+            _fail(where, f"head.mode must be one of {sorted(spec['modes'])}, got {head['mode']!r}")
+        more, n_functions = spec["modes"][head["mode"]]
+        head_arrays.update(more)
+        dims["M"] = n_functions(len(names))
+    transform = header.get("transform")
+    if transform is not None:
+        tspec = TRANSFORMS[_check_settings(where, "transform", {}, transform, TRANSFORMS)["type"]]
+        _check_settings(where, "transform", tspec["settings"], transform, TRANSFORMS)
+        tdims = {"F": transform["n_components"]}
+        _check_arrays(where, "transform", tspec["arrays"], arrays, tdims)
+        dims["F"] = tdims["F"]
+    elif n_features is not None:
+        dims["F"] = n_features
+    if kind == "classifier":
+        _check_arrays(where, "", {"scale": (("F",), "f")}, arrays, dims)
+        if (arrays["scale"] <= 0).any():
+            _fail(where, "scale must be > 0 (a standard deviation per feature)")
+    _check_arrays(where, "head", head_arrays, arrays, dims)
+    if head["type"] == "svm" and head["mode"] == "tree":
+        _check_tree(where, arrays, dims, head["depth"])
+    if head["type"] == "svm" and head["mode"] == "ovo":
+        counts, pairs = arrays["head.n_support"], dims["C"] * (dims["C"] - 1) // 2
+        if dims["P"] != pairs:
+            _fail(where, f"head.intercept must hold one value per pair of classes ({pairs}), got {dims['P']}")
+        if counts.min() < 0 or counts.sum() != dims["S"]:
+            _fail(
+                where,
+                f"head.n_support must count the {dims['S']} support vectors per class, got {counts.tolist()}",
+            )
+
+
+def _check_tree(where: str, arrays: Mapping[str, np.ndarray], dims: dict[str, int], depth: int) -> None:
+    # Indices in range, so that a crafted file cannot make the exported graph read out of bounds.
+    bounds = {"left": dims["N"], "right": dims["N"], "column": dims["M"], "leaf_label": dims["C"]}
+    for name, bound in bounds.items():
+        value = arrays[f"head.{name}"]
+        if value.size and (value.min() < 0 or value.max() >= bound):
+            _fail(where, f"head.{name} must lie in 0..{bound - 1}, got {value.min()}..{value.max()}")
+    if not np.isin(arrays["head.path_sign"], (-1, 0, 1)).all():
+        _fail(where, "head.path_sign must hold -1, 0 or 1")
+    if not 1 <= depth <= dims["N"]:
+        _fail(where, f"head.depth must be in 1..{dims['N']}, got {depth}")
+
+
+__all__ = [
+    "FORMAT",
+    "FORMAT_VERSION",
+    "HEADS",
+    "KINDS",
+    "TRANSFORMS",
+    "ModelFile",
+    "load_model_file",
+    "save_model_file",
+    "validate_model",
+]

@@ -1,0 +1,267 @@
+"""Classify a stream's windows and give each result in a form a robot program can use.
+
+:func:`classify_windows` turns the :class:`~tactile_torch.stream.Window` objects of a
+:class:`~tactile_torch.stream.WindowReader` into :class:`WindowResult` objects (label, name, scores,
+latency, flags, and optionally a vote over the last windows); :func:`result_json` and
+:func:`result_text` give one line per result. numpy and an exported bundle only: importing this
+module never imports torch.
+
+A window whose scores are not all finite (its samples overflow the features) gets no label:
+``label``, ``name`` and ``scores`` are ``None`` and its flags hold ``"non_finite_scores"``.
+
+Examples
+--------
+>>> pipe = OnnxPipeline("vibration.onnx")                                   # doctest: +SKIP
+>>> reader = WindowReader(open_port, window_size=800, step=400, rate_hz=800)  # doctest: +SKIP
+>>> for result in classify_windows(reader, pipe, vote=WindowVote(5)):       # doctest: +SKIP
+...     print(result_json(result))
+{"window": 0, "time": 1767225600.123, "label": 3, "name": "cork", ...}
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from collections import deque
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from .runtime import NonFiniteScoresError, OnnxPipeline
+from .stream import Window
+
+VOTE_METHODS = ("majority", "mean")
+"""How :class:`WindowVote` combines windows: majority of the labels, or argmax of the mean scores."""
+
+
+@dataclass(frozen=True)
+class VoteResult:
+    """The vote over the last windows.
+
+    Attributes
+    ----------
+    label : int
+    name : str
+    support : float
+        ``"majority"``: the share of the voting windows that gave ``label``; ``"mean"``: the mean score
+        of ``label``.
+    windows : int
+        Windows in the vote (fewer than the vote's ``n`` after the start or a gap).
+    """
+
+    label: int
+    name: str
+    support: float
+    windows: int
+
+
+@dataclass(frozen=True)
+class WindowResult:
+    """The classification of one window, with what the line did since the previous window.
+
+    Attributes
+    ----------
+    window : Window
+        The window (data, sample count, ``t`` span, line counts).
+    label : int or None
+        ``None`` when the scores were not finite.
+    name : str or None
+        The label's class name (the label as a string when the bundle has none).
+    scores : ndarray of shape (C,) or None
+        The bundle's scores for the window.
+    latency_ms : float
+        From reading the window's last sample to having its result, in milliseconds.
+    time : float
+        Wall-clock time (``time.time()``) when the result was ready.
+    flags : tuple of str
+        The window's flags (``"skipped"``, ``"rate"``) and ``"non_finite_scores"``.
+    vote : VoteResult or None
+        The vote including this window, when voting.
+    """
+
+    window: Window
+    label: int | None
+    name: str | None
+    scores: np.ndarray | None
+    latency_ms: float
+    time: float
+    flags: tuple[str, ...]
+    vote: VoteResult | None = None
+
+
+class WindowVote:
+    """Combine the last ``n`` classified windows into one decision.
+
+    Jamali and Sammut classify a material from several touches and take the majority vote of the
+    per-touch decisions; here the "touches" are the last ``n`` windows of the stream. The history is
+    cleared at a gap (silence, reconnection, dropped samples, a rejected sample): windows on either
+    side may come from different contacts. Windows without a label (non-finite scores) do not vote.
+
+    Parameters
+    ----------
+    n : int
+        Windows in the vote (>= 1).
+    method : {"majority", "mean"}, default "majority"
+        ``"majority"``: the most frequent label, a tie going to the most recent of the tied labels;
+        ``"mean"``: the argmax of the mean of the windows' scores (for the mixture bundles, whose
+        scores are log responsibilities, this multiplies the windows' posteriors).
+    class_names : sequence of str, optional
+        Names of the labels.
+
+    References
+    ----------
+    N. Jamali and C. Sammut, "Majority voting: material classification by tactile sensing using
+    surface texture," IEEE Transactions on Robotics 27(3), 508-521, 2011.
+    """
+
+    def __init__(self, n: int, method: str = "majority", class_names: Sequence[str] = ()) -> None:
+        if isinstance(n, bool) or not isinstance(n, int | np.integer) or n < 1:
+            raise ValueError(f"n must be an int >= 1, got {n!r}")
+        if method not in VOTE_METHODS:
+            raise ValueError(f"method must be one of {VOTE_METHODS}, got {method!r}")
+        self.n = int(n)
+        self.method = method
+        self.class_names = list(class_names)
+        self._history: deque[tuple[int, np.ndarray]] = deque(maxlen=self.n)
+
+    def reset(self) -> None:
+        """Forget the windows seen so far."""
+        self._history.clear()
+
+    def update(self, label: int, scores: np.ndarray) -> VoteResult:
+        """Add one window's label and scores ``(C,)``; return the vote over the last ``n`` windows."""
+        self._history.append((int(label), np.asarray(scores, dtype=np.float64)))
+        if self.method == "mean":
+            mean = np.mean([s for _, s in self._history], axis=0)
+            winner = int(np.argmax(mean))
+            support = float(mean[winner])
+        else:
+            labels = [lab for lab, _ in self._history]
+            counts: dict[int, int] = {}
+            for lab in labels:
+                counts[lab] = counts.get(lab, 0) + 1
+            top = max(counts.values())
+            winner = next(lab for lab in reversed(labels) if counts[lab] == top)
+            support = top / len(labels)
+        name = self.class_names[winner] if winner < len(self.class_names) else str(winner)
+        return VoteResult(winner, name, support, len(self._history))
+
+
+def classify_windows(
+    windows: Iterable[Window],
+    pipeline: OnnxPipeline,
+    *,
+    vote: WindowVote | None = None,
+    clock: Callable[[], float] = time.monotonic,
+) -> Iterator[WindowResult]:
+    """Yield the :class:`WindowResult` of each window, classified by an exported vibration bundle.
+
+    Parameters
+    ----------
+    windows : iterable of Window
+        Typically a :class:`~tactile_torch.stream.WindowReader`.
+    pipeline : OnnxPipeline
+        A bundle taking ``(B, 3, W)`` windows.
+    vote : WindowVote, optional
+        Adds the vote over the last windows to each result (cleared at gaps).
+    clock : callable, default time.monotonic
+        The clock of the reader (``Window.read_at``), for the latency.
+    """
+    names = pipeline.class_names
+    for window in windows:
+        flags = window.flags
+        try:
+            labels, scores = pipeline.predict_scores(window.data)
+        except NonFiniteScoresError:
+            label = name = row = None
+            flags += ("non_finite_scores",)
+        else:
+            label, row = int(labels[0]), scores[0]
+            name = names[label] if label < len(names) else str(label)
+        latency_ms = (clock() - window.read_at) * 1e3
+        voted = None
+        if vote is not None:
+            if window.gaps:
+                vote.reset()
+            if label is not None:
+                voted = vote.update(label, row)
+        yield WindowResult(window, label, name, row, latency_ms, time.time(), flags, voted)
+
+
+def _number(value: float | None, digits: int) -> float | None:
+    return None if value is None or not math.isfinite(value) else round(float(value), digits)
+
+
+def result_json(result: WindowResult) -> str:
+    """Return one result as one line of JSON (no NaN: strict JSON that any parser reads).
+
+    Keys: ``window`` (index), ``time`` (wall clock, s), ``sample`` (samples read so far), ``t_start``
+    and ``t_end`` (the sensor's ``t`` in s, or null), ``label``, ``name``, ``score`` (the label's
+    score), ``scores`` (list), ``latency_ms``, ``skipped``, ``rejected``, ``gaps`` (since the previous
+    window), ``flags`` (list), ``vote`` (null, or ``label``, ``name``, ``support``, ``windows``).
+    """
+    w = result.window
+    scores = None if result.scores is None else [round(float(s), 6) for s in result.scores]
+    record = {
+        "window": w.index,
+        "time": round(result.time, 6),
+        "sample": w.end_sample,
+        "t_start": _number(w.t_start, 6),
+        "t_end": _number(w.t_end, 6),
+        "rate_hz": _number(w.rate_hz, 3),
+        "label": result.label,
+        "name": result.name,
+        "score": None if scores is None else scores[result.label],
+        "scores": scores,
+        "latency_ms": round(result.latency_ms, 4),
+        "skipped": w.skipped,
+        "rejected": w.rejected,
+        "gaps": w.gaps,
+        "flags": list(result.flags),
+        "vote": None,
+    }
+    if result.vote is not None:
+        v = result.vote
+        record["vote"] = {
+            "label": v.label,
+            "name": v.name,
+            "support": round(v.support, 6),
+            "windows": v.windows,
+        }
+    return json.dumps(record, allow_nan=False)
+
+
+def result_text(result: WindowResult) -> str:
+    """Return one result as a line for a person: index, samples read, name, score, latency, extras."""
+    w = result.window
+    if result.label is None:
+        line = f"{w.index:>6} {w.end_sample:>9} {'-':<24} no label: scores not finite"
+    else:
+        score = float(result.scores[result.label])
+        line = f"{w.index:>6} {w.end_sample:>9} {result.name:<24} score {score:+.3f} ({result.latency_ms:.2f} ms)"
+    if result.vote is not None:
+        v = result.vote
+        line += f"  vote {v.name} ({v.support:.2f} of {v.windows})"
+    extras = [
+        f"{n} {what}"
+        for n, what in ((w.skipped, "skipped"), (w.rejected, "rejected"), (w.gaps, "gap(s)"))
+        if n
+    ]
+    if extras:
+        line += "  " + ", ".join(extras)
+    if result.flags:
+        line += "  [" + ",".join(result.flags) + "]"
+    return line
+
+
+__all__ = [
+    "VOTE_METHODS",
+    "VoteResult",
+    "WindowResult",
+    "WindowVote",
+    "classify_windows",
+    "result_json",
+    "result_text",
+]

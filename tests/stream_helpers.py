@@ -1,0 +1,157 @@
+"""Test helpers for the serial stream: a simulated sensor on a pseudo-terminal, and a tiny bundle.
+
+:class:`PtySensor` is the sensor's end of a pty pair: the stream opens :attr:`PtySensor.path` (the
+slave) with pyserial exactly as it would open ``/dev/ttyUSB0``, and the test writes protocol lines to
+the master, pauses, or closes it (what a writer closing the port or an unplugged adapter looks like
+to the reader: ``EIO``). ``link=`` puts the path behind a symlink that :meth:`PtySensor.replug`
+points to a new pty, as udev's ``/dev/serial/by-id/...`` links do when an adapter is plugged again.
+
+:func:`energy_bundle` writes a vibration bundle whose scores are the mean square of each axis over
+the window (classes ``"x"``, ``"y"``, ``"z"``): the label of every window is known in advance, and a
+sample of 1e30 overflows the scores to inf, as it overflows the features of a trained bundle.
+"""
+
+from __future__ import annotations
+
+import array
+import fcntl
+import json
+import os
+import termios
+import time
+import tty
+from pathlib import Path
+
+import numpy as np
+
+from tactile_torch.stream import format_sample
+
+
+class PtySensor:
+    """The writing end of a pseudo-terminal; :attr:`path` is the port the stream opens."""
+
+    def __init__(self, link: Path | None = None) -> None:
+        self.link = link
+        self._open_pty()
+
+    def _open_pty(self) -> None:
+        self.master, self._slave = os.openpty()
+        tty.setraw(self._slave)  # no echo or line editing before pyserial configures the port
+        self.tty = os.ttyname(self._slave)
+        if self.link is not None:
+            tmp = self.link.with_suffix(".new")
+            tmp.unlink(missing_ok=True)
+            tmp.symlink_to(self.tty)
+            tmp.replace(self.link)
+
+    @property
+    def path(self) -> str:
+        return str(self.link) if self.link is not None else self.tty
+
+    def write(self, data: bytes) -> None:
+        view = memoryview(data)
+        while view:
+            view = view[os.write(self.master, view) :]
+
+    def write_samples(self, samples: np.ndarray, t: np.ndarray | None = None) -> None:
+        """Write samples ``(n, 3)`` as ``x,y,z`` lines, or ``t,x,y,z`` with ``t`` ``(n,)`` in seconds."""
+        lines = [format_sample(s, None if t is None else float(t[i])) for i, s in enumerate(samples)]
+        self.write(b"".join(lines))
+
+    def unread(self) -> int:
+        """Return the bytes written but not yet read by the stream."""
+        buf = array.array("i", [0])
+        fcntl.ioctl(self._slave, termios.FIONREAD, buf)
+        return buf[0]
+
+    def drain(self, timeout: float = 20.0) -> None:
+        """Wait until the stream has read everything written (a closing pty drops unread input)."""
+        # written bytes reach the reader's queue through the kernel's flip buffer: wait for the queue
+        # to stay empty a while, not just to be empty once
+        deadline, empty_since = time.monotonic() + timeout, None
+        while (now := time.monotonic()) < deadline:
+            empty_since = (empty_since or now) if not self.unread() else None
+            if empty_since is not None and now - empty_since >= 0.05:
+                return
+            time.sleep(0.01)
+        raise TimeoutError(f"the stream did not read {self.unread()} bytes within {timeout} s")
+
+    def close(self) -> None:
+        """Close both ends: the reader's next read fails as on an unplugged adapter."""
+        for fd in (self.master, self._slave):
+            try:
+                os.close(fd)
+            except OSError:
+                pass
+        self.master = self._slave = -1
+
+    def replug(self) -> None:
+        """Close this pty and point :attr:`link` at a new one (the adapter plugged in again)."""
+        self.close()
+        self._open_pty()
+
+
+def axis_recording(axes: str, n_each: int, *, random_state: int = 0) -> tuple[np.ndarray, list[str]]:
+    """Return ``(n_each * len(axes), 3)`` samples in g where, in turn, one axis dominates; and the axes.
+
+    Values stay within ±4 g (inside the ADXL345's ±5 g), quantised to the sensor's 3.9 mg steps.
+    """
+    rng = np.random.default_rng(random_state)
+    parts = []
+    for axis in axes:
+        part = rng.normal(0.0, 0.05, size=(n_each, 3))
+        part[:, "xyz".index(axis)] = rng.normal(0.0, 1.0, size=n_each)
+        parts.append(part)
+    rec = np.clip(np.concatenate(parts), -4.0, 4.0)
+    return np.round(rec / 0.0039) * 0.0039, list(axes)
+
+
+def expected_axis(window: np.ndarray) -> str:
+    """Return the axis with the largest mean square in a window ``(3, W)``: the bundle's label."""
+    return "xyz"[int(np.argmax((window.astype(np.float32) ** 2).mean(axis=1)))]
+
+
+def energy_bundle(
+    path: Path,
+    *,
+    window: int = 64,
+    rate_hz: float = 800.0,
+    step: int | None = None,
+    drop: tuple[str, ...] = (),
+) -> Path:
+    """Write a vibration bundle: scores = per-axis mean square over the window, label = their argmax.
+
+    ``drop`` leaves metadata keys out (e.g. ``("window_size",)`` for a bundle that is not a vibration one).
+    """
+    import onnx
+    from onnx import TensorProto, helper
+
+    graph = helper.make_graph(
+        [
+            helper.make_node("Mul", ["raw", "raw"], ["square"]),
+            helper.make_node("ReduceMean", ["square"], ["scores"], axes=[2], keepdims=0),
+            helper.make_node("ArgMax", ["scores"], ["labels"], axis=1, keepdims=0),
+        ],
+        "energy",
+        [helper.make_tensor_value_info("raw", TensorProto.FLOAT, ["B", 3, window])],
+        [
+            helper.make_tensor_value_info("labels", TensorProto.INT64, ["B"]),
+            helper.make_tensor_value_info("scores", TensorProto.FLOAT, ["B", 3]),
+        ],
+    )
+    model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", 13)])
+    model.ir_version = 8
+    meta = {
+        "tactile_torch.pipeline": "vibration-energy",
+        "tactile_torch.version": "test",
+        "input_shape": json.dumps([None, 3, window]),
+        "input_layout": "B,3,W",
+        "class_names": json.dumps(["x", "y", "z"]),
+        "window_size": str(window),
+        "step": str(step or window),
+        "sample_rate_hz": str(float(rate_hz)),
+    }
+    helper.set_model_props(model, {k: v for k, v in meta.items() if k not in drop})
+    onnx.checker.check_model(model)
+    onnx.save(model, path)
+    return path

@@ -1,0 +1,230 @@
+"""Model files (tactile_torch.model_file): nothing in them runs, everything in them is validated."""
+
+import json
+
+import numpy as np
+import pytest
+import torch
+
+from tactile_torch import __version__
+from tactile_torch.cli import main
+from tactile_torch.model_file import FORMAT, FORMAT_VERSION, load_model_file, save_model_file, validate_model
+
+from .conftest import run_without_torch
+
+
+class _RunsCode:
+    """Unpickling this creates ``path``: a stand-in for whatever code a crafted pickle would run."""
+
+    def __init__(self, path: str) -> None:
+        self.path = path
+
+    def __reduce__(self):
+        return (open, (self.path, "w"))
+
+
+def _svm_model(n_features=3, n_sv=4, **header):
+    """A minimal valid classifier: a binary SVM on a feature matrix."""
+    rng = np.random.default_rng(0)
+    base = {
+        "kind": "classifier",
+        "method": "svm",
+        "class_names": ["cork", "felt"],
+        "source": {"kind": "features", "n_features": n_features},
+        "params": {"C": 16.0},
+        "head": {"type": "svm", "mode": "binary", "kernel": "rbf", "gamma": 0.5, "depth": 0},
+    }
+    base.update(header)
+    arrays = {
+        "scale": np.ones(n_features),
+        "head.support_vectors": rng.normal(size=(n_sv, n_features)),
+        "head.dual_coef": rng.normal(size=(1, n_sv)),
+        "head.intercept": np.zeros(1),
+    }
+    return base, arrays
+
+
+def test_a_crafted_torch_pickle_runs_nothing(tmp_path, capsys):
+    crafted = tmp_path / "model.pt"
+    torch.save({"format": FORMAT, "payload": _RunsCode(str(tmp_path / "ran"))}, crafted)
+    # the file is genuinely malicious: the loader tactile-torch 0.1 used runs its code
+    proof = tmp_path / "proof.pt"
+    torch.save({"payload": _RunsCode(str(tmp_path / "ran-before"))}, proof)
+    torch.load(proof, weights_only=False)
+    assert (tmp_path / "ran-before").exists()
+    with pytest.raises(ValueError, match=r"model\.pt: a torch\.save \(pickle\) file.*no longer unpickled"):
+        load_model_file(crafted)
+    assert main(["export", "--model", str(crafted), "--out", str(tmp_path / "m.onnx")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("tactile-torch export: ") and "model.pt" in err
+    assert not (tmp_path / "ran").exists() and not (tmp_path / "m.onnx").exists()
+
+
+def test_a_crafted_object_array_in_a_model_file_runs_nothing(tmp_path):
+    header, arrays = _svm_model()
+    evil = np.empty(1, dtype=object)
+    evil[0] = _RunsCode(str(tmp_path / "ran"))
+    np.savez(
+        tmp_path / "m.npz", header=np.array(json.dumps({"format": FORMAT, **header})), evil=evil, **arrays
+    )
+    with pytest.raises(ValueError, match=r"m\.npz: evil is a pickled object array"):
+        load_model_file(tmp_path / "m.npz")
+    assert not (tmp_path / "ran").exists()
+
+
+def test_round_trip_fills_format_version_and_library_version(tmp_path):
+    header, arrays = _svm_model()
+    path = save_model_file(tmp_path / "model.npz", header, arrays)
+    model = load_model_file(path, kind="classifier")
+    assert model.header["format"] == FORMAT and model.header["format_version"] == FORMAT_VERSION
+    assert model.header["library_version"] == __version__ and model.path == path
+    assert model.kind == "classifier" and model.method == "svm" and model.class_names == ["cork", "felt"]
+    assert sorted(model.part("head")) == ["dual_coef", "intercept", "support_vectors"]
+    np.testing.assert_array_equal(model.arrays["head.support_vectors"], arrays["head.support_vectors"])
+    with pytest.raises(ValueError, match=r"model\.npz: expected a clustering model file, got a classifier"):
+        load_model_file(path, kind="clustering")
+
+
+def _tree_model():
+    """A valid 3-class HM-SVM: root splits {0} | {1, 2}, then {1} | {2}."""
+    header, arrays = _svm_model(mode="tree")
+    header = {**header, "class_names": ["a", "b", "c"], "method": "hmsvm"}
+    header["head"] = {"type": "svm", "mode": "tree", "kernel": "rbf", "gamma": 0.5, "depth": 2}
+    arrays.update(
+        {
+            "head.dual_coef": np.ones((2, 4)),
+            "head.intercept": np.zeros(2),
+            "head.left": np.array([1, 1, 3, 3, 4]),
+            "head.right": np.array([2, 1, 4, 3, 4]),
+            "head.column": np.array([0, 0, 1, 0, 0]),
+            "head.leaf_label": np.array([0, 0, 0, 1, 2]),
+            "head.path_sign": np.array([[-1, 0], [1, -1], [1, 1]]),
+        }
+    )
+    return header, arrays
+
+
+def _changed(model, header=None, arrays=None, drop=()):
+    h, a = model
+    h = {**h, **(header or {})}
+    a = {**a, **(arrays or {})}
+    for key in drop:
+        a.pop(key)
+    return h, a
+
+
+@pytest.mark.parametrize(
+    ("model", "match"),
+    [
+        (_changed(_svm_model(), {"format_version": 2}), "written by a newer tactile-torch .* version 2"),
+        (_changed(_svm_model(), {"format_version": "1"}), "format_version must be an int >= 1"),
+        (_changed(_svm_model(), {"kind": "regressor"}), "kind must be one of"),
+        (
+            _changed(_svm_model(), {"method": "lda"}),
+            r"method of a classifier must be one of \('hmsvm', 'svm'\)",
+        ),
+        (_changed(_svm_model(), {"class_names": []}), "class_names must be a non-empty list of strings"),
+        (_changed(_svm_model(), {"source": {"kind": "audio"}}), "source.kind must be 'vibration', 'image'"),
+        (
+            _changed(
+                _svm_model(), {"source": {"kind": "vibration", "window": "800", "step": 800, "rate_hz": 800}}
+            ),
+            "source.window must be int",
+        ),
+        (_changed(_svm_model(), {"head": {"type": "forest"}}), "head.type must be one of"),
+        (
+            _changed(
+                _svm_model(),
+                {"head": {"type": "svm", "mode": "dag", "kernel": "rbf", "gamma": 1, "depth": 0}},
+            ),
+            "head.mode must be one of",
+        ),
+        (_changed(_svm_model(), {"head": {"type": "svm", "mode": "binary"}}), "head.kernel is missing"),
+        (_changed(_svm_model(), drop=["head.intercept"]), "array 'head.intercept' is missing"),
+        (
+            _changed(_svm_model(), arrays={"head.dual_coef": np.ones((1, 5))}),
+            r"head.dual_coef has shape \(1, 5\): axis 1 \(support vectors\) must be 4",
+        ),
+        (
+            _changed(_svm_model(), arrays={"scale": np.ones(4)}),
+            r"scale has shape \(4,\): axis 0 \(features the head takes\) must be 3",
+        ),
+        (_changed(_svm_model(), arrays={"scale": np.zeros(3)}), "scale must be > 0"),
+        (
+            _changed(_svm_model(), arrays={"head.intercept": np.array([np.nan])}),
+            "head.intercept must be finite",
+        ),
+        (
+            _changed(_svm_model(), arrays={"head.intercept": np.array([1])}),
+            "head.intercept must be float, got int64",
+        ),
+        (
+            _changed(_tree_model(), arrays={"head.left": np.array([1, 1, 3, 3, 9])}),
+            r"head.left must lie in 0\.\.4",
+        ),
+        (
+            _changed(_tree_model(), arrays={"head.path_sign": np.full((3, 2), 2)}),
+            "head.path_sign must hold -1, 0 or 1",
+        ),
+        (
+            _changed(_tree_model(), {"class_names": ["a", "b"]}),
+            r"head.dual_coef has shape \(2, 4\): axis 0 \(decision functions\) must be 1",
+        ),
+    ],
+)
+def test_validation_names_the_field(tmp_path, model, match):
+    header, arrays = model
+    with pytest.raises(ValueError, match=match):
+        save_model_file(tmp_path / "m.npz", header, arrays)  # refused before writing
+    assert not (tmp_path / "m.npz").exists()
+    np.savez(
+        tmp_path / "m.npz",
+        header=np.array(json.dumps({"format": FORMAT, "format_version": 1, **header})),
+        **arrays,
+    )
+    with pytest.raises(ValueError, match=r"m\.npz: " + match):  # and when reading a file written elsewhere
+        load_model_file(tmp_path / "m.npz")
+
+
+def test_valid_tree_passes():
+    header, arrays = _tree_model()
+    validate_model({"format": FORMAT, "format_version": 1, **header}, arrays)
+
+
+@pytest.mark.parametrize(
+    ("write", "match"),
+    [
+        (lambda p, good: p.write_bytes(b""), r"empty file \(0 bytes\), expected a tactile-torch model file"),
+        (
+            lambda p, good: p.write_bytes(good[: len(good) * 2 // 3]),
+            "truncated or corrupt tactile-torch model file",
+        ),
+        (
+            lambda p, good: np.savez(p, frames=np.zeros(3)),
+            r"not a tactile-torch model file \(no 'header'.*a data file\?",
+        ),
+        (lambda p, good: np.savez(p, header=np.array("{not json")), "header is not valid JSON"),
+        (lambda p, good: np.savez(p, header=np.zeros(2)), "header must be one JSON string"),
+        (lambda p, good: p.write_bytes(b"\x08\x07onnx-ish protobuf"), "expected a tactile-torch model file"),
+    ],
+)
+def test_broken_files_get_one_line_naming_the_file(tmp_path, write, match):
+    good = save_model_file(tmp_path / "good.npz", *_svm_model()).read_bytes()
+    path = tmp_path / "model.npz"
+    write(path, good)
+    with pytest.raises(ValueError, match=r"model\.npz: " + match) as err:
+        load_model_file(path)
+    assert "\n" not in str(err.value)
+
+
+def test_model_files_load_without_torch(tmp_path):
+    path = save_model_file(tmp_path / "model.npz", *_svm_model())
+    out = run_without_torch(
+        f"""
+        from tactile_torch.model_file import load_model_file
+
+        print(load_model_file({str(path)!r}).header["source"])
+        """
+    )
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "{'kind': 'features', 'n_features': 3}"
