@@ -34,9 +34,9 @@ from .tree import build_tree
 
 # Prediction runs on several threads only when a block of rows holds at least this many kernel
 # values (about a millisecond of work: a thread's round trip, or a wait for a busy core, costs more
-# than a few rows), in up to 4 blocks per thread so that a slow thread delays little.
+# than a few rows), in up to 16 blocks per thread so that a worker slowed by a busy core holds little.
 _KERNEL_VALUES_PER_BLOCK = 100_000
-_BLOCKS_PER_THREAD = 4
+_BLOCKS_PER_THREAD = 16
 
 
 def _as_numpy(value: object) -> object:

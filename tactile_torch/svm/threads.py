@@ -34,43 +34,45 @@ def resolve_threads(n_jobs: int | None) -> int:
 def run_blocks(fn: Callable[[Block], Result], blocks: Sequence[Block], threads: int) -> list[Result]:
     """``[fn(b) for b in blocks]``, the blocks taken in order by the caller and ``threads - 1`` workers.
 
-    The caller takes the first block (callers put the largest first). The first exception raised by
-    ``fn`` is raised again here, after every thread has stopped.
+    The caller takes the first block (callers put the largest first) and returns as soon as every
+    block is done: a worker that has not started yet finds the queue empty later and ends on its
+    own, so only blocks already running elsewhere can make the caller wait. The first exception
+    raised by ``fn`` is raised again here.
     """
     results: list = [None] * len(blocks)
     workers = min(threads, len(blocks)) - 1
     if workers <= 0:
         return [fn(block) for block in blocks]
     queue = iter(range(len(blocks)))
-    lock = threading.Lock()
+    state = threading.Condition()
+    done: list[int] = []
     errors: list[BaseException] = []
+
+    def run(k: int) -> None:
+        try:
+            results[k] = fn(blocks[k])
+        except BaseException as err:  # re-raised in the caller
+            errors.append(err)
+        with state:
+            done.append(k)
+            state.notify_all()
 
     def work() -> None:
         while not errors:
-            with lock:
+            with state:
                 k = next(queue, None)
             if k is None:
                 return
-            try:
-                results[k] = fn(blocks[k])
-            except BaseException as err:
-                errors.append(err)
+            run(k)
 
-    def work_from(first: int) -> None:
-        try:
-            results[first] = fn(blocks[first])
-        except BaseException as err:  # re-raised in the caller
-            errors.append(err)
-        work()
-
-    # The caller, which holds a core now, takes the first (largest) block before the workers start.
-    first = next(queue)
-    pool = [threading.Thread(target=work, daemon=True) for _ in range(workers)]
-    for thread in pool:
-        thread.start()
-    work_from(first)
-    for thread in pool:
-        thread.join()
+    with state:
+        first = next(queue)
+    for _ in range(workers):
+        threading.Thread(target=work, daemon=True).start()
+    run(first)
+    work()
+    with state:
+        state.wait_for(lambda: len(done) == len(blocks) or bool(errors))
     if errors:
         raise errors[0]
     return results
