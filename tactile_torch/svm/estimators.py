@@ -32,10 +32,12 @@ from .solver import ProblemSet, Solutions, solve_set
 from .threads import resolve_threads, run_blocks
 from .tree import build_tree
 
-# Prediction runs on several threads only when a block of rows holds at least this many kernel
-# values (about a millisecond of work: a thread's round trip, or a wait for a busy core, costs more
-# than a few rows), in up to 16 blocks per thread so that a worker slowed by a busy core holds little.
-_KERNEL_VALUES_PER_BLOCK = 100_000
+# Prediction runs on several threads only above this many kernel values per thread (a few
+# milliseconds of work: a thread's round trip, or a wait for a busy core, costs more than a few rows),
+# in blocks of at least _KERNEL_VALUES_PER_BLOCK, up to 16 per thread, so that a worker slowed by a
+# busy core holds little of the work when the caller has done the rest.
+_KERNEL_VALUES_PER_THREAD = 400_000
+_KERNEL_VALUES_PER_BLOCK = 20_000
 _BLOCKS_PER_THREAD = 16
 
 
@@ -222,8 +224,9 @@ class _KernelMachine(ClassifierMixin, BaseEstimator):
         """Run a compiled decision kernel over the rows of ``X`` on up to ``n_jobs`` threads."""
         out = np.empty((X.shape[0], n_out))
         n = X.shape[0]
-        rows_per_block = max(1, _KERNEL_VALUES_PER_BLOCK // max(1, self.support_.shape[0]))
-        threads = max(1, min(resolve_threads(self.n_jobs), n // rows_per_block))
+        n_sv = max(1, self.support_.shape[0])
+        threads = max(1, min(resolve_threads(self.n_jobs), n * n_sv // _KERNEL_VALUES_PER_THREAD))
+        rows_per_block = max(1, _KERNEL_VALUES_PER_BLOCK // n_sv)
         step = max(rows_per_block, -(-n // (threads * _BLOCKS_PER_THREAD))) if threads > 1 else max(n, 1)
         blocks = [slice(start, start + step) for start in range(0, n, step)]
 
