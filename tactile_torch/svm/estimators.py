@@ -187,8 +187,8 @@ class _KernelMachine(ClassifierMixin, BaseEstimator):
         return self
 
     def _support(self, y_index: np.ndarray, problems: ProblemSet, sol: Solutions) -> np.ndarray:
-        """Set ``support_``, ``support_vectors_`` and ``n_support_`` (support vectors of any problem,
-        grouped by class as libsvm groups them); return each sample's column in them (-1: none)."""
+        """Set ``support_`` and ``n_support_`` (the support vectors of any problem, grouped by class as
+        libsvm groups them); return each training sample's column among them (-1: none)."""
         used = np.zeros(y_index.shape[0], dtype=bool)
         used[problems.rows[sol.alpha > 0]] = True
         grouped = np.argsort(y_index, kind="stable")
@@ -238,7 +238,7 @@ class _KernelMachine(ClassifierMixin, BaseEstimator):
 
     def _dense_margins(self, X: np.ndarray) -> np.ndarray:
         """``K(X, sv) @ dual_coef_.T + intercept_`` (binary, one-vs-rest, tree nodes)."""
-        kind = 0 if self.kernel == "rbf" else 1
+        kind = _smo.RBF if self.kernel == "rbf" else _smo.LINEAR
         coef = self._fitted_coef_t
 
         def run(rows: np.ndarray, out: np.ndarray) -> None:
@@ -411,7 +411,7 @@ class SVC(_KernelMachine):
         self._fitted_coef_t = np.ascontiguousarray(self.dual_coef_.T)
 
     def _ovo_decisions(self, X: np.ndarray) -> np.ndarray:
-        kind = 0 if self.kernel == "rbf" else 1
+        kind = _smo.RBF if self.kernel == "rbf" else _smo.LINEAR
         starts = np.concatenate([[0], np.cumsum(self.n_support_)]).astype(np.int64)
 
         def run(rows: np.ndarray, out: np.ndarray) -> None:
