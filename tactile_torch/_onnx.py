@@ -27,20 +27,21 @@ def export_onnx(
     dynamic_batch: bool = True,
     metadata: Mapping[str, str] | None = None,
     opset_version: int | None = None,
+    dynamic_shapes: object | None = None,
 ) -> Path:
     """Export ``module(*example_inputs)`` to ``path`` with ``torch.onnx.export(..., dynamo=True)``.
 
-    Dimension 0 of every input is a dynamic batch size unless ``dynamic_batch=False``; ``metadata``
-    goes into the model's ``metadata_props``. The exported model is checked with ``onnx.checker``.
-    Returns ``path``.
+    Dimension 0 of every input is a dynamic batch size unless ``dynamic_batch=False``;
+    ``dynamic_shapes`` (``torch.export``'s, structured like ``forward``'s arguments) replaces that
+    default when given. ``metadata`` goes into the model's ``metadata_props``. The exported model is
+    checked with ``onnx.checker``. Returns ``path``.
     """
     import onnx
 
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     example_inputs = tuple(example_inputs)
-    dynamic_shapes = None
-    if dynamic_batch:
+    if dynamic_shapes is None and dynamic_batch:
         batch = torch.export.Dim("batch", min=1, max=1 << 20)
         dynamic_shapes = tuple({0: batch} for _ in example_inputs)
     module = module.eval()

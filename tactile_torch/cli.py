@@ -49,7 +49,7 @@ def _report(args: argparse.Namespace) -> int:
     from .studies import run_report
 
     only = [s for s in args.only.split(",") if s] if args.only else None
-    path = run_report(args.out, random_state=args.seed, quick=args.quick, only=only)
+    path = run_report(args.out, random_state=args.seed, quick=args.quick, full=args.full, only=only)
     print(f"report written to {path}")
     return 0
 
@@ -159,31 +159,39 @@ def _cluster(args: argparse.Namespace) -> int:
         discount=args.discount,
         n_iter=args.n_iter,
         burn_in=args.burn_in,
+        n_chains=args.chains,
         init=init,
         random_state=args.seed,
         progress=not args.quiet,
     ).fit(X)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
+    ks = model.n_clusters_summary_
     np.savez(
         out / "clustering.npz",
         labels=model.labels_,
+        map_labels=model.map_labels_,
         means=model.means_,
         covariances=model.covariances_,
         precisions_cholesky=model.precisions_cholesky_,
         weights=model.weights_,
         n_clusters_samples=model.n_clusters_samples_,
+        n_clusters_interval=np.array(ks["interval"]),
         alpha_samples=model.alpha_samples_,
         discount_samples=model.discount_samples_,
     )
     save_clustering_model(out / "model.npz", model, source=source, transform=transform)
     summary = model.summary()
     if truth is not None:
-        summary += f"\npairwise accuracy of the MAP labels: {pairwise_accuracy(truth, model.labels_):.4f}"
+        summary += (
+            f"\npairwise accuracy: point estimate {pairwise_accuracy(truth, model.labels_):.4f}, "
+            f"MAP sample {pairwise_accuracy(truth, model.map_labels_):.4f}"
+        )
     (out / "summary.txt").write_text(summary + "\n")
     print(summary)
     print(
-        f"written: {out / 'clustering.npz'}, {out / 'summary.txt'}, {out / 'model.npz'} (tactile-torch export)"
+        f"written: {out / 'clustering.npz'}, {out / 'summary.txt'}, {out / 'model.npz'} (tactile-torch export: "
+        f"the point estimate's {model.n_clusters_} components)"
     )
     return 0
 
@@ -198,6 +206,8 @@ def _export(args: argparse.Namespace) -> int:
         f"exported {pipeline.name}: input ({pipeline.input_layout}) = {pipeline.input_shape}, "
         f"{len(pipeline.class_names)} classes -> {path} ({size:.0f} KiB)"
     )
+    if "k_exported" in pipeline.extra_metadata:  # a clustering: say which K, and why
+        print(pipeline.extra_metadata["k_exported"])
     return 0
 
 
@@ -316,6 +326,10 @@ def _stream(args: argparse.Namespace) -> int:
     # Each classified window goes to every consumer in turn.
     write = result_json if args.json else result_text
     consumers = [lambda result: print(write(result), flush=True)]
+    if args.discover:  # new surfaces: N novel windows in a row (tactile_torch.discovery)
+        from .discovery import stream_consumer
+
+        consumers.append(stream_consumer(pipe, args.discover, info))
     print(
         f"{pipe!r}: reading {args.port}, windows of {size} samples every {step}, range ±{reader.range_g:g} g",
         file=info,
@@ -381,6 +395,58 @@ def _simulate_sensor(args: argparse.Namespace) -> int:
     return 0
 
 
+def _tradeoff(args: argparse.Namespace) -> int:
+    from .tradeoff import run_tradeoff, summary_lines, write_outputs
+
+    def number_or(name: str, text: str, *words: str) -> str | float | int:
+        if text in words:
+            return text
+        try:
+            return int(text) if text.isdigit() else float(text)
+        except ValueError:
+            raise ValueError(f"--{name} must be one of {list(words)} or a number, got {text!r}") from None
+
+    def int_list(name: str, text: str) -> list[int] | None:
+        if not text:
+            return None
+        if not all(part.strip().isdigit() for part in text.split(",")):
+            raise ValueError(f"--{name} must be comma-separated whole numbers, got {text!r}")
+        return [int(part) for part in text.split(",")]
+
+    options = [f"--data {' '.join(args.data)}", f"--out {args.out}", *(["--quick"] if args.quick else [])]
+    defaults = vars(build_parser().parse_args(["tradeoff", "--data", "-"]))
+    names = ("folds", "window", "windows", "frame_rate", "threshold", "erosion", "contact", "max_per_class")
+    names += ("classifiers", "features", "seed")
+    for name in names:
+        if getattr(args, name) != defaults[name]:
+            options.append(f"--{name.replace('_', '-')} {getattr(args, name)}")
+    command = "tactile-torch tradeoff " + " ".join(options)
+    result = run_tradeoff(
+        args.data,
+        quick=args.quick,
+        n_folds=args.folds,
+        window=args.window,
+        windows=int_list("windows", args.windows),
+        frame_rate_hz=args.frame_rate,
+        threshold=number_or("threshold", args.threshold, "auto", "otsu", "display"),
+        erosion=number_or("erosion", args.erosion, "relative"),
+        contact=args.contact,
+        max_per_class=number_or("max-per-class", args.max_per_class, "auto"),
+        classifiers=args.classifiers.split(",") if args.classifiers else None,
+        features=args.features.split(",") if args.features else None,
+        out_dir=args.out,
+        random_state=args.seed,
+        allow_pickle=args.allow_pickle,
+        progress=not args.quiet,
+        log=(lambda line: None) if args.quiet else (lambda line: print(line, file=sys.stderr)),
+    )
+    paths = write_outputs(result, args.out, command=command)
+    for line in summary_lines(result):
+        print(line)
+    print(f"written: {', '.join(str(p) for p in paths.values())} ({result.seconds:.0f} s)")
+    return 0
+
+
 def _add_allow_pickle(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--allow-pickle",
@@ -405,6 +471,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default="runs/latest", help="output directory (default: runs/latest)")
     p.add_argument("--seed", type=int, default=0, help="random seed of the whole run (default: 0)")
     p.add_argument("--quick", action="store_true", help="smaller data and fewer iterations, for a smoke test")
+    p.add_argument(
+        "--full", action="store_true", help="also the study-size experiments (minutes, not seconds)"
+    )
     p.add_argument("--only", default="", help="comma-separated study names to run (default: all)")
     p.set_defaults(handler=_report)
 
@@ -449,9 +518,10 @@ def build_parser() -> argparse.ArgumentParser:
         "cluster",
         help="discover surfaces with the Pitman-Yor mixture (how many, and which window is which)",
         description="Fit tactile_torch.mixture.PitmanYorGMM to vibration recordings (windows -> 21 features -> "
-        "the unsupervised transform -> principal components) or to a 'features' array (n, D); write the MAP "
-        "clustering and the posterior samples to OUT/clustering.npz, a summary to OUT/summary.txt and the "
-        "model to OUT/model.npz (for tactile-torch export).",
+        "the unsupervised transform -> principal components) or to a 'features' array (n, D); write the point "
+        "estimate of the clustering (and the MAP sample, the posterior samples of K) to OUT/clustering.npz, a "
+        "summary (posterior of K first) to OUT/summary.txt and the model to OUT/model.npz (for tactile-torch "
+        "export).",
     )
     p.add_argument(
         "--data",
@@ -465,8 +535,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--step", type=int, default=None, help="recordings: window hop (default: the window)")
     p.add_argument("--components", type=int, default=3, help="recordings: principal components (default: 3)")
     _add_allow_pickle(p)
-    p.add_argument("--n-iter", type=int, default=2000, help="Gibbs sweeps, burn-in included (default: 2000)")
-    p.add_argument("--burn-in", type=int, default=500, help="sweeps discarded (default: 500)")
+    p.add_argument(
+        "--n-iter", type=int, default=1000, help="Gibbs sweeps per chain, burn-in included (default: 1000)"
+    )
+    p.add_argument("--burn-in", type=int, default=250, help="sweeps discarded per chain (default: 250)")
+    p.add_argument("--chains", type=int, default=4, help="independent chains, run in parallel (default: 4)")
     p.add_argument("--alpha", type=float, default=None, help="fix the concentration (default: sampled)")
     p.add_argument("--discount", type=float, default=None, help="fix the discount; 0 = Dirichlet process")
     p.add_argument(
@@ -579,6 +652,13 @@ def build_parser() -> argparse.ArgumentParser:
         choices=["s", "ms", "us", "samples"],
         help="unit of the t field of t,x,y,z lines; 'samples' for a sample counter (default: s)",
     )
+    p.add_argument(
+        "--discover",
+        type=int,
+        default=0,
+        metavar="N",
+        help="clustering bundles: propose a new surface after N consecutive novel windows (default: off)",
+    )
     p.set_defaults(handler=_stream)
 
     p = sub.add_parser(
@@ -605,6 +685,50 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0, help="synthetic: random seed (default: 0)")
     _add_allow_pickle(p)
     p.set_defaults(handler=_simulate_sensor)
+
+    p = sub.add_parser(
+        "tradeoff",
+        help="speed against accuracy: evaluate candidate models on your data and recommend the simplest adequate one",
+        description="Cross-validate candidate models (HM-SVM, SVC, LDA, kNN, nearest class mean on every feature set) "
+        "on a data file, export each to ONNX and time it, and write OUT/tradeoff.json, OUT/tradeoff.md and charts of "
+        "accuracy against latency, size and time to a decision; the recommendation is the cheapest model on the "
+        "Pareto front within one standard error of the best (docs/tradeoff.md).",
+    )
+    p.add_argument(
+        "--data",
+        required=True,
+        nargs="+",
+        help="an image-exploration, pressure-map, vibration or feature .npz, or vibration CSV logs (t,x,y,z)",
+    )
+    p.add_argument("--out", default="runs/tradeoff", help="output directory (default: runs/tradeoff)")
+    p.add_argument("--quick", action="store_true", help="fewer candidates and at most 60 samples per class")
+    p.add_argument("--folds", type=int, default=5, help="cross-validation folds (default: 5)")
+    p.add_argument(
+        "--window", type=int, default=None, help="vibration: reference window in samples (default: 800)"
+    )
+    p.add_argument("--windows", default="", help="vibration: window sizes to try (default: 200,400,800,1600)")
+    p.add_argument(
+        "--frame-rate", type=float, default=None, help="explorations: frames/s (default: file or 10)"
+    )
+    p.add_argument(
+        "--threshold", default="auto", help="image threshold: auto (default), otsu, display or a number"
+    )
+    p.add_argument("--erosion", default="relative", help="erosion in pixels, or relative (default)")
+    p.add_argument(
+        "--contact",
+        default="raises",
+        choices=["raises", "lowers", "auto"],
+        help="pressure maps: does contact raise (default) or lower the reading",
+    )
+    p.add_argument("--max-per-class", default="auto", help="samples kept per class (default: 60 quick, 300)")
+    p.add_argument("--classifiers", default="", help="comma-separated subset of HM-SVM,SVC,LDA,kNN,NCM")
+    p.add_argument(
+        "--features", default="", help="comma-separated feature-set name prefixes (e.g. fused,top)"
+    )
+    p.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
+    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    _add_allow_pickle(p)
+    p.set_defaults(handler=_tradeoff)
 
     for p in sub.choices.values():  # --debug is accepted after the command too
         p.add_argument(

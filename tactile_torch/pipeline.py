@@ -11,7 +11,7 @@ pipeline                  raw input                   graph
 ``vibration-<method>``    windows ``(B, 3, W)`` in g  :class:`~tactile_torch.signal.WindowFeatures`
                                                       → feature scale → SVM
 ``vibration-pyp``         windows ``(B, 3, W)`` in g  window features → :class:`~tactile_torch.signal.
-                                                      ClusteringProjection` → MAP Pitman-Yor component
+                                                      ClusteringProjection` → Pitman-Yor component, novelty
 ``features-<method>``     features ``(B, F)``         feature scale → SVM, or → PYP component
 ========================  ==========================  ===============================================
 
@@ -243,7 +243,8 @@ def save_clustering_model(
     ----------
     path : str or Path
     mixture : PitmanYorGMM
-        Fitted; its MAP sample is what the exported pipeline classifies with.
+        Fitted; its point estimate's components (and novelty flag) are what the exported pipeline
+        classifies with (:meth:`~tactile_torch.mixture.PitmanYorGMM.to_module`).
     source : dict
         How the mixture's input is made: ``{"kind": "vibration", "window", "step", "rate_hz"}`` (raw
         windows → :class:`~tactile_torch.signal.WindowFeatures` → ``transform``) or
@@ -264,6 +265,9 @@ def save_clustering_model(
         "source": dict(source),
         "head": {"type": "gaussian-mixture"},
         "summary": mixture.summary(),
+        "k_summary": {
+            k: (list(v) if isinstance(v, tuple) else v) for k, v in mixture.n_clusters_summary_.items()
+        },
     }
     arrays = {f"head.{name}": buf.numpy() for name, buf in module.named_buffers()}
     if transform is not None:
@@ -282,7 +286,14 @@ def _clustering_pipeline(model: ModelFile) -> InferencePipeline:
     from .mixture import GaussianMixtureClassifier
 
     state = model.part("head")
-    head = GaussianMixtureClassifier(state["means"], state["precisions_cholesky"], state["log_weights"])
+    head = GaussianMixtureClassifier(
+        state["means"],
+        state["precisions_cholesky"],
+        state["log_weights"],
+        novelty_means=state.get("novelty_means"),
+        novelty_precisions_cholesky=state.get("novelty_precisions_cholesky"),
+        novelty_log_weight=float(state.get("novelty_log_weight", 0.0)),
+    )
     source = model.source
     modules, shape, layout, meta = _front_end(source)
     spec = model.header.get("transform")
@@ -294,6 +305,15 @@ def _clustering_pipeline(model: ModelFile) -> InferencePipeline:
             ClusteringProjection(fitted["mean_"], fitted["scale_"], fitted["components_"], eps=spec["eps"])
         )
     meta["method"] = "pyp"
+    k = int(np.asarray(state["means"]).shape[0])
+    ks = model.header.get("k_summary")
+    meta["k_exported"] = f"K = {k} components: the point estimate of the clustering" + (
+        f" (posterior of K: mode {ks['mode']}, median {ks['median']:g}, 95% interval "
+        f"[{ks['interval'][0]:g}, {ks['interval'][1]:g}]; MAP sample K = {ks['map']}); output 'novel' flags "
+        "windows that a new component explains better"
+        if ks
+        else " of an older model file (its MAP sample)"
+    )
     return InferencePipeline(
         nn.Sequential(*modules),
         head,
@@ -317,12 +337,13 @@ def export_pipeline(pipeline: InferencePipeline, path: str | Path, *, example_ba
     if not isinstance(pipeline, InferencePipeline):
         raise TypeError(f"pipeline must be an InferencePipeline, got {type(pipeline).__name__}")
     example = pipeline.example_input(example_batch)
+    extra = list(getattr(pipeline.head, "output_names", ())[2:])  # the mixture's novelty flag
     return export_onnx(
         pipeline.eval(),
         (example,),
         path,
         input_names=["raw"],
-        output_names=[LABELS_OUTPUT, SCORES_OUTPUT],
+        output_names=[LABELS_OUTPUT, SCORES_OUTPUT, *extra],
         metadata=pipeline.metadata(),
     )
 
@@ -336,7 +357,7 @@ def compare_with_runtime(pipeline: InferencePipeline, bundle: object, raw: np.nd
     raw = bundle.validate(raw)
     labels, scores = bundle.predict_scores(raw)
     with torch.no_grad():
-        t_labels, t_scores = pipeline(torch.from_numpy(raw))
+        t_labels, t_scores = pipeline(torch.from_numpy(raw))[:2]
     t_scores = t_scores.numpy()
     agreement = float((labels == t_labels.numpy()).mean())
     difference = float((np.abs(scores - t_scores) / np.maximum(np.abs(t_scores), 1.0)).max())

@@ -33,7 +33,7 @@ def _assert_parity(
     """Labels identical and scores within 1e-5 between the torch pipeline and onnxruntime."""
     labels, scores = bundle.predict_scores(raw)
     with torch.no_grad():
-        t_labels, t_scores = pipe(torch.from_numpy(bundle.validate(raw)))
+        t_labels, t_scores = pipe(torch.from_numpy(bundle.validate(raw)))[:2]
     np.testing.assert_array_equal(labels, t_labels.numpy())
     np.testing.assert_allclose(scores, t_scores.numpy(), rtol=1e-5, atol=1e-5)
     return labels, scores
@@ -124,13 +124,20 @@ def test_cli_cluster_export_predict_round_trip(tmp_path, vibration_npz, capsys):
     assert main([*args, "--n-iter", "60", "--burn-in", "20", "--quiet"]) == 0
     onnx_path = tmp_path / "pyp.onnx"
     assert main(["export", "--model", str(out / "model.npz"), "--out", str(onnx_path)]) == 0
-    assert "exported vibration-pyp" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert (
+        "exported vibration-pyp" in printed and "components: the point estimate of the clustering" in printed
+    )
     bundle = OnnxPipeline(onnx_path)
     pipe = pipeline_from_model(load_model_file(out / "model.npz"))
     data = bundle.read_npz(vibration_npz)
     labels, scores = _assert_parity(pipe, bundle, data.raw[:9])
     np.testing.assert_allclose(np.exp(scores).sum(1), 1.0, rtol=1e-5)  # log responsibilities
-    # the exported MAP component is the one the fitted clustering gave these windows
+    with torch.no_grad():  # the novelty flag output, same in torch and onnxruntime
+        np.testing.assert_array_equal(
+            bundle.run(data.raw[:9])["novel"], pipe(torch.from_numpy(data.raw[:9]))[2]
+        )
+    # the exported point-estimate component is the one the fitted clustering gave these windows
     fitted = np.load(out / "clustering.npz")["labels"]
     assert (labels == fitted[:9]).mean() >= 8 / 9
     assert main(["predict", "--model", str(onnx_path), "--data", str(vibration_npz)]) == 0

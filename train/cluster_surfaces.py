@@ -3,7 +3,8 @@
 Runs, at the study's scale (10,000 sweeps by default), on the features of ``--data``:
 
 - the comparison with k-means / EM given K, EM + BIC and the variational DP mixture (Table 2),
-- the posterior over K and the MAP clustering (Fig. 9), the posterior of the discount (Fig. 15),
+- the posterior over K (mode, median, 95 % interval), the point estimate of the clustering (minimum
+  expected Variation of Information) and the MAP sample, convergence across chains (R-hat, ESS),
 - the learning curve (1 ... 50 windows per surface) for the Dirichlet-process and Pitman-Yor priors,
 
 and writes a report (``report.md``, ``report.json``, figures) under ``--out``. The logic lives in

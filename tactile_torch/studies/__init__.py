@@ -25,6 +25,7 @@ STUDIES: list[str] = [
     "vibration_features",  # method 2: windows and 21 features (tactile_torch.signal)
     "vibration_classification",  # method 2: RBF SVM, feature ranking (tactile_torch.svm)
     "clustering",  # method 2: Pitman-Yor mixture (tactile_torch.mixture)
+    "tradeoff",  # speed against accuracy, the simplest adequate model (tactile_torch.tradeoff)
 ]
 
 
@@ -34,6 +35,7 @@ class RunContext:
 
     random_state: int = 0
     quick: bool = False
+    full: bool = False  # --full: the study-size experiments that do not fit make run's time budget
     out_dir: Path = Path("runs/latest")
     cache: dict[str, Any] = field(default_factory=dict)
 
@@ -49,6 +51,7 @@ def run_report(
     *,
     random_state: int = 0,
     quick: bool = False,
+    full: bool = False,
     only: list[str] | None = None,
     log: Callable[[str], None] = print,
 ) -> Path:
@@ -57,9 +60,10 @@ def run_report(
     if unknown:
         raise ValueError(f"only must name studies among {STUDIES}, got unknown {unknown}")
     out_dir = Path(out_dir)
-    ctx = RunContext(random_state=random_state, quick=quick, out_dir=out_dir)
+    ctx = RunContext(random_state=random_state, quick=quick, full=full, out_dir=out_dir)
     report = Report(out_dir)
     cmd = f"tactile-torch report --out {out_dir} --seed {random_state}" + (" --quick" if quick else "")
+    cmd += " --full" if full else ""
     report.preamble.append(f"Written by `{cmd}` (`make run` runs it with the defaults).")
     for name in STUDIES:
         if only and name not in only:

@@ -1,0 +1,113 @@
+"""The driver of one chain: its settings in one structure, the initial component draws, and a run of sweeps.
+
+One sweep = ``n_split_merge`` split-merge moves, Neal's algorithm 8 over every point, a Gibbs update
+of every component, then of the hyperparameters; :func:`run_sweeps` runs many of them in compiled
+code and releases the GIL, so that chains run in parallel threads.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit, types
+
+from .allocation import _component_stats, allocate, update_components
+from .conditionals import component_step
+from .hyper import update_hyper
+from .linalg import A1, A2, I1, RNG, b1, f8, i8, void
+from .split_merge import split_merge_moves
+from .state import STATE, copy_state, log_joint
+
+
+class Settings(NamedTuple):
+    """What a sweep does (fixed for a run)."""
+
+    n_aux: int
+    """Auxiliary components of algorithm 8."""
+    n_split_merge: int
+    """Split-merge moves per sweep."""
+    n_launch: int
+    """Intermediate restricted Gibbs scans of a split-merge launch state."""
+    use_lik: bool
+    """False: the likelihood is switched off (the chain samples the prior)."""
+    fit_alpha: bool
+    fit_d: bool
+    allocate: bool
+    """False: the partition stays fixed (component and hyperparameter updates only)."""
+    d_low: float
+    """Lower end of the support of d (``max(0, -alpha)`` when alpha is fixed and negative)."""
+    w_min: float
+    """Floor on the eigenvalues of W."""
+    burn_in: int
+    """Sweeps before which the MAP sample is not tracked."""
+
+
+SETTINGS = types.NamedTuple((i8, i8, i8, b1, b1, b1, b1, f8, f8, i8), Settings)
+"""numba type of :class:`Settings`."""
+
+TRACE_NAMES = ("n_clusters", "alpha", "discount", "beta", "log_posterior")
+"""Columns of the per-sweep trace written by :func:`run_sweeps`."""
+
+
+@njit(void(A2, STATE, b1, RNG), cache=True)
+def init_components(X, st, use_lik, rng):
+    """Draw every active component's (S, mu) from its conditional given its points, centred on their mean."""
+    D = X.shape[1]
+    K = st.ist[0]
+    cap = st.cnt.shape[0]
+    means = np.zeros((cap, D))
+    scats = np.zeros((cap, D, D))
+    _component_stats(X, st.z, st.cnt, st.act, K, means, scats)
+    Rxi = st.R @ st.xi
+    zero_mean = np.zeros(D)
+    zero_scat = np.zeros((D, D))
+    for t in range(K):
+        j = st.act[t]
+        if use_lik:
+            st.ldet[j] = component_step(
+                st.cnt[j], means[j], scats[j], means[j].copy(), st.sc[2], st.W, st.R, Rxi, True,
+                st.mu[j], st.L[j], 0.0, rng,
+            )[1]  # fmt: skip
+        else:
+            st.ldet[j] = component_step(
+                0,
+                zero_mean,
+                zero_scat,
+                zero_mean,
+                st.sc[2],
+                st.W,
+                st.R,
+                Rxi,
+                True,
+                st.mu[j],
+                st.L[j],
+                0.0,
+                rng,
+            )[1]
+
+
+@njit(void(A2, STATE, SETTINGS, RNG, i8, i8, A2, I1, STATE, A1), cache=True, nogil=True)
+def run_sweeps(X, st, cfg, rng, start, count, trace, counters, best, best_val):
+    """Run sweeps ``start .. start + count - 1`` on ``st``; write their rows of ``trace`` (see TRACE_NAMES).
+
+    ``counters`` accumulates the split-merge statistics; from sweep ``cfg.burn_in`` on, a state whose
+    log joint density exceeds ``best_val[0]`` is copied into ``best`` (the MAP sample).
+    """
+    n = X.shape[0]
+    for s in range(start, start + count):
+        if cfg.allocate:
+            if cfg.n_split_merge > 0:
+                split_merge_moves(cfg.n_split_merge, X, st, cfg.n_launch, cfg.use_lik, rng, counters)
+            allocate(X, st, cfg.n_aux, cfg.use_lik, rng)
+        update_components(X, st, cfg.use_lik, rng)
+        update_hyper(st, n, cfg.fit_alpha, cfg.fit_d, cfg.d_low, cfg.w_min, rng)
+        lj = log_joint(X, st, cfg.use_lik)
+        trace[s, 0] = st.ist[0]
+        trace[s, 1] = st.sc[0]
+        trace[s, 2] = st.sc[1]
+        trace[s, 3] = st.sc[2]
+        trace[s, 4] = lj
+        if s >= cfg.burn_in and lj > best_val[0]:
+            best_val[0] = lj
+            copy_state(st, best)

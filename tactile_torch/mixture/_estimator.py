@@ -1,0 +1,845 @@
+"""The scikit-learn estimator :class:`PitmanYorGMM`: chains, posterior summaries, point estimate, prediction."""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+import warnings
+from concurrent.futures import ThreadPoolExecutor
+from numbers import Integral, Real
+from typing import ClassVar
+
+import numpy as np
+from sklearn.base import BaseEstimator, ClusterMixin
+from sklearn.utils._param_validation import HasMethods, Interval, StrOptions
+from sklearn.utils.validation import check_is_fitted, validate_data
+
+from .. import _gibbs as g
+from ._diagnostics import RHAT_THRESHOLD, convergence_table
+from ._partition import expected_loss, minimize_expected_loss, posterior_similarity
+
+# Floor on the eigenvalues of the hyperparameter W (whitened units; see the class docstring).
+W_FLOOR = 1e-10
+# Sweeps of the fixed-partition run that gives the point estimate's components (first quarter discarded).
+_FIXED_SWEEPS = 160
+# Gaussians of the Monte Carlo prior predictive of a new component (novelty).
+_NOVELTY_DRAWS = 64
+# At most this many saved partitions (all chains) estimate the expected loss of the point estimate.
+_POINT_ESTIMATE_SAMPLES = 200
+# At most this many saved partitions per chain enter the posterior predictive of predict/predict_proba.
+_PREDICTIVE_SAMPLES = 50
+_LOG_2PI = math.log(2.0 * math.pi)
+
+
+def _numpy_rng(random_state: object) -> np.random.Generator:
+    # torch is imported only when the caller already uses it (a torch.Generator): fit stays light.
+    if random_state is None or isinstance(random_state, Integral):
+        return np.random.default_rng(None if random_state is None else int(random_state))
+    if isinstance(random_state, np.random.Generator):
+        return random_state
+    from .._checks import numpy_rng
+
+    return numpy_rng(random_state)
+
+
+def _as_array(X: object) -> object:
+    if type(X).__module__.startswith("torch"):
+        return X.detach().cpu().numpy()
+    return X
+
+
+def _whitening(X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Return (mean, lower Cholesky factor A of the data covariance) so that ``A^{-1}(x - mean)`` is white.
+
+    Covariance with ddof=1, plus a ridge of 1e-9 of its mean variance so that collinear features
+    still factorise; when the data have no spread at all (one point, or identical points) the
+    scale is the identity.
+    """
+    mean = X.mean(axis=0)
+    D = X.shape[1]
+    cov = np.cov(X, rowvar=False, ddof=1).reshape(D, D) if X.shape[0] > 1 else np.zeros((D, D))
+    level = float(np.trace(cov)) / D
+    if not level > 0.0:
+        return mean, np.eye(D)
+    return mean, np.linalg.cholesky(cov + 1e-9 * level * np.eye(D))
+
+
+def _wishart_cholesky(rng: np.random.Generator, dof: float, scale_chol: np.ndarray) -> np.ndarray:
+    """Lower Cholesky factor of a Wishart(dof, C C^T) draw (Bartlett), ``scale_chol`` = C."""
+    D = scale_chol.shape[0]
+    A = np.tril(rng.standard_normal((D, D)), -1)
+    A[np.diag_indices(D)] = np.sqrt(rng.chisquare(dof - np.arange(D)))
+    return scale_chol @ A
+
+
+def _log_gauss(Z: np.ndarray, mu: np.ndarray, L: np.ndarray, ldet: np.ndarray) -> np.ndarray:
+    """(n, C) ``log N(z | mu_c, (L_c L_c^T)^{-1})`` for whitened rows and components (``ldet = log|L L^T|``)."""
+    y = np.einsum("nd,cde->nce", Z, L) - np.einsum("cd,cde->ce", mu, L)[None]
+    return 0.5 * ldet - 0.5 * Z.shape[1] * _LOG_2PI - 0.5 * np.einsum("nce,nce->nc", y, y)
+
+
+def _log_gauss_upper(X: np.ndarray, means: np.ndarray, U: np.ndarray) -> np.ndarray:
+    """(n, K) ``log N(x | mean_k, (U_k U_k^T)^{-1})`` (the formula of :func:`gaussian_mixture_scores`)."""
+    y = np.einsum("nd,kde->nke", X, U) - np.einsum("kd,kde->ke", means, U)[None]
+    log_det = np.log(np.abs(np.diagonal(U, axis1=1, axis2=2))).sum(axis=1)
+    return log_det - 0.5 * X.shape[1] * _LOG_2PI - 0.5 * np.einsum("nke,nke->nk", y, y)
+
+
+class PitmanYorGMM(ClusterMixin, BaseEstimator):
+    """Pitman-Yor process mixture of Gaussians (infinite GMM) fitted by Gibbs sampling, several chains.
+
+    **Model.** Data are first whitened: ``z = A^{-1}(x - m)`` with ``m`` the data mean and
+    ``A A^T`` the data covariance (ddof=1; see *Degenerate data*). On whitened data the model is
+    Rasmussen's (2000) infinite Gaussian mixture in its multivariate, conditionally conjugate form
+    (Görür & Rasmussen 2010) with a Pitman-Yor prior on the partition::
+
+        partition          ~ PY(alpha, d)                  (Chinese restaurant; d = 0: Dirichlet process)
+        z_i | component j  ~ N(mu_j, S_j^{-1})             (S_j: precision)
+        mu_j               ~ N(xi, R^{-1})
+        S_j                ~ Wishart(beta, (beta W)^{-1})  (so E[S_j] = W^{-1})
+        xi ~ N(0, I),  R ~ Wishart(D, I/D),  W ~ Wishart(D, I/D) restricted to W >= 1e-10 I
+        1/(beta - D + 1) ~ Gamma(shape 1/2, rate D/2),  1/alpha ~ Gamma(shape 1/2, rate 1/2),  d ~ U(0, 1)
+
+    ``Wishart(nu, V)`` has scale matrix ``V`` and mean ``nu V`` (``scipy.stats.wishart(df=nu,
+    scale=V)``); ``Gamma(shape, rate)`` has mean shape/rate. On whitened data ``N(0, I)``,
+    ``Wishart(D, I/D)`` are exactly Rasmussen's data-dependent hyperpriors ``N(mu_y, Sigma_y)``,
+    ``Wishart(D, (D Sigma_y)^{-1})`` and ``Wishart(D, Sigma_y / D)`` stated in the original
+    coordinates (DESIGN.md writes the latter ``Sigma ~ W(D, I/D)``). The gamma priors are
+    Rasmussen's ``G(1, 1/D)`` and ``G(1, 1)`` in his (shape ``a/2``, mean ``b``) convention. The
+    floor on ``W`` (a truncation of its prior, sampled exactly) only matters for degenerate data,
+    where the untruncated posterior is improper.
+
+    **Sampler.** Each sweep: ``n_split_merge`` split-merge Metropolis-Hastings moves (Jain & Neal
+    2007, restricted Gibbs launch states, exact proposal densities both ways); Neal's (2000)
+    algorithm 8 over every point with ``m = n_aux`` auxiliary components (weight ``n_j - d`` for an
+    existing component, ``(alpha + d K)/m`` for each auxiliary; the auxiliaries' precisions are
+    integrated out); a Gibbs update of every component's ``S_j | mu_j`` then ``mu_j | S_j``; Gibbs
+    updates of ``xi``, ``R`` and ``W``, and slice-sampling updates (Neal 2003) of
+    ``log(beta - D + 1)``, ``log(alpha)`` and ``d``. Hyperparameters given as numbers are kept
+    fixed. ``n_chains`` independent chains, each from its own k-means start and random stream, run
+    in parallel threads (the compiled sweeps release the GIL).
+
+    **What it reports** (see ``docs/mixture.md``):
+
+    - *the posterior of K*, the number of components, from every post-burn-in sweep of every chain:
+      its mode, median and 95 % interval (:attr:`n_clusters_summary_`, :meth:`summary`);
+    - *the point estimate* ``labels_``: the partition that minimises the posterior expected loss
+      over all saved partitions, Variation of Information by default (Wade & Ghahramani 2018),
+      Binder's loss or the MAP sample on request (``point_estimate``). The MAP sample (the sweep
+      with the largest joint density of every sampled variable) is kept as ``map_labels_``; it is
+      *not* a good summary of K: the joint density is over spaces whose dimension grows with K, so
+      its maximum favours few components and sits in the low tail of the posterior of K;
+    - *the point estimate's components* (``means_``, ``covariances_``, ``weights_``, the exported
+      graph): posterior means of the component parameters given the partition ``labels_``, from a
+      short Gibbs run with the partition held fixed (the sampler's own component and
+      hyperparameter updates; no label switching can occur);
+    - *convergence*: rank-normalised split R-hat and bulk/tail ESS of K, alpha and d across chains
+      (Vehtari et al. 2021, ArviZ's numbers), with a warning when an R-hat exceeds 1.01.
+
+    **Prediction and novelty.** :meth:`predict_proba` averages the posterior predictive over saved
+    partitions: for each, the probability that a new point joins each of its components or a new
+    one (weights ``n_j - d`` and ``alpha + d K``, the new component's prior predictive density by
+    Monte Carlo over its precision), mapped onto the point estimate's clusters by the share of each
+    component's training points in each cluster. A point is *novel* (label -1 in :meth:`predict`)
+    when the probability of a new component exceeds that of every cluster. ``using="point"``
+    computes the same from the point estimate's components alone, as the exported graph does.
+
+    Parameters
+    ----------
+    alpha : float or None, default None
+        Pitman-Yor concentration. ``None``: sampled, prior ``1/alpha ~ Gamma(1/2, 1/2)``. A number
+        keeps it fixed; it must exceed ``-discount`` (or ``-1`` when the discount is sampled, whose
+        support then becomes ``(max(0, -alpha), 1)``).
+    discount : float or None, default None
+        Pitman-Yor discount ``d`` in ``[0, 1)``. ``None``: sampled, prior ``U(0, 1)``; ``0`` gives the
+        Dirichlet process.
+    n_iter : int, default 1000
+        Sweeps per chain, burn-in included (4 chains x 1000 sweeps on 2 cores take the wall time of
+        one chain of 2000).
+    burn_in : int, default 250
+        Sweeps of each chain discarded from the posterior (``0 <= burn_in < n_iter``).
+    n_chains : int, default 4
+        Independent chains (R-hat needs at least 2).
+    n_jobs : int or None, default None
+        Threads running the chains; ``None``: as many as there are chains and available cores.
+    n_aux : int, default 5
+        Number ``m`` of auxiliary components of algorithm 8.
+    init : {"kmeans", "one"}, int or array-like of shape (n,), default "kmeans"
+        Starting partition of every chain: k-means (``scipy.cluster.vq.kmeans2``, k-means++ seeds
+        from the chain's stream) with a generous ``ceil(2 sqrt(n))`` clusters; an int sets that
+        number of k-means clusters; ``"one"`` puts every point in one component; an array gives the
+        labels.
+    n_split_merge : int, default 5
+        Split-merge moves per sweep (0 disables them, leaving plain algorithm 8).
+    n_launch : int, default 3
+        Intermediate restricted Gibbs scans of the split-merge launch states.
+    thin : int or None, default None
+        Save the partition (and, after burn-in, the components) of every ``thin``-th sweep, counted
+        back from the last one. ``None``: about 200 per chain. Scalar traces are kept for every sweep.
+    point_estimate : {"vi", "binder", "map"}, default "vi"
+        What ``labels_`` is: the minimiser of the expected Variation of Information, of Binder's
+        loss (equal costs), or the MAP sample.
+    prior_only : bool, default False
+        Ignore the data (likelihood switched off): the chain then samples the prior, which checks
+        the sampler against the known prior distribution of K (a diagnostic).
+    random_state : int, numpy.random.Generator, torch.Generator or None
+        Seed of every random choice (starts, chains, Monte Carlo draws). Same seed, same result,
+        whatever ``n_jobs``.
+    progress : bool, default True
+        Show a tqdm progress bar when the run lasts more than a second.
+
+    Attributes
+    ----------
+    labels_ : ndarray of shape (n,)
+        The point estimate (see ``point_estimate``), clusters numbered 0 … K-1 by decreasing size.
+    n_clusters_ : int
+        Number of clusters of ``labels_``.
+    n_clusters_summary_ : dict
+        ``mode``, ``mode_probability``, ``median``, ``mean``, ``interval`` (95 %, central),
+        ``point_estimate`` (K of ``labels_``), ``map`` (K of the MAP sample).
+    expected_loss_ : float
+        Posterior expected loss of ``labels_``: mean VI in bits (``"vi"``, also reported for
+        ``"map"``), or the expected share of misclassified pairs (``"binder"``).
+    map_labels_, map_n_clusters_, map_chain_, map_sweep_, map_log_posterior_
+        The MAP sample: labels (0 … K-1 by decreasing size), K, chain, sweep, log joint density.
+    means_, covariances_ : ndarray of shape (K, D), (K, D, D)
+        The point estimate's components in the original coordinates (posterior means given ``labels_``).
+    precisions_cholesky_ : ndarray of shape (K, D, D)
+        Upper-triangular ``U_k`` with precision ``U_k U_k^T`` (scikit-learn's convention).
+    weights_ : ndarray of shape (K,)
+        ``(n_k - d) / (n - d K)`` with the posterior means of ``d``: the probability that a new point
+        joins component k, given that it joins an existing one.
+    novelty_weight_ : float
+        ``(alpha + d K) / (n + alpha)``: the prior probability that a new point opens a new component.
+    alpha_, discount_ : float
+        Posterior means given the point estimate.
+    n_clusters_samples_, alpha_samples_, discount_samples_, beta_samples_, log_posterior_samples_ : ndarray
+        Post-burn-in values of every sweep, chains concatenated (chain-major), shape
+        ``(n_chains * (n_iter - burn_in),)``.
+    trace_ : dict of ndarray of shape (n_chains, n_iter)
+        The same quantities for every sweep, burn-in included.
+    labels_samples_ : ndarray of shape (n_chains, n_saved, n)
+        Saved partitions (component numbers arbitrary per sweep) at sweeps ``labels_sweeps_``.
+    convergence_ : list of dict
+        R-hat, bulk and tail ESS for K, alpha and d (``nan`` R-hat with one chain).
+    split_merge_stats_ : dict
+        Proposed and accepted split and merge moves, all chains.
+    data_mean_, data_scale_ : ndarray of shape (D,), (D, D)
+        Whitening ``z = data_scale_^{-1} (x - data_mean_)`` (``data_scale_`` lower triangular).
+    n_features_in_, n_iter_ : int
+    fit_seconds_, sweep_seconds_ : float
+        Wall time of ``fit``; mean time of one sweep of one chain.
+
+    Notes
+    -----
+    *Degenerate data.* One point or identical points have no covariance: the whitening scale is
+    then the identity. When every component holds coincident points the untruncated posterior is
+    improper; the floor on ``W`` keeps the chain finite. A single point gives K = 1. D = 1 works.
+
+    References
+    ----------
+    C. E. Rasmussen, "The infinite Gaussian mixture model", NIPS 12, 2000.
+    D. Görür, C. E. Rasmussen, "Dirichlet process Gaussian mixture models: choice of the base
+    distribution", J. Computer Science and Technology 25(4), 2010.
+    R. M. Neal, "Markov chain sampling methods for Dirichlet process mixture models", JCGS 9, 2000.
+    S. Jain, R. M. Neal, "Splitting and merging components of a nonconjugate Dirichlet process
+    mixture model", Bayesian Analysis 2(3), 2007.
+    S. Wade, Z. Ghahramani, "Bayesian cluster analysis: point estimation and credible balls",
+    Bayesian Analysis 13(2), 2018.
+    A. Vehtari, A. Gelman, D. Simpson, B. Carpenter, P.-C. Bürkner, "Rank-normalization, folding,
+    and localization: an improved R-hat", Bayesian Analysis 16(2), 2021.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> X = np.concatenate([rng.normal(c, 0.1, size=(30, 2)) for c in (0, 3, 6)])
+    >>> model = PitmanYorGMM(n_iter=400, burn_in=100, random_state=0, progress=False).fit(X)
+    >>> model.n_clusters_, model.n_clusters_summary_["mode"]
+    (3, 3)
+    """
+
+    _parameter_constraints: ClassVar[dict] = {
+        "alpha": [Interval(Real, -1, None, closed="neither"), None],
+        "discount": [Interval(Real, 0, 1, closed="left"), None],
+        "n_iter": [Interval(Integral, 1, None, closed="left")],
+        "burn_in": [Interval(Integral, 0, None, closed="left")],
+        "n_chains": [Interval(Integral, 1, None, closed="left")],
+        "n_jobs": [Interval(Integral, 1, None, closed="left"), None],
+        "n_aux": [Interval(Integral, 1, None, closed="left")],
+        "init": [StrOptions({"kmeans", "one"}), Interval(Integral, 1, None, closed="left"), "array-like"],
+        "n_split_merge": [Interval(Integral, 0, None, closed="left")],
+        "n_launch": [Interval(Integral, 0, None, closed="left")],
+        "thin": [Interval(Integral, 1, None, closed="left"), None],
+        "point_estimate": [StrOptions({"vi", "binder", "map"})],
+        "prior_only": ["boolean"],
+        "random_state": [
+            None,
+            Integral,
+            np.random.Generator,
+            HasMethods(["manual_seed", "initial_seed"]),
+        ],  # the last: torch.Generator
+        "progress": ["boolean"],
+    }
+
+    def __init__(
+        self,
+        alpha: float | None = None,
+        discount: float | None = None,
+        n_iter: int = 1000,
+        burn_in: int = 250,
+        n_chains: int = 4,
+        n_jobs: int | None = None,
+        n_aux: int = 5,
+        init: str | int | np.ndarray = "kmeans",
+        n_split_merge: int = 5,
+        n_launch: int = 3,
+        thin: int | None = None,
+        point_estimate: str = "vi",
+        prior_only: bool = False,
+        random_state: object = None,
+        progress: bool = True,
+    ) -> None:
+        self.alpha = alpha
+        self.discount = discount
+        self.n_iter = n_iter
+        self.burn_in = burn_in
+        self.n_chains = n_chains
+        self.n_jobs = n_jobs
+        self.n_aux = n_aux
+        self.init = init
+        self.n_split_merge = n_split_merge
+        self.n_launch = n_launch
+        self.thin = thin
+        self.point_estimate = point_estimate
+        self.prior_only = prior_only
+        self.random_state = random_state
+        self.progress = progress
+
+    # ------------------------------------------------------------------------------------------
+    # validation
+    # ------------------------------------------------------------------------------------------
+    def _check_params(self) -> None:
+        """Validate the hyper-parameters from the table, then the two that constrain each other."""
+        self._validate_params()
+        if self.burn_in >= self.n_iter:
+            raise ValueError(f"burn_in must be < n_iter, got burn_in={self.burn_in}, n_iter={self.n_iter}")
+        if self.alpha is not None and self.discount is not None and not self.alpha > -self.discount:
+            raise ValueError(
+                f"alpha must be > -discount = {-self.discount}, got alpha={self.alpha}, discount={self.discount}"
+            )
+
+    def _initial_labels(self, Xw: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        n = Xw.shape[0]
+        init = self.init
+        if isinstance(init, str):
+            if init == "one":
+                return np.zeros(n, dtype=np.int64)
+            k = min(n, math.ceil(2.0 * math.sqrt(n)))
+        elif isinstance(init, Integral) and not isinstance(init, bool):
+            k = min(n, int(init))
+        else:
+            labels = np.asarray(_as_array(init))
+            if labels.shape != (n,):
+                raise ValueError(f"init as labels must have shape ({n},) like X's rows, got {labels.shape}")
+            return np.unique(labels, return_inverse=True)[1].astype(np.int64).reshape(n)
+        k = min(k, np.unique(Xw, axis=0).shape[0])  # k-means cannot make more clusters than distinct points
+        if k <= 1:
+            return np.zeros(n, dtype=np.int64)
+        from scipy.cluster.vq import kmeans2
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # an empty cluster is dropped below
+            _, labels = kmeans2(Xw, k, iter=20, minit="++", seed=rng)
+        return np.unique(labels, return_inverse=True)[1].astype(np.int64)
+
+    # ------------------------------------------------------------------------------------------
+    # fit
+    # ------------------------------------------------------------------------------------------
+    def fit(self, X: object, y: object = None) -> PitmanYorGMM:
+        """Run the chains on ``X`` of shape (n_samples, n_features); return ``self``.
+
+        ``X`` is an array-like or a tensor; ``y`` is ignored (present for scikit-learn pipelines).
+        """
+        t_fit = time.perf_counter()
+        self._check_params()
+        X = validate_data(self, _as_array(X), dtype=np.float64)
+        rng = _numpy_rng(self.random_state)
+        n, D = X.shape
+        mean, scale = _whitening(X)
+        Xw = np.ascontiguousarray(np.linalg.solve(scale, (X - mean).T).T)
+        fit_alpha, fit_d = self.alpha is None, self.discount is None
+        d_low = max(0.0, -float(self.alpha)) if (not fit_alpha and fit_d) else 0.0
+        alpha0 = 1.0 if fit_alpha else float(self.alpha)
+        d0 = (d_low + 0.5 * (1.0 - d_low) if d_low > 0 else 0.25) if fit_d else float(self.discount)
+        n_iter, burn_in, n_chains = int(self.n_iter), int(self.burn_in), int(self.n_chains)
+        thin = int(self.thin) if self.thin is not None else max(1, math.ceil(n_iter / 200))
+        snap_sweeps = np.arange(n_iter - 1, -1, -thin)[::-1]
+        cfg = g.Settings(
+            n_aux=int(self.n_aux),
+            n_split_merge=int(self.n_split_merge),
+            n_launch=int(self.n_launch),
+            use_lik=not bool(self.prior_only),
+            fit_alpha=fit_alpha,
+            fit_d=fit_d,
+            allocate=True,
+            d_low=float(d_low),
+            w_min=W_FLOOR,
+            burn_in=burn_in,
+        )
+        chain_rngs = rng.spawn(n_chains)
+        chains = []
+        for c in range(n_chains):
+            st = g.new_state(self._initial_labels(Xw, chain_rngs[c]), D, alpha0, d0)
+            g.init_components(Xw, st, cfg.use_lik, chain_rngs[c])
+            chains.append(st)
+        workers = self.n_jobs or min(
+            n_chains,
+            len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1),
+        )
+        from tqdm.auto import tqdm
+
+        bar = tqdm(
+            total=n_chains * n_iter,
+            disable=not self.progress,
+            delay=1.0,
+            unit="sweep",
+            desc="PitmanYorGMM",
+            leave=False,
+        )
+        try:
+            with ThreadPoolExecutor(max_workers=min(workers, n_chains)) as pool:
+                runs = list(
+                    pool.map(
+                        lambda c: self._run_chain(
+                            Xw, chains[c], cfg, chain_rngs[c], n_iter, snap_sweeps, bar
+                        ),
+                        range(n_chains),
+                    )
+                )
+        finally:
+            bar.close()
+        self.n_features_in_ = D
+        self.data_mean_, self.data_scale_ = mean, scale
+        self.n_iter_ = n_iter
+        self._store_chains(runs, snap_sweeps, burn_in, n)
+        self._store_point_estimate(Xw, runs, cfg, rng)
+        self._store_predictive(runs, snap_sweeps, burn_in, n, rng)
+        self.sweep_seconds_ = float(np.mean([r["seconds"] for r in runs]) / n_iter)
+        self.fit_seconds_ = time.perf_counter() - t_fit
+        if any(not row["converged"] for row in self.convergence_ if np.isfinite(row["R-hat"])):
+            bad = ", ".join(
+                f"{r['quantity']} {r['R-hat']:.3f}" for r in self.convergence_ if not r["converged"]
+            )
+            warnings.warn(
+                f"PitmanYorGMM: R-hat > {RHAT_THRESHOLD} ({bad}): the chains disagree; run more sweeps "
+                "(n_iter) or check summary()",
+                RuntimeWarning,
+                stacklevel=2,
+            )
+        return self
+
+    @staticmethod
+    def _run_chain(Xw, st, cfg, rng, n_iter, snap_sweeps, bar) -> dict:
+        """Run one chain (in a worker thread); return its trace, MAP state and saved samples."""
+        trace = np.zeros((n_iter, len(g.TRACE_NAMES)))
+        counters = np.zeros(4, dtype=np.int64)
+        best = g.ChainState(*(a.copy() for a in st))
+        best_val = np.array([-np.inf])
+        labels = np.zeros((snap_sweeps.size, Xw.shape[0]), dtype=np.int32)
+        samples = []
+        start = 0
+        seconds = 0.0
+        for k, s in enumerate(snap_sweeps):
+            t0 = time.perf_counter()
+            g.run_sweeps(Xw, st, cfg, rng, start, s + 1 - start, trace, counters, best, best_val)
+            seconds += time.perf_counter() - t0
+            bar.update(s + 1 - start)
+            start = s + 1
+            K = int(st.ist[0])
+            slots = st.act[:K]
+            relabel = np.zeros(st.cnt.shape[0], dtype=np.int64)
+            relabel[slots] = np.arange(K)
+            labels[k] = relabel[st.z]
+            if s >= cfg.burn_in:
+                samples.append(
+                    {
+                        "mu": st.mu[slots].copy(),
+                        "L": st.L[slots].copy(),
+                        "ldet": st.ldet[slots].copy(),
+                        "cnt": st.cnt[slots].copy(),
+                        "sc": st.sc.copy(),
+                        "xi": st.xi.copy(),
+                        "GR": st.GR.copy(),
+                        "GW": st.GW.copy(),
+                    }
+                )
+        return {
+            "trace": trace,
+            "counters": counters,
+            "best": best,
+            "best_val": float(best_val[0]),
+            "labels": labels,
+            "samples": samples,
+            "seconds": seconds,
+        }
+
+    def _store_chains(self, runs: list[dict], snap_sweeps: np.ndarray, burn_in: int, n: int) -> None:
+        trace = np.stack([r["trace"] for r in runs])  # (chains, n_iter, 5)
+        self.trace_ = {k: trace[:, :, c].copy() for c, k in enumerate(g.TRACE_NAMES)}
+        self.trace_["n_clusters"] = self.trace_["n_clusters"].astype(np.int64)
+        post = {k: v[:, burn_in:] for k, v in self.trace_.items()}
+        self.n_clusters_samples_ = post["n_clusters"].ravel()
+        self.alpha_samples_ = post["alpha"].ravel()
+        self.discount_samples_ = post["discount"].ravel()
+        self.beta_samples_ = post["beta"].ravel()
+        self.log_posterior_samples_ = post["log_posterior"].ravel()
+        self.labels_samples_ = np.stack([r["labels"] for r in runs])
+        self.labels_sweeps_ = snap_sweeps
+        self._burn_in = burn_in
+        counters = np.sum([r["counters"] for r in runs], axis=0)
+        self.split_merge_stats_ = {
+            "split_proposed": int(counters[g.SPLIT_PROPOSED]),
+            "split_accepted": int(counters[g.SPLIT_ACCEPTED]),
+            "merge_proposed": int(counters[g.MERGE_PROPOSED]),
+            "merge_accepted": int(counters[g.MERGE_ACCEPTED]),
+        }
+        chains = {"K": post["n_clusters"]}
+        if self.alpha is None:
+            chains["alpha"] = post["alpha"]
+        if self.discount is None:
+            chains["d"] = post["discount"]
+        self.convergence_ = convergence_table(chains)
+        # the MAP sample over all chains
+        c = int(np.argmax([r["best_val"] for r in runs]))
+        best = runs[c]["best"]
+        K = int(best.ist[0])
+        slots = best.act[:K]
+        order = np.argsort(-best.cnt[slots], kind="stable")
+        relabel = np.full(best.cnt.shape[0], -1, dtype=np.int64)
+        relabel[slots[order]] = np.arange(K)
+        self.map_labels_ = relabel[best.z]
+        self.map_n_clusters_ = K
+        self.map_chain_ = c
+        self.map_sweep_ = int(burn_in + np.argmax(post["log_posterior"][c]))
+        self.map_log_posterior_ = float(runs[c]["best_val"])
+        self._map_state = best
+
+    def _saved_partitions(self) -> np.ndarray:
+        """Post-burn-in saved partitions of every chain, (n_saved_total, n) int64."""
+        keep = self.labels_sweeps_ >= self._burn_in
+        return self.labels_samples_[:, keep].reshape(-1, self.labels_samples_.shape[-1]).astype(np.int64)
+
+    def _store_point_estimate(self, Xw: np.ndarray, runs: list[dict], cfg: g.Settings, rng) -> None:
+        n, D = Xw.shape
+        saved = self._saved_partitions()
+        similarity = posterior_similarity(saved) if n <= 4000 else None
+        # the expected loss is estimated over at most _POINT_ESTIMATE_SAMPLES of them, evenly spaced
+        saved = saved[
+            np.unique(np.linspace(0, len(saved) - 1, min(len(saved), _POINT_ESTIMATE_SAMPLES)).astype(int))
+        ]
+        if self.point_estimate == "map":
+            labels = self.map_labels_
+            loss = expected_loss(labels, saved, "vi")
+        else:
+            labels, loss = minimize_expected_loss(
+                saved, self.point_estimate, candidates=[self.map_labels_], similarity=similarity
+            )
+        self.labels_ = labels
+        self.n_clusters_ = int(labels.max()) + 1
+        self.expected_loss_ = loss
+        ks = self.n_clusters_samples_
+        values, counts = np.unique(ks, return_counts=True)
+        lo, hi = np.quantile(ks, [0.025, 0.975])
+        self.n_clusters_summary_ = {
+            "mode": int(values[np.argmax(counts)]),
+            "mode_probability": float(counts.max() / ks.size),
+            "median": float(np.median(ks)),
+            "mean": float(ks.mean()),
+            "interval": (float(lo), float(hi)),
+            "point_estimate": self.n_clusters_,
+            "map": self.map_n_clusters_,
+        }
+        # Components of the point estimate: posterior means given the partition, from a Gibbs run with
+        # the partition fixed (the sampler's component and hyperparameter updates only).
+        best = self._map_state
+        st = g.new_state(labels, D, float(best.sc[0]), float(best.sc[1]))
+        for name in ("sc", "xi", "R", "GR", "W", "GW"):
+            np.copyto(getattr(st, name), getattr(best, name))
+        fixed = cfg._replace(allocate=False, burn_in=_FIXED_SWEEPS)
+        g.init_components(Xw, st, fixed.use_lik, rng)
+        K = self.n_clusters_
+        trace = np.zeros((_FIXED_SWEEPS, len(g.TRACE_NAMES)))
+        kept = _FIXED_SWEEPS - _FIXED_SWEEPS // 4
+        mus, covs, scs, novelty = np.zeros((K, D)), np.zeros((K, D, D)), np.zeros(3), []
+        unused = g.ChainState(*(a.copy() for a in st))
+        for s in range(_FIXED_SWEEPS):
+            g.run_sweeps(
+                Xw, st, fixed, rng, s, 1, trace, np.zeros(4, dtype=np.int64), unused, np.array([np.inf])
+            )
+            if s < _FIXED_SWEEPS - kept:
+                continue
+            Linv = np.linalg.inv(st.L[:K])  # S^{-1} = L^{-T} L^{-1}
+            mus += st.mu[:K]
+            covs += np.swapaxes(Linv, 1, 2) @ Linv
+            scs += st.sc
+            if len(novelty) < _NOVELTY_DRAWS and (s % max(1, kept // _NOVELTY_DRAWS) == 0):
+                novelty.append(self._new_component_gaussian(st.xi, st.GR, st.GW, st.sc[2], rng))
+        mus /= kept
+        covs /= kept
+        scs /= kept
+        self.alpha_, self.discount_ = float(scs[0]), float(scs[1])
+        sizes = np.bincount(labels, minlength=K).astype(np.float64)
+        d = self.discount_
+        self.weights_ = (sizes - d) / (n - d * K)
+        self.novelty_weight_ = float((self.alpha_ + d * K) / (n + self.alpha_))
+        A, m = self.data_scale_, self.data_mean_
+        self.means_ = m + mus @ A.T
+        self.covariances_ = A @ covs @ A.T
+        self.precisions_cholesky_ = np.stack([self._precision_cholesky(c) for c in self.covariances_])
+        self._novelty_means = np.stack([m + A @ mu for mu, _ in novelty])
+        self._novelty_precisions_cholesky = np.stack(
+            [self._precision_cholesky(A @ c @ A.T) for _, c in novelty]
+        )
+
+    @staticmethod
+    def _new_component_gaussian(xi, GR, GW, beta, rng) -> tuple[np.ndarray, np.ndarray]:
+        """One Gaussian of the Monte Carlo prior predictive of a new component (whitened): (mean, covariance).
+
+        ``x | S ~ N(xi, S^{-1} + R^{-1})`` with ``mu`` integrated out, ``S ~ Wishart(beta, (beta W)^{-1})``.
+        With ``beta W = F F^T`` (``F = sqrt(beta) GW``) and ``A`` a Bartlett factor of ``Wishart(beta, I)``,
+        ``S = F^{-T} A A^T F^{-1}``, so ``S^{-1} = M^T M`` with ``M = A^{-1} F^T``: no inverse of a
+        possibly ill-conditioned ``W`` is formed.
+        """
+        D = xi.shape[0]
+        A = _wishart_cholesky(rng, beta, np.eye(D))
+        # (scipy.linalg.solve_triangular took milliseconds per 3 x 3 call on a busy machine; numpy does not)
+        M = np.linalg.solve(A, math.sqrt(beta) * GW.T)
+        N = np.linalg.inv(GR)  # R^{-1} = N^T N
+        return xi.copy(), M.T @ M + N.T @ N
+
+    @staticmethod
+    def _precision_cholesky(cov: np.ndarray) -> np.ndarray:
+        """Upper ``U`` with ``U U^T`` = ``cov^{-1}`` (scikit-learn's ``precisions_cholesky_``)."""
+        D = cov.shape[0]
+        try:
+            C = np.linalg.cholesky(cov)
+        except np.linalg.LinAlgError:
+            level = float(np.trace(cov)) / D
+            C = np.linalg.cholesky(cov + 1e-12 * max(level, 1e-300) * np.eye(D))
+        return np.linalg.inv(C).T
+
+    def _store_predictive(self, runs, snap_sweeps, burn_in, n, rng) -> None:
+        """Pack the saved components of (at most _PREDICTIVE_SAMPLES per chain) saved sweeps for predict."""
+        K = self.n_clusters_
+        D = self.n_features_in_
+        mus, Ls, ldets, logw, share, owner, new_mu, new_prec, new_ldet, new_logw = ([] for _ in range(10))
+        post_sweeps = snap_sweeps >= burn_in
+        for run in runs:
+            labels = run["labels"][post_sweeps]
+            pick = np.unique(
+                np.linspace(0, len(run["samples"]) - 1, min(_PREDICTIVE_SAMPLES, len(run["samples"]))).astype(
+                    int
+                )
+            )
+            for k in pick:
+                smp = run["samples"][k]
+                alpha, d, beta = smp["sc"]
+                Ks = smp["cnt"].size
+                s = len(new_logw)
+                mus.append(smp["mu"])
+                Ls.append(smp["L"])
+                ldets.append(smp["ldet"])
+                logw.append(np.log((smp["cnt"] - d) / (n + alpha)))
+                table = np.zeros((Ks, K))
+                np.add.at(table, (labels[k], self.labels_), 1.0)
+                share.append(table / table.sum(axis=1, keepdims=True))
+                owner.append(np.full(Ks, s))
+                xi, cov = self._new_component_gaussian(smp["xi"], smp["GR"], smp["GW"], beta, rng)
+                U = self._precision_cholesky(cov)  # upper, U U^T = cov^{-1}
+                new_mu.append(xi)
+                new_prec.append(U)
+                new_ldet.append(2.0 * np.log(np.abs(np.diag(U))).sum())
+                new_logw.append(math.log((alpha + d * Ks) / (n + alpha)))
+        self._pred = {
+            "mu": np.concatenate(mus).reshape(-1, D),
+            "L": np.concatenate(Ls).reshape(-1, D, D),
+            "ldet": np.concatenate(ldets),
+            "logw": np.concatenate(logw),
+            "share": np.concatenate(share),
+            "owner": np.concatenate(owner),
+            "new_mu": np.stack(new_mu),
+            "new_L": np.stack(new_prec),
+            "new_ldet": np.array(new_ldet),
+            "new_logw": np.array(new_logw),
+        }
+
+    # ------------------------------------------------------------------------------------------
+    # prediction
+    # ------------------------------------------------------------------------------------------
+    def _whiten(self, X: object) -> np.ndarray:
+        check_is_fitted(self)
+        X = validate_data(self, _as_array(X), dtype=np.float64, reset=False)
+        return np.linalg.solve(self.data_scale_, (X - self.data_mean_).T).T
+
+    def _point_scores(self, X: object) -> tuple[np.ndarray, np.ndarray]:
+        """(n, K) ``log P(join k) + log N(x | k)`` and (n,) ``log P(new) + log p_new(x)``, original coordinates."""
+        check_is_fitted(self)
+        X = validate_data(self, _as_array(X), dtype=np.float64, reset=False)
+        known = _log_gauss_upper(X, self.means_, self.precisions_cholesky_)
+        known += np.log(self.weights_ * (1 - self.novelty_weight_))
+        new = _log_gauss_upper(X, self._novelty_means, self._novelty_precisions_cholesky)
+        M = self._novelty_means.shape[0]
+        return known, np.logaddexp.reduce(new, axis=1) - math.log(M) + math.log(self.novelty_weight_)
+
+    def _posterior_predictive(self, X: object) -> tuple[np.ndarray, np.ndarray]:
+        """(n, K) probability of joining each point-estimate cluster and (n,) of a new component, averaged over samples."""
+        Z = self._whiten(X)
+        p = self._pred
+        S = p["new_logw"].size
+        n, K = Z.shape[0], self.n_clusters_
+        joint = np.zeros((n, K))
+        new = np.zeros(n)
+        starts = np.flatnonzero(np.r_[True, p["owner"][1:] != p["owner"][:-1]])
+        bounds = np.r_[starts, p["owner"].size]
+        step = max(1, int(2e6 // max(1, n * (bounds[-1] / S) * Z.shape[1])))
+        for s0 in range(0, S, step):
+            s1 = min(S, s0 + step)
+            lo, hi = bounds[s0], bounds[s1]
+            comp = p["logw"][lo:hi] + _log_gauss(Z, p["mu"][lo:hi], p["L"][lo:hi], p["ldet"][lo:hi])
+            fresh = p["new_logw"][s0:s1] + _log_gauss(
+                Z, p["new_mu"][s0:s1], p["new_L"][s0:s1], p["new_ldet"][s0:s1]
+            )
+            seg = starts[s0:s1] - lo
+            top = np.maximum(np.maximum.reduceat(comp, seg, axis=1), fresh)
+            owner = p["owner"][lo:hi] - s0
+            e = np.exp(comp - top[:, owner])
+            ef = np.exp(fresh - top)
+            total = np.add.reduceat(e, seg, axis=1) + ef
+            joint += (e / total[:, owner]) @ p["share"][lo:hi]
+            new += (ef / total).sum(axis=1)
+        return joint / S, new / S
+
+    def _cluster_and_new(self, X: object, using: str) -> tuple[np.ndarray, np.ndarray]:
+        if using == "samples":
+            return self._posterior_predictive(X)
+        if using == "point":
+            known, new = self._point_scores(X)
+            top = np.maximum(known.max(axis=1), new)
+            e, en = np.exp(known - top[:, None]), np.exp(new - top)
+            total = e.sum(axis=1) + en
+            return e / total[:, None], en / total
+        raise ValueError(f"using must be 'samples' or 'point', got {using!r}")
+
+    def predict(self, X: object, *, using: str = "samples") -> np.ndarray:
+        """Return the cluster (0 … K-1) of every row of ``X`` (n, D), or -1 where it is novel; shape (n,).
+
+        ``using="samples"``: the posterior predictive averaged over saved partitions (default);
+        ``"point"``: the point estimate's components, as in the exported graph. A row is novel when
+        the probability of a new component exceeds that of every cluster.
+        """
+        joint, new = self._cluster_and_new(X, using)
+        labels = np.argmax(joint, axis=1)
+        labels[new > joint.max(axis=1)] = -1
+        return labels
+
+    def predict_proba(self, X: object, *, using: str = "samples") -> np.ndarray:
+        """Return the probability of each cluster for every row of ``X``, given that it joins one: (n, K), rows sum to 1."""
+        joint, _ = self._cluster_and_new(X, using)
+        return joint / joint.sum(axis=1, keepdims=True)
+
+    def novelty_proba(self, X: object, *, using: str = "samples") -> np.ndarray:
+        """Return the probability that each row of ``X`` opens a new component (a new surface), shape (n,)."""
+        return self._cluster_and_new(X, using)[1]
+
+    def score_samples(self, X: object) -> np.ndarray:
+        """Return the log density of every row of ``X`` under the point estimate's mixture (``weights_``), shape (n,)."""
+        known, _ = self._point_scores(X)
+        return np.logaddexp.reduce(known - math.log(1 - self.novelty_weight_), axis=1)
+
+    def fit_predict(self, X: object, y: object = None) -> np.ndarray:
+        """Fit and return ``labels_`` (the point estimate of the training points' partition)."""
+        return self.fit(X).labels_
+
+    # ------------------------------------------------------------------------------------------
+    # summaries and export
+    # ------------------------------------------------------------------------------------------
+    def n_clusters_posterior(self) -> dict[int, float]:
+        """Return the posterior distribution of K (share of post-burn-in sweeps of all chains), as {K: probability}."""
+        check_is_fitted(self)
+        values, counts = np.unique(self.n_clusters_samples_, return_counts=True)
+        return {int(v): float(c) / self.n_clusters_samples_.size for v, c in zip(values, counts, strict=True)}
+
+    def posterior_similarity(self) -> np.ndarray:
+        """Return the posterior similarity matrix (n, n): probability that two training points share a component."""
+        check_is_fitted(self)
+        return posterior_similarity(self._saved_partitions())
+
+    def summary(self) -> str:
+        """Return a readable summary: the posterior of K first, then the point estimate, the MAP sample, convergence."""
+        check_is_fitted(self)
+        ks = self.n_clusters_summary_
+        post = self.n_clusters_posterior()
+        chains, n_iter = self.trace_["n_clusters"].shape
+        loss = "expected VI" if self.point_estimate != "binder" else "expected Binder loss"
+        what = {
+            "vi": "minimises the expected VI",
+            "binder": "minimises Binder's loss",
+            "map": "the MAP sample",
+        }
+        lines = [
+            f"PitmanYorGMM: {chains} chain(s) x {n_iter} sweeps ({self.n_clusters_samples_.size // chains} "
+            f"per chain after burn-in), {self.sweep_seconds_ * 1e3:.2f} ms/sweep, {self.fit_seconds_:.1f} s",
+            f"K, posterior: mode {ks['mode']} (p = {ks['mode_probability']:.3f}), median {ks['median']:g}, "
+            f"95% interval [{ks['interval'][0]:g}, {ks['interval'][1]:g}]",
+            f"point estimate ({what[self.point_estimate]}; {loss} {self.expected_loss_:.4f}): "
+            f"{self.n_clusters_} clusters",
+            f"MAP sample (largest joint density; under-counts K): K = {self.map_n_clusters_} "
+            f"(chain {self.map_chain_}, sweep {self.map_sweep_})",
+            "P(K): " + ", ".join(f"{k}: {p:.3f}" for k, p in sorted(post.items(), key=lambda kv: -kv[1])[:8]),
+            "convergence (rank-normalised split R-hat; bulk / tail ESS): "
+            + "; ".join(
+                f"{r['quantity']} {r['R-hat']:.3f} ({r['ESS bulk']:.0f} / {r['ESS tail']:.0f})"
+                for r in self.convergence_
+            ),
+        ]
+        bad = [r["quantity"] for r in self.convergence_ if np.isfinite(r["R-hat"]) and not r["converged"]]
+        if bad:
+            lines.append(
+                f"WARNING: R-hat > {RHAT_THRESHOLD} for {', '.join(bad)}: the chains disagree, run longer"
+            )
+        for name, s in (
+            ("alpha", self.alpha_samples_),
+            ("d", self.discount_samples_),
+            ("beta", self.beta_samples_),
+        ):
+            q = np.quantile(s, [0.025, 0.5, 0.975])
+            lines.append(f"{name}: median {q[1]:.3g}, 95% interval [{q[0]:.3g}, {q[2]:.3g}]")
+        st = self.split_merge_stats_
+        lines.append(
+            f"split-merge: {st['split_accepted']}/{st['split_proposed']} splits, "
+            f"{st['merge_accepted']}/{st['merge_proposed']} merges accepted"
+        )
+        return "\n".join(lines)
+
+    def to_module(self):
+        """Return the point estimate's mixture as a torch module ``features (B, D) -> (labels, log_resp, novel)``.
+
+        Components: ``means_``, ``precisions_cholesky_``, ``log(weights_)``. Novelty: a row is novel
+        when ``log novelty_weight_ + log p_new(x)`` exceeds ``log((1 - novelty_weight_) w_k) + log
+        N(x | k)`` for every k, with ``p_new`` the prior predictive density of a new component
+        approximated by an equal mixture of 64 Gaussians ``N(xi, S^{-1} + R^{-1})`` (``S`` drawn from
+        its prior, hyperparameters from the fixed-partition run): exactly :meth:`predict` with
+        ``using="point"``.
+        """
+        check_is_fitted(self)
+        from ._inference import GaussianMixtureClassifier
+
+        return GaussianMixtureClassifier(
+            self.means_,
+            self.precisions_cholesky_,
+            np.log(self.weights_),
+            novelty_means=self._novelty_means,
+            novelty_precisions_cholesky=self._novelty_precisions_cholesky,
+            novelty_log_weight=math.log(self.novelty_weight_) - math.log(1.0 - self.novelty_weight_),
+        )

@@ -1,0 +1,48 @@
+"""Speed against accuracy: evaluate candidate models on a data file and recommend the simplest adequate one.
+
+What ``tactile-torch tradeoff`` runs (docs/tradeoff.md). For a data file of DESIGN.md's formats (image
+explorations, raw pressure maps from a small taxel array, vibration recordings or CSV logs, or a
+feature matrix), :func:`run_tradeoff` builds candidate models (:mod:`.candidates`: HM-SVM, SVC, LDA,
+kNN and nearest class mean on every feature set), cross-validates them with folds that keep related
+samples apart (:mod:`.inputs`), exports each to one ONNX file and times it under onnxruntime
+(:mod:`.evaluation`, :mod:`.export`), finds the Pareto front of accuracy against time to a decision
+and applies the one-standard-error rule (:mod:`.selection`); :func:`write_outputs` writes
+``tradeoff.json``, ``tradeoff.md`` and the charts (:mod:`.output`).
+
+Every candidate is a scikit-learn ``Pipeline`` that takes the raw input, with a ``features`` step
+(:mod:`.transformers`) and a ``classifier`` step; ``sklearn.base.clone`` gives an unfitted copy.
+
+Examples
+--------
+>>> result = run_tradeoff("recordings.npz", quick=True, out_dir="runs/tradeoff")  # doctest: +SKIP
+>>> write_outputs(result, "runs/tradeoff")                                       # doctest: +SKIP
+>>> result.recommended                                                           # doctest: +SKIP
+'LDA | 21 features, W = 800'
+"""
+
+from .candidates import CLASSIFIERS, Candidate, FeatureSet, build_candidates, feature_sets, make_classifier
+from .evaluation import CandidateResult
+from .inputs import Samples, TradeoffData, load_tradeoff_data
+from .output import summary_lines, write_outputs
+from .runner import TradeoffResult, run_tradeoff
+from .selection import fold_interval, one_standard_error_choice, pareto_front
+
+__all__ = [
+    "CLASSIFIERS",
+    "Candidate",
+    "CandidateResult",
+    "FeatureSet",
+    "Samples",
+    "TradeoffData",
+    "TradeoffResult",
+    "build_candidates",
+    "feature_sets",
+    "fold_interval",
+    "load_tradeoff_data",
+    "make_classifier",
+    "one_standard_error_choice",
+    "pareto_front",
+    "run_tradeoff",
+    "summary_lines",
+    "write_outputs",
+]

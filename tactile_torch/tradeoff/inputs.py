@@ -1,0 +1,402 @@
+"""The data of a trade-off study: one data file read through the package's loaders, cut into the raw
+inputs the candidates take, with cross-validation folds that never put related samples on both sides.
+
+Folds (every candidate of one raw input sees the same folds):
+
+* **Vibration windows** (non-overlapping, ``step = W``). When every class has at least two
+  recordings (or sessions, when the file gives ``session``), folds are grouped by recording
+  (scikit-learn's ``StratifiedGroupKFold``): a recording's windows are all on one side. Otherwise
+  (e.g. one recording per surface) every recording is cut into ``n_folds`` consecutive time blocks,
+  fold ``b`` tests block ``b`` of every recording, and the first window of every block but the first
+  is dropped, so that no two neighbouring windows of a recording are on different sides.
+* **Explorations and feature rows**: grouped by ``groups`` (object, subject, session) when the file
+  has them and every class has at least two groups; stratified folds otherwise.
+
+There are ``min(n_folds, smallest class count)`` folds (counted in groups or time blocks), at least
+2; fewer raise ``ValueError`` naming the class.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .._checks import RandomState, numpy_rng
+
+WINDOW_SIZES = (200, 400, 800, 1600)
+"""Window sizes the study tries (those the recordings allow), in samples."""
+DEFAULT_FRAME_RATE_HZ = 10.0
+"""Frames per second of an exploration file that does not say (the study's 10)."""
+
+Fold = tuple[np.ndarray, np.ndarray]
+
+
+@dataclass
+class Samples:
+    """One raw input of the study: what a candidate's ``features`` step takes, with labels and folds.
+
+    Attributes
+    ----------
+    key : str
+        ``"windows-<W>"``, ``"frames"``, ``"pressure"`` or ``"features"``.
+    X : ndarray
+        Raw input: windows ``(N, 3, W)`` float32, frames ``(N, T, 3, H, W)`` uint8, pressure maps
+        ``(N, T, H, W)`` float32 or features ``(N, F)`` float64.
+    y : ndarray of shape (N,), int64
+    folds : list of (train, test) index arrays
+    layout : str
+        Names of the input dimensions (``"B,3,W"`` ...).
+    acquisition_s : float
+        Seconds of sensor data one sample needs (``W / rate``, ``T / frame rate``; 0 for features).
+    split : str
+        How the folds were made, in words.
+    window : int or None
+    index : ndarray or None
+        Explorations and feature rows: the rows of the file kept (``max_per_class``).
+    groups : ndarray or None
+        What the folds keep on one side: recording (or session), a recording's time block, or the
+        file's ``groups``; ``None`` for plain stratified folds. For further grouped sweeps of the same
+        samples (e.g. breaking points).
+    """
+
+    key: str
+    X: np.ndarray
+    y: np.ndarray
+    folds: list[Fold]
+    layout: str
+    acquisition_s: float
+    split: str
+    window: int | None = None
+    index: np.ndarray | None = None
+    groups: np.ndarray | None = None
+
+
+@dataclass
+class TradeoffData:
+    """A data file read for the trade-off study.
+
+    Attributes
+    ----------
+    kind : {"vibration", "image", "pressure", "features"}
+    class_names : tuple of str
+    description : str
+    recordings : RecordingArrays, VibrationRecordings or None
+        Anything with ``signals``, ``labels``, ``class_names``, ``rate_hz`` and ``session``.
+    raw : ndarray or None
+        Frames, pressure maps or features (not vibration).
+    labels, groups : ndarray or None
+    rate_hz : float or None
+        Sample rate (vibration) or frame rate (explorations).
+    notes : list of str
+        What the loader decided (e.g. the frame rate it assumed).
+    precomputed : dict of str to (ndarray, float)
+        Features of every sample already computed elsewhere, by feature-set name (e.g. ``"fused 12"``),
+        with the seconds they took; used instead of computing them again (stateless steps only).
+    """
+
+    kind: str
+    class_names: tuple[str, ...]
+    description: str
+    recordings: object | None = None
+    raw: np.ndarray | None = None
+    labels: np.ndarray | None = None
+    groups: np.ndarray | None = None
+    rate_hz: float | None = None
+    notes: list[str] = field(default_factory=list)
+    precomputed: dict[str, tuple[np.ndarray, float]] = field(default_factory=dict)
+
+
+def load_tradeoff_data(
+    paths: str | Path | Sequence[str | Path],
+    *,
+    frame_rate_hz: float | None = None,
+    allow_pickle: bool = False,
+) -> TradeoffData:
+    """Read a data file (or CSV logs) for :func:`~tactile_torch.tradeoff.run_tradeoff`, with
+    :func:`tactile_torch.formats.read_data` (docs/formats.md).
+
+    Parameters
+    ----------
+    paths : path or sequence of paths
+        One ``.npz`` (image explorations ``frames``, raw pressure maps ``frames`` ``(N, T, H, W)``
+        float, vibration recordings ``signals`` or a ``features`` matrix with ``labels``), or vibration
+        CSV logs ``t,x,y,z`` (one recording per file, class from the file name).
+    frame_rate_hz : float, optional
+        Frames per second of explorations (default 10, the study's).
+    allow_pickle : bool
+        Legacy vibration files that pickled recordings of different lengths (trusted files only).
+
+    Raises
+    ------
+    ValueError
+        For an unknown file kind, a missing key or labels (one line naming the file).
+    FileNotFoundError
+        If a path does not exist.
+    """
+    from ..formats import data_name, read_data
+
+    data = read_data(paths, allow_pickle=allow_pickle)
+    name = Path(data_name(paths)).name
+    if data.kind == "vibration":
+        return vibration_data(data, name)
+    if data.kind == "image":
+        notes = []
+        if frame_rate_hz is None:
+            frame_rate_hz = DEFAULT_FRAME_RATE_HZ
+            notes.append(f"frame rate not given: {frame_rate_hz:g} frames/s assumed (--frame-rate to set it)")
+        kind = "pressure" if data.frames is None else "image"
+        raw = (
+            data.pressure
+            if kind == "pressure"
+            else np.ascontiguousarray(data.frames.transpose(0, 1, 4, 2, 3))
+        )
+        what = "taxels (raw pressure maps)" if kind == "pressure" else "pixels (RGB)"
+        return TradeoffData(
+            kind=kind,
+            class_names=tuple(data.class_names),
+            description=f"{name}: {len(data)} explorations of {raw.shape[1]} frames of "
+            f"{raw.shape[-2]} x {raw.shape[-1]} {what}",
+            raw=raw,
+            labels=data.labels,
+            groups=data.groups,
+            rate_hz=float(frame_rate_hz),
+            notes=notes,
+        )
+    if data.labels is None:
+        raise ValueError(
+            f"{data_name(paths)}: a feature file needs 'labels' next to 'features' to compare models"
+        )
+    return TradeoffData(
+        kind="features",
+        class_names=tuple(data.class_names),
+        description=f"{name}: {data.features.shape[0]} samples x {data.features.shape[1]} features",
+        raw=data.features,
+        labels=data.labels,
+    )
+
+
+def vibration_data(recordings: object, name: str) -> TradeoffData:
+    """Wrap recordings (``signals``, ``labels``, ``class_names``, ``rate_hz``, ``session``) for the study."""
+    lengths = [len(s) for s in recordings.signals]
+    return TradeoffData(
+        kind="vibration",
+        class_names=tuple(recordings.class_names),
+        description=f"{name}: {len(recordings.signals)} recordings of {min(lengths)}-{max(lengths)} samples at "
+        f"{recordings.rate_hz:g} Hz, {len(recordings.class_names)} classes",
+        recordings=recordings,
+        rate_hz=float(recordings.rate_hz),
+    )
+
+
+# ------------------------------------------------------------------------------------------- folds
+def _group_ids(values: np.ndarray) -> np.ndarray:
+    return np.unique(np.asarray(values).astype(str), return_inverse=True)[1]
+
+
+def _class_name(names: Sequence[str], c: int) -> str:
+    return names[c] if 0 <= c < len(names) else str(c)
+
+
+def _check_folds(folds: list[Fold], y: np.ndarray, names: Sequence[str], what: str) -> None:
+    """Every class needs 2 training samples in every fold (the SVMs learn from at least 2 per class)."""
+    classes = np.unique(y)
+    for train, _ in folds:
+        counts = np.bincount(y[train], minlength=classes.max() + 1)[classes]
+        if counts.min() < 2:
+            c = classes[counts.argmin()]
+            raise ValueError(
+                f"data: too few {what} of class {_class_name(names, c)!r} for the folds (a training fold "
+                f"holds {counts.min()}, at least 2 are needed); use fewer folds (--folds) or more data"
+            )
+
+
+def sample_folds(
+    y: np.ndarray,
+    groups: np.ndarray | None,
+    *,
+    n_folds: int,
+    names: Sequence[str],
+    what: str,
+    group_label: str = "the file's groups",
+    random_state: RandomState = None,
+) -> tuple[list[Fold], str]:
+    """Return stratified folds of ``y`` (grouped by ``groups`` when every class has two groups) and their description."""
+    from sklearn.model_selection import StratifiedGroupKFold, StratifiedKFold
+
+    seed = int(numpy_rng(random_state).integers(2**31))
+    classes, counts = np.unique(y, return_counts=True)
+    if len(classes) < 2:
+        raise ValueError(f"data: at least 2 classes are needed, got only {_class_name(names, classes[0])!r}")
+    note = ""
+    if groups is not None:
+        gid = _group_ids(groups)
+        per_class = np.array([len(np.unique(gid[y == c])) for c in classes])
+        k = min(n_folds, int(per_class.min()))
+        if k >= 2:
+            folds = list(StratifiedGroupKFold(k, shuffle=True, random_state=seed).split(y, y, gid))
+            _check_folds(folds, y, names, f"groups of {what}")
+            return folds, f"{k} folds grouped by {group_label} (none on both sides), stratified"
+        lonely = _class_name(names, classes[per_class.argmin()])
+        note = (
+            f"; not grouped: class {lonely!r} has a single group, so its samples share a group across folds"
+        )
+    k = min(n_folds, int(counts.min()))
+    if k < 2:
+        raise ValueError(
+            f"data: class {_class_name(names, classes[counts.argmin()])!r} has too few {what} ({counts.min()}); "
+            "cross-validation needs at least 2 per class"
+        )
+    folds = list(StratifiedKFold(k, shuffle=True, random_state=seed).split(y, y))
+    _check_folds(folds, y, names, what)
+    return folds, f"{k} stratified folds{note}"
+
+
+def _evenly(index: np.ndarray, cap: int) -> np.ndarray:
+    if len(index) <= cap:
+        return index
+    return index[np.unique(np.linspace(0, len(index) - 1, cap).round().astype(int))]
+
+
+def cap_per_class(y: np.ndarray, cap: int | None) -> np.ndarray:
+    """Indices keeping at most ``cap`` samples per class, evenly spaced in the given order (all if ``None``)."""
+    if cap is None:
+        return np.arange(len(y))
+    return np.sort(np.concatenate([_evenly(np.flatnonzero(y == c), cap) for c in np.unique(y)]))
+
+
+def vibration_samples(
+    recordings: object,
+    window: int,
+    *,
+    n_folds: int,
+    max_per_class: int | None = None,
+    random_state: RandomState = None,
+) -> Samples:
+    """Cut ``recordings`` into non-overlapping windows of ``window`` samples with folds (module notes).
+
+    Raises
+    ------
+    ValueError
+        If ``window`` is longer than the recordings of a class, or leaves too few windows for the folds.
+    """
+    names = recordings.class_names
+    lengths = np.array([len(s) for s in recordings.signals])
+    for c, name in enumerate(names):
+        longest = lengths[recordings.labels == c].max(initial=0)
+        if longest < window:
+            raise ValueError(
+                f"window: {window} samples is longer than every recording of class {name!r} (longest "
+                f"{longest} samples = {longest / recordings.rate_hz:g} s at {recordings.rate_hz:g} Hz); "
+                "choose a shorter --window"
+            )
+    from ..formats import window_recordings
+
+    ds = window_recordings(recordings.signals, window)
+    X, recording, position = ds.windows, ds.recording, ds.position
+    y = np.asarray(recordings.labels)[recording]
+    rate = float(recordings.rate_hz)
+    session = recordings.session if recordings.session is not None else np.arange(len(recordings))
+    group = _group_ids(np.asarray(session))[recording]
+    per_class = np.array([len(np.unique(group[y == c])) for c in np.unique(y)])
+    if per_class.min() >= 2:
+        keep = cap_per_class(y, max_per_class)
+        folds, split = sample_folds(
+            y[keep],
+            group[keep],
+            n_folds=n_folds,
+            names=names,
+            what="recordings",
+            group_label="session" if recordings.session is not None else "recording",
+            random_state=random_state,
+        )
+    else:  # one recording for some class: consecutive time blocks of every recording, a guard between
+        group, keep, folds, split = _time_blocks(
+            recording, position, y, window, n_folds, max_per_class, names
+        )
+    split = f"{len(keep)} windows; {split}"
+    X, y, group = X[keep], y[keep], group[keep]
+    return Samples(f"windows-{window}", X, y, folds, "B,3,W", window / rate, split, window, groups=group)
+
+
+def _time_blocks(
+    recording: np.ndarray,
+    position: np.ndarray,
+    y: np.ndarray,
+    window: int,
+    n_folds: int,
+    max_per_class: int | None,
+    names: Sequence[str],
+) -> tuple[np.ndarray, np.ndarray, list[Fold], str]:
+    """Time-block folds: ``(block of each window, windows kept, folds over the kept ones, description)``."""
+    present = np.unique(recording)
+    n_windows = np.bincount(recording)[present]
+    blocks = min(n_folds, int(n_windows.min() // 2))  # every later block keeps a window after its guard
+    if blocks < 2:
+        short = names[int(y[recording == present[n_windows.argmin()]][0])]
+        raise ValueError(
+            f"window: {window} samples leaves a recording of class {short!r} only {n_windows.min()} window(s); "
+            "time-block folds need at least 4 (two blocks of two, one a guard): choose a shorter --window"
+        )
+    count = np.bincount(recording)[recording]
+    block = position * blocks // count
+    guard = (position > 0) & (block != (position - 1) * blocks // count)
+    keep = np.flatnonzero(~guard)
+    keep = keep[cap_per_class(y[keep], max_per_class)]
+    folds = [(np.flatnonzero(block[keep] != b), np.flatnonzero(block[keep] == b)) for b in range(blocks)]
+    _check_folds(folds, y[keep], names, "windows")
+    split = (
+        f"{blocks} folds of consecutive time blocks of every recording (a class has a single recording); "
+        "the first window of each later block is dropped so that no neighbouring windows are split"
+    )
+    return recording * blocks + block, keep, folds, split
+
+
+def allowed_windows(
+    recordings: object, candidates: Sequence[int], *, n_folds: int
+) -> tuple[list[int], list[str]]:
+    """Return the window sizes of ``candidates`` that leave enough windows for the folds, and why others do not."""
+    allowed, reasons = [], []
+    for w in sorted(set(int(c) for c in candidates)):
+        try:
+            vibration_samples(recordings, w, n_folds=n_folds, max_per_class=2 * n_folds)
+        except ValueError as err:
+            reasons.append(f"W = {w} left out: {err}")
+            continue
+        allowed.append(w)
+    return allowed, reasons
+
+
+def exploration_samples(
+    data: TradeoffData, *, n_folds: int, max_per_class: int | None = None, random_state: RandomState = None
+) -> Samples:
+    """The explorations (frames or pressure maps) or feature rows of ``data`` with their folds."""
+    keep = cap_per_class(data.labels, max_per_class)
+    X, y = data.raw[keep], data.labels[keep]
+    groups = None if data.groups is None else data.groups[keep]
+    what = "samples" if data.kind == "features" else "explorations"
+    folds, split = sample_folds(
+        y, groups, n_folds=n_folds, names=data.class_names, what=what, random_state=random_state
+    )
+    layout = {"image": "B,T,3,H,W", "pressure": "B,T,H,W", "features": "B,F"}[data.kind]
+    key = {"image": "frames", "pressure": "pressure", "features": "features"}[data.kind]
+    acquisition = 0.0 if data.kind == "features" else X.shape[1] / float(data.rate_hz)
+    split = f"{len(keep)} {what}; {split}"
+    return Samples(key, X, y, folds, layout, acquisition, split, index=keep, groups=groups)
+
+
+__all__ = [
+    "DEFAULT_FRAME_RATE_HZ",
+    "WINDOW_SIZES",
+    "Samples",
+    "TradeoffData",
+    "allowed_windows",
+    "cap_per_class",
+    "exploration_samples",
+    "load_tradeoff_data",
+    "sample_folds",
+    "vibration_data",
+    "vibration_samples",
+]

@@ -1,0 +1,448 @@
+"""``run_tradeoff``: a data file → candidates → accuracy, speed and size → the recommended model."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .candidates import build_candidates, feature_sets
+from .evaluation import CandidateResult, cross_validate, export_and_time, submit_fronts
+from .export import ExportPool
+from .inputs import (
+    WINDOW_SIZES,
+    Samples,
+    TradeoffData,
+    allowed_windows,
+    exploration_samples,
+    load_tradeoff_data,
+    vibration_samples,
+)
+from .selection import fold_interval, one_standard_error_choice, pareto_front
+
+STUDY_WINDOW = 800
+"""The vibration study's reference window (samples)."""
+WHITE_SHARE = 0.10
+"""RGB explorations: the study's threshold (240/255) is used when at least this share of the pixels is
+white (>= 240/255, a pressure-mapping display's background); else Otsu's threshold of the histogram."""
+MAX_PER_CLASS = {"quick": 60, "full": 300}
+"""At most this many samples (windows) per class and raw input, evenly spaced in time."""
+
+
+@dataclass
+class TradeoffResult:
+    """The outcome of :func:`run_tradeoff`.
+
+    Attributes
+    ----------
+    data : TradeoffData
+    results : list of CandidateResult
+        In candidate order; ``accuracy``, intervals and ``pareto`` in :attr:`rows`.
+    rows : list of dict
+        One per candidate: the fields of ``tradeoff.json``.
+    recommended, runner_up : str or None
+        Candidate names (``runner_up`` is ``None`` with a single eligible candidate).
+    splits : dict of str to str
+        How each raw input was split into folds.
+    notes : list of str
+    seconds : float
+    exports : int
+        Distinct exported parts (feature graphs and classifier structures) the candidates' files join.
+    study_model : str or None
+        The studies' own model among the candidates: the HM-SVM on the reference feature set (fused 12
+        for images, the 21 features at the reference window for vibration), if it was evaluated.
+    inputs : dict of str to Samples
+        The raw inputs and folds the candidates were evaluated on (for further sweeps of the
+        candidates' estimators, e.g. breaking points under degraded input).
+    breaking_points : dict or None
+        Filled by a breaking-point study of the candidates (issue 12, points 4-5) before
+        :func:`~.output.write_outputs`: ``{"rows": [...], "figures": [paths]}`` and anything
+        JSON-serialisable; written to ``tradeoff.json`` and as a table and charts in ``tradeoff.md``.
+    """
+
+    data: TradeoffData
+    results: list[CandidateResult]
+    rows: list[dict]
+    recommended: str | None
+    runner_up: str | None
+    splits: dict[str, str]
+    notes: list[str] = field(default_factory=list)
+    seconds: float = 0.0
+    exports: int = 0
+    study_model: str | None = None
+    inputs: dict[str, Samples] = field(default_factory=dict, repr=False)
+    breaking_points: dict | None = None
+
+    def row(self, name: str) -> dict:
+        """Return the row of candidate ``name``."""
+        for r in self.rows:
+            if r["name"] == name:
+                return r
+        raise KeyError(name)
+
+    def result(self, name: str) -> CandidateResult:
+        """Return the :class:`~.evaluation.CandidateResult` of candidate ``name`` (its estimator, fitted model)."""
+        for res in self.results:
+            if res.candidate.name == name:
+                return res
+        raise KeyError(name)
+
+
+def _white_share(frames: np.ndarray) -> float:
+    import torch
+
+    from ..image import DEFAULT_THRESHOLD, to_grayscale
+
+    sample = frames[:: max(1, len(frames) // 16), :: max(1, frames.shape[1] // 10)]
+    gray = to_grayscale(torch.from_numpy(np.ascontiguousarray(sample)))
+    return float((gray >= DEFAULT_THRESHOLD).float().mean())
+
+
+def _resolve_threshold(data: TradeoffData, threshold: float | str, notes: list[str]) -> float | str:
+    from ..image import DEFAULT_THRESHOLD
+
+    if data.kind != "image" or threshold != "auto":
+        return threshold
+    share = _white_share(data.raw)
+    if share >= WHITE_SHARE:
+        notes.append(
+            f"threshold: the study's 240/255 ({share:.0%} of the pixels are white, a display background)"
+        )
+        return DEFAULT_THRESHOLD
+    notes.append(
+        f"threshold: from each training fold's histogram (Otsu): only {share:.0%} of the pixels are white, "
+        "so the study's 240/255 does not fit this display (--threshold to set one)"
+    )
+    return "otsu"
+
+
+def _vibration_inputs(
+    data: TradeoffData,
+    *,
+    window: int | None,
+    windows: Sequence[int] | None,
+    quick: bool,
+    n_folds: int,
+    cap: int | None,
+    random_state: int,
+    notes: list[str],
+) -> tuple[list[int], dict[str, Samples]]:
+    rec = data.recordings
+    if window is not None:  # raises, naming the window, when it does not fit the recordings
+        vibration_samples(rec, window, n_folds=n_folds, max_per_class=2 * n_folds)
+    tried = list(windows) if windows is not None else sorted({*WINDOW_SIZES, *([window] if window else [])})
+    allowed, reasons = allowed_windows(rec, tried, n_folds=n_folds)
+    notes.extend(reasons)
+    if window is not None and window not in allowed:
+        allowed.append(window)
+    if not allowed:
+        longest = max(len(s) for s in rec.signals)
+        raise ValueError(
+            f"window: none of the window sizes {tried} fits the recordings (longest {longest} samples at "
+            f"{rec.rate_hz:g} Hz) with {n_folds} folds; pass --window"
+        )
+    if window is None:
+        shorter = [w for w in allowed if w <= STUDY_WINDOW]
+        window = max(shorter) if shorter else min(allowed)
+    others = [w for w in allowed if w != window]
+    if quick and others:
+        others = [min(others)]
+    chosen = [window, *others]
+    inputs = {}
+    for w in chosen:
+        s = vibration_samples(rec, w, n_folds=n_folds, max_per_class=cap, random_state=random_state)
+        inputs[s.key] = s
+    return chosen, inputs
+
+
+@dataclass
+class TradeoffPlan:
+    """What :func:`plan_tradeoff` decided: the raw inputs with their folds and the candidates.
+
+    Attributes
+    ----------
+    data : TradeoffData
+    inputs : dict of str to Samples
+    candidates : list of Candidate
+    notes : list of str
+    precomputed : dict
+        Features already known (see :attr:`TradeoffData.precomputed`), by features key.
+    seconds : float
+        Time spent planning.
+    """
+
+    data: TradeoffData
+    inputs: dict[str, Samples]
+    candidates: list
+    notes: list[str]
+    precomputed: dict = field(default_factory=dict)
+    seconds: float = 0.0
+
+
+def plan_tradeoff(
+    data: str | Path | Sequence[str | Path] | TradeoffData,
+    *,
+    quick: bool = False,
+    n_folds: int = 5,
+    window: int | None = None,
+    windows: Sequence[int] | None = None,
+    frame_rate_hz: float | None = None,
+    threshold: float | str = "auto",
+    erosion: int | str = "relative",
+    contact: str = "raises",
+    max_per_class: int | str | None = "auto",
+    classifiers: Sequence[str] | None = None,
+    features: Sequence[str] | None = None,
+    random_state: int = 0,
+    allow_pickle: bool = False,
+    log: Callable[[str], None] = print,
+) -> TradeoffPlan:
+    """Read the data, cut the raw inputs, make the folds and the candidates.
+
+    Parameters
+    ----------
+    data : path(s) or TradeoffData
+        See :func:`~.inputs.load_tradeoff_data`.
+    quick : bool
+        Fewer candidates (every classifier on the reference feature set, HM-SVM and LDA on the others;
+        two window sizes; one best-ranked subset) and at most 60 samples per class.
+    n_folds : int
+        Cross-validation folds (fewer when a class has fewer samples or groups).
+    window : int, optional
+        Vibration: the reference window (default: the study's 800 samples, or the largest allowed
+        below it); ``windows`` overrides the list of sizes tried (default 200, 400, 800, 1600).
+    frame_rate_hz : float, optional
+        Explorations: frames per second (default 10, the study's).
+    threshold : "auto", "otsu", "display" or float
+        Image pipeline's pressed threshold. RGB frames: ``"auto"`` takes the study's 240/255 for
+        displays with a white background, Otsu's threshold of each training fold's histogram
+        otherwise; a float is a gray level in (0, 1]. Raw pressure maps: ``"auto"`` is ``"display"``
+        (see :class:`~.transformers.PressureImageFeatures`); a float is a fraction of the pressure scale.
+    erosion : "relative" or int
+    contact : {"raises", "lowers", "auto"}
+        Raw pressure maps: which way contact moves a reading.
+    max_per_class : int, None or "auto"
+        Samples kept per class and raw input (evenly spaced); ``"auto"``: 60 (quick) or 300.
+    classifiers : sequence of str, optional
+        Only these of :data:`~.candidates.CLASSIFIERS`.
+    features : sequence of str, optional
+        Only the feature sets whose name starts with one of these (e.g. ``["fused", "per-taxel"]``).
+    random_state : int
+    allow_pickle : bool
+    log : callable
+        Receives one line per stage.
+
+    Returns
+    -------
+    TradeoffPlan
+    """
+    from .._checks import check_positive
+    from .evaluation import features_key
+
+    start = time.perf_counter()
+    check_positive(n_folds, "n_folds", integer=True)
+    if n_folds < 2:
+        raise ValueError(f"n_folds must be >= 2, got {n_folds}")
+    if window is not None:
+        check_positive(window, "window", integer=True)
+    if not isinstance(data, TradeoffData):
+        data = load_tradeoff_data(data, frame_rate_hz=frame_rate_hz, allow_pickle=allow_pickle)
+    cap = MAX_PER_CLASS["quick" if quick else "full"] if max_per_class == "auto" else max_per_class
+    notes = list(data.notes)
+    log(f"[tradeoff] {data.description}")
+    if data.kind == "vibration":
+        chosen, inputs = _vibration_inputs(
+            data,
+            window=window,
+            windows=windows,
+            quick=quick,
+            n_folds=n_folds,
+            cap=cap,
+            random_state=random_state,
+            notes=notes,
+        )
+        sets, more = feature_sets("vibration", (), windows=chosen, quick=quick)
+    else:
+        s = exploration_samples(data, n_folds=n_folds, max_per_class=cap, random_state=random_state)
+        inputs = {s.key: s}
+        resolved = _resolve_threshold(data, threshold, notes)
+        sets, more = feature_sets(
+            data.kind,
+            s.X.shape[1:],
+            n_features=s.X.shape[1] if data.kind == "features" else None,
+            quick=quick,
+            threshold=resolved,
+            erosion=erosion,
+            contact=contact,
+        )
+    notes.extend(more)
+    if features is not None:
+        kept = [fs for fs in sets if any(fs.name.startswith(prefix) for prefix in features)]
+        if not kept:
+            raise ValueError(
+                f"features must start some of the feature sets {[fs.name for fs in sets]}, got {list(features)}"
+            )
+        notes.extend(f"feature set {fs.name!r} left out (features=)" for fs in sets if fs not in kept)
+        sets = kept
+    candidates = build_candidates(sets, quick=quick, classifiers=classifiers, random_state=random_state)
+    if not candidates:
+        raise ValueError(f"classifiers {list(classifiers)} leave no candidate in this mode (quick={quick})")
+    precomputed = {}
+    for cand in candidates:
+        known = data.precomputed.get(cand.features)
+        step = cand.estimator.named_steps["features"]
+        if known is not None and getattr(step, "stateless", False):
+            index = inputs[cand.input].index
+            F, seconds = known
+            precomputed[features_key(cand)] = (F[index], seconds * len(index) / len(F))
+    return TradeoffPlan(data, inputs, candidates, notes, precomputed, time.perf_counter() - start)
+
+
+def execute_plan(
+    plan: TradeoffPlan,
+    pool: ExportPool,
+    *,
+    out_dir: str | Path = "runs/tradeoff",
+    progress: bool = True,
+    log: Callable[[str], None] = print,
+) -> TradeoffResult:
+    """Cross-validate, export and time the candidates of ``plan`` (fronts already submitted to ``pool``)."""
+    start = time.perf_counter()
+    data, inputs = plan.data, plan.inputs
+    submit_fronts(plan.candidates, inputs, pool)
+    log(f"[tradeoff] {len(plan.candidates)} candidates, {len(inputs)} raw input(s); cross-validating")
+    stage = time.perf_counter()
+    results = cross_validate(plan.candidates, inputs, precomputed=plan.precomputed, progress=progress)
+    log(
+        f"[tradeoff] cross-validation: {time.perf_counter() - stage:.1f} s; exporting every candidate to ONNX"
+    )
+    stage = time.perf_counter()
+    meta = {"sample_rate_hz": data.rate_hz} if data.kind == "vibration" else {}
+    parts = export_and_time(
+        results, inputs, data.class_names, Path(out_dir) / "models", pool, metadata=meta, progress=progress
+    )
+    log(f"[tradeoff] ONNX export and timing: {time.perf_counter() - stage:.1f} s ({parts} exported parts)")
+    rows, recommended, runner_up = summarise(results)
+    return TradeoffResult(
+        data=data,
+        results=results,
+        rows=rows,
+        recommended=recommended,
+        runner_up=runner_up,
+        splits={k: s.split for k, s in inputs.items()},
+        notes=plan.notes,
+        seconds=plan.seconds + time.perf_counter() - start,
+        exports=parts,
+        study_model=_study_model(plan),
+        inputs=inputs,
+    )
+
+
+def _study_model(plan: TradeoffPlan) -> str | None:
+    reference = plan.candidates[0].features if plan.candidates else None
+    for cand in plan.candidates:
+        if cand.classifier == "HM-SVM" and cand.features == reference:
+            return cand.name
+    return None
+
+
+def run_tradeoff(
+    data: str | Path | Sequence[str | Path] | TradeoffData,
+    *,
+    out_dir: str | Path = "runs/tradeoff",
+    progress: bool = True,
+    background: bool = True,
+    log: Callable[[str], None] = print,
+    **options: object,
+) -> TradeoffResult:
+    """Evaluate every candidate model on a data file and recommend the simplest that does the job.
+
+    Plans the study (:func:`plan_tradeoff`, which takes ``data`` and ``options``: ``quick``,
+    ``n_folds``, ``window``, ``windows``, ``frame_rate_hz``, ``threshold``, ``erosion``, ``contact``,
+    ``max_per_class``, ``classifiers``, ``features``, ``random_state``, ``allow_pickle``), then
+    cross-validates, exports and times the candidates (:func:`execute_plan`).
+
+    Parameters
+    ----------
+    data : path(s) or TradeoffData
+        See :func:`~.inputs.load_tradeoff_data`.
+    out_dir : path
+        The candidates' ``.onnx`` files go to ``out_dir / "models"``.
+    progress : bool
+        Progress bars (stderr).
+    background : bool
+        Export the feature graphs in a second process while cross-validating.
+    log : callable
+        Receives one line per stage.
+    **options
+        See :func:`plan_tradeoff`.
+
+    Returns
+    -------
+    TradeoffResult
+    """
+    plan = plan_tradeoff(data, log=log, **options)
+    with ExportPool(Path(out_dir) / "models" / "parts", background=background) as pool:
+        return execute_plan(plan, pool, out_dir=out_dir, progress=progress, log=log)
+
+
+def summarise(results: list[CandidateResult]) -> tuple[list[dict], str | None, str | None]:
+    """Return the JSON rows (with ``pareto``), the recommended candidate and the runner-up."""
+    rows = []
+    for res in results:
+        mean = se = low = high = None
+        if res.fold_accuracy:
+            mean, se, low, high = fold_interval(res.fold_accuracy)
+        c = res.candidate
+        rows.append(
+            {
+                "name": c.name,
+                "classifier": c.classifier,
+                "features": c.features,
+                "accuracy": mean,
+                "accuracy_low": low,
+                "accuracy_high": high,
+                "accuracy_se": se,
+                "fold_accuracy": list(res.fold_accuracy),
+                "fit_s": res.fit_s if res.fold_accuracy else None,
+                "latency_ms": res.latency_ms,
+                "size_bytes": res.size_bytes,
+                "decision_s": res.decision_s,
+                "pareto": False,
+                "onnx_file": res.onnx_file,
+                "onnx_agreement": res.onnx_agreement,
+                "notes": res.notes,
+            }
+        )
+    ok = [i for i, r in enumerate(rows) if r["decision_s"] is not None]
+    if not ok:
+        return rows, None, None
+    acc = np.array([rows[i]["accuracy"] for i in ok])
+    se = np.array([rows[i]["accuracy_se"] for i in ok])
+    cost = np.array([rows[i]["decision_s"] for i in ok])
+    size = np.array([rows[i]["size_bytes"] for i in ok], dtype=np.float64)
+    for i, on in zip(ok, pareto_front(acc, cost), strict=True):
+        rows[i]["pareto"] = bool(on)
+    first = one_standard_error_choice(acc, se, cost, size)
+    recommended = rows[ok[first]]["name"]
+    runner_up = None
+    if len(ok) > 1:
+        excluded = np.zeros(len(ok), dtype=bool)
+        excluded[first] = True
+        runner_up = rows[ok[one_standard_error_choice(acc, se, cost, size, exclude=excluded)]]["name"]
+    return rows, recommended, runner_up
+
+
+__all__ = [
+    "MAX_PER_CLASS",
+    "STUDY_WINDOW",
+    "TradeoffPlan",
+    "TradeoffResult",
+    "execute_plan",
+    "plan_tradeoff",
+    "run_tradeoff",
+    "summarise",
+]

@@ -1,0 +1,433 @@
+"""tactile_torch.tradeoff and tactile_torch.baselines: candidates, folds, parsimony rule, ONNX, command."""
+
+import json
+
+import numpy as np
+import pytest
+import torch
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy import stats
+from sklearn.base import clone
+from sklearn.discriminant_analysis import LinearDiscriminantAnalysis
+from sklearn.neighbors import KNeighborsClassifier, NearestCentroid
+
+from tactile_torch.baselines import inference_module
+from tactile_torch.cli import main
+from tactile_torch.data import make_vibration_recordings
+from tactile_torch.data.images import make_explorations
+from tactile_torch.signal import window_features
+from tactile_torch.tradeoff import (
+    build_candidates,
+    feature_sets,
+    fold_interval,
+    load_tradeoff_data,
+    one_standard_error_choice,
+    pareto_front,
+)
+from tactile_torch.tradeoff.evaluation import cross_validate
+from tactile_torch.tradeoff.export import Standardize, bind_head, export_head, head_key
+from tactile_torch.tradeoff.inputs import TradeoffData, exploration_samples, vibration_samples
+from tactile_torch.tradeoff.transformers import (
+    PressedFrames,
+    PressureImageFeatures,
+    RankedFeatureSelector,
+    TaxelFeatureTransformer,
+    relative_erosion,
+    taxel_features,
+)
+
+from .conftest import require_shared_data
+
+
+@pytest.fixture(scope="module")
+def recordings():
+    return make_vibration_recordings(4, duration_s=8, random_state=2)
+
+
+def _blobs(n=60, f=5, c=3, seed=0):
+    rng = np.random.default_rng(seed)
+    y = np.arange(n) % c
+    return rng.normal(size=(n, f)) + y[:, None] * 0.8, y
+
+
+# ---------------------------------------------------------------------------------------- baselines
+@pytest.mark.parametrize("classes", [2, 4])
+def test_baseline_modules_equal_scikit_learn(classes):
+    X, y = _blobs(80, 6, classes)
+    x = torch.from_numpy(X[:17])
+    lda = LinearDiscriminantAnalysis().fit(X, y)
+    labels, scores = inference_module(lda)(x)
+    np.testing.assert_array_equal(labels.numpy(), lda.predict(X[:17]))
+    decision = lda.decision_function(X[:17])
+    expected = np.stack([-decision, decision], 1) if classes == 2 else decision
+    np.testing.assert_allclose(scores.numpy(), expected, rtol=1e-10, atol=1e-10)
+    knn = KNeighborsClassifier(3, metric="cityblock", weights="distance").fit(X, y)
+    labels, scores = inference_module(knn)(torch.from_numpy(X[:17]))  # queries on training samples: d = 0
+    np.testing.assert_array_equal(labels.numpy(), knn.predict(X[:17]))
+    np.testing.assert_allclose(scores.numpy(), knn.predict_proba(X[:17]), atol=1e-12)
+    query = X[:17] + 0.1
+    labels, scores = inference_module(knn)(torch.from_numpy(query))
+    np.testing.assert_array_equal(labels.numpy(), knn.predict(query))
+    np.testing.assert_allclose(scores.numpy(), knn.predict_proba(query), rtol=1e-10)
+    ncm = NearestCentroid().fit(X, y)
+    labels, scores = inference_module(ncm)(torch.from_numpy(query))
+    np.testing.assert_array_equal(labels.numpy(), ncm.predict(query))
+    squared = ((query[:, None] - ncm.centroids_[None]) ** 2).sum(2)
+    np.testing.assert_allclose(scores.numpy(), (query**2).sum(1)[:, None] - squared, rtol=1e-9, atol=1e-9)
+
+
+def test_inference_module_errors():
+    X, y = _blobs()
+    with pytest.raises(TypeError, match="estimator must be a fitted"):
+        inference_module(object())
+    with pytest.raises(ValueError, match="city-block or Euclidean"):
+        inference_module(KNeighborsClassifier(metric="chebyshev").fit(X, y))
+    from sklearn.exceptions import NotFittedError
+
+    with pytest.raises(NotFittedError):
+        inference_module(LinearDiscriminantAnalysis())
+
+
+def test_head_template_binds_other_fits_and_runs_at_another_batch(tmp_path):
+    """One exported head structure, bound to two fits of different sizes, equals the eager modules."""
+    from tactile_torch._onnx import run_onnx
+    from tactile_torch.tradeoff.transformers import ColumnSelect
+
+    def head(seed, n, f, c):
+        X, y = _blobs(n, f, c, seed)
+        knn = KNeighborsClassifier(3, metric="cityblock", weights="distance").fit(X, y)
+        return [ColumnSelect(np.arange(f)), Standardize(X.mean(0), X.std(0)), inference_module(knn)]
+
+    first, second = head(0, 30, 4, 3), head(1, 50, 6, 5)
+    assert head_key(first, 4) == head_key(second, 6)  # one structure
+    import onnx
+
+    template = onnx.load(str(export_head(first, 4, tmp_path / "template.onnx")))
+    x = torch.randn(7, 6)  # exported at batch 2
+    path = tmp_path / "bound.onnx"
+    onnx.save(bind_head(template, second), str(path))
+    labels, scores = run_onnx(path, x.numpy())
+    with torch.no_grad():
+        want = torch.nn.Sequential(*second)(x)
+    np.testing.assert_array_equal(labels, want[0].numpy())
+    np.testing.assert_allclose(scores, want[1].numpy(), rtol=1e-6, atol=1e-9)
+
+
+# ---------------------------------------------------------------------------------------- selection
+def test_fold_interval_is_students_t():
+    acc = [0.8, 0.85, 0.9, 0.7, 0.75]
+    mean, se, low, high = fold_interval(acc)
+    lo, hi = stats.t.interval(0.95, 4, loc=np.mean(acc), scale=stats.sem(acc))
+    assert mean == pytest.approx(0.8) and se == pytest.approx(stats.sem(acc))
+    assert (low, high) == pytest.approx((lo, hi))
+    assert fold_interval([1.0, 1.0, 1.0])[2:] == (1.0, 1.0)
+    with pytest.raises(ValueError, match="at least 2 folds"):
+        fold_interval([0.9])
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.lists(st.tuples(st.integers(0, 20), st.integers(1, 20), st.integers(0, 5)), min_size=1, max_size=12)
+)
+def test_pareto_and_one_standard_error_rule(points):
+    acc = np.array([p[0] / 20 for p in points])
+    cost = np.array([float(p[1]) for p in points])
+    se = np.array([p[2] / 100 for p in points])
+    front = pareto_front(acc, cost)
+    for i in range(len(acc)):  # brute force: dominated iff some j is no worse in both and better in one
+        dominated = any(
+            acc[j] >= acc[i] and cost[j] <= cost[i] and (acc[j] > acc[i] or cost[j] < cost[i])
+            for j in range(len(acc))
+        )
+        assert front[i] == (not dominated)
+    choice = one_standard_error_choice(acc, se, cost)
+    best = max(np.flatnonzero(front), key=lambda i: (acc[i], -cost[i]))
+    assert front[choice] and acc[choice] >= acc[best] - se[best] - 1e-12
+    eligible = [i for i in np.flatnonzero(front) if acc[i] >= acc[best] - se[best] - 1e-12]
+    assert cost[choice] <= 1.1 * min(cost[i] for i in eligible)
+
+
+def test_one_standard_error_rule_prefers_the_cheaper_model_within_noise():
+    acc, se, cost = np.array([0.90, 0.89, 0.70]), np.array([0.02, 0.02, 0.05]), np.array([5.0, 1.0, 0.5])
+    assert one_standard_error_choice(acc, se, cost) == 1
+    assert one_standard_error_choice(acc, np.array([0.001, 0.02, 0.05]), cost) == 0  # outside 1 SE
+    runner = one_standard_error_choice(acc, se, cost, exclude=[False, True, False])
+    assert runner == 0
+    size = np.array([1.0, 9.0, 1.0])
+    # costs within 10 % count as equal: the smaller file wins
+    assert one_standard_error_choice([0.90, 0.89], [0.02, 0.02], [1.05, 1.0], [1.0, 9.0]) == 0
+    assert one_standard_error_choice(acc, se, cost, size) == 1
+
+
+# ---------------------------------------------------------------------------------------- inputs
+def test_time_block_folds_never_split_neighbouring_windows(recordings):
+    s = vibration_samples(recordings, 400, n_folds=4)
+    ds = recordings.windows(400)
+    # map kept windows back to (recording, position) through their samples
+    index = {
+        w.tobytes(): (int(r), int(p))
+        for w, r, p in zip(ds.windows.numpy(), ds.recording, ds.position, strict=True)
+    }
+    where = np.array([index[w.tobytes()] for w in s.X])
+    for train, test in s.folds:
+        for rec in np.unique(where[:, 0]):
+            tr = set(where[train][where[train][:, 0] == rec][:, 1])
+            te = set(where[test][where[test][:, 0] == rec][:, 1])
+            assert not any(p + 1 in te or p - 1 in te for p in tr)
+        assert set(np.unique(s.y[test])) == set(range(4))  # every recording in every test fold
+        assert not set(s.groups[train]) & set(s.groups[test])  # the groups say what the folds kept apart
+    assert "time blocks" in s.split
+
+
+def test_recording_grouped_folds(recordings):
+    rec = make_vibration_recordings(3, duration_s=4, n_sessions=3, random_state=1)
+    s = vibration_samples(rec, 400, n_folds=5)
+    ds = rec.windows(400)
+    owner = {w.tobytes(): int(r) for w, r in zip(ds.windows.numpy(), ds.recording, strict=True)}
+    recs = np.array([owner[w.tobytes()] for w in s.X])
+    assert len(s.folds) == 3 and "grouped by session" in s.split
+    for train, test in s.folds:
+        assert not set(recs[train]) & set(recs[test])
+        assert not set(s.groups[train]) & set(s.groups[test])
+    with pytest.raises(ValueError, match="longer than every recording of class"):
+        vibration_samples(recordings, 20000, n_folds=5)
+
+
+def test_bad_input_gets_one_clear_line(tmp_path, recordings, capsys):
+    with pytest.raises(FileNotFoundError, match="no such file"):
+        load_tradeoff_data(tmp_path / "missing.npz")
+    (tmp_path / "notes.txt").write_text("x")
+    with pytest.raises(ValueError, match=r"notes\.txt: expected a data file"):
+        load_tradeoff_data(tmp_path / "notes.txt")
+    np.savez(tmp_path / "other.npz", pictures=np.zeros(3))
+    with pytest.raises(ValueError, match="expected image explorations"):
+        load_tradeoff_data(tmp_path / "other.npz")
+    y = np.array([0, 0, 0, 1])
+    data = TradeoffData("features", ("a", "b"), "", raw=np.zeros((4, 3)), labels=y)
+    with pytest.raises(ValueError, match="class 'b' has too few samples"):
+        exploration_samples(data, n_folds=5)
+    path = recordings.save(tmp_path / "rec.npz")
+    assert main(["tradeoff", "--data", str(path), "--window", "100000", "--out", str(tmp_path / "o")]) == 2
+    errors = [line for line in capsys.readouterr().err.splitlines() if not line.startswith("[tradeoff]")]
+    assert len(errors) == 1 and "window: 100000 samples is longer than every recording" in errors[0]
+    assert main(["tradeoff", "--data", str(tmp_path / "other.npz"), "--out", str(tmp_path / "o")]) == 2
+    errors = capsys.readouterr().err.strip().splitlines()
+    assert len(errors) == 1 and errors[0].startswith("tactile-torch tradeoff: ")  # no traceback
+
+
+# ---------------------------------------------------------------------------------------- transformers
+def test_taxel_features_are_each_taxels_window_features():
+    rng = np.random.default_rng(0)
+    maps = torch.from_numpy(rng.normal(size=(3, 20, 2, 5)))  # 10 taxels: padding to 12
+    got = taxel_features(maps)
+    series = maps.reshape(3, 20, 10).transpose(1, 2)  # (B, taxel, T)
+    for j in range(10):
+        triple = torch.stack([series[:, j], series[:, j], series[:, j]], 1)
+        np.testing.assert_allclose(got[:, 7 * j : 7 * j + 7], window_features(triple)[:, :7], rtol=1e-12)
+    assert TaxelFeatureTransformer().fit_transform(maps.numpy()).shape == (3, 70)
+
+
+def test_ranked_selector_keeps_the_informative_columns():
+    rng = np.random.default_rng(1)
+    y = np.arange(90) % 3
+    X = rng.normal(size=(90, 6))
+    X[:, 4] += 3 * y
+    X[:, 1] += 1.5 * y
+    sel = RankedFeatureSelector(2).fit(X, y)
+    assert sel.columns_.tolist() == [4, 1]
+    with pytest.raises(ValueError, match="k must be an integer"):
+        RankedFeatureSelector(7).fit(X, y)
+
+
+def test_pressure_maps_scale_with_the_array_and_the_data():
+    assert (relative_erosion(96, 96), relative_erosion(4, 4)) == (10, 1)
+    rng = np.random.default_rng(2)
+    maps = 500.0 + rng.normal(0, 1, size=(6, 5, 4, 4))  # 4 x 4 array, raw counts around 500
+    maps[:, 3:, 1:3, 1:3] += 80.0  # contact in the middle in the last two frames
+    t = PressureImageFeatures().fit(maps)
+    assert t.sign_ == 1.0 and t.factor_ == 12 and t.erosion_ == 5  # 48 x 48 display, erosion relative to it
+    assert 0 < t.level_ < 80
+    frames = t._pressed()(torch.from_numpy(maps.astype(np.float32)))
+    assert frames.shape == (6, 5, 3, 48, 48) and 0 < float((frames == 0).float().mean()) < 0.5
+    lowered = PressureImageFeatures(contact="lowers").fit(1000.0 - maps)  # iCub-like: contact lowers it
+    np.testing.assert_allclose(lowered.transform(1000.0 - maps), t.transform(maps), atol=1e-5)
+    assert PressureImageFeatures(contact="auto").fit(1000.0 - maps).sign_ == -1.0
+    with pytest.raises(ValueError, match="contact: the readings do not show"):
+        PressureImageFeatures(contact="auto").fit(np.full((4, 5, 4, 4), 3.0))
+    with pytest.raises(ValueError, match="contact: the pressure maps never rise"):
+        PressureImageFeatures().fit(np.full((3, 4, 4, 4), 7.0))
+    assert isinstance(t.to_module()[0], PressedFrames)
+
+
+# ---------------------------------------------------------------------------------------- the study
+def test_cached_features_equal_fitting_the_whole_pipeline(recordings):
+    """Stage 1 computes stateless features once; the result equals cloning and fitting each pipeline."""
+    s = vibration_samples(recordings, 400, n_folds=3)
+    sets, _ = feature_sets("vibration", (), windows=[400], quick=True)
+    candidates = build_candidates(sets[:2], classifiers=["LDA", "NCM"])
+    results = cross_validate(candidates, {s.key: s}, progress=False)
+    for res in results:
+        for k, (train, test) in enumerate(s.folds):
+            model = clone(res.candidate.estimator).fit(s.X[train], s.y[train])
+            assert res.fold_accuracy[k] == pytest.approx(np.mean(model.predict(s.X[test]) == s.y[test]))
+
+
+def test_tradeoff_command_on_vibration_recordings(tmp_path, capsys):
+    rec = make_vibration_recordings(3, duration_s=6, n_sessions=2, random_state=5)
+    path = rec.save(tmp_path / "rec.npz")
+    out = tmp_path / "study"
+    argv = [
+        "tradeoff",
+        "--data",
+        str(path),
+        "--out",
+        str(out),
+        "--quick",
+        "--quiet",
+        "--classifiers",
+        "LDA,NCM",
+    ]
+    assert main([*argv, "--windows", "400", "--folds", "3"]) == 0
+    printed = capsys.readouterr().out.splitlines()
+    assert printed[0].startswith("recommended: ") and printed[1].startswith("runner-up:")
+    doc = json.loads((out / "tradeoff.json").read_text())
+    rows = {r["name"]: r for r in doc["candidates"]}
+    assert len(rows) >= 3 and doc["recommended"] in rows
+    fields = (
+        "accuracy",
+        "accuracy_low",
+        "accuracy_high",
+        "fit_s",
+        "latency_ms",
+        "size_bytes",
+        "decision_s",
+        "pareto",
+    )
+    for r in rows.values():
+        assert all(r[f] is not None for f in fields)
+        assert r["accuracy_low"] <= r["accuracy"] <= r["accuracy_high"] and r["onnx_agreement"] == 1.0
+        assert r["size_bytes"] == (out / "models" / r["onnx_file"]).stat().st_size
+    rec_row = rows[doc["recommended"]]
+    best = max(rows.values(), key=lambda r: r["accuracy"])
+    assert rec_row["pareto"] and rec_row["accuracy"] >= best["accuracy"] - best["accuracy_se"] - 1e-12
+    for r in rows.values():
+        assert "W = 400" in r["features"] and r["decision_s"] == pytest.approx(
+            400 / 800 + r["latency_ms"] / 1e3
+        )
+    for chart in ("accuracy-vs-latency.png", "accuracy-vs-size.png", "accuracy-vs-decision.png"):
+        assert (out / "figures" / chart).read_bytes()[:4] == b"\x89PNG"
+    assert "runner-up" in (out / "tradeoff.md").read_text()
+    from tactile_torch.runtime import OnnxPipeline
+
+    pipe = OnnxPipeline(out / "models" / rec_row["onnx_file"])
+    assert pipe.predict(rec.windows(pipe.input_shape[-1]).windows.numpy()[:5]).shape == (5,)
+
+
+def test_tradeoff_on_small_taxel_arrays(tmp_path):
+    """Raw pressure maps of a 6 x 6 array (raw counts, resting at 200) through the same study."""
+    from tactile_torch.tradeoff import run_tradeoff, write_outputs
+
+    data = make_explorations(3, n_frames=6, frame_size=24, sensels=6, random_state=1, keep_pressure=True)
+    path = tmp_path / "taxels.npz"
+    np.savez(
+        path,
+        frames=200.0 + data.pressure.numpy(),
+        labels=data.labels.numpy(),
+        class_names=np.array(data.class_names),
+    )
+    result = run_tradeoff(  # the per-frame ablation runs through the same step as the fused features
+        path,
+        features=["fused", "per-taxel"],
+        quick=True,
+        out_dir=tmp_path / "o",
+        classifiers=["LDA"],
+        n_folds=3,
+        progress=False,
+        log=lambda s: None,
+        background=False,
+    )
+    features = [r["features"] for r in result.rows]
+    assert features == ["fused 12", "per-taxel 252"]
+    assert all(r["onnx_agreement"] == 1.0 for r in result.rows)
+    assert "stratified" in result.splits["pressure"]
+    assert result.study_model is None  # no HM-SVM among the candidates
+    # the hook for the breaking-point study: its rows go into the JSON and the markdown
+    result.breaking_points = {
+        "rows": [{"factor": "frames", "candidate": "LDA | fused 12", "breaking point": 3.0}]
+    }
+    paths = write_outputs(result, tmp_path / "o")
+    assert json.loads(paths["json"].read_text())["breaking_points"]["rows"][0]["breaking point"] == 3.0
+    assert "## Breaking points" in paths["md"].read_text()
+
+
+@pytest.mark.slow
+def test_tradeoff_on_real_taxel_arrays(tmp_path):
+    """The Schunk hand's 14 x 6 arrays (drimus_sdh_tactile): raw counts with a resting level."""
+    from tactile_torch.tradeoff import run_tradeoff
+
+    root = require_shared_data("drimus_sdh_tactile")
+    maps, labels = [], []
+    for f in sorted((root / "grasps_npz").glob("*.npz")):
+        with np.load(f) as g:
+            maps.append(g["ts1_f1_proximal"][-30:].astype(np.float32))
+            labels.append(int(g["label"]))
+    path = tmp_path / "drimus.npz"
+    np.savez(
+        path,
+        frames=np.stack(maps),
+        labels=np.array(labels),
+        class_names=np.array(list("ABCDE")),
+    )
+    result = run_tradeoff(
+        path, quick=True, frame_rate_hz=15.0, out_dir=tmp_path / "o", progress=False, log=lambda s: None
+    )
+    assert len(result.rows) >= 5 and result.row(result.recommended)["pareto"]
+
+
+def _tiny_model(value: float, path):
+    """Write a one-node ONNX model (an identity) to ``path``; the value only tags the job."""
+    import onnx
+    from onnx import TensorProto, helper
+
+    graph = helper.make_graph(
+        [helper.make_node("Identity", ["x"], ["y"])],
+        f"g{value}",
+        [helper.make_tensor_value_info("x", TensorProto.FLOAT, [1])],
+        [helper.make_tensor_value_info("y", TensorProto.FLOAT, [1])],
+    )
+    onnx.save(helper.make_model(graph), str(path))
+    return path
+
+
+def test_export_pool_runs_jobs_once_and_survives_a_dead_background_process(tmp_path):
+    from tactile_torch.tradeoff.export import ExportPool
+
+    calls = []
+
+    def failing(path):
+        calls.append(path)
+        raise RuntimeError("cannot export this")
+
+    with ExportPool(tmp_path / "parts", background=False) as pool:
+        pool.submit("bad", failing)
+        for _ in range(2):  # the error again, without a second attempt
+            with pytest.raises(RuntimeError, match="cannot export this"):
+                pool.result("bad")
+        assert len(calls) == 1
+    with ExportPool(tmp_path / "parts", background=True) as pool:
+        pool._process.kill()
+        pool._process.wait()
+        pool.submit("job", _tiny_model, 1.0)  # cannot reach the background process: runs here
+        assert pool.result("job").graph.name == "g1.0"
+        assert pool.result("job") is pool.result("job")
+    assert not (tmp_path / "parts").exists()
+
+
+@pytest.mark.slow
+def test_report_section_smoke_run(tmp_path):
+    from tactile_torch.studies import run_report
+
+    text = run_report(tmp_path, quick=True, only=["tradeoff"], log=lambda s: None).read_text()
+    assert text.count("**recommended: ") == 2 and "accuracy-vs-decision.png" in text
+    assert json.loads((tmp_path / "tradeoff" / "vibration" / "tradeoff.json").read_text())["recommended"]
