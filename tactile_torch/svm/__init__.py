@@ -7,7 +7,8 @@ One file per part:
   values the compiled code reads (computed rows, or one precomputed float32 matrix);
 - :mod:`~tactile_torch.svm._smo`: the compiled (numba) kernels: libsvm's SMO solver (second-order
   working-set selection, shrinking, an LRU cache of kernel rows) and the decision values;
-- :mod:`~tactile_torch.svm.solver`: the binary C-SVC dual, warm starts along C, problems on threads;
+- :mod:`~tactile_torch.svm.solver`: the binary C-SVC dual, problem sets, warm starts along C;
+- :mod:`~tactile_torch.svm.threads`: the thread count and a work queue the caller shares;
 - :mod:`~tactile_torch.svm.tree`: the 2-means class tree of the HM-SVM;
 - :mod:`~tactile_torch.svm.estimators`: :class:`SVC` and :class:`HierarchicalSVC`;
 - :mod:`~tactile_torch.svm.inference`: the inference graph (:class:`SVMInference`, exports to ONNX).
