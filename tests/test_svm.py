@@ -514,3 +514,25 @@ def test_run_blocks_keeps_order_and_raises_the_first_error():
 
     with pytest.raises(RuntimeError, match="block 7"):
         run_blocks(fail, list(range(12)), threads=2)
+
+
+def test_one_vs_one_graph_exported_with_free_sizes_serves_another_number_of_classes(tmp_path):
+    # The tradeoff study exports one head graph per structure, every fitted tensor an input of free
+    # size, and binds each candidate's tensors: no reshape in the graph may depend on K.
+    import onnx
+    import onnxruntime as ort
+
+    from tactile_torch.tradeoff.export import bind_head, export_head
+
+    Xa, ya = make_blobs(240, centers=6, n_features=4, random_state=0)
+    Xb, yb = make_blobs(120, centers=3, n_features=4, random_state=1)
+    models = [(SVC(C=3.0, gamma=0.1).fit(Xa, ya), Xa), (SVC(C=3.0, gamma=0.1).fit(Xb, yb), Xb)]
+    template = onnx.load(str(export_head([models[0][0].to_module()], 4, tmp_path / "head.onnx")))
+    for model, X in models:
+        bound = bind_head(template, [model.to_module()])
+        labels, scores = ort.InferenceSession(bound.SerializeToString()).run(
+            None, {"features": X[:9].astype(np.float32)}
+        )
+        want_labels, want_scores = model.to_module()(torch.tensor(X[:9].astype(np.float32)))
+        np.testing.assert_array_equal(labels, want_labels.numpy())
+        np.testing.assert_allclose(scores, want_scores.numpy(), rtol=1e-6, atol=1e-6)

@@ -128,9 +128,9 @@ def ovo_decisions(
 
     The support vectors are grouped by class. Class ``c``'s kernel values (``class_index[c]``,
     padded with any column) times its coefficients in each of its ``K - 1`` pairs
-    (``class_coef[c]``, zero on the padding) give ``T[c, q]`` by one batched product; the decision
-    of pair ``p = (i, j)`` is ``T[i, j - 1] + T[j, i] + intercept[p]`` (libsvm's layout of
-    ``dual_coef_``), gathered by ``pair_index`` from the flattened ``T``.
+    (``class_coef[c]``, zero on the padding) give ``T[:, c, q]`` by one batched product; the decision
+    of pair ``p = (i, j)`` is ``T[:, i, j - 1] + T[:, j, i] + intercept[p]`` (libsvm's layout of
+    ``dual_coef_``). No reshape depends on K, so a graph exported with free sizes serves any K.
 
     Parameters
     ----------
@@ -139,8 +139,8 @@ def ovo_decisions(
     class_index : int64 tensor of shape (K, M)
         Columns of each class's support vectors, padded to the largest count ``M``.
     class_coef : tensor of shape (K, M, K - 1)
-    pair_index : int64 tensor of shape (2, P)
-        Flat indices ``i (K - 1) + j - 1`` and ``j (K - 1) + i`` of each pair's two terms.
+    pair_index : int64 tensor of shape (4, P)
+        Per pair ``(i, j)``: ``i``, ``j - 1``, ``j``, ``i`` (where its two terms are in ``T``).
     intercept : tensor of shape (P,)
 
     Returns
@@ -148,8 +148,8 @@ def ovo_decisions(
     tensor of shape (B, P): > 0 votes for the pair's first class.
     """
     blocks = kernel_values[:, class_index].transpose(0, 1)  # (K, B, M)
-    terms = torch.matmul(blocks, class_coef).transpose(0, 1).flatten(1)  # (B, K (K - 1))
-    return terms[:, pair_index[0]] + terms[:, pair_index[1]] + intercept
+    terms = torch.matmul(blocks, class_coef).transpose(0, 1)  # (B, K, K - 1)
+    return terms[:, pair_index[0], pair_index[1]] + terms[:, pair_index[2], pair_index[3]] + intercept
 
 
 def ovo_votes(decisions: torch.Tensor, pair_classes: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
@@ -192,7 +192,7 @@ def ovo_tables(n_support: torch.Tensor, dtype: torch.dtype) -> dict[str, torch.T
     class_mask = offsets < counts[:, None]
     class_index = torch.where(class_mask, starts[:, None] + offsets, 0)
     first, second = torch.triu_indices(n_class, n_class, 1)
-    pair_index = torch.stack([first * (n_class - 1) + second - 1, second * (n_class - 1) + first])
+    pair_index = torch.stack([first, second - 1, second, first])
     eye = torch.eye(n_class, dtype=dtype)
     return {
         "class_index": class_index,
