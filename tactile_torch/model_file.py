@@ -66,6 +66,8 @@ HEADS: dict[str, dict] = {
         "modes": {
             "binary": ({}, lambda c: 1),
             "ovr": ({}, lambda c: c),
+            # one-vs-one (libsvm's layout): dual_coef (C - 1, S), one intercept per pair of classes
+            "ovo": ({"intercept": (("P",), "f"), "n_support": (("C",), "i")}, lambda c: c - 1),
             "tree": (
                 {
                     "left": (("N",), "i"),
@@ -109,6 +111,7 @@ DIMENSIONS = {
     "F": "features the head takes",
     "S": "support vectors",
     "M": "decision functions",
+    "P": "pairs of classes",
     "N": "tree nodes",
     "G": "clustering features",
 }
@@ -364,6 +367,15 @@ def validate_model(header: object, arrays: Mapping[str, np.ndarray], *, where: s
     _check_arrays(where, "head", head_arrays, arrays, dims)
     if head["type"] == "svm" and head["mode"] == "tree":
         _check_tree(where, arrays, dims, head["depth"])
+    if head["type"] == "svm" and head["mode"] == "ovo":
+        counts, pairs = arrays["head.n_support"], dims["C"] * (dims["C"] - 1) // 2
+        if dims["P"] != pairs:
+            _fail(where, f"head.intercept must hold one value per pair of classes ({pairs}), got {dims['P']}")
+        if counts.min() < 0 or counts.sum() != dims["S"]:
+            _fail(
+                where,
+                f"head.n_support must count the {dims['S']} support vectors per class, got {counts.tolist()}",
+            )
 
 
 def _check_tree(where: str, arrays: Mapping[str, np.ndarray], dims: dict[str, int], depth: int) -> None:

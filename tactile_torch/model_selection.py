@@ -1,12 +1,21 @@
-"""Evaluation protocols of the two studies, for any scikit-learn-style classifier.
+"""Evaluation protocols of the two studies, for any scikit-learn-style classifier, and the batched
+grid search of the SVMs.
 
 Method 1 (tactile images): 5-fold cross-validation where each round trains on 3 folds (60 %),
 chooses the hyper-parameters on a 4th (validation, 20 %) and tests on the 5th (20 %):
 :func:`rotating_splits`, :func:`grid_search_validation`, :func:`run_holdout_protocol`. Every sample
 is tested exactly once, so the test predictions pool into one prediction per sample (what McNemar's
-test compares). Method 2 (vibration): stratified 10-fold grid search (:func:`stratified_grid_search`,
-scikit-learn's ``GridSearchCV``), the odd/even window split (:func:`odd_even_split`) and the ranking
-of features by the accuracy each reaches alone (:func:`rank_feature_groups`).
+test compares). Method 2 (vibration): stratified 10-fold grid search (:func:`stratified_grid_search`),
+the odd/even window split (:func:`odd_even_split`) and the ranking of features by the accuracy each
+reaches alone (:func:`rank_feature_groups`).
+
+:class:`SVMGridSearchCV` runs a grid over C and gamma of :class:`~tactile_torch.svm.SVC` or
+:class:`~tactile_torch.svm.HierarchicalSVC` (alone or last in a ``Pipeline``) as one batched job:
+one float32 kernel matrix per gamma serves every fold, C value and binary problem, and each binary
+problem is solved along increasing C, every solution warm-starting the next. Both studies' searches
+go through it (:func:`stratified_grid_search`, :func:`grid_search_validation`); any other estimator
+goes through scikit-learn's ``GridSearchCV``, which also runs our SVMs (they are clone-able), on any
+joblib backend (a cluster through Dask or Ray).
 
 These live apart from :mod:`tactile_torch.svm` because they serve every classifier of the studies:
 the HM-SVM and the LDA and kNN baselines go through the same splits and the same selection.
@@ -19,10 +28,15 @@ import time
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from numbers import Integral
+from typing import ClassVar
 
 import numpy as np
-from sklearn.base import clone
-from sklearn.model_selection import GridSearchCV, StratifiedKFold
+from scipy.stats import rankdata
+from sklearn.base import BaseEstimator, ClassifierMixin, MetaEstimatorMixin, clone
+from sklearn.model_selection import GridSearchCV, ParameterGrid, StratifiedKFold, check_cv
+from sklearn.pipeline import Pipeline
+from sklearn.utils._param_validation import Interval, Options
+from sklearn.utils.validation import check_is_fitted
 
 from ._checks import RandomState, numpy_rng
 
@@ -119,7 +133,8 @@ def grid_search_validation(
     """Return the parameters with the best validation accuracy, and every candidate's score.
 
     Each combination of ``param_grid`` is fitted (on a clone of ``estimator``) on ``X[train]`` and
-    scored on ``X[validation]``. Ties go to the first combination in grid order.
+    scored on ``X[validation]``; for our SVMs as one batched job (:class:`SVMGridSearchCV`). Ties go
+    to the first combination in grid order.
 
     Returns
     -------
@@ -130,7 +145,16 @@ def grid_search_validation(
     X = np.asarray(X)
     y = _labels(y)
     scores = []
-    for params in parameter_grid(param_grid):
+    combinations = parameter_grid(param_grid)
+    if supports_batched_search(estimator):
+        search = SVMGridSearchCV(estimator, dict(param_grid), cv=[(train, validation)], refit=False)
+        search.fit(X, y)
+        by_params = {
+            _key(p): float(a)
+            for p, a in zip(search.cv_results_["params"], search.cv_results_["mean_test_score"], strict=True)
+        }
+        scores = [{**params, "validation accuracy": by_params[_key(params)]} for params in combinations]
+    for params in combinations if not scores else []:
         model = clone(estimator).set_params(**params).fit(X[train], y[train])
         accuracy = float(np.mean(model.predict(X[validation]) == y[validation]))
         scores.append({**params, "validation accuracy": accuracy})
@@ -225,13 +249,202 @@ def stratified_grid_search(
     n_folds: int = 10,
     random_state: RandomState = None,
 ) -> GridSearchCV:
-    """Return scikit-learn's ``GridSearchCV`` fitted with stratified, shuffled ``n_folds``-fold CV
-    (method 2: 10 folds), scored by accuracy and refitted on all of ``X`` with the best parameters."""
+    """Return a grid search fitted with stratified, shuffled ``n_folds``-fold CV (method 2: 10 folds),
+    scored by accuracy and refitted on all of ``X`` with the best parameters: :class:`SVMGridSearchCV`
+    for our SVMs, scikit-learn's ``GridSearchCV`` otherwise (same attributes: ``cv_results_``,
+    ``best_params_``, ``best_estimator_`` ...)."""
     seed = int(numpy_rng(random_state).integers(2**31))
     cv = StratifiedKFold(n_folds, shuffle=True, random_state=seed)
+    if supports_batched_search(estimator):
+        return SVMGridSearchCV(estimator, dict(param_grid), cv=cv).fit(np.asarray(X), _labels(y))
     return GridSearchCV(estimator, dict(param_grid), cv=cv, scoring="accuracy", refit=True).fit(
         np.asarray(X), _labels(y)
     )
+
+
+def _key(params: Mapping) -> tuple:
+    return tuple(sorted((k, repr(v)) for k, v in params.items()))
+
+
+def _final_step(estimator: object) -> tuple[object, str]:
+    """The SVM of ``estimator`` (itself, or the last step of a ``Pipeline``) and its parameter prefix."""
+    if isinstance(estimator, Pipeline):
+        name, last = estimator.steps[-1]
+        return last, f"{name}__"
+    return estimator, ""
+
+
+def supports_batched_search(estimator: object) -> bool:
+    """True for :class:`~tactile_torch.svm.SVC`, :class:`~tactile_torch.svm.HierarchicalSVC`, and a
+    ``Pipeline`` that ends with one (the estimators :class:`SVMGridSearchCV` batches)."""
+    return hasattr(_final_step(estimator)[0], "fit_path")
+
+
+class SVMGridSearchCV(MetaEstimatorMixin, ClassifierMixin, BaseEstimator):
+    """Exhaustive grid search over the parameters of an SVM, with C and gamma batched: a drop-in for
+    scikit-learn's ``GridSearchCV`` (accuracy scoring) that shares what the grid points share.
+
+    The candidates are those of ``GridSearchCV`` (``ParameterGrid``, same order, same ``cv_results_``
+    keys, ties to the first). Candidates that differ only in C form one job per cross-validation
+    split: the estimator's ``fit_path`` solves each binary problem at the smallest C and warm-starts
+    every larger C from it. For a numeric gamma and no preprocessing, one float32 kernel matrix of
+    all of ``X`` (computed on the threads) serves every split and C value of that gamma, when it fits
+    in the estimator's ``cache_size``. Splits run on ``n_jobs`` Python threads (the compiled solver
+    releases the GIL). With preprocessing (a ``Pipeline`` ending with the SVM), the preceding steps
+    are fitted on each split's training part, once per split and gamma.
+
+    A warm-started solution equals an independent fit up to the solver's tolerance, so a score can
+    differ from ``GridSearchCV``'s by a prediction that flips between two solutions within ``tol``.
+
+    Parameters
+    ----------
+    estimator : SVC, HierarchicalSVC, or a Pipeline ending with one
+    param_grid : dict or list of dicts
+        As ``GridSearchCV``'s; keys name the estimator's parameters (``"svc__C"`` in a pipeline).
+    cv : int, cross-validation splitter or iterable of (train, test), default 5
+        As ``GridSearchCV``'s (an int: stratified k-fold without shuffling).
+    refit : bool, default True
+        Refit the best candidate on all of ``X`` (``best_estimator_``, ``predict`` ...).
+    n_jobs : int or None, default None
+        Python threads (``None``: ``torch.get_num_threads()``; -1: every core).
+
+    Attributes
+    ----------
+    cv_results_ : dict of arrays
+        ``params``, ``param_<name>``, ``split<k>_test_score``, ``mean_test_score``,
+        ``std_test_score``, ``rank_test_score``, as ``GridSearchCV``'s.
+    best_index_, best_params_, best_score_
+    best_estimator_ : estimator (``refit=True``)
+    n_splits_ : int
+    search_time_ : float
+        Seconds of the search (without the refit); ``refit_time_``: seconds of the refit.
+
+    Examples
+    --------
+    >>> from sklearn.datasets import make_blobs
+    >>> from tactile_torch.svm import HierarchicalSVC
+    >>> X, y = make_blobs(150, centers=3, random_state=0)
+    >>> search = SVMGridSearchCV(HierarchicalSVC(random_state=0), {"C": [1, 10], "gamma": [0.1, 1]}, cv=3)
+    >>> sorted(search.fit(X, y).best_params_)
+    ['C', 'gamma']
+    """
+
+    _parameter_constraints: ClassVar[dict] = {
+        "estimator": [object],
+        "param_grid": [dict, list],
+        "cv": ["cv_object"],
+        "refit": ["boolean"],
+        "n_jobs": [None, Options(Integral, {-1}), Interval(Integral, 1, None, closed="left")],
+    }
+
+    def __init__(self, estimator, param_grid, *, cv=5, refit: bool = True, n_jobs: int | None = None) -> None:
+        self.estimator = estimator
+        self.param_grid = param_grid
+        self.cv = cv
+        self.refit = refit
+        self.n_jobs = n_jobs
+
+    def fit(self, X: object, y: object) -> SVMGridSearchCV:
+        """Run the search on ``X`` (n_samples, n_features) and labels ``y``; return ``self``."""
+        from .svm.kernels import KernelData
+        from .svm.threads import resolve_threads, run_blocks
+
+        self._validate_params()
+        if not supports_batched_search(self.estimator):
+            raise TypeError(
+                "estimator must be tactile_torch.svm.SVC or HierarchicalSVC, or a Pipeline ending with "
+                f"one, got {type(self.estimator).__name__} (use sklearn's GridSearchCV for others)"
+            )
+        X = np.asarray(X.detach().cpu() if hasattr(X, "detach") else X)
+        y = _labels(y)
+        if X.ndim != 2 or X.shape[0] != y.shape[0]:
+            raise ValueError(
+                f"X must have shape (n_samples, n_features) with y's {y.shape[0]} samples, got {X.shape}"
+            )
+        start = time.perf_counter()
+        splits = list(check_cv(self.cv, y, classifier=True).split(X, y))
+        candidates = list(ParameterGrid(self.param_grid))
+        _, prefix = _final_step(self.estimator)
+        c_name = prefix + "C"
+        threads = resolve_threads(self.n_jobs)
+        groups: dict[tuple, list[int]] = {}
+        for index, params in enumerate(candidates):
+            others = {k: v for k, v in params.items() if k != c_name}
+            groups.setdefault(_key(others), []).append(index)
+        scores = np.empty((len(candidates), len(splits)))
+        for members in groups.values():
+            others = {k: v for k, v in candidates[members[0]].items() if k != c_name}
+            estimator = clone(self.estimator).set_params(**others)
+            svm, _ = _final_step(estimator)
+            svm.set_params(n_jobs=1)  # the splits take the threads
+            c_values = [candidates[i].get(c_name, svm.C) for i in members]
+            Cs = sorted(set(float(c) for c in c_values))
+            shared = None
+            gamma = svm.gamma
+            if prefix == "" and not isinstance(gamma, str) and X.shape[0] ** 2 * 4 <= svm.cache_size * 2**20:
+                shared = KernelData.precomputed(X, svm.kernel, float(gamma), threads)
+
+            def run(split, estimator=estimator, Cs=Cs, shared=shared):
+                return _path_scores(estimator, X, y, split, Cs, shared)
+
+            per_split = run_blocks(run, splits, threads)
+            for k, accuracy in enumerate(per_split):
+                for i, c in zip(members, c_values, strict=True):
+                    scores[i, k] = accuracy[Cs.index(float(c))]
+        self.search_time_ = time.perf_counter() - start
+        self._store_results(candidates, scores)
+        self.n_splits_ = len(splits)
+        if self.refit:
+            start = time.perf_counter()
+            self.best_estimator_ = clone(self.estimator).set_params(**self.best_params_).fit(X, y)
+            self.refit_time_ = time.perf_counter() - start
+            self.classes_ = self.best_estimator_.classes_
+        return self
+
+    def _store_results(self, candidates: list[dict], scores: np.ndarray) -> None:
+        mean, std = scores.mean(axis=1), scores.std(axis=1)
+        rank = rankdata(-mean, method="min").astype(np.int32)
+        results: dict = {"params": candidates}
+        for name in sorted({k for c in candidates for k in c}):
+            column = np.ma.masked_all(len(candidates), dtype=object)
+            for i, c in enumerate(candidates):
+                if name in c:
+                    column[i] = c[name]
+            results[f"param_{name}"] = column
+        for k in range(scores.shape[1]):
+            results[f"split{k}_test_score"] = scores[:, k]
+        results.update(mean_test_score=mean, std_test_score=std, rank_test_score=rank)
+        self.cv_results_ = results
+        self.best_index_ = int(rank.argmin())
+        self.best_params_ = candidates[self.best_index_]
+        self.best_score_ = float(mean[self.best_index_])
+
+    def predict(self, X: object) -> np.ndarray:
+        """Predict with the refitted best estimator."""
+        check_is_fitted(self, "best_estimator_")
+        return self.best_estimator_.predict(X)
+
+    def decision_function(self, X: object) -> np.ndarray:
+        """Decision values of the refitted best estimator."""
+        check_is_fitted(self, "best_estimator_")
+        return self.best_estimator_.decision_function(X)
+
+
+def _path_scores(estimator, X, y, split, Cs, shared) -> list[float]:
+    """Test accuracy, on one split, of the estimator fitted along ``Cs`` (increasing)."""
+    train, test = split
+    svm, _ = _final_step(estimator)
+    X_train, X_test = X[train], X[test]
+    if isinstance(estimator, Pipeline):
+        head = Pipeline(clone(estimator).steps[:-1]).fit(X_train, y[train])
+        X_train, X_test = head.transform(X_train), head.transform(X_test)
+    if shared is not None:
+        models = svm.fit_path(
+            X_train, y[train], Cs, kernel_data=shared, rows=np.asarray(train, dtype=np.int64)
+        )
+    else:
+        models = svm.fit_path(X_train, y[train], Cs)
+    return [float(np.mean(model.predict(X_test) == y[test])) for model in models]
 
 
 def odd_even_split(position: int | object) -> tuple[np.ndarray, np.ndarray]:
@@ -298,6 +511,7 @@ __all__ = [
     "VIBRATION_STUDY_C",
     "VIBRATION_STUDY_GAMMA",
     "ProtocolResult",
+    "SVMGridSearchCV",
     "Split",
     "grid_search_validation",
     "odd_even_split",
@@ -306,4 +520,5 @@ __all__ = [
     "rotating_splits",
     "run_holdout_protocol",
     "stratified_grid_search",
+    "supports_batched_search",
 ]

@@ -5,7 +5,7 @@
 matrix) and computes its features (:func:`tactile_torch.image.exploration_features`, or windows and
 :func:`tactile_torch.signal.window_features`). :func:`train_classifier` holds out a stratified test
 part, scales every feature to unit standard deviation on the training part (DESIGN.md; the scale is
-kept with the model), fits the HM-SVM, a one-vs-rest SVM, LDA or kNN (k = 3, city-block,
+kept with the model), fits the HM-SVM, a one-vs-one SVM, LDA or kNN (k = 3, city-block,
 inverse-distance weights) and reports on the test part. :func:`save_model` writes an SVM's model
 file (:mod:`tactile_torch.model_file`: plain arrays and a JSON header, no pickle) with everything the
 export needs: the scale, the class names, how the features were made and the arrays of the SVM's
@@ -122,7 +122,7 @@ def make_classifier(
     kernel: str = "rbf",
     random_state: RandomState = None,
 ):
-    """Return an unfitted classifier: ``hmsvm``, ``svm`` (one-vs-rest), ``lda`` or ``knn``."""
+    """Return an unfitted classifier: ``hmsvm``, ``svm`` (one-vs-one), ``lda`` or ``knn``."""
     if method == "hmsvm":
         from .svm import HierarchicalSVC
 

@@ -11,7 +11,12 @@ import importlib
 import sys
 import time
 
-COMPILED_MODULES = ("tactile_torch._gibbs", "tactile_torch.mixture._partition")
+COMPILED_MODULES = (
+    "tactile_torch._gibbs",
+    "tactile_torch.mixture._partition",
+    "tactile_torch.svm._smo",
+    "tactile_torch.svm.tree",
+)
 """Modules whose import compiles (or loads from the on-disk cache) numba kernels."""
 
 

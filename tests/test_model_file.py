@@ -135,7 +135,7 @@ def _changed(model, header=None, arrays=None, drop=()):
         (
             _changed(
                 _svm_model(),
-                {"head": {"type": "svm", "mode": "ovo", "kernel": "rbf", "gamma": 1, "depth": 0}},
+                {"head": {"type": "svm", "mode": "dag", "kernel": "rbf", "gamma": 1, "depth": 0}},
             ),
             "head.mode must be one of",
         ),

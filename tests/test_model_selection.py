@@ -1,12 +1,17 @@
 import numpy as np
 import pytest
 import torch
+from joblib import parallel_backend
+from sklearn.base import clone
 from sklearn.datasets import make_blobs
 from sklearn.discriminant_analysis import LinearDiscriminantAnalysis
-from sklearn.model_selection import GridSearchCV
+from sklearn.model_selection import GridSearchCV, StratifiedKFold
 from sklearn.neighbors import KNeighborsClassifier
+from sklearn.pipeline import make_pipeline
+from sklearn.preprocessing import StandardScaler
 
 from tactile_torch.model_selection import (
+    SVMGridSearchCV,
     grid_search_validation,
     odd_even_split,
     parameter_grid,
@@ -14,8 +19,9 @@ from tactile_torch.model_selection import (
     rotating_splits,
     run_holdout_protocol,
     stratified_grid_search,
+    supports_batched_search,
 )
-from tactile_torch.svm import HierarchicalSVC
+from tactile_torch.svm import SVC, HierarchicalSVC
 
 
 def test_rotating_splits_partition_and_stratify():
@@ -78,13 +84,15 @@ def test_holdout_protocol_pools_test_predictions():
         run_holdout_protocol(LinearDiscriminantAnalysis(), X, y, splits[:2])
 
 
-def test_stratified_grid_search_is_gridsearchcv():
+def test_stratified_grid_search_is_gridsearchcv_or_batched():
     X, y = make_blobs(100, centers=2, random_state=0)
     search = stratified_grid_search(
         KNeighborsClassifier(), {"n_neighbors": [1, 5]}, X, y, n_folds=10, random_state=0
     )
     assert isinstance(search, GridSearchCV) and search.n_splits_ == 10
     assert search.best_params_["n_neighbors"] in (1, 5)
+    svm = stratified_grid_search(SVC(), {"C": [1.0, 10.0]}, X, y, n_folds=5, random_state=0)
+    assert isinstance(svm, SVMGridSearchCV) and svm.n_splits_ == 5 and hasattr(svm, "best_estimator_")
 
 
 def test_odd_even_split():
@@ -109,3 +117,74 @@ def test_rank_feature_groups_puts_the_informative_feature_first():
     )
     assert rows[0]["features"] == "signal" and rows[0]["accuracy"] > 0.9
     assert [r["columns"] for r in rows if r["features"] == "both noise"] == [2]
+
+
+def _small_problem():
+    X, y = make_blobs(240, centers=4, cluster_std=2.5, random_state=2)
+    return X, y
+
+
+GRID = {"C": [0.5, 4.0, 32.0], "gamma": [0.05, 0.5]}
+
+
+@pytest.mark.parametrize("estimator", [HierarchicalSVC(random_state=0), SVC()])
+def test_batched_search_equals_gridsearchcv(estimator):
+    X, y = _small_problem()
+    cv = StratifiedKFold(4, shuffle=True, random_state=0)
+    ours = SVMGridSearchCV(estimator, GRID, cv=cv).fit(X, y)
+    ref = GridSearchCV(estimator, GRID, cv=cv).fit(X, y)
+    assert ours.cv_results_["params"] == ref.cv_results_["params"]  # same candidates, same order
+    for key in ("mean_test_score", "split0_test_score", "rank_test_score"):
+        assert key in ours.cv_results_
+    # Warm starts along C reach the same optima within tol: a fold's accuracy moves by at most a
+    # sample that sits on the boundary.
+    np.testing.assert_allclose(
+        ours.cv_results_["mean_test_score"], ref.cv_results_["mean_test_score"], atol=1 / 60
+    )
+    assert ours.best_params_ == ref.best_params_ and ours.n_splits_ == 4
+    np.testing.assert_array_equal(ours.predict(X), ref.predict(X))
+
+
+def test_batched_search_with_a_pipeline_and_other_parameters():
+    X, y = _small_problem()
+    X = X * [1.0, 100.0]  # unequal scales: the pipeline standardises each fold's training part
+    pipe = make_pipeline(StandardScaler(), SVC())
+    grid = {"svc__C": [1.0, 10.0], "svc__gamma": [0.1, 1.0], "svc__multi_class": ["ovo", "ovr"]}
+    ours = SVMGridSearchCV(pipe, grid, cv=3).fit(X, y)
+    ref = GridSearchCV(pipe, grid, cv=3).fit(X, y)
+    np.testing.assert_allclose(
+        ours.cv_results_["mean_test_score"], ref.cv_results_["mean_test_score"], atol=0.02
+    )
+    assert ours.best_estimator_.named_steps["svc"].C == ours.best_params_["svc__C"]
+
+
+def test_grid_search_validation_batches_our_svms_and_matches_the_loop():
+    X, y = _small_problem()
+    train, val = np.arange(160), np.arange(160, 240)
+    pipe = make_pipeline(StandardScaler(), HierarchicalSVC(random_state=0))
+    grid = {"hierarchicalsvc__C": [1.0, 100.0], "hierarchicalsvc__gamma": [0.25, 1.0]}
+    best, scores = grid_search_validation(pipe, grid, X, y, train, val)
+    for row in scores:  # each candidate fitted on its own gives the same validation accuracy
+        params = {k: v for k, v in row.items() if k != "validation accuracy"}
+        model = clone(pipe).set_params(**params).fit(X[train], y[train])
+        assert row["validation accuracy"] == pytest.approx(
+            np.mean(model.predict(X[val]) == y[val]), abs=1 / 80
+        )
+    assert [list(s)[:2] for s in scores] == [list(grid)] * 4 and best in [
+        {k: v for k, v in s.items() if k != "validation accuracy"} for s in scores
+    ]
+
+
+def test_gridsearchcv_runs_our_svms_in_parallel_processes():
+    X, y = _small_problem()
+    grid = {"C": [0.5, 8.0]}
+    one = GridSearchCV(HierarchicalSVC(random_state=0, n_jobs=1), grid, cv=3, n_jobs=1).fit(X, y)
+    with parallel_backend("loky"):
+        two = GridSearchCV(HierarchicalSVC(random_state=0, n_jobs=1), grid, cv=3, n_jobs=2).fit(X, y)
+    np.testing.assert_array_equal(one.cv_results_["mean_test_score"], two.cv_results_["mean_test_score"])
+
+
+def test_batched_search_rejects_other_estimators():
+    assert not supports_batched_search(KNeighborsClassifier())
+    with pytest.raises(TypeError, match=r"estimator must be tactile_torch\.svm\.SVC or HierarchicalSVC"):
+        SVMGridSearchCV(KNeighborsClassifier(), {"n_neighbors": [1]}).fit(*_small_problem())
