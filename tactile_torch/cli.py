@@ -1,6 +1,6 @@
 """The ``tactile-torch`` command line.
 
-Every subcommand of DESIGN.md is listed; the handlers import their modules lazily so that
+Every subcommand of the toolkit is listed; the handlers import their modules lazily so that
 ``tactile-torch predict`` can run on a robot with onnxruntime and no torch.
 """
 

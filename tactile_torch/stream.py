@@ -51,7 +51,7 @@ import numpy as np
 from .wire import format_sample, parse_line, parse_sample, pseudo_terminal, simulate_sensor
 
 DEFAULT_RANGE_G = 5.0
-"""Range of the ADXL345 as configured in the vibration study (DESIGN.md, method 2), in g."""
+"""Range of the ADXL345 as configured in the vibration study (method 2), in g."""
 
 RANGE_METADATA_KEY = "sensor_range_g"
 """Bundle metadata key that, when present, gives the sensor's range in g (see :func:`sensor_range_g`)."""

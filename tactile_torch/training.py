@@ -4,7 +4,7 @@
 (image explorations: ``frames``; vibration recordings: ``signals`` or CSV logs; a ready ``features``
 matrix) and computes its features (:func:`tactile_torch.image.exploration_features`, or windows and
 :func:`tactile_torch.signal.window_features`). :func:`train_classifier` holds out a stratified test
-part, scales every feature to unit standard deviation on the training part (DESIGN.md; the scale is
+part, scales every feature to unit standard deviation on the training part (as in the study; the scale is
 kept with the model), fits the HM-SVM, a one-vs-one SVM, LDA or kNN (k = 3, city-block,
 inverse-distance weights) and reports on the test part. :func:`save_model` writes an SVM's model
 file (:mod:`tactile_torch.model_file`: plain arrays and a JSON header, no pickle) with everything the

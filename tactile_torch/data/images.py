@@ -1,6 +1,6 @@
 """Tactile-image explorations: a seeded synthetic generator and the ``.npz`` loader/saver.
 
-The generator simulates the study's setting (DESIGN.md, method 1): a fingertip presses on a textured
+The generator simulates the study's setting (method 1): a fingertip presses on a textured
 surface lying on a pressure-mapping array and moves over it for 10 s at 10 frames/s. Per exploration:
 
 1. **Surface**: one of :data:`OBJECTS`, embossed sheets and household objects of the four classes
@@ -29,7 +29,7 @@ The knobs that decide how hard the set is are arguments of :func:`make_explorati
 and the sensor noise (``noise_counts``). Their defaults give the set above; conclusions drawn on it
 should be checked at other settings (``tactile_torch.studies.claims`` does).
 
-The ``.npz`` format (DESIGN.md): ``frames`` uint8 ``(N, T, H, W, 3)`` RGB, ``labels`` int64 ``(N,)``,
+The ``.npz`` format (docs/formats.md): ``frames`` uint8 ``(N, T, H, W, 3)`` RGB, ``labels`` int64 ``(N,)``,
 ``class_names`` str ``(C,)``, optional ``groups`` int64 ``(N,)``; raw pressure maps ``(N, T, H, W)``
 float are accepted in place of ``frames`` and rendered with :func:`render_pressure`.
 """

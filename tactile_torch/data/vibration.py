@@ -1,6 +1,6 @@
 """Triaxial vibration recordings in memory and on disk: the ``.npz`` format and CSV logs.
 
-:class:`VibrationRecordings` holds recordings in the vibration format of DESIGN.md (``signals`` in g,
+:class:`VibrationRecordings` holds recordings in the vibration format of docs/formats.md (``signals`` in g,
 ``labels``, ``class_names``, ``rate_hz``, optional ``session``); :meth:`~VibrationRecordings.windows`
 cuts them into the ``(N, 3, W)`` windows of :func:`tactile_torch.signal.window_features`. The
 seeded stylus simulator lives in :mod:`tactile_torch.data.stylus` (its names stay importable from
@@ -44,7 +44,7 @@ RANGE_G = 5.0  # the study's ±5 g; the largest code is floor(5 / 0.0039) = 1282
 
 @dataclass
 class VibrationRecordings:
-    """Triaxial recordings with labels: the vibration format of DESIGN.md, in memory.
+    """Triaxial recordings with labels: the vibration format of docs/formats.md, in memory.
 
     Parameters
     ----------

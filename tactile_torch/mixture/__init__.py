@@ -1,6 +1,6 @@
 """Pitman-Yor process mixture of Gaussians, fitted by Gibbs sampling: how many surfaces, and which is which.
 
-:class:`PitmanYorGMM` is the unsupervised half of method 2 (DESIGN.md): an infinite Gaussian mixture
+:class:`PitmanYorGMM` is the unsupervised half of method 2: an infinite Gaussian mixture
 (Rasmussen 2000) with a Pitman-Yor prior on the partition, sampled with Neal's (2000) algorithm 8
 plus split-merge moves (Jain & Neal 2007), several chains in parallel. The inner loop is compiled
 with numba (:mod:`tactile_torch._gibbs`): 10,000 sweeps over the study's 1,400 windows take seconds

@@ -105,7 +105,7 @@ class PitmanYorGMM(ClusterMixin, BaseEstimator):
     scale=V)``); ``Gamma(shape, rate)`` has mean shape/rate. On whitened data ``N(0, I)``,
     ``Wishart(D, I/D)`` are exactly Rasmussen's data-dependent hyperpriors ``N(mu_y, Sigma_y)``,
     ``Wishart(D, (D Sigma_y)^{-1})`` and ``Wishart(D, Sigma_y / D)`` stated in the original
-    coordinates (DESIGN.md writes the latter ``Sigma ~ W(D, I/D)``). The gamma priors are
+    coordinates (the study's design writes the latter ``Sigma ~ W(D, I/D)``). The gamma priors are
     Rasmussen's ``G(1, 1/D)`` and ``G(1, 1)`` in his (shape ``a/2``, mean ``b``) convention. The
     floor on ``W`` (a truncation of its prior, sampled exactly) only matters for degenerate data,
     where the untruncated posterior is improper.

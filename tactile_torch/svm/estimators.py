@@ -517,7 +517,7 @@ class HierarchicalSVC(_KernelMachine):
 
     References
     ----------
-    The hierarchical SVM of method 1 (DESIGN.md); libsvm for the node problems.
+    The hierarchical SVM of method 1; libsvm for the node problems.
     """
 
     _parameter_constraints: ClassVar[dict] = {

@@ -1,6 +1,6 @@
 """Speed against accuracy: evaluate candidate models on a data file and recommend the simplest adequate one.
 
-What ``tactile-torch tradeoff`` runs (docs/tradeoff.md). For a data file of DESIGN.md's formats (image
+What ``tactile-torch tradeoff`` runs (docs/tradeoff.md). For a data file of the formats in docs/formats.md (image
 explorations, raw pressure maps from a small taxel array, vibration recordings or CSV logs, or a
 feature matrix), :func:`run_tradeoff` builds candidate models (:mod:`.candidates`: HM-SVM, SVC, LDA,
 kNN and nearest class mean on every feature set), cross-validates them with folds that keep related

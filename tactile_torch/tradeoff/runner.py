@@ -58,7 +58,7 @@ class TradeoffResult:
         The raw inputs and folds the candidates were evaluated on (for further sweeps of the
         candidates' estimators, e.g. breaking points under degraded input).
     breaking_points : dict or None
-        Filled by a breaking-point study of the candidates (issue 12, points 4-5) before
+        Filled by a breaking-point study of the candidates (:mod:`tactile_torch.robustness`) before
         :func:`~.output.write_outputs`: ``{"rows": [...], "figures": [paths]}`` and anything
         JSON-serialisable; written to ``tradeoff.json`` and as a table and charts in ``tradeoff.md``.
     """
