@@ -68,13 +68,42 @@ def export_onnx(
         quiet.setLevel(level)
     program.save(str(path))
     model = onnx.load(str(path))
+    dropped = drop_unused_initializers(model)
     if metadata:
         for key, value in metadata.items():
             entry = model.metadata_props.add()
             entry.key, entry.value = str(key), str(value)
+    if metadata or dropped:
         onnx.save(model, str(path))
     onnx.checker.check_model(model, full_check=True)
     return path
+
+
+def _used_names(graph) -> set[str]:
+    """Names read by the nodes of ``graph`` and of its subgraphs, and the graph's outputs."""
+    used = {out.name for out in graph.output}
+    for node in graph.node:
+        used.update(node.input)
+        for attr in node.attribute:
+            subgraphs = list(attr.graphs) + ([attr.g] if attr.HasField("g") else [])
+            for sub in subgraphs:
+                used |= _used_names(sub)
+    return used
+
+
+def drop_unused_initializers(model) -> int:
+    """Remove the main graph's initializers that no node reads (in place); return how many.
+
+    A module's buffers that inference does not need (e.g. the one-vs-one SVM's ``n_support``, kept for
+    its model file) would otherwise be stored in the file and make onnxruntime log a warning at every
+    session start.
+    """
+    graph = model.graph
+    used = _used_names(graph)
+    unused = [init for init in graph.initializer if init.name not in used]
+    for init in unused:
+        graph.initializer.remove(init)
+    return len(unused)
 
 
 def run_onnx(path: str | Path, *inputs: np.ndarray | torch.Tensor, threads: int = 1) -> list[np.ndarray]:

@@ -32,3 +32,24 @@ def test_export_dynamic_batch_metadata_and_parity(tmp_path):
         np.testing.assert_allclose(g, w.numpy(), rtol=1e-5, atol=1e-4)
     with pytest.raises(ValueError):
         run_onnx(path, x, x)  # one input too many
+
+
+def test_drop_unused_initializers_keeps_what_nodes_read():
+    from onnx import TensorProto, helper, numpy_helper
+
+    from tactile_torch._onnx import drop_unused_initializers
+
+    scale = numpy_helper.from_array(np.array([2.0, 3.0], dtype=np.float32), "scale")
+    unused = numpy_helper.from_array(np.arange(7, dtype=np.int64), "n_support")
+    graph = helper.make_graph(
+        [helper.make_node("Mul", ["x", "scale"], ["y"])],
+        "g",
+        [helper.make_tensor_value_info("x", TensorProto.FLOAT, ["batch", 2])],
+        [helper.make_tensor_value_info("y", TensorProto.FLOAT, ["batch", 2])],
+        initializer=[scale, unused],
+    )
+    model = helper.make_model(graph)
+    assert drop_unused_initializers(model) == 1
+    assert [init.name for init in model.graph.initializer] == ["scale"]
+    onnx.checker.check_model(model, full_check=True)
+    assert drop_unused_initializers(model) == 0
