@@ -52,6 +52,30 @@ def time_call(fn: Callable[[], object], *, repeat: int = 5, warmup: int = 1, min
     return {"median_s": statistics.median(times), "min_s": times[0], "p99_s": p99, "calls": len(times)}
 
 
+def time_threads_alternately(
+    fn: Callable[[], object], *, repeat: int = 5, warmup: int = 1, counts: tuple[int, ...] | None = None
+) -> dict[int, float]:
+    """Fastest time of ``fn()`` in seconds at each thread count, the counts taking turns call by call.
+
+    One call at one thread, one at the default count, and so on ``repeat`` times (after ``warmup``
+    untimed calls at each): on a shared machine the load changes over seconds, and alternating puts
+    it on both counts alike, so their ratio carries where two separate timings would not.
+    """
+    counts = counts or tuple(sorted({1, DEFAULT_THREADS}))
+    best = dict.fromkeys(counts, float("inf"))
+    for n in counts:
+        with threads(n):
+            for _ in range(warmup):
+                fn()
+    for _ in range(repeat):
+        for n in counts:
+            with threads(n):
+                start = time.perf_counter()
+                fn()
+                best[n] = min(best[n], time.perf_counter() - start)
+    return best
+
+
 def _status_kib(field: str) -> int:
     with open("/proc/self/status") as f:
         for line in f:
