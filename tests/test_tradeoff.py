@@ -114,6 +114,26 @@ def test_head_template_binds_other_fits_and_runs_at_another_batch(tmp_path):
     np.testing.assert_allclose(scores, want[1].numpy(), rtol=1e-6, atol=1e-9)
 
 
+def test_bound_one_vs_one_head_keeps_only_what_the_graph_reads(tmp_path):
+    """The one-vs-one SVM's n_support (a buffer for its model file) is not bound into the ONNX head."""
+    import onnx
+
+    from tactile_torch._onnx import run_onnx
+    from tactile_torch.svm import SVC
+
+    X, y = _blobs(40, 4, 3, 0)
+    head = [Standardize(X.mean(0), X.std(0)), SVC(gamma=0.5).fit(X, y).to_module()]
+    template = onnx.load(str(export_head(head, 4, tmp_path / "template.onnx")))
+    bound = bind_head(template, head)
+    assert not [init.name for init in bound.graph.initializer if "n_support" in init.name]
+    path = tmp_path / "bound.onnx"
+    onnx.save(bound, str(path))
+    x = torch.randn(5, 4, generator=torch.Generator().manual_seed(0))
+    labels, _ = run_onnx(path, x.numpy())
+    with torch.no_grad():
+        np.testing.assert_array_equal(labels, torch.nn.Sequential(*head)(x)[0].numpy())
+
+
 # ---------------------------------------------------------------------------------------- selection
 def test_fold_interval_is_students_t():
     acc = [0.8, 0.85, 0.9, 0.7, 0.75]

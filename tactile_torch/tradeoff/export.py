@@ -33,7 +33,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from .._onnx import export_onnx
+from .._onnx import drop_unused_initializers, export_onnx
 
 
 class Standardize(nn.Module):
@@ -175,6 +175,9 @@ def bind_head(template: object, modules: list[nn.Module]) -> object:
         graph.initializer.append(numpy_helper.from_array(np.ascontiguousarray(value), name))
     del graph.input[:]
     graph.input.extend(kept)
+    # Buffers the graph does not read (the one-vs-one SVM's n_support, kept for its model file) would
+    # make onnxruntime log a warning at every session start.
+    drop_unused_initializers(model)
     return model
 
 
