@@ -141,7 +141,7 @@ def _vi_objective(samples, c):
     return total / (S * n)
 
 
-@njit(_I1(_I1), cache=True)
+@njit(cache=True)
 def _relabel(c):
     """Labels numbered 0 .. K-1 in order of first appearance."""
     n = c.shape[0]
@@ -157,102 +157,6 @@ def _relabel(c):
     return out
 
 
-@njit(cache=True)
-def _vi_move_cost(N, size, samples, g, two_s, k, i):
-    """Change of the VI objective when point ``i`` (already removed) joins cluster ``k``."""
-    if size[k] == 0:
-        return 0.0
-    acc = 0.0
-    for s in range(samples.shape[0]):
-        m = N[k, s, samples[s, i]]
-        acc += g[m + 1] - g[m]
-    return g[size[k] + 1] - g[size[k]] - two_s * acc
-
-
-@njit(types.Tuple((_I1, _f8))(_I2, _I1, _i8), cache=True)
-def _vi_search(samples, c0, max_rounds):
-    """Greedy minimisation of the mean VI to ``samples`` from compact labels ``c0``; return (labels, VI in nats)."""
-    S, n = samples.shape
-    g = _xlogx_table(n)
-    L = samples.max() + 1
-    kmax = 0
-    for s in range(S):
-        kmax = max(kmax, samples[s].max() + 1)
-    cap = min(n, max(2 * kmax, c0.max() + 1) + 10)
-    c = c0.copy()
-    N = np.zeros((cap, S, L), dtype=np.int32)
-    size = np.zeros(cap, dtype=np.int64)
-    for i in range(n):
-        size[c[i]] += 1
-        for s in range(S):
-            N[c[i], s, samples[s, i]] += 1
-    two_s = 2.0 / S
-    for _round in range(max_rounds):
-        changed = False
-        for _sweep in range(100):
-            moved = 0
-            for i in range(n):
-                a = c[i]
-                size[a] -= 1
-                for s in range(S):
-                    N[a, s, samples[s, i]] -= 1
-                # stay (or, if alone, a cluster of its own: g(1) - g(0) = 0), else the cheapest move
-                best, best_cost = a, _vi_move_cost(N, size, samples, g, two_s, a, i)
-                empty = -1
-                for k in range(cap):
-                    if size[k] == 0:
-                        if empty < 0 and k != a:
-                            empty = k
-                    elif k != a:
-                        cost = _vi_move_cost(N, size, samples, g, two_s, k, i)
-                        if cost < best_cost - 1e-12:
-                            best, best_cost = k, cost
-                if best_cost > 1e-12 and size[a] > 0 and empty >= 0:
-                    best = empty
-                c[i] = best
-                size[best] += 1
-                for s in range(S):
-                    N[best, s, samples[s, i]] += 1
-                if best != a:
-                    moved += 1
-            if moved == 0:
-                break
-            changed = True
-        # merge the pair of clusters whose union lowers the loss most
-        best_gain = -1e-12
-        ba, bb = -1, -1
-        for a in range(cap):
-            if size[a] == 0:
-                continue
-            for b in range(a + 1, cap):
-                if size[b] == 0:
-                    continue
-                d = g[size[a] + size[b]] - g[size[a]] - g[size[b]]
-                acc = 0.0
-                for s in range(S):
-                    for m in range(L):
-                        x, y = N[a, s, m], N[b, s, m]
-                        if x > 0 and y > 0:
-                            acc += g[x + y] - g[x] - g[y]
-                d -= two_s * acc
-                if d < best_gain:
-                    best_gain, ba, bb = d, a, b
-        if ba >= 0:
-            for i in range(n):
-                if c[i] == bb:
-                    c[i] = ba
-            size[ba] += size[bb]
-            size[bb] = 0
-            for s in range(S):
-                for m in range(L):
-                    N[ba, s, m] += N[bb, s, m]
-                    N[bb, s, m] = 0
-            changed = True
-        if not changed:
-            break
-    return c, _vi_objective(samples, _relabel(c))
-
-
 @njit(_f8(_A2, _I1), cache=True)
 def _binder_objective(P, c):
     """Mean over point pairs of Binder's loss with equal costs: expected share of misclassified pairs."""
@@ -266,16 +170,104 @@ def _binder_objective(P, c):
     return total / (0.5 * n * (n - 1))
 
 
-@njit(types.Tuple((_I1, _f8))(_A2, _I1, _i8), cache=True)
-def _binder_search(P, c0, max_rounds):
-    """Greedy minimisation of Binder's expected loss from compact labels ``c0``; return (labels, loss)."""
-    n = P.shape[0]
+# The greedy search is one loop for both losses; what depends on the loss is how a point's cost of
+# joining each cluster and the gain of merging two clusters are computed. VI keeps, per cluster, the
+# counts N[k, s, m] of its points in component m of saved sample s; Binder's loss needs only P.
+
+
+@njit(cache=True)
+def _take_out(vi, i, a, c, N, samples, P, h):
+    """Remove point ``i`` from cluster ``a``'s VI counts (VI), or fill ``h[k]`` = sum over k's other points of 1 - 2 P[i, j]."""
+    if vi:
+        for s in range(samples.shape[0]):
+            N[a, s, samples[s, i]] -= 1
+    else:
+        h[:] = 0.0
+        for j in range(P.shape[0]):
+            if j != i:
+                h[c[j]] += 1.0 - 2.0 * P[i, j]
+
+
+@njit(cache=True)
+def _put_in(vi, i, k, N, samples):
+    if vi:
+        for s in range(samples.shape[0]):
+            N[k, s, samples[s, i]] += 1
+
+
+@njit(cache=True)
+def _move_cost(vi, k, i, size, N, samples, g, two_s, h):
+    """Change of the loss when point ``i`` (taken out) joins cluster ``k``; 0 for an empty cluster."""
+    if size[k] == 0:
+        return 0.0
+    if not vi:
+        return h[k]
+    acc = 0.0
+    for s in range(samples.shape[0]):
+        m = N[k, s, samples[s, i]]
+        acc += g[m + 1] - g[m]
+    return g[size[k] + 1] - g[size[k]] - two_s * acc
+
+
+@njit(cache=True)
+def _merge_gains(vi, c, size, N, g, two_s, P):
+    """(K, K) change of the loss when clusters a < b (both non-empty) merge; K = last non-empty cluster + 1."""
+    K = 0
+    for k in range(size.shape[0]):
+        if size[k] > 0:
+            K = k + 1
+    gain = np.zeros((K, K))
+    if vi:
+        for a in range(K):
+            if size[a] == 0:
+                continue
+            for b in range(a + 1, K):
+                if size[b] == 0:
+                    continue
+                d = g[size[a] + size[b]] - g[size[a]] - g[size[b]]
+                acc = 0.0
+                for s in range(N.shape[1]):
+                    for m in range(N.shape[2]):
+                        x, y = N[a, s, m], N[b, s, m]
+                        if x > 0 and y > 0:
+                            acc += g[x + y] - g[x] - g[y]
+                d -= two_s * acc
+                gain[a, b] = d
+    else:
+        n = c.shape[0]
+        for i in range(n):
+            for j in range(i + 1, n):
+                if c[i] != c[j]:
+                    a, b = min(c[i], c[j]), max(c[i], c[j])
+                    gain[a, b] += 1.0 - 2.0 * P[i, j]
+    return gain
+
+
+@njit(types.Tuple((_I1, _f8))(_I2, _A2, _I1, _i8, types.boolean), cache=True)
+def _greedy_search(samples, P, c0, max_rounds, vi):
+    """Greedy minimisation of the expected loss from compact labels ``c0``; return (labels, loss).
+
+    ``vi``: the mean VI (nats) to the rows of ``samples`` (``P`` unused); else Binder's loss from
+    the similarity matrix ``P`` (``samples`` unused). Rounds of single-point moves (to the
+    cheapest cluster, or a new one when every move costs) until none moves, then the best merge.
+    """
+    n = c0.shape[0]
     c = c0.copy()
-    cap = n
+    g = _xlogx_table(n)
+    S = samples.shape[0] if vi else 0
+    two_s = 2.0 / S if vi else 0.0
+    if vi:
+        L = samples.max() + 1  # every saved sample's clusters, and room for new clusters of c
+        cap = min(n, max(2 * L, c0.max() + 1) + 10)
+    else:
+        L = 0
+        cap = n
+    N = np.zeros((cap if vi else 0, S, L), dtype=np.int32)
     size = np.zeros(cap, dtype=np.int64)
+    h = np.zeros(cap)
     for i in range(n):
         size[c[i]] += 1
-    h = np.zeros(cap)
+        _put_in(vi, i, c[i], N, samples)
     for _round in range(max_rounds):
         changed = False
         for _sweep in range(100):
@@ -283,53 +275,56 @@ def _binder_search(P, c0, max_rounds):
             for i in range(n):
                 a = c[i]
                 size[a] -= 1
-                h[:] = 0.0
-                for j in range(n):
-                    if j != i:
-                        h[c[j]] += 1.0 - 2.0 * P[i, j]
-                best, best_cost = a, (h[a] if size[a] > 0 else 0.0)
+                _take_out(vi, i, a, c, N, samples, P, h)
+                # stay (or, if alone, a cluster of its own: it costs 0), else the cheapest move
+                best, best_cost = a, _move_cost(vi, a, i, size, N, samples, g, two_s, h)
                 empty = -1
                 for k in range(cap):
                     if size[k] == 0:
                         if empty < 0 and k != a:
                             empty = k
-                    elif k != a and h[k] < best_cost - 1e-12:
-                        best, best_cost = k, h[k]
-                if best_cost > 1e-12 and size[a] > 0 and empty >= 0:  # a cluster of its own costs 0
+                    elif k != a:
+                        cost = _move_cost(vi, k, i, size, N, samples, g, two_s, h)
+                        if cost < best_cost - 1e-12:
+                            best, best_cost = k, cost
+                if best_cost > 1e-12 and size[a] > 0 and empty >= 0:
                     best = empty
                 c[i] = best
                 size[best] += 1
+                _put_in(vi, i, best, N, samples)
                 if best != a:
                     moved += 1
             if moved == 0:
                 break
             changed = True
-        # merge the pair whose union lowers the loss most
-        K = 0
-        for k in range(cap):
-            if size[k] > 0:
-                K = k + 1
-        B = np.zeros((K, K))
-        for i in range(n):
-            for j in range(i + 1, n):
-                if c[i] != c[j]:
-                    a, b = min(c[i], c[j]), max(c[i], c[j])
-                    B[a, b] += 1.0 - 2.0 * P[i, j]
+        # merge the pair of clusters whose union lowers the loss most
+        gain = _merge_gains(vi, c, size, N, g, two_s, P)
         best_gain = -1e-12
         ba, bb = -1, -1
-        for a in range(K):
-            for b in range(a + 1, K):
-                if size[a] > 0 and size[b] > 0 and B[a, b] < best_gain:
-                    best_gain, ba, bb = B[a, b], a, b
+        for a in range(gain.shape[0]):
+            if size[a] == 0:
+                continue
+            for b in range(a + 1, gain.shape[0]):
+                if size[b] > 0 and gain[a, b] < best_gain:
+                    best_gain, ba, bb = gain[a, b], a, b
         if ba >= 0:
             for i in range(n):
                 if c[i] == bb:
                     c[i] = ba
             size[ba] += size[bb]
             size[bb] = 0
+            if vi:
+                for s in range(S):
+                    for m in range(L):
+                        N[ba, s, m] += N[bb, s, m]
+                        N[bb, s, m] = 0
             changed = True
         if not changed:
             break
+    # (VI returns its cluster numbers as they are, Binder's renumbered: the callers' order of
+    # equal-sized clusters depends on it)
+    if vi:
+        return c, _vi_objective(samples, _relabel(c))
     c = _relabel(c)
     return c, _binder_objective(P, c)
 
@@ -445,7 +440,7 @@ def minimize_expected_loss(
     ranked = sorted(starts, key=score)[:2]
     best_c, best_v = None, np.inf
     for c0 in ranked:
-        c, v = _vi_search(S, c0, max_rounds) if loss == "vi" else _binder_search(P, c0, max_rounds)
+        c, v = _greedy_search(S, P, c0, max_rounds, loss == "vi")
         if v < best_v:
             best_c, best_v = c, v
     sizes = np.bincount(best_c)
