@@ -6,7 +6,6 @@ import math
 import os
 import time
 import warnings
-from concurrent.futures import ThreadPoolExecutor
 from numbers import Integral, Real
 from typing import ClassVar
 
@@ -15,21 +14,13 @@ from sklearn.base import BaseEstimator, ClusterMixin
 from sklearn.utils._param_validation import HasMethods, Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-from .. import _gibbs as g
 from ._diagnostics import RHAT_THRESHOLD, convergence_table
-from ._partition import expected_loss, minimize_expected_loss, posterior_similarity
+from ._point_estimate import choose_partition, partition_components
+from ._predictive import normalise, pack_predictive, point_scores, posterior_predictive
+from ._summaries import n_clusters_posterior, n_clusters_summary, summary_text
 
 # Floor on the eigenvalues of the hyperparameter W (whitened units; see the class docstring).
 W_FLOOR = 1e-10
-# Sweeps of the fixed-partition run that gives the point estimate's components (first quarter discarded).
-_FIXED_SWEEPS = 160
-# Gaussians of the Monte Carlo prior predictive of a new component (novelty).
-_NOVELTY_DRAWS = 64
-# At most this many saved partitions (all chains) estimate the expected loss of the point estimate.
-_POINT_ESTIMATE_SAMPLES = 200
-# At most this many saved partitions per chain enter the posterior predictive of predict/predict_proba.
-_PREDICTIVE_SAMPLES = 50
-_LOG_2PI = math.log(2.0 * math.pi)
 
 
 def _numpy_rng(random_state: object) -> np.random.Generator:
@@ -63,27 +54,6 @@ def _whitening(X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     if not level > 0.0:
         return mean, np.eye(D)
     return mean, np.linalg.cholesky(cov + 1e-9 * level * np.eye(D))
-
-
-def _wishart_cholesky(rng: np.random.Generator, dof: float, scale_chol: np.ndarray) -> np.ndarray:
-    """Lower Cholesky factor of a Wishart(dof, C C^T) draw (Bartlett), ``scale_chol`` = C."""
-    D = scale_chol.shape[0]
-    A = np.tril(rng.standard_normal((D, D)), -1)
-    A[np.diag_indices(D)] = np.sqrt(rng.chisquare(dof - np.arange(D)))
-    return scale_chol @ A
-
-
-def _log_gauss(Z: np.ndarray, mu: np.ndarray, L: np.ndarray, ldet: np.ndarray) -> np.ndarray:
-    """(n, C) ``log N(z | mu_c, (L_c L_c^T)^{-1})`` for whitened rows and components (``ldet = log|L L^T|``)."""
-    y = np.einsum("nd,cde->nce", Z, L) - np.einsum("cd,cde->ce", mu, L)[None]
-    return 0.5 * ldet - 0.5 * Z.shape[1] * _LOG_2PI - 0.5 * np.einsum("nce,nce->nc", y, y)
-
-
-def _log_gauss_upper(X: np.ndarray, means: np.ndarray, U: np.ndarray) -> np.ndarray:
-    """(n, K) ``log N(x | mean_k, (U_k U_k^T)^{-1})`` (the formula of :func:`gaussian_mixture_scores`)."""
-    y = np.einsum("nd,kde->nke", X, U) - np.einsum("kd,kde->ke", means, U)[None]
-    log_det = np.log(np.abs(np.diagonal(U, axis1=1, axis2=2))).sum(axis=1)
-    return log_det - 0.5 * X.shape[1] * _LOG_2PI - 0.5 * np.einsum("nke,nke->nk", y, y)
 
 
 class PitmanYorGMM(ClusterMixin, BaseEstimator):
@@ -363,6 +333,10 @@ class PitmanYorGMM(ClusterMixin, BaseEstimator):
         """
         t_fit = time.perf_counter()
         self._check_params()
+        # the compiled kernels load here, at the first fit of a process, not at import
+        from .. import _gibbs as g
+        from ._chains import run_chains
+
         X = validate_data(self, _as_array(X), dtype=np.float64)
         rng = _numpy_rng(self.random_state)
         n, D = X.shape
@@ -397,34 +371,13 @@ class PitmanYorGMM(ClusterMixin, BaseEstimator):
             n_chains,
             len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1),
         )
-        from tqdm.auto import tqdm
-
-        bar = tqdm(
-            total=n_chains * n_iter,
-            disable=not self.progress,
-            delay=1.0,
-            unit="sweep",
-            desc="PitmanYorGMM",
-            leave=False,
-        )
-        try:
-            with ThreadPoolExecutor(max_workers=min(workers, n_chains)) as pool:
-                runs = list(
-                    pool.map(
-                        lambda c: self._run_chain(
-                            Xw, chains[c], cfg, chain_rngs[c], n_iter, snap_sweeps, bar
-                        ),
-                        range(n_chains),
-                    )
-                )
-        finally:
-            bar.close()
+        runs = run_chains(Xw, chains, cfg, chain_rngs, n_iter, snap_sweeps, workers, self.progress)
         self.n_features_in_ = D
         self.data_mean_, self.data_scale_ = mean, scale
         self.n_iter_ = n_iter
         self._store_chains(runs, snap_sweeps, burn_in, n)
         self._store_point_estimate(Xw, runs, cfg, rng)
-        self._store_predictive(runs, snap_sweeps, burn_in, n, rng)
+        self._pred = pack_predictive(runs, snap_sweeps, burn_in, n, self.labels_, rng)
         self.sweep_seconds_ = float(np.mean([r["seconds"] for r in runs]) / n_iter)
         self.fit_seconds_ = time.perf_counter() - t_fit
         if any(not row["converged"] for row in self.convergence_ if np.isfinite(row["R-hat"])):
@@ -439,52 +392,9 @@ class PitmanYorGMM(ClusterMixin, BaseEstimator):
             )
         return self
 
-    @staticmethod
-    def _run_chain(Xw, st, cfg, rng, n_iter, snap_sweeps, bar) -> dict:
-        """Run one chain (in a worker thread); return its trace, MAP state and saved samples."""
-        trace = np.zeros((n_iter, len(g.TRACE_NAMES)))
-        counters = np.zeros(4, dtype=np.int64)
-        best = g.ChainState(*(a.copy() for a in st))
-        best_val = np.array([-np.inf])
-        labels = np.zeros((snap_sweeps.size, Xw.shape[0]), dtype=np.int32)
-        samples = []
-        start = 0
-        seconds = 0.0
-        for k, s in enumerate(snap_sweeps):
-            t0 = time.perf_counter()
-            g.run_sweeps(Xw, st, cfg, rng, start, s + 1 - start, trace, counters, best, best_val)
-            seconds += time.perf_counter() - t0
-            bar.update(s + 1 - start)
-            start = s + 1
-            K = int(st.ist[0])
-            slots = st.act[:K]
-            relabel = np.zeros(st.cnt.shape[0], dtype=np.int64)
-            relabel[slots] = np.arange(K)
-            labels[k] = relabel[st.z]
-            if s >= cfg.burn_in:
-                samples.append(
-                    {
-                        "mu": st.mu[slots].copy(),
-                        "L": st.L[slots].copy(),
-                        "ldet": st.ldet[slots].copy(),
-                        "cnt": st.cnt[slots].copy(),
-                        "sc": st.sc.copy(),
-                        "xi": st.xi.copy(),
-                        "GR": st.GR.copy(),
-                        "GW": st.GW.copy(),
-                    }
-                )
-        return {
-            "trace": trace,
-            "counters": counters,
-            "best": best,
-            "best_val": float(best_val[0]),
-            "labels": labels,
-            "samples": samples,
-            "seconds": seconds,
-        }
-
     def _store_chains(self, runs: list[dict], snap_sweeps: np.ndarray, burn_in: int, n: int) -> None:
+        from .. import _gibbs as g
+
         trace = np.stack([r["trace"] for r in runs])  # (chains, n_iter, 5)
         self.trace_ = {k: trace[:, :, c].copy() for c, k in enumerate(g.TRACE_NAMES)}
         self.trace_["n_clusters"] = self.trace_["n_clusters"].astype(np.int64)
@@ -530,149 +440,20 @@ class PitmanYorGMM(ClusterMixin, BaseEstimator):
         keep = self.labels_sweeps_ >= self._burn_in
         return self.labels_samples_[:, keep].reshape(-1, self.labels_samples_.shape[-1]).astype(np.int64)
 
-    def _store_point_estimate(self, Xw: np.ndarray, runs: list[dict], cfg: g.Settings, rng) -> None:
-        n, D = Xw.shape
-        saved = self._saved_partitions()
-        similarity = posterior_similarity(saved) if n <= 4000 else None
-        # the expected loss is estimated over at most _POINT_ESTIMATE_SAMPLES of them, evenly spaced
-        saved = saved[
-            np.unique(np.linspace(0, len(saved) - 1, min(len(saved), _POINT_ESTIMATE_SAMPLES)).astype(int))
-        ]
-        if self.point_estimate == "map":
-            labels = self.map_labels_
-            loss = expected_loss(labels, saved, "vi")
-        else:
-            labels, loss = minimize_expected_loss(
-                saved, self.point_estimate, candidates=[self.map_labels_], similarity=similarity
-            )
+    def _store_point_estimate(self, Xw: np.ndarray, runs: list[dict], cfg, rng) -> None:
+        labels, loss = choose_partition(self._saved_partitions(), self.map_labels_, self.point_estimate)
         self.labels_ = labels
         self.n_clusters_ = int(labels.max()) + 1
         self.expected_loss_ = loss
-        ks = self.n_clusters_samples_
-        values, counts = np.unique(ks, return_counts=True)
-        lo, hi = np.quantile(ks, [0.025, 0.975])
-        self.n_clusters_summary_ = {
-            "mode": int(values[np.argmax(counts)]),
-            "mode_probability": float(counts.max() / ks.size),
-            "median": float(np.median(ks)),
-            "mean": float(ks.mean()),
-            "interval": (float(lo), float(hi)),
-            "point_estimate": self.n_clusters_,
-            "map": self.map_n_clusters_,
-        }
-        # Components of the point estimate: posterior means given the partition, from a Gibbs run with
-        # the partition fixed (the sampler's component and hyperparameter updates only).
-        best = self._map_state
-        st = g.new_state(labels, D, float(best.sc[0]), float(best.sc[1]))
-        for name in ("sc", "xi", "R", "GR", "W", "GW"):
-            np.copyto(getattr(st, name), getattr(best, name))
-        fixed = cfg._replace(allocate=False, burn_in=_FIXED_SWEEPS)
-        g.init_components(Xw, st, fixed.use_lik, rng)
-        K = self.n_clusters_
-        trace = np.zeros((_FIXED_SWEEPS, len(g.TRACE_NAMES)))
-        kept = _FIXED_SWEEPS - _FIXED_SWEEPS // 4
-        mus, covs, scs, novelty = np.zeros((K, D)), np.zeros((K, D, D)), np.zeros(3), []
-        unused = g.ChainState(*(a.copy() for a in st))
-        for s in range(_FIXED_SWEEPS):
-            g.run_sweeps(
-                Xw, st, fixed, rng, s, 1, trace, np.zeros(4, dtype=np.int64), unused, np.array([np.inf])
-            )
-            if s < _FIXED_SWEEPS - kept:
-                continue
-            Linv = np.linalg.inv(st.L[:K])  # S^{-1} = L^{-T} L^{-1}
-            mus += st.mu[:K]
-            covs += np.swapaxes(Linv, 1, 2) @ Linv
-            scs += st.sc
-            if len(novelty) < _NOVELTY_DRAWS and (s % max(1, kept // _NOVELTY_DRAWS) == 0):
-                novelty.append(self._new_component_gaussian(st.xi, st.GR, st.GW, st.sc[2], rng))
-        mus /= kept
-        covs /= kept
-        scs /= kept
-        self.alpha_, self.discount_ = float(scs[0]), float(scs[1])
-        sizes = np.bincount(labels, minlength=K).astype(np.float64)
-        d = self.discount_
-        self.weights_ = (sizes - d) / (n - d * K)
-        self.novelty_weight_ = float((self.alpha_ + d * K) / (n + self.alpha_))
-        A, m = self.data_scale_, self.data_mean_
-        self.means_ = m + mus @ A.T
-        self.covariances_ = A @ covs @ A.T
-        self.precisions_cholesky_ = np.stack([self._precision_cholesky(c) for c in self.covariances_])
-        self._novelty_means = np.stack([m + A @ mu for mu, _ in novelty])
-        self._novelty_precisions_cholesky = np.stack(
-            [self._precision_cholesky(A @ c @ A.T) for _, c in novelty]
+        self.n_clusters_summary_ = n_clusters_summary(
+            self.n_clusters_samples_, self.n_clusters_, self.map_n_clusters_
         )
-
-    @staticmethod
-    def _new_component_gaussian(xi, GR, GW, beta, rng) -> tuple[np.ndarray, np.ndarray]:
-        """One Gaussian of the Monte Carlo prior predictive of a new component (whitened): (mean, covariance).
-
-        ``x | S ~ N(xi, S^{-1} + R^{-1})`` with ``mu`` integrated out, ``S ~ Wishart(beta, (beta W)^{-1})``.
-        With ``beta W = F F^T`` (``F = sqrt(beta) GW``) and ``A`` a Bartlett factor of ``Wishart(beta, I)``,
-        ``S = F^{-T} A A^T F^{-1}``, so ``S^{-1} = M^T M`` with ``M = A^{-1} F^T``: no inverse of a
-        possibly ill-conditioned ``W`` is formed.
-        """
-        D = xi.shape[0]
-        A = _wishart_cholesky(rng, beta, np.eye(D))
-        # (scipy.linalg.solve_triangular took milliseconds per 3 x 3 call on a busy machine; numpy does not)
-        M = np.linalg.solve(A, math.sqrt(beta) * GW.T)
-        N = np.linalg.inv(GR)  # R^{-1} = N^T N
-        return xi.copy(), M.T @ M + N.T @ N
-
-    @staticmethod
-    def _precision_cholesky(cov: np.ndarray) -> np.ndarray:
-        """Upper ``U`` with ``U U^T`` = ``cov^{-1}`` (scikit-learn's ``precisions_cholesky_``)."""
-        D = cov.shape[0]
-        try:
-            C = np.linalg.cholesky(cov)
-        except np.linalg.LinAlgError:
-            level = float(np.trace(cov)) / D
-            C = np.linalg.cholesky(cov + 1e-12 * max(level, 1e-300) * np.eye(D))
-        return np.linalg.inv(C).T
-
-    def _store_predictive(self, runs, snap_sweeps, burn_in, n, rng) -> None:
-        """Pack the saved components of (at most _PREDICTIVE_SAMPLES per chain) saved sweeps for predict."""
-        K = self.n_clusters_
-        D = self.n_features_in_
-        mus, Ls, ldets, logw, share, owner, new_mu, new_prec, new_ldet, new_logw = ([] for _ in range(10))
-        post_sweeps = snap_sweeps >= burn_in
-        for run in runs:
-            labels = run["labels"][post_sweeps]
-            pick = np.unique(
-                np.linspace(0, len(run["samples"]) - 1, min(_PREDICTIVE_SAMPLES, len(run["samples"]))).astype(
-                    int
-                )
-            )
-            for k in pick:
-                smp = run["samples"][k]
-                alpha, d, beta = smp["sc"]
-                Ks = smp["cnt"].size
-                s = len(new_logw)
-                mus.append(smp["mu"])
-                Ls.append(smp["L"])
-                ldets.append(smp["ldet"])
-                logw.append(np.log((smp["cnt"] - d) / (n + alpha)))
-                table = np.zeros((Ks, K))
-                np.add.at(table, (labels[k], self.labels_), 1.0)
-                share.append(table / table.sum(axis=1, keepdims=True))
-                owner.append(np.full(Ks, s))
-                xi, cov = self._new_component_gaussian(smp["xi"], smp["GR"], smp["GW"], beta, rng)
-                U = self._precision_cholesky(cov)  # upper, U U^T = cov^{-1}
-                new_mu.append(xi)
-                new_prec.append(U)
-                new_ldet.append(2.0 * np.log(np.abs(np.diag(U))).sum())
-                new_logw.append(math.log((alpha + d * Ks) / (n + alpha)))
-        self._pred = {
-            "mu": np.concatenate(mus).reshape(-1, D),
-            "L": np.concatenate(Ls).reshape(-1, D, D),
-            "ldet": np.concatenate(ldets),
-            "logw": np.concatenate(logw),
-            "share": np.concatenate(share),
-            "owner": np.concatenate(owner),
-            "new_mu": np.stack(new_mu),
-            "new_L": np.stack(new_prec),
-            "new_ldet": np.array(new_ldet),
-            "new_logw": np.array(new_logw),
-        }
+        c = partition_components(Xw, labels, self._map_state, cfg, rng, self.data_mean_, self.data_scale_)
+        self.alpha_, self.discount_ = c.alpha, c.discount
+        self.weights_, self.novelty_weight_ = c.weights, c.novelty_weight
+        self.means_, self.covariances_ = c.means, c.covariances
+        self.precisions_cholesky_ = c.precisions_cholesky
+        self._components = c
 
     # ------------------------------------------------------------------------------------------
     # prediction
@@ -682,54 +463,18 @@ class PitmanYorGMM(ClusterMixin, BaseEstimator):
         X = validate_data(self, _as_array(X), dtype=np.float64, reset=False)
         return np.linalg.solve(self.data_scale_, (X - self.data_mean_).T).T
 
-    def _point_scores(self, X: object) -> tuple[np.ndarray, np.ndarray]:
-        """(n, K) ``log P(join k) + log N(x | k)`` and (n,) ``log P(new) + log p_new(x)``, original coordinates."""
-        check_is_fitted(self)
-        X = validate_data(self, _as_array(X), dtype=np.float64, reset=False)
-        known = _log_gauss_upper(X, self.means_, self.precisions_cholesky_)
-        known += np.log(self.weights_ * (1 - self.novelty_weight_))
-        new = _log_gauss_upper(X, self._novelty_means, self._novelty_precisions_cholesky)
-        M = self._novelty_means.shape[0]
-        return known, np.logaddexp.reduce(new, axis=1) - math.log(M) + math.log(self.novelty_weight_)
-
-    def _posterior_predictive(self, X: object) -> tuple[np.ndarray, np.ndarray]:
-        """(n, K) probability of joining each point-estimate cluster and (n,) of a new component, averaged over samples."""
-        Z = self._whiten(X)
-        p = self._pred
-        S = p["new_logw"].size
-        n, K = Z.shape[0], self.n_clusters_
-        joint = np.zeros((n, K))
-        new = np.zeros(n)
-        starts = np.flatnonzero(np.r_[True, p["owner"][1:] != p["owner"][:-1]])
-        bounds = np.r_[starts, p["owner"].size]
-        step = max(1, int(2e6 // max(1, n * (bounds[-1] / S) * Z.shape[1])))
-        for s0 in range(0, S, step):
-            s1 = min(S, s0 + step)
-            lo, hi = bounds[s0], bounds[s1]
-            comp = p["logw"][lo:hi] + _log_gauss(Z, p["mu"][lo:hi], p["L"][lo:hi], p["ldet"][lo:hi])
-            fresh = p["new_logw"][s0:s1] + _log_gauss(
-                Z, p["new_mu"][s0:s1], p["new_L"][s0:s1], p["new_ldet"][s0:s1]
-            )
-            seg = starts[s0:s1] - lo
-            top = np.maximum(np.maximum.reduceat(comp, seg, axis=1), fresh)
-            owner = p["owner"][lo:hi] - s0
-            e = np.exp(comp - top[:, owner])
-            ef = np.exp(fresh - top)
-            total = np.add.reduceat(e, seg, axis=1) + ef
-            joint += (e / total[:, owner]) @ p["share"][lo:hi]
-            new += (ef / total).sum(axis=1)
-        return joint / S, new / S
-
     def _cluster_and_new(self, X: object, using: str) -> tuple[np.ndarray, np.ndarray]:
         if using == "samples":
-            return self._posterior_predictive(X)
+            return posterior_predictive(self._whiten(X), self._pred, self.n_clusters_)
         if using == "point":
-            known, new = self._point_scores(X)
-            top = np.maximum(known.max(axis=1), new)
-            e, en = np.exp(known - top[:, None]), np.exp(new - top)
-            total = e.sum(axis=1) + en
-            return e / total[:, None], en / total
+            return normalise(*self._point_scores(X))
         raise ValueError(f"using must be 'samples' or 'point', got {using!r}")
+
+    def _point_scores(self, X: object) -> tuple[np.ndarray, np.ndarray]:
+        check_is_fitted(self)
+        return point_scores(
+            validate_data(self, _as_array(X), dtype=np.float64, reset=False), self._components
+        )
 
     def predict(self, X: object, *, using: str = "samples") -> np.ndarray:
         """Return the cluster (0 … K-1) of every row of ``X`` (n, D), or -1 where it is novel; shape (n,).
@@ -767,60 +512,19 @@ class PitmanYorGMM(ClusterMixin, BaseEstimator):
     def n_clusters_posterior(self) -> dict[int, float]:
         """Return the posterior distribution of K (share of post-burn-in sweeps of all chains), as {K: probability}."""
         check_is_fitted(self)
-        values, counts = np.unique(self.n_clusters_samples_, return_counts=True)
-        return {int(v): float(c) / self.n_clusters_samples_.size for v, c in zip(values, counts, strict=True)}
+        return n_clusters_posterior(self.n_clusters_samples_)
 
     def posterior_similarity(self) -> np.ndarray:
         """Return the posterior similarity matrix (n, n): probability that two training points share a component."""
         check_is_fitted(self)
+        from ._partition import posterior_similarity
+
         return posterior_similarity(self._saved_partitions())
 
     def summary(self) -> str:
         """Return a readable summary: the posterior of K first, then the point estimate, the MAP sample, convergence."""
         check_is_fitted(self)
-        ks = self.n_clusters_summary_
-        post = self.n_clusters_posterior()
-        chains, n_iter = self.trace_["n_clusters"].shape
-        loss = "expected VI" if self.point_estimate != "binder" else "expected Binder loss"
-        what = {
-            "vi": "minimises the expected VI",
-            "binder": "minimises Binder's loss",
-            "map": "the MAP sample",
-        }
-        lines = [
-            f"PitmanYorGMM: {chains} chain(s) x {n_iter} sweeps ({self.n_clusters_samples_.size // chains} "
-            f"per chain after burn-in), {self.sweep_seconds_ * 1e3:.2f} ms/sweep, {self.fit_seconds_:.1f} s",
-            f"K, posterior: mode {ks['mode']} (p = {ks['mode_probability']:.3f}), median {ks['median']:g}, "
-            f"95% interval [{ks['interval'][0]:g}, {ks['interval'][1]:g}]",
-            f"point estimate ({what[self.point_estimate]}; {loss} {self.expected_loss_:.4f}): "
-            f"{self.n_clusters_} clusters",
-            f"MAP sample (largest joint density; under-counts K): K = {self.map_n_clusters_} "
-            f"(chain {self.map_chain_}, sweep {self.map_sweep_})",
-            "P(K): " + ", ".join(f"{k}: {p:.3f}" for k, p in sorted(post.items(), key=lambda kv: -kv[1])[:8]),
-            "convergence (rank-normalised split R-hat; bulk / tail ESS): "
-            + "; ".join(
-                f"{r['quantity']} {r['R-hat']:.3f} ({r['ESS bulk']:.0f} / {r['ESS tail']:.0f})"
-                for r in self.convergence_
-            ),
-        ]
-        bad = [r["quantity"] for r in self.convergence_ if np.isfinite(r["R-hat"]) and not r["converged"]]
-        if bad:
-            lines.append(
-                f"WARNING: R-hat > {RHAT_THRESHOLD} for {', '.join(bad)}: the chains disagree, run longer"
-            )
-        for name, s in (
-            ("alpha", self.alpha_samples_),
-            ("d", self.discount_samples_),
-            ("beta", self.beta_samples_),
-        ):
-            q = np.quantile(s, [0.025, 0.5, 0.975])
-            lines.append(f"{name}: median {q[1]:.3g}, 95% interval [{q[0]:.3g}, {q[2]:.3g}]")
-        st = self.split_merge_stats_
-        lines.append(
-            f"split-merge: {st['split_accepted']}/{st['split_proposed']} splits, "
-            f"{st['merge_accepted']}/{st['merge_proposed']} merges accepted"
-        )
-        return "\n".join(lines)
+        return summary_text(self)
 
     def to_module(self):
         """Return the point estimate's mixture as a torch module ``features (B, D) -> (labels, log_resp, novel)``.
@@ -839,7 +543,7 @@ class PitmanYorGMM(ClusterMixin, BaseEstimator):
             self.means_,
             self.precisions_cholesky_,
             np.log(self.weights_),
-            novelty_means=self._novelty_means,
-            novelty_precisions_cholesky=self._novelty_precisions_cholesky,
+            novelty_means=self._components.novelty_means,
+            novelty_precisions_cholesky=self._components.novelty_precisions_cholesky,
             novelty_log_weight=math.log(self.novelty_weight_) - math.log(1.0 - self.novelty_weight_),
         )

@@ -1,0 +1,135 @@
+"""Prediction of a fitted :class:`PitmanYorGMM`: the posterior predictive over saved samples, and the point estimate's.
+
+For a new point, each saved partition gives the probability of joining each of its components
+(weight ``n_j - d``) or a new one (weight ``alpha + d K``, the new component's prior predictive
+density by Monte Carlo); the components are mapped onto the point estimate's clusters by the share
+of each component's training points in each cluster, and the result is averaged over the samples
+(:func:`posterior_predictive`). :func:`point_scores` computes the same from the point estimate's
+components alone, as the exported graph does.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ._point_estimate import new_component_gaussian, precision_cholesky
+
+# At most this many saved partitions per chain enter the posterior predictive of predict/predict_proba.
+_PREDICTIVE_SAMPLES = 50
+_LOG_2PI = math.log(2.0 * math.pi)
+
+
+def log_gauss(Z: np.ndarray, mu: np.ndarray, L: np.ndarray, ldet: np.ndarray) -> np.ndarray:
+    """(n, C) ``log N(z | mu_c, (L_c L_c^T)^{-1})`` for whitened rows and components (``ldet = log|L L^T|``)."""
+    y = np.einsum("nd,cde->nce", Z, L) - np.einsum("cd,cde->ce", mu, L)[None]
+    return 0.5 * ldet - 0.5 * Z.shape[1] * _LOG_2PI - 0.5 * np.einsum("nce,nce->nc", y, y)
+
+
+def log_gauss_upper(X: np.ndarray, means: np.ndarray, U: np.ndarray) -> np.ndarray:
+    """(n, K) ``log N(x | mean_k, (U_k U_k^T)^{-1})`` (the formula of :func:`gaussian_mixture_scores`)."""
+    y = np.einsum("nd,kde->nke", X, U) - np.einsum("kd,kde->ke", means, U)[None]
+    log_det = np.log(np.abs(np.diagonal(U, axis1=1, axis2=2))).sum(axis=1)
+    return log_det - 0.5 * X.shape[1] * _LOG_2PI - 0.5 * np.einsum("nke,nke->nk", y, y)
+
+
+def pack_predictive(runs, snap_sweeps, burn_in, n, labels, rng) -> dict:
+    """Pack the components of (at most ``_PREDICTIVE_SAMPLES`` per chain) saved sweeps for prediction.
+
+    ``runs``: the chains' saved samples; ``labels``: the point estimate, onto whose clusters every
+    sample's components are mapped. One Gaussian of the new component's prior predictive is drawn
+    per sample from ``rng``.
+    """
+    K = int(labels.max()) + 1
+    D = runs[0]["samples"][0]["mu"].shape[1]
+    mus, Ls, ldets, logw, share, owner, new_mu, new_prec, new_ldet, new_logw = ([] for _ in range(10))
+    post_sweeps = snap_sweeps >= burn_in
+    for run in runs:
+        saved_labels = run["labels"][post_sweeps]
+        pick = np.unique(
+            np.linspace(0, len(run["samples"]) - 1, min(_PREDICTIVE_SAMPLES, len(run["samples"]))).astype(int)
+        )
+        for k in pick:
+            smp = run["samples"][k]
+            alpha, d, beta = smp["sc"]
+            Ks = smp["cnt"].size
+            s = len(new_logw)
+            mus.append(smp["mu"])
+            Ls.append(smp["L"])
+            ldets.append(smp["ldet"])
+            logw.append(np.log((smp["cnt"] - d) / (n + alpha)))
+            table = np.zeros((Ks, K))
+            np.add.at(table, (saved_labels[k], labels), 1.0)
+            share.append(table / table.sum(axis=1, keepdims=True))
+            owner.append(np.full(Ks, s))
+            xi, cov = new_component_gaussian(smp["xi"], smp["GR"], smp["GW"], beta, rng)
+            U = precision_cholesky(cov)  # upper, U U^T = cov^{-1}
+            new_mu.append(xi)
+            new_prec.append(U)
+            new_ldet.append(2.0 * np.log(np.abs(np.diag(U))).sum())
+            new_logw.append(math.log((alpha + d * Ks) / (n + alpha)))
+    return {
+        "mu": np.concatenate(mus).reshape(-1, D),
+        "L": np.concatenate(Ls).reshape(-1, D, D),
+        "ldet": np.concatenate(ldets),
+        "logw": np.concatenate(logw),
+        "share": np.concatenate(share),
+        "owner": np.concatenate(owner),
+        "new_mu": np.stack(new_mu),
+        "new_L": np.stack(new_prec),
+        "new_ldet": np.array(new_ldet),
+        "new_logw": np.array(new_logw),
+    }
+
+
+def posterior_predictive(Z: np.ndarray, p: dict, K: int) -> tuple[np.ndarray, np.ndarray]:
+    """(n, K) probability of joining each point-estimate cluster and (n,) of a new component, averaged over samples.
+
+    ``Z``: whitened rows; ``p``: :func:`pack_predictive`'s output. Samples are processed in blocks
+    of about 2e6 numbers.
+    """
+    S = p["new_logw"].size
+    n = Z.shape[0]
+    joint = np.zeros((n, K))
+    new = np.zeros(n)
+    starts = np.flatnonzero(np.r_[True, p["owner"][1:] != p["owner"][:-1]])
+    bounds = np.r_[starts, p["owner"].size]
+    step = max(1, int(2e6 // max(1, n * (bounds[-1] / S) * Z.shape[1])))
+    for s0 in range(0, S, step):
+        s1 = min(S, s0 + step)
+        lo, hi = bounds[s0], bounds[s1]
+        comp = p["logw"][lo:hi] + log_gauss(Z, p["mu"][lo:hi], p["L"][lo:hi], p["ldet"][lo:hi])
+        fresh = p["new_logw"][s0:s1] + log_gauss(
+            Z, p["new_mu"][s0:s1], p["new_L"][s0:s1], p["new_ldet"][s0:s1]
+        )
+        seg = starts[s0:s1] - lo
+        top = np.maximum(np.maximum.reduceat(comp, seg, axis=1), fresh)
+        owner = p["owner"][lo:hi] - s0
+        e = np.exp(comp - top[:, owner])
+        ef = np.exp(fresh - top)
+        total = np.add.reduceat(e, seg, axis=1) + ef
+        joint += (e / total[:, owner]) @ p["share"][lo:hi]
+        new += (ef / total).sum(axis=1)
+    return joint / S, new / S
+
+
+def point_scores(X: np.ndarray, c) -> tuple[np.ndarray, np.ndarray]:
+    """(n, K) ``log P(join k) + log N(x | k)`` and (n,) ``log P(new) + log p_new(x)``, original coordinates.
+
+    ``c``: the point estimate's components (:class:`._point_estimate.Components` or the fitted
+    estimator's attributes of the same names).
+    """
+    known = log_gauss_upper(X, c.means, c.precisions_cholesky)
+    known += np.log(c.weights * (1 - c.novelty_weight))
+    new = log_gauss_upper(X, c.novelty_means, c.novelty_precisions_cholesky)
+    M = c.novelty_means.shape[0]
+    return known, np.logaddexp.reduce(new, axis=1) - math.log(M) + math.log(c.novelty_weight)
+
+
+def normalise(known: np.ndarray, new: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Probabilities from the log scores of :func:`point_scores`: (n, K) per cluster and (n,) new."""
+    top = np.maximum(known.max(axis=1), new)
+    e, en = np.exp(known - top[:, None]), np.exp(new - top)
+    total = e.sum(axis=1) + en
+    return e / total[:, None], en / total
