@@ -13,33 +13,60 @@ posterior similarity matrix (:func:`posterior_similarity`), convergence diagnost
 exportable torch graph (:class:`GaussianMixtureClassifier`). :func:`baseline_clusterings` runs the
 study's scikit-learn baselines.
 
-Submodules: ``_estimator`` (the estimator), ``_partition`` (partitions: prior of K, similarity,
-point estimates), ``_diagnostics`` (R-hat, ESS), ``_inference`` (torch graph), ``_baselines``.
-The torch graph is imported on first use, so that fitting does not import torch.
+Submodules: ``_estimator`` (the estimator), ``_chains`` (running the chains), ``_point_estimate``
+(the point estimate's partition and components), ``_predictive`` (prediction), ``_summaries``
+(posterior of K, the readable summary), ``_partition`` (partitions: prior of K, similarity, point
+estimates), ``_diagnostics`` (R-hat, ESS), ``_inference`` (torch graph), ``_baselines``.
+
+Every name is imported on first use, so that a path that needs one part does not pay for the
+others: the torch graph alone imports neither scikit-learn nor numba, and the compiled sampler loads
+at the first ``fit`` of a process, not at import.
 """
 
 from __future__ import annotations
 
-from ._baselines import baseline_clusterings
-from ._diagnostics import ess_bulk, ess_tail, rhat
-from ._estimator import PitmanYorGMM
-from ._partition import (
-    expected_loss,
-    minimize_expected_loss,
-    pitman_yor_prior_k,
-    posterior_similarity,
-    variation_of_information,
-)
+import importlib
+from typing import TYPE_CHECKING
 
-_TORCH = {"GaussianMixtureClassifier", "gaussian_mixture_scores"}
+_HOMES = {
+    "PitmanYorGMM": "_estimator",
+    "baseline_clusterings": "_baselines",
+    "ess_bulk": "_diagnostics",
+    "ess_tail": "_diagnostics",
+    "rhat": "_diagnostics",
+    "expected_loss": "_partition",
+    "minimize_expected_loss": "_partition",
+    "pitman_yor_prior_k": "_partition",
+    "posterior_similarity": "_partition",
+    "variation_of_information": "_partition",
+    "GaussianMixtureClassifier": "_inference",
+    "gaussian_mixture_scores": "_inference",
+}
+"""The module of the package that defines each public name."""
+
+if TYPE_CHECKING:
+    from ._baselines import baseline_clusterings
+    from ._diagnostics import ess_bulk, ess_tail, rhat
+    from ._estimator import PitmanYorGMM
+    from ._inference import GaussianMixtureClassifier, gaussian_mixture_scores
+    from ._partition import (
+        expected_loss,
+        minimize_expected_loss,
+        pitman_yor_prior_k,
+        posterior_similarity,
+        variation_of_information,
+    )
 
 
 def __getattr__(name: str):
-    if name in _TORCH:
-        from . import _inference
+    home = _HOMES.get(name)
+    if home is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    return getattr(importlib.import_module(f"{__name__}.{home}"), name)
 
-        return getattr(_inference, name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *__all__})
 
 
 __all__ = [
