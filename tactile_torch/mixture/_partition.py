@@ -177,7 +177,7 @@ def _binder_objective(P, c):
 
 @njit(cache=True)
 def _take_out(vi, i, a, c, N, samples, P, h):
-    """Remove point ``i`` from cluster ``a``'s VI counts (VI), or fill ``h[k]`` = sum over k's other points of 1 - 2 P[i, j]."""
+    """Take point ``i`` out of cluster ``a``: VI, out of its counts; Binder, fill ``h[k]`` = sum of ``1 - 2 P[i, j]`` over k's points."""
     if vi:
         for s in range(samples.shape[0]):
             N[a, s, samples[s, i]] -= 1
@@ -190,6 +190,7 @@ def _take_out(vi, i, a, c, N, samples, P, h):
 
 @njit(cache=True)
 def _put_in(vi, i, k, N, samples):
+    """Put point ``i`` into cluster ``k``'s counts (VI; Binder keeps none)."""
     if vi:
         for s in range(samples.shape[0]):
             N[k, s, samples[s, i]] += 1
