@@ -50,7 +50,7 @@ from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
 from sklearn.svm import SVC as LibSVC
 
-from bench.common import DEFAULT_THREADS, threads, time_call
+from bench.common import DEFAULT_THREADS, threads, time_call, time_threads_alternately
 from tactile_torch.data import make_vibration_recordings, shared_data_dir
 from tactile_torch.model_selection import SVMGridSearchCV, grid_search_validation, rotating_splits
 from tactile_torch.signal import window_features
@@ -379,14 +379,8 @@ def _thread_rows(data_name, X, y, X_test, search: bool, quick: bool) -> list[dic
         ).fit(X, y)
     rows = []
     for what, operation in operations.items():
-        seconds = {1: np.inf, DEFAULT_THREADS: np.inf}
         repeat = 3 if what.startswith("grid") or X.shape[0] > 10000 else 7
-        for _ in range(repeat):
-            for n_threads in seconds:
-                with threads(n_threads):
-                    start = time.perf_counter()
-                    operation()
-                    seconds[n_threads] = min(seconds[n_threads], time.perf_counter() - start)
+        seconds = time_threads_alternately(operation, repeat=repeat, warmup=0)
         rows.append(
             {
                 "data": data_name,

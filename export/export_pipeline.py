@@ -23,8 +23,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--model", required=True, help="model file written by tactile-torch train or cluster")
     parser.add_argument("--out", required=True, help="the .onnx bundle to write")
     parser.add_argument("--check", default="", help="a data .npz to compare onnxruntime with torch on")
+    parser.add_argument(
+        "--sensor-range",
+        type=float,
+        default=None,
+        help="vibration models: the sensor's range in g, kept in the bundle (default: 5, the ADXL345)",
+    )
     args = parser.parse_args(argv)
-    pipe = pipeline_from_model(load_model_file(args.model))
+    pipe = pipeline_from_model(load_model_file(args.model), sensor_range_g=args.sensor_range)
     path = export_pipeline(pipe, args.out)
     bundle = OnnxPipeline(path)
     print(f"{bundle!r}: {path.stat().st_size / 1024:.0f} KiB")

@@ -196,10 +196,28 @@ def _cluster(args: argparse.Namespace) -> int:
     return 0
 
 
+def _range_g(text: str | None, option: str, *, off: bool) -> float | None:
+    """Return the sensor range in g an option gives (``None`` when not given), or raise a one-line error.
+
+    ``off``: ``inf`` is accepted (no range check).
+    """
+    if text is None:
+        return None
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not (value > 0 and (off or value != float("inf"))):
+        expected = "a number of g > 0 ('inf': no check)" if off else "a finite number of g > 0"
+        raise UsageError(f"{option} must be {expected}, got {text!r}")
+    return value
+
+
 def _export(args: argparse.Namespace) -> int:
     from .pipeline import export_pipeline, load_model_file, pipeline_from_model
 
-    pipeline = pipeline_from_model(load_model_file(args.model))
+    sensor_range = _range_g(args.sensor_range, "--sensor-range", off=False)
+    pipeline = pipeline_from_model(load_model_file(args.model), sensor_range_g=sensor_range)
     path = export_pipeline(pipeline, args.out)
     size = path.stat().st_size / 1024
     print(
@@ -216,33 +234,63 @@ def _predict(args: argparse.Namespace) -> int:
     import numpy as np
 
     from .metrics import class_report
-    from .runtime import OnnxPipeline
+    from .runtime import OnnxPipeline, beyond_range, sensor_range_g
 
     pipe = OnnxPipeline(args.model, intra_op_threads=args.threads)
+    range_g = _range_g(args.range, "--range", off=True)
+    windows = pipe.input_layout == "B,3,W"
+    if range_g is not None and not windows:
+        raise UsageError(f"--range: {args.model} takes no vibration windows ({pipe.pipeline} bundle)")
     data = pipe.read_npz(args.data, allow_pickle=args.allow_pickle)
+    where = _data_name(args.data)
     mismatch = pipe.sample_rate_mismatch(data.rate_hz)
     if mismatch:
-        print(f"tactile-torch predict: warning: {_data_name(args.data)}: {mismatch}", file=sys.stderr)
-    labels = np.concatenate(
-        [pipe.predict(data.raw[i : i + args.batch]) for i in range(0, len(data.raw), args.batch)]
+        print(f"tactile-torch predict: warning: {where}: {mismatch}", file=sys.stderr)
+    # Windows holding a sample the sensor cannot give (a corrupted value) are not classified, as in stream.
+    classified = np.ones(len(data.raw), dtype=bool)
+    if windows:
+        range_g = sensor_range_g(pipe.metadata) if range_g is None else range_g
+        classified = ~beyond_range(data.raw, range_g)
+    beyond = f"beyond ±{range_g:g} g" if windows else ""
+    n_out = int((~classified).sum())
+    if n_out == len(classified):
+        raise UsageError(
+            f"{where}: all {n_out} windows have samples {beyond}, so none was classified (the range is the "
+            "bundle's sensor_range_g, else 5 g; --range sets it)"
+        )
+    if n_out:
+        print(
+            f"tactile-torch predict: warning: {where}: {n_out} of {len(classified)} windows have samples "
+            f"{beyond} and were not classified",
+            file=sys.stderr,
+        )
+    raw = data.raw[classified] if n_out else data.raw
+    labels = np.full(len(classified), -1, dtype=np.int64)
+    labels[classified] = np.concatenate(
+        [pipe.predict(raw[i : i + args.batch]) for i in range(0, len(raw), args.batch)]
     )
-    print(f"{pipe!r}: {len(labels)} samples of {_data_name(args.data)}")
+    print(f"{pipe!r}: {len(labels)} samples of {where}")
     if args.out:
         from .formats import write_npz
 
-        write_npz(args.out, {"labels": labels, "names": np.array(pipe.class_names)[labels]})
+        names = np.array([*pipe.class_names, f"not classified: {beyond}"])[labels]  # -1: the last
+        write_npz(args.out, {"labels": labels, "names": names})
         print(f"labels written to {args.out}")
+    if n_out:
+        print(f"{n_out} windows with samples {beyond} were not classified and are left out")
     if data.labels is not None and pipe.pipeline.endswith("-pyp"):
         from .metrics import pairwise_accuracy
 
-        accuracy = pairwise_accuracy(data.file_labels, labels)  # the file's classes vs the components
-        print(f"{len(np.unique(labels))} components used; pairwise accuracy {accuracy:.4f}")
+        found = labels[classified]  # the components, scored against the file's classes
+        accuracy = pairwise_accuracy(data.file_labels[classified], found)
+        print(f"{len(np.unique(found))} components used; pairwise accuracy {accuracy:.4f}")
         return 0
     known = None if data.labels is None else data.labels >= 0
     if known is not None and not known.all():
         print(f"{int((~known).sum())} samples of classes the model does not know are left out")
-    if known is None or not known.any():
-        counts = np.bincount(labels, minlength=len(pipe.class_names))
+    known = classified if known is None else known & classified
+    if data.labels is None or not known.any():
+        counts = np.bincount(labels[classified], minlength=len(pipe.class_names))
         for name, n in zip(pipe.class_names, counts, strict=True):
             print(f"{name:<24} {n:>7}")
         return 0
@@ -286,6 +334,7 @@ def _stream(args: argparse.Namespace) -> int:
     from .stream import StreamDisconnected, StreamTimeout, WindowReader, sensor_range_g
     from .stream_output import WindowVote, classify_windows, result_json, result_text
 
+    range_g = _range_g(args.range, "--range", off=True)
     pipe = OnnxPipeline(args.model, intra_op_threads=args.threads)
     if "window_size" not in pipe.metadata:
         print(f"tactile-torch stream: {args.model} does not take vibration windows", file=sys.stderr)
@@ -314,7 +363,7 @@ def _stream(args: argparse.Namespace) -> int:
         max_windows=args.max_windows or None,
         rate_hz=rate,
         time_unit=args.time_unit,
-        range_g=args.range or sensor_range_g(pipe.metadata),
+        range_g=range_g or sensor_range_g(pipe.metadata),
         silence_s=args.silence,
         idle_timeout_s=args.idle_timeout or math.inf,
         start_timeout_s=args.start_timeout or math.inf,
@@ -564,6 +613,12 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--model", required=True, help="model file (model.npz) written by train or cluster")
     p.add_argument("--out", required=True, help="the .onnx file to write")
+    p.add_argument(
+        "--sensor-range",
+        metavar="G",
+        help="vibration models: the sensor's range in g, kept in the bundle (predict and stream reject "
+        "samples beyond it; default: 5, the ADXL345 of the study)",
+    )
     p.set_defaults(handler=_export)
 
     p = sub.add_parser(
@@ -580,6 +635,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default="", help="also write the predicted labels and names to this .npz")
     p.add_argument("--batch", type=int, default=256, help="samples per onnxruntime call (default: 256)")
     p.add_argument("--threads", type=int, default=1, help="onnxruntime intra-op threads (default: 1)")
+    p.add_argument(
+        "--range",
+        metavar="G",
+        help="vibration: windows with a sample beyond +-G g are not classified; inf: off (default: the "
+        "bundle's sensor_range_g, else 5)",
+    )
     _add_allow_pickle(p)
     p.set_defaults(handler=_predict)
 
@@ -649,9 +710,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--range",
-        type=_at_least(0),
-        default=0.0,
-        help="reject samples beyond +-RANGE g (default: the bundle's sensor_range_g, else 5 for the ADXL345)",
+        help="reject samples beyond +-RANGE g; inf: off (default: the bundle's sensor_range_g, else 5 for the "
+        "ADXL345)",
     )
     p.add_argument(
         "--time-unit",

@@ -21,7 +21,7 @@ or a clustering written by ``tactile-torch cluster`` (:func:`save_clustering_mod
 are read and validated by :mod:`tactile_torch.model_file` (no pickle). :func:`export_pipeline`
 writes the pipeline to one ``.onnx`` file with a dynamic batch size and the metadata that
 :class:`tactile_torch.runtime.OnnxPipeline` reads (class names, input shape, window size, sample
-rate, thresholds, feature scale, library version).
+rate, sensor range, thresholds, feature scale, library version).
 
 Labels index :attr:`InferencePipeline.class_names`; scores are the SVM's per-class scores
 (:class:`~tactile_torch.svm.SVMInference`) or the mixture's log responsibilities.
@@ -36,6 +36,7 @@ Examples
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -44,6 +45,7 @@ import torch
 from torch import nn
 
 from .model_file import FORMAT, ModelFile, load_model_file
+from .runtime import DEFAULT_RANGE_G, RANGE_METADATA_KEY
 
 CLUSTERING_FORMAT = FORMAT
 """``format`` of model files (:data:`tactile_torch.model_file.FORMAT`); kept for old imports."""
@@ -135,9 +137,16 @@ def _scaler(scale: np.ndarray) -> nn.Module:
     return ScaleFeatures(torch.zeros_like(scale), scale)
 
 
-def _front_end(source: dict) -> tuple[list[nn.Module], list[int | None], str, dict]:
+def _front_end(
+    source: dict, sensor_range_g: float | None = None
+) -> tuple[list[nn.Module], list[int | None], str, dict]:
     """Return (modules, input shape, layout, metadata) of the raw-input part described by ``source``."""
     kind = source.get("kind")
+    if sensor_range_g is not None and kind != "vibration":
+        raise ValueError(
+            "sensor_range_g (tactile-torch export --sensor-range) applies to models of vibration windows "
+            f"only, got a model of {kind} input"
+        )
     if kind == "vibration":
         from .signal import WindowFeatures
 
@@ -146,6 +155,7 @@ def _front_end(source: dict) -> tuple[list[nn.Module], list[int | None], str, di
             "window_size": window,
             "step": int(source.get("step") or window),
             "sample_rate_hz": float(source["rate_hz"]),
+            RANGE_METADATA_KEY: DEFAULT_RANGE_G if sensor_range_g is None else sensor_range_g,
         }
         return [WindowFeatures(window)], [None, 3, window], "B,3,W", meta
     if kind == "image":
@@ -168,13 +178,20 @@ def _front_end(source: dict) -> tuple[list[nn.Module], list[int | None], str, di
     raise ValueError(f"the model's source kind must be 'vibration', 'image' or 'features', got {kind!r}")
 
 
-def pipeline_from_model(model: ModelFile | str | Path) -> InferencePipeline:
+def pipeline_from_model(
+    model: ModelFile | str | Path, *, sensor_range_g: float | None = None
+) -> InferencePipeline:
     """Build the inference pipeline of a model file (a :class:`~tactile_torch.model_file.ModelFile`,
     or its path) written by ``tactile-torch train --out`` or ``tactile-torch cluster``.
 
     The torch modules are rebuilt from the file's arrays: the front end from ``source`` (window
     features, or exploration features), then the feature scale and the SVM's inference path, or the
     clustering transform and the MAP mixture.
+
+    ``sensor_range_g`` (vibration models only; default :data:`~tactile_torch.runtime.DEFAULT_RANGE_G`,
+    5 g, the ADXL345 of the study) is the sensor's range, kept in the metadata (``sensor_range_g``):
+    ``tactile-torch predict`` does not classify windows holding a sample beyond it and ``stream``
+    rejects such samples. It must be finite and > 0.
     """
     if isinstance(model, str | Path):
         model = load_model_file(model)
@@ -183,10 +200,16 @@ def pipeline_from_model(model: ModelFile | str | Path) -> InferencePipeline:
             f"model must be a ModelFile (tactile_torch.model_file.load_model_file(path)) or a path, "
             f"got {type(model).__name__}"
         )
+    if sensor_range_g is not None:
+        if isinstance(sensor_range_g, bool) or not isinstance(sensor_range_g, int | float | np.number):
+            raise TypeError(f"sensor_range_g must be a number of g, got {type(sensor_range_g).__name__}")
+        if not (math.isfinite(sensor_range_g) and sensor_range_g > 0):
+            raise ValueError(f"sensor_range_g must be a finite number of g > 0, got {sensor_range_g!r}")
+        sensor_range_g = float(sensor_range_g)
     if model.kind == "clustering":
-        return _clustering_pipeline(model)
+        return _clustering_pipeline(model, sensor_range_g)
     source = model.source
-    modules, shape, layout, meta = _front_end(source)
+    modules, shape, layout, meta = _front_end(source, sensor_range_g)
     head = model.header["head"]
     params = model.header.get("params", {})
     meta.update(
@@ -282,7 +305,7 @@ def save_clustering_model(
     return save_model_file(path, header, arrays)
 
 
-def _clustering_pipeline(model: ModelFile) -> InferencePipeline:
+def _clustering_pipeline(model: ModelFile, sensor_range_g: float | None) -> InferencePipeline:
     from .mixture import GaussianMixtureClassifier
 
     state = model.part("head")
@@ -295,7 +318,7 @@ def _clustering_pipeline(model: ModelFile) -> InferencePipeline:
         novelty_log_weight=float(state.get("novelty_log_weight", 0.0)),
     )
     source = model.source
-    modules, shape, layout, meta = _front_end(source)
+    modules, shape, layout, meta = _front_end(source, sensor_range_g)
     spec = model.header.get("transform")
     if spec is not None:
         from .signal import ClusteringProjection

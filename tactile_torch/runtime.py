@@ -20,6 +20,10 @@ Metadata keys read here (all values are strings; JSON where structured):
     8-bit frames to [0, 1]).
 ``class_names``
     JSON list of the class (or component) names indexed by label.
+``sensor_range_g``
+    vibration bundles: the sensor's range in g (``tactile-torch export --sensor-range``, 5 by
+    default); windows holding a sample beyond it are not classified by ``tactile-torch predict``,
+    and such samples are rejected by ``stream`` (:func:`sensor_range_g`, :func:`beyond_range`).
 
 Other keys (window size, sample rate, thresholds, feature scale ...) are kept in
 :attr:`OnnxPipeline.metadata` for the caller.
@@ -34,6 +38,7 @@ array([3, 3, 17])
 from __future__ import annotations
 
 import json
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -44,6 +49,36 @@ _KIND_KEYS = {"image": "frames", "vibration": "signals", "features": "features"}
 _ONNX_DTYPES = {"tensor(uint8)": "uint8", "tensor(float)": "float32", "tensor(double)": "float64"}
 LABELS_OUTPUT = "labels"
 SCORES_OUTPUT = "scores"
+
+DEFAULT_RANGE_G = 5.0
+"""Range of the ADXL345 as configured in the vibration study (method 2), in g."""
+
+RANGE_METADATA_KEY = "sensor_range_g"
+"""Bundle metadata key that, when present, gives the sensor's range in g (see :func:`sensor_range_g`)."""
+
+
+def sensor_range_g(metadata: Mapping[str, str], default: float = DEFAULT_RANGE_G) -> float:
+    """Return the sensor range (g) a bundle's metadata declares (:data:`RANGE_METADATA_KEY`), else ``default``."""
+    value = metadata.get(RANGE_METADATA_KEY)
+    if value is None:
+        return float(default)
+    range_g = float(value)
+    if not (math.isfinite(range_g) and range_g > 0):
+        raise ValueError(f"metadata {RANGE_METADATA_KEY} must be a number > 0, got {value!r}")
+    return range_g
+
+
+def beyond_range(raw: np.ndarray, range_g: float) -> np.ndarray:
+    """Return which samples of a batch hold a value beyond ``±range_g``: bool ``(B,)`` for ``raw`` ``(B, ...)``.
+
+    A value ``v`` is in range when ``-range_g <= v <= range_g`` (inclusive, as the stream checks each
+    sample it reads); NaN is never in range; ``range_g = math.inf`` lets every finite value through.
+    For windows ``(B, 3, W)`` in g this flags the windows that hold a sample the sensor cannot have
+    produced (a corrupted value, or data in other units), whose features would be meaningless.
+    """
+    values = np.asarray(raw).reshape(len(raw), -1)
+    # reductions, not np.abs: no temporary as large as the batch
+    return ~((values.max(axis=1) <= range_g) & (values.min(axis=1) >= -range_g))
 
 
 class NonFiniteScoresError(ValueError):
@@ -338,4 +373,14 @@ class OnnxPipeline:
         )
 
 
-__all__ = ["LABELS_OUTPUT", "SCORES_OUTPUT", "LabelledInput", "NonFiniteScoresError", "OnnxPipeline"]
+__all__ = [
+    "DEFAULT_RANGE_G",
+    "LABELS_OUTPUT",
+    "RANGE_METADATA_KEY",
+    "SCORES_OUTPUT",
+    "LabelledInput",
+    "NonFiniteScoresError",
+    "OnnxPipeline",
+    "beyond_range",
+    "sensor_range_g",
+]

@@ -48,13 +48,8 @@ from typing import Protocol
 
 import numpy as np
 
+from .runtime import DEFAULT_RANGE_G, RANGE_METADATA_KEY, sensor_range_g
 from .wire import format_sample, parse_line, parse_sample, pseudo_terminal, simulate_sensor
-
-DEFAULT_RANGE_G = 5.0
-"""Range of the ADXL345 as configured in the vibration study (method 2), in g."""
-
-RANGE_METADATA_KEY = "sensor_range_g"
-"""Bundle metadata key that, when present, gives the sensor's range in g (see :func:`sensor_range_g`)."""
 
 TIME_UNITS = ("s", "ms", "us", "samples")
 """Units the ``t`` field may be in; ``"samples"`` is a sample counter (one per sample)."""
@@ -140,17 +135,6 @@ class Window:
     rejected: int = 0
     gaps: int = 0
     flags: tuple[str, ...] = ()
-
-
-def sensor_range_g(metadata: dict[str, str], default: float = DEFAULT_RANGE_G) -> float:
-    """Return the sensor range (g) a bundle's metadata declares (:data:`RANGE_METADATA_KEY`), else ``default``."""
-    value = metadata.get(RANGE_METADATA_KEY)
-    if value is None:
-        return float(default)
-    range_g = float(value)
-    if not (math.isfinite(range_g) and range_g > 0):
-        raise ValueError(f"metadata {RANGE_METADATA_KEY} must be a number > 0, got {value!r}")
-    return range_g
 
 
 def _giving_up(limit: float) -> str:

@@ -13,6 +13,7 @@ import torch
 from tactile_torch import cli
 from tactile_torch.cli import BAD_INPUT_EXIT, TRAIN_MODULES, main
 from tactile_torch.data import make_vibration_recordings
+from tactile_torch.runtime import OnnxPipeline, sensor_range_g
 
 from .conftest import run_without_torch
 
@@ -57,6 +58,10 @@ def files(tmp_path_factory):
     assert main(["export", "--model", str(d / "m.npz"), "--out", str(d / "m.onnx")]) == 0
     model = (d / "m.npz").read_bytes()
     (d / "m_cut.npz").write_bytes(model[: len(model) - 100])
+    spike = np.load(good)
+    signals = spike["signals"].copy()
+    signals[1, 250, 0] = -6.0  # one sample beyond the ADXL345's ±5 g: window 16 + 2 (W = 100)
+    np.savez(d / "spike.npz", **{**{k: spike[k] for k in spike.files}, "signals": signals})
     slow = make_vibration_recordings(4, duration_s=2, random_state=1)
     slow.rate_hz = 100.0  # the same numbers declared as a 100 Hz recording
     slow.save(d / "slow.npz")
@@ -121,6 +126,41 @@ CASES = [
     ),
     ("predict", ["--model", "m.onnx", "--data", "missing.npz"], "missing.npz: no such file"),
     ("predict", ["--model", "missing.onnx", "--data", "rec.npz"], "missing.onnx"),
+    (
+        "export",
+        ["--model", "m.npz", "--sensor-range", "0"],
+        "--sensor-range must be a finite number of g > 0, got '0'",
+    ),
+    (
+        "export",
+        ["--model", "m.npz", "--sensor-range", "inf"],
+        "--sensor-range must be a finite number of g > 0, got 'inf'",
+    ),
+    (
+        "export",
+        ["--model", "m.npz", "--sensor-range", "5g"],
+        "--sensor-range must be a finite number of g > 0, got '5g'",
+    ),
+    (
+        "predict",
+        ["--model", "m.onnx", "--data", "rec.npz", "--range", "-2"],
+        "--range must be a number of g > 0 ('inf': no check), got '-2'",
+    ),
+    (
+        "predict",
+        ["--model", "m.onnx", "--data", "rec.npz", "--range", "nan"],
+        "--range must be a number of g > 0 ('inf': no check), got 'nan'",
+    ),
+    (
+        "stream",
+        ["--model", "m.onnx", "--port", "/dev/null", "--range", "0"],
+        "--range must be a number of g > 0 ('inf': no check), got '0'",
+    ),
+    (
+        "predict",
+        ["--model", "m.onnx", "--data", "rec.npz", "--range", "0.001"],
+        "rec.npz: all 64 windows have samples beyond ±0.001 g, so none was classified",
+    ),
 ]
 
 
@@ -195,6 +235,57 @@ def test_predict_warns_on_another_sample_rate_and_still_predicts(files, capsys):
     assert captured.out.splitlines()[-1].startswith("overall accuracy")  # the predictions, all the same
     assert main(["predict", "--model", str(files / "m.onnx"), "--data", str(files / "rec.npz")]) == 0
     assert capsys.readouterr().err == ""
+
+
+def test_export_keeps_the_sensor_range_in_the_bundle(files, tmp_path, capsys):
+    assert OnnxPipeline(files / "m.onnx").metadata["sensor_range_g"] == "5.0"  # default: the ADXL345's ±5 g
+    wide = tmp_path / "wide.onnx"
+    assert main(["export", "--model", str(files / "m.npz"), "--out", str(wide), "--sensor-range", "8"]) == 0
+    assert sensor_range_g(OnnxPipeline(wide).metadata) == 8.0
+    capsys.readouterr()
+    # predict takes the bundle's range: the -6 g sample is in range of this sensor
+    assert main(["predict", "--model", str(wide), "--data", str(files / "spike.npz")]) == 0
+    assert capsys.readouterr().err == ""
+
+
+def _predicted(files, tmp_path, data, *options):
+    out = tmp_path / f"{data}{''.join(options)}.npz"
+    assert (
+        main(
+            [
+                "predict",
+                "--model",
+                str(files / "m.onnx"),
+                "--data",
+                str(files / data),
+                "--out",
+                str(out),
+                *options,
+            ]
+        )
+        == 0
+    )
+    return np.load(out)
+
+
+def test_predict_does_not_classify_a_window_beyond_the_sensor_range(files, tmp_path, capsys):
+    clean = _predicted(files, tmp_path, "rec.npz")
+    capsys.readouterr()
+    spiked = _predicted(files, tmp_path, "spike.npz")
+    out, err = capsys.readouterr()
+    assert err == (
+        f"tactile-torch predict: warning: {files / 'spike.npz'}: 1 of 64 windows have samples beyond ±5 g "
+        "and were not classified\n"
+    )
+    assert "1 windows with samples beyond ±5 g were not classified and are left out" in out
+    window = 16 + 250 // 100  # recording 1 (16 windows of 100 samples), sample 250
+    assert spiked["labels"][window] == -1 and spiked["names"][window] == "not classified: beyond ±5 g"
+    others = np.arange(64) != window
+    np.testing.assert_array_equal(spiked["labels"][others], clean["labels"][others])
+    np.testing.assert_array_equal(spiked["names"][others], clean["names"][others])
+    # --range overrides the bundle's: at ±7 g every window is classified, without a warning
+    wider = _predicted(files, tmp_path, "spike.npz", "--range", "7")
+    assert capsys.readouterr().err == "" and (wider["labels"] >= 0).all()
 
 
 def test_commands_that_need_the_training_extra_say_so(files):

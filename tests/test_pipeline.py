@@ -73,6 +73,7 @@ def test_vibration_pipeline_matches_torch_and_the_estimator(tmp_path, vibration_
     assert bundle.input_shape == (None, 3, 400)
     assert bundle.class_names == list(features.class_names)
     assert int(meta["window_size"]) == 400 and float(meta["sample_rate_hz"]) == 800.0
+    assert float(meta["sensor_range_g"]) == 5.0  # the ADXL345's range unless the export says otherwise
     assert meta["tactile_torch.version"] == __version__
     scale = np.array(json.loads(meta["feature_scale"]))
     assert scale.shape == (21,) and (scale > 0).all()
@@ -86,7 +87,7 @@ def test_vibration_pipeline_on_real_recordings(tmp_path):
     _vibration_parity(tmp_path, path, window=100, method="svm")
 
 
-def test_image_pipeline_accepts_uint8_frames_and_matches_torch(tmp_path):
+def test_image_pipeline_accepts_uint8_frames_and_matches_torch(tmp_path, capsys):
     data = make_explorations(4, n_frames=6, frame_size=48, sensels=12, random_state=1)
     path = save_explorations(tmp_path / "img.npz", data)
     features, model, model_path = _trained(tmp_path, path)
@@ -106,6 +107,19 @@ def test_image_pipeline_accepts_uint8_frames_and_matches_torch(tmp_path):
         bundle.predict(raw[:1].astype(np.int16))
     # the torch pipeline on [0, 1] floats gives the same labels as on uint8 frames
     np.testing.assert_array_equal(pipe(torch.from_numpy(raw[:5]).float() / 255)[0].numpy(), labels)
+    # a sensor range belongs to vibration bundles only
+    assert "sensor_range_g" not in bundle.metadata
+    with pytest.raises(ValueError, match="applies to models of vibration windows only, got a model of image"):
+        pipeline_from_model(model_path, sensor_range_g=2.0)
+    with pytest.raises(ValueError, match=r"sensor_range_g must be a finite number of g > 0, got -1"):
+        pipeline_from_model(model_path, sensor_range_g=-1)
+    argv = ["predict", "--model", str(bundle.path), "--data", str(path), "--range", "3"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert (
+        err
+        == f"tactile-torch predict: --range: {bundle.path} takes no vibration windows (image-hmsvm bundle)\n"
+    )
 
 
 def test_pipeline_from_model_takes_model_files_only(tmp_path, vibration_npz):

@@ -112,3 +112,21 @@ def test_no_label_is_returned_with_a_non_finite_score(bundle):
     with pytest.raises(ValueError, match="no label is returned"):
         pipe.predict_scores(raw)
     assert pipe.predict(raw[[0, 1, 3]]).shape == (3,)
+
+
+def test_beyond_range_flags_the_windows_holding_a_value_past_the_range():
+    from tactile_torch.runtime import beyond_range
+
+    raw = np.zeros((6, 3, 16), np.float32)
+    raw[0, 2, 3] = 5.0  # the bounds are in range
+    raw[0, 1, 4] = -5.0
+    raw[1, 0, 15] = 5.001
+    raw[2, 1, 0] = -7.0
+    raw[3, 2, 9] = np.nan
+    raw[4, 0, 7] = 1e30
+    want = [
+        any(not -5.0 <= v <= 5.0 for v in row.ravel().tolist()) for row in raw
+    ]  # per sample, as the stream
+    np.testing.assert_array_equal(beyond_range(raw, 5.0), want)
+    assert want == [False, True, True, True, True, False]
+    np.testing.assert_array_equal(beyond_range(raw, np.inf), [False, False, False, True, False, False])
