@@ -121,18 +121,24 @@ def startup(cold: bool = True, repeat: int = STARTUP_REPEAT) -> dict:
         with open(os.path.join(tmp, "floor_kernel.py"), "w") as f:
             f.write(_FLOOR_KERNEL)
         floor_env = {**os.environ, "NUMBA_CACHE_DIR": os.path.join(tmp, "floor-cache")}
-        _child(_FLOOR, [tmp], floor_env)  # compiles the one-line kernel once
-        floor = min((_child(_FLOOR, [tmp], floor_env) for _ in range(repeat)), key=sum)
+        _child(_FLOOR, [tmp], floor_env)  # untimed: compiles the one-line kernel
+        _child(_STARTUP, [data[3]])  # untimed: fills the installed cache if it is empty
         runs = []
         if cold:
             cold_env = {**os.environ, "NUMBA_CACHE_DIR": os.path.join(tmp, "cold-cache")}
             runs.append(("cold (empty numba cache: the first fit compiles the kernels)", 3, [cold_env]))
-        _child(_STARTUP, [data[3]])  # untimed: fills the installed cache if it is empty
-        for dim in STARTUP_DIMS:
-            runs.append(("warm (kernels cached)", dim, [None] * repeat))
-        for label, dim, envs in runs:
-            measured = [_child(_STARTUP, [data[dim]], env) for env in envs]
-            imp, fit, n_iter, n_chains = min(measured, key=lambda r: r[0] + r[1])
+        # the floor and the warm runs take turns, so that a change of load hits them alike
+        floors, warm = [], {dim: [] for dim in STARTUP_DIMS}
+        for _ in range(repeat):
+            floors.append(_child(_FLOOR, [tmp], floor_env))
+            for dim in STARTUP_DIMS:
+                warm[dim].append(_child(_STARTUP, [data[dim]]))
+        measured = [
+            (label, dim, [_child(_STARTUP, [data[dim]], env) for env in envs]) for label, dim, envs in runs
+        ]
+        measured += [("warm (kernels cached)", dim, warm[dim]) for dim in STARTUP_DIMS]
+        for label, dim, results in measured:
+            imp, fit, n_iter, n_chains = min(results, key=lambda r: r[0] + r[1])
             rows.append(
                 {
                     "what": f"start-up, {label}: from tactile_torch.mixture import PitmanYorGMM + default fit of "
@@ -143,6 +149,7 @@ def startup(cold: bool = True, repeat: int = STARTUP_REPEAT) -> dict:
                     "fit_s": fit,
                 }
             )
+    floor = min(floors, key=sum)
     rows.append(
         {
             "what": "start-up floor: import numpy + sklearn.base + numba, load one cached kernel, warm",
@@ -299,11 +306,12 @@ def run(quick: bool) -> dict:
     return {"rows": rows, "notes": notes}
 
 
-def update_startup_results(result: dict, path: str | None = None) -> None:
+def update_startup_results(result: dict, path: str | None = None, *, conditions: str = "") -> None:
     """Replace the start-up rows of ``bench/results/mixture.{json,md}`` with ``result``'s, other rows unchanged.
 
     The rows of ``result`` go first (where :func:`run` puts them), its notes replace the start-up
-    notes, and a note says when and by which command the start-up rows were measured.
+    notes, and a note says when, by which command and under which ``conditions`` (free text, e.g. the
+    load average) the start-up rows were measured.
     """
     import datetime as dt
     import json
@@ -319,8 +327,8 @@ def update_startup_results(result: dict, path: str | None = None) -> None:
     record["rows"] = result["rows"] + kept
     record["notes"] = [
         *result["notes"],
-        f"Start-up rows measured on {date} by `{STARTUP_COMMAND}`; the other rows by the command above, "
-        f"on {record['date']}.",
+        f"Start-up rows measured on {date} by `{STARTUP_COMMAND}`{conditions}; the other rows by the "
+        f"command above, on {record['date']}.",
         *notes,
     ]
     write_results(record, json_path)
@@ -349,8 +357,10 @@ if __name__ == "__main__":
     args = parser.parse_args()
     if not args.startup:
         parser.error("nothing to do: pass --startup (the whole benchmark runs with python bench/run.py)")
+    load_before = os.getloadavg()[0]
     result = startup(cold=not args.no_cold)
+    load = f" (1-minute load average {load_before:.2f} before, {os.getloadavg()[0]:.2f} after, on 2 shared cores)"
     for row in result["rows"]:
         print(row)
     print(*result["notes"], sep="\n")
-    update_startup_results(result)
+    update_startup_results(result, conditions=load)
