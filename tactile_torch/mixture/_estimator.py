@@ -1,4 +1,4 @@
-"""The scikit-learn estimator :class:`PitmanYorGMM`: chains, posterior summaries, point estimate, prediction."""
+"""The scikit-learn estimator :class:`PitmanYorGMM`: parameters, fit, prediction and summaries (the work is in the sibling modules)."""
 
 from __future__ import annotations
 
