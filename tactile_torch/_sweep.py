@@ -18,6 +18,7 @@ import torch
 
 from .engine import Folds, Models, cross_validate, last_input, seed_of, take
 
+
 def apply_raw(apply: Any, X: Any, level: Any, seed: int) -> Any:
     """``apply(x, level, seed)`` on the raw input as a tensor, in chunks of samples (bounded memory,
     each chunk seeded from ``seed`` and its offset), returned in the type of ``X``."""
@@ -37,7 +38,9 @@ def fit_predict(models: Models, X: Any, y: np.ndarray, folds: Folds, clean: dict
     """
     feats: dict[str, Any] = {}
     cache = {key: (Z, 0.0) for key, Z in (clean or {}).items()}
-    results = cross_validate(models, X, y, folds, cache=cache, keep_models=True, backend=backend, features_out=feats)
+    results = cross_validate(
+        models, X, y, folds, cache=cache, keep_models=True, backend=backend, features_out=feats
+    )
     correct: dict[str, Any] = {}
     fitted: dict[str, list] = {}
     for m, res in results.items():

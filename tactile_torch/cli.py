@@ -826,7 +826,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--n-jobs", type=int, default=None, help="parallel workers (-1: every core)")
     p.add_argument(
-        "--scheduler", default=None, help="--backend dask: address of a running dask scheduler (tcp://host:8786)"
+        "--scheduler",
+        default=None,
+        help="--backend dask: address of a running dask scheduler (tcp://host:8786)",
     )
     _add_allow_pickle(p)
     p.set_defaults(handler=_tradeoff)

@@ -103,7 +103,9 @@ class CVResult:
             step, rest = _split(self.estimator)
             Z = X if step is None else clone(step).fit(X, y).transform(X)
             g = None if groups is None else np.asarray(groups)
-            params, _ = tune(rest, Z, y, g, self.tuning, seed_of(random_state, self.name, "final"), threads=threads)
+            params, _ = tune(
+                rest, Z, y, g, self.tuning, seed_of(random_state, self.name, "final"), threads=threads
+            )
         return self.make_model(params).fit(X, y), params
 
 
@@ -138,7 +140,9 @@ def _fit_task(rest, Z_train, y_train, g_train, Z_test, tuning, seed, threads):
         try:
             start = time.perf_counter()
             if tuning is not None:
-                out["params"], out["how"] = tune(rest, Z_train, y_train, g_train, tuning, seed, threads=threads)
+                out["params"], out["how"] = tune(
+                    rest, Z_train, y_train, g_train, tuning, seed, threads=threads
+                )
             tuned = time.perf_counter()
             model = clone(rest).set_params(**out["params"]).fit(Z_train, y_train)
             out["fit_s"] = time.perf_counter() - tuned

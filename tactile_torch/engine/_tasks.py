@@ -43,7 +43,9 @@ class Backend:
         if name not in BACKENDS:
             raise ValueError(f"backend must be one of {list(BACKENDS)}, got {name!r}")
         if scheduler is not None and name != "dask":
-            raise ValueError(f"scheduler is the address of a Dask scheduler: it needs backend='dask', got {name!r}")
+            raise ValueError(
+                f"scheduler is the address of a Dask scheduler: it needs backend='dask', got {name!r}"
+            )
         if name == "dask":
             try:
                 import distributed  # noqa: F401
@@ -80,7 +82,9 @@ class Backend:
         """Return ``[fn(*task) for task in tasks]``, run on the backend, with a progress bar."""
         from tqdm.auto import tqdm
 
-        bar = tqdm(total=len(tasks), desc=desc, disable=not progress or not tasks, leave=False, dynamic_ncols=True)
+        bar = tqdm(
+            total=len(tasks), desc=desc, disable=not progress or not tasks, leave=False, dynamic_ncols=True
+        )
         try:
             if self.name == "sequential" or len(tasks) <= 1:
                 out = []
@@ -103,7 +107,9 @@ class Backend:
             bar.close()
 
 
-def as_backend(backend: Backend | str | None, n_jobs: int | None = None, scheduler: str | None = None) -> Backend:
+def as_backend(
+    backend: Backend | str | None, n_jobs: int | None = None, scheduler: str | None = None
+) -> Backend:
     """Return ``backend`` if it is a :class:`Backend`, else a new one from the three settings."""
     if isinstance(backend, Backend):
         return backend

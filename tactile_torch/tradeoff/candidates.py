@@ -283,12 +283,12 @@ def build_candidates(
 
 __all__ = [
     "CLASSIFIERS",
-    "candidate_tuning",
     "TOP_K",
     "Candidate",
     "FeatureSet",
     "build_candidates",
     "build_pipeline",
+    "candidate_tuning",
     "feature_sets",
     "make_classifier",
 ]

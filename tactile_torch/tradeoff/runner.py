@@ -261,12 +261,18 @@ def plan_tradeoff(
     if window is not None:
         check_positive(window, "window", integer=True)
     if max_per_class not in ("auto", None):
-        if isinstance(max_per_class, bool) or not isinstance(max_per_class, int | np.integer) or max_per_class < 2:
+        if (
+            isinstance(max_per_class, bool)
+            or not isinstance(max_per_class, int | np.integer)
+            or max_per_class < 2
+        ):
             raise ValueError(f"max_per_class must be 'auto', None or an integer >= 2, got {max_per_class!r}")
     if frame_rate_hz is not None and not (
         isinstance(frame_rate_hz, int | float) and np.isfinite(frame_rate_hz) and frame_rate_hz > 0
     ):
-        raise ValueError(f"frame_rate_hz must be a positive finite number of frames per second, got {frame_rate_hz!r}")
+        raise ValueError(
+            f"frame_rate_hz must be a positive finite number of frames per second, got {frame_rate_hz!r}"
+        )
     if not isinstance(data, TradeoffData):
         data = load_tradeoff_data(data, frame_rate_hz=frame_rate_hz, allow_pickle=allow_pickle)
     cap = MAX_PER_CLASS["quick" if quick else "full"] if max_per_class == "auto" else max_per_class
