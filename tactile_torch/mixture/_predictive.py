@@ -14,6 +14,7 @@ import math
 
 import numpy as np
 
+from ._mfm import predictive_weights
 from ._point_estimate import new_component_gaussian, precision_cholesky
 
 # At most this many saved partitions per chain enter the posterior predictive of predict/predict_proba.
@@ -34,7 +35,7 @@ def log_gauss_upper(X: np.ndarray, means: np.ndarray, U: np.ndarray) -> np.ndarr
     return log_det - 0.5 * X.shape[1] * _LOG_2PI - 0.5 * np.einsum("nke,nke->nk", y, y)
 
 
-def pack_predictive(runs, snap_sweeps, burn_in, n, labels, rng) -> dict:
+def pack_predictive(runs, snap_sweeps, burn_in, n, labels, rng, k_mean: float = 10.0) -> dict:
     """Pack the components of (at most ``_PREDICTIVE_SAMPLES`` per chain) saved sweeps for prediction.
 
     ``runs``: the chains' saved samples; ``labels``: the point estimate, onto whose clusters every
@@ -52,13 +53,14 @@ def pack_predictive(runs, snap_sweeps, burn_in, n, labels, rng) -> dict:
         )
         for k in pick:
             smp = run["samples"][k]
-            alpha, d, beta = smp["sc"]
+            alpha, d, beta, _, gamma = smp["sc"]
             Ks = smp["cnt"].size
+            log_join, log_new = predictive_weights(n, smp["cnt"], alpha, d, gamma, k_mean)
             s = len(new_logw)
             mus.append(smp["mu"])
             Ls.append(smp["L"])
             ldets.append(smp["ldet"])
-            logw.append(np.log((smp["cnt"] - d) / (n + alpha)))
+            logw.append(log_join)
             table = np.zeros((Ks, K))
             np.add.at(table, (saved_labels[k], labels), 1.0)
             share.append(table / table.sum(axis=1, keepdims=True))
@@ -68,7 +70,7 @@ def pack_predictive(runs, snap_sweeps, burn_in, n, labels, rng) -> dict:
             new_mu.append(xi)
             new_prec.append(U)
             new_ldet.append(2.0 * np.log(np.abs(np.diag(U))).sum())
-            new_logw.append(math.log((alpha + d * Ks) / (n + alpha)))
+            new_logw.append(log_new)
     return {
         "mu": np.concatenate(mus).reshape(-1, D),
         "L": np.concatenate(Ls).reshape(-1, D, D),
