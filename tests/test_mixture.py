@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -801,3 +802,143 @@ def test_cli_stream_discover_proposes_a_surface_the_clustering_never_saw(tmp_pat
     novel = [i for i, line in enumerate(lines) if line.startswith("  novel window")]
     assert len(novel) >= 3 and lines[novel[-1]] == "  novel window -> new surface 1"
     assert novel[0] > 5  # the first windows (a known surface) are not novel
+
+
+# ------------------------------------------------------------------------------------------------
+# the mixture of finite mixtures and the coarsened posterior (issue 22)
+# ------------------------------------------------------------------------------------------------
+def _set_partitions(n):
+    """Every set partition of n items as a restricted growth string (labels 0 .. K-1)."""
+    z = [0] * n
+
+    def rec(i, k):
+        if i == n:
+            yield list(z)
+            return
+        for c in range(k + 1):
+            z[i] = c
+            yield from rec(i + 1, max(k, c + 1))
+
+    yield from rec(1, 1) if n > 1 else iter([[0]])
+
+
+def _exact_prior_k(n, gamma, k_mean):
+    """P(K) of the MFM partition prior by enumerating every set partition of n items."""
+    from tactile_torch.mixture._mfm import log_v
+
+    lv = log_v(n, gamma, k_mean)
+    p = np.zeros(n + 1)
+    for z in _set_partitions(n):
+        counts = np.bincount(z)
+        t = counts.size
+        p[t] += math.exp(lv[t] + (gammaln(counts + gamma) - gammaln(gamma)).sum())
+    return p / p.sum()
+
+
+def test_mfm_log_v_matches_the_lah_numbers_for_gamma_one():
+    # gamma = 1: sum over partitions with t blocks of prod n_c! is the Lah number C(n-1, t-1) n!/t!,
+    # so V_n(t) L(n, t) must be a distribution over t
+    from tactile_torch.mixture._mfm import log_v
+
+    n = 9
+    lv = log_v(n, 1.0, 4.0)
+    lah = [math.comb(n - 1, t - 1) * math.factorial(n) / math.factorial(t) for t in range(1, n + 1)]
+    p = np.exp(lv[1 : n + 1]) * lah
+    np.testing.assert_allclose(p.sum(), 1.0, rtol=1e-10)
+    np.testing.assert_allclose(p, _exact_prior_k(n, 1.0, 4.0)[1:], rtol=1e-9)
+
+
+@pytest.mark.parametrize(("gamma", "coarsen"), [(1.0, None), (0.6, 8.0)])
+def test_prior_only_chain_samples_the_mfm_partition_prior(gamma, coarsen):
+    # allocation (algorithm 8 with the MFM weights) and split-merge against exact enumeration (the
+    # coarsened posterior tempers the likelihood only: its prior is the same)
+    n = 8
+    X = np.random.default_rng(0).normal(size=(n, 2))
+    model = PitmanYorGMM(
+        model="mfm",
+        coarsen=coarsen,
+        weight_concentration=gamma,
+        k_prior_mean=3.0,
+        n_iter=6000,
+        burn_in=200,
+        n_chains=1,
+        prior_only=True,
+        random_state=1,
+        progress=False,
+    ).fit(X)
+    ks = model.n_clusters_samples_
+    exact = _exact_prior_k(n, gamma, 3.0)
+    assert abs(ks.mean() - (np.arange(n + 1) * exact).sum()) < 4 * _batch_se(ks)
+    for k in range(1, n + 1):
+        ind = (ks == k).astype(float)
+        se = max(_batch_se(ind), math.sqrt(exact[k] * (1 - exact[k]) / len(ks)), 1e-3)
+        assert abs(ind.mean() - exact[k]) < 4.5 * se, (k, ind.mean(), exact[k])
+    st = model.split_merge_stats_
+    assert st["split_accepted"] > 100 and st["merge_accepted"] > 100
+
+
+def test_coarsened_split_merge_moves_leave_the_posterior_unchanged():
+    # the Metropolis-Hastings ratio with the tempered likelihood against single-site Gibbs
+    rng = np.random.default_rng(5)
+    X = np.concatenate([rng.normal(m, 1.0, size=(10, 1)) for m in (-2.5, 0.0, 2.5)])
+    common = dict(model="mfm", coarsen=20.0, n_iter=8000, burn_in=500, n_chains=1, progress=False)
+    with_moves = PitmanYorGMM(n_split_merge=3, random_state=1, **common).fit(X).n_clusters_samples_
+    without = PitmanYorGMM(n_split_merge=0, random_state=2, **common).fit(X).n_clusters_samples_
+    se = math.hypot(_batch_se(with_moves), _batch_se(without))
+    assert abs(with_moves.mean() - without.mean()) < 4 * se
+    for k in (1, 2, 3):
+        a, b = (with_moves == k).astype(float), (without == k).astype(float)
+        assert abs(a.mean() - b.mean()) < 4 * math.hypot(_batch_se(a), _batch_se(b)) + 0.01
+
+
+def test_pitman_yor_option_reproduces_the_study_sampler():
+    # model="pyp", coarsen=None runs the study's sampler: its chain agrees with the numpy reference
+    # (above) and its zeta is 1; here: alpha and d are sampled and reported, as before
+    X, _ = blobs(n_clusters=3, per=15, dim=2)
+    model = PitmanYorGMM(
+        model="pyp", coarsen=None, n_iter=60, burn_in=20, n_chains=2, random_state=0, progress=False
+    )
+    model.fit(X)
+    assert model.zeta_ == 1.0
+    assert {r["quantity"] for r in model.convergence_} == {"K", "alpha", "d"}
+    assert np.ptp(model.alpha_samples_) > 0 and np.ptp(model.discount_samples_) > 0
+    with pytest.raises(ValueError, match="coarsen needs model='mfm'"):
+        PitmanYorGMM(model="pyp", coarsen=50.0, n_iter=5, burn_in=1, progress=False).fit(X)
+
+
+@pytest.mark.parametrize("model_name", ["mfm", "pyp"])
+def test_predictions_are_finite_for_every_finite_input(model_name):
+    X, _ = blobs(n_clusters=3, per=15, dim=2)
+    kw = {"model": model_name} | ({"coarsen": None} if model_name == "pyp" else {})
+    model = PitmanYorGMM(n_iter=60, burn_in=20, n_chains=2, random_state=0, progress=False, **kw).fit(X)
+    far = np.array([[1e6, -1e6], [1e200, 1e200], [-1e300, 3.0], [0.0, 0.0]])
+    with np.errstate(divide="raise", invalid="raise"), warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        for using in ("samples", "point"):
+            proba = model.predict_proba(far, using=using)
+            assert np.all(np.isfinite(proba)), using
+            np.testing.assert_allclose(proba.sum(1), 1.0, rtol=1e-12)
+            assert np.all(np.isfinite(model.novelty_proba(far, using=using)))
+            labels = model.predict(far, using=using)
+            assert labels[0] == -1 and labels[1] == -1  # far away: a new component
+        assert np.all(np.isfinite(model.score_samples(far)))
+    assert model.score_samples(far)[1] < model.score_samples(far)[0] < model.score_samples(far)[3]
+
+
+def test_summary_words_and_interval_are_computed_from_the_fit():
+    X, _ = blobs(n_clusters=3, per=15, dim=2)
+    model = PitmanYorGMM(n_iter=80, burn_in=20, n_chains=2, random_state=0, progress=False).fit(X)
+    ks = model.n_clusters_summary_
+    lo, hi = ks["interval"]
+    assert isinstance(lo, int) and isinstance(hi, int) and lo in model.n_clusters_samples_
+    text = model.summary()
+    assert f"95% interval [{lo}, {hi}]" in text
+    assert "under-counts" not in text
+    k = model.map_n_clusters_
+    side = "equal to" if k == ks["mode"] else "below" if k < ks["mode"] else "above"
+    assert f"K = {k}, {side} the posterior mode {ks['mode']}" in text
+    # the interval of a posterior whose quantile falls between two values is still made of integers
+    from tactile_torch.mixture._summaries import n_clusters_summary
+
+    s = n_clusters_summary(np.array([3] * 50 + [6] * 1 + [4] * 49), 3, 5)
+    assert s["interval"] == (3, 4)

@@ -74,7 +74,7 @@ def allocate(X, st, m, use_lik, rng):
     ldet_v0 = -_scale_factor(sc[2] * W, CW)
     CW3 = CW.reshape((1, D, D))
     n, D = X.shape
-    alpha, d, beta = sc[0], sc[1], sc[2]
+    d, beta = sc[1], sc[2]
     half = 0.5 * D * LOG2PI
     logm = math.log(m)
     # log Student-t normaliser: lgamma((beta+1)/2) - lgamma((beta-D+1)/2) - D/2 log(pi) + log|V|/2

@@ -247,7 +247,20 @@ def split_merge_moves(n_moves, X, st, n_launch, use_lik, rng, counters):
             logq += qA + qB
             # reverse: the merge launch's final update landing on the current parameters
             logq_rev, _ = component_step(
-                nM, meanM, scatM, muM0, beta, W, R, Rxi, False, mu[ci].copy(), L[ci].copy(), ldet[ci], zeta, rng
+                nM,
+                meanM,
+                scatM,
+                muM0,
+                beta,
+                W,
+                R,
+                Rxi,
+                False,
+                mu[ci].copy(),
+                L[ci].copy(),
+                ldet[ci],
+                zeta,
+                rng,
             )
             nC = nA + nB
             log_ratio = (

@@ -39,8 +39,11 @@ def log_prior_k(k: np.ndarray, k_mean: float) -> np.ndarray:
     return math.log(p) + (k - 1) * math.log1p(-p)
 
 
-def log_v_at(n: int, gamma: float, k_mean: float, ts: np.ndarray) -> np.ndarray:
-    """Return ``log V_n(t)`` for every ``t`` of ``ts`` (a log-sum-exp over ``k = t .. t + 4000``)."""
+def log_v_at(n: float, gamma: float, k_mean: float, ts: np.ndarray) -> np.ndarray:
+    """Return ``log V_n(t)`` for every ``t`` of ``ts`` (a log-sum-exp over ``k = t .. t + 4000``).
+
+    ``n`` may be fractional (``zeta n`` under coarsening: ``(gamma k)^(n) = Gamma(gamma k + n) / Gamma(gamma k)``).
+    """
     ts = np.asarray(ts, dtype=np.int64)
     out = np.empty(ts.shape, dtype=np.float64)
     offsets = np.arange(_K_SPAN + 1, dtype=np.float64)
@@ -86,6 +89,7 @@ def predictive_weights(
     if gamma <= 0.0:
         return np.log((counts - d) / (n + alpha)), math.log((alpha + d * K) / (n + alpha))
     lv = log_v_at(n + 1, gamma, k_mean, np.array([K, K + 1]))
-    log_new = math.log(gamma) + lv[1] - lv[0]
-    log_total = np.logaddexp(math.log(n + gamma * K), log_new)
-    return np.log(counts + gamma) - log_total, float(log_new - log_total)
+    log_new = float(math.log(gamma) + lv[1] - lv[0])
+    log_join = np.log(counts + gamma)
+    log_total = logsumexp(np.r_[log_join, log_new])
+    return log_join - log_total, float(log_new - log_total)

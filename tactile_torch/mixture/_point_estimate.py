@@ -129,10 +129,13 @@ def partition_components(Xw, labels, map_state, cfg, rng, data_mean, data_scale,
     scs /= kept
     alpha, d, gamma = float(scs[0]), float(scs[1]), float(scs[4])
     sizes = np.bincount(labels, minlength=K).astype(np.float64)
+    weights = (sizes - d) / (n - d * K)
     if gamma > 0.0:
         from ._mfm import predictive_weights
 
-        novelty_weight = math.exp(predictive_weights(n, sizes, alpha, d, gamma, k_mean)[1])
+        log_join, log_new = predictive_weights(n, sizes, alpha, d, gamma, k_mean)
+        novelty_weight = math.exp(log_new)
+        weights = np.exp(log_join) / np.exp(log_join).sum()
     else:
         novelty_weight = float((alpha + d * K) / (n + alpha))
     A, m = data_scale, data_mean
@@ -141,7 +144,7 @@ def partition_components(Xw, labels, map_state, cfg, rng, data_mean, data_scale,
         means=m + mus @ A.T,
         covariances=covariances,
         precisions_cholesky=np.stack([precision_cholesky(c) for c in covariances]),
-        weights=(sizes - d) / (n - d * K),
+        weights=weights,
         novelty_weight=novelty_weight,
         alpha=alpha,
         discount=d,

@@ -188,7 +188,8 @@ def study_windows(ctx) -> dict[str, Any]:
     sz = _sizes(ctx)
 
     def make() -> dict[str, Any]:
-        ds = bundled_recordings(ctx).windows(sz["W"], max_per_recording=sz["train"] + 5 * sz["test"])
+        rec = bundled_recordings(ctx)
+        ds = rec.windows(sz["W"], max_per_recording=sz["train"] + 5 * sz["test"])
         keep = ds.labels.numpy() < sz["surfaces"]
         pos, y = ds.position.numpy()[keep], ds.labels.numpy()[keep]
         feats = window_features(ds.windows[torch.as_tensor(keep)].to(torch.float64))
@@ -213,6 +214,7 @@ def study_windows(ctx) -> dict[str, Any]:
             "tests": [(X[block == b], y[block == b]) for b in range(5)],
             "session2": (np.asarray(transform.transform(f2)), later.labels.numpy()[second]),
             "transform": transform,
+            "names": [str(c) for c in rec.class_names[: sz["surfaces"]]],
         }
 
     return ctx.cached(f"clustering_study_{sz['W']}_{sz['train']}_{sz['surfaces']}", make)
@@ -318,7 +320,7 @@ def _posterior_figures(section, model: PitmanYorGMM, y: np.ndarray) -> None:
     post = model.n_clusters_posterior()
     fig, ax = plt.subplots(figsize=(6, 3.2))
     ax.bar(list(post), list(post.values()), color="tab:blue", label="posterior of K")
-    ax.axvspan(*ks["interval"], color="tab:blue", alpha=0.1, label="95% interval")
+    ax.axvspan(ks["interval"][0] - 0.5, ks["interval"][1] + 0.5, color="tab:blue", alpha=0.1, label="95% interval")
     ax.axvline(n_true, color="k", ls="--", lw=1, label=f"true K = {n_true}")
     ax.axvline(
         ks["point_estimate"], color="tab:green", lw=1.5, label=f"point estimate {ks['point_estimate']}"
@@ -346,23 +348,26 @@ def _posterior_figures(section, model: PitmanYorGMM, y: np.ndarray) -> None:
         "Posterior similarity matrix, windows sorted by the point estimate's clusters",
     )
 
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(9, 3))
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 3.4))
+    burn_in = model.n_iter_ - model.n_clusters_samples_.size // model.trace_["n_clusters"].shape[0]
     for c in range(model.trace_["n_clusters"].shape[0]):
         acc = [pairwise_accuracy(y, z) for z in model.labels_samples_[c]]
         ax1.plot(model.labels_sweeps_ + 1, acc, lw=1, label=f"chain {c}")
         ax2.plot(np.arange(1, model.n_iter_ + 1), model.trace_["n_clusters"][c], lw=0.8, label=f"chain {c}")
-    ax2.axhline(n_true, color="k", ls="--", lw=1)
+    ax2.axhline(n_true, color="k", ls="--", lw=1, label=f"true K = {n_true}")
+    ax1.axhline(1.0, color="k", ls=":", lw=0.8, label="perfect clustering")
     for ax in (ax1, ax2):
         ax.set_xscale("log")
         ax.set_xlabel("sweep (log scale)")
-        ax.axvline(model.burn_in + 1, color="grey", lw=0.8)
+        ax.axvline(burn_in + 1, color="grey", lw=0.8, label=f"end of burn-in ({burn_in} sweeps)")
+        ax.legend(fontsize=7)
     ax1.set_ylabel("pairwise accuracy")
-    ax2.set_ylabel("K")
-    ax1.legend(fontsize=7)
+    ax2.set_ylabel("number of components K")
+    fig.tight_layout()
     section.figure(
         fig,
         "clustering accuracy along chain",
-        "Pairwise accuracy and K along each chain (grey: end of burn-in), Fig. 10",
+        "Pairwise accuracy (saved partitions) and K along each chain, Fig. 10",
     )
 
     fig, ax = plt.subplots(figsize=(5, 3))
@@ -417,11 +422,16 @@ def _prediction(section, model: PitmanYorGMM, data: dict, ctx) -> None:
     cm = np.zeros((n, n + 1))
     np.add.at(cm, (yt, np.where(pt < 0, n, pt)), 1)
     cm /= np.maximum(cm.sum(axis=1, keepdims=True), 1)
-    fig, ax = plt.subplots(figsize=(5.5, 4.6))
+    names = list(data.get("names") or [str(k) for k in range(n)])[:n]
+    names += [str(k) for k in range(len(names), n)]
+    fig, ax = plt.subplots(figsize=(8.2, 7.4))
     im = ax.imshow(cm, cmap="Blues", vmin=0, vmax=1)
-    ax.set_xlabel("predicted surface (last column: novel)")
+    ax.set_xticks(np.arange(n + 1), [*names, "novel"], rotation=90, fontsize=6)
+    ax.set_yticks(np.arange(n), names, fontsize=6)
+    ax.set_xlabel("predicted surface (cluster mapped to its most frequent surface; last column: novel)")
     ax.set_ylabel("true surface")
-    fig.colorbar(im, ax=ax, label="share of the true surface's windows")
+    fig.colorbar(im, ax=ax, label="share of the true surface's windows", shrink=0.8)
+    fig.tight_layout()
     section.figure(
         fig,
         "clustering confusion",
@@ -489,7 +499,9 @@ def _learning_curve(section, data: dict, sz: dict, ctx) -> None:
         rows,
         caption="Learning curve: K and pairwise accuracy with m windows per surface, DP vs PYP (Figs. 12, 14)",
     )
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(9, 3))
+    from matplotlib.ticker import NullFormatter, ScalarFormatter
+
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 3.4))
     for prior, style in (("DP", "o-"), ("PYP", "s--")):
         sel = [r for r in rows if r["prior"] == prior]
         ax1.plot([r["per class"] for r in sel], [r["expected K"] for r in sel], style, label=prior)
@@ -499,8 +511,12 @@ def _learning_curve(section, data: dict, sz: dict, ctx) -> None:
     ax2.set_ylabel("pairwise accuracy (point estimate)")
     for ax in (ax1, ax2):
         ax.set_xscale("log")
+        ax.set_xticks(per)  # the measured sizes, as plain numbers (not 10^0, 10^1)
+        ax.xaxis.set_major_formatter(ScalarFormatter())
+        ax.xaxis.set_minor_formatter(NullFormatter())
         ax.set_xlabel("windows per surface (log scale)")
         ax.legend(fontsize=7)
+    fig.tight_layout(w_pad=2.0)  # the right panel's y-label clear of the left panel
     section.figure(
         fig, "clustering learning curve", "Learning curve, Dirichlet process vs Pitman-Yor (Figs. 12, 14)"
     )
