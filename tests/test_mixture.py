@@ -35,6 +35,9 @@ from tactile_torch.studies.clustering import have_vibration_features
 
 from .reference_mixture import reference_gibbs
 
+PYP = {"model": "pyp", "coarsen": None}
+"""The study's Pitman-Yor mixture (the estimator's default model is the mixture of finite mixtures)."""
+
 # Short chains in these tests: their R-hat warnings are expected, not failures.
 pytestmark = pytest.mark.filterwarnings("ignore:PitmanYorGMM. R-hat:RuntimeWarning")
 
@@ -174,6 +177,7 @@ def test_prior_only_chain_samples_the_pitman_yor_prior_of_k(alpha, discount):
     n = 12
     X = np.random.default_rng(0).normal(size=(n, 2))
     model = PitmanYorGMM(
+        **PYP,
         alpha=alpha,
         discount=discount,
         n_iter=6000,
@@ -201,7 +205,7 @@ def test_prior_only_chain_samples_the_hyperpriors():
     n, D = 10, 2
     X = np.random.default_rng(0).normal(size=(n, D))
     model = PitmanYorGMM(
-        n_iter=12000, burn_in=500, n_chains=1, prior_only=True, random_state=2, progress=False
+        **PYP, n_iter=12000, burn_in=500, n_chains=1, prior_only=True, random_state=2, progress=False
     ).fit(X)
     thin = slice(None, None, 20)
     d = model.discount_samples_[thin]
@@ -252,7 +256,7 @@ def test_split_merge_moves_leave_the_posterior_unchanged():
     # 1-D, three overlapping groups: single-site Gibbs mixes here, so both chains can be compared
     rng = np.random.default_rng(5)
     X = np.concatenate([rng.normal(m, 1.0, size=(10, 1)) for m in (-2.5, 0.0, 2.5)])
-    common = dict(alpha=1.0, discount=0.2, n_iter=8000, burn_in=500, n_chains=1, progress=False)
+    common = dict(**PYP, alpha=1.0, discount=0.2, n_iter=8000, burn_in=500, n_chains=1, progress=False)
     with_moves = PitmanYorGMM(n_split_merge=3, random_state=1, **common).fit(X).n_clusters_samples_
     without = PitmanYorGMM(n_split_merge=0, random_state=2, **common).fit(X).n_clusters_samples_
     se = math.hypot(_batch_se(with_moves), _batch_se(without))
@@ -266,7 +270,14 @@ def test_posterior_of_k_agrees_with_the_independent_numpy_reference():
     rng = np.random.default_rng(6)
     X = np.concatenate([rng.normal(m, 0.6, size=(8, 2)) for m in ((-2, 0), (2, 0), (0, 2.5))])
     ours = PitmanYorGMM(
-        discount=0.0, n_iter=4000, burn_in=300, n_chains=1, n_split_merge=0, random_state=3, progress=False
+        **PYP,
+        discount=0.0,
+        n_iter=4000,
+        burn_in=300,
+        n_chains=1,
+        n_split_merge=0,
+        random_state=3,
+        progress=False,
     )
     ks = ours.fit(X).n_clusters_samples_
     ref = reference_gibbs(X, n_iter=1000, discount=0.0, random_state=4)
@@ -337,7 +348,7 @@ def test_seeded_runs_are_reproducible_whatever_the_threads():
         np.testing.assert_array_equal(a.trace_[k], b.trace_[k])
     np.testing.assert_array_equal(a.labels_samples_, b.labels_samples_)
     np.testing.assert_array_equal(a.predict(X), b.predict(X))
-    assert not np.array_equal(a.trace_["alpha"], c.trace_["alpha"])
+    assert not np.array_equal(a.trace_["beta"], c.trace_["beta"])
     assert a.trace_["n_clusters"].shape == (2, 60) and a.n_clusters_samples_.shape == (100,)
     gen = PitmanYorGMM(n_iter=20, burn_in=5, random_state=torch.Generator().manual_seed(3), progress=False)
     assert gen.fit(X).n_iter_ == 20
@@ -490,16 +501,35 @@ def test_rhat_and_ess_match_arviz(name):
 
 def test_convergence_diagnostics_are_reported_and_warned():
     X, _ = blobs(n_clusters=4, per=20, dim=2)
-    model = PitmanYorGMM(n_iter=120, burn_in=40, random_state=0, progress=False).fit(X)
+    model = PitmanYorGMM(**PYP, n_iter=120, burn_in=40, random_state=0, progress=False).fit(X)
     assert [r["quantity"] for r in model.convergence_] == ["K", "alpha", "d"]
+    assert [
+        r["quantity"]
+        for r in PitmanYorGMM(n_iter=120, burn_in=40, random_state=0, progress=False).fit(X).convergence_
+    ] == ["K"]
     assert "R-hat" in model.summary() and "ESS" in model.summary()
     # chains stuck in different places (no split-merge, one-cluster vs k-means starts are not mixed)
     rng = np.random.default_rng(0)
     Y = np.concatenate([rng.normal(m, 0.3, size=(40, 1)) for m in range(0, 40, 4)])
     stuck = PitmanYorGMM(n_iter=60, burn_in=20, n_split_merge=0, init="one", random_state=0, progress=False)
-    with pytest.warns(RuntimeWarning, match=r"R-hat > 1.01"):
+    with pytest.warns(RuntimeWarning, match=r"R-hat > 1.01 .* after 60 sweeps per chain.*n_iter='auto'"):
         stuck.set_params(n_chains=3).fit(Y)
     assert "WARNING: R-hat > 1.01" in stuck.summary()
+    # n_iter="auto": the warning only when the budget ran out, and it names the budget
+    with pytest.warns(RuntimeWarning, match=r"after 40 sweeps per chain.*raise max_iter \(now 40\)"):
+        stuck.set_params(n_iter="auto", max_iter=40, burn_in=10).fit(Y)
+    assert stuck.budget_exhausted_ and stuck.n_iter_ == 40
+
+
+def test_auto_run_length_stops_at_the_targets():
+    X, _ = blobs(n_clusters=3, per=20, dim=2)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)  # converged: no warning
+        model = PitmanYorGMM(n_chains=2, random_state=0, progress=False).fit(X)
+    assert model.n_iter_ == 1000 and not model.budget_exhausted_  # the first round was enough
+    conv = {r["quantity"]: r for r in model.convergence_}
+    assert conv["K"]["R-hat"] < 1.01
+    assert model.labels_samples_.shape[1] <= 200 and model.labels_sweeps_.min() >= 250
 
 
 def test_map_and_binder_point_estimates_are_available():
@@ -536,7 +566,7 @@ def test_map_component_module_exports_to_onnx(tmp_path):
 
 def test_scikit_learn_conventions_and_tensor_input():
     X, y = blobs(n_clusters=3, per=15, dim=2)
-    model = PitmanYorGMM(alpha=1.0, n_iter=50, burn_in=10, n_chains=2, random_state=0, progress=False)
+    model = PitmanYorGMM(**PYP, alpha=1.0, n_iter=50, burn_in=10, n_chains=2, random_state=0, progress=False)
     twin = clone(model)
     assert twin.get_params() == model.get_params()
     labels = model.fit_predict(torch.as_tensor(X, dtype=torch.float32))
@@ -605,11 +635,18 @@ def test_surface_discovery_proposes_after_n_consecutive_novel_windows():
         (dict(point_estimate="mean"), ValueError, "'point_estimate' parameter"),
         (dict(init=np.zeros(3)), ValueError, r"init as labels must have shape \(20,\)"),
         (dict(random_state="seed"), ValueError, "'random_state' parameter"),
+        (dict(n_iter="long"), ValueError, "'n_iter' parameter of PitmanYorGMM must be an int"),
+        (dict(model="dp"), ValueError, "'model' parameter"),
+        (dict(coarsen=0.0), ValueError, "'coarsen' parameter"),
+        (dict(model="mfm", alpha=1.0), ValueError, "alpha and discount apply to model='pyp'"),
+        (dict(n_iter="auto", max_iter=10, burn_in=10), ValueError, "burn_in must be < max_iter"),
     ],
 )
 def test_bad_parameters_raise(kwargs, exc, match):
     X = np.random.default_rng(0).normal(size=(20, 2))
     params = dict(n_iter=5, burn_in=1, n_chains=1, progress=False) | kwargs
+    if "alpha" in kwargs or "discount" in kwargs:
+        params = PYP | params
     model = PitmanYorGMM(**params)  # nothing is validated before fit
     with pytest.raises(exc, match=match):
         model.fit(X)

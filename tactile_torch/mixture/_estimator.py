@@ -339,6 +339,11 @@ class PitmanYorGMM(ClusterMixin, BaseEstimator):
         limit, name = (self.max_iter, "max_iter") if self.n_iter == "auto" else (self.n_iter, "n_iter")
         if self.burn_in >= limit:
             raise ValueError(f"burn_in must be < {name}, got burn_in={self.burn_in}, {name}={limit}")
+        if self.model == "mfm" and (self.alpha is not None or self.discount is not None):
+            raise ValueError(
+                f"alpha and discount apply to model='pyp' (the Pitman-Yor mixture), got alpha={self.alpha}, "
+                f"discount={self.discount} with model='mfm'"
+            )
         if self.model == "pyp" and self.coarsen is not None:
             raise ValueError(
                 f"coarsen needs model='mfm' (the coarsened partition prior is the mixture of finite "

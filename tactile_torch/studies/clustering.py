@@ -33,7 +33,9 @@ import numpy as np
 from ..metrics import pairwise_accuracy
 from ..mixture import PitmanYorGMM, baseline_clusterings
 
-TITLE = "Clustering: how many surfaces (Pitman-Yor mixture)"
+TITLE = "Clustering: how many surfaces (Pitman-Yor mixture, mixture of finite mixtures)"
+STUDY = {"model": "pyp", "coarsen": None}
+"""The study's Pitman-Yor mixture (``PitmanYorGMM``'s defaults are the mixture of finite mixtures)."""
 CMD = "tactile-torch report --only clustering --out runs/latest"
 WITHHELD = (3, 10, 17, 24)
 """Surfaces kept out of training in the novelty test (every seventh, from different families)."""
@@ -68,7 +70,7 @@ def k_row(model: PitmanYorGMM) -> dict[str, Any]:
     return {
         "K posterior mode": ks["mode"],
         "K median": ks["median"],
-        "K 95% interval": f"[{ks['interval'][0]:g}, {ks['interval'][1]:g}]",
+        "K 95% interval": f"[{ks['interval'][0]}, {ks['interval'][1]}]",
         "K point estimate": ks["point_estimate"],
         "K MAP sample": ks["map"],
     }
@@ -94,7 +96,7 @@ def cluster_and_compare(
 ) -> dict[str, Any]:
     """Fit the Pitman-Yor mixture and the scikit-learn baselines; return the model and Table 2's rows."""
     model = PitmanYorGMM(
-        n_iter=n_iter, burn_in=burn_in, n_chains=n_chains, random_state=random_state, progress=False
+        n_iter=n_iter, burn_in=burn_in, n_chains=n_chains, random_state=random_state, progress=False, **STUDY
     ).fit(X)
     n_true = int(np.unique(y).size)
     ks = model.n_clusters_summary_
@@ -103,7 +105,7 @@ def cluster_and_compare(
             "method": "Pitman-Yor mixture: point estimate (min. expected VI)",
             "K given": "no",
             "K found": ks["point_estimate"],
-            "posterior of K": f"mode {ks['mode']}, median {ks['median']:g}, 95% [{ks['interval'][0]:g}, {ks['interval'][1]:g}]",
+            "posterior of K": f"mode {ks['mode']}, median {ks['median']:g}, 95% [{ks['interval'][0]}, {ks['interval'][1]}]",
             "pairwise accuracy": pairwise_accuracy(y, model.labels_),
             "seconds": model.fit_seconds_,
         },
@@ -298,6 +300,7 @@ def _run(section, ctx) -> None:
     model: PitmanYorGMM = out["model"]
     section.table(out["rows"], caption=f"Clustering {n_surf} surfaces: PYP mixture vs baselines (Table 2)")
     section.text("```\n" + model.summary() + "\n```")
+    _robust_k(section, X, y, model, sz, ctx)
     section.table(
         [{k: (round(v, 4) if isinstance(v, float) else v) for k, v in r.items()} for r in model.convergence_],
         caption="Convergence across chains: rank-normalised split R-hat and ESS (Vehtari et al. 2021; > 1.01 warns)",
@@ -312,6 +315,32 @@ def _run(section, ctx) -> None:
     real_data(section, ctx, n_iter=sz["n_iter"] // 2, burn_in=sz["burn_in"] // 2)
 
 
+def _robust_k(section, X: np.ndarray, y: np.ndarray, study: PitmanYorGMM, sz: dict, ctx) -> None:
+    """The posterior of K of the study's Pitman-Yor mixture and of the mixture of finite mixtures (issue 22)."""
+    from .clustering_k import SETTINGS, coverage_row, gaussian_three, k_coverage
+
+    fit = dict(
+        random_state=ctx.random_state, n_iter=sz["n_iter"], burn_in=sz["burn_in"], n_chains=sz["chains"]
+    )
+    rows = [coverage_row("this section's data", y, "pyp (study)", study, study.fit_seconds_)]
+    rows += k_coverage({"this section's data": (X, y)}, {"mfm": SETTINGS["mfm"]}, **fit)
+    rows += k_coverage(
+        {"3 Gaussian clusters (sd 1, 5 apart)": gaussian_three()},
+        {k: SETTINGS[k] for k in ("pyp (study)", "mfm")},
+        **fit,
+    )
+    section.text(
+        "The posterior of K of a Dirichlet- or Pitman-Yor-process mixture is not consistent for the number of "
+        "components (Miller & Harrison 2014); a mixture of finite mixtures (MFM: a prior on K, Miller & Harrison "
+        "2018) is, with the same Gibbs sampler and other weights. `PitmanYorGMM`'s default model is the MFM; this "
+        "section's other tables use the study's Pitman-Yor mixture (`model='pyp'`). All five data sources, with "
+        "and without the coarsened posterior: `python -m tactile_torch.studies.clustering_k` (docs/mixture.md)."
+    )
+    section.table(
+        rows, caption="Posterior of K: the study's Pitman-Yor mixture vs the mixture of finite mixtures"
+    )
+
+
 def _posterior_figures(section, model: PitmanYorGMM, y: np.ndarray) -> None:
     import matplotlib.pyplot as plt
 
@@ -320,7 +349,9 @@ def _posterior_figures(section, model: PitmanYorGMM, y: np.ndarray) -> None:
     post = model.n_clusters_posterior()
     fig, ax = plt.subplots(figsize=(6, 3.2))
     ax.bar(list(post), list(post.values()), color="tab:blue", label="posterior of K")
-    ax.axvspan(ks["interval"][0] - 0.5, ks["interval"][1] + 0.5, color="tab:blue", alpha=0.1, label="95% interval")
+    ax.axvspan(
+        ks["interval"][0] - 0.5, ks["interval"][1] + 0.5, color="tab:blue", alpha=0.1, label="95% interval"
+    )
     ax.axvline(n_true, color="k", ls="--", lw=1, label=f"true K = {n_true}")
     ax.axvline(
         ks["point_estimate"], color="tab:green", lw=1.5, label=f"point estimate {ks['point_estimate']}"
@@ -461,6 +492,7 @@ def learning_curve(
         keep = np.concatenate([np.flatnonzero(y == c)[:m] for c in classes])
         for discount in discounts:
             model = PitmanYorGMM(
+                **STUDY,
                 discount=discount,
                 n_iter=n_iter,
                 burn_in=burn_in,
@@ -535,7 +567,7 @@ def novelty_test(
     false-alarm rate: share of the known classes' test windows labelled -1.
     """
     known = ~np.isin(y, withheld)
-    model = PitmanYorGMM(progress=False, **fit).fit(X[known])
+    model = PitmanYorGMM(progress=False, **(STUDY | fit)).fit(X[known])
     Xt = np.concatenate([t[0] for t in tests])
     yt = np.concatenate([t[1] for t in tests])
     new = np.isin(yt, withheld)
@@ -589,6 +621,7 @@ def _window_sizes(section, ctx, sz: dict) -> None:
         X = np.asarray(ClusteringTransform(n_components=3).fit_transform(feats))
         y = ds.labels.numpy()
         model = PitmanYorGMM(
+            **STUDY,
             n_iter=sz["n_iter"] // 2,
             burn_in=sz["burn_in"] // 2,
             random_state=ctx.random_state,
@@ -644,6 +677,9 @@ def real_data(section, ctx, *, n_iter: int, burn_in: int) -> None:
     for name in present:
         X, y, pos, n_classes = real_windows(name, per)
         model = PitmanYorGMM(
+            n_iter=n_iter, burn_in=burn_in, random_state=ctx.random_state, progress=False, **STUDY
+        ).fit(X)
+        robust = PitmanYorGMM(
             n_iter=n_iter, burn_in=burn_in, random_state=ctx.random_state, progress=False
         ).fit(X)
         km_labels = KMeans(n_classes, n_init=10, random_state=ctx.random_state).fit_predict(X)
@@ -653,6 +689,8 @@ def real_data(section, ctx, *, n_iter: int, burn_in: int) -> None:
                 "classes": n_classes,
                 "windows": len(y),
                 **k_row(model),
+                "MFM: K 95% interval": "[{}, {}]".format(*robust.n_clusters_summary_["interval"]),
+                "MFM: K point estimate": robust.n_clusters_,
                 "pairwise accuracy (point estimate)": pairwise_accuracy(y, model.labels_),
                 "pairwise accuracy (MAP)": pairwise_accuracy(y, model.map_labels_),
                 "k-means given K": pairwise_accuracy(y, km_labels),
@@ -674,7 +712,11 @@ def real_data(section, ctx, *, n_iter: int, burn_in: int) -> None:
         "Real accelerometer data (`tactile_torch.data.load_hapmat_imu5` / `load_borealtc_imu`: 100 Hz IMU logs, "
         f"not an 800 Hz stylus): 2 s windows, up to {per} per class, the same features and transform."
     )
-    section.table(rows, caption="Real data sets: the posterior of K, the point estimate and the MAP sample")
+    section.table(
+        rows,
+        caption="Real data sets: the posterior of K, the point estimate and the MAP sample (Pitman-Yor, the "
+        "study's), and the mixture of finite mixtures (MFM, PitmanYorGMM's default model) at the same chain length",
+    )
     section.table(
         nov, caption="Real data sets: novelty of a withheld class (trained on the first half of each class)"
     )

@@ -119,32 +119,35 @@ def k_coverage(
 
     rows = []
     for source, (X, y) in sources.items():
-        truth = int(np.unique(y).size)
         for name, kw in (settings or SETTINGS).items():
             t0 = time.perf_counter()
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", RuntimeWarning)
                 model = PitmanYorGMM(random_state=random_state, progress=False, **kw, **fit).fit(X)
-            ks = model.n_clusters_summary_
-            lo, hi = ks["interval"]
-            conv = {r["quantity"]: r for r in model.convergence_}
-            rows.append(
-                {
-                    "source": source,
-                    "n": len(y),
-                    "true K": truth,
-                    "setting": name,
-                    "K mode": ks["mode"],
-                    "K 95% interval": f"[{lo}, {hi}]",
-                    "covers": "yes" if lo <= truth <= hi else "no",
-                    "K point estimate": ks["point_estimate"],
-                    "R-hat K": round(float(conv["K"]["R-hat"]), 3),
-                    "ESS K": round(float(conv["K"]["ESS bulk"])),
-                    "sweeps": model.n_iter_,
-                    "seconds": round(time.perf_counter() - t0, 1),
-                }
-            )
+            rows.append(coverage_row(source, y, name, model, time.perf_counter() - t0))
     return rows
+
+
+def coverage_row(source: str, y: np.ndarray, setting: str, model, seconds: float) -> dict[str, Any]:
+    """One row of :func:`k_coverage` for a fitted ``model`` on labels ``y``."""
+    truth = int(np.unique(y).size)
+    ks = model.n_clusters_summary_
+    lo, hi = ks["interval"]
+    conv = {r["quantity"]: r for r in model.convergence_}
+    return {
+        "source": source,
+        "n": len(y),
+        "true K": truth,
+        "setting": setting,
+        "K mode": ks["mode"],
+        "K 95% interval": f"[{lo}, {hi}]",
+        "covers": "yes" if lo <= truth <= hi else "no",
+        "K point estimate": ks["point_estimate"],
+        "R-hat K": round(float(conv["K"]["R-hat"]), 3),
+        "ESS K": round(float(conv["K"]["ESS bulk"])),
+        "sweeps": model.n_iter_,
+        "seconds": round(seconds, 1),
+    }
 
 
 def _main(argv: list[str] | None = None) -> None:

@@ -190,7 +190,9 @@ def _clustering_scatter(section, ds, feats) -> None:
     ax.set_xlabel(f"PC 1 ({100 * ratio[0]:.0f} % of the variance)")
     ax.set_ylabel(f"PC 2 ({100 * ratio[1]:.0f} % of the variance)")
     # the legend beside the axes, never over the data
-    ax.legend(fontsize=6, ncol=2, markerscale=1.5, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)
+    ax.legend(
+        fontsize=6, ncol=2, markerscale=1.5, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0
+    )
     fig.tight_layout()
     section.figure(
         fig,
