@@ -142,7 +142,10 @@ def test_wishart_draws_have_the_right_mean_and_logdet():
     assert abs(ldets.mean() - want) < 5 * ldets.std() / math.sqrt(n)
 
 
-def test_component_step_density_is_the_product_of_its_conditionals():
+@pytest.mark.parametrize("zeta", [1.0, 0.4])
+def test_component_step_density_is_the_product_of_its_conditionals(zeta):
+    # zeta < 1 (coarsened posterior): the likelihood to the power zeta, i.e. every count and sum of
+    # the points weighted by zeta; the conditionals stay Wishart x normal
     rng = np.random.default_rng(3)
     D = 3
     pts = rng.normal(size=(7, D))
@@ -152,15 +155,19 @@ def test_component_step_density_is_the_product_of_its_conditionals():
     W, R = spd(rng, D) / 5, spd(rng, D) / 5
     beta = 4.2
     mu, L = np.empty(D), np.empty((D, D))
-    logq, ldet = conditionals.component_step(7, mean, scat, mu0, beta, W, R, R @ xi, True, mu, L, 0.0, rng)
+    logq, ldet = conditionals.component_step(
+        7, mean, scat, mu0, beta, W, R, R @ xi, True, mu, L, 0.0, zeta, rng
+    )
     S = L @ L.T
-    P = beta * W + (pts - mu0).T @ (pts - mu0)
-    want = stats.wishart(df=beta + 7, scale=np.linalg.inv(P)).logpdf(S)
-    lam = R + 7 * S
-    m = np.linalg.solve(lam, R @ xi + S @ pts.sum(0))
+    P = beta * W + zeta * (pts - mu0).T @ (pts - mu0)
+    want = stats.wishart(df=beta + zeta * 7, scale=np.linalg.inv(P)).logpdf(S)
+    lam = R + zeta * 7 * S
+    m = np.linalg.solve(lam, R @ xi + zeta * S @ pts.sum(0))
     want += stats.multivariate_normal(m, np.linalg.inv(lam)).logpdf(mu)
     np.testing.assert_allclose(logq, want, rtol=1e-9)
-    again, _ = conditionals.component_step(7, mean, scat, mu0, beta, W, R, R @ xi, False, mu, L, ldet, rng)
+    again, _ = conditionals.component_step(
+        7, mean, scat, mu0, beta, W, R, R @ xi, False, mu, L, ldet, zeta, rng
+    )
     np.testing.assert_allclose(again, logq, rtol=1e-12)
 
 

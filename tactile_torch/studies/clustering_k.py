@@ -79,6 +79,35 @@ def sessions_3x3(seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
     return _pca_features(ds.windows), ds.labels.numpy()
 
 
+def session_overlap(seed: int = 0) -> np.ndarray:
+    """Return the Bhattacharyya distances (9, 9) between the (surface, session) groups of ``sessions-3x3``.
+
+    Rows and columns ordered surface-major: (0, 0), (0, 1), (0, 2), (1, 0), ... Gaussian fits of each
+    group's PCA-3 features; a distance below about 1 means two groups overlap (a Bayes error above
+    about 18 %).
+    """
+    from ..data import make_vibration_recordings
+
+    X, y = sessions_3x3(seed)
+    rec = make_vibration_recordings(3, duration_s=30, n_sessions=3, random_state=seed)
+    session = np.array([int(str(s).rsplit("/", 1)[1]) for s in rec.session])
+    sess = session[rec.windows(800).recording.numpy()]
+    groups = [(c, k) for c in range(3) for k in range(3)]
+    stats = []
+    for c, k in groups:
+        sel = (y == c) & (sess == k)
+        stats.append((X[sel].mean(0), np.cov(X[sel].T)))
+    out = np.zeros((9, 9))
+    for i, (m1, c1) in enumerate(stats):
+        for j, (m2, c2) in enumerate(stats):
+            S = (c1 + c2) / 2
+            d = m1 - m2
+            out[i, j] = d @ np.linalg.solve(S, d) / 8 + 0.5 * np.log(
+                np.linalg.det(S) / np.sqrt(np.linalg.det(c1) * np.linalg.det(c2))
+            )
+    return out
+
+
 def real_set(name: str, per: int = 60) -> tuple[np.ndarray, np.ndarray]:
     """Return PCA-3 features and labels of up to ``per`` 2 s windows per class of a real set."""
     from .clustering import real_windows
@@ -155,11 +184,20 @@ def _main(argv: list[str] | None = None) -> None:
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="short chains, fewer windows")
+    parser.add_argument(
+        "--overlap",
+        action="store_true",
+        help="print the Bhattacharyya distances of sessions-3x3's groups and stop",
+    )
     parser.add_argument("--only", nargs="*", help="sources to run (default: all available)")
     parser.add_argument("--settings", nargs="*", help="settings to run (names of SETTINGS)")
     parser.add_argument("--n-iter", default="auto", type=lambda v: v if v == "auto" else int(v))
     parser.add_argument("--burn-in", default=250, type=int)
     args = parser.parse_args(argv)
+    if args.overlap:
+        np.set_printoptions(precision=1, suppress=True, linewidth=150)
+        print(session_overlap())
+        return
     sources = k_sources(args.quick)
     if args.only:
         sources = {k: v for k, v in sources.items() if k in args.only}
