@@ -518,7 +518,9 @@ def test_convergence_diagnostics_are_reported_and_warned():
     # chains stuck in different places (no split-merge, one-cluster vs k-means starts are not mixed)
     rng = np.random.default_rng(0)
     Y = np.concatenate([rng.normal(m, 0.3, size=(40, 1)) for m in range(0, 40, 4)])
-    stuck = PitmanYorGMM(n_iter=60, burn_in=20, n_split_merge=0, init="one", random_state=0, progress=False)
+    stuck = PitmanYorGMM(
+        **PYP, n_iter=60, burn_in=20, n_split_merge=0, init="one", random_state=0, progress=False
+    )
     with pytest.warns(RuntimeWarning, match=r"R-hat > 1.01 .* after 60 sweeps per chain.*n_iter='auto'"):
         stuck.set_params(n_chains=3).fit(Y)
     assert "WARNING: R-hat > 1.01" in stuck.summary()

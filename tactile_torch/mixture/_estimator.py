@@ -22,6 +22,8 @@ from ._summaries import n_clusters_posterior, n_clusters_summary, summary_text
 
 # Floor on the eigenvalues of the hyperparameter W (whitened units; see the class docstring).
 W_FLOOR = 1e-10
+# Rows further than this from the data mean (whitened units) are novel by definition (prediction).
+_BEYOND = 1e100
 
 
 def _numpy_rng(random_state: object) -> np.random.Generator:
@@ -560,12 +562,23 @@ class PitmanYorGMM(ClusterMixin, BaseEstimator):
         return np.linalg.solve(self.data_scale_, (X - self.data_mean_).T).T
 
     def _cluster_and_new(self, X: object, using: str) -> tuple[np.ndarray, np.ndarray]:
-        """(n, K) log probability of joining each cluster and (n,) of a new component."""
+        """(n, K) log probability of joining each cluster and (n,) of a new component.
+
+        A row more than ``_BEYOND`` whitened units from the data mean (where every Gaussian log
+        density overflows the float range) is novel by definition: log P(new) = 0, the clusters
+        equally likely.
+        """
+        if using not in ("samples", "point"):
+            raise ValueError(f"using must be 'samples' or 'point', got {using!r}")
+        Z = self._whiten(X)
+        beyond = np.abs(Z).max(axis=1) > _BEYOND
         if using == "samples":
-            return posterior_predictive(self._whiten(X), self._pred, self.n_clusters_)
-        if using == "point":
-            return normalise(*self._point_scores(X))
-        raise ValueError(f"using must be 'samples' or 'point', got {using!r}")
+            log_joint, log_new = posterior_predictive(Z, self._pred, self.n_clusters_)
+        else:
+            log_joint, log_new = normalise(*self._point_scores(X))
+        log_joint[beyond] = -math.log(self.n_clusters_)
+        log_new[beyond] = 0.0
+        return log_joint, log_new
 
     def _point_scores(self, X: object) -> tuple[np.ndarray, np.ndarray]:
         check_is_fitted(self)
@@ -578,7 +591,8 @@ class PitmanYorGMM(ClusterMixin, BaseEstimator):
 
         ``using="samples"``: the posterior predictive averaged over saved partitions (default);
         ``"point"``: the point estimate's components, as in the exported graph. A row is novel when
-        the probability of a new component exceeds that of every cluster.
+        the probability of a new component exceeds that of every cluster; a row more than 1e100
+        whitened units from the data is novel by definition.
         """
         joint, new = self._cluster_and_new(X, using)
         labels = np.argmax(joint, axis=1)

@@ -72,14 +72,14 @@ def summary_text(model) -> str:
         )
     if model.model == "mfm":
         lines.insert(
-            1,
+            2,
             f"model: mixture of finite mixtures (K ~ geometric, mean {model.k_prior_mean:g}; weights ~ "
             f"Dirichlet({model.weight_concentration:g})), likelihood power zeta = {model.zeta_:.4g}"
             + (" (not coarsened)" if model.zeta_ == 1.0 else f" (coarsened, coarsen = {model.coarsen:g})"),
         )
         hyper = (("beta", model.beta_samples_),)
     else:
-        lines.insert(1, "model: Pitman-Yor process mixture (the study's)")
+        lines.insert(2, "model: Pitman-Yor process mixture (the study's)")
         hyper = (
             ("alpha", model.alpha_samples_),
             ("d", model.discount_samples_),

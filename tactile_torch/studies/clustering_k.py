@@ -31,6 +31,7 @@ SESSION_GAINS = (0.8, 1.0, 1.25)
 SETTINGS: dict[str, dict[str, Any]] = {
     "pyp (study)": {"model": "pyp", "coarsen": None},
     "mfm": {"model": "mfm", "coarsen": None},
+    "mfm, coarsen 10000": {"model": "mfm", "coarsen": 10000.0},
     "mfm, coarsen 3000": {"model": "mfm", "coarsen": 3000.0},
     "mfm, coarsen 1000": {"model": "mfm", "coarsen": 1000.0},
     "mfm, coarsen 300": {"model": "mfm", "coarsen": 300.0},
