@@ -14,7 +14,7 @@ import numpy as np
 from .. import _gibbs as g
 from ._diagnostics import RHAT_THRESHOLD, ess_bulk, rhat
 
-# n_iter="auto": first run, snapshot spacing (sweeps), and the targets (issue 22).
+# n_iter="auto": first run, snapshot spacing (sweeps), and the targets.
 AUTO_FIRST, AUTO_EVERY = 1000, 10
 _ESS_TARGET = 400.0
 # At most this many saved partitions per chain are kept (the point estimate uses 200 in all).

@@ -316,7 +316,7 @@ def _run(section, ctx) -> None:
 
 
 def _robust_k(section, X: np.ndarray, y: np.ndarray, study: PitmanYorGMM, sz: dict, ctx) -> None:
-    """The posterior of K of the study's Pitman-Yor mixture and of the mixture of finite mixtures (issue 22)."""
+    """The posterior of K of the study's Pitman-Yor mixture and of the mixture of finite mixtures."""
     from .clustering_k import SETTINGS, coverage_row, gaussian_three, k_coverage
 
     fit = dict(

@@ -1,6 +1,6 @@
 """How many surfaces, on five data sources: the posterior of K of each prior and power of the likelihood.
 
-The five sources of issue 22, each with a known number of surfaces (:func:`k_sources`):
+Five data sources, each with a known number of surfaces (:func:`k_sources`):
 
 - ``gaussian-3``: 3 Gaussian clusters in D = 3 (sd 1, centres 5 apart on an equilateral triangle,
   50 points each): well specified, the theory's case;
