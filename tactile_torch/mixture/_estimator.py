@@ -177,6 +177,8 @@ class PitmanYorGMM(ClusterMixin, BaseEstimator):
     thin : int or None, default None
         Save the partition (and, after burn-in, the components) of every ``thin``-th sweep, counted
         back from the last one. ``None``: about 200 per chain. Scalar traces are kept for every sweep.
+        With ``n_iter="auto"`` the partition is saved every 10 sweeps and thinned to 200 per chain
+        after the burn-in (``thin`` is not used).
     point_estimate : {"vi", "binder", "map"}, default "vi"
         What ``labels_`` is: the minimiser of the expected Variation of Information, of Binder's
         loss (equal costs), or the MAP sample.
