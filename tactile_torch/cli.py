@@ -7,6 +7,7 @@ Every subcommand of the toolkit is listed; the handlers import their modules laz
 from __future__ import annotations
 
 import argparse
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -16,6 +17,8 @@ NOT_BUILT_EXIT = 2
 BAD_INPUT_EXIT = 2
 """Exit status for bad input (a missing or malformed file, a wrong option), after one line on stderr."""
 INTERNAL_ERROR_EXIT = 1
+MAX_READ_ENV = "TACTILE_TORCH_MAX_READ_MB"
+"""Where ``--max-read-mb`` puts the read bound (:func:`tactile_torch.formats.max_read_bytes` reads it)."""
 """Exit status for an unexpected error (a bug): one line on stderr, the traceback with ``--debug``."""
 
 TRAIN_EXTRA = "train"
@@ -218,7 +221,7 @@ def _export(args: argparse.Namespace) -> int:
 
     sensor_range = _range_g(args.sensor_range, "--sensor-range", off=False)
     pipeline = pipeline_from_model(load_model_file(args.model), sensor_range_g=sensor_range)
-    path = export_pipeline(pipeline, args.out)
+    path = export_pipeline(pipeline, args.out, inputs=[args.model])
     size = path.stat().st_size / 1024
     print(
         f"exported {pipeline.name}: input ({pipeline.input_layout}) = {pipeline.input_shape}, "
@@ -274,7 +277,7 @@ def _predict(args: argparse.Namespace) -> int:
         from .formats import write_npz
 
         names = np.array([*pipe.class_names, f"not classified: {beyond}"])[labels]  # -1: the last
-        write_npz(args.out, {"labels": labels, "names": names})
+        write_npz(args.out, {"labels": labels, "names": names}, inputs=[*args.data, args.model])
         print(f"labels written to {args.out}")
     if n_out:
         print(f"{n_out} windows with samples {beyond} were not classified and are left out")
@@ -806,6 +809,14 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument(
             "--debug", action="store_true", default=argparse.SUPPRESS, help="show the traceback of an error"
         )
+        p.add_argument(
+            "--max-read-mb",
+            type=_at_least(0.001),
+            default=None,
+            metavar="MB",
+            help="refuse input files whose arrays would take more than MB MiB in memory (default: 1024; "
+            "docs/formats.md)",
+        )
     return parser
 
 
@@ -828,6 +839,74 @@ def _one_line(err: BaseException) -> str:
     return text or type(err).__name__
 
 
+WRITES_OUT_FILE = ("train", "predict", "export")
+"""Commands whose ``--out`` is one file: it is checked against their inputs before any work."""
+
+
+def _check_out(args: argparse.Namespace) -> None:
+    """Refuse an ``--out`` that is an input, a directory, a device or a symbolic link (one line, status 2)."""
+    from .safe_write import check_output_path
+
+    out = getattr(args, "out", "")
+    if args.command not in WRITES_OUT_FILE or not out:
+        return
+    inputs = list(getattr(args, "data", None) or [])
+    inputs += [args.model] if getattr(args, "model", None) else []
+    check_output_path(out, inputs=inputs, what="--out")
+
+
+class _StdoutGuard:
+    """``sys.stdout`` that survives a closed pipe (``tactile-torch train ... | head -1``).
+
+    After the reader of the pipe has gone, further output is discarded (the descriptor is pointed
+    at ``os.devnull``, so the interpreter's final flush does not fail either) and the command goes on
+    to write its files.
+    """
+
+    def __init__(self, stream) -> None:
+        self._stream = stream
+
+    def _drop(self) -> None:
+        import os
+
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        try:
+            os.dup2(devnull, self._stream.fileno())
+        finally:
+            os.close(devnull)
+
+    def write(self, text: str) -> int:
+        try:
+            return self._stream.write(text)
+        except BrokenPipeError:
+            self._drop()
+            return len(text)
+
+    def flush(self) -> None:
+        try:
+            self._stream.flush()
+        except BrokenPipeError:
+            self._drop()
+            try:
+                self._stream.flush()
+            except BrokenPipeError:
+                pass
+
+    def __getattr__(self, name: str):
+        return getattr(self._stream, name)
+
+
+def _guard_stdout():
+    """Return the ``sys.stdout`` to restore; wrap it in :class:`_StdoutGuard` when it is a real file."""
+    original = sys.stdout
+    try:
+        original.fileno()
+    except (AttributeError, OSError, ValueError):  # captured output (tests): nothing to guard
+        return original
+    sys.stdout = _StdoutGuard(original)
+    return original
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the command line; return the exit status.
 
@@ -848,7 +927,12 @@ def main(argv: list[str] | None = None) -> int:
                 file=sys.stderr,
             )
             return BAD_INPUT_EXIT
+    stdout = _guard_stdout()
+    limit_before = os.environ.get(MAX_READ_ENV)
+    if getattr(args, "max_read_mb", None) is not None:  # read by every reader (formats.max_read_bytes)
+        os.environ[MAX_READ_ENV] = repr(float(args.max_read_mb))
     try:
+        _check_out(args)
         return int(args.handler(args))
     except KeyboardInterrupt:
         if debug:
@@ -872,6 +956,15 @@ def main(argv: list[str] | None = None) -> int:
             raise
         print(f"{prefix}: {_one_line(err)}", file=sys.stderr)
         return BAD_INPUT_EXIT
+    except MemoryError:
+        if debug:
+            raise
+        print(
+            f"{prefix}: not enough memory for this input (reads are bounded by --max-read-mb, "
+            "docs/formats.md); use smaller files or a larger machine",
+            file=sys.stderr,
+        )
+        return BAD_INPUT_EXIT
     except Exception as err:
         if debug:
             raise
@@ -881,6 +974,12 @@ def main(argv: list[str] | None = None) -> int:
             file=sys.stderr,
         )
         return INTERNAL_ERROR_EXIT
+    finally:
+        sys.stdout = stdout
+        if limit_before is None:
+            os.environ.pop(MAX_READ_ENV, None)
+        else:
+            os.environ[MAX_READ_ENV] = limit_before
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -44,7 +44,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .formats import PathLike, read_npz, write_npz
+from .formats import PathLike, check_class_names, read_npz, write_npz
 
 FORMAT = "tactile-torch/model"
 FORMAT_VERSION = 1
@@ -339,6 +339,7 @@ def validate_model(header: object, arrays: Mapping[str, np.ndarray], *, where: s
     names = header.get("class_names")
     if not isinstance(names, list) or not names or not all(isinstance(c, str) for c in names):
         _fail(where, f"class_names must be a non-empty list of strings, got {names!r:.80}")
+    check_class_names(names, f"{where}: class_names")
     n_features = _check_source(where, header.get("source"))
     dims: dict[str, int] = {"C": len(names)}
     head = _check_settings(where, "head", {}, header.get("head"), HEADS)

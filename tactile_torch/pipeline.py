@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -348,11 +349,19 @@ def _clustering_pipeline(model: ModelFile, sensor_range_g: float | None) -> Infe
     )
 
 
-def export_pipeline(pipeline: InferencePipeline, path: str | Path, *, example_batch: int = 2) -> Path:
+def export_pipeline(
+    pipeline: InferencePipeline,
+    path: str | Path,
+    *,
+    example_batch: int = 2,
+    inputs: Sequence[str | Path] = (),
+) -> Path:
     """Export ``pipeline`` to one ONNX file at ``path`` (dynamo exporter, dynamic batch, metadata); return it.
 
     The outputs are named ``labels`` and ``scores`` and the input ``raw``, as
-    :class:`tactile_torch.runtime.OnnxPipeline` expects; ``onnx.checker`` validates the file.
+    :class:`tactile_torch.runtime.OnnxPipeline` expects; ``onnx.checker`` validates the file. The
+    file is written atomically and never onto a directory, a device, a symbolic link or one of
+    ``inputs`` (e.g. the model file it was built from): ``ValueError`` in one line.
     """
     from ._onnx import export_onnx
     from .runtime import LABELS_OUTPUT, SCORES_OUTPUT
@@ -368,6 +377,7 @@ def export_pipeline(pipeline: InferencePipeline, path: str | Path, *, example_ba
         input_names=["raw"],
         output_names=[LABELS_OUTPUT, SCORES_OUTPUT, *extra],
         metadata=pipeline.metadata(),
+        inputs=inputs,
     )
 
 

@@ -173,6 +173,14 @@ class OnnxPipeline:
             raise FileNotFoundError(
                 f"path must name an exported .onnx bundle, got {str(path)!r} (no such file)"
             )
+        from .formats import max_read_bytes
+
+        limit = max_read_bytes()
+        if path.stat().st_size > limit:  # onnxruntime holds the whole file (and its weights) in memory
+            raise ValueError(
+                f"{path}: the bundle is {path.stat().st_size / 2**20:,.1f} MiB, more than the read limit of "
+                f"{limit / 2**20:,.0f} MiB (raise it with --max-read-mb if the file is trusted)"
+            )
         for name, value in (("intra_op_threads", intra_op_threads), ("inter_op_threads", inter_op_threads)):
             if isinstance(value, bool) or not isinstance(value, int) or value < 0:
                 raise ValueError(f"{name} must be an int >= 0, got {value!r}")
