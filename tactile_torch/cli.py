@@ -237,8 +237,10 @@ def _predict(args: argparse.Namespace) -> int:
     import numpy as np
 
     from .metrics import class_report
-    from .runtime import OnnxPipeline, beyond_range, sensor_range_g
+    from .runtime import UNKNOWN, OnnxPipeline
 
+    if args.batch < 1:
+        raise UsageError(f"--batch must be an int >= 1, got {args.batch}")
     pipe = OnnxPipeline(args.model, intra_op_threads=args.threads)
     range_g = _range_g(args.range, "--range", off=True)
     windows = pipe.input_layout == "B,3,W"
@@ -249,41 +251,60 @@ def _predict(args: argparse.Namespace) -> int:
     mismatch = pipe.sample_rate_mismatch(data.rate_hz)
     if mismatch:
         print(f"tactile-torch predict: warning: {where}: {mismatch}", file=sys.stderr)
-    # Windows holding a sample the sensor cannot give (a corrupted value) are not classified, as in stream.
-    classified = np.ones(len(data.raw), dtype=bool)
-    if windows:
-        range_g = sensor_range_g(pipe.metadata) if range_g is None else range_g
-        classified = ~beyond_range(data.raw, range_g)
-    beyond = f"beyond ±{range_g:g} g" if windows else ""
-    n_out = int((~classified).sum())
-    if n_out == len(classified):
+    # Windows holding a sample the sensor cannot give (a corrupted value), and samples whose features
+    # lie far from the training data, are "unknown" (-1), as in stream and OnnxPipeline.classify.
+    range_g = pipe.range_g if range_g is None else range_g
+    parts = [
+        pipe.classify(data.raw[i : i + args.batch], range_g=range_g)
+        for i in range(0, len(data.raw), args.batch)
+    ]
+    labels = np.concatenate([p.labels for p in parts])
+    reasons = [r for p in parts for r in p.reasons]
+    beyond = f"beyond ±{range_g:g} g"
+    n_range = sum(r is not None and r.endswith(f"range ±{range_g:g} g") for r in reasons)
+    n_ood = sum(r is not None and r.startswith("out of distribution") for r in reasons)
+    n_nan = sum(r is not None and r.startswith("scores not finite") for r in reasons)
+    classified = labels != UNKNOWN
+    if windows and n_range == len(labels):
         raise UsageError(
-            f"{where}: all {n_out} windows have samples {beyond}, so none was classified (the range is the "
+            f"{where}: all {n_range} windows have samples {beyond}, so none was classified (the range is the "
             "bundle's sensor_range_g, else 5 g; --range sets it)"
         )
-    if n_out:
+    if n_range:
         print(
-            f"tactile-torch predict: warning: {where}: {n_out} of {len(classified)} windows have samples "
+            f"tactile-torch predict: warning: {where}: {n_range} of {len(labels)} windows have samples "
             f"{beyond} and were not classified",
             file=sys.stderr,
         )
-    raw = data.raw[classified] if n_out else data.raw
-    labels = np.full(len(classified), -1, dtype=np.int64)
-    labels[classified] = np.concatenate(
-        [pipe.predict(raw[i : i + args.batch]) for i in range(0, len(raw), args.batch)]
-    )
     print(f"{pipe!r}: {len(labels)} samples of {where}")
     if args.out:
         from .formats import write_npz
 
-        names = np.array([*pipe.class_names, f"not classified: {beyond}"])[labels]  # -1: the last
+        names = np.array(
+            [
+                pipe.label_name(int(v)) if r is None else f"unknown: {r}"
+                for v, r in zip(labels, reasons, strict=True)
+            ]
+        )
         write_npz(args.out, {"labels": labels, "names": names}, inputs=[*args.data, args.model])
         print(f"labels written to {args.out}")
-    if n_out:
-        print(f"{n_out} windows with samples {beyond} were not classified and are left out")
+    if n_range:
+        print(f"{n_range} windows with samples {beyond} were not classified and are left out")
+    if n_ood:
+        threshold = pipe.ood_threshold
+        print(
+            f"{n_ood} samples are unknown: out of distribution (distance to the training data beyond "
+            f"{threshold:.3g}, the {float(pipe.metadata.get('ood_quantile', 'nan')):.1%} quantile of the "
+            "training windows) and are left out"
+        )
+    if n_nan:
+        print(f"{n_nan} samples gave non-finite scores and are left out")
     if data.labels is not None and pipe.pipeline.endswith("-pyp"):
         from .metrics import pairwise_accuracy
 
+        if not classified.any():
+            print("no sample was classified")
+            return 0
         found = labels[classified]  # the components, scored against the file's classes
         accuracy = pairwise_accuracy(data.file_labels[classified], found)
         print(f"{len(np.unique(found))} components used; pairwise accuracy {accuracy:.4f}")
@@ -296,6 +317,7 @@ def _predict(args: argparse.Namespace) -> int:
         counts = np.bincount(labels[classified], minlength=len(pipe.class_names))
         for name, n in zip(pipe.class_names, counts, strict=True):
             print(f"{name:<24} {n:>7}")
+        print(f"{'unknown':<24} {int((~classified).sum()):>7}")
         return 0
     n = len(pipe.class_names)
     _print_class_report(

@@ -90,28 +90,56 @@ def test_runtime_runs_where_torch_cannot_be_imported(bundle):
         from tactile_torch.runtime import OnnxPipeline
 
         pipe = OnnxPipeline({str(bundle)!r})
-        print(pipe.predict(np.zeros((1, 3, 16), np.float32)).tolist(), "torch" in sys.modules)
+        print(pipe.predict(np.ones((1, 3, 16), np.float32) * np.arange(16) / 16).tolist(), "torch" in sys.modules)
         """
     )
     assert out.returncode == 0, out.stderr
     out = out.stdout
-    assert out.split() == ["[0]", "False"]
+    assert out.split() == ["[0]", "False"]  # mean 0.47 on each axis: nearest to "still"
 
 
 def test_no_label_is_returned_with_a_non_finite_score(bundle):
+    import math
+
     from tactile_torch.runtime import NonFiniteScoresError
 
     pipe = OnnxPipeline(bundle)
-    raw = np.zeros((4, 3, 16), np.float32)
+    raw = np.ones((4, 3, 16), np.float32) * np.linspace(-1, 1, 16, dtype=np.float32)
     raw[2, 0, 5] = 1e30  # finite input; its square overflows float32 in the scores
     with pytest.raises(
         NonFiniteScoresError, match=r"non-finite scores for 1 of 4 sample\(s\) \(rows 2\)"
     ) as err:
-        pipe.predict(raw)
+        pipe.predict(raw, range_g=math.inf)
     np.testing.assert_array_equal(err.value.rows, [2])
     with pytest.raises(ValueError, match="no label is returned"):
-        pipe.predict_scores(raw)
+        pipe.predict_scores(raw, range_g=math.inf)
+    prediction = pipe.classify(raw, range_g=math.inf)
+    assert prediction.labels[2] == -1 and prediction.reasons[2].startswith("scores not finite")
     assert pipe.predict(raw[[0, 1, 3]]).shape == (3,)
+
+
+def test_a_window_beyond_the_sensor_range_is_unknown_in_the_api(bundle):
+    """The API applies the bundle's range as the CLI does: a 20 g sample is not classified."""
+    pipe = OnnxPipeline(bundle)
+    raw = np.ones((3, 3, 16), np.float32) * np.linspace(-1, 1, 16, dtype=np.float32)
+    raw[1, 2, 7] = 20.0
+    raw[2, 0, 0] = 1e30
+    assert pipe.predict_names(raw)[1:] == ["unknown", "unknown"]
+    prediction = pipe.classify(raw)
+    assert prediction.labels.tolist()[1:] == [-1, -1] and prediction.labels[0] >= 0
+    assert prediction.reasons[1] == "a sample of 20 g, beyond the sensor's range ±5 g"
+    assert prediction.reasons[2] == "a sample of 1e+30 g, beyond the sensor's range ±5 g"
+    assert np.isnan(prediction.scores[1:]).all() and np.isfinite(prediction.scores[0]).all()
+    assert pipe.predict(raw, range_g=25.0)[1] >= 0  # a wider range classifies it
+
+
+def test_a_constant_window_is_unknown(bundle):
+    pipe = OnnxPipeline(bundle)
+    raw = np.zeros((2, 3, 16), np.float32)
+    raw[1] = np.array([0.0, 0.0, 1.0])[:, None]  # a constant 1 g
+    prediction = pipe.classify(raw)
+    assert prediction.labels.tolist() == [-1, -1]
+    assert prediction.reasons[1] == "no vibration: every axis is constant (0, 0, 1 g)"
 
 
 def test_beyond_range_flags_the_windows_holding_a_value_past_the_range():
