@@ -330,6 +330,8 @@ STREAM_NO_DATA_EXIT = 3
 """Exit status of ``stream`` when no sample came within the start or idle timeout."""
 STREAM_DISCONNECTED_EXIT = 4
 """Exit status of ``stream`` when the port failed and was not (or could not be) reconnected."""
+STREAM_STOPPED_EXIT = 0
+"""Exit status of ``stream`` stopped by SIGTERM or SIGINT (Ctrl-C): a requested end, after the summary."""
 
 
 def _at_least(minimum: float, kind: type = float):
@@ -343,6 +345,25 @@ def _at_least(minimum: float, kind: type = float):
             raise argparse.ArgumentTypeError(f"expected {what}, got {text!r}") from None
         if not value >= minimum:
             raise argparse.ArgumentTypeError(f"expected a number >= {minimum:g}, got {text!r}")
+        return value
+
+    return parse
+
+
+MAX_SIMULATED_S = 600
+"""Longest synthetic recording ``simulate-sensor`` generates (28 surfaces are generated: 160 MB)."""
+
+
+def _in_range(low: float, high: float):
+    """Return an argparse type: a finite number ``low < x <= high``, else a one-line usage error."""
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+        if not low < value <= high:
+            raise argparse.ArgumentTypeError(f"expected a number > {low:g} and <= {high:g}, got {text!r}")
         return value
 
     return parse
@@ -365,7 +386,7 @@ def _stream(args: argparse.Namespace) -> int:
         print(f"tactile-torch stream: {args.model} does not take vibration windows", file=sys.stderr)
         return 2
     size = int(pipe.metadata["window_size"])
-    step = args.step or size // 2
+    step = args.step if args.step is not None else max(size // 2, 1)
     rate = float(pipe.metadata["sample_rate_hz"]) if "sample_rate_hz" in pipe.metadata else None
     if args.time_unit == "samples" and rate is None:
         print(
@@ -381,6 +402,17 @@ def _stream(args: argparse.Namespace) -> int:
     def open_port():
         return serial.serial_for_url(args.port, baudrate=args.baud, timeout=min(0.1, args.silence / 2))
 
+    reading = []  # printed once the port is open (and the model warm): a sensor may start then
+
+    def opened(name: str) -> None:
+        if not reading:
+            reading.append(name)
+            print(
+                f"{pipe!r}: reading {args.port}, windows of {size} samples every {step}, range ±{reader.range_g:g} g",
+                file=info,
+                flush=True,
+            )
+
     reader = WindowReader(
         open_port,
         window_size=size,
@@ -394,27 +426,32 @@ def _stream(args: argparse.Namespace) -> int:
         start_timeout_s=args.start_timeout or math.inf,
         reconnect=args.reconnect,
         on_event=lambda event: say(event.message),
+        on_open=opened,
         name=args.port,
     )
     vote = WindowVote(args.vote, args.vote_method, pipe.class_names) if args.vote > 1 else None
     # Each classified window goes to every consumer in turn.
     write = result_json if args.json else result_text
-    consumers = [lambda result: print(write(result), flush=True)]
+    unknown = [0]
+
+    def show(result) -> None:
+        unknown[0] += result.label == -1
+        print(write(result), flush=True)
+
+    consumers = [show]
     if args.discover:  # new surfaces: N novel windows in a row (tactile_torch.discovery)
         from .discovery import stream_consumer
 
         consumers.append(stream_consumer(pipe, args.discover, info))
-    print(
-        f"{pipe!r}: reading {args.port}, windows of {size} samples every {step}, range ±{reader.range_g:g} g",
-        file=info,
-        flush=True,
-    )
-    pipe.predict_scores(
-        np.zeros((1, 3, size), np.float32)
-    )  # the first call allocates: not in a window's latency
     status = 0
+    # SIGTERM (how systemd stops a service) ends the stream as Ctrl-C does: summary line, status 0.
+    restore = _stop_on_sigterm()
     try:
-        for result in classify_windows(reader, pipe, vote=vote):
+        # The first call allocates: run it before the port is opened (opening flushes the port's
+        # buffer), so that neither the warm-up nor the open costs the sensor's first samples.
+        warm = np.linspace(-0.5, 0.5, 3 * size, dtype=np.float32).reshape(1, 3, size)
+        pipe.classify(warm)
+        for result in classify_windows(reader, pipe, vote=vote, range_g=reader.range_g):
             for consume in consumers:
                 consume(result)
     except StreamTimeout as err:
@@ -423,16 +460,39 @@ def _stream(args: argparse.Namespace) -> int:
     except StreamDisconnected as err:
         say(str(err))
         status = STREAM_DISCONNECTED_EXIT
-    except KeyboardInterrupt:
-        status = 130
+    except (KeyboardInterrupt, _Stopped) as err:
+        say(f"stopped by {'SIGTERM' if isinstance(err, _Stopped) else 'SIGINT (Ctrl-C)'}")
+        status = STREAM_STOPPED_EXIT
+    finally:
+        restore()
     print(
         f"{reader.samples} samples read, {reader.windows} windows, {reader.skipped} lines skipped, "
         f"{reader.rejected} samples out of range, {reader.gaps} gaps ({reader.lost} samples known lost), "
-        f"{reader.reconnects} reconnections",
+        f"{reader.reconnects} reconnections, {unknown[0]} windows unknown, {reader.format_switches} "
+        "line-format switches",
         file=info,
         flush=True,
     )
     return status
+
+
+class _Stopped(Exception):
+    """SIGTERM arrived while streaming."""
+
+
+def _stop_on_sigterm():
+    """Make SIGTERM raise :class:`_Stopped` in the main thread; return the function that restores it."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        return lambda: None
+
+    def stop(signum, frame):
+        raise _Stopped()
+
+    previous = signal.signal(signal.SIGTERM, stop)
+    return lambda: signal.signal(signal.SIGTERM, previous)
 
 
 def _simulate_sensor(args: argparse.Namespace) -> int:
@@ -536,17 +596,24 @@ def _add_allow_pickle(p: argparse.ArgumentParser) -> None:
     )
 
 
+class _Parser(argparse.ArgumentParser):
+    """An argument parser whose usage errors are one line (``tactile-torch CMD: argument --x: ...``), status 2."""
+
+    def error(self, message: str):
+        self.exit(BAD_INPUT_EXIT, f"{self.prog}: {' '.join(message.split())}\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """Return the argument parser with every subcommand."""
     from . import __version__
 
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="tactile-torch",
         description="Recognise surfaces from tactile images and vibration; train, cluster, export, run.",
     )
     parser.add_argument("--version", action="version", version=f"tactile-torch {__version__}")
     parser.add_argument("--debug", action="store_true", help="show the traceback of an error")
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True, parser_class=_Parser)
 
     p = sub.add_parser("report", help="run every pipeline on the bundled data and write a report (make run)")
     p.add_argument("--out", default="runs/latest", help="output directory (default: runs/latest)")
@@ -683,9 +750,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--baud", type=int, default=230400, help="baud rate (default: 230400)")
     p.add_argument(
         "--step",
-        type=_at_least(0, int),
-        default=0,
-        help="new samples between windows (default: half a window)",
+        type=_at_least(1, int),
+        default=None,
+        help="new samples between windows, >= 1 (default: half a window)",
     )
     p.add_argument(
         "--max-windows",
@@ -767,9 +834,17 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--data", default="", help="vibration .npz to play (default: a synthetic surface)")
     p.add_argument("--recording", type=int, default=0, help="index of the recording to play (default: 0)")
-    p.add_argument("--seconds", type=float, default=10.0, help="synthetic: length in seconds (default: 10)")
     p.add_argument(
-        "--rate", type=float, default=800.0, help="sample rate when the file has none (default: 800)"
+        "--seconds",
+        type=_in_range(0, MAX_SIMULATED_S),
+        default=10.0,
+        help=f"synthetic: length in seconds, at most {MAX_SIMULATED_S} (default: 10)",
+    )
+    p.add_argument(
+        "--rate",
+        type=_in_range(0, 1e6),
+        default=800.0,
+        help="sample rate (Hz) when the file has none, > 0 (default: 800)",
     )
     p.add_argument("--baud", type=int, default=230400, help="baud rate (default: 230400)")
     p.add_argument("--fast", action="store_true", help="write as fast as possible instead of in real time")

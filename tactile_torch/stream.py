@@ -528,9 +528,9 @@ class WindowReader:
         other_run = 0  # consecutive lines of the other format
         at_window = (0, 0, 0)  # skipped, rejected, gaps at the previous window
         for line, now in self._lines():
-            if line is None:  # silence or reconnection: a gap, and the format may change
+            if line is None:  # silence or reconnection: a gap (if a segment was open), the format may change
+                self.gaps += count > 0
                 count, timed, self._prev_t, other_run = 0, None, None, 0
-                self.gaps += 1
                 continue
             parsed = parse_line(line)
             if parsed is None:

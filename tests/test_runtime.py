@@ -1,63 +1,40 @@
-import json
+"""The torch-free runtime (onnxruntime and numpy): validation, labels, "unknown" and its reasons.
+
+Runs on the robot install (no torch, no onnx): the bundle is the hand-encoded energy bundle of
+``tests/stream_helpers.py`` (scores = per-axis mean square, label = argmax), checked against NumPy.
+"""
 
 import numpy as np
 import pytest
-import torch
 
-from tactile_torch._onnx import export_onnx
 from tactile_torch.runtime import OnnxPipeline
 
 from .conftest import run_without_torch
-
-
-class _NearestMean(torch.nn.Module):
-    """A stand-in pipeline: raw (B, 3, W) windows -> per-axis means -> nearest of 4 class means."""
-
-    def __init__(self):
-        super().__init__()
-        self.register_buffer("means", torch.tensor([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]]))
-
-    def forward(self, x):
-        feats = x.mean(dim=-1)
-        d2 = (
-            (feats * feats).sum(1, keepdim=True) + (self.means * self.means).sum(1) - 2 * feats @ self.means.T
-        )
-        scores = -d2
-        return scores.argmax(dim=1), scores
+from .stream_helpers import energy_bundle
 
 
 @pytest.fixture(scope="module")
 def bundle(tmp_path_factory):
-    path = tmp_path_factory.mktemp("rt") / "toy.onnx"
-    meta = {
-        "tactile_torch.pipeline": "toy-vibration",
-        "input_shape": json.dumps([None, 3, 16]),
-        "input_layout": "B,3,W",
-        "class_names": json.dumps(["still", "x", "y", "z"]),
-        "window_size": "16",
-    }
-    return export_onnx(
-        _NearestMean(),
-        (torch.zeros(2, 3, 16),),
-        path,
-        input_names=["windows"],
-        output_names=["labels", "scores"],
-        metadata=meta,
-    )
+    return energy_bundle(tmp_path_factory.mktemp("rt") / "energy.onnx", window=16)
 
 
-def test_predict_matches_torch_at_another_batch_size(bundle):
+def test_predict_matches_numpy_at_any_batch_size(bundle):
     pipe = OnnxPipeline(bundle)
     rng = np.random.default_rng(0)
-    raw = (rng.normal(size=(9, 3, 16)) + np.eye(4, 3)[rng.integers(0, 4, 9)][:, :, None]).astype(np.float32)
+    raw = (
+        (rng.normal(size=(9, 3, 16)) * rng.uniform(0.2, 1.2, size=(9, 3, 1)))
+        .clip(-4.9, 4.9)
+        .astype(np.float32)
+    )
     labels, scores = pipe.predict_scores(raw)
-    want_labels, want_scores = _NearestMean()(torch.from_numpy(raw))
-    np.testing.assert_array_equal(labels, want_labels.numpy())
-    np.testing.assert_allclose(scores, want_scores.numpy(), rtol=1e-5, atol=1e-6)
-    assert pipe.predict_names(raw) == [["still", "x", "y", "z"][i] for i in labels]
+    want_scores = (raw.astype(np.float64) ** 2).mean(axis=-1)
+    np.testing.assert_array_equal(labels, want_scores.argmax(axis=1))
+    np.testing.assert_allclose(scores, want_scores, rtol=1e-5, atol=1e-6)
+    assert pipe.predict_names(raw) == [["x", "y", "z"][i] for i in labels]
     assert pipe.input_shape == (None, 3, 16) and pipe.metadata["window_size"] == "16"
     np.testing.assert_array_equal(pipe.predict(raw.astype(np.float64)), labels)
-    assert "toy-vibration" in repr(pipe)
+    np.testing.assert_array_equal(np.concatenate([pipe.predict(raw[i : i + 1]) for i in range(9)]), labels)
+    assert "vibration-energy" in repr(pipe)
 
 
 @pytest.mark.parametrize(
@@ -95,7 +72,7 @@ def test_runtime_runs_where_torch_cannot_be_imported(bundle):
     )
     assert out.returncode == 0, out.stderr
     out = out.stdout
-    assert out.split() == ["[0]", "False"]  # mean 0.47 on each axis: nearest to "still"
+    assert out.split() == ["[0]", "False"]  # the same energy on each axis: the first
 
 
 def test_no_label_is_returned_with_a_non_finite_score(bundle):

@@ -414,7 +414,7 @@ def test_a_port_back_before_the_idle_timeout_is_reopened():
             windows.append(window)
     assert reader.reconnects == 1 and len(windows) == 3
     assert clock.slept[:5] == [0.5, 1.0, 2.0, 4.0, 2.5]  # the attempt at 10 s finds it
-    assert "open after 10.0 s (5 attempt(s))" in [e.message for e in events if e.kind == "reconnected"][0]
+    assert "open after 10.0 s (5 attempt(s))" in next(e.message for e in events if e.kind == "reconnected")
 
 
 def test_reader_over_a_pseudo_terminal_until_the_writer_closes_it():
