@@ -542,16 +542,17 @@ class WindowReader:
             if timed is not None and (parsed[0] is not None) != timed:
                 # A line of the other format: one alone is garbage (a line cut short and merged with
                 # the next gives four numbers); a run of them is the sensor switching formats.
-                self.skipped += 1
                 other_run += 1
                 if other_run < _FORMAT_RUN:
+                    self.skipped += 1
                     continue
                 new, old = ("t,x,y,z", "x,y,z") if not timed else ("x,y,z", "t,x,y,z")
                 self.format_switches += 1
                 self._emit(
                     "format",
                     f"the lines changed from {old} to {new} ({_FORMAT_RUN} in a row) after {self.samples} "
-                    f"samples; following the new format (the {_FORMAT_RUN} lines were skipped)",
+                    f"samples; following the new format (the {_FORMAT_RUN - 1} lines before this one were "
+                    "skipped)",
                 )
                 self.gaps += count > 0
                 timed, count, self._prev_t = not timed, 0, None
