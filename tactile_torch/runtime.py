@@ -246,11 +246,64 @@ class OnnxPipeline:
         scale = self.metadata.get("uint8_scale")
         self._uint8_scale = float(scale) if scale else None
         self.input_dtype = np.dtype(_ONNX_DTYPES.get(self._input.type, "float32"))
+        self._check_header()
 
     def _declared_shape(self) -> tuple[int | None, ...]:
         if "input_shape" in self.metadata:
-            return tuple(json.loads(self.metadata["input_shape"]))
+            try:
+                shape = json.loads(self.metadata["input_shape"])
+            except json.JSONDecodeError:
+                shape = None
+            if not isinstance(shape, list) or not all(
+                d is None or (isinstance(d, int) and not isinstance(d, bool) and d >= 1) for d in shape
+            ):
+                raise ValueError(
+                    f"{self.path}: metadata input_shape must be a JSON list of sizes >= 1 or null, "
+                    f"got {self.metadata['input_shape']!r:.80}"
+                )
+            return tuple(shape)
         return tuple(d if isinstance(d, int) else None for d in self._input.shape)
+
+    def _check_header(self) -> None:
+        """Refuse metadata that disagree with the graph they describe (a crafted or mixed-up header)."""
+        where = f"{self.path}: the bundle's metadata disagree with its graph"
+        graph = tuple(d if isinstance(d, int) else None for d in self._input.shape)
+        if len(graph) != len(self.input_shape):
+            raise ValueError(f"{where}: input_shape {list(self.input_shape)}, graph input {list(graph)}")
+        for axis, (want, got) in enumerate(zip(self.input_shape, graph, strict=True)):
+            if got is not None and want != got:
+                raise ValueError(f"{where}: input_shape axis {axis} is {want}, the graph takes {got}")
+        if len(self.input_layout.split(",")) != len(self.input_shape):
+            raise ValueError(
+                f"{where}: input_layout {self.input_layout!r}, input_shape {list(self.input_shape)}"
+            )
+        if self.input_layout == "B,3,W":
+            if self.input_shape[1] != 3:
+                raise ValueError(
+                    f"{where}: windows of 3 channels (x, y, z), input_shape {list(self.input_shape)}"
+                )
+            meta = self.metadata
+            for key, check in (
+                ("window_size", lambda v: int(v) == self.input_shape[2]),
+                ("step", lambda v: int(v) >= 1),
+                ("sample_rate_hz", lambda v: math.isfinite(float(v)) and float(v) > 0),
+            ):
+                if key in meta:
+                    try:
+                        ok = check(meta[key])
+                    except ValueError:
+                        ok = False
+                    if not ok:
+                        raise ValueError(
+                            f"{where}: {key} = {meta[key]!r:.40} (the graph takes windows of {self.input_shape[2]} samples)"
+                        )
+            sensor_range_g(meta)  # a number > 0
+        if self.class_names:
+            scores = self.session.get_outputs()[self._outputs.index(SCORES_OUTPUT)].shape
+            if len(scores) == 2 and isinstance(scores[1], int) and scores[1] != len(self.class_names):
+                raise ValueError(
+                    f"{where}: {len(self.class_names)} class_names, the graph gives {scores[1]} scores"
+                )
 
     @property
     def pipeline(self) -> str:

@@ -153,10 +153,12 @@ def energy_bundle(
     rate_hz: float = 800.0,
     step: int | None = None,
     drop: tuple[str, ...] = (),
+    metadata: dict[str, str] | None = None,
 ) -> Path:
     """Write a vibration bundle: scores = per-axis mean square over the window, label = their argmax.
 
-    ``drop`` leaves metadata keys out (e.g. ``("window_size",)`` for a bundle that is not a vibration one).
+    ``drop`` leaves metadata keys out (e.g. ``("window_size",)`` for a bundle that is not a vibration one);
+    ``metadata`` replaces or adds keys (e.g. a header that lies about the window).
 
     The ONNX protobuf is encoded here by hand (a dozen fields of ``onnx.proto``), so that the stream
     and runtime tests run on the robot install, which has onnxruntime but not the ``onnx`` package.
@@ -180,6 +182,7 @@ def energy_bundle(
         "window_size": str(window),
         "step": str(step or window),
         "sample_rate_hz": str(float(rate_hz)),
+        **(metadata or {}),
     }
     model = (
         _field(1, 8)  # ir_version

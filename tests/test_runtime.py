@@ -135,3 +135,20 @@ def test_beyond_range_flags_the_windows_holding_a_value_past_the_range():
     np.testing.assert_array_equal(beyond_range(raw, 5.0), want)
     assert want == [False, True, True, True, True, False]
     np.testing.assert_array_equal(beyond_range(raw, np.inf), [False, False, False, True, False, False])
+
+
+@pytest.mark.parametrize(
+    ("metadata", "match"),
+    [
+        ({"window_size": "5"}, r"window_size = '5' \(the graph takes windows of 16 samples\)"),
+        ({"input_shape": "[null, 3, 5]"}, "input_shape axis 2 is 5, the graph takes 16"),
+        ({"input_shape": "[null, 4, 16]"}, "input_shape axis 1 is 4, the graph takes 3"),
+        ({"sample_rate_hz": "0"}, "sample_rate_hz = '0'"),
+        ({"class_names": '["x", "y"]'}, "2 class_names, the graph gives 3 scores"),
+        ({"input_shape": '"lots"'}, "input_shape must be a JSON list"),
+    ],
+)
+def test_a_header_that_disagrees_with_its_graph_is_refused(tmp_path, metadata, match):
+    path = energy_bundle(tmp_path / "lying.onnx", window=16, metadata=metadata)
+    with pytest.raises(ValueError, match=match):
+        OnnxPipeline(path)
