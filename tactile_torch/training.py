@@ -110,6 +110,14 @@ def load_features(
     except ValueError as err:
         raise ValueError(f"{where}: {err}; pass a smaller window (--window)") from None
     X = window_features(torch.from_numpy(cut.windows)).double().numpy()
+    overflow = ~np.isfinite(X).all(axis=1)
+    if overflow.any():  # e.g. a corrupted 1e30 sample: say so, rather than "X must be finite" later
+        first = int(np.argmax(overflow))
+        peak = float(np.abs(cut.windows[first]).max())
+        raise ValueError(
+            f"{where}: {int(overflow.sum())} window(s) hold samples out of range (window {first} of recording "
+            f"{int(cut.recording[first])} reaches {peak:.3g} g), whose features overflow; remove or clip them"
+        )
     source = {"kind": "vibration", "window": window, "step": step or window, "rate_hz": data.rate_hz}
     return FeatureSet(X, data.labels[cut.recording], data.class_names, source)
 

@@ -62,6 +62,9 @@ def files(tmp_path_factory):
     signals = spike["signals"].copy()
     signals[1, 250, 0] = -6.0  # one sample beyond the ADXL345's ±5 g: window 16 + 2 (W = 100)
     np.savez(d / "spike.npz", **{**{k: spike[k] for k in spike.files}, "signals": signals})
+    e30 = signals.copy()
+    e30[2, 10, 0] = 1e30  # a corrupted sample in recording 2, window 0
+    np.savez(d / "e30.npz", **{**{k: spike[k] for k in spike.files}, "signals": e30})
     slow = make_vibration_recordings(4, duration_s=2, random_state=1)
     slow.rate_hz = 100.0  # the same numbers declared as a 100 Hz recording
     slow.save(d / "slow.npz")
@@ -155,6 +158,16 @@ CASES = [
         "stream",
         ["--model", "m.onnx", "--port", "/dev/null", "--range", "0"],
         "--range must be a number of g > 0 ('inf': no check), got '0'",
+    ),
+    (
+        "train",
+        ["--data", "e30.npz", "--window", "100"],
+        "e30.npz: 1 window(s) hold samples out of range (window 32 of recording 2 reaches 1e+30 g)",
+    ),
+    (
+        "predict",
+        ["--model", "m.onnx", "--data", "rec.npz", "--batch", "0"],
+        "--batch must be an int >= 1, got 0",
     ),
     (
         "predict",
@@ -279,13 +292,16 @@ def test_predict_does_not_classify_a_window_beyond_the_sensor_range(files, tmp_p
     )
     assert "1 windows with samples beyond ±5 g were not classified and are left out" in out
     window = 16 + 250 // 100  # recording 1 (16 windows of 100 samples), sample 250
-    assert spiked["labels"][window] == -1 and spiked["names"][window] == "not classified: beyond ±5 g"
+    assert spiked["labels"][window] == -1
+    assert spiked["names"][window] == "unknown: a sample of 6 g, beyond the sensor's range ±5 g"
     others = np.arange(64) != window
     np.testing.assert_array_equal(spiked["labels"][others], clean["labels"][others])
     np.testing.assert_array_equal(spiked["names"][others], clean["names"][others])
-    # --range overrides the bundle's: at ±7 g every window is classified, without a warning
+    # --range overrides the bundle's: at ±7 g no window is refused for its range, without a warning
     wider = _predicted(files, tmp_path, "spike.npz", "--range", "7")
-    assert capsys.readouterr().err == "" and (wider["labels"] >= 0).all()
+    assert capsys.readouterr().err == "" and (wider["labels"][others] >= 0).all()
+    # ... but a -6 g spike lies far from the training windows: "unknown", out of distribution
+    assert wider["labels"][window] == -1 and wider["names"][window].startswith("unknown: out of distribution")
 
 
 def test_commands_that_need_the_training_extra_say_so(files):
