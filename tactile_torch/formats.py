@@ -212,7 +212,7 @@ def check_npz_size(path: PathLike, *, max_bytes: int | None = None, what: str = 
             members = archive.infolist()
             declared = sum(info.file_size for info in members)
             if declared > limit:
-                raise _too_large(path, f"the {what} (decompressed)", declared, limit)
+                raise _too_large(path, f"decompressing the {what}", declared, limit)
             needed = 0
             for info in members:
                 with archive.open(info) as member:
