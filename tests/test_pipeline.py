@@ -300,7 +300,7 @@ def test_unknown_on_real_recordings(tmp_path):
 def test_ood_distance_in_the_graph_matches_numpy(tmp_path, vibration_npz):
     from tactile_torch.ood import ood_distance
 
-    features, model, path = _trained(tmp_path, vibration_npz, "svm", window=400)
+    features, _, path = _trained(tmp_path, vibration_npz, "svm", window=400)
     mf = load_model_file(path)
     bundle = OnnxPipeline(export_pipeline(pipeline_from_model(mf), tmp_path / "d.onnx"))
     raw = bundle.read_npz(vibration_npz).raw[:7]
