@@ -475,3 +475,35 @@ def test_sigterm_and_sigint_end_with_the_summary_and_status_0(model, sensor_pty,
     assert proc.returncode == 0, err
     assert out.splitlines()[-1].startswith("64 samples read, 4 windows, 0 lines skipped"), out
     assert f"stopped by {how}" in err and "Traceback" not in err
+
+
+@pytest.mark.slow
+def test_a_five_minute_real_time_stream_loses_and_mislabels_nothing(model, sensor_pty, tmp_path):
+    """The issue's soak: 800 Hz in real time for 5 minutes, then SIGTERM; every window sent is reported."""
+    import signal
+
+    seconds = 300
+    rec, _ = axis_recording("xyz", int(RATE) * seconds // 3, random_state=5)
+    out_path = tmp_path / "windows.jsonl"
+    with out_path.open("w") as out:
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "tactile_torch.cli", "stream", "--model", model, "--port", sensor_pty.path,
+             "--step", str(W), "--json"],
+            stdout=out, stderr=subprocess.PIPE, text=True,
+        )  # fmt: skip
+        assert "reading" in proc.stderr.readline()
+        start = time.perf_counter()
+        for i in range(0, len(rec), 80):  # 100 ms of samples at a time, paced against the clock
+            time.sleep(max(0.0, start + i / RATE - time.perf_counter()))
+            sensor_pty.write_samples(rec[i : i + 80], _t(i, len(rec[i : i + 80])))
+        sensor_pty.drain()
+        time.sleep(0.5)
+        proc.send_signal(signal.SIGTERM)
+        err = proc.communicate(timeout=60)[1]
+    records = _records(out_path.read_text())
+    assert proc.returncode == 0, err
+    assert len(records) == len(rec) // W  # windows sent == windows reported
+    _check_windows(records, rec)
+    assert err.splitlines()[-1].startswith(
+        f"{len(rec)} samples read, {len(rec) // W} windows, 0 lines skipped"
+    )
