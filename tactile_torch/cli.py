@@ -371,6 +371,15 @@ def _in_range(low: float, high: float):
 
 def _stream(args: argparse.Namespace) -> int:
     # torch-free: pyserial, numpy and onnxruntime only, as on the robot.
+    # SIGTERM (how systemd stops a service) ends the stream as Ctrl-C does: summary line, status 0.
+    restore = _stop_on_sigterm()
+    try:
+        return _stream_until_stopped(args)
+    finally:
+        restore()
+
+
+def _stream_until_stopped(args: argparse.Namespace) -> int:
     import math
 
     import numpy as np
@@ -444,8 +453,6 @@ def _stream(args: argparse.Namespace) -> int:
 
         consumers.append(stream_consumer(pipe, args.discover, info))
     status = 0
-    # SIGTERM (how systemd stops a service) ends the stream as Ctrl-C does: summary line, status 0.
-    restore = _stop_on_sigterm()
     try:
         # The first call allocates: run it before the port is opened (opening flushes the port's
         # buffer), so that neither the warm-up nor the open costs the sensor's first samples.
@@ -463,8 +470,6 @@ def _stream(args: argparse.Namespace) -> int:
     except (KeyboardInterrupt, _Stopped) as err:
         say(f"stopped by {'SIGTERM' if isinstance(err, _Stopped) else 'SIGINT (Ctrl-C)'}")
         status = STREAM_STOPPED_EXIT
-    finally:
-        restore()
     print(
         f"{reader.samples} samples read, {reader.windows} windows, {reader.skipped} lines skipped, "
         f"{reader.rejected} samples out of range, {reader.gaps} gaps ({reader.lost} samples known lost), "
@@ -1036,6 +1041,9 @@ def main(argv: list[str] | None = None) -> int:
             raise
         print(f"{prefix}: interrupted", file=sys.stderr)
         return 130
+    except _Stopped:  # SIGTERM to stream before it was reading: nothing read, a requested end
+        print(f"{prefix}: stopped by SIGTERM before reading", file=sys.stderr)
+        return STREAM_STOPPED_EXIT
     except ModuleNotFoundError as err:
         if debug:
             raise
