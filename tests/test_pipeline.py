@@ -328,3 +328,61 @@ def test_a_header_is_checked_against_its_graph(tmp_path, vibration_npz):
     # 5-sample windows are unknown rather than labelled
     raw = np.random.default_rng(0).normal(0, 0.3, (20, 3, 5)).astype(np.float32)
     assert (bundle.predict(raw) == -1).mean() >= 0.9
+
+
+def test_out_of_distribution_windows_are_unknown_in_predict_and_stream(tmp_path, vibration_npz, capsys):
+    """A pure tone through `predict` and through `stream` over a pty: "unknown" with the reason."""
+    from tactile_torch.stream import format_sample
+
+    from .stream_helpers import PtySensor
+
+    _, _, model_path = _trained(tmp_path, vibration_npz, "svm", window=400)
+    onnx_path = tmp_path / "svm.onnx"
+    assert main(["export", "--model", str(model_path), "--out", str(onnx_path)]) == 0
+    t = np.arange(4000) / 800.0
+    tone = (np.sin(2 * np.pi * 100 * t)[:, None] * np.array([0.5, 0.2, 1.0])).astype(np.float32)
+    data = tmp_path / "tone.npz"
+    np.savez(data, signals=tone[None], labels=[0], class_names=["tone"], rate_hz=800.0)
+    capsys.readouterr()
+    assert (
+        main(["predict", "--model", str(onnx_path), "--data", str(data), "--out", str(tmp_path / "p.npz")])
+        == 0
+    )
+    out = capsys.readouterr().out
+    assert "10 samples are unknown: out of distribution" in out
+    assert (np.load(tmp_path / "p.npz")["labels"] == -1).all()
+    sensor = PtySensor()
+    try:
+        writer = threading.Thread(target=sensor.write, args=(b"".join(format_sample(s) for s in tone),))
+        opened = threading.Event()
+        real = serial.serial_for_url
+
+        def serial_for_url(url, **kwargs):
+            port = real(url, **kwargs)
+            opened.set()
+            return port
+
+        serial.serial_for_url, restore = serial_for_url, serial.serial_for_url
+        try:
+            threading.Thread(target=lambda: (opened.wait(30), writer.start())).start()
+            argv = [
+                "stream",
+                "--model",
+                str(onnx_path),
+                "--port",
+                sensor.path,
+                "--json",
+                "--max-windows",
+                "5",
+            ]
+            assert main(argv) == 0
+        finally:
+            serial.serial_for_url = restore
+        writer.join(30)
+    finally:
+        sensor.close()
+    captured = capsys.readouterr()
+    records = [json.loads(line) for line in captured.out.splitlines()]
+    assert len(records) == 5 and all(r["label"] == -1 and r["name"] == "unknown" for r in records)
+    assert all(r["reason"].startswith("out of distribution: distance") for r in records)
+    assert "5 windows unknown" in captured.err.splitlines()[-1]
