@@ -505,12 +505,31 @@ def test_predict_onto_its_data_file_is_refused_and_the_data_kept(files, tmp_path
     assert data.read_bytes() == (files / "rec.npz").read_bytes()
 
 
+def _device_node(tmp_path):
+    """A character device to aim --out at: our own null device when root may make one, else /dev/null.
+
+    Never /dev/null itself as root: code without the fix (run to check that this test fails before it)
+    would replace the system's /dev/null with a regular file, as the issue found.
+    """
+    import os
+    import stat
+
+    node = tmp_path / "null"
+    try:
+        os.mknod(node, stat.S_IFCHR | 0o666, os.makedev(1, 3))
+    except (PermissionError, OSError):
+        if os.geteuid() == 0:
+            pytest.skip("cannot make a device node here, and /dev/null must not be put at risk as root")
+        return Path("/dev/null")  # not root: /dev cannot be written, the node is safe
+    return node
+
+
 @pytest.mark.parametrize("target", ["device", "directory", "symlink", "fifo"])
 @pytest.mark.parametrize("command", ["train", "predict", "export"])
 def test_out_onto_a_device_directory_symlink_or_fifo_is_refused(files, tmp_path, capsys, command, target):
     import os
 
-    out = {"device": Path("/dev/null"), "directory": tmp_path, "symlink": tmp_path / "l.npz"}.get(
+    out = {"device": _device_node(tmp_path), "directory": tmp_path, "symlink": tmp_path / "l.npz"}.get(
         target, tmp_path / "fifo"
     )
     if target == "symlink":
@@ -527,7 +546,7 @@ def test_out_onto_a_device_directory_symlink_or_fifo_is_refused(files, tmp_path,
     err = capsys.readouterr().err
     what = {"device": "is a device", "directory": "is a directory", "symlink": "is a symbolic link"}
     assert err.count("\n") == 1 and what.get(target, "is a FIFO") in err, err
-    assert Path("/dev/null").is_char_device()
+    assert Path("/dev/null").is_char_device() and (target != "device" or out.is_char_device())
     if target == "symlink":
         assert out.is_symlink() and (tmp_path / "elsewhere.npz").read_bytes() == b"keep"
 
