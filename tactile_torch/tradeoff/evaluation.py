@@ -54,6 +54,9 @@ class CandidateResult:
     parity_predictions : ndarray or None
         The first fold's predictions of its first :data:`PARITY_SAMPLES` test samples (what the
         exported file must reproduce).
+    predictions : ndarray of shape (N,) or None
+        Out-of-fold prediction of every sample of the candidate's raw input (``-1`` if never tested),
+        for the per-unit accuracies of :mod:`.selection`.
     """
 
     candidate: Candidate
@@ -67,6 +70,7 @@ class CandidateResult:
     onnx_file: str | None = None
     notes: list[str] = field(default_factory=list)
     parity_predictions: np.ndarray | None = field(default=None, repr=False)
+    predictions: np.ndarray | None = field(default=None, repr=False)
 
 
 def _stateless(step: object) -> bool:
@@ -145,6 +149,7 @@ def cross_validate(
         s = samples[cand.input]
         accuracy, seconds, notes = [], [], set()
         model = None
+        out_of_fold = np.full(len(s.y), -1, dtype=np.int64)
         try:
             for k, (train, test) in enumerate(s.folds):
                 fitted_step, F_train, F_test, feature_s = features.fold(cand, k)
@@ -156,6 +161,7 @@ def cross_validate(
                     seconds.append(feature_s + time.perf_counter() - start)
                     predicted = tail.predict(F_test)
                     accuracy.append(float(np.mean(predicted == s.y[test])))
+                    out_of_fold[test] = predicted
                 notes.update(f"{w.category.__name__}: {str(w.message).splitlines()[0]}" for w in caught)
                 if k == 0:
                     model = Pipeline([("features", fitted_step), *tail.steps])
@@ -171,6 +177,7 @@ def cross_validate(
         result = CandidateResult(cand, accuracy, fit_s, model, notes=sorted(notes))
         if model is not None:
             result.parity_predictions = first_predictions
+            result.predictions = out_of_fold
         results.append(result)
     return results
 

@@ -21,7 +21,15 @@ from .inputs import (
     load_tradeoff_data,
     vibration_samples,
 )
-from .selection import fold_interval, one_standard_error_choice, pareto_front
+from .selection import (
+    MIN_UNITS,
+    above_baseline,
+    choose,
+    majority_predictions,
+    pareto_front,
+    unit_accuracy,
+    unit_interval,
+)
 
 STUDY_WINDOW = 800
 """The vibration study's reference window (samples)."""
@@ -61,6 +69,18 @@ class TradeoffResult:
         Filled by a breaking-point study of the candidates (:mod:`tactile_torch.robustness`) before
         :func:`~.output.write_outputs`: ``{"rows": [...], "figures": [paths]}`` and anything
         JSON-serialisable; written to ``tradeoff.json`` and as a table and charts in ``tradeoff.md``.
+    target : float or None
+        The accuracy a deployment needs (``--target``), if given.
+    chance : float
+        ``1 / n_classes``.
+    baselines : dict of str to dict
+        The trivial baseline (majority class of each training fold) per raw input: ``accuracy``
+        (mean over units), ``accuracy_low``, ``accuracy_high``, ``interval``, ``unit``, ``n_units``.
+    warnings : list of str
+        One line each (e.g. too few units for an interval).
+    deployed : list of dict
+        The candidates refitted on all the data and written (:func:`~.deploy.deploy_candidate`): name,
+        files (``recommended.onnx``, ``recommended.npz``, ...), samples, agreement, notes.
     """
 
     data: TradeoffData
@@ -75,6 +95,20 @@ class TradeoffResult:
     study_model: str | None = None
     inputs: dict[str, Samples] = field(default_factory=dict, repr=False)
     breaking_points: dict | None = None
+    target: float | None = None
+    chance: float = 0.0
+    baselines: dict[str, dict] = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
+    deployed: list[dict] = field(default_factory=list)
+
+    @property
+    def status(self) -> str:
+        """``"recommended"``, ``"none adequate"`` (candidates were measured, none reaches the rule's bar) or
+        ``"none exported"`` (no candidate could be fitted and exported)."""
+        if self.recommended is not None:
+            return "recommended"
+        measured = any(r["decision_s"] is not None and r["accuracy"] is not None for r in self.rows)
+        return "none adequate" if measured else "none exported"
 
     def row(self, name: str) -> dict:
         """Return the row of candidate ``name``."""
@@ -198,6 +232,8 @@ def plan_tradeoff(
     features: Sequence[str] | None = None,
     random_state: int = 0,
     allow_pickle: bool = False,
+    csv_session: str = "number",
+    exact_folds: bool = False,
     log: Callable[[str], None] = print,
 ) -> TradeoffPlan:
     """Read the data, cut the raw inputs, make the folds and the candidates.
@@ -232,6 +268,12 @@ def plan_tradeoff(
         Only the feature sets whose name starts with one of these (e.g. ``["fused", "per-taxel"]``).
     random_state : int
     allow_pickle : bool
+    csv_session : {"number", "file"}
+        CSV logs: session from the file name's trailing number, or one per file
+        (:func:`~.inputs.load_tradeoff_data`).
+    exact_folds : bool
+        Raise ``ValueError`` when the data allow fewer than ``n_folds`` folds (default: use fewer,
+        said in the split's description).
     log : callable
         Receives one line per stage.
 
@@ -245,11 +287,22 @@ def plan_tradeoff(
     start = time.perf_counter()
     check_positive(n_folds, "n_folds", integer=True)
     if n_folds < 2:
-        raise ValueError(f"n_folds must be >= 2, got {n_folds}")
+        raise ValueError(f"n_folds (--folds) must be >= 2, got {n_folds}")
     if window is not None:
         check_positive(window, "window", integer=True)
+    if max_per_class not in ("auto", None) and (
+        isinstance(max_per_class, bool)
+        or not isinstance(max_per_class, int | np.integer)
+        or max_per_class < 2
+    ):
+        raise ValueError(
+            f"max_per_class (--max-per-class) must be 'auto' or a whole number >= 2 (two samples of every class "
+            f"in every training fold), got {max_per_class!r}"
+        )
     if not isinstance(data, TradeoffData):
-        data = load_tradeoff_data(data, frame_rate_hz=frame_rate_hz, allow_pickle=allow_pickle)
+        data = load_tradeoff_data(
+            data, frame_rate_hz=frame_rate_hz, allow_pickle=allow_pickle, csv_session=csv_session
+        )
     cap = MAX_PER_CLASS["quick" if quick else "full"] if max_per_class == "auto" else max_per_class
     notes = list(data.notes)
     log(f"[tradeoff] {data.description}")
@@ -287,6 +340,13 @@ def plan_tradeoff(
             )
         notes.extend(f"feature set {fs.name!r} left out (features=)" for fs in sets if fs not in kept)
         sets = kept
+    if exact_folds:
+        fewest = min(inputs.values(), key=lambda s: len(s.folds))
+        if len(fewest.folds) < n_folds:
+            raise ValueError(
+                f"n_folds (--folds): {n_folds} folds asked, but the data allow {len(fewest.folds)} "
+                f"({fewest.key}: {fewest.split}); ask for {len(fewest.folds)} or fewer"
+            )
     candidates = build_candidates(sets, quick=quick, classifiers=classifiers, random_state=random_state)
     if not candidates:
         raise ValueError(f"classifiers {list(classifiers)} leave no candidate in this mode (quick={quick})")
@@ -306,10 +366,16 @@ def execute_plan(
     pool: ExportPool,
     *,
     out_dir: str | Path = "runs/tradeoff",
+    target: float | None = None,
     progress: bool = True,
     log: Callable[[str], None] = print,
 ) -> TradeoffResult:
-    """Cross-validate, export and time the candidates of ``plan`` (fronts already submitted to ``pool``)."""
+    """Cross-validate, export and time the candidates of ``plan`` (fronts already submitted to ``pool``).
+
+    The timing files (each candidate fitted on the first training fold, for latency and size only) go
+    to ``out_dir / "timing"``. ``target``: the accuracy a deployment needs (:func:`~.selection.choose`).
+    """
+    check_target(target)
     start = time.perf_counter()
     data, inputs = plan.data, plan.inputs
     submit_fronts(plan.candidates, inputs, pool)
@@ -317,15 +383,19 @@ def execute_plan(
     stage = time.perf_counter()
     results = cross_validate(plan.candidates, inputs, precomputed=plan.precomputed, progress=progress)
     log(
-        f"[tradeoff] cross-validation: {time.perf_counter() - stage:.1f} s; exporting every candidate to ONNX"
+        f"[tradeoff] cross-validation: {time.perf_counter() - stage:.1f} s; exporting every candidate to ONNX "
+        "(timing files)"
     )
     stage = time.perf_counter()
     meta = {"sample_rate_hz": data.rate_hz} if data.kind == "vibration" else {}
     parts = export_and_time(
-        results, inputs, data.class_names, Path(out_dir) / "models", pool, metadata=meta, progress=progress
+        results, inputs, data.class_names, Path(out_dir) / "timing", pool, metadata=meta, progress=progress
     )
     log(f"[tradeoff] ONNX export and timing: {time.perf_counter() - stage:.1f} s ({parts} exported parts)")
-    rows, recommended, runner_up = summarise(results)
+    rows, recommended, runner_up = summarise(results, inputs, target=target)
+    baselines = baseline_rows(inputs)
+    for b in baselines.values():
+        b.pop("_units")
     return TradeoffResult(
         data=data,
         results=results,
@@ -338,7 +408,32 @@ def execute_plan(
         exports=parts,
         study_model=_study_model(plan),
         inputs=inputs,
+        target=target,
+        chance=1.0 / len(data.class_names),
+        baselines=baselines,
+        warnings=_unit_warnings(inputs),
     )
+
+
+def check_target(target: float | None) -> None:
+    """Raise ``ValueError`` unless ``target`` is ``None`` or an accuracy in (0, 1]."""
+    if target is None:
+        return
+    if isinstance(target, bool) or not isinstance(target, int | float | np.number) or not 0 < target <= 1:
+        raise ValueError(f"target (--target) must be an accuracy in (0, 1], got {target!r}")
+
+
+def _unit_warnings(inputs: dict[str, Samples]) -> list[str]:
+    few = sorted(
+        {(s.unit, len(np.unique(s.units))) for s in inputs.values() if len(np.unique(s.units)) < MIN_UNITS}
+    )
+    if not few:
+        return []
+    words = " / ".join(_unit_words(unit, n) for unit, n in few)
+    return [
+        f"warning: only {words} in the data: accuracies are given as the range over the {few[0][0]}s "
+        f"(lowest, highest), not as an interval; {MIN_UNITS} or more give a 95 % interval for a new {few[0][0]}"
+    ]
 
 
 def _study_model(plan: TradeoffPlan) -> str | None:
@@ -355,6 +450,7 @@ def run_tradeoff(
     out_dir: str | Path = "runs/tradeoff",
     progress: bool = True,
     background: bool = True,
+    deploy: str | Sequence[str] | None = "recommended",
     log: Callable[[str], None] = print,
     **options: object,
 ) -> TradeoffResult:
@@ -370,70 +466,164 @@ def run_tradeoff(
     data : path(s) or TradeoffData
         See :func:`~.inputs.load_tradeoff_data`.
     out_dir : path
-        The candidates' ``.onnx`` files go to ``out_dir / "models"``.
+        The candidates' timing ``.onnx`` files (fitted on the first training fold: latency and size
+        only, not for deployment) go to ``out_dir / "timing"``; the deployed model to
+        ``out_dir / "recommended.onnx"`` and ``out_dir / "recommended.npz"`` (see ``deploy``).
     progress : bool
         Progress bars (stderr).
     background : bool
         Export the feature graphs in a second process while cross-validating.
+    deploy : str, sequence of str or None
+        ``"recommended"`` (default): refit the recommended candidate (if any) on all the data and write
+        ``recommended.onnx`` and its model file ``recommended.npz`` (:mod:`.deploy`); a candidate's
+        name: that one too (``<slug>.onnx``, ``<slug>.npz``); ``None``: nothing.
     log : callable
         Receives one line per stage.
     **options
-        See :func:`plan_tradeoff`.
+        See :func:`plan_tradeoff`, and ``target`` (the accuracy a deployment needs, in (0, 1]).
 
     Returns
     -------
     TradeoffResult
     """
+    target = options.pop("target", None)
+    check_target(target)
     plan = plan_tradeoff(data, log=log, **options)
-    with ExportPool(Path(out_dir) / "models" / "parts", background=background) as pool:
-        return execute_plan(plan, pool, out_dir=out_dir, progress=progress, log=log)
+    with ExportPool(Path(out_dir) / "timing" / "parts", background=background) as pool:
+        result = execute_plan(plan, pool, out_dir=out_dir, target=target, progress=progress, log=log)
+        wanted = [deploy] if isinstance(deploy, str) else list(deploy or ())
+        names = [result.recommended if d == "recommended" else d for d in wanted]
+        for name in dict.fromkeys(n for n in names if n is not None):
+            from .deploy import deploy_candidate
+
+            stage = time.perf_counter()
+            result.deployed.append(deploy_candidate(result, name, out_dir, pool))
+            result.seconds += time.perf_counter() - stage
+            log(
+                f"[tradeoff] {name} refitted on all the data and exported: {time.perf_counter() - stage:.1f} s"
+            )
+        return result
 
 
-def summarise(results: list[CandidateResult]) -> tuple[list[dict], str | None, str | None]:
-    """Return the JSON rows (with ``pareto``), the recommended candidate and the runner-up."""
+def _unit_words(unit: str, n: int) -> str:
+    return f"{n} {unit}{'' if n == 1 else 's'}"
+
+
+def baseline_rows(samples: dict[str, Samples]) -> dict[str, dict]:
+    """The trivial baseline (each fold's majority class) of every raw input, with its per-unit interval."""
+    out = {}
+    for key, s in samples.items():
+        predicted = majority_predictions(s.y, s.folds)
+        ids, correct, count = unit_accuracy(s.y, predicted, s.units)
+        u = unit_interval(correct, count, units=ids)
+        out[key] = {
+            "name": "majority class",
+            "accuracy": u.mean,
+            "accuracy_low": u.low,
+            "accuracy_high": u.high,
+            "interval": u.kind,
+            "unit": s.unit,
+            "n_units": u.n,
+            "_units": u,
+        }
+    return out
+
+
+def summarise(
+    results: list[CandidateResult],
+    samples: dict[str, Samples] | None = None,
+    *,
+    target: float | None = None,
+) -> tuple[list[dict], str | None, str | None]:
+    """Return the JSON rows (with ``pareto``), the recommended candidate and the runner-up (:mod:`.selection`).
+
+    ``samples`` (the raw inputs, with their units and folds) gives the per-unit intervals and the
+    trivial baseline; without it, every fold counts as a unit. ``target``: see :func:`~.selection.choose`.
+    """
+    baselines = baseline_rows(samples) if samples else {}
     rows = []
     for res in results:
-        mean = se = low = high = None
-        if res.fold_accuracy:
-            mean, se, low, high = fold_interval(res.fold_accuracy)
         c = res.candidate
-        rows.append(
+        row = {
+            "name": c.name,
+            "classifier": c.classifier,
+            "features": c.features,
+            "input": c.input,
+            "accuracy": None,
+            "accuracy_low": None,
+            "accuracy_high": None,
+            "accuracy_se": None,
+            "interval": None,
+            "unit": None,
+            "n_units": None,
+            "unit_accuracy": [],
+            "fold_accuracy": list(res.fold_accuracy),
+            "baseline_accuracy": None,
+            "above_baseline": None,
+            "baseline_p": None,
+        }
+        if res.fold_accuracy:
+            s = samples[c.input] if samples else None
+            if s is not None and res.predictions is not None:
+                ids, correct, count = unit_accuracy(s.y, res.predictions, s.units)
+                u = unit_interval(correct, count, units=ids)
+                unit = s.unit
+            else:  # no samples given: the folds are the units, with equal weight
+                n = np.ones(len(res.fold_accuracy))
+                u = unit_interval(np.asarray(res.fold_accuracy), n, units=np.arange(len(n)))
+                unit = "fold"
+            row.update(
+                accuracy=u.mean,
+                accuracy_low=u.low,
+                accuracy_high=u.high,
+                accuracy_se=u.se,
+                interval=u.kind,
+                unit=unit,
+                n_units=u.n,
+                unit_accuracy=[
+                    {"unit": str(i), "accuracy": float(a), "samples": int(k)}
+                    for i, a, k in zip(u.units, u.accuracy, u.count, strict=True)
+                ],
+            )
+            if c.input in baselines:
+                base = baselines[c.input]
+                significant, p = above_baseline(u, base["_units"])
+                row.update(baseline_accuracy=base["accuracy"], above_baseline=bool(significant), baseline_p=p)
+        row.update(
             {
-                "name": c.name,
-                "classifier": c.classifier,
-                "features": c.features,
-                "accuracy": mean,
-                "accuracy_low": low,
-                "accuracy_high": high,
-                "accuracy_se": se,
-                "fold_accuracy": list(res.fold_accuracy),
                 "fit_s": res.fit_s if res.fold_accuracy else None,
                 "latency_ms": res.latency_ms,
                 "size_bytes": res.size_bytes,
                 "decision_s": res.decision_s,
                 "pareto": False,
-                "onnx_file": res.onnx_file,
+                "adequate": False,
+                "timing_onnx_file": res.onnx_file,
                 "onnx_agreement": res.onnx_agreement,
                 "notes": res.notes,
             }
         )
-    ok = [i for i, r in enumerate(rows) if r["decision_s"] is not None]
+        rows.append(row)
+    ok = [i for i, r in enumerate(rows) if r["decision_s"] is not None and r["accuracy"] is not None]
     if not ok:
         return rows, None, None
     acc = np.array([rows[i]["accuracy"] for i in ok])
     se = np.array([rows[i]["accuracy_se"] for i in ok])
+    low = np.array([rows[i]["accuracy_low"] for i in ok])
     cost = np.array([rows[i]["decision_s"] for i in ok])
     size = np.array([rows[i]["size_bytes"] for i in ok], dtype=np.float64)
-    for i, on in zip(ok, pareto_front(acc, cost), strict=True):
+    adequate = np.array([rows[i]["above_baseline"] is not False for i in ok])
+    if target is not None:
+        adequate = low >= target - 1e-12
+    for i, on, fit in zip(ok, pareto_front(acc, cost), adequate, strict=True):
         rows[i]["pareto"] = bool(on)
-    first = one_standard_error_choice(acc, se, cost, size)
-    recommended = rows[ok[first]]["name"]
-    runner_up = None
-    if len(ok) > 1:
-        excluded = np.zeros(len(ok), dtype=bool)
-        excluded[first] = True
-        runner_up = rows[ok[one_standard_error_choice(acc, se, cost, size, exclude=excluded)]]["name"]
-    return rows, recommended, runner_up
+        rows[i]["adequate"] = bool(fit)
+    first = choose(acc, se, low, cost, size, adequate=adequate, target=target)
+    if first is None:
+        return rows, None, None
+    excluded = np.zeros(len(ok), dtype=bool)
+    excluded[first] = True
+    second = choose(acc, se, low, cost, size, adequate=adequate, target=target, exclude=excluded)
+    return rows, rows[ok[first]]["name"], None if second is None else rows[ok[second]]["name"]
 
 
 __all__ = [
@@ -441,6 +631,8 @@ __all__ = [
     "STUDY_WINDOW",
     "TradeoffPlan",
     "TradeoffResult",
+    "baseline_rows",
+    "check_target",
     "execute_plan",
     "plan_tradeoff",
     "run_tradeoff",
