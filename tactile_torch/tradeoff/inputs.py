@@ -359,15 +359,15 @@ def vibration_samples(
             group_label="session" if recordings.session is not None else "recording",
             random_state=random_state,
         )
+        unit = "session" if recordings.session is not None else "recording"
+        units = group[keep]
     else:  # one recording for some class: consecutive time blocks of every recording, a guard between
         group, keep, folds, split = _time_blocks(
             recording, position, y, window, n_folds, max_per_class, names
         )
-        unit = "session" if recordings.session is not None else "recording"
-        units = group[keep]
     split = f"{len(keep)} windows; {split}"
     X, y, group = X[keep], y[keep], group[keep]
-    if per_class.min() < 2:
+    if units is None:  # time blocks: block b of every recording is one unit (it is fold b's test set)
         unit, units = "time block", fold_units(folds, len(y))
     return Samples(
         f"windows-{window}",
@@ -379,7 +379,7 @@ def vibration_samples(
         split,
         window,
         groups=group,
-        units=units if units is not None else fold_units(folds, len(y)),
+        units=units,
         unit=unit,
     )
 

@@ -489,9 +489,15 @@ def run_tradeoff(
     target = options.pop("target", None)
     check_target(target)
     plan = plan_tradeoff(data, log=log, **options)
+    wanted = [deploy] if isinstance(deploy, str) else list(deploy or ())
+    known = [c.name for c in plan.candidates]
+    unknown = [d for d in wanted if d != "recommended" and d not in known]
+    if unknown:
+        raise ValueError(
+            f"deploy (--deploy) must name a candidate of this study, got {unknown[0]!r}; candidates: {known}"
+        )
     with ExportPool(Path(out_dir) / "timing" / "parts", background=background) as pool:
         result = execute_plan(plan, pool, out_dir=out_dir, target=target, progress=progress, log=log)
-        wanted = [deploy] if isinstance(deploy, str) else list(deploy or ())
         names = [result.recommended if d == "recommended" else d for d in wanted]
         for name in dict.fromkeys(n for n in names if n is not None):
             from .deploy import deploy_candidate
