@@ -480,6 +480,7 @@ def _tradeoff(args: argparse.Namespace) -> int:
         raise UsageError(f"--target must be an accuracy in (0, 1], got {args.target:g}")
     options = [f"--data {' '.join(args.data)}", f"--out {args.out}", *(["--quick"] if args.quick else [])]
     options += ["--no-breaking"] if args.no_breaking else []
+    options += ["--no-tune"] if args.no_tune else []
     defaults = vars(build_parser().parse_args(["tradeoff", "--data", "-"]))
     names = ("folds", "window", "windows", "frame_rate", "threshold", "erosion", "contact", "max_per_class")
     names += ("classifiers", "features", "seed", "target", "deploy", "csv_session")
@@ -509,6 +510,10 @@ def _tradeoff(args: argparse.Namespace) -> int:
             out_dir=staging,
             random_state=args.seed,
             allow_pickle=args.allow_pickle,
+            tune=not args.no_tune,
+            backend=args.backend,
+            n_jobs=args.n_jobs,
+            scheduler=args.scheduler,
             progress=not args.quiet,
             log=log,
         )
@@ -536,6 +541,13 @@ def _add_allow_pickle(p: argparse.ArgumentParser) -> None:
         action="store_true",
         help="read the pickled recordings of a trusted vibration .npz written by tactile-torch 0.1",
     )
+
+
+def catalogue_choices() -> list[str]:
+    """The ``--method`` choices: the classifier catalogue's keys and aliases (:mod:`tactile_torch.catalogue`)."""
+    from .catalogue import choices
+
+    return choices()
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -578,8 +590,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--method",
         default="hmsvm",
-        choices=["hmsvm", "svc", "svm", "lda", "knn", "ncm"],
-        help="classifier: hmsvm (default), svc (one-vs-one SVM; svm is the same), lda, knn, ncm (nearest class mean)",
+        choices=catalogue_choices(),
+        help="classifier of the catalogue, docs/tradeoff.md (default: hmsvm; svm = svc); every one writes a model file (--out)",
     )
     p.add_argument(
         "--select",
@@ -859,6 +871,25 @@ def build_parser() -> argparse.ArgumentParser:
         "--no-breaking",
         action="store_true",
         help="skip the breaking points of the recommended and the study's model (docs/robustness.md)",
+    )
+    p.add_argument(
+        "--no-tune",
+        action="store_true",
+        help="run every candidate at the catalogue's default hyper-parameters instead of tuning it inside "
+        "each training fold (for comparison)",
+    )
+    p.add_argument(
+        "--backend",
+        default=None,
+        choices=["sequential", "loky", "threading", "multiprocessing", "dask"],
+        help="where the cross-validation tasks run (default: this process; loky with --n-jobs); dask needs "
+        "the optional extra dask",
+    )
+    p.add_argument("--n-jobs", type=int, default=None, help="parallel workers (-1: every core)")
+    p.add_argument(
+        "--scheduler",
+        default=None,
+        help="--backend dask: address of a running dask scheduler (tcp://host:8786)",
     )
     _add_allow_pickle(p)
     p.set_defaults(handler=_tradeoff)

@@ -9,6 +9,7 @@ stated interval (a 95 % prediction interval for a new session; with fewer than 5
 the range over them, reported separately since it is not an interval).
 
     PYTHONPATH=. python train/interval_coverage.py --out runs/coverage     # writes coverage.json, prints a table
+    PYTHONPATH=. python train/interval_coverage.py --classifiers LDA,NCM,kNN --windows 800   # fewer exports
 
 Sessions are the unit (``session`` = the session number, shared by every surface's recording of that
 session), so each held-out case is what a deployment meets: a new session of every surface.
@@ -97,6 +98,18 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", default="runs/coverage")
     parser.add_argument("--only", type=int, default=None, help="only data set number N (0-based)")
+    parser.add_argument(
+        "--classifiers",
+        type=lambda t: t.split(","),
+        default=None,
+        help="restrict the candidates (default: all of --quick), e.g. LDA,NCM,kNN to save ONNX exports",
+    )
+    parser.add_argument(
+        "--windows",
+        type=lambda t: [int(v) for v in t.split(",")],
+        default=None,
+        help="e.g. 800 (default: quick's)",
+    )
     args = parser.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -164,7 +177,12 @@ def main() -> None:
             print(
                 f"{kind}: {summary[kind]['inside']} of {len(chosen)} held-out sessions inside ({share:.0%})"
             )
-    (out / "coverage.json").write_text(json.dumps({"summary": summary, "cases": cases}, indent=1) + "\n")
+    doc = {
+        "options": {"classifiers": args.classifiers, "windows": args.windows},
+        "summary": summary,
+        "cases": cases,
+    }
+    (out / "coverage.json").write_text(json.dumps(doc, indent=1) + "\n")
 
 
 if __name__ == "__main__":

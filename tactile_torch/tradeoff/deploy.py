@@ -2,8 +2,9 @@
 
 The cross-validation measures a *procedure* (features, selection, scaling, classifier, and any tuning
 inside it) on folds; what a robot runs is that procedure fitted once on all the data.
-:func:`deploy_candidate` clones the candidate's unfitted pipeline, fits it on every sample of its raw
-input (a candidate that tunes itself tunes again on all the data) and writes
+:func:`deploy_candidate` tunes the candidate as the folds did (its grid on inner folds of all the data,
+:meth:`tactile_torch.engine.CVResult.final_model`), fits it with the chosen parameters on every sample
+of its raw input and writes
 
 * ``<name>.onnx``: raw input → labels and scores, with the metadata ``tactile-torch predict`` and
   ``stream`` read (one file, onnxruntime only); its labels are checked against the refitted
@@ -87,8 +88,16 @@ def write_model_file(
     )
 
 
+def _json_params(params: dict) -> dict:
+    out = {}
+    for k, v in params.items():
+        v = v.item() if isinstance(v, np.generic) else v
+        out[k.split("__")[-1]] = v if isinstance(v, str | int | float | bool | type(None)) else repr(v)
+    return out
+
+
 def deploy_candidate(
-    result: object, name: str, out_dir: str | Path, pool: object, *, plan: object | None = None
+    result: object, name: str, out_dir: str | Path, pool: object, *, random_state: int = 0
 ) -> dict:
     """Refit candidate ``name`` of ``result`` on all its data; write ``<stem>.onnx`` (and ``<stem>.npz``).
 
@@ -100,8 +109,8 @@ def deploy_candidate(
     out_dir : path
     pool : ExportPool
         The study's pool (the feature graphs are already exported there).
-    plan : TradeoffPlan, optional
-        Unused; kept for callers that pass it.
+    random_state : int
+        Seeds the tuning on all the data (as the study's).
 
     Returns
     -------
@@ -121,7 +130,12 @@ def deploy_candidate(
     cand = result.result(name).candidate
     s = result.inputs[cand.input]
     data = result.data
-    model = clone(cand.estimator).fit(s.X, s.y)
+    cv = result.result(name).cv
+    params: dict = {}
+    if cv is not None:  # tuned as in the folds, on inner folds of all the data, then fitted on all of it
+        model, params = cv.final_model(s.X, s.y, s.groups, random_state=random_state)
+    else:
+        model = clone(cand.estimator).fit(s.X, s.y)
     stem = "recommended" if name == result.recommended else _slug(name)
     out = Path(out_dir)
     check = np.ascontiguousarray(
@@ -164,7 +178,7 @@ def deploy_candidate(
         model,
         data.class_names,
         rate_hz=data.rate_hz,
-        extra={"tradeoff": {"candidate": name, "samples": len(s.y)}},
+        extra={"tradeoff": {"candidate": name, "samples": len(s.y), "tuned": _json_params(params)}},
     )
     if model_file is None:
         notes.append(
@@ -176,6 +190,7 @@ def deploy_candidate(
         "onnx": str(path),
         "model_file": None if model_file is None else str(model_file),
         "samples": len(s.y),
+        "params": _json_params(params),
         "agreement": agreement,
         "notes": notes,
     }
