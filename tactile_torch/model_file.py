@@ -56,8 +56,9 @@ import numpy as np
 from .formats import PathLike, read_npz, write_npz
 
 FORMAT = "tactile-torch/model"
-FORMAT_VERSION = 1
-"""Version of the layout written here; files of a newer version are refused with a clear message."""
+FORMAT_VERSION = 2
+"""Newest layout read and written here (2: ``center``, ``select``, ``linear`` and ``neighbours`` heads;
+files without them are written as version 1); files of a newer version are refused with a clear message."""
 KINDS = ("classifier", "clustering")
 HEADER = "header"
 
@@ -195,9 +196,14 @@ def save_model_file(path: PathLike, header: Mapping, arrays: Mapping[str, np.nda
     """
     from . import __version__
 
+    arrays_given = {k: np.asarray(v) for k, v in arrays.items()}
+    head_type = (header.get("head") or {}).get("type") if isinstance(header.get("head"), dict) else None
+    # Version 2 added what a version-1 reader would misread or refuse (centring, column selection, the
+    # linear and nearest-neighbour heads); files without them stay version 1, readable by older versions.
+    newer = "center" in arrays_given or "select" in arrays_given or head_type in ("linear", "neighbours")
     header = {
         "format": FORMAT,
-        "format_version": FORMAT_VERSION,
+        "format_version": FORMAT_VERSION if newer else 1,
         "library_version": __version__,
         **dict(header),
     }
