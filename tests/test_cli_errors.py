@@ -99,7 +99,7 @@ CASES = [
     (
         "tradeoff",
         ["--data", "feat.npz", "--folds", "1000"],
-        "n_folds (--folds): 1000 folds asked, but the data allow 10",
+        "n_folds (--folds) must be at most 10 here",
     ),
     ("tradeoff", ["--data", "feat.npz", "--folds", "1"], "--folds must be a whole number >= 2, got 1"),
     (
