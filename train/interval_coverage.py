@@ -114,60 +114,67 @@ def main() -> None:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     cases = []
+    plan = []  # (data set, held-out session), round robin over the data sets: every set early on
+    prepared = {}
     for d, (name, seed) in enumerate(DATASETS):
         if args.only is not None and d != args.only:
             continue
         rec = _recordings(name, seed)
-        csv = name.startswith("CSV")
         session = np.array([s.rsplit("/", 1)[1] for s in rec.session])
-        for held in sorted(set(session), key=int):
-            tmp = Path(tempfile.mkdtemp(prefix="coverage-"))
-            try:
-                train = _write(rec, session != held, tmp / "train", csv)
-                test = _write(rec, session == held, tmp / "test", csv)
-                start = time.perf_counter()
-                result = run_tradeoff(
-                    train if csv else train[0],
-                    quick=True,
-                    out_dir=tmp / "out",
-                    progress=False,
-                    log=lambda s: None,
-                )
-                seconds = time.perf_counter() - start
-                if result.recommended is None:
-                    cases.append(
-                        {"data": name, "held_out": held, "recommended": None, "status": result.status}
-                    )
-                    print(f"{name} | session {held}: no recommendation ({result.status})", flush=True)
-                    continue
-                row = result.row(result.recommended)
-                pipe = OnnxPipeline(tmp / "out" / "recommended.onnx")
-                labelled = pipe.read_npz(test if csv else test[0])
-                acc = float(np.mean(pipe.predict(labelled.raw) == labelled.labels))
-                inside = row["accuracy_low"] - 1e-9 <= acc <= row["accuracy_high"] + 1e-9
-                case = {
-                    "data": name,
-                    "held_out": held,
-                    "recommended": result.recommended,
-                    "unit": row["unit"],
-                    "n_units": row["n_units"],
-                    "interval": row["interval"],
-                    "mean": row["accuracy"],
-                    "low": row["accuracy_low"],
-                    "high": row["accuracy_high"],
-                    "held_out_accuracy": acc,
-                    "inside": bool(inside),
-                    "seconds": seconds,
-                }
-                cases.append(case)
-                print(
-                    f"{name} | session {held}: {result.recommended}: {row['interval']} [{row['accuracy_low']:.3f}, "
-                    f"{row['accuracy_high']:.3f}] over {row['n_units']} {row['unit']}s; held out {acc:.3f} "
-                    f"{'inside' if inside else 'OUTSIDE'} ({seconds:.0f} s)",
-                    flush=True,
-                )
-            finally:
-                shutil.rmtree(tmp, ignore_errors=True)
+        prepared[name] = (rec, session)
+        plan.append([(name, held) for held in sorted(set(session), key=int)])
+    order = [
+        case for turn in range(max(map(len, plan))) for cases_of in plan for case in cases_of[turn : turn + 1]
+    ]
+    for name, held in order:
+        rec, session = prepared[name]
+        csv = name.startswith("CSV")
+        tmp = Path(tempfile.mkdtemp(prefix="coverage-"))
+        try:
+            train = _write(rec, session != held, tmp / "train", csv)
+            test = _write(rec, session == held, tmp / "test", csv)
+            start = time.perf_counter()
+            result = run_tradeoff(
+                train if csv else train[0],
+                quick=True,
+                out_dir=tmp / "out",
+                progress=False,
+                log=lambda s: None,
+            )
+            seconds = time.perf_counter() - start
+            if result.recommended is None:
+                cases.append({"data": name, "held_out": held, "recommended": None, "status": result.status})
+                print(f"{name} | session {held}: no recommendation ({result.status})", flush=True)
+                continue
+            row = result.row(result.recommended)
+            pipe = OnnxPipeline(tmp / "out" / "recommended.onnx")
+            labelled = pipe.read_npz(test if csv else test[0])
+            acc = float(np.mean(pipe.predict(labelled.raw) == labelled.labels))
+            inside = row["accuracy_low"] - 1e-9 <= acc <= row["accuracy_high"] + 1e-9
+            case = {
+                "data": name,
+                "held_out": held,
+                "recommended": result.recommended,
+                "unit": row["unit"],
+                "n_units": row["n_units"],
+                "interval": row["interval"],
+                "mean": row["accuracy"],
+                "low": row["accuracy_low"],
+                "high": row["accuracy_high"],
+                "held_out_accuracy": acc,
+                "inside": bool(inside),
+                "seconds": seconds,
+            }
+            cases.append(case)
+            print(
+                f"{name} | session {held}: {result.recommended}: {row['interval']} [{row['accuracy_low']:.3f}, "
+                f"{row['accuracy_high']:.3f}] over {row['n_units']} {row['unit']}s; held out {acc:.3f} "
+                f"{'inside' if inside else 'OUTSIDE'} ({seconds:.0f} s)",
+                flush=True,
+            )
+        finally:
+            shutil.rmtree(tmp, ignore_errors=True)
+            (out / "coverage.json").write_text(json.dumps({"cases": cases}, indent=1) + "\n")
     summary = {}
     for kind in ("prediction", "range"):
         chosen = [c for c in cases if c.get("interval") == kind]

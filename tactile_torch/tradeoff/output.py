@@ -169,11 +169,10 @@ def draw_chart(
     front = front[np.lexsort((-acc[front], x[front]))]
     ax.step(x[front], acc[front], where="post", color="0.3", lw=1.2, zorder=2)
     handles = [Line2D([], [], color="0.3", lw=1.2, label=f"Pareto front (accuracy vs {which})")]
-    for value, style, text in (
-        (chance, ":", "chance"),
-        (baseline, "--", "majority class"),
-        (target, "-.", "target"),
-    ):
+    lines = [(chance, ":", "chance"), (baseline, "--", "majority class"), (target, "-.", "target")]
+    if chance is not None and baseline is not None and abs(chance - baseline) < 5e-3:  # one line, both names
+        lines = [(baseline, "--", "chance = majority class"), (target, "-.", "target")]
+    for value, style, text in lines:
         if value is not None:
             ax.axhline(value, ls=style, color="0.45" if text != "target" else "tab:red", lw=1, zorder=0)
             handles.append(
@@ -218,7 +217,7 @@ def draw_chart(
         ax.xaxis.set_minor_formatter(FuncFormatter(lambda v, _: ""))
         ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
     else:
-        ax.xaxis.set_major_locator(MaxNLocator(6))
+        ax.xaxis.set_major_locator(MaxNLocator(6, steps=[1, 2, 2.5, 5, 10]))
         pad = (x.max() - x.min()) * 0.08 or max(x.max() * 0.05, 1e-3)
         ax.set_xlim(max(0.0, x.min() - pad), x.max() + pad)
     ax.set_xlabel(f"{label} ({unit})")
