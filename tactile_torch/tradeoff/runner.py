@@ -478,15 +478,17 @@ def check_target(target: float | None) -> None:
 
 
 def _unit_warnings(inputs: dict[str, Samples]) -> list[str]:
-    few = sorted(
-        {(s.unit, len(np.unique(s.units))) for s in inputs.values() if len(np.unique(s.units)) < MIN_UNITS}
-    )
+    few = {
+        k: (s.unit, len(np.unique(s.units))) for k, s in inputs.items() if len(np.unique(s.units)) < MIN_UNITS
+    }
     if not few:
         return []
-    words = " / ".join(_unit_words(unit, n) for unit, n in few)
+    where = "" if len(few) == len(inputs) else f" ({', '.join(few)})"
+    words = " / ".join(dict.fromkeys(_unit_words(unit, n) for unit, n in few.values()))
+    unit = next(iter(few.values()))[0]
     return [
-        f"warning: only {words} in the data: accuracies are given as the range over the {few[0][0]}s "
-        f"(lowest, highest), not as an interval; {MIN_UNITS} or more give a 95 % interval for a new {few[0][0]}"
+        f"warning: only {words} in the data{where}: accuracies are given as the range over the {unit}s "
+        f"(lowest, highest), not as an interval; {MIN_UNITS} or more give a 95 % interval for a new {unit}"
     ]
 
 
