@@ -110,6 +110,11 @@ def main() -> None:
         default=None,
         help="e.g. 800 (default: quick's)",
     )
+    parser.add_argument(
+        "--reverse",
+        action="store_true",
+        help="the cases in reverse order (a second process from the other end)",
+    )
     args = parser.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -126,7 +131,7 @@ def main() -> None:
     order = [
         case for turn in range(max(map(len, plan))) for cases_of in plan for case in cases_of[turn : turn + 1]
     ]
-    for name, held in order:
+    for name, held in reversed(order) if args.reverse else order:
         rec, session = prepared[name]
         csv = name.startswith("CSV")
         tmp = Path(tempfile.mkdtemp(prefix="coverage-"))
