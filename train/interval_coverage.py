@@ -142,6 +142,8 @@ def main() -> None:
             result = run_tradeoff(
                 train if csv else train[0],
                 quick=True,
+                windows=args.windows,
+                classifiers=args.classifiers,
                 out_dir=tmp / "out",
                 progress=False,
                 log=lambda s: None,
