@@ -637,6 +637,7 @@ def test_a_failed_run_leaves_the_previous_result_intact(tmp_path, monkeypatch, c
     assert not list(tmp_path.glob(".o.partial-*"))  # the staging directory is gone
 
 
+@pytest.mark.slow  # a subprocess (torch import, a study): the default run has the simulated failure above
 def test_a_killed_run_leaves_the_previous_result_intact(tmp_path):
     import os
     import signal
