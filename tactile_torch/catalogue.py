@@ -41,7 +41,7 @@ from typing import Any
 
 SVM_C = 16.0
 """Default penalty of both SVMs (the vibration study's choice)."""
-SVM_C_GRID = (1.0, 4.0, 16.0, 64.0, 256.0)
+SVM_C_GRID = (1.0, 4.0, 16.0, 64.0, 256.0, 1024.0)
 SVM_QUICK_C_GRID = (1.0, 16.0, 256.0)
 SVM_GAMMA_GRID = (0.25, 1.0, 4.0)
 """RBF ``gamma`` values of the SVM grid, as multiples of ``1 / n_features``."""
@@ -51,7 +51,7 @@ KNN_K = 3
 KNN_K_GRID = (1, 3, 5, 7, 11, 15)
 KNN_QUICK_K_GRID = (1, 3, 7)
 LDA_SHRINKAGE_GRID = ("auto", 0.1, 0.3, 0.6, 0.9)
-LDA_QUICK_SHRINKAGE_GRID = ("auto", 0.5)
+LDA_QUICK_SHRINKAGE_GRID = ("auto",)
 NCM_SHRINK_GRID = (None, 0.1, 0.3, 1.0)
 NCM_QUICK_SHRINK_GRID = (None, 0.3)
 
