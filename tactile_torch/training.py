@@ -114,6 +114,14 @@ def load_features(
     except ValueError as err:
         raise ValueError(f"{where}: {err}; pass a smaller window (--window)") from None
     X = window_features(torch.from_numpy(cut.windows)).double().numpy()
+    overflow = ~np.isfinite(X).all(axis=1)
+    if overflow.any():  # e.g. a corrupted 1e30 sample: say so, rather than "X must be finite" later
+        first = int(np.argmax(overflow))
+        peak = float(np.abs(cut.windows[first]).max())
+        raise ValueError(
+            f"{where}: {int(overflow.sum())} window(s) hold samples out of range (window {first} of recording "
+            f"{int(cut.recording[first])} reaches {peak:.3g} g), whose features overflow; remove or clip them"
+        )
     source = {"kind": "vibration", "window": window, "step": step or window, "rate_hz": data.rate_hz}
     return FeatureSet(X, data.labels[cut.recording], data.class_names, source)
 
@@ -277,11 +285,14 @@ def write_classifier_file(
     select: np.ndarray | None = None,
     test_accuracy: float | None = None,
     extra: dict | None = None,
+    ood: dict | None = None,
 ) -> Path:
     """Write a fitted classifier and its feature preprocessing to a model file (no pickle); return ``path``.
 
     ``class_names`` name the estimator's ``classes_`` in order; ``source`` says how raw input becomes
     features (:mod:`tactile_torch.model_file`); the head takes ``(features[:, select] - center) / scale``.
+    ``ood``: a fitted out-of-distribution state (:func:`tactile_torch.ood.fit_ood` on those scaled
+    features, classes in the head's order, with its ``quantile``), written as the file's ``ood`` part.
     """
     from .model_file import save_model_file
 
@@ -307,6 +318,13 @@ def write_classifier_file(
     if select is not None:
         arrays["select"] = np.asarray(select, dtype=np.int64)
     arrays.update({f"head.{name}": value for name, value in head_arrays.items()})
+    if ood is not None:  # "unknown" as an answer (tactile_torch.ood): distances to the training classes
+        header["ood"] = {
+            "type": "mahalanobis",
+            "quantile": ood["quantile"],
+            "threshold": float(ood["threshold"]),
+        }
+        arrays.update({"ood.means": ood["means"], "ood.precision_cholesky": ood["precision_cholesky"]})
     return save_model_file(path, header, arrays)
 
 
@@ -318,7 +336,15 @@ def save_model(path: str | Path, model: TrainedModel, features: FeatureSet) -> P
     (``source``), the hyper-parameters, the held-out accuracy and the arrays of the classifier's
     inference module (:func:`classifier_head`), which is what ``tactile-torch export`` turns into ONNX.
     """
+    from .ood import DEFAULT_QUANTILE, fit_ood
+
     names = [str(features.class_names[int(c)]) for c in model.estimator.classes_]
+    # "unknown" as an answer: the distance of a sample's features to the training classes
+    # (tactile_torch.ood), fitted on every row of the data, classes in the order of the head's labels
+    classes = np.asarray(model.estimator.classes_)
+    known = np.isin(features.y, classes)
+    X = features.X[known] if model.select is None else features.X[known][:, model.select]
+    ood = fit_ood(X / model.scale, np.searchsorted(classes, features.y[known]), quantile=DEFAULT_QUANTILE)
     return write_classifier_file(
         path,
         model.estimator,
@@ -327,6 +353,7 @@ def save_model(path: str | Path, model: TrainedModel, features: FeatureSet) -> P
         scale=model.scale,
         select=model.select,
         test_accuracy=float(model.report.overall_accuracy),
+        ood={**ood, "quantile": DEFAULT_QUANTILE},
     )
 
 
