@@ -51,7 +51,9 @@ def test_save_model_writes_every_method_and_train_needs_two_samples_per_class(fe
     lda = train_classifier(features, "lda", random_state=0)
     saved = load_model(save_model(tmp_path / "lda.npz", lda, features))  # LDA has a model file now (v2)
     assert saved.method == "lda" and saved.header["head"]["type"] == "linear"
-    labels, _ = pipeline_from_model(saved).head(torch.tensor(features.X / lda.scale))
+    labels = pipeline_from_model(saved).head(torch.tensor(features.X / lda.scale))[
+        0
+    ]  # (labels, scores, distance)
     np.testing.assert_array_equal(labels.numpy(), lda.estimator.predict(features.X / lda.scale))
     with pytest.raises(TypeError, match="estimator must be a fitted tactile_torch SVM"):
         from tactile_torch.training import classifier_head
