@@ -305,7 +305,7 @@ def execute_plan(
     plan: TradeoffPlan,
     pool: ExportPool,
     *,
-    out_dir: str | Path = "runs/tradeoff",
+    out_dir: str | Path,
     progress: bool = True,
     log: Callable[[str], None] = print,
 ) -> TradeoffResult:
@@ -352,7 +352,7 @@ def _study_model(plan: TradeoffPlan) -> str | None:
 def run_tradeoff(
     data: str | Path | Sequence[str | Path] | TradeoffData,
     *,
-    out_dir: str | Path = "runs/tradeoff",
+    out_dir: str | Path,
     progress: bool = True,
     background: bool = True,
     log: Callable[[str], None] = print,
@@ -370,7 +370,8 @@ def run_tradeoff(
     data : path(s) or TradeoffData
         See :func:`~.inputs.load_tradeoff_data`.
     out_dir : path
-        The candidates' ``.onnx`` files go to ``out_dir / "models"``.
+        The candidates' ``.onnx`` files go to ``out_dir / "models"`` (required: nothing is written
+        anywhere else, e.g. into the working directory).
     progress : bool
         Progress bars (stderr).
     background : bool
