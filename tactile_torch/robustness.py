@@ -760,7 +760,7 @@ def plot_factor(
         if c.breaking.status == "reached":
             ax.plot([c.breaking.position], [c.breaking.threshold], marker="v", ms=8, color=colour)
     ax.axhline(curves[0].chance, color="grey", ls="--", lw=0.8)
-    crowded = len(labels) > 6 or max(len(t) for t in labels) > 6
+    crowded = len(labels) * max(len(t) for t in labels) > 36  # about what a 4-inch axis holds at 8 pt
     ax.set_xticks(
         np.arange(len(labels)),
         labels,
