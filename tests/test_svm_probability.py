@@ -15,7 +15,7 @@ from sklearn.utils.estimator_checks import parametrize_with_checks
 
 from tactile_torch._onnx import export_onnx, run_onnx
 from tactile_torch.metrics import class_report
-from tactile_torch.svm import SVC, HierarchicalSVC
+from tactile_torch.svm import SVC, HierarchicalSVC, SVMInference
 from tactile_torch.svm.inference import ovo_tables
 from tactile_torch.svm.probability import couple_pairwise, fit_sigmoid
 
@@ -138,6 +138,11 @@ def test_probability_module_matches_predict_proba(name):
     labels, proba = model.to_module(probability=True)(torch.tensor(_X_test))
     np.testing.assert_allclose(proba.numpy(), model.predict_proba(_X_test), rtol=1e-10, atol=1e-12)
     np.testing.assert_array_equal(model.classes_[labels.numpy()], model.predict(_X_test))
+    module = model.to_module(probability=True)
+    again = SVMInference.from_state(
+        module.state_dict(), mode=module.mode, kernel=module.kernel, gamma=module.gamma, depth=module.depth
+    )
+    assert again.probability and torch.equal(again(torch.tensor(_X_test))[1], proba)
 
 
 @pytest.mark.parametrize("name", sorted(_FITTED))
