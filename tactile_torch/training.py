@@ -5,8 +5,9 @@
 matrix) and computes its features (:func:`tactile_torch.image.exploration_features`, or windows and
 :func:`tactile_torch.signal.window_features`). :func:`train_classifier` holds out a stratified test
 part, scales every feature to unit standard deviation on the training part (as in the study; the scale is
-kept with the model), fits the HM-SVM, a one-vs-one SVM, LDA or kNN (k = 3, city-block,
-inverse-distance weights) and reports on the test part. :func:`save_model` writes an SVM's model
+kept with the model), fits a classifier of the catalogue (:mod:`tactile_torch.catalogue`: the HM-SVM,
+a one-vs-one SVM, LDA, kNN with k = 3, city-block distance and inverse-distance weights, or nearest class
+mean) and reports on the test part. :func:`save_model` writes an SVM's model
 file (:mod:`tactile_torch.model_file`: plain arrays and a JSON header, no pickle) with everything the
 export needs: the scale, the class names, how the features were made and the arrays of the SVM's
 inference module (:class:`tactile_torch.svm.SVMInference`).
@@ -20,9 +21,12 @@ from pathlib import Path
 
 import numpy as np
 
+from . import catalogue
 from ._checks import RandomState, check_positive, numpy_rng
 
-METHODS = ("hmsvm", "svm", "lda", "knn")
+METHODS = tuple(catalogue.choices())
+"""Accepted ``method`` names: the catalogue's keys (:data:`tactile_torch.catalogue.CLASSIFIERS`) and
+``"svm"``, an alias of ``"svc"`` (the one-vs-one SVM)."""
 MODEL_FORMAT = "tactile-torch/model"
 """``format`` of model files (:data:`tactile_torch.model_file.FORMAT`; kept for old imports)."""
 
@@ -110,6 +114,14 @@ def load_features(
     except ValueError as err:
         raise ValueError(f"{where}: {err}; pass a smaller window (--window)") from None
     X = window_features(torch.from_numpy(cut.windows)).double().numpy()
+    overflow = ~np.isfinite(X).all(axis=1)
+    if overflow.any():  # e.g. a corrupted 1e30 sample: say so, rather than "X must be finite" later
+        first = int(np.argmax(overflow))
+        peak = float(np.abs(cut.windows[first]).max())
+        raise ValueError(
+            f"{where}: {int(overflow.sum())} window(s) hold samples out of range (window {first} of recording "
+            f"{int(cut.recording[first])} reaches {peak:.3g} g), whose features overflow; remove or clip them"
+        )
     source = {"kind": "vibration", "window": window, "step": step or window, "rate_hz": data.rate_hz}
     return FeatureSet(X, data.labels[cut.recording], data.class_names, source)
 
@@ -122,24 +134,14 @@ def make_classifier(
     kernel: str = "rbf",
     random_state: RandomState = None,
 ):
-    """Return an unfitted classifier: ``hmsvm``, ``svm`` (one-vs-one), ``lda`` or ``knn``."""
-    if method == "hmsvm":
-        from .svm import HierarchicalSVC
-
-        return HierarchicalSVC(C=C, gamma=gamma, kernel=kernel, random_state=random_state)
-    if method == "svm":
-        from .svm import SVC
-
-        return SVC(C=C, gamma=gamma, kernel=kernel, random_state=random_state)
-    if method == "lda":
-        from sklearn.discriminant_analysis import LinearDiscriminantAnalysis
-
-        return LinearDiscriminantAnalysis()
-    if method == "knn":
-        from sklearn.neighbors import KNeighborsClassifier
-
-        return KNeighborsClassifier(n_neighbors=3, metric="cityblock", weights="distance")
-    raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+    """Return an unfitted classifier of the catalogue (:mod:`tactile_torch.catalogue`): ``hmsvm``,
+    ``svc`` (or ``svm``, one-vs-one), ``lda``, ``knn`` or ``ncm``, at its defaults; ``C``, ``gamma`` and
+    ``kernel`` apply to the SVMs only."""
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+    key = catalogue.resolve(method)
+    params = {"C": C, "gamma": gamma, "kernel": kernel} if key in ("hmsvm", "svc") else {}
+    return catalogue.make_classifier(key, random_state=random_state, **params)
 
 
 @dataclass
@@ -249,6 +251,20 @@ def save_model(path: str | Path, model: TrainedModel, features: FeatureSet) -> P
     }
     arrays = {"scale": np.asarray(model.scale, dtype=np.float64)}
     arrays.update({f"head.{name}": buf.numpy() for name, buf in module.named_buffers()})
+    # "unknown" as an answer: the distance of a sample's features to the training classes
+    # (tactile_torch.ood), fitted on the training rows, classes in the order of the head's labels
+    from .ood import DEFAULT_QUANTILE, fit_ood
+
+    classes = np.asarray(model.estimator.classes_)
+    known = np.isin(features.y, classes)  # every row of the data: train and test part alike
+    head_labels = np.searchsorted(classes, features.y[known])
+    ood = fit_ood(features.X[known] / model.scale, head_labels, quantile=DEFAULT_QUANTILE)
+    header["ood"] = {
+        "type": "mahalanobis",
+        "quantile": DEFAULT_QUANTILE,
+        "threshold": float(ood["threshold"]),
+    }
+    arrays.update({"ood.means": ood["means"], "ood.precision_cholesky": ood["precision_cholesky"]})
     return save_model_file(path, header, arrays)
 
 
