@@ -7,9 +7,13 @@ Every subcommand of the toolkit is listed; the handlers import their modules laz
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import subprocess
 import sys
+import threading
+import warnings
+from collections.abc import Iterator
 from pathlib import Path
 
 NOT_BUILT_EXIT = 2
@@ -121,7 +125,10 @@ def _bench(args: argparse.Namespace) -> int:
         str(runner),
         *(["--quick"] if args.quick else []),
         *(["--only", args.only] if args.only else []),
+        "--out",
+        str(Path(args.out).resolve()),
     ]
+    print(f"tactile-torch bench: results go to {args.out}", file=sys.stderr)
     return subprocess.call(cmd)
 
 
@@ -238,12 +245,38 @@ def _range_g(text: str | None, option: str, *, off: bool) -> float | None:
     return value
 
 
+@contextlib.contextmanager
+def _stage(label: str, *, delay: float = 1.0) -> Iterator[None]:
+    """Show ``label`` and the time elapsed on stderr while the block runs (a step of seconds that
+    reports nothing itself, such as the ONNX export), from ``delay`` seconds on (a quick step, or one
+    that fails at once, prints nothing); the line is cleared when it ends."""
+    from tqdm.auto import tqdm
+
+    bar = tqdm(desc=label, bar_format="{desc}: {elapsed}", file=sys.stderr, leave=False, delay=delay)
+    done = threading.Event()
+
+    def tick() -> None:
+        while not done.wait(0.5):
+            bar.refresh()
+
+    ticker = threading.Thread(target=tick, daemon=True)
+    ticker.start()
+    try:
+        yield
+    finally:
+        done.set()
+        ticker.join()
+        bar.close()
+
+
 def _export(args: argparse.Namespace) -> int:
     from .pipeline import export_pipeline, load_model_file, pipeline_from_model
 
     sensor_range = _range_g(args.sensor_range, "--sensor-range", off=False)
-    pipeline = pipeline_from_model(load_model_file(args.model), sensor_range_g=sensor_range)
-    path = export_pipeline(pipeline, args.out, inputs=[args.model])
+    with _stage("export: building the pipeline"):
+        pipeline = pipeline_from_model(load_model_file(args.model), sensor_range_g=sensor_range)
+    with _stage("export: tracing the pipeline to ONNX and checking it"):
+        path = export_pipeline(pipeline, args.out, inputs=[args.model])
     size = path.stat().st_size / 1024
     print(
         f"exported {pipeline.name}: input ({pipeline.input_layout}) = {pipeline.input_shape}, "
@@ -688,9 +721,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--only", default="", help="comma-separated study names to run (default: all)")
     p.set_defaults(handler=_report)
 
-    p = sub.add_parser("bench", help="run the benchmarks and write bench/results (make bench)")
+    p = sub.add_parser(
+        "bench", help="run the benchmarks and write their results to --out (make bench: bench/results)"
+    )
     p.add_argument("--quick", action="store_true", help="small sizes, for a smoke test")
     p.add_argument("--only", default="", help="comma-separated benchmark names (default: all)")
+    p.add_argument(
+        "--out",
+        default="runs/bench",
+        help="directory for the results (default: runs/bench; `make bench` writes bench/results)",
+    )
     p.set_defaults(handler=_bench)
 
     p = sub.add_parser(
@@ -1073,6 +1113,17 @@ def _one_line(err: BaseException) -> str:
     return text or type(err).__name__
 
 
+def _warning_line(prefix: str):
+    """A ``warnings.showwarning`` that prints one line, ``<prefix>: warning: <message>``, on stderr:
+    no file name, line number or source line (``--debug`` keeps Python's own format)."""
+
+    def show(message, category, filename, lineno, file=None, line=None) -> None:
+        text = " ".join(str(message).split())
+        print(f"{prefix}: warning: {text}", file=sys.stderr if file is None else file)
+
+    return show
+
+
 WRITES_OUT_FILE = ("train", "predict", "export")
 """Commands whose ``--out`` is one file: it is checked against their inputs before any work."""
 
@@ -1147,11 +1198,20 @@ def main(argv: list[str] | None = None) -> int:
     Bad input (a missing, empty or malformed file, a model of the wrong kind, a missing optional
     dependency) prints one line ``tactile-torch <command>: <file>: <what is wrong>`` on stderr and
     returns :data:`BAD_INPUT_EXIT`; any other error prints one line and returns
-    :data:`INTERNAL_ERROR_EXIT`. ``--debug`` shows the traceback instead.
+    :data:`INTERNAL_ERROR_EXIT`. ``--debug`` shows the traceback instead. Warnings print as one line
+    each (:func:`_warning_line`), with Python's own format under ``--debug``.
     """
     args = build_parser().parse_args(argv)
     debug = bool(getattr(args, "debug", False))
     prefix = f"tactile-torch {args.command}"
+    with warnings.catch_warnings():  # restores the caller's warning display when the command ends
+        if not debug:
+            warnings.showwarning = _warning_line(prefix)
+        return _run(args, prefix, debug)
+
+
+def _run(args: argparse.Namespace, prefix: str, debug: bool) -> int:
+    """Run the parsed command and map its errors to one line and an exit status (see :func:`main`)."""
     if args.command in NEEDS_TRAIN_EXTRA:
         missing = _missing_train_modules()
         if missing:

@@ -403,7 +403,7 @@ def execute_plan(
     plan: TradeoffPlan,
     pool: ExportPool,
     *,
-    out_dir: str | Path = "runs/tradeoff",
+    out_dir: str | Path,
     target: float | None = None,
     progress: bool = True,
     log: Callable[[str], None] = print,
@@ -503,7 +503,7 @@ def _study_model(plan: TradeoffPlan) -> str | None:
 def run_tradeoff(
     data: str | Path | Sequence[str | Path] | TradeoffData,
     *,
-    out_dir: str | Path = "runs/tradeoff",
+    out_dir: str | Path,
     progress: bool = True,
     background: bool = True,
     deploy: str | Sequence[str] | None = "recommended",
@@ -527,7 +527,8 @@ def run_tradeoff(
     out_dir : path
         The candidates' timing ``.onnx`` files (fitted on the first training fold: latency and size
         only, not for deployment) go to ``out_dir / "timing"``; the deployed model to
-        ``out_dir / "recommended.onnx"`` and ``out_dir / "recommended.npz"`` (see ``deploy``).
+        ``out_dir / "recommended.onnx"`` and ``out_dir / "recommended.npz"`` (see ``deploy``). Required: nothing is written anywhere else
+        (e.g. into the working directory).
     progress : bool
         Progress bars (stderr).
     background : bool
