@@ -374,7 +374,7 @@ def test_tradeoff_command_writes_the_breaking_points(tmp_path, capsys):
         "--classifiers",
         "LDA,HM-SVM",
     ]
-    assert main([*argv, "--windows", "400", "--folds", "3"]) == 0
+    assert main([*argv, "--windows", "400", "--folds", "2"]) == 0
     doc = json.loads((out / "tradeoff.json").read_text())
     rows = doc["breaking_points"]["rows"]
     models = {r["model"] for r in rows}
