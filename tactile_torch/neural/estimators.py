@@ -176,7 +176,8 @@ class _NeuralClassifier(ClassifierMixin, BaseEstimator):
 
     def predict(self, X: object) -> np.ndarray:
         """Return the class of each sample, ``(N,)``: the largest probability's."""
-        return self.classes_[self.predict_proba(X).argmax(1)]
+        proba = self.predict_proba(X)
+        return self.classes_[proba.argmax(1)]
 
     def to_module(self) -> nn.Module:
         """Return the inference graph: raw input → ``(labels, scores)`` (label = index into ``classes_``)."""

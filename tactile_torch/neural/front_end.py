@@ -357,7 +357,8 @@ class LearnedFrontEndClassifier(ClassifierMixin, BaseEstimator):
 
     def predict(self, X: object) -> np.ndarray:
         """Return the class of each exploration (largest score)."""
-        return self.classes_[self.decision_function(X).argmax(1)]
+        scores = self.decision_function(X)
+        return self.classes_[scores.argmax(1)]
 
     def learned_settings(self) -> dict[str, object]:
         """Return the settings used next to the hand-set ones: ``{"threshold": (hand-set, used), ...}``."""
