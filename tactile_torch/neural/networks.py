@@ -90,17 +90,17 @@ class WindowCNN(nn.Module):
             channels = width
         self.body = nn.Sequential(*layers)
         self.head = nn.Linear(channels, n_classes)
-        self.register_buffer("scale", torch.ones(3))
+        self.register_buffer("scale", torch.ones(3, 1))  # (3, 1): exported as is, not as a derived constant
 
     def set_input_scale(self, windows: torch.Tensor) -> None:
         """Take the per-axis standard deviation of the mean-removed training ``windows`` ``(N, 3, W)``."""
         centred = windows - windows.mean(-1, keepdim=True)
         std = centred.transpose(0, 1).reshape(3, -1).std(-1)
-        self.scale = torch.where(std > 0, std, torch.ones_like(std)).to(torch.float32)
+        self.scale = torch.where(std > 0, std, torch.ones_like(std)).to(torch.float32)[:, None]
 
     def forward(self, windows: torch.Tensor) -> torch.Tensor:
         x = windows.to(torch.float32)
-        x = (x - x.mean(-1, keepdim=True)) / self.scale[:, None]
+        x = (x - x.mean(-1, keepdim=True)) / self.scale
         return self.head(self.body(x).mean(-1))
 
 

@@ -1,0 +1,335 @@
+"""Report section: does a learned model earn its cost?
+
+Classical models (the study's features with LDA or an SVM), small neural networks on the raw input
+(:mod:`tactile_torch.neural`), method 1's front end learned through the differentiable ops, and int8
+variants of exported models, evaluated on the same grouped folds by
+:func:`tactile_torch.neural.comparison.compare_models`: accuracy with a group-level 95 % interval, the
+learned numbers, ONNX latency at batch 1, file size and the peak memory of the onnxruntime session.
+
+Sizes: ``make run`` keeps this section small (about 20 s): the bundled vibration recordings only, 6
+windows of 800 samples per surface, 3 folds, LDA on the 21 features against the small 1-D CNN and its
+int8 variant. ``tactile-torch report --only learned_models --full`` runs the whole comparison: the
+bundled vibration (both CNN sizes, the RBF SVM, int8 of every model) and image explorations (the
+exploration CNN, hand-set and learned front ends with the same hinge-loss head, LDA on the fused 12),
+and the real sets when ``../shared/data`` is present (``hapmat_imu5`` vibration, ``drimus_sdh_tactile``
+pressure arrays: the taxel CNN against the per-taxel features, the front ends on the rendered maps).
+"""
+
+from __future__ import annotations
+
+TITLE = "Does a learned model earn its cost?"
+
+COLUMNS = [
+    "name",
+    "family",
+    "n_parameters",
+    "accuracy",
+    "accuracy_low",
+    "accuracy_high",
+    "units",
+    "fit_s",
+    "latency_ms",
+    "size_kib",
+    "memory_mib",
+    "onnx_agreement",
+]
+
+
+def _mode(ctx) -> str:
+    return "full" if ctx.full else "quick" if ctx.quick else "default"
+
+
+def _command(ctx) -> str:
+    flag = {"full": " --full", "quick": " --quick", "default": ""}[_mode(ctx)]
+    return f"tactile-torch report --only learned_models --seed {ctx.random_state} --out {ctx.out_dir}{flag}"
+
+
+def _classical(features: object, classifier: object):
+    from sklearn.pipeline import Pipeline
+    from sklearn.preprocessing import StandardScaler
+
+    return Pipeline([("features", features), ("scale", StandardScaler()), ("classifier", classifier)])
+
+
+def _vibration_specs(ctx, full: bool, n_features: int = 21) -> list:
+    from sklearn.discriminant_analysis import LinearDiscriminantAnalysis
+
+    from ..neural import WindowCNNClassifier
+    from ..neural.comparison import ModelSpec
+    from ..svm import SVC
+    from ..tradeoff.transformers import WindowFeatureTransformer
+
+    seed = ctx.random_state
+    specs = [
+        ModelSpec(
+            "LDA | 21 features",
+            "classical",
+            _classical(WindowFeatureTransformer(), LinearDiscriminantAnalysis()),
+            int8=full,
+        ),
+        ModelSpec(
+            "1-D CNN small | raw window",
+            "neural",
+            WindowCNNClassifier(
+                "small", max_epochs=60 if full else 40, learning_rate=1e-2, random_state=seed
+            ),
+            int8=True,
+        ),
+    ]
+    if full:
+        specs.insert(
+            1,
+            ModelSpec(
+                "SVC | 21 features",
+                "classical",
+                _classical(
+                    WindowFeatureTransformer(), SVC(C=16.0, gamma=1.0 / n_features, random_state=seed)
+                ),
+                int8=True,
+            ),
+        )
+        specs.append(
+            ModelSpec(
+                "1-D CNN large | raw window",
+                "neural",
+                WindowCNNClassifier("large", max_epochs=60, learning_rate=3e-3, random_state=seed),
+                int8=True,
+            )
+        )
+    return specs
+
+
+def _image_specs(ctx, erosion: int) -> list:
+    from sklearn.discriminant_analysis import LinearDiscriminantAnalysis
+
+    from ..neural import ExplorationCNNClassifier
+    from ..neural.comparison import ModelSpec
+    from ..neural.front_end import LearnedFrontEndClassifier
+    from ..tradeoff.transformers import ImageFeatureTransformer
+
+    seed = ctx.random_state
+    return [
+        ModelSpec(
+            "LDA | fused 12",
+            "classical",
+            _classical(
+                ImageFeatureTransformer(threshold=240 / 255, erosion=erosion), LinearDiscriminantAnalysis()
+            ),
+        ),
+        ModelSpec(
+            "hinge | hand-set front end",
+            "classical",
+            LearnedFrontEndClassifier(False, erosion=erosion, random_state=seed),
+        ),
+        ModelSpec(
+            "hinge | learned front end",
+            "learned front end",
+            LearnedFrontEndClassifier(True, erosion=erosion, random_state=seed),
+        ),
+        ModelSpec(
+            "CNN | mean and max darkness",
+            "neural",
+            ExplorationCNNClassifier(learning_rate=1e-2, random_state=seed),
+            int8=True,
+        ),
+    ]
+
+
+def _taxel_specs(ctx) -> list:
+    from sklearn.discriminant_analysis import LinearDiscriminantAnalysis
+
+    from ..neural import TaxelCNNClassifier
+    from ..neural.comparison import ModelSpec
+    from ..tradeoff.transformers import TaxelFeatureTransformer
+
+    seed = ctx.random_state
+    return [
+        ModelSpec(
+            "LDA | per-taxel features",
+            "classical",
+            _classical(TaxelFeatureTransformer(), LinearDiscriminantAnalysis()),
+        ),
+        ModelSpec(
+            "temporal CNN | taxels",
+            "neural",
+            TaxelCNNClassifier(learning_rate=1e-2, random_state=seed),
+            int8=True,
+        ),
+    ]
+
+
+def _sources(ctx) -> list[dict]:
+    """The data sets of this run: name, samples (with folds), class names, specs, words."""
+    import numpy as np
+
+    from ..data import shared_data_dir
+    from ..tradeoff.inputs import TradeoffData, exploration_samples, vibration_samples
+    from ..tradeoff.transformers import relative_erosion
+    from .vibration_features import bundled_recordings
+
+    mode = _mode(ctx)
+    full = mode == "full"
+    per_class, folds = {"quick": (4, 2), "default": (10, 3), "full": (20, 5)}[mode]
+    seed = ctx.random_state
+    rec = bundled_recordings(ctx)
+    sources = [
+        {
+            "name": "bundled vibration",
+            "samples": vibration_samples(rec, 800, n_folds=folds, max_per_class=per_class, random_state=seed),
+            "classes": list(rec.class_names),
+            "specs": _vibration_specs(ctx, full),
+        }
+    ]
+    if not full:
+        return sources
+    from .image_features import dataset
+
+    images = dataset(ctx)
+    data = TradeoffData(
+        "image",
+        tuple(images.class_names),
+        "bundled explorations",
+        raw=images.frames.numpy(),
+        labels=images.labels.numpy(),
+        groups=images.groups.numpy(),
+        rate_hz=10.0,
+    )
+    h, w = images.frames.shape[-2:]
+    sources.append(
+        {
+            "name": "bundled images",
+            "samples": exploration_samples(data, n_folds=folds, max_per_class=per_class, random_state=seed),
+            "classes": list(images.class_names),
+            "specs": _image_specs(ctx, relative_erosion(h, w)),
+        }
+    )
+    if shared_data_dir("hapmat_imu5") is not None:
+        from ..data.recordings import load_hapmat_imu5
+
+        hap = load_hapmat_imu5()
+        sources.append(
+            {
+                "name": "hapmat_imu5 (real)",
+                "samples": vibration_samples(hap, 100, n_folds=folds, max_per_class=60, random_state=seed),
+                "classes": list(hap.class_names),
+                "specs": _vibration_specs(ctx, True),
+            }
+        )
+    if shared_data_dir("drimus_sdh_tactile") is not None:
+        from ..data.images import load_drimus_grasps
+
+        grasps = load_drimus_grasps()
+        labels = grasps.labels.numpy()
+        pressure = TradeoffData(
+            "pressure",
+            tuple(grasps.class_names),
+            "drimus",
+            raw=grasps.pressure.numpy().astype(np.float32),
+            labels=labels,
+            rate_hz=15.0,
+        )
+        rendered = TradeoffData(
+            "image",
+            tuple(grasps.class_names),
+            "drimus",
+            raw=grasps.frames.numpy(),
+            labels=labels,
+            rate_hz=15.0,
+        )
+        h, w = grasps.frames.shape[-2:]
+        sources.append(
+            {
+                "name": "drimus_sdh_tactile pressure maps (real)",
+                "samples": exploration_samples(pressure, n_folds=folds, random_state=seed),
+                "classes": list(grasps.class_names),
+                "specs": _taxel_specs(ctx),
+            }
+        )
+        sources.append(
+            {
+                "name": "drimus_sdh_tactile rendered frames (real)",
+                "samples": exploration_samples(rendered, n_folds=folds, random_state=seed),
+                "classes": list(grasps.class_names),
+                "specs": _image_specs(ctx, relative_erosion(h, w)),
+            }
+        )
+    return sources
+
+
+def _chart(section, rows: list[dict], name: str, chance: float) -> None:
+    import matplotlib.pyplot as plt
+
+    markers = {"classical": "o", "neural": "s", "learned front end": "D"}
+    fig, ax = plt.subplots(figsize=(7.5, 4.2))
+    for row in rows:
+        int8 = row["quantisation"] is not None
+        ax.errorbar(
+            row["latency_ms"],
+            row["accuracy"],
+            yerr=[[row["accuracy"] - row["accuracy_low"]], [row["accuracy_high"] - row["accuracy"]]],
+            fmt=markers[row["family"]],
+            mfc="none" if int8 else None,
+            capsize=3,
+            label=row["name"],
+        )
+    ax.axhline(chance, color="grey", linestyle=":", label=f"chance ({chance:.2f})")
+    ax.set_xscale("log")
+    ax.set_xlabel("ONNX latency at batch 1 (ms, log scale)")
+    ax.set_ylabel("accuracy (group-level 95 % interval)")
+    ax.set_ylim(0, 1.05)
+    ax.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.01, 0.5))
+    ax.set_title(name)
+    section.figure(fig, f"learned-{name}", f"{name}: accuracy against latency (open markers: int8)")
+
+
+def _verdict(rows: list[dict]) -> str:
+    """One sentence: the cheapest model within one standard error of the best, and what the others cost."""
+    best = max(rows, key=lambda r: r["accuracy"])
+    eligible = [r for r in rows if r["accuracy"] >= best["accuracy"] - best["accuracy_se"]]
+    chosen = min(eligible, key=lambda r: (r["latency_ms"], r["size_kib"]))
+    text = (
+        f"Best mean accuracy: {best['name']} ({best['accuracy']:.3f}); the cheapest model within one standard "
+        f"error of it is **{chosen['name']}** ({chosen['family']}, {chosen['accuracy']:.3f}, "
+        f"{chosen['latency_ms']:.2f} ms, {chosen['size_kib']:.0f} KiB, {chosen['memory_mib']:.1f} MiB)."
+    )
+    return text
+
+
+def run(section, ctx) -> None:
+    from ..neural.comparison import compare_models
+
+    mode = _mode(ctx)
+    section.text(
+        "Classical models on the study's features, small neural networks on the raw input, the method-1 "
+        "front end learned through the differentiable ops (threshold, edge threshold, temperatures) under a "
+        "hinge-loss head, and int8 variants, on the same grouped folds. Accuracy: out-of-fold, interval "
+        "over the held-out groups (recording time blocks, objects); latency: the exported ONNX file on one "
+        "sample; memory: the peak resident memory the onnxruntime session adds (docs/neural.md)."
+    )
+    if mode != "full":
+        section.text(
+            "`make run` keeps this section small (bundled vibration, 10 windows per surface, 3 folds); "
+            "`--full` adds the image explorations, both CNN sizes, the SVM, int8 of every model and the "
+            "real data sets when present."
+        )
+    section.command(_command(ctx))
+    out = ctx.out_dir / "learned_models"
+    for source in _sources(ctx):
+        samples = source["samples"]
+        rows = compare_models(
+            source["specs"], samples, source["classes"], out / source["name"].split()[0], log=lambda _: None
+        )
+        for row in rows:
+            row["size_kib"] = row["size_bytes"] / 1024
+        section.text(f"**{source['name']}**: {samples.split}.")
+        section.table(rows, columns=COLUMNS, caption=source["name"])
+        settings = [r for r in rows if "settings" in r and r["family"] == "learned front end"]
+        for r in settings:
+            s = r["settings"]
+            section.text(
+                f"Learned front end ({source['name']}, first fold): threshold {s['threshold'][0]:.4f} → "
+                f"{s['threshold'][1]:.4f}, edge threshold {s['edge_threshold'][0]:.3f} → {s['edge_threshold'][1]:.3f}, "
+                f"temperatures {[round(t, 4) for t in s['temperatures'][1]]} (from {s['temperatures'][0]})."
+            )
+        _chart(section, rows, source["name"], 1.0 / len(source["classes"]))
+        section.text(_verdict(rows))
