@@ -326,6 +326,12 @@ def run(section, ctx) -> None:
         settings = [r for r in rows if "settings" in r and r["family"] == "learned front end"]
         for r in settings:
             s = r["settings"]
+            if "cutoff" in s:
+                section.text(
+                    f"Learned cut-off ({source['name']}, first fold): {s['cutoff'][0]:.3f} → {s['cutoff'][1]:.4f} "
+                    f"of the Nyquist frequency (temperature {s['temperature'][0]} → {s['temperature'][1]:.4f})."
+                )
+                continue
             section.text(
                 f"Learned front end ({source['name']}, first fold): threshold {s['threshold'][0]:.4f} → "
                 f"{s['threshold'][1]:.4f}, edge threshold {s['edge_threshold'][0]:.3f} → {s['edge_threshold'][1]:.3f}, "
