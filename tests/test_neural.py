@@ -251,3 +251,30 @@ def test_learned_front_end_moves_its_settings_and_exports(tmp_path):
     np.testing.assert_allclose(scores, expected, atol=1e-4)
     with pytest.raises(TypeError, match="frames must be uint8"):
         LearnedFrontEndClassifier(**kw).fit(frames.astype(np.float32), y)
+
+
+def test_cutoff_features_at_the_hand_set_value_are_the_21_features():
+    from tactile_torch.neural.cutoff import CutoffWindowFeatures
+    from tactile_torch.signal import window_features
+
+    X, _ = _windows(6, width=128)
+    ours = CutoffWindowFeatures(128, 0.5)(torch.from_numpy(X)).double()
+    np.testing.assert_allclose(ours.numpy(), window_features(torch.from_numpy(X)).double().numpy(), rtol=1e-5)
+
+
+def test_learned_cutoff_moves_and_exports(tmp_path):
+    from tactile_torch.neural.cutoff import LearnedCutoffClassifier
+
+    X, y = _windows(48, width=128)
+    hand = LearnedCutoffClassifier(False, head_steps=50, random_state=0).fit(X, y)
+    learned = LearnedCutoffClassifier(True, epochs=5, head_steps=50, random_state=0).fit(X, y)
+    assert hand.cutoff_ == 0.5
+    assert learned.cutoff_ != pytest.approx(0.5, abs=1e-4)
+    assert len(learned.history_) == 6
+    path = export_classifier(learned, tmp_path / "cut.onnx", X[:2])
+    labels, scores = OnnxPipeline(path).predict_scores(X[:5])
+    expected = learned.decision_function(X[:5])
+    assert np.array_equal(labels, expected.argmax(1))
+    np.testing.assert_allclose(scores, expected, atol=1e-4)
+    with pytest.raises(ValueError, match=r"windows must have shape \(N, 3, W\)"):
+        LearnedCutoffClassifier().fit(X[:, :2], y)
