@@ -5,17 +5,23 @@
 * :mod:`.training` - mini-batch training with early stopping on an inner (grouped) validation split;
 * :mod:`.estimators` - the scikit-learn classifiers around them (clone-able, seeded, ``predict_proba``);
 * :mod:`.front_end` - method 1's soft preprocessing with its threshold and temperatures learned through
-  the differentiable ops, under a multi-class hinge-loss head;
+  the differentiable ops, under a multi-class hinge-loss head; :mod:`.cutoff` - method 2's spectral
+  cut-off learned the same way;
+* :mod:`.comparison` - classical, learned and int8 models on the same grouped folds (the report section);
 * :mod:`.export` - their ONNX bundles (:func:`export_classifier`).
 
 docs/neural.md says what they are for and what they showed.
 """
 
+from .cutoff import LearnedCutoffClassifier
 from .estimators import ExplorationCNNClassifier, TaxelCNNClassifier, WindowCNNClassifier
 from .export import export_classifier
+from .front_end import LearnedFrontEndClassifier
 
 __all__ = [
     "ExplorationCNNClassifier",
+    "LearnedCutoffClassifier",
+    "LearnedFrontEndClassifier",
     "TaxelCNNClassifier",
     "WindowCNNClassifier",
     "export_classifier",

@@ -180,6 +180,7 @@ class TradeoffPlan:
     notes: list[str]
     precomputed: dict = field(default_factory=dict)
     seconds: float = 0.0
+    quick: bool = False
 
 
 def plan_tradeoff(
@@ -316,6 +317,19 @@ def plan_tradeoff(
     candidates = build_candidates(
         sets, quick=quick, classifiers=classifiers, random_state=random_state, tune=tune
     )
+    if sets and data.kind in ("vibration", "image", "pressure"):
+        from .learned import learned_candidates
+
+        reference = sets[0].input
+        candidates += learned_candidates(
+            data.kind,
+            reference,
+            quick=quick,
+            classifiers=classifiers,
+            random_state=random_state,
+            threshold=resolved if data.kind == "image" else "auto",
+            window=inputs[reference].window,
+        )
     if not candidates:
         raise ValueError(f"classifiers {list(classifiers)} leave no candidate in this mode (quick={quick})")
     precomputed = {}
@@ -326,7 +340,7 @@ def plan_tradeoff(
             index = inputs[cand.input].index
             F, seconds = known
             precomputed[features_key(cand)] = (F[index], seconds * len(index) / len(F))
-    return TradeoffPlan(data, inputs, candidates, notes, precomputed, time.perf_counter() - start)
+    return TradeoffPlan(data, inputs, candidates, notes, precomputed, time.perf_counter() - start, quick)
 
 
 def _check_folds_fit(n_folds: int, inputs: dict[str, Samples]) -> None:
@@ -387,7 +401,23 @@ def execute_plan(
         results, inputs, data.class_names, Path(out_dir) / "models", pool, metadata=meta, progress=progress
     )
     log(f"[tradeoff] ONNX export and timing: {time.perf_counter() - stage:.1f} s ({parts} exported parts)")
+    stage = time.perf_counter()
+    from .evaluation import classical_fold_file
+    from .learned import add_int8_and_memory, measure_memory
+
+    def fold_file(cand, model, path):
+        return classical_fold_file(pool, cand, inputs[cand.input], data.class_names, meta)(model, path)
+
+    models_dir = Path(out_dir) / "models"
+    add_int8_and_memory(results, inputs, models_dir, fold_file=fold_file, quick=plan.quick, progress=progress)
     rows, recommended, runner_up = summarise(results)
+    only = None
+    if plan.quick:  # a child process per file: the front, the learned and the int8 ones
+        only = {r["name"] for r in rows if r["pareto"] or r["family"] != "classical" or r["quantisation"]}
+    measure_memory(results, inputs, models_dir, only=only, progress=progress)
+    for row, res in zip(rows, results, strict=True):
+        row["memory_mib"] = res.memory_mib
+    log(f"[tradeoff] int8 variants and memory: {time.perf_counter() - stage:.1f} s")
     return TradeoffResult(
         data=data,
         results=results,
@@ -498,8 +528,12 @@ def summarise(results: list[CandidateResult]) -> tuple[list[dict], str | None, s
                 "fit_s": res.fit_s if res.fold_accuracy else None,
                 "tune_s": res.tune_s if res.fold_accuracy else None,
                 "params": [_plain(p) for p in res.params],
+                "family": res.family,
+                "n_parameters": res.n_parameters,
+                "quantisation": res.quantisation,
                 "latency_ms": res.latency_ms,
                 "size_bytes": res.size_bytes,
+                "memory_mib": res.memory_mib,
                 "decision_s": res.decision_s,
                 "pareto": False,
                 "onnx_file": res.onnx_file,
