@@ -1,18 +1,20 @@
 """Report section: does a learned model earn its cost?
 
-Classical models (the study's features with LDA or an SVM), small neural networks on the raw input
+Classical models (the study's features with LDA, or with a hinge-loss linear head), small neural networks on the raw input
 (:mod:`tactile_torch.neural`), method 1's front end learned through the differentiable ops, and int8
 variants of exported models, evaluated on the same grouped folds by
 :func:`tactile_torch.neural.comparison.compare_models`: accuracy with a group-level 95 % interval, the
 learned numbers, ONNX latency at batch 1, file size and the peak memory of the onnxruntime session.
 
-Sizes: ``make run`` keeps this section small (about 20 s): the bundled vibration recordings only, 6
-windows of 800 samples per surface, 3 folds, LDA on the 21 features against the small 1-D CNN and its
-int8 variant. ``tactile-torch report --only learned_models --full`` runs the whole comparison: the
-bundled vibration (both CNN sizes, the RBF SVM, int8 of every model) and image explorations (the
-exploration CNN, hand-set and learned front ends with the same hinge-loss head, LDA on the fused 12),
+Sizes: ``make run`` keeps this section small: the bundled vibration recordings only, 10 windows of 800
+samples per surface, 3 folds, LDA on the 21 features against the small 1-D CNN and its int8 variant.
+``tactile-torch report --only learned_models --full`` runs the whole comparison: the bundled vibration
+(both CNN sizes, the hand-set and learned spectral cut-off, int8 of the networks) and image explorations
+(the exploration CNN, hand-set and learned front ends with the same hinge-loss head, LDA on the fused 12),
 and the real sets when ``../shared/data`` is present (``hapmat_imu5`` vibration, ``drimus_sdh_tactile``
 pressure arrays: the taxel CNN against the per-taxel features, the front ends on the rendered maps).
+Each data set's rows are also written to ``<report>/learned_models/<data set>/rows.json``. The
+classical models' int8 variants are in ``tactile-torch tradeoff`` (:mod:`tactile_torch.tradeoff.learned`).
 """
 
 from __future__ import annotations
@@ -51,51 +53,35 @@ def _classical(features: object, classifier: object):
     return Pipeline([("features", features), ("scale", StandardScaler()), ("classifier", classifier)])
 
 
-def _vibration_specs(ctx, full: bool, n_features: int = 21) -> list:
+def _vibration_specs(ctx, full: bool) -> list:
+    """LDA on the 21 features and the small CNN (int8 too); ``full``: the large CNN, and the hand-set
+    and learned spectral cut-off under the same hinge head."""
     from sklearn.discriminant_analysis import LinearDiscriminantAnalysis
 
-    from ..neural import WindowCNNClassifier
+    from ..neural import LearnedCutoffClassifier, WindowCNNClassifier
     from ..neural.comparison import ModelSpec
-    from ..svm import SVC
     from ..tradeoff.transformers import WindowFeatureTransformer
 
     seed = ctx.random_state
+    lda = _classical(WindowFeatureTransformer(), LinearDiscriminantAnalysis())
+    small = WindowCNNClassifier("small", max_epochs=60 if full else 40, learning_rate=1e-2, random_state=seed)
     specs = [
-        ModelSpec(
-            "LDA | 21 features",
-            "classical",
-            _classical(WindowFeatureTransformer(), LinearDiscriminantAnalysis()),
-            int8=full,
-        ),
-        ModelSpec(
-            "1-D CNN small | raw window",
-            "neural",
-            WindowCNNClassifier(
-                "small", max_epochs=60 if full else 40, learning_rate=1e-2, random_state=seed
-            ),
-            int8=True,
-        ),
+        ModelSpec("LDA | 21 features", "classical", lda),
+        ModelSpec("1-D CNN small | raw window", "neural", small, int8=True),
     ]
     if full:
-        specs.insert(
-            1,
+        large = WindowCNNClassifier("large", max_epochs=60, learning_rate=3e-3, random_state=seed)
+        specs += [
+            ModelSpec("1-D CNN large | raw window", "neural", large, int8=True),
             ModelSpec(
-                "SVC | 21 features",
-                "classical",
-                _classical(
-                    WindowFeatureTransformer(), SVC(C=16.0, gamma=1.0 / n_features, random_state=seed)
-                ),
-                int8=True,
+                "hinge | hand-set cut-off", "classical", LearnedCutoffClassifier(False, random_state=seed)
             ),
-        )
-        specs.append(
             ModelSpec(
-                "1-D CNN large | raw window",
-                "neural",
-                WindowCNNClassifier("large", max_epochs=60, learning_rate=3e-3, random_state=seed),
-                int8=True,
-            )
-        )
+                "hinge | learned cut-off",
+                "learned front end",
+                LearnedCutoffClassifier(True, random_state=seed),
+            ),
+        ]
     return specs
 
 
@@ -253,7 +239,15 @@ def _sources(ctx) -> list[dict]:
                 "specs": _image_specs(ctx, relative_erosion(h, w)),
             }
         )
-    return sources
+    # The real sets first, the bundled explorations (the slowest to export) last.
+    order = [
+        "bundled vibration",
+        "hapmat",
+        "drimus_sdh_tactile pressure",
+        "drimus_sdh_tactile rendered",
+        "bundled images",
+    ]
+    return sorted(sources, key=lambda src: next(i for i, o in enumerate(order) if src["name"].startswith(o)))
 
 
 def _chart(section, rows: list[dict], name: str, chance: float) -> None:
@@ -296,7 +290,10 @@ def _verdict(rows: list[dict]) -> str:
 
 
 def run(section, ctx) -> None:
+    import json
+
     from ..neural.comparison import compare_models
+    from ..tradeoff.evaluation import _slug
 
     mode = _mode(ctx)
     section.text(
@@ -309,16 +306,16 @@ def run(section, ctx) -> None:
     if mode != "full":
         section.text(
             "`make run` keeps this section small (bundled vibration, 10 windows per surface, 3 folds); "
-            "`--full` adds the image explorations, both CNN sizes, the SVM, int8 of every model and the "
-            "real data sets when present."
+            "`--full` adds the image explorations, the large CNN, the hand-set and learned front ends "
+            "and the real data sets when present (`tradeoff` gives int8 variants of the classical models too)."
         )
     section.command(_command(ctx))
     out = ctx.out_dir / "learned_models"
     for source in _sources(ctx):
         samples = source["samples"]
-        rows = compare_models(
-            source["specs"], samples, source["classes"], out / source["name"].split()[0], log=lambda _: None
-        )
+        where = out / _slug(source["name"])
+        rows = compare_models(source["specs"], samples, source["classes"], where, log=lambda _: None)
+        (where / "rows.json").write_text(json.dumps(rows, indent=1, default=str))
         for row in rows:
             row["size_kib"] = row["size_bytes"] / 1024
         section.text(f"**{source['name']}**: {samples.split}.")
