@@ -14,10 +14,11 @@ cost?" (:mod:`tactile_torch.studies.learned_models`). For every :class:`ModelSpe
   :meth:`~tactile_torch.runtime.OnnxPipeline.predict` on one sample (batch 1, one thread; input
   validation included: :func:`tactile_torch.metrics.time_per_sample`), ``size_bytes`` the file's size,
   ``memory_mib`` the peak resident memory the session adds (:func:`tactile_torch.tradeoff.memory.peak_memory_mib`);
-* **int8** (``spec.int8``): every fold's model is exported and quantised
-  (:func:`tactile_torch.tradeoff.int8.quantise_bundle`, static with 32 training samples of that fold
-  as the calibration set), and the int8 file's labels on the held-out samples give the int8 row's
-  accuracy; its latency, size and memory are measured like the float one's.
+* **int8** (``spec.int8``): every fold's model is exported and quantised both ways
+  (:func:`tactile_torch.tradeoff.int8.quantise_bundle`: static, with 32 training samples of that fold
+  as the calibration set, and dynamic), and each int8 file's labels on the held-out samples give its
+  row's accuracy; ``onnx_agreement`` is then the share of labels equal to the float file's (first
+  fold); latency, size and memory are measured like the float one's.
 
 ``n_parameters``: the trained scalars of a network (plus the learned front-end settings), or for a
 classical model the numbers its classifier stores (support vectors and coefficients, class means ...).
@@ -33,6 +34,8 @@ from pathlib import Path
 import numpy as np
 from sklearn.base import clone
 
+CALIBRATION_SAMPLES = 32
+"""Training samples of each fold that calibrate the static int8 variant."""
 PARITY_BATCH = 5
 """Held-out samples run through each exported file at once (the export traces a batch of 2)."""
 
@@ -201,7 +204,7 @@ def compare_models(
     """
     from ..runtime import OnnxPipeline
     from ..tradeoff.evaluation import _slug
-    from ..tradeoff.int8 import quantise_bundle
+    from ..tradeoff.int8 import MODES, quantise_bundle
 
     out_dir = Path(out_dir)
     X, y, folds, groups = samples.X, samples.y, samples.folds, samples.groups
@@ -209,7 +212,8 @@ def compare_models(
     for spec in specs:
         start = time.perf_counter()
         predicted = np.full(len(y), -1, dtype=np.int64)
-        predicted_int8 = np.full(len(y), -1, dtype=np.int64)
+        predicted_int8 = {mode: np.full(len(y), -1, dtype=np.int64) for mode in MODES}
+        int8_first = {}
         fit_s, first, extra = [], None, {}
         for k, (train, test) in enumerate(folds):
             t0 = time.perf_counter()
@@ -232,14 +236,18 @@ def compare_models(
                     fold_path = rebind(path, model, X[test[:PARITY_BATCH]], part) or export_model(
                         model, part, X[train[:2]], class_names
                     )
-                q_path, mode = quantise_bundle(
-                    fold_path, out_dir / f"{_slug(spec.name)}-int8-{k}.onnx", calibration=X[train[:32]]
-                )
-                q = OnnxPipeline(q_path)
-                predicted_int8[test] = _classes(model)[q.predict(X[test])]
-                if k == 0:  # agreement of the int8 labels with the float file's on the held-out samples
-                    same = q.predict(X[test]) == OnnxPipeline(fold_path).predict(X[test])
-                    int8_first = (q_path, mode, float(np.mean(same)))
+                for mode in MODES:
+                    q_path, _ = quantise_bundle(
+                        fold_path,
+                        out_dir / f"{_slug(spec.name)}-int8-{mode}-{k}.onnx",
+                        calibration=X[train[:CALIBRATION_SAMPLES]],
+                        mode=mode,
+                    )
+                    q = OnnxPipeline(q_path)
+                    predicted_int8[mode][test] = _classes(model)[q.predict(X[test])]
+                    if k == 0:  # agreement of the int8 labels with the float file's on the held-out samples
+                        same = q.predict(X[test]) == OnnxPipeline(fold_path).predict(X[test])
+                        int8_first[mode] = (q_path, float(np.mean(same)))
         correct = predicted == y
         row = {
             "name": spec.name,
@@ -255,13 +263,12 @@ def compare_models(
         }
         rows.append(row)
         log(f"[learned] {spec.name}: accuracy {row['accuracy']:.3f} ({time.perf_counter() - start:.1f} s)")
-        if spec.int8:
-            q_path, mode, agree = int8_first
+        for mode, (q_path, agree) in int8_first.items():
             rows.append(
                 {
                     **row,
-                    "name": f"{spec.name} (int8)",
-                    **_group_interval(predicted_int8 == y, groups, folds),
+                    "name": f"{spec.name} (int8 {mode})",
+                    **_group_interval(predicted_int8[mode] == y, groups, folds),
                     "onnx_agreement": agree,
                     **_measure(q_path, X[folds[0][1]]),
                     "onnx_file": q_path.name,
