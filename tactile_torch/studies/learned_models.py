@@ -70,7 +70,7 @@ def _vibration_specs(ctx, full: bool) -> list:
         ModelSpec("1-D CNN small | raw window", "neural", small, int8=True),
     ]
     if full:
-        large = WindowCNNClassifier("large", max_epochs=60, learning_rate=3e-3, random_state=seed)
+        large = WindowCNNClassifier("large", max_epochs=40, learning_rate=3e-3, random_state=seed)
         specs += [
             ModelSpec("1-D CNN large | raw window", "neural", large, int8=True),
             ModelSpec(
@@ -155,7 +155,7 @@ def _sources(ctx) -> list[dict]:
 
     mode = _mode(ctx)
     full = mode == "full"
-    per_class, folds = {"quick": (4, 2), "default": (10, 3), "full": (20, 5)}[mode]
+    per_class, folds = {"quick": (4, 2), "default": (10, 3), "full": (16, 4)}[mode]
     seed = ctx.random_state
     rec = bundled_recordings(ctx)
     sources = [
@@ -184,7 +184,9 @@ def _sources(ctx) -> list[dict]:
     sources.append(
         {
             "name": "bundled images",
-            "samples": exploration_samples(data, n_folds=folds, max_per_class=per_class, random_state=seed),
+            "samples": exploration_samples(
+                data, n_folds=folds, max_per_class=min(per_class, 12), random_state=seed
+            ),
             "classes": list(images.class_names),
             "specs": _image_specs(ctx, relative_erosion(h, w)),
         }
