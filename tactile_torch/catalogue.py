@@ -69,7 +69,7 @@ KNN_K = 3
 KNN_K_GRID = (1, 3, 5, 7, 11, 15)
 KNN_QUICK_K_GRID = (1, 3, 7)
 LDA_SHRINKAGE_GRID = ("auto", 0.1, 0.3, 0.6, 0.9)
-LDA_QUICK_SHRINKAGE_GRID = ("auto", 0.5)
+LDA_QUICK_SHRINKAGE_GRID = ("auto",)
 NCM_SHRINK_GRID = (None, 0.1, 0.3, 1.0)
 NCM_QUICK_SHRINK_GRID = (None, 0.3)
 

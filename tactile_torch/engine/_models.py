@@ -114,8 +114,9 @@ def signature(step: Any) -> str:
     import joblib
 
     params = step.get_params(deep=True)
+    kind = f"{type(step).__module__}.{type(step).__qualname__}"  # a class defined in a function pickles not
     try:
-        return joblib.hash((type(step), params))
+        return joblib.hash((kind, params))
     except (pickle.PicklingError, TypeError, AttributeError):
         safe = {}
         for name, value in params.items():
@@ -124,7 +125,7 @@ def signature(step: Any) -> str:
                 safe[name] = value
             except (pickle.PicklingError, TypeError, AttributeError):
                 safe[name] = ("unpicklable", id(value))
-        return joblib.hash((type(step), safe))
+        return joblib.hash((kind, safe))
 
 
 class Models:
