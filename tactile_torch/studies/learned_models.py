@@ -270,6 +270,11 @@ def _chart(section, rows: list[dict], name: str, chance: float) -> None:
         )
     ax.axhline(chance, color="grey", linestyle=":", label=f"chance ({chance:.2f})")
     ax.set_xscale("log")
+    from matplotlib.ticker import FuncFormatter
+
+    plain = FuncFormatter(lambda v, _: f"{v:g}")
+    ax.xaxis.set_major_formatter(plain)
+    ax.xaxis.set_minor_formatter(FuncFormatter(lambda v, _: f"{v:g}" if str(f"{v:g}")[0] in "25" else ""))
     ax.set_xlabel("ONNX latency at batch 1 (ms, log scale)")
     ax.set_ylabel("accuracy (group-level 95 % interval)")
     ax.set_ylim(0, 1.05)
