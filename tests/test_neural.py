@@ -278,3 +278,28 @@ def test_learned_cutoff_moves_and_exports(tmp_path):
     np.testing.assert_allclose(scores, expected, atol=1e-4)
     with pytest.raises(ValueError, match=r"windows must have shape \(N, 3, W\)"):
         LearnedCutoffClassifier().fit(X[:, :2], y)
+
+
+def test_comparison_scores_every_group_once_and_rebinds_the_folds(tmp_path):
+    from tactile_torch.data.stylus import make_vibration_recordings
+    from tactile_torch.neural.comparison import ModelSpec, compare_models, rebind
+    from tactile_torch.tradeoff.inputs import vibration_samples
+
+    rec = make_vibration_recordings(3, duration_s=6, random_state=0)
+    samples = vibration_samples(rec, 200, n_folds=3, max_per_class=9, random_state=0)
+    spec = ModelSpec("cnn", "neural", WindowCNNClassifier(**FAST), int8=True)
+    rows = compare_models([spec], samples, list(rec.class_names), tmp_path, log=lambda s: None)
+    assert [r["name"] for r in rows] == ["cnn", "cnn (int8 static)", "cnn (int8 dynamic)"]
+    for r in rows:
+        assert r["by"] == "group" and r["units"] == len(np.unique(samples.groups))
+        assert r["accuracy_low"] <= r["accuracy"] <= r["accuracy_high"]
+        assert r["memory_mib"] >= 0 and r["latency_ms"] > 0
+    assert rows[0]["onnx_agreement"] == 1.0 and rows[0]["quantisation"] is None
+    # a file exported for one fit takes another fit's weights and then agrees with it
+    X = samples.X
+    other = WindowCNNClassifier(**{**FAST, "random_state": 7}).fit(X, samples.y)
+    path = rebind(tmp_path / "cnn.onnx", other, X[:4], tmp_path / "other.onnx")
+    assert path is not None
+    labels, scores = OnnxPipeline(path).predict_scores(X[:6])
+    np.testing.assert_allclose(scores, other.predict_proba(X[:6]), atol=1e-4)
+    assert np.array_equal(labels, other.predict_proba(X[:6]).argmax(1))
