@@ -144,32 +144,32 @@ def _taxel_specs(ctx) -> list:
     ]
 
 
-def _sources(ctx) -> list[dict]:
-    """The data sets of this run: name, samples (with folds), class names, specs, words."""
-    import numpy as np
+def _size(ctx) -> tuple[int, int]:
+    """(samples per class, folds) of the run's mode."""
+    return {"quick": (4, 2), "default": (10, 3), "full": (16, 4)}[_mode(ctx)]
 
-    from ..data import shared_data_dir
-    from ..tradeoff.inputs import TradeoffData, exploration_samples, vibration_samples
-    from ..tradeoff.transformers import relative_erosion
+
+def _bundled_vibration(ctx) -> list[dict]:
+    from ..tradeoff.inputs import vibration_samples
     from .vibration_features import bundled_recordings
 
-    mode = _mode(ctx)
-    full = mode == "full"
-    per_class, folds = {"quick": (4, 2), "default": (10, 3), "full": (16, 4)}[mode]
-    seed = ctx.random_state
+    per_class, folds = _size(ctx)
     rec = bundled_recordings(ctx)
-    sources = [
-        {
-            "name": "bundled vibration",
-            "samples": vibration_samples(rec, 800, n_folds=folds, max_per_class=per_class, random_state=seed),
-            "classes": list(rec.class_names),
-            "specs": _vibration_specs(ctx, full),
-        }
+    samples = vibration_samples(
+        rec, 800, n_folds=folds, max_per_class=per_class, random_state=ctx.random_state
+    )
+    specs = _vibration_specs(ctx, _mode(ctx) == "full")
+    return [
+        {"name": "bundled vibration", "samples": samples, "classes": list(rec.class_names), "specs": specs}
     ]
-    if not full:
-        return sources
+
+
+def _bundled_images(ctx) -> list[dict]:
+    from ..tradeoff.inputs import TradeoffData, exploration_samples
+    from ..tradeoff.transformers import relative_erosion
     from .image_features import dataset
 
+    per_class, folds = _size(ctx)
     images = dataset(ctx)
     data = TradeoffData(
         "image",
@@ -181,75 +181,86 @@ def _sources(ctx) -> list[dict]:
         rate_hz=10.0,
     )
     h, w = images.frames.shape[-2:]
-    sources.append(
-        {
-            "name": "bundled images",
-            "samples": exploration_samples(
-                data, n_folds=folds, max_per_class=min(per_class, 12), random_state=seed
-            ),
-            "classes": list(images.class_names),
-            "specs": _image_specs(ctx, relative_erosion(h, w)),
-        }
+    samples = exploration_samples(
+        data, n_folds=folds, max_per_class=min(per_class, 12), random_state=ctx.random_state
     )
-    if shared_data_dir("hapmat_imu5") is not None:
-        from ..data.recordings import load_hapmat_imu5
-
-        hap = load_hapmat_imu5()
-        sources.append(
-            {
-                "name": "hapmat_imu5 (real)",
-                "samples": vibration_samples(hap, 100, n_folds=folds, max_per_class=60, random_state=seed),
-                "classes": list(hap.class_names),
-                "specs": _vibration_specs(ctx, True),
-            }
-        )
-    if shared_data_dir("drimus_sdh_tactile") is not None:
-        from ..data.images import load_drimus_grasps
-
-        grasps = load_drimus_grasps()
-        labels = grasps.labels.numpy()
-        pressure = TradeoffData(
-            "pressure",
-            tuple(grasps.class_names),
-            "drimus",
-            raw=grasps.pressure.numpy().astype(np.float32),
-            labels=labels,
-            rate_hz=15.0,
-        )
-        rendered = TradeoffData(
-            "image",
-            tuple(grasps.class_names),
-            "drimus",
-            raw=grasps.frames.numpy(),
-            labels=labels,
-            rate_hz=15.0,
-        )
-        h, w = grasps.frames.shape[-2:]
-        sources.append(
-            {
-                "name": "drimus_sdh_tactile pressure maps (real)",
-                "samples": exploration_samples(pressure, n_folds=folds, random_state=seed),
-                "classes": list(grasps.class_names),
-                "specs": _taxel_specs(ctx),
-            }
-        )
-        sources.append(
-            {
-                "name": "drimus_sdh_tactile rendered frames (real)",
-                "samples": exploration_samples(rendered, n_folds=folds, random_state=seed),
-                "classes": list(grasps.class_names),
-                "specs": _image_specs(ctx, relative_erosion(h, w)),
-            }
-        )
-    # The real sets first, the bundled explorations (the slowest to export) last.
-    order = [
-        "bundled vibration",
-        "hapmat",
-        "drimus_sdh_tactile pressure",
-        "drimus_sdh_tactile rendered",
-        "bundled images",
+    specs = _image_specs(ctx, relative_erosion(h, w))
+    return [
+        {"name": "bundled images", "samples": samples, "classes": list(images.class_names), "specs": specs}
     ]
-    return sorted(sources, key=lambda src: next(i for i, o in enumerate(order) if src["name"].startswith(o)))
+
+
+def _hapmat(ctx) -> list[dict]:
+    from ..data import shared_data_dir
+    from ..tradeoff.inputs import vibration_samples
+
+    if shared_data_dir("hapmat_imu5") is None:
+        return []
+    from ..data.recordings import load_hapmat_imu5
+
+    hap = load_hapmat_imu5()
+    _, folds = _size(ctx)
+    samples = vibration_samples(hap, 100, n_folds=folds, max_per_class=60, random_state=ctx.random_state)
+    specs = _vibration_specs(ctx, True)
+    return [
+        {"name": "hapmat_imu5 (real)", "samples": samples, "classes": list(hap.class_names), "specs": specs}
+    ]
+
+
+def _drimus(ctx) -> list[dict]:
+    import numpy as np
+
+    from ..data import shared_data_dir
+    from ..tradeoff.inputs import TradeoffData, exploration_samples
+    from ..tradeoff.transformers import relative_erosion
+
+    if shared_data_dir("drimus_sdh_tactile") is None:
+        return []
+    from ..data.images import load_drimus_grasps
+
+    _, folds = _size(ctx)
+    grasps = load_drimus_grasps()
+    labels, names = grasps.labels.numpy(), tuple(grasps.class_names)
+    maps = grasps.pressure.numpy().astype(np.float32)
+    pressure = TradeoffData("pressure", names, "drimus", raw=maps, labels=labels, rate_hz=15.0)
+    rendered = TradeoffData("image", names, "drimus", raw=grasps.frames.numpy(), labels=labels, rate_hz=15.0)
+    h, w = grasps.frames.shape[-2:]
+    seed = ctx.random_state
+    return [
+        {
+            "name": "drimus_sdh_tactile pressure maps (real)",
+            "samples": exploration_samples(pressure, n_folds=folds, random_state=seed),
+            "classes": list(names),
+            "specs": _taxel_specs(ctx),
+        },
+        {
+            "name": "drimus_sdh_tactile rendered frames (real)",
+            "samples": exploration_samples(rendered, n_folds=folds, random_state=seed),
+            "classes": list(names),
+            "specs": _image_specs(ctx, relative_erosion(h, w)),
+        },
+    ]
+
+
+SOURCES = {
+    "bundled vibration": _bundled_vibration,
+    "hapmat": _hapmat,
+    "drimus": _drimus,
+    "bundled images": _bundled_images,
+}
+"""The data sets of the section, in report order (the real sets before the bundled explorations, the
+slowest to export); ``make run`` (and ``--quick``) has the bundled vibration only."""
+
+
+def _sources(ctx, only: tuple[str, ...] | None = None) -> list[dict]:
+    """The data sets of this run (``only``: those of :data:`SOURCES` named): name, samples with folds,
+    class names, model specs."""
+    names = list(SOURCES) if _mode(ctx) == "full" else ["bundled vibration"]
+    out = []
+    for name in names:
+        if only is None or name in only:
+            out += SOURCES[name](ctx)
+    return out
 
 
 def _chart(section, rows: list[dict], name: str, chance: float) -> None:
