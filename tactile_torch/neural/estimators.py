@@ -45,6 +45,7 @@ from .networks import (
     WINDOW_WIDTHS,
     ClassifierGraph,
     ExplorationCNN,
+    SeenClassifier,
     TaxelCNN,
     WindowCNN,
     build,
@@ -107,6 +108,10 @@ class _NeuralClassifier(ClassifierMixin, BaseEstimator):
     def _make_network(self, X: torch.Tensor, n_classes: int, generator: torch.Generator) -> nn.Module:
         raise NotImplementedError
 
+    def _trained_part(self, network: nn.Module, inputs: torch.Tensor) -> tuple[nn.Module, torch.Tensor]:
+        """Return the module gradient descent trains and its inputs (the network and ``inputs`` here)."""
+        return network, inputs
+
     # -- fit / predict -----------------------------------------------------------------------------
     @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X: object, y: object, groups: object = None) -> _NeuralClassifier:
@@ -133,9 +138,10 @@ class _NeuralClassifier(ClassifierMixin, BaseEstimator):
         train, held = inner_split(encoded, groups, self.validation_fraction, rng)
         network = self._make_network(inputs[train], len(self.classes_), generator)
         targets = torch.from_numpy(encoded.astype(np.int64))
+        trained, inputs = self._trained_part(network, inputs)
         validation = (inputs[held], targets[held]) if len(held) else None
         self.training_log_ = train_network(
-            network,
+            trained,
             inputs[train],
             targets[train],
             validation=validation,
@@ -330,6 +336,12 @@ class ExplorationCNNClassifier(_NeuralClassifier):
     def _make_network(self, X: torch.Tensor, n_classes: int, generator: torch.Generator) -> nn.Module:
         pool = max(1, min(X.shape[-2:]) // 24) if self.pool == "auto" else int(self.pool)
         return build(ExplorationCNN, n_classes, pool, generator=generator)
+
+    def _trained_part(self, network: nn.Module, inputs: torch.Tensor) -> tuple[nn.Module, torch.Tensor]:
+        # What the network sees has no parameters: computed once, not in every epoch.
+        with torch.no_grad():
+            seen = torch.cat([network.seen(chunk) for chunk in inputs.split(64)])
+        return SeenClassifier(network), seen
 
 
 __all__ = ["ExplorationCNNClassifier", "TaxelCNNClassifier", "WindowCNNClassifier"]

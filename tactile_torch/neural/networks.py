@@ -176,8 +176,23 @@ class ExplorationCNN(nn.Module):
             x = nn.functional.avg_pool2d(x, self.pool, ceil_mode=True)
         return x
 
+    def classify(self, seen: torch.Tensor) -> torch.Tensor:
+        """Return the logits of what :meth:`seen` returned (the trained part of the network)."""
+        return self.head(self.body(seen).mean((-2, -1)))
+
     def forward(self, frames: torch.Tensor) -> torch.Tensor:
-        return self.head(self.body(self.seen(frames)).mean((-2, -1)))
+        return self.classify(self.seen(frames))
+
+
+class SeenClassifier(nn.Module):
+    """:meth:`ExplorationCNN.classify` as a module (training on inputs ``seen`` once, not every epoch)."""
+
+    def __init__(self, network: ExplorationCNN) -> None:
+        super().__init__()
+        self.network = network
+
+    def forward(self, seen: torch.Tensor) -> torch.Tensor:
+        return self.network.classify(seen)
 
 
 class ClassifierGraph(nn.Module):
@@ -197,6 +212,7 @@ __all__ = [
     "WINDOW_WIDTHS",
     "ClassifierGraph",
     "ExplorationCNN",
+    "SeenClassifier",
     "TaxelCNN",
     "WindowCNN",
     "build",

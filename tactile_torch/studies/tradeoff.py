@@ -6,6 +6,9 @@ shows per data set the candidates' accuracy (95 % interval over folds), fit time
 batch 1, size and time to a decision, the charts, and the recommendation by the one-standard-error
 rule (docs/tradeoff.md).
 
+The learned models (networks, learned front ends) have their own section (:mod:`.learned_models`), so
+this one runs the classical candidates only (``learned=False``).
+
 Sizes: ``make run`` uses the quick candidate set (every classifier on the reference feature set, the
 HM-SVM and LDA on the others) on a subset of the bundled data, so that the section stays within its
 time budget; ``tactile-torch report --full`` runs every candidate (every window size, three
@@ -151,7 +154,9 @@ def run(section, ctx) -> None:
         (
             title,
             name,
-            plan_tradeoff(data, quick=quick, random_state=ctx.random_state, log=lambda s: None, **options),
+            plan_tradeoff(
+                data, quick=quick, random_state=ctx.random_state, log=lambda s: None, learned=False, **options
+            ),
         )
         for title, name, data, options in runs
     ]

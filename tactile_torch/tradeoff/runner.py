@@ -197,6 +197,7 @@ def plan_tradeoff(
     max_per_class: int | str | None = "auto",
     classifiers: Sequence[str] | None = None,
     features: Sequence[str] | None = None,
+    learned: bool = True,
     random_state: int = 0,
     allow_pickle: bool = False,
     tune: bool = True,
@@ -232,6 +233,8 @@ def plan_tradeoff(
         Only these of :data:`~.candidates.CLASSIFIERS`.
     features : sequence of str, optional
         Only the feature sets whose name starts with one of these (e.g. ``["fused", "per-taxel"]``).
+    learned : bool
+        Add the learned models on the raw input (:mod:`.learned`; ``False``: the classical ones only).
     random_state : int
     allow_pickle : bool
     tune : bool
@@ -317,7 +320,7 @@ def plan_tradeoff(
     candidates = build_candidates(
         sets, quick=quick, classifiers=classifiers, random_state=random_state, tune=tune
     )
-    if sets and data.kind in ("vibration", "image", "pressure"):
+    if learned and sets and data.kind in ("vibration", "image", "pressure"):
         from .learned import learned_candidates
 
         reference = sets[0].input
