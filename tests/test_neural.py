@@ -303,3 +303,30 @@ def test_comparison_scores_every_group_once_and_rebinds_the_folds(tmp_path):
     labels, scores = OnnxPipeline(path).predict_scores(X[:6])
     np.testing.assert_allclose(scores, other.predict_proba(X[:6]), atol=1e-4)
     assert np.array_equal(labels, other.predict_proba(X[:6]).argmax(1))
+
+
+def test_int8_accepts_a_joined_model_listing_its_opset_twice(tmp_path):
+    import onnx
+    from onnx import TensorProto, helper, numpy_helper
+
+    weight = numpy_helper.from_array(np.random.default_rng(0).normal(size=(4, 3)).astype(np.float32), "w")
+    graph = helper.make_graph(
+        [
+            helper.make_node("MatMul", ["raw", "w"], ["scores"]),
+            helper.make_node("ArgMax", ["scores"], ["labels"], axis=1, keepdims=0),
+        ],
+        "joined",
+        [helper.make_tensor_value_info("raw", TensorProto.FLOAT, [None, 4])],
+        [
+            helper.make_tensor_value_info("labels", TensorProto.INT64, [None]),
+            helper.make_tensor_value_info("scores", TensorProto.FLOAT, [None, 3]),
+        ],
+        [weight],
+    )
+    model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", 20), helper.make_opsetid("", 20)])
+    model.ir_version = 10
+    onnx.save(model, tmp_path / "joined.onnx")  # as onnx.compose.merge_models writes a front and a head
+    X = np.random.default_rng(1).normal(size=(20, 4)).astype(np.float32)
+    out, mode = quantise_bundle(tmp_path / "joined.onnx", tmp_path / "q.onnx", calibration=X[:8])
+    assert mode == "static"
+    assert np.mean(OnnxPipeline(out).predict(X) == OnnxPipeline(tmp_path / "joined.onnx").predict(X)) >= 0.8

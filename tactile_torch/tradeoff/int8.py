@@ -97,12 +97,38 @@ def quantise_bundle(
     root = logging.getLogger()
     level = root.level
     root.setLevel(logging.ERROR)
+    import tempfile
+
     try:
-        used = _quantise(path, out, source.graph.input[0].name, calibration, mode)
+        with tempfile.TemporaryDirectory(prefix="tactile-torch-int8-") as tmp:
+            used = _quantise(
+                _single_opsets(source, path, Path(tmp)), out, source.graph.input[0].name, calibration, mode
+            )
     finally:
         root.setLevel(level)
     _copy_metadata(source, out, used)
     return out, used
+
+
+def _single_opsets(model: object, path: Path, tmp: Path) -> Path:
+    """``path``, or a copy with one opset import per domain (the highest version) when the file lists a
+    domain twice, as a model joined by ``onnx.compose.merge_models`` does; onnxruntime's quantiser needs one."""
+    import onnx
+
+    versions: dict[str, int] = {}
+    for entry in model.opset_import:
+        versions[entry.domain] = max(versions.get(entry.domain, 0), entry.version)
+    if len(versions) == len(model.opset_import):
+        return path
+    copy = onnx.ModelProto()
+    copy.CopyFrom(model)
+    del copy.opset_import[:]
+    copy.opset_import.extend(
+        onnx.helper.make_opsetid(domain, version) for domain, version in versions.items()
+    )
+    fixed = tmp / path.name
+    onnx.save(copy, str(fixed))
+    return fixed
 
 
 def _quantise(path: Path, out: Path, input_name: str, calibration: np.ndarray | None, mode: str) -> str:
