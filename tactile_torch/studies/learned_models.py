@@ -8,9 +8,10 @@ learned numbers, ONNX latency at batch 1, file size and the peak memory of the o
 
 Sizes: ``make run`` keeps this section small: the bundled vibration recordings only, 10 windows of 800
 samples per surface, 3 folds, LDA on the 21 features against the small 1-D CNN and its int8 variant.
-``tactile-torch report --only learned_models --full`` runs the whole comparison: the bundled vibration
-(both CNN sizes, the hand-set and learned spectral cut-off, int8 of the networks) and image explorations
-(the exploration CNN, hand-set and learned front ends with the same hinge-loss head, LDA on the fused 12),
+``tactile-torch report --only learned_models --full`` runs the whole comparison on 4 folds: the bundled
+vibration (16 windows per surface; both CNN sizes, the hand-set and learned spectral cut-off, int8 of the
+networks) and image explorations (12 per class; the exploration CNN, hand-set and learned front ends
+with the same hinge-loss head, LDA on the fused 12),
 and the real sets when ``../shared/data`` is present (``hapmat_imu5`` vibration, ``drimus_sdh_tactile``
 pressure arrays: the taxel CNN against the per-taxel features, the front ends on the rendered maps).
 Each data set's rows are also written to ``<report>/learned_models/<data set>/rows.json``. The
