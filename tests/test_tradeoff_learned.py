@@ -59,7 +59,7 @@ def test_tradeoff_lists_neural_and_int8_candidates_with_parameters_and_memory(tm
         rows["1-D CNN small | raw window, W = 400"],
         rows["1-D CNN small | raw window, W = 400 (int8)"],
     )
-    assert cnn["family"] == "neural" and int8["quantisation"] == "static"
+    assert cnn["family"] == "neural" and int8["quantisation"] == "dynamic"
     assert cnn["n_parameters"] == result.result(cnn["name"]).model.steps[-1][1].n_parameters_
     assert len(int8["fold_accuracy"]) == len(cnn["fold_accuracy"]) >= 2  # every fold scored
     assert int8["size_bytes"] < cnn["size_bytes"] and 0.0 <= int8["onnx_agreement"] <= 1.0
@@ -73,4 +73,4 @@ def test_tradeoff_lists_neural_and_int8_candidates_with_parameters_and_memory(tm
     proba = model.predict_proba(windows)
     assert np.array_equal(labels, proba.argmax(1))
     np.testing.assert_allclose(scores, proba, atol=1e-4)
-    assert OnnxPipeline(tmp_path / "o" / "models" / int8["onnx_file"]).metadata["quantisation"] == "static"
+    assert OnnxPipeline(tmp_path / "o" / "models" / int8["onnx_file"]).metadata["quantisation"] == "dynamic"
