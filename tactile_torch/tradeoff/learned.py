@@ -6,7 +6,9 @@
   on once for all folds) and whose ``classifier`` is the model. Default (full) set: vibration, the small
   and large 1-D CNN and the learned spectral cut-off on the reference window; image explorations, the
   exploration CNN and the learned method-1 front end; raw pressure maps, the temporal taxel CNN.
-  ``quick``: only the smallest network of the input (fewer epochs). They are exported whole
+  ``quick``: none unless ``classifiers`` names them (then at most :data:`QUICK_EPOCHS` epochs): with
+  the small CNN, ``tradeoff --quick`` on the bundled stylus recordings took 194 s, over its 2-minute
+  budget. They are exported whole
   (:func:`tactile_torch.neural.export_classifier`) and timed like the others.
 * **int8** (:func:`add_int8_and_memory`): every exported candidate (``quick``: the learned ones) gets an
   int8 variant (:func:`tactile_torch.tradeoff.int8.quantise_bundle`: static, calibrated on 32 samples of
@@ -69,11 +71,13 @@ def is_learned(model: object) -> bool:
 def learned_keys(kind: str, *, quick: bool) -> list[str]:
     """Return the catalogue keys of the learned candidates of a data kind (module notes)."""
     keys = {
-        "vibration": ["cnn-small"] if quick else ["cnn-small", "cnn-large", "learned-cutoff"],
-        "image": ["image-cnn"] if quick else ["image-cnn", "learned-front-end"],
+        "vibration": ["cnn-small", "cnn-large", "learned-cutoff"],
+        "image": ["image-cnn", "learned-front-end"],
         "pressure": ["taxel-cnn"],
     }
-    return keys.get(kind, [])
+    # --quick leaves them out unless named: with the small CNN, `tradeoff --quick` on the bundled stylus
+    # recordings took 194 s wall (137 CPU-s, load 3.5-6), over its 2-minute budget.
+    return [] if quick else keys.get(kind, [])
 
 
 def learned_candidates(
