@@ -34,7 +34,7 @@ test-all: $(STAMP)
 	$(PY) -m pytest -m ''
 
 bench: $(STAMP)
-	$(VENV)/bin/tactile-torch bench
+	$(VENV)/bin/tactile-torch bench --out bench/results
 
 lint: $(STAMP)
 	$(VENV)/bin/ruff check .

@@ -1,5 +1,6 @@
-"""Run the benchmarks (``make bench``) and write ``bench/results/<name>.json``, ``<name>.md`` and
-``summary.md``.
+"""Run the benchmarks (``make bench``) and write ``<name>.json``, ``<name>.md`` and ``summary.md`` to
+``--out`` (default ``bench/results``, the committed results; ``tactile-torch bench`` defaults to
+``runs/bench`` in the working directory instead).
 
 A benchmark is a module ``bench/bench_<name>.py`` with ``TITLE`` and ``run(quick: bool) -> dict``
 returning ``{"rows": [...], "notes": [...]}``; each row is one measured configuration (op, size,
@@ -45,7 +46,11 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--quick", action="store_true", help="small sizes, for a smoke test")
     parser.add_argument("--only", default="", help="comma-separated benchmark names")
+    parser.add_argument(
+        "--out", type=Path, default=RESULTS, help="directory for the results (default: bench/results)"
+    )
     args = parser.parse_args(argv)
+    out = args.out
     names = discover()
     wanted = [n for n in args.only.split(",") if n] or names
     unknown = sorted(set(wanted) - set(names))
@@ -53,7 +58,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(f"--only must name benchmarks among {names}, got unknown {unknown}")
     if not names:
         print("no benchmarks exist yet (bench/bench_*.py)")
-    RESULTS.mkdir(parents=True, exist_ok=True)
+    out.mkdir(parents=True, exist_ok=True)
     env = machine()
     for name in wanted:
         module = importlib.import_module(f"bench.bench_{name}")
@@ -72,18 +77,18 @@ def main(argv: list[str] | None = None) -> int:
             **result,
         }
         suffix = "-quick" if args.quick else ""
-        (RESULTS / f"{name}{suffix}.json").write_text(json.dumps(record, indent=1) + "\n")
+        (out / f"{name}{suffix}.json").write_text(json.dumps(record, indent=1) + "\n")
         md = [f"# {module.TITLE}", "", f"`{record['command']}` on {env}, {record['date']}", ""]
         md += [markdown_table(result["rows"]), ""] + [f"- {n}" for n in result.get("notes", [])]
-        (RESULTS / f"{name}{suffix}.md").write_text("\n".join(md) + "\n")
+        (out / f"{name}{suffix}.md").write_text("\n".join(md) + "\n")
         print(markdown_table(result["rows"]), flush=True)
     if not args.quick:
         summary = ["# Benchmark results", "", "Written by `make bench`. One file per benchmark:", ""]
         done = sorted(
-            p.stem for p in RESULTS.glob("*.md") if p.stem != "summary" and not p.stem.endswith("-quick")
+            p.stem for p in out.glob("*.md") if p.stem != "summary" and not p.stem.endswith("-quick")
         )
         summary += [f"- [{n}]({n}.md)" for n in done]
-        (RESULTS / "summary.md").write_text("\n".join(summary) + "\n")
+        (out / "summary.md").write_text("\n".join(summary) + "\n")
     return 0
 
 

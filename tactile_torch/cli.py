@@ -7,9 +7,13 @@ Every subcommand of the toolkit is listed; the handlers import their modules laz
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import subprocess
 import sys
+import threading
+import warnings
+from collections.abc import Iterator
 from pathlib import Path
 
 NOT_BUILT_EXIT = 2
@@ -20,6 +24,11 @@ INTERNAL_ERROR_EXIT = 1
 MAX_READ_ENV = "TACTILE_TORCH_MAX_READ_MB"
 """Where ``--max-read-mb`` puts the read bound (:func:`tactile_torch.formats.max_read_bytes` reads it)."""
 """Exit status for an unexpected error (a bug): one line on stderr, the traceback with ``--debug``."""
+NO_RECOMMENDATION_EXIT = 3
+"""Exit status of ``tradeoff`` when no candidate is adequate (none reaches ``--target``, or none is
+significantly above the trivial baseline): the outputs are written, nothing is deployed."""
+NOT_EXPORTED_EXIT = 4
+"""Exit status of ``tradeoff`` when no candidate could be fitted and exported (the notes say why)."""
 
 TRAIN_EXTRA = "train"
 TRAIN_MODULES = (
@@ -71,11 +80,8 @@ def _train(args: argparse.Namespace) -> int:
     from .training import load_features, save_model, train_classifier
 
     gamma = args.gamma if args.gamma == "scale" else float(args.gamma)
-    if args.out and args.method not in ("hmsvm", "svm"):
-        raise UsageError(
-            f"--out: method {args.method!r} has no exportable inference path, so it has no model file; "
-            "save an SVM (--method hmsvm or svm) or drop --out"
-        )
+    if args.select is not None and args.select < 1:
+        raise UsageError(f"--select must be a number of features >= 1, got {args.select}")
     features = load_features(
         args.data, window=args.window, step=args.step, fuse=not args.no_fuse, allow_pickle=args.allow_pickle
     )
@@ -91,6 +97,7 @@ def _train(args: argparse.Namespace) -> int:
             gamma=gamma,
             kernel=args.kernel,
             test_size=args.test_size,
+            select=args.select,
             random_state=args.seed,
         )
     except ValueError as err:  # e.g. a class with one sample: name the file it came from
@@ -118,7 +125,10 @@ def _bench(args: argparse.Namespace) -> int:
         str(runner),
         *(["--quick"] if args.quick else []),
         *(["--only", args.only] if args.only else []),
+        "--out",
+        str(Path(args.out).resolve()),
     ]
+    print(f"tactile-torch bench: results go to {args.out}", file=sys.stderr)
     return subprocess.call(cmd)
 
 
@@ -235,12 +245,38 @@ def _range_g(text: str | None, option: str, *, off: bool) -> float | None:
     return value
 
 
+@contextlib.contextmanager
+def _stage(label: str, *, delay: float = 1.0) -> Iterator[None]:
+    """Show ``label`` and the time elapsed on stderr while the block runs (a step of seconds that
+    reports nothing itself, such as the ONNX export), from ``delay`` seconds on (a quick step, or one
+    that fails at once, prints nothing); the line is cleared when it ends."""
+    from tqdm.auto import tqdm
+
+    bar = tqdm(desc=label, bar_format="{desc}: {elapsed}", file=sys.stderr, leave=False, delay=delay)
+    done = threading.Event()
+
+    def tick() -> None:
+        while not done.wait(0.5):
+            bar.refresh()
+
+    ticker = threading.Thread(target=tick, daemon=True)
+    ticker.start()
+    try:
+        yield
+    finally:
+        done.set()
+        ticker.join()
+        bar.close()
+
+
 def _export(args: argparse.Namespace) -> int:
     from .pipeline import export_pipeline, load_model_file, pipeline_from_model
 
     sensor_range = _range_g(args.sensor_range, "--sensor-range", off=False)
-    pipeline = pipeline_from_model(load_model_file(args.model), sensor_range_g=sensor_range)
-    path = export_pipeline(pipeline, args.out, inputs=[args.model])
+    with _stage("export: building the pipeline"):
+        pipeline = pipeline_from_model(load_model_file(args.model), sensor_range_g=sensor_range)
+    with _stage("export: tracing the pipeline to ONNX and checking it"):
+        path = export_pipeline(pipeline, args.out, inputs=[args.model])
     size = path.stat().st_size / 1024
     print(
         f"exported {pipeline.name}: input ({pipeline.input_layout}) = {pipeline.input_shape}, "
@@ -554,7 +590,10 @@ def _simulate_sensor(args: argparse.Namespace) -> int:
 
 
 def _tradeoff(args: argparse.Namespace) -> int:
+    import math
+
     from .tradeoff import run_tradeoff, summary_lines, write_outputs
+    from .tradeoff.output import staged_output
 
     def number_or(name: str, text: str, *words: str) -> str | float | int:
         if text in words:
@@ -571,50 +610,71 @@ def _tradeoff(args: argparse.Namespace) -> int:
             raise ValueError(f"--{name} must be comma-separated whole numbers, got {text!r}")
         return [int(part) for part in text.split(",")]
 
+    folds = 5 if args.folds is None else args.folds
+    if folds < 2:
+        raise UsageError(f"--folds must be a whole number >= 2, got {folds}")
+    max_per_class = number_or("max-per-class", args.max_per_class, "auto")
+    if max_per_class != "auto" and (not isinstance(max_per_class, int) or max_per_class < 2):
+        raise UsageError(f"--max-per-class must be 'auto' or a whole number >= 2, got {args.max_per_class!r}")
+    if args.frame_rate is not None and not (math.isfinite(args.frame_rate) and args.frame_rate > 0):
+        raise UsageError(f"--frame-rate must be a number of frames/s > 0, got {args.frame_rate:g}")
+    if args.target is not None and not (math.isfinite(args.target) and 0 < args.target <= 1):
+        raise UsageError(f"--target must be an accuracy in (0, 1], got {args.target:g}")
     options = [f"--data {' '.join(args.data)}", f"--out {args.out}", *(["--quick"] if args.quick else [])]
     options += ["--no-breaking"] if args.no_breaking else []
     options += ["--no-tune"] if args.no_tune else []
     defaults = vars(build_parser().parse_args(["tradeoff", "--data", "-"]))
     names = ("folds", "window", "windows", "frame_rate", "threshold", "erosion", "contact", "max_per_class")
-    names += ("classifiers", "features", "seed")
+    names += ("classifiers", "features", "seed", "target", "deploy", "csv_session")
     for name in names:
         if getattr(args, name) != defaults[name]:
             options.append(f"--{name.replace('_', '-')} {getattr(args, name)}")
     command = "tactile-torch tradeoff " + " ".join(options)
-    result = run_tradeoff(
-        args.data,
-        quick=args.quick,
-        n_folds=args.folds,
-        window=args.window,
-        windows=int_list("windows", args.windows),
-        frame_rate_hz=args.frame_rate,
-        threshold=number_or("threshold", args.threshold, "auto", "otsu", "display"),
-        erosion=number_or("erosion", args.erosion, "relative"),
-        contact=args.contact,
-        max_per_class=number_or("max-per-class", args.max_per_class, "auto"),
-        classifiers=args.classifiers.split(",") if args.classifiers else None,
-        features=args.features.split(",") if args.features else None,
-        out_dir=args.out,
-        random_state=args.seed,
-        allow_pickle=args.allow_pickle,
-        tune=not args.no_tune,
-        backend=args.backend,
-        n_jobs=args.n_jobs,
-        scheduler=args.scheduler,
-        progress=not args.quiet,
-        log=(lambda line: None) if args.quiet else (lambda line: print(line, file=sys.stderr)),
-    )
-    if not args.no_breaking:  # where the recommended and the study's model break (docs/robustness.md)
-        from .tradeoff.breaking import add_breaking_points
-
-        add_breaking_points(
-            result, args.out, quick=args.quick, random_state=args.seed, progress=not args.quiet
+    log = (lambda line: None) if args.quiet else (lambda line: print(line, file=sys.stderr))
+    with staged_output(args.out) as staging:  # a killed or failed run leaves the previous --out as it was
+        result = run_tradeoff(
+            args.data,
+            quick=args.quick,
+            n_folds=folds,
+            exact_folds=args.folds is not None,
+            window=args.window,
+            windows=int_list("windows", args.windows),
+            frame_rate_hz=args.frame_rate,
+            threshold=number_or("threshold", args.threshold, "auto", "otsu", "display"),
+            erosion=number_or("erosion", args.erosion, "relative"),
+            contact=args.contact,
+            max_per_class=max_per_class,
+            classifiers=args.classifiers.split(",") if args.classifiers else None,
+            features=args.features.split(",") if args.features else None,
+            target=args.target,
+            deploy=["recommended", *([args.deploy] if args.deploy else [])],
+            csv_session=args.csv_session,
+            out_dir=staging,
+            random_state=args.seed,
+            allow_pickle=args.allow_pickle,
+            tune=not args.no_tune,
+            backend=args.backend,
+            n_jobs=args.n_jobs,
+            scheduler=args.scheduler,
+            progress=not args.quiet,
+            log=log,
         )
-    paths = write_outputs(result, args.out, command=command)
+        if not args.no_breaking and result.recommended is not None:  # docs/robustness.md
+            from .tradeoff.breaking import add_breaking_points
+
+            add_breaking_points(
+                result, staging, quick=args.quick, random_state=args.seed, progress=not args.quiet
+            )
+        paths = write_outputs(result, staging, command=command)
     for line in summary_lines(result):
         print(line)
-    print(f"written: {', '.join(str(p) for p in paths.values())} ({result.seconds:.0f} s)")
-    return 0
+    out = Path(args.out)
+    print(
+        f"written: {', '.join(str(out / p.relative_to(staging)) for p in paths.values())} ({result.seconds:.0f} s)"
+    )
+    if result.status == "none exported":
+        return NOT_EXPORTED_EXIT
+    return 0 if result.status == "recommended" else NO_RECOMMENDATION_EXIT
 
 
 def _add_allow_pickle(p: argparse.ArgumentParser) -> None:
@@ -661,9 +721,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--only", default="", help="comma-separated study names to run (default: all)")
     p.set_defaults(handler=_report)
 
-    p = sub.add_parser("bench", help="run the benchmarks and write bench/results (make bench)")
+    p = sub.add_parser(
+        "bench", help="run the benchmarks and write their results to --out (make bench: bench/results)"
+    )
     p.add_argument("--quick", action="store_true", help="small sizes, for a smoke test")
     p.add_argument("--only", default="", help="comma-separated benchmark names (default: all)")
+    p.add_argument(
+        "--out",
+        default="runs/bench",
+        help="directory for the results (default: runs/bench; `make bench` writes bench/results)",
+    )
     p.set_defaults(handler=_bench)
 
     p = sub.add_parser(
@@ -680,10 +747,17 @@ def build_parser() -> argparse.ArgumentParser:
         "--method",
         default="hmsvm",
         choices=catalogue_choices(),
-        help="classifier of the catalogue, docs/tradeoff.md (default: hmsvm; svm = svc)",
+        help="classifier of the catalogue, docs/tradeoff.md (default: hmsvm; svm = svc); every one writes a model file (--out)",
     )
     p.add_argument(
-        "--out", default="", help="write the trained SVM's model file here (no pickle), e.g. model.npz"
+        "--select",
+        type=int,
+        default=None,
+        metavar="K",
+        help="keep the K best-ranked features (the trade-off's 'top K' feature sets; default: all)",
+    )
+    p.add_argument(
+        "--out", default="", help="write the trained model's file here (no pickle), e.g. model.npz"
     )
     p.add_argument("--C", type=float, default=16.0, help="SVM penalty (default: 16)")
     p.add_argument("--gamma", default="scale", help="RBF width, a float or 'scale' (default)")
@@ -926,7 +1000,13 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--out", default="runs/tradeoff", help="output directory (default: runs/tradeoff)")
     p.add_argument("--quick", action="store_true", help="fewer candidates and at most 60 samples per class")
-    p.add_argument("--folds", type=int, default=5, help="cross-validation folds (default: 5)")
+    p.add_argument(
+        "--folds",
+        type=int,
+        default=None,
+        help="cross-validation folds (default: 5, or fewer when the data allow fewer; a number the data do "
+        "not allow is an error)",
+    )
     p.add_argument(
         "--window", type=int, default=None, help="vibration: reference window in samples (default: 800)"
     )
@@ -948,6 +1028,27 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--classifiers", default="", help="comma-separated subset of HM-SVM,SVC,LDA,kNN,NCM")
     p.add_argument(
         "--features", default="", help="comma-separated feature-set name prefixes (e.g. fused,top)"
+    )
+    p.add_argument(
+        "--target",
+        type=float,
+        default=None,
+        metavar="ACC",
+        help="the accuracy a deployment needs: recommend the cheapest candidate whose interval's lower end "
+        "reaches it (default: the one-standard-error rule; docs/tradeoff.md)",
+    )
+    p.add_argument(
+        "--deploy",
+        default="",
+        metavar="NAME",
+        help="also refit candidate NAME (as in tradeoff.json) on all the data and write OUT/<name>.onnx and .npz "
+        "(the recommended one always goes to OUT/recommended.onnx)",
+    )
+    p.add_argument(
+        "--csv-session",
+        default="number",
+        choices=["number", "file"],
+        help="CSV logs: session from the file name's trailing number (felt_3.csv -> 3, default) or one per file",
     )
     p.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
@@ -1010,6 +1111,17 @@ def _one_line(err: BaseException) -> str:
     if isinstance(err, FileNotFoundError) and err.filename and not text.startswith(str(err.filename)):
         text = f"{err.filename}: {err.strerror or 'no such file'}"  # OSError's own "[Errno 2] ..." form
     return text or type(err).__name__
+
+
+def _warning_line(prefix: str):
+    """A ``warnings.showwarning`` that prints one line, ``<prefix>: warning: <message>``, on stderr:
+    no file name, line number or source line (``--debug`` keeps Python's own format)."""
+
+    def show(message, category, filename, lineno, file=None, line=None) -> None:
+        text = " ".join(str(message).split())
+        print(f"{prefix}: warning: {text}", file=sys.stderr if file is None else file)
+
+    return show
 
 
 WRITES_OUT_FILE = ("train", "predict", "export")
@@ -1086,11 +1198,20 @@ def main(argv: list[str] | None = None) -> int:
     Bad input (a missing, empty or malformed file, a model of the wrong kind, a missing optional
     dependency) prints one line ``tactile-torch <command>: <file>: <what is wrong>`` on stderr and
     returns :data:`BAD_INPUT_EXIT`; any other error prints one line and returns
-    :data:`INTERNAL_ERROR_EXIT`. ``--debug`` shows the traceback instead.
+    :data:`INTERNAL_ERROR_EXIT`. ``--debug`` shows the traceback instead. Warnings print as one line
+    each (:func:`_warning_line`), with Python's own format under ``--debug``.
     """
     args = build_parser().parse_args(argv)
     debug = bool(getattr(args, "debug", False))
     prefix = f"tactile-torch {args.command}"
+    with warnings.catch_warnings():  # restores the caller's warning display when the command ends
+        if not debug:
+            warnings.showwarning = _warning_line(prefix)
+        return _run(args, prefix, debug)
+
+
+def _run(args: argparse.Namespace, prefix: str, debug: bool) -> int:
+    """Run the parsed command and map its errors to one line and an exit status (see :func:`main`)."""
     if args.command in NEEDS_TRAIN_EXTRA:
         missing = _missing_train_modules()
         if missing:

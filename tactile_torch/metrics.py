@@ -23,6 +23,8 @@ def _as_label_array(labels: object, name: str) -> np.ndarray:
     torch = sys.modules.get("torch")
     if torch is not None and isinstance(labels, torch.Tensor):
         labels = labels.detach().cpu().numpy()
+    if hasattr(labels, "columns") and len(labels.columns) == 1:  # a one-column pandas DataFrame
+        labels = labels.iloc[:, 0]
     arr = np.asarray(labels)
     if arr.ndim != 1:
         raise ValueError(f"{name} must be a 1-D array of labels, got shape {arr.shape}")
@@ -145,6 +147,34 @@ class ClassReport:
         )
         return rows
 
+    def to_dict(self, *, mean_row: bool = False) -> dict[str, list]:
+        """Return the table as a dict of columns, one entry per class (and the ``mean`` row last if
+        ``mean_row``): ``class``, ``samples``, ``accuracy``, ``type I error``, ``type II error``.
+
+        ``pandas.DataFrame(report.to_dict())`` makes a data frame of it. A class absent from
+        ``y_true`` has NaN accuracy and Type-II error.
+        """
+        rows = self.rows() if mean_row else self.rows()[:-1]
+        return {column: [row[column] for row in rows] for column in rows[0]}
+
+    def __str__(self) -> str:
+        """The table as text: one line per class, the mean row, then the overall accuracy ("n/a" where
+        a rate is undefined: a class absent from ``y_true``, or one class only)."""
+        rows = self.rows()
+        width = max(5, *(len(row["class"]) for row in rows))
+
+        def rate(value: float) -> str:
+            return f"{value:.4f}" if np.isfinite(value) else "n/a"
+
+        lines = [f"{'class':<{width}} {'samples':>7} {'accuracy':>9} {'type I':>8} {'type II':>8}"]
+        for row in rows:
+            lines.append(
+                f"{row['class']:<{width}} {row['samples']:>7} {rate(row['accuracy']):>9} "
+                f"{rate(row['type I error']):>8} {rate(row['type II error']):>8}"
+            )
+        lines.append(f"overall accuracy {self.overall_accuracy:.4f}")
+        return "\n".join(lines)
+
 
 def class_report(
     y_true: object, y_pred: object, *, labels: object = None, names: object = None
@@ -159,7 +189,7 @@ def class_report(
 
     Parameters
     ----------
-    y_true, y_pred : array-like or tensor of shape (n,)
+    y_true, y_pred : array-like, pandas Series or tensor of shape (n,)
     labels : array-like of shape (C,), optional
         The classes and their order (default: the sorted union of both label arrays).
     names : sequence of str of length C, optional
@@ -168,12 +198,22 @@ def class_report(
     Returns
     -------
     ClassReport
+        ``print(report)`` shows it as a table; ``report.to_dict()`` gives its columns.
 
     Examples
     --------
-    >>> rep = class_report([0, 0, 1, 1, 2, 2], [0, 1, 1, 1, 2, 0])
+    >>> rep = class_report([0, 0, 1, 1, 2, 2], [0, 1, 1, 1, 2, 0], names=["cork", "felt", "foam"])
     >>> rep.accuracy.tolist(), rep.type1.tolist()
     ([0.5, 1.0, 0.5], [0.25, 0.25, 0.0])
+    >>> print(rep)
+    class samples  accuracy   type I  type II
+    cork        2    0.5000   0.2500   0.5000
+    felt        2    1.0000   0.2500   0.0000
+    foam        2    0.5000   0.0000   0.5000
+    mean        6    0.6667   0.1667   0.3333
+    overall accuracy 0.6667
+    >>> rep.to_dict()["accuracy"]
+    [0.5, 1.0, 0.5]
     """
     a = _as_label_array(y_true, "y_true")
     b = _as_label_array(y_pred, "y_pred")

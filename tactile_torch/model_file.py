@@ -10,18 +10,27 @@ Layout (format version 1, ``docs/formats.md``):
 
 ``header`` (JSON)
     ``format`` = ``"tactile-torch/model"``, ``format_version``, ``library_version``, ``kind``
-    (``"classifier"`` or ``"clustering"``), ``method`` (``hmsvm``, ``svm``, ``pyp``), ``class_names``
+    (``"classifier"`` or ``"clustering"``), ``method`` (``hmsvm``, ``svm``, ``lda``, ``knn``, ``ncm``,
+    ``pyp``), ``class_names``
     (in the order of the head's labels), ``source`` (how the raw input becomes features: ``kind``
     ``"vibration"`` with ``window``, ``step``, ``rate_hz``; ``"image"`` with ``fuse``,
-    ``frame_shape`` ``[T, 3, H, W]``; ``"features"`` with ``n_features``), ``head`` (its ``type``
+    ``frame_shape`` ``[T, 3, H, W]`` and optionally ``threshold`` (gray level, default 240/255) and
+    ``erosion`` (pixels, default 10); ``"features"`` with ``n_features``), ``head`` (its ``type``
     and settings), optional ``transform``, ``params`` (hyper-parameters), ``test_accuracy``,
     ``summary``; classifiers: ``ood`` (``type`` ``"mahalanobis"``, ``quantile``, ``threshold``: the
     out-of-distribution distance of :mod:`tactile_torch.ood`).
 ``scale`` ``(F,)``
     classifiers: the training standard deviation each feature is divided by.
+``center`` ``(F,)`` (optional)
+    classifiers: subtracted before the division (a ``StandardScaler``'s mean; absent: 0).
+``select`` ``(F,)`` int (optional)
+    classifiers: the columns of the front end's features the head takes (best-ranked subsets),
+    applied before ``center`` and ``scale``.
 ``head.<name>``
     the head's arrays: an SVM's ``support_vectors`` ``(S, F)``, ``dual_coef`` ``(M, S)``,
-    ``intercept`` ``(M,)`` (and the tree tables of a hierarchical SVM); a mixture's ``means``
+    ``intercept`` ``(M,)`` (and the tree tables of a hierarchical SVM); a linear head's (LDA, nearest
+    class mean) ``coef`` ``(M, F)``, ``intercept`` ``(M,)``; a nearest-neighbour head's training
+    ``samples`` ``(T, F)`` and ``labels`` ``(T,)``; a mixture's ``means``
     ``(K, D)``, ``precisions_cholesky`` ``(K, D, D)``, ``log_weights`` ``(K,)``.
 ``ood.means`` ``(C, F)``, ``ood.precision_cholesky`` ``(F, F)``
     classifiers: the statistics of the out-of-distribution distance (older files lack them).
@@ -50,8 +59,9 @@ import numpy as np
 from .formats import PathLike, check_class_names, read_npz, write_npz
 
 FORMAT = "tactile-torch/model"
-FORMAT_VERSION = 1
-"""Version of the layout written here; files of a newer version are refused with a clear message."""
+FORMAT_VERSION = 2
+"""Newest layout read and written here (2: ``center``, ``select``, ``linear`` and ``neighbours`` heads;
+files without them are written as version 1); files of a newer version are refused with a clear message."""
 KINDS = ("classifier", "clustering")
 HEADER = "header"
 
@@ -83,6 +93,17 @@ HEADS: dict[str, dict] = {
             ),
         },
         "settings": {"mode": str, "kernel": str, "gamma": float, "depth": int},
+    },
+    "linear": {
+        # LDA and nearest class mean: scores x @ coef.T + intercept; two classes may have one row ([-f, f])
+        "arrays": {"coef": (("M", "F"), "f"), "intercept": (("M",), "f")},
+        "modes": {"multiclass": ({}, lambda c: c), "binary": ({}, lambda c: 1)},
+        "settings": {"mode": str},
+    },
+    "neighbours": {
+        # k nearest training samples (city-block p = 1 or Euclidean p = 2), uniform or 1/d weights
+        "arrays": {"samples": (("T", "F"), "f"), "labels": (("T",), "i")},
+        "settings": {"n_neighbors": int, "weights": str, "p": int},
     },
     "gaussian-mixture": {
         "arrays": {
@@ -117,9 +138,11 @@ DIMENSIONS = {
     "P": "pairs of classes",
     "N": "tree nodes",
     "G": "clustering features",
+    "T": "training samples of a nearest-neighbour head",
+    "R": "features the front end makes (before 'select')",
 }
 """What each named dimension of :data:`HEADS` and :data:`TRANSFORMS` counts (for error messages)."""
-METHODS = {"classifier": ("hmsvm", "svm"), "clustering": ("pyp",)}
+METHODS = {"classifier": ("hmsvm", "svm", "lda", "knn", "ncm"), "clustering": ("pyp",)}
 VIBRATION_FEATURES = 21  # window_features: 7 per axis
 IMAGE_FEATURES = 12  # exploration_features per fused image (or per frame without fusion)
 
@@ -176,9 +199,14 @@ def save_model_file(path: PathLike, header: Mapping, arrays: Mapping[str, np.nda
     """
     from . import __version__
 
+    arrays_given = {k: np.asarray(v) for k, v in arrays.items()}
+    head_type = (header.get("head") or {}).get("type") if isinstance(header.get("head"), dict) else None
+    # Version 2 added what a version-1 reader would misread or refuse (centring, column selection, the
+    # linear and nearest-neighbour heads); files without them stay version 1, readable by older versions.
+    newer = "center" in arrays_given or "select" in arrays_given or head_type in ("linear", "neighbours")
     header = {
         "format": FORMAT,
-        "format_version": FORMAT_VERSION,
+        "format_version": FORMAT_VERSION if newer else 1,
         "library_version": __version__,
         **dict(header),
     }
@@ -302,6 +330,14 @@ def _check_source(where: str, source: object) -> int | None:
         return VIBRATION_FEATURES
     if kind == "image":
         _check_type(where, "source.fuse", source.get("fuse"), bool)
+        if "threshold" in source:
+            _check_type(where, "source.threshold", source["threshold"], float)
+            if not 0 < source["threshold"] <= 1:
+                _fail(where, f"source.threshold must be a gray level in (0, 1], got {source['threshold']!r}")
+        if "erosion" in source:
+            _check_type(where, "source.erosion", source["erosion"], int)
+            if source["erosion"] < 1:
+                _fail(where, f"source.erosion must be >= 1 pixel, got {source['erosion']!r}")
         shape = source.get("frame_shape")
         if not (
             isinstance(shape, list)
@@ -364,11 +400,37 @@ def validate_model(header: object, arrays: Mapping[str, np.ndarray], *, where: s
         dims["F"] = tdims["F"]
     elif n_features is not None:
         dims["F"] = n_features
+    if (
+        kind == "classifier" and "select" in arrays
+    ):  # the head takes these columns of the front end's features
+        dims["R"] = dims.pop("F")
+        _check_arrays(where, "", {"select": (("F",), "i")}, arrays, dims)
+        if arrays["select"].size and (arrays["select"].min() < 0 or arrays["select"].max() >= dims["R"]):
+            _fail(
+                where,
+                f"select must lie in 0..{dims['R'] - 1}, got {arrays['select'].min()}..{arrays['select'].max()}",
+            )
     if kind == "classifier":
         _check_arrays(where, "", {"scale": (("F",), "f")}, arrays, dims)
         if (arrays["scale"] <= 0).any():
             _fail(where, "scale must be > 0 (a standard deviation per feature)")
+        if "center" in arrays:
+            _check_arrays(where, "", {"center": (("F",), "f")}, arrays, dims)
     _check_arrays(where, "head", head_arrays, arrays, dims)
+    if head["type"] == "neighbours":
+        if (
+            head["weights"] not in ("uniform", "distance")
+            or head["p"] not in (1, 2)
+            or head["n_neighbors"] < 1
+        ):
+            _fail(
+                where,
+                "head must have weights 'uniform' or 'distance', p 1 or 2 and n_neighbors >= 1, got "
+                f"{head['weights']!r}, {head['p']!r}, {head['n_neighbors']!r}",
+            )
+        labels = arrays["head.labels"]
+        if labels.size and (labels.min() < 0 or labels.max() >= dims["C"]):
+            _fail(where, f"head.labels must lie in 0..{dims['C'] - 1}, got {labels.min()}..{labels.max()}")
     if kind == "classifier" and header.get("ood") is not None:
         _check_ood(where, header["ood"], arrays, dims)
     if head["type"] == "svm" and head["mode"] == "tree":

@@ -131,11 +131,14 @@ class InferencePipeline(nn.Module):
         return f"name={self.name!r}, input=({self.input_layout})={self.input_shape}, classes={len(self.class_names)}"
 
 
-def _scaler(scale: np.ndarray) -> nn.Module:
+def _scaler(scale: np.ndarray, center: np.ndarray | None = None) -> nn.Module:
     from .signal import ScaleFeatures
 
     scale = torch.as_tensor(np.asarray(scale, dtype=np.float32))
-    return ScaleFeatures(torch.zeros_like(scale), scale)
+    center = (
+        torch.zeros_like(scale) if center is None else torch.as_tensor(np.asarray(center, dtype=np.float32))
+    )
+    return ScaleFeatures(center, scale)
 
 
 def _front_end(
@@ -172,7 +175,11 @@ def _front_end(
             "erosion": DEFAULT_EROSION,
             "edge_threshold": DEFAULT_EDGE_THRESHOLD,
         }
-        return [ExplorationFeatures(fuse=fuse)], [None, t, c, h, w], "B,T,3,H,W", meta
+        threshold = float(source.get("threshold", DEFAULT_THRESHOLD))
+        erosion = int(source.get("erosion", DEFAULT_EROSION))
+        meta.update(threshold=threshold, erosion=erosion)
+        front = ExplorationFeatures(fuse=fuse, threshold=threshold, erosion=erosion)
+        return [front], [None, t, c, h, w], "B,T,3,H,W", meta
     if kind == "features":
         n = int(source["n_features"])
         return [], [None, n], "B,F", {}
@@ -213,18 +220,19 @@ def pipeline_from_model(
     modules, shape, layout, meta = _front_end(source, sensor_range_g)
     head = model.header["head"]
     params = model.header.get("params", {})
-    meta.update(
-        method=model.method,
-        feature_scale=[float(s) for s in model.arrays["scale"]],
-        kernel=head["kernel"],
-        gamma=float(head["gamma"]),
-    )
+    meta.update(method=model.method, feature_scale=[float(s) for s in model.arrays["scale"]])
+    if head["type"] == "svm":
+        meta.update(kernel=head["kernel"], gamma=float(head["gamma"]))
     if "C" in params:
         meta["C"] = float(params["C"])
     if model.header.get("test_accuracy") is not None:
         meta["test_accuracy"] = float(model.header["test_accuracy"])
-    front = nn.Sequential(*modules, _scaler(model.arrays["scale"]))
-    classifier = _svm_head(head, model.part("head"))
+    if "select" in model.arrays:
+        from .tradeoff.transformers import ColumnSelect
+
+        modules.append(ColumnSelect(model.arrays["select"]))
+    front = nn.Sequential(*modules, _scaler(model.arrays["scale"], model.arrays.get("center")))
+    classifier = _classifier_head(head, model.part("head"), len(model.class_names))
     ood = model.header.get("ood")
     if ood is not None:  # "unknown" as an answer: the graph also gives the distance to training
         from .ood import QUANTILE_KEY, THRESHOLD_KEY, MahalanobisDistance, WithDistance
@@ -244,6 +252,24 @@ def pipeline_from_model(
         class_names=model.class_names,
         metadata=meta,
     )
+
+
+def _classifier_head(settings: dict, arrays: dict[str, np.ndarray], n_classes: int) -> nn.Module:
+    """The classifier's inference module from a model file's ``head`` (SVM, linear or nearest neighbours)."""
+    from .baselines import LinearInference, NeighboursInference
+
+    if settings["type"] == "linear":
+        return LinearInference(arrays["coef"], arrays["intercept"])
+    if settings["type"] == "neighbours":
+        return NeighboursInference(
+            arrays["samples"],
+            arrays["labels"],
+            n_classes,
+            n_neighbors=settings["n_neighbors"],
+            weights=settings["weights"],
+            p=settings["p"],
+        )
+    return _svm_head(settings, arrays)
 
 
 def _svm_head(settings: dict, arrays: dict[str, np.ndarray]) -> nn.Module:

@@ -696,46 +696,103 @@ def breaking_table(curves: Iterable[Curve]) -> list[dict[str, Any]]:
     ]
 
 
-def plot_factor(curves: Sequence[Curve], *, ax: Any = None) -> Any:
+_AXIS_TITLES = {
+    "feature SNR": "feature SNR (dB)",
+    "image noise": "image noise (mean, variance)",
+    "frames": "frames per exploration",
+    "sensel grid": "sensel size (times the sensor's)",
+    "erosion / pitch": "erosion square (texture pitches)",
+    "window": "window (samples)",
+    "sensor noise": "sensor noise (g, standard deviation)",
+    "quantisation": "quantisation step (g)",
+    "saturation": "sensor range (± g)",
+    "sample rate": "sample rate (times lower)",
+    "training samples": "training samples per class",
+    "drift": "test segment centre (share of the recording)",
+}
+
+
+def axis_title(f: Degradation) -> str:
+    """Return the x-axis title of a factor's chart: the quantity and its unit, said once (the tick
+    labels are bare numbers)."""
+    if f.name in _AXIS_TITLES:
+        return _AXIS_TITLES[f.name]
+    return f.name if not f.unit or f.unit in f.name else f"{f.name} ({f.unit})"
+
+
+def _tick(level: Any) -> str:
+    if isinstance(level, tuple):
+        return "(" + ", ".join(f"{v:.3g}" for v in level) + ")"
+    return f"{level:.3g}" if isinstance(level, int | float) else str(level)
+
+
+def _legend_handles(models: Sequence[str]) -> tuple[list, list[str]]:
+    """Legend entries shared by the factor charts: one line per model, then what the marks mean."""
+    from matplotlib.lines import Line2D
+
+    handles = [Line2D([], [], color=f"C{i}", marker="o", ms=3) for i in range(len(models))]
+    labels = list(models)
+    handles += [
+        Line2D([], [], color="grey", ls="--", lw=0.8),
+        Line2D([], [], color="k", ls=":", lw=0.8),
+        Line2D([], [], color="k", marker="v", ls="", ms=7),
+    ]
+    labels += ["chance", "halfway to chance (model's colour)", "breaking point"]
+    return handles, labels
+
+
+def plot_factor(
+    curves: Sequence[Curve], *, ax: Any = None, legend: bool = True, models: Sequence[str] | None = None
+) -> Any:
     """Return a figure of accuracy against level for every curve of one factor.
 
     Lines are the accuracies along the breaking path with their 95 % bands; the clean accuracy is the
     first point (at the left, marked "clean"), dotted lines the halfway thresholds, the dashed grey line
-    chance, and triangles the breaking levels. Severity grows to the right.
+    chance, and triangles the breaking levels. Severity grows to the right. The x-axis title gives the
+    quantity and its unit; the ticks are the levels. ``legend=False`` leaves the legend to the caller
+    (:func:`plot_factors` draws one for all panels); ``models`` fixes each model's colour (its index).
     """
     import matplotlib.pyplot as plt
 
     if not curves:
         raise ValueError("curves must hold at least one curve, got none")
     f = curves[0].factor
+    models = list(models) if models is not None else list(dict.fromkeys(c.model for c in curves))
     fig = ax.figure if ax is not None else plt.subplots(figsize=(6.4, 3.8))[0]
     ax = ax if ax is not None else fig.axes[0]
     longest = max(curves, key=lambda c: len(c.path()[0]))
-    labels = ["clean"] + [f.label(v) for v in longest.path()[0]]
-    for i, c in enumerate(curves):
+    labels = ["clean"] + [_tick(v) for v in longest.path()[0]]
+    for c in curves:
         _, acc, low, high = c.path()
         x = np.arange(len(acc) + 1)
-        colour = f"C{i}"
-        ax.plot(x, np.r_[c.clean, acc], marker="o", ms=3, color=colour, label=c.model)
+        colour = f"C{models.index(c.model)}"
+        ax.plot(x, np.r_[c.clean, acc], marker="o", ms=3, color=colour)
         ax.fill_between(x, np.r_[c.clean_low, low], np.r_[c.clean_high, high], color=colour, alpha=0.15)
         ax.axhline(c.breaking.threshold, color=colour, ls=":", lw=0.8)
         if c.breaking.status == "reached":
             ax.plot([c.breaking.position], [c.breaking.threshold], marker="v", ms=8, color=colour)
-    ax.axhline(curves[0].chance, color="grey", ls="--", lw=0.8, label="chance")
+    ax.axhline(curves[0].chance, color="grey", ls="--", lw=0.8)
+    crowded = len(labels) * max(len(t) for t in labels) > 36  # about what a 4-inch axis holds at 8 pt
     ax.set_xticks(
-        np.arange(len(labels)), labels, rotation=45 if len(labels) > 6 else 0, ha="right", fontsize=7
+        np.arange(len(labels)),
+        labels,
+        rotation=45 if crowded else 0,
+        ha="right" if crowded else "center",
+        fontsize=8,
     )
-    ax.set_xlabel(f"{f.name} ({f.unit})")
+    ax.set_xlabel(axis_title(f))
     ax.set_ylabel("accuracy")
     ax.set_ylim(0.0, 1.02)
     ax.set_title(f.name, fontsize=9)
-    ax.legend(fontsize=7, loc="lower left")
+    if legend:
+        ax.legend(*_legend_handles(models), fontsize=7, loc="lower left")
     ax.grid(alpha=0.3)
     return fig
 
 
 def plot_factors(curves: Iterable[Curve], *, columns: int = 4) -> Any:
-    """Return one figure with a panel per factor (:func:`plot_factor`), every candidate's curve in each."""
+    """Return one figure with a panel per factor (:func:`plot_factor`), every candidate's curve in each,
+    and one legend for all panels (the models keep their colour from panel to panel)."""
     import matplotlib.pyplot as plt
 
     by: dict[str, list[Curve]] = {}
@@ -743,13 +800,16 @@ def plot_factors(curves: Iterable[Curve], *, columns: int = 4) -> Any:
         by.setdefault(c.factor.name, []).append(c)
     if not by:
         raise ValueError("curves must hold at least one curve, got none")
+    models = list(dict.fromkeys(c.model for group in by.values() for c in group))
     rows = -(-len(by) // columns)
-    fig, axes = plt.subplots(rows, columns, figsize=(4.2 * columns, 3.4 * rows), squeeze=False)
+    fig, axes = plt.subplots(rows, columns, figsize=(4.2 * columns, 3.4 * rows + 0.6), squeeze=False)
     for ax, group in zip(axes.flat, by.values(), strict=False):
-        plot_factor(group, ax=ax)
+        plot_factor(group, ax=ax, legend=False, models=models)
     for ax in list(axes.flat)[len(by) :]:
         ax.set_visible(False)
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0, 1, 1 - 0.6 / (3.4 * rows + 0.6)))
+    handles, labels = _legend_handles(models)
+    fig.legend(handles, labels, loc="upper center", ncol=min(len(labels), 6), fontsize=8, frameon=False)
     return fig
 
 

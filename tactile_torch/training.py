@@ -7,10 +7,10 @@ matrix) and computes its features (:func:`tactile_torch.image.exploration_featur
 part, scales every feature to unit standard deviation on the training part (as in the study; the scale is
 kept with the model), fits a classifier of the catalogue (:mod:`tactile_torch.catalogue`: the HM-SVM,
 a one-vs-one SVM, LDA, kNN with k = 3, city-block distance and inverse-distance weights, or nearest class
-mean) and reports on the test part. :func:`save_model` writes an SVM's model
-file (:mod:`tactile_torch.model_file`: plain arrays and a JSON header, no pickle) with everything the
-export needs: the scale, the class names, how the features were made and the arrays of the SVM's
-inference module (:class:`tactile_torch.svm.SVMInference`).
+mean) and reports on the test part. :func:`save_model` writes the model file
+(:mod:`tactile_torch.model_file`: plain arrays and a JSON header, no pickle) with everything the export
+needs: the scale, the class names, how the features were made and the arrays of the classifier's
+inference module (:func:`classifier_head`).
 """
 
 from __future__ import annotations
@@ -154,10 +154,14 @@ class TrainedModel:
     report: object
     train_index: np.ndarray
     test_index: np.ndarray
+    select: np.ndarray | None = None
 
     def predict(self, X: np.ndarray) -> np.ndarray:
         """Return the class index of each row of unscaled features ``X`` (N, F)."""
-        return self.estimator.predict(np.asarray(X, dtype=np.float64) / self.scale)
+        X = np.asarray(X, dtype=np.float64)
+        if self.select is not None:
+            X = X[:, self.select]
+        return self.estimator.predict(X / self.scale)
 
 
 def train_classifier(
@@ -168,12 +172,15 @@ def train_classifier(
     gamma: str | float = "scale",
     kernel: str = "rbf",
     test_size: float = 0.25,
+    select: int | None = None,
     random_state: RandomState = None,
 ) -> TrainedModel:
     """Fit ``method`` on a stratified ``1 - test_size`` of the features; report on the rest.
 
     Each feature is divided by its standard deviation (``ddof=1``) on the training part (1 for a
-    constant feature); the same scale applies to any data the model classifies.
+    constant feature); the same scale applies to any data the model classifies. ``select``: keep only
+    the ``select`` best-ranked features of the training part (the trade-off's "top k" feature sets,
+    :class:`~tactile_torch.tradeoff.transformers.RankedFeatureSelector`).
     """
     from sklearn.model_selection import train_test_split
 
@@ -196,76 +203,158 @@ def train_classifier(
     seed = int(numpy_rng(random_state).integers(2**31))
     index = np.arange(features.X.shape[0])
     train, test = train_test_split(index, test_size=test_size, stratify=features.y, random_state=seed)
-    std = features.X[train].std(axis=0, ddof=1)
+    columns = None
+    X = features.X
+    if select is not None:
+        from .tradeoff.transformers import RankedFeatureSelector
+
+        check_positive(select, "select", integer=True)
+        if select > X.shape[1]:
+            raise ValueError(f"select must be at most the {X.shape[1]} features, got {select}")
+        columns = RankedFeatureSelector(select).fit(X[train], features.y[train]).columns_
+        X = X[:, columns]
+    std = X[train].std(axis=0, ddof=1)
     scale = np.where(std > 0, std, 1.0)
     estimator = make_classifier(method, C=C, gamma=gamma, kernel=kernel, random_state=seed)
-    estimator.fit(features.X[train] / scale, features.y[train])
-    pred = estimator.predict(features.X[test] / scale)
+    estimator.fit(X[train] / scale, features.y[train])
+    pred = estimator.predict(X[test] / scale)
     names = features.class_names
     report = class_report(features.y[test], pred, labels=np.arange(len(names)), names=names)
-    return TrainedModel(method, estimator, scale, report, np.sort(train), np.sort(test))
+    return TrainedModel(method, estimator, scale, report, np.sort(train), np.sort(test), columns)
 
 
-def save_model(path: str | Path, model: TrainedModel, features: FeatureSet) -> Path:
-    """Write a trained SVM (``hmsvm`` or ``svm``) to a model file; return ``path``.
+def classifier_head(estimator: object) -> tuple[str, dict, dict[str, np.ndarray]]:
+    """Return ``(method, head settings, head arrays)`` of a fitted classifier for its model file.
 
-    The file (:mod:`tactile_torch.model_file`, no pickle) holds the feature ``scale``, the class
-    names in the order of the SVM's labels, how features are made (``source``), the
-    hyper-parameters, the held-out accuracy and the arrays of the SVM's inference path
-    (:class:`tactile_torch.svm.SVMInference`: support vectors, dual coefficients, intercepts and,
-    for the HM-SVM, the tree tables), which is what ``tactile-torch export`` turns into ONNX.
+    The arrays are those of its torch inference module (:func:`tactile_torch.baselines.inference_module`):
+    an SVM's support vectors, dual coefficients, intercepts (and tree tables); LDA's and the nearest
+    class mean's linear scores ``coef`` ``(M, F)``, ``intercept`` ``(M,)``; kNN's training ``samples``
+    and ``labels``.
 
     Raises
     ------
-    ValueError
-        For LDA and kNN, which have no exportable inference path (they serve as the study's
-        baselines; persist them with scikit-learn's own tools if needed).
+    TypeError
+        For a classifier without an inference module.
     """
-    if not hasattr(model.estimator, "to_module"):
-        raise ValueError(
-            f"method {model.method!r} has no exportable inference path, so it has no model file: "
-            "save an SVM (--method hmsvm or --method svm)"
-        )
-    from .model_file import save_model_file
+    from sklearn.discriminant_analysis import LinearDiscriminantAnalysis
+    from sklearn.neighbors import KNeighborsClassifier, NearestCentroid
 
-    module = model.estimator.to_module()
-    params = {
-        k: v
-        for k, v in model.estimator.get_params().items()
-        if isinstance(v, str | int | float | bool) and k != "random_state"
-    }
-    header = {
-        "kind": "classifier",
-        "method": model.method,
-        "class_names": [str(features.class_names[int(c)]) for c in model.estimator.classes_],
-        "source": dict(features.source),
-        "params": params,
-        "test_accuracy": float(model.report.overall_accuracy),
-        "head": {
+    from .baselines import inference_module
+    from .svm import SVC, HierarchicalSVC
+
+    module = inference_module(estimator)
+    buffers = {name: buf.numpy() for name, buf in module.named_buffers()}
+    if isinstance(estimator, HierarchicalSVC | SVC):
+        method = "hmsvm" if isinstance(estimator, HierarchicalSVC) else "svm"
+        head = {
             "type": "svm",
             "mode": module.mode,
             "kernel": module.kernel,
             "gamma": float(module.gamma),
             "depth": int(module.depth),
-        },
+        }
+        return method, head, buffers
+    if isinstance(estimator, LinearDiscriminantAnalysis | NearestCentroid):
+        method = "lda" if isinstance(estimator, LinearDiscriminantAnalysis) else "ncm"
+        mode = "binary" if buffers["coef"].shape[0] == 1 else "multiclass"
+        return (
+            method,
+            {"type": "linear", "mode": mode},
+            {"coef": buffers["coef"], "intercept": buffers["intercept"]},
+        )
+    if isinstance(estimator, KNeighborsClassifier):
+        head = {
+            "type": "neighbours",
+            "n_neighbors": module.n_neighbors,
+            "weights": module.weights,
+            "p": module.p,
+        }
+        labels = buffers["votes"].argmax(1).astype(np.int64)
+        return "knn", head, {"samples": buffers["samples"], "labels": labels}
+    raise TypeError(f"estimator has no model-file form: {type(estimator).__name__}")
+
+
+def write_classifier_file(
+    path: str | Path,
+    estimator: object,
+    *,
+    class_names: Sequence[str],
+    source: dict,
+    scale: np.ndarray,
+    center: np.ndarray | None = None,
+    select: np.ndarray | None = None,
+    test_accuracy: float | None = None,
+    extra: dict | None = None,
+    ood: dict | None = None,
+) -> Path:
+    """Write a fitted classifier and its feature preprocessing to a model file (no pickle); return ``path``.
+
+    ``class_names`` name the estimator's ``classes_`` in order; ``source`` says how raw input becomes
+    features (:mod:`tactile_torch.model_file`); the head takes ``(features[:, select] - center) / scale``.
+    ``ood``: a fitted out-of-distribution state (:func:`tactile_torch.ood.fit_ood` on those scaled
+    features, classes in the head's order, with its ``quantile``), written as the file's ``ood`` part.
+    """
+    from .model_file import save_model_file
+
+    method, head, head_arrays = classifier_head(estimator)
+    params = {
+        k: v
+        for k, v in estimator.get_params().items()
+        if isinstance(v, str | int | float | bool) and k != "random_state"
     }
-    arrays = {"scale": np.asarray(model.scale, dtype=np.float64)}
-    arrays.update({f"head.{name}": buf.numpy() for name, buf in module.named_buffers()})
-    # "unknown" as an answer: the distance of a sample's features to the training classes
-    # (tactile_torch.ood), fitted on the training rows, classes in the order of the head's labels
+    header = {
+        "kind": "classifier",
+        "method": method,
+        "class_names": [str(c) for c in class_names],
+        "source": dict(source),
+        "params": params,
+        "head": head,
+        **({"test_accuracy": float(test_accuracy)} if test_accuracy is not None else {}),
+        **(extra or {}),
+    }
+    arrays = {"scale": np.asarray(scale, dtype=np.float64)}
+    if center is not None:
+        arrays["center"] = np.asarray(center, dtype=np.float64)
+    if select is not None:
+        arrays["select"] = np.asarray(select, dtype=np.int64)
+    arrays.update({f"head.{name}": value for name, value in head_arrays.items()})
+    if ood is not None:  # "unknown" as an answer (tactile_torch.ood): distances to the training classes
+        header["ood"] = {
+            "type": "mahalanobis",
+            "quantile": ood["quantile"],
+            "threshold": float(ood["threshold"]),
+        }
+        arrays.update({"ood.means": ood["means"], "ood.precision_cholesky": ood["precision_cholesky"]})
+    return save_model_file(path, header, arrays)
+
+
+def save_model(path: str | Path, model: TrainedModel, features: FeatureSet) -> Path:
+    """Write a trained classifier (any of :data:`METHODS`) to a model file; return ``path``.
+
+    The file (:mod:`tactile_torch.model_file`, no pickle) holds the feature ``scale`` (and ``select``,
+    the kept columns), the class names in the order of the classifier's labels, how features are made
+    (``source``), the hyper-parameters, the held-out accuracy and the arrays of the classifier's
+    inference module (:func:`classifier_head`), which is what ``tactile-torch export`` turns into ONNX.
+    """
     from .ood import DEFAULT_QUANTILE, fit_ood
 
+    names = [str(features.class_names[int(c)]) for c in model.estimator.classes_]
+    # "unknown" as an answer: the distance of a sample's features to the training classes
+    # (tactile_torch.ood), fitted on every row of the data, classes in the order of the head's labels
     classes = np.asarray(model.estimator.classes_)
-    known = np.isin(features.y, classes)  # every row of the data: train and test part alike
-    head_labels = np.searchsorted(classes, features.y[known])
-    ood = fit_ood(features.X[known] / model.scale, head_labels, quantile=DEFAULT_QUANTILE)
-    header["ood"] = {
-        "type": "mahalanobis",
-        "quantile": DEFAULT_QUANTILE,
-        "threshold": float(ood["threshold"]),
-    }
-    arrays.update({"ood.means": ood["means"], "ood.precision_cholesky": ood["precision_cholesky"]})
-    return save_model_file(path, header, arrays)
+    known = np.isin(features.y, classes)
+    X = features.X[known] if model.select is None else features.X[known][:, model.select]
+    ood = fit_ood(X / model.scale, np.searchsorted(classes, features.y[known]), quantile=DEFAULT_QUANTILE)
+    return write_classifier_file(
+        path,
+        model.estimator,
+        class_names=names,
+        source=features.source,
+        scale=model.scale,
+        select=model.select,
+        test_accuracy=float(model.report.overall_accuracy),
+        ood={**ood, "quantile": DEFAULT_QUANTILE},
+    )
 
 
 def load_model(path: str | Path):
@@ -282,9 +371,11 @@ __all__ = [
     "METHODS",
     "FeatureSet",
     "TrainedModel",
+    "classifier_head",
     "load_features",
     "load_model",
     "make_classifier",
     "save_model",
     "train_classifier",
+    "write_classifier_file",
 ]

@@ -49,6 +49,7 @@ def files(tmp_path_factory):
     y_one = y.copy()
     y_one[-9:] = 1  # 'glass' keeps one sample
     np.savez(d / "one.npz", features=X, labels=y_one, class_names=names)
+    np.savez(d / "feat.npz", features=X + y[:, None], labels=y, class_names=names)
     frames = np.zeros((2, 3, 8, 8, 3), np.uint8)
     np.savez(d / "images.npz", frames=frames, labels=np.array([0, 1]), class_names=np.array(["a", "b"]))
     assert (
@@ -97,11 +98,29 @@ CASES = [
     ),
     ("train", ["--data", "one.npz"], "one.npz: labels: every class needs at least 2 samples"),
     ("train", ["--data", "legacy.npz"], "legacy.npz: signals is a pickled object array"),
+    ("train", ["--data", "rec.npz", "--select", "0"], "--select must be a number of features >= 1, got 0"),
     (
-        "train",
-        ["--data", "rec.npz", "--method", "lda", "--out", "lda.npz"],
-        "--out: method 'lda' has no exportable",
+        "tradeoff",
+        ["--data", "feat.npz", "--folds", "1000"],
+        "n_folds (--folds) must be at most 10 here",
     ),
+    ("tradeoff", ["--data", "feat.npz", "--folds", "1"], "--folds must be a whole number >= 2, got 1"),
+    (
+        "tradeoff",
+        ["--data", "feat.npz", "--max-per-class", "0"],
+        "--max-per-class must be 'auto' or a whole number >= 2",
+    ),
+    (
+        "tradeoff",
+        ["--data", "feat.npz", "--frame-rate", "0"],
+        "--frame-rate must be a number of frames/s > 0, got 0",
+    ),
+    (
+        "tradeoff",
+        ["--data", "feat.npz", "--target", "1.5"],
+        "--target must be an accuracy in (0, 1], got 1.5",
+    ),
+    ("tradeoff", ["--data", "feat.npz", "--deploy", "nonsense"], "deploy (--deploy) must name a candidate"),
     ("cluster", ["--data", "images.npz"], "images.npz: --data must hold vibration recordings"),
     ("cluster", ["--data", "feat_nan.npz"], "feat_nan.npz: features must be finite"),
     ("export", ["--model", "missing.npz"], "missing.npz: no such file"),
@@ -180,8 +199,10 @@ CASES = [
 @pytest.mark.parametrize(("command", "arguments", "says"), CASES, ids=[f"{c[0]}-{c[1][1]}" for c in CASES])
 def test_bad_input_gets_one_line_and_status_2(files, tmp_path, capsys, command, arguments, says):
     argv = [command, *(str(files / a) if a.endswith((".npz", ".onnx")) else a for a in arguments)]
-    if command in ("cluster", "export"):
-        argv += ["--out", str(tmp_path / ("out" if command == "cluster" else "out.onnx"))]
+    if command in ("cluster", "export", "tradeoff"):
+        argv += ["--out", str(tmp_path / ("out.onnx" if command == "export" else "out"))]
+    if command == "tradeoff":
+        argv += ["--quiet", "--quick", "--no-breaking", "--classifiers", "NCM"]
     assert main(argv) == BAD_INPUT_EXIT
     captured = capsys.readouterr()
     err = captured.err

@@ -76,7 +76,7 @@ def test_round_trip_fills_format_version_and_library_version(tmp_path):
     header, arrays = _svm_model()
     path = save_model_file(tmp_path / "model.npz", header, arrays)
     model = load_model_file(path, kind="classifier")
-    assert model.header["format"] == FORMAT and model.header["format_version"] == FORMAT_VERSION
+    assert model.header["format"] == FORMAT and model.header["format_version"] == 1 < FORMAT_VERSION
     assert model.header["library_version"] == __version__ and model.path == path
     assert model.kind == "classifier" and model.method == "svm" and model.class_names == ["cork", "felt"]
     assert sorted(model.part("head")) == ["dual_coef", "intercept", "support_vectors"]
@@ -116,12 +116,12 @@ def _changed(model, header=None, arrays=None, drop=()):
 @pytest.mark.parametrize(
     ("model", "match"),
     [
-        (_changed(_svm_model(), {"format_version": 2}), "written by a newer tactile-torch .* version 2"),
+        (_changed(_svm_model(), {"format_version": 3}), "written by a newer tactile-torch .* version 3"),
         (_changed(_svm_model(), {"format_version": "1"}), "format_version must be an int >= 1"),
         (_changed(_svm_model(), {"kind": "regressor"}), "kind must be one of"),
         (
-            _changed(_svm_model(), {"method": "lda"}),
-            r"method of a classifier must be one of \('hmsvm', 'svm'\)",
+            _changed(_svm_model(), {"method": "qda"}),
+            r"method of a classifier must be one of \('hmsvm', 'svm', 'lda', 'knn', 'ncm'\)",
         ),
         (_changed(_svm_model(), {"class_names": []}), "class_names must be a non-empty list of strings"),
         (_changed(_svm_model(), {"source": {"kind": "audio"}}), "source.kind must be 'vibration', 'image'"),
@@ -243,3 +243,52 @@ def test_model_files_load_without_torch(tmp_path):
     )
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "{'kind': 'features', 'n_features': 3}"
+
+
+def _linear_model(**arrays):
+    header = {
+        "format": FORMAT,
+        "format_version": 2,
+        "kind": "classifier",
+        "method": "lda",
+        "class_names": ["cork", "felt", "glass"],
+        "source": {"kind": "features", "n_features": 5},
+        "head": {"type": "linear", "mode": "multiclass"},
+    }
+    base = {
+        "scale": np.ones(3),
+        "center": np.zeros(3),
+        "select": np.array([0, 2, 4]),
+        "head.coef": np.ones((3, 3)),
+        "head.intercept": np.zeros(3),
+    }
+    return header, {**base, **arrays}
+
+
+@pytest.mark.parametrize(
+    ("arrays", "head", "says"),
+    [
+        ({"select": np.array([0, 2, 5])}, None, r"select must lie in 0\.\.4, got 0\.\.5"),
+        ({"select": np.array([0.0, 2.0, 4.0])}, None, "select must be integers"),
+        ({"center": np.zeros(4)}, None, r"center has shape \(4,\)"),
+        ({"head.coef": np.ones((2, 3))}, None, r"head.coef has shape \(2, 3\)"),
+        (
+            {"head.samples": np.ones((4, 3)), "head.labels": np.array([0, 1, 2, 3])},
+            {"type": "neighbours", "n_neighbors": 3, "weights": "distance", "p": 1},
+            r"head.labels must lie in 0\.\.2",
+        ),
+        (
+            {"head.samples": np.ones((4, 3)), "head.labels": np.array([0, 1, 2, 2])},
+            {"type": "neighbours", "n_neighbors": 3, "weights": "distance", "p": 3},
+            "head must have weights 'uniform' or 'distance', p 1 or 2",
+        ),
+    ],
+)
+def test_version_2_fields_are_validated(arrays, head, says):
+    header, full = _linear_model(**arrays)
+    if head is not None:
+        header = {**header, "method": "knn", "head": head}
+        full = {k: v for k, v in full.items() if not k.startswith("head.coef") and k != "head.intercept"}
+    with pytest.raises(ValueError, match=says):
+        validate_model(header, full)
+    validate_model(*_linear_model())  # the unchanged model is valid

@@ -2,7 +2,9 @@
 path on tiny inputs, and one test per documented error."""
 
 import dataclasses
+import itertools
 import math
+import re
 
 import numpy as np
 import pytest
@@ -22,6 +24,7 @@ from tactile_torch.robustness import (
     factors_for,
     infer_kind,
     plot_factor,
+    plot_factors,
     plot_grid,
     recording_blocks,
     sweep,
@@ -231,6 +234,31 @@ def test_a_model_that_cannot_be_fitted_breaks_there():
     )
 
 
+def _overlapping_tick_labels(fig) -> list[str]:
+    """The x tick labels of ``fig`` that overlap their neighbour once drawn."""
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    found = []
+    for ax in fig.axes:
+        if not ax.get_visible():
+            continue
+        boxes = [(t.get_text(), t.get_window_extent(renderer)) for t in ax.get_xticklabels() if t.get_text()]
+        for (name, a), (_, b) in itertools.pairwise(boxes):
+            if a.overlaps(b):
+                found.append(f"{ax.get_title()}: {name}")
+    return found
+
+
+def test_axis_titles_say_the_unit_once():
+    """The ticks are bare numbers; the title holds the unit (the drift panel's "0.51 of the recording" ticks overlapped)."""
+    from tactile_torch.robustness import FACTORS, axis_title
+
+    for f in FACTORS:
+        words = re.findall(r"[\w±]+", axis_title(f))
+        assert len(words) == len(set(words)), axis_title(f)  # no word twice, e.g. "frames (frames)"
+    assert axis_title(factor("drift")) == "test segment centre (share of the recording)"
+
+
 def _tiny_frames(n_per_class=4, seed=0):
     gen = torch.Generator().manual_seed(seed)
     frames = torch.full((2 * n_per_class, 6, 3, 16, 16), 255, dtype=torch.uint8)
@@ -262,7 +290,16 @@ def test_every_image_factor_runs_on_tiny_frames():
     assert all(v <= 8 for v in by["sensel grid"][0].levels)
     assert len(by["image noise"][0].levels) == 25 and len(by["image noise"][0].path()[0]) == 5
     fig = plot_factor(by["frames"])
-    assert fig.axes[0].get_xlabel() == "frames (frames)"
+    ax = fig.axes[0]
+    assert ax.get_xlabel() == "frames per exploration"  # the unit said once, not "frames (frames)"
+    ticks = [t.get_text() for t in ax.get_xticklabels()]
+    assert ticks[0] == "clean" and not any("frames" in t for t in ticks[1:])
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == [
+        "fused", "chance", "halfway to chance (model's colour)", "breaking point"
+    ]  # fmt: skip
+    panels = plot_factors(result.curves)
+    assert len(panels.legends) == 1 and all(a.get_legend() is None for a in panels.axes)
+    assert not _overlapping_tick_labels(panels)
     plot_grid(by["image noise"][0], (0.1, 0.2, 0.3, 0.4, 0.5), (0.01, 0.03, 0.05, 0.07, 0.09))
     # without the texture pitch the erosion factor is skipped, not guessed
     skipped = sweep(
@@ -334,6 +371,7 @@ def test_every_vibration_factor_runs_and_drift_is_detected():
     assert drift.levels == (0.51, 0.65, 0.79, 0.93)
     assert drift.accuracy[-1] < drift.clean  # the gain drifted away from the training part
     assert all(v < 64 for v in by["window"][0].levels)
+    assert not _overlapping_tick_labels(plot_factors(result.curves))  # the drift panel's once did
 
 
 def test_drift_on_too_short_recordings_is_skipped():

@@ -46,12 +46,19 @@ def test_cli_train_prints_a_class_report_and_saves_the_model(feature_npz, tmp_pa
     np.testing.assert_array_equal(labels.numpy(), model.estimator.predict(X / scale))
 
 
-def test_save_model_writes_svms_only_and_train_needs_two_samples_per_class(feature_npz, tmp_path):
+def test_save_model_writes_every_method_and_train_needs_two_samples_per_class(feature_npz, tmp_path):
     features = load_features(feature_npz[0])
     lda = train_classifier(features, "lda", random_state=0)
-    with pytest.raises(ValueError, match="method 'lda' has no exportable inference path"):
-        save_model(tmp_path / "lda.npz", lda, features)
-    assert not (tmp_path / "lda.npz").exists()
+    saved = load_model(save_model(tmp_path / "lda.npz", lda, features))  # LDA has a model file now (v2)
+    assert saved.method == "lda" and saved.header["head"]["type"] == "linear"
+    labels = pipeline_from_model(saved).head(torch.tensor(features.X / lda.scale))[
+        0
+    ]  # (labels, scores, distance)
+    np.testing.assert_array_equal(labels.numpy(), lda.estimator.predict(features.X / lda.scale))
+    with pytest.raises(TypeError, match="estimator must be a fitted tactile_torch SVM"):
+        from tactile_torch.training import classifier_head
+
+        classifier_head(object())
     y = features.y.copy()
     y[y == 2] = 1
     y[0] = 2  # class 'glass' keeps a single sample

@@ -31,7 +31,10 @@ def run(section, ctx) -> None:
                 "value": f"{platform.machine()}, {os.cpu_count()} cores, torch threads {torch.get_num_threads()}",
             },
             {"item": "seed", "value": ctx.random_state},
-            {"item": "mode", "value": "quick" if ctx.quick else "full"},
+            {
+                "item": "mode",
+                "value": "quick (--quick)" if ctx.quick else ("full (--full)" if ctx.full else "default"),
+            },
         ],
         caption="Software and machine",
     )

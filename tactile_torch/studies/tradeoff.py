@@ -2,9 +2,10 @@
 
 Runs :func:`tactile_torch.tradeoff.run_tradeoff` (what ``tactile-torch tradeoff`` runs on a user's
 file) on the bundled synthetic vibration recordings and tactile-image explorations of this run, and
-shows per data set the candidates' accuracy (95 % interval over folds), fit time, ONNX latency at
-batch 1, size and time to a decision, the charts, and the recommendation by the one-standard-error
-rule (docs/tradeoff.md).
+shows per data set the candidates' accuracy (mean over the data's units, with the 95 % prediction
+interval for a new unit, or the range over fewer than 5 units), fit time, ONNX latency at batch 1, size
+and time to a decision, the chance level and the majority-class baseline, the charts, and the
+recommendation (the one-standard-error rule among the candidates above the baseline; docs/tradeoff.md).
 
 The learned models (networks, learned front ends) have their own section (:mod:`.learned_models`), so
 this one runs the classical candidates only (``learned=False``).
@@ -100,7 +101,8 @@ def _show(section, ctx, title: str, result, out: Path, paths: dict) -> None:
     section.text("\n".join(lines))
     section.table(
         table_rows(result),
-        caption=f"{title}: every candidate, cheapest (time to a decision) first; accuracy = mean over folds",
+        caption=f"{title}: every candidate, cheapest (time to a decision) first; accuracy = mean over the units "
+        "named in the interval column (docs/tradeoff.md)",
     )
     for kind in ("latency", "size", "decision"):
         if kind in paths:
@@ -126,7 +128,8 @@ def run(section, ctx) -> None:
         "Every candidate (classifier x feature set) is cross-validated with folds that keep related samples "
         "apart, exported to one ONNX file and timed under onnxruntime on one sample; the recommendation is "
         "the cheapest candidate (time to a decision) on the Pareto front whose accuracy is within one "
-        "standard error of the best (docs/tradeoff.md). "
+        "standard error of the best, among those significantly above the majority-class baseline; intervals "
+        "are for a new session, recording, object or time block, whichever the data hold (docs/tradeoff.md). "
         + (
             "This is the quick candidate set on a subset of the bundled data; `--full` runs every candidate."
             if quick

@@ -111,9 +111,11 @@ def _example_windows(section, rec) -> None:
             ax.plot(t[: len(window)], window[:, axis], lw=0.6, color=colour, label="xyz"[axis])
         ax.set_ylabel("g")
         ax.set_title(name, fontsize=9, loc="left")
-    np.atleast_1d(axes)[0].legend(ncol=3, fontsize=7, loc="upper right")
     np.atleast_1d(axes)[-1].set_xlabel("time (s)")
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0, 1, 1 - 0.3 / fig.get_figheight()))
+    # above the panels: inside one it covered the trace near 1 g
+    handles, labels = np.atleast_1d(axes)[0].get_legend_handles_labels()
+    fig.legend(handles, [f"axis {a}" for a in labels], ncol=3, fontsize=8, loc="upper right", frameon=False)
     section.figure(
         fig,
         "vibration-example-windows",
@@ -154,8 +156,10 @@ def _feature_distributions(section, ds, feats) -> None:
         ax.xaxis.set_major_locator(MaxNLocator(4))
         ax.yaxis.set_major_locator(MaxNLocator(3, integer=True))
         ax.tick_params(labelsize=8)
-    axes[0, -1].legend(fontsize=8, loc="upper right")
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0, 1, 1 - 0.4 / fig.get_figheight()))
+    # above the panels: inside one it covered the histograms
+    handles, labels = axes[0, 0].get_legend_handles_labels()
+    fig.legend(handles, labels, ncol=len(labels), fontsize=9, loc="upper center", frameon=False)
     section.figure(
         fig,
         "vibration-feature-distributions",

@@ -2,7 +2,7 @@
 
 Both follow scikit-learn's contract (hyper-parameters stored unchanged in ``__init__`` and validated
 at ``fit`` from ``_parameter_constraints``; results in trailing-underscore attributes;
-``NotFittedError`` before ``fit``), accept NumPy arrays and torch tensors, and export their inference
+``NotFittedError`` before ``fit``), accept NumPy arrays, pandas DataFrames and torch tensors, and export their inference
 path with ``to_module()`` (:class:`~tactile_torch.svm.inference.SVMInference`). Every binary problem
 is solved by the compiled SMO (:mod:`tactile_torch.svm.solver`); independent problems (pairs of
 classes, classes, tree nodes) run on ``n_jobs`` Python threads. ``fit_path`` fits one model per C
@@ -12,249 +12,19 @@ of an increasing sequence, each warm-started from the previous, which the batche
 
 from __future__ import annotations
 
-import warnings
-from collections.abc import Sequence
-from numbers import Integral, Real
+from numbers import Integral
 from typing import ClassVar
 
 import numpy as np
 import torch
-from sklearn.base import BaseEstimator, ClassifierMixin
-from sklearn.exceptions import ConvergenceWarning
-from sklearn.utils._param_validation import Interval, Options, StrOptions
-from sklearn.utils.multiclass import check_classification_targets
-from sklearn.utils.validation import check_is_fitted, validate_data
+from sklearn.utils._param_validation import Interval, StrOptions
+from sklearn.utils.validation import check_is_fitted
 
 from . import _smo
-from .inference import SVMInference
-from .kernels import KERNELS, KernelData, scale_gamma
-from .solver import ProblemSet, Solutions, solve_set
-from .threads import resolve_threads, run_blocks
+from ._base import _KernelMachine
+from .inference import SVMInference, probabilities
+from .solver import ProblemSet, Solutions
 from .tree import build_tree
-
-# Prediction runs on several threads only above this many kernel values per thread (a few
-# milliseconds of work: a thread's round trip, or a wait for a busy core, costs more than a few rows),
-# in blocks of at least _KERNEL_VALUES_PER_BLOCK, up to 16 per thread, so that a worker slowed by a
-# busy core holds little of the work when the caller has done the rest.
-_KERNEL_VALUES_PER_THREAD = 400_000
-_KERNEL_VALUES_PER_BLOCK = 20_000
-_BLOCKS_PER_THREAD = 16
-
-
-def _as_numpy(value: object) -> object:
-    if isinstance(value, torch.Tensor):
-        return value.detach().cpu().numpy()
-    return value
-
-
-def _check_finite(X: np.ndarray) -> None:
-    bad = ~np.isfinite(X)
-    if bad.any():
-        first = tuple(int(i) for i in np.argwhere(bad)[0])
-        raise ValueError(f"X must be finite, got {int(bad.sum())} NaN/inf value(s) (first at index {first})")
-
-
-def _check_2d(X: object) -> None:
-    if isinstance(X, np.ndarray) and X.ndim != 2:
-        raise ValueError(
-            f"X must have shape (n_samples, n_features), got {X.shape} (Reshape your data: "
-            "X.reshape(1, -1) for one sample, X.reshape(-1, 1) for one feature)"
-        )
-
-
-class _KernelMachine(ClassifierMixin, BaseEstimator):
-    """What the two estimators share: validation, the solve along C, decision values, export."""
-
-    _parameter_constraints: ClassVar[dict] = {
-        "C": [Interval(Real, 0, None, closed="neither")],
-        "kernel": [StrOptions(set(KERNELS))],
-        "gamma": [StrOptions({"scale"}), Interval(Real, 0, None, closed="neither")],
-        "tol": [Interval(Real, 0, None, closed="neither")],
-        "cache_size": [Interval(Real, 0, None, closed="neither")],
-        "max_iter": [Options(Integral, {-1}), Interval(Integral, 1, None, closed="left")],
-        "n_jobs": [None, Options(Integral, {-1}), Interval(Integral, 1, None, closed="left")],
-        "random_state": [
-            None,
-            Interval(Integral, 0, None, closed="left"),
-            np.random.Generator,
-            torch.Generator,
-        ],
-    }
-
-    # --- training -----------------------------------------------------------------------------
-
-    def _training_data(self, X: object, y: object) -> tuple[np.ndarray, np.ndarray]:
-        """Validate ``X`` and ``y``; set ``classes_``, ``n_features_in_``; return ``(X, y_index)``."""
-        X, y = _as_numpy(X), _as_numpy(y)
-        _check_2d(X)
-        X, y = validate_data(self, X, y, dtype=np.float64, order="C", ensure_all_finite=False)
-        _check_finite(X)
-        if y.dtype.kind == "f" and not np.isfinite(y).all():
-            raise ValueError("y must not contain NaN or inf labels")
-        check_classification_targets(y)
-        self.classes_, y_index, counts = np.unique(y, return_inverse=True, return_counts=True)
-        if self.classes_.shape[0] < 2:
-            raise ValueError(f"y must hold at least 2 classes, got one class: {self.classes_.tolist()}")
-        if counts.min() < 2:
-            lonely = self.classes_[counts < 2].tolist()
-            raise ValueError(
-                f"every class needs at least 2 samples (a class seen once cannot be both learnt and "
-                f"validated), got 1 sample of class(es) {lonely}"
-            )
-        return X, y_index.astype(np.int64)
-
-    def fit_path(
-        self,
-        X: object,
-        y: object,
-        Cs: Sequence[float],
-        *,
-        kernel_data: KernelData | None = None,
-        rows: np.ndarray | None = None,
-    ) -> list:
-        """Fit one model per value of ``Cs`` (taken in increasing order) and return them, in that order.
-
-        Each binary problem is solved at the smallest C first and every solution warm-starts the
-        next C (``alpha`` scales with C), so a path costs little more than its largest C. The
-        models equal independent fits up to the solver's tolerance. Every other hyper-parameter is
-        this estimator's.
-
-        Parameters
-        ----------
-        X : array or tensor of shape (n_samples, n_features)
-        y : array-like of shape (n_samples,)
-        Cs : sequence of float > 0
-        kernel_data : KernelData, optional
-            Kernel values to use (e.g. one precomputed kernel shared by every fold of a grid
-            search); ``rows`` maps the samples of ``X`` to its samples. Its gamma must be this
-            estimator's.
-        rows : int array of shape (n_samples,), optional
-
-        Returns
-        -------
-        list of fitted estimators (copies of this one with ``C`` set), by increasing C.
-        """
-        self._validate_params()
-        Cs = sorted(float(c) for c in Cs)
-        if not Cs or Cs[0] <= 0:
-            raise ValueError(f"Cs must list values of C > 0, got {Cs}")
-        # New instances rather than clones: a torch Generator as random_state cannot be deep-copied.
-        params = self.get_params(deep=False)
-        models = [type(self)(**{**params, "C": C}) for C in Cs]
-        first = models[0]
-        X, y_index = first._training_data(X, y)
-        first.gamma_ = scale_gamma(X) if isinstance(self.gamma, str) else float(self.gamma)
-        if kernel_data is None:
-            kernel_data, rows = KernelData.of(X, self.kernel, first.gamma_), None
-        problems = first._problems(X, y_index)
-        solutions = solve_set(
-            kernel_data,
-            problems if rows is None else problems.remapped(rows),
-            Cs,
-            threads=resolve_threads(self.n_jobs),
-            cache_bytes=int(self.cache_size * 2**20),
-            tol=self.tol,
-            max_iter=self.max_iter,
-        )
-        for model, sol in zip(models, solutions, strict=True):
-            model._copy_fitted(first)  # classes_, n_features_in_, gamma_, the tree
-            model._store(X, y_index, problems, sol)
-        if not all(sol.converged.all() for sol in solutions):
-            warnings.warn(
-                f"the SVM solver stopped at max_iter={self.max_iter} before libsvm's stopping rule "
-                f"held (gap <= tol={self.tol}); the solution is not optimal (raise max_iter)",
-                ConvergenceWarning,
-                stacklevel=2,
-            )
-        return models
-
-    def _copy_fitted(self, other: _KernelMachine) -> None:
-        """Take ``other``'s fitted attributes (trailing underscore, or private ``_fitted_*``)."""
-        for name, value in vars(other).items():
-            if name.endswith("_") or name.startswith("_fitted"):
-                setattr(self, name, value)
-
-    def fit(self, X: object, y: object) -> _KernelMachine:
-        """Fit on ``X`` (n_samples, n_features) and labels ``y`` (n_samples,); return ``self``.
-
-        Raises ``ValueError`` for fewer than 2 classes, a class with 1 sample, NaN/inf features,
-        mismatched lengths and bad hyper-parameters (``C <= 0``, unknown kernel ...). Repeated
-        samples and constant features are fine. Warns (``ConvergenceWarning``) if ``max_iter``
-        stopped a binary problem early.
-        """
-        (model,) = self.fit_path(X, y, [self.C])
-        self._copy_fitted(model)
-        return self
-
-    def _support(self, y_index: np.ndarray, problems: ProblemSet, sol: Solutions) -> np.ndarray:
-        """Set ``support_`` and ``n_support_`` (the support vectors of any problem, grouped by class as
-        libsvm groups them); return each training sample's column among them (-1: none)."""
-        used = np.zeros(y_index.shape[0], dtype=bool)
-        used[problems.rows[sol.alpha > 0]] = True
-        grouped = np.argsort(y_index, kind="stable")
-        self.support_ = grouped[used[grouped]]
-        self.n_support_ = np.bincount(y_index[self.support_], minlength=self.classes_.shape[0]).astype(
-            np.int32
-        )
-        column = np.full(y_index.shape[0], -1, dtype=np.int64)
-        column[self.support_] = np.arange(self.support_.shape[0])
-        return column
-
-    def _store_results(self, sol: Solutions) -> None:
-        self.n_iter_ = sol.n_iter.astype(np.int32)
-        self.objective_ = sol.objective.copy()
-
-    def _store_kernel_tables(self) -> None:
-        """Arrays the compiled prediction reads, derived once from the fitted attributes."""
-        sv = self.support_vectors_
-        self._fitted_svt = np.ascontiguousarray(sv.T)
-        self._fitted_sv_sq = np.einsum("ij,ij->i", sv, sv)
-
-    # --- prediction ---------------------------------------------------------------------------
-
-    def _check_predict_input(self, X: object) -> np.ndarray:
-        check_is_fitted(self)
-        X = _as_numpy(X)
-        _check_2d(X)
-        X = validate_data(self, X, reset=False, dtype=np.float64, order="C", ensure_all_finite=False)
-        _check_finite(X)
-        return X
-
-    def _decisions(self, X: np.ndarray, kernel_fn, n_out: int) -> np.ndarray:
-        """Run a compiled decision kernel over the rows of ``X`` on up to ``n_jobs`` threads."""
-        out = np.empty((X.shape[0], n_out))
-        n = X.shape[0]
-        n_sv = max(1, self.support_.shape[0])
-        threads = max(1, min(resolve_threads(self.n_jobs), n * n_sv // _KERNEL_VALUES_PER_THREAD))
-        rows_per_block = max(1, _KERNEL_VALUES_PER_BLOCK // n_sv)
-        step = max(rows_per_block, -(-n // (threads * _BLOCKS_PER_THREAD))) if threads > 1 else max(n, 1)
-        blocks = [slice(start, start + step) for start in range(0, n, step)]
-
-        def run(block: slice) -> None:
-            kernel_fn(X[block], out[block])
-
-        run_blocks(run, blocks, threads)
-        return out
-
-    def _dense_margins(self, X: np.ndarray) -> np.ndarray:
-        """``K(X, sv) @ dual_coef_.T + intercept_`` (binary, one-vs-rest, tree nodes)."""
-        kind = _smo.RBF if self.kernel == "rbf" else _smo.LINEAR
-        coef = self._fitted_coef_t
-
-        def run(rows: np.ndarray, out: np.ndarray) -> None:
-            _smo.decision_dense(
-                rows, self._fitted_svt, self._fitted_sv_sq, coef, self.intercept_, self.gamma_, kind, out
-            )
-
-        return self._decisions(X, run, coef.shape[1])
-
-    def _module_tensors(self, dtype: torch.dtype) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
-        check_is_fitted(self)
-        return (
-            torch.tensor(self.support_vectors_, dtype=dtype),
-            torch.tensor(self.dual_coef_, dtype=dtype),
-            torch.tensor(self.intercept_, dtype=dtype),
-        )
 
 
 def _ovo_scores(dec: np.ndarray, n_class: int) -> tuple[np.ndarray, np.ndarray]:
@@ -293,6 +63,9 @@ class SVC(_KernelMachine):
     max_iter : int, default -1
         Cap on SMO iterations per binary problem (-1: none). Hitting it warns
         (``ConvergenceWarning``).
+    probability : bool, default False
+        Fit Platt's sigmoids by an internal 5-fold cross-validation (about 5 more fits), for
+        :meth:`predict_proba` and ``to_module(probability=True)``; as scikit-learn's.
     multi_class : {"ovo", "ovr"}, default "ovo"
         One-vs-one (libsvm's, scikit-learn's) or one-vs-rest, for more than two classes.
     decision_function_shape : {"ovr", "ovo"}, default "ovr"
@@ -303,8 +76,8 @@ class SVC(_KernelMachine):
         Python threads for training (one binary problem per thread) and prediction (blocks of
         rows). ``None``: ``torch.get_num_threads()``; -1: every core.
     random_state : int, numpy or torch Generator, or None
-        Accepted for compatibility (scikit-learn's signature, earlier versions): the solver is
-        deterministic and does not use it.
+        Seeds the folds of the internal cross-validation of ``probability=True``; the solver itself
+        is deterministic.
 
     Attributes
     ----------
@@ -327,7 +100,12 @@ class SVC(_KernelMachine):
         Dual objective ``1/2 a^T Q a - sum(a)`` at each solution (libsvm's ``obj``).
     gamma_ : float
         The RBF width used.
+    probA_, probB_ : ndarray of shape (n_problems,)
+        Platt's ``A`` and ``B`` of each binary problem (``probability=True`` only):
+        ``P = 1 / (1 + exp(A f + B))`` of the side where its decision value ``f`` is > 0.
     n_features_in_ : int
+    feature_names_in_ : ndarray of str
+        Column names, when ``X`` was a pandas DataFrame with string column names.
 
     Examples
     --------
@@ -356,6 +134,7 @@ class SVC(_KernelMachine):
         tol: float = 1e-3,
         cache_size: float = 512.0,
         max_iter: int = -1,
+        probability: bool = False,
         multi_class: str = "ovo",
         decision_function_shape: str = "ovr",
         n_jobs: int | None = None,
@@ -367,10 +146,15 @@ class SVC(_KernelMachine):
         self.tol = tol
         self.cache_size = cache_size
         self.max_iter = max_iter
+        self.probability = probability
         self.multi_class = multi_class
         self.decision_function_shape = decision_function_shape
         self.n_jobs = n_jobs
         self.random_state = random_state
+
+    def _platt_sign(self) -> float:
+        """+1 for one-vs-one, whose decision values are > 0 for a pair's first class; else -1."""
+        return 1.0 if self._mode() == "ovo" else -1.0
 
     def _mode(self) -> str:
         if self.classes_.shape[0] == 2:
@@ -455,14 +239,30 @@ class SVC(_KernelMachine):
             return self.classes_[(margins[:, 0] > 0).astype(np.int64)]
         return self.classes_[margins.argmax(axis=1)]
 
-    def to_module(self, dtype: torch.dtype = torch.float64) -> SVMInference:
-        """Return the inference path as an :class:`SVMInference` module (labels index ``classes_``)."""
+    def _probabilities(self, X: np.ndarray) -> torch.Tensor:
+        mode = self._mode()
+        decision = self._ovo_decisions(X) if mode == "ovo" else self._dense_margins(X)
+        tables = {"n_support": torch.from_numpy(self.n_support_.astype(np.int64))} if mode == "ovo" else {}
+        return probabilities(mode, torch.from_numpy(decision), *self._platt_tensors(torch.float64), tables)
+
+    def to_module(self, dtype: torch.dtype = torch.float64, *, probability: bool = False) -> SVMInference:
+        """Return the inference path as an :class:`SVMInference` module (labels index ``classes_``).
+
+        With ``probability=True`` (a model fitted with ``probability=True``), its scores are
+        :meth:`predict_proba`'s probabilities instead of the decision values.
+        """
         check_is_fitted(self)
         mode = self._mode()
         sv, coef, intercept = self._module_tensors(dtype)
-        tables = {"n_support": torch.from_numpy(self.n_support_.astype(np.int64))} if mode == "ovo" else None
+        tables = {"n_support": torch.from_numpy(self.n_support_.astype(np.int64))} if mode == "ovo" else {}
         return SVMInference(
-            sv, coef, intercept, kernel=self.kernel, gamma=self.gamma_, mode=mode, tables=tables
+            sv,
+            coef,
+            intercept,
+            kernel=self.kernel,
+            gamma=self.gamma_,
+            mode=mode,
+            tables={**tables, **self._probability_tables(probability, dtype)},
         )
 
 
@@ -481,10 +281,14 @@ class HierarchicalSVC(_KernelMachine):
     ----------
     C, kernel, gamma, tol, cache_size, max_iter, n_jobs
         As in :class:`SVC`, for every node.
+    probability : bool, default False
+        Fit Platt's sigmoid of every node by an internal 5-fold cross-validation, for
+        :meth:`predict_proba` (the product of the branch probabilities from the root to each class)
+        and ``to_module(probability=True)``.
     n_init : int, default 10
         Restarts of each 2-means split.
     random_state : int, numpy or torch Generator, or None
-        Seeds the 2-means splits.
+        Seeds the 2-means splits and the folds of ``probability=True``.
 
     Attributes
     ----------
@@ -504,8 +308,12 @@ class HierarchicalSVC(_KernelMachine):
         SMO iterations and dual objective of each internal node.
     depth_ : int
         Edges on the longest root-to-leaf path.
+    probA_, probB_ : ndarray of shape (n_nodes,)
+        Each node's sigmoid ``P(right | margin f) = 1 / (1 + exp(A f + B))`` (``probability=True``).
     gamma_ : float
     n_features_in_ : int
+    feature_names_in_ : ndarray of str
+        Column names, when ``X`` was a pandas DataFrame with string column names.
 
     Examples
     --------
@@ -533,6 +341,7 @@ class HierarchicalSVC(_KernelMachine):
         tol: float = 1e-3,
         cache_size: float = 512.0,
         max_iter: int = -1,
+        probability: bool = False,
         n_init: int = 10,
         n_jobs: int | None = None,
         random_state=None,
@@ -543,6 +352,7 @@ class HierarchicalSVC(_KernelMachine):
         self.tol = tol
         self.cache_size = cache_size
         self.max_iter = max_iter
+        self.probability = probability
         self.n_init = n_init
         self.n_jobs = n_jobs
         self.random_state = random_state
@@ -692,8 +502,17 @@ class HierarchicalSVC(_KernelMachine):
         )
         return head + "\n" + self.tree_.describe()
 
-    def to_module(self, dtype: torch.dtype = torch.float64) -> SVMInference:
-        """Return the inference path (kernel, node margins, descent, path scores) as a module."""
+    def _probabilities(self, X: np.ndarray) -> torch.Tensor:
+        margins = torch.from_numpy(self._dense_margins(X))
+        tables = {"path_sign": torch.from_numpy(self._fitted_path_sign)}
+        return probabilities("tree", margins, *self._platt_tensors(torch.float64), tables)
+
+    def to_module(self, dtype: torch.dtype = torch.float64, *, probability: bool = False) -> SVMInference:
+        """Return the inference path (kernel, node margins, descent, path scores) as a module.
+
+        With ``probability=True`` (a model fitted with ``probability=True``), its scores are
+        :meth:`predict_proba`'s probabilities (the product of the branch probabilities down the tree).
+        """
         sv, coef, intercept = self._module_tensors(dtype)
         return SVMInference(
             sv,
@@ -702,7 +521,7 @@ class HierarchicalSVC(_KernelMachine):
             kernel=self.kernel,
             gamma=self.gamma_,
             mode="tree",
-            tables=self._tree_tensors(),
+            tables={**self._tree_tensors(), **self._probability_tables(probability, dtype)},
             depth=self.depth_,
         )
 

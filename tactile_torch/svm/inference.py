@@ -14,6 +14,7 @@ from typing import ClassVar
 import torch
 
 from .kernels import kernel_matrix
+from .probability import couple_pairwise, sigmoid_probability, tree_probabilities
 
 MODES = ("binary", "ovr", "ovo", "tree")
 """What :class:`SVMInference` computes from the decision values: see its docstring."""
@@ -202,6 +203,43 @@ def ovo_tables(n_support: torch.Tensor, dtype: torch.dtype) -> dict[str, torch.T
     }
 
 
+def probabilities(
+    mode: str,
+    decision: torch.Tensor,
+    prob_a: torch.Tensor,
+    prob_b: torch.Tensor,
+    tables: dict[str, torch.Tensor],
+) -> torch.Tensor:
+    """Return class probabilities from decision values and Platt's sigmoids (see
+    :mod:`tactile_torch.svm.probability`).
+
+    Parameters
+    ----------
+    mode : {"binary", "ovr", "ovo", "tree"}
+    decision : tensor of shape (B, M)
+        The margins (binary: (B, 1); one-vs-rest: one per class; tree: one per node) or the
+        pairwise decision values (one-vs-one).
+    prob_a, prob_b : tensors of shape (M,)
+    tables : dict
+        ``pair_classes`` or ``n_support`` (one-vs-one), ``path_sign`` (tree).
+
+    Returns
+    -------
+    tensor of shape (B, n_classes)
+    """
+    if mode == "tree":
+        return tree_probabilities(decision, prob_a, prob_b, tables["path_sign"])
+    p = sigmoid_probability(decision, prob_a, prob_b)
+    if mode == "binary":
+        return torch.cat([1 - p, p], dim=1)
+    if mode == "ovr":
+        return p / p.sum(dim=1, keepdim=True)
+    pair_classes = tables.get("pair_classes")
+    if pair_classes is None:
+        pair_classes = ovo_tables(tables["n_support"], decision.dtype)["pair_classes"]
+    return couple_pairwise(p, pair_classes)
+
+
 class SVMInference(torch.nn.Module):
     """Labels and per-class scores of a fitted :class:`~tactile_torch.svm.SVC` or
     :class:`~tactile_torch.svm.HierarchicalSVC`, as a module.
@@ -216,6 +254,10 @@ class SVMInference(torch.nn.Module):
       libsvm's votes and scikit-learn's scores (:func:`ovo_votes`); ``dual_coef`` in libsvm's layout
       (K - 1, S), ``intercept`` one per pair, and the support vectors per class ``n_support``;
     - ``"tree"`` (HM-SVM): :func:`path_scores`, labels by :func:`tree_descent`.
+
+    With the tables ``prob_a`` and ``prob_b`` (Platt's sigmoids of a model fitted with
+    ``probability=True``: ``to_module(probability=True)``), the scores are the class probabilities
+    (:func:`probabilities`) and the labels stay the ones above.
 
     The support vectors of every decision function are stored once. Exports to ONNX with
     ``tactile_torch._onnx.export_onnx`` (gather/where steps, no loops in the graph). Build it with the
@@ -232,7 +274,8 @@ class SVMInference(torch.nn.Module):
     mode : {"binary", "ovr", "ovo", "tree"}
     tables : dict of str to tensor, optional
         The mode's further buffers: ``left``, ``right``, ``column``, ``leaf_label``, ``path_sign``
-        (tree); ``n_support`` (ovo: the other tables are derived from it, not saved).
+        (tree); ``n_support`` (ovo: the other tables are derived from it, not saved); optionally
+        ``prob_a`` and ``prob_b`` (one per decision function), for probabilities as scores.
     depth : int
         Depth of the tree (``tree`` mode).
     tree : dict, optional
@@ -245,6 +288,7 @@ class SVMInference(torch.nn.Module):
         "ovo": ("n_support",),
         "tree": ("left", "right", "column", "leaf_label", "path_sign"),
     }
+    PROBABILITY_TABLES: ClassVar[tuple[str, ...]] = ("prob_a", "prob_b")
 
     def __init__(
         self,
@@ -270,7 +314,8 @@ class SVMInference(torch.nn.Module):
         self.register_buffer("support_vectors", support_vectors)
         self.register_buffer("dual_coef", dual_coef)
         self.register_buffer("intercept", intercept)
-        for name in self.TABLES[mode]:
+        self.probability = all(name in tables for name in self.PROBABILITY_TABLES)
+        for name in self.TABLES[mode] + (self.PROBABILITY_TABLES if self.probability else ()):
             self.register_buffer(name, tables[name])
         if mode == "ovo":
             for name, value in ovo_tables(tables["n_support"], dual_coef.dtype).items():
@@ -281,7 +326,8 @@ class SVMInference(torch.nn.Module):
         cls, state: dict[str, torch.Tensor], *, mode: str, kernel: str, gamma: float, depth: int = 0
     ) -> SVMInference:
         """Rebuild a module from its ``state_dict()`` and its ``mode``, ``kernel``, ``gamma``, ``depth``."""
-        tables = {name: state[name] for name in cls.TABLES.get(mode, ()) if name in state}
+        names = cls.TABLES.get(mode, ()) + cls.PROBABILITY_TABLES
+        tables = {name: state[name] for name in names if name in state}
         return cls(
             state["support_vectors"],
             state["dual_coef"],
@@ -300,17 +346,26 @@ class SVMInference(torch.nn.Module):
             # Each class's coefficients in its K - 1 pairs, padded like class_index: (K, M, K - 1).
             class_coef = self.dual_coef[:, self.class_index].permute(1, 2, 0) * self.class_mask[:, :, None]
             decisions = ovo_decisions(values, self.class_index, class_coef, self.pair_index, self.intercept)
-            return ovo_votes(decisions, self.pair_classes)
+            labels, scores = ovo_votes(decisions, self.pair_classes)
+            if self.probability:
+                scores = probabilities(
+                    "ovo", decisions, self.prob_a, self.prob_b, {"pair_classes": self.pair_classes}
+                )
+            return labels, scores
         margins = svm_margins(
             x, self.support_vectors, self.dual_coef, self.intercept, kernel=self.kernel, gamma=self.gamma
         )
         if self.mode == "binary":
-            scores = torch.cat([-margins, margins], dim=1)
-            return (margins[:, 0] > 0).long(), scores
-        if self.mode == "ovr":
-            return margins.argmax(dim=1), margins
-        labels = tree_descent(margins, self.left, self.right, self.column, self.leaf_label, self.depth)
-        return labels, path_scores(margins, self.path_sign)
+            labels, scores = (margins[:, 0] > 0).long(), torch.cat([-margins, margins], dim=1)
+        elif self.mode == "ovr":
+            labels, scores = margins.argmax(dim=1), margins
+        else:
+            labels = tree_descent(margins, self.left, self.right, self.column, self.leaf_label, self.depth)
+            scores = path_scores(margins, self.path_sign)
+        if self.probability:
+            tables = {"path_sign": self.path_sign} if self.mode == "tree" else {}
+            scores = probabilities(self.mode, margins, self.prob_a, self.prob_b, tables)
+        return labels, scores
 
 
 __all__ = [
@@ -320,6 +375,7 @@ __all__ = [
     "ovo_tables",
     "ovo_votes",
     "path_scores",
+    "probabilities",
     "svm_margins",
     "tree_descent",
 ]

@@ -58,6 +58,9 @@ class CandidateResult:
     parity_predictions : ndarray or None
         The first fold's predictions of its first :data:`PARITY_SAMPLES` test samples (what the
         exported file must reproduce).
+    predictions : ndarray of shape (N,) or None
+        Out-of-fold prediction of every sample of the candidate's raw input (``-1`` if never tested),
+        for the per-unit accuracies of :mod:`.selection`.
     tune_s : float
         Mean seconds of one fold's tuning (0 when not tuned).
     params : list of dict
@@ -79,6 +82,7 @@ class CandidateResult:
     onnx_file: str | None = None
     notes: list[str] = field(default_factory=list)
     parity_predictions: np.ndarray | None = field(default=None, repr=False)
+    predictions: np.ndarray | None = field(default=None, repr=False)
     tune_s: float = 0.0
     params: list[dict] = field(default_factory=list)
     cv: CVResult | None = field(default=None, repr=False)
@@ -178,6 +182,7 @@ def cross_validate(
             cv=res,
         )
         result.parity_predictions = res.predictions[test[:PARITY_SAMPLES]]
+        result.predictions = np.asarray(res.predictions)
         results.append(result)
     return results
 

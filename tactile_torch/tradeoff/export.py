@@ -111,9 +111,12 @@ def export_front(step: object, example: np.ndarray, path: str | Path) -> Path:
     Takes the scikit-learn step, not its module, so that a background process builds the module
     itself (:class:`~tactile_torch.image.ExplorationFeatures` prepares its export when constructed).
     """
+    example = np.ascontiguousarray(example[:2])
+    if example.dtype == np.float64:  # onnxruntime pipelines take float32 (tactile_torch.runtime casts to it)
+        example = example.astype(np.float32)
     return export_onnx(
         step.to_module().eval(),
-        (torch.from_numpy(np.ascontiguousarray(example[:2])),),
+        (torch.from_numpy(example),),
         path,
         input_names=["raw"],
         output_names=["features"],

@@ -60,6 +60,12 @@ class Samples:
         What the folds keep on one side: recording (or session), a recording's time block, or the
         file's ``groups``; ``None`` for plain stratified folds. For further grouped sweeps of the same
         samples (e.g. breaking points).
+    units : ndarray of shape (N,) or None
+        The unit of the accuracy interval of each sample (:mod:`.selection`): its session or
+        recording, the file's group, the time block (one recording per class), or the test fold
+        (no groups at all).
+    unit : str
+        What a unit is, in words (``"session"``, ``"recording"``, ``"group"``, ``"time block"``, ``"fold"``).
     """
 
     key: str
@@ -72,6 +78,16 @@ class Samples:
     window: int | None = None
     index: np.ndarray | None = None
     groups: np.ndarray | None = None
+    units: np.ndarray | None = None
+    unit: str = "fold"
+
+
+def fold_units(folds: list[Fold], n: int) -> np.ndarray:
+    """Return the index of the fold that tests each of ``n`` samples."""
+    units = np.full(n, -1, dtype=np.int64)
+    for k, (_, test) in enumerate(folds):
+        units[test] = k
+    return units
 
 
 @dataclass
@@ -114,6 +130,7 @@ def load_tradeoff_data(
     *,
     frame_rate_hz: float | None = None,
     allow_pickle: bool = False,
+    csv_session: str = "number",
 ) -> TradeoffData:
     """Read a data file (or CSV logs) for :func:`~tactile_torch.tradeoff.run_tradeoff`, with
     :func:`tactile_torch.formats.read_data` (docs/formats.md).
@@ -128,6 +145,10 @@ def load_tradeoff_data(
         Frames per second of explorations (default 10, the study's).
     allow_pickle : bool
         Legacy vibration files that pickled recordings of different lengths (trusted files only).
+    csv_session : {"number", "file"}
+        CSV logs: the session of each file. ``"number"`` (default): the trailing number of its name
+        (``felt_3.csv`` and ``cork_3.csv`` are session ``3``), or the file itself when a name has
+        none; ``"file"``: every file is its own session (recording).
 
     Raises
     ------
@@ -138,9 +159,22 @@ def load_tradeoff_data(
     """
     from ..formats import data_name, read_data
 
+    if frame_rate_hz is not None and (
+        isinstance(frame_rate_hz, bool)
+        or not isinstance(frame_rate_hz, int | float | np.number)
+        or not np.isfinite(frame_rate_hz)
+        or frame_rate_hz <= 0
+    ):
+        raise ValueError(
+            f"frame_rate_hz (--frame-rate) must be a finite number of frames/s > 0, got {frame_rate_hz!r}"
+        )
+    if csv_session not in ("number", "file"):
+        raise ValueError(f"csv_session must be 'number' or 'file', got {csv_session!r}")
     data = read_data(paths, allow_pickle=allow_pickle)
     name = Path(data_name(paths)).name
     if data.kind == "vibration":
+        if csv_session == "number" and data.session is not None and _all_csv(paths):
+            data.session = np.array([_trailing_number(stem) for stem in data.session])
         return vibration_data(data, name)
     if data.kind == "image":
         notes = []
@@ -175,7 +209,19 @@ def load_tradeoff_data(
         description=f"{name}: {data.features.shape[0]} samples x {data.features.shape[1]} features",
         raw=data.features,
         labels=data.labels,
+        groups=getattr(data, "groups", None),
     )
+
+
+def _all_csv(paths: str | Path | Sequence[str | Path]) -> bool:
+    paths = [paths] if isinstance(paths, str | Path) else list(paths)
+    return all(Path(p).suffix.lower() == ".csv" for p in paths)
+
+
+def _trailing_number(stem: str) -> str:
+    """``"felt_3"`` -> ``"3"``; a stem without a trailing ``_<number>`` is its own session."""
+    base, _, tail = str(stem).rpartition("_")
+    return str(int(tail)) if base and tail.isdigit() else str(stem)
 
 
 def vibration_data(recordings: object, name: str) -> TradeoffData:
@@ -301,6 +347,7 @@ def vibration_samples(
     session = recordings.session if recordings.session is not None else np.arange(len(recordings))
     group = _group_ids(np.asarray(session))[recording]
     per_class = np.array([len(np.unique(group[y == c])) for c in np.unique(y)])
+    units = None
     if per_class.min() >= 2:
         keep = cap_per_class(y, max_per_class)
         folds, split = sample_folds(
@@ -312,13 +359,29 @@ def vibration_samples(
             group_label="session" if recordings.session is not None else "recording",
             random_state=random_state,
         )
+        unit = "session" if recordings.session is not None else "recording"
+        units = group[keep]
     else:  # one recording for some class: consecutive time blocks of every recording, a guard between
         group, keep, folds, split = _time_blocks(
             recording, position, y, window, n_folds, max_per_class, names
         )
     split = f"{len(keep)} windows; {split}"
     X, y, group = X[keep], y[keep], group[keep]
-    return Samples(f"windows-{window}", X, y, folds, "B,3,W", window / rate, split, window, groups=group)
+    if units is None:  # time blocks: block b of every recording is one unit (it is fold b's test set)
+        unit, units = "time block", fold_units(folds, len(y))
+    return Samples(
+        f"windows-{window}",
+        X,
+        y,
+        folds,
+        "B,3,W",
+        window / rate,
+        split,
+        window,
+        groups=group,
+        units=units,
+        unit=unit,
+    )
 
 
 def _time_blocks(
@@ -383,8 +446,22 @@ def exploration_samples(
     layout = {"image": "B,T,3,H,W", "pressure": "B,T,H,W", "features": "B,F"}[data.kind]
     key = {"image": "frames", "pressure": "pressure", "features": "features"}[data.kind]
     acquisition = 0.0 if data.kind == "features" else X.shape[1] / float(data.rate_hz)
+    grouped = groups is not None and "grouped" in split
+    units = _group_ids(groups) if grouped else fold_units(folds, len(y))
     split = f"{len(keep)} {what}; {split}"
-    return Samples(key, X, y, folds, layout, acquisition, split, index=keep, groups=groups)
+    return Samples(
+        key,
+        X,
+        y,
+        folds,
+        layout,
+        acquisition,
+        split,
+        index=keep,
+        groups=groups,
+        units=units,
+        unit="group" if grouped else "fold",
+    )
 
 
 __all__ = [
@@ -395,6 +472,7 @@ __all__ = [
     "allowed_windows",
     "cap_per_class",
     "exploration_samples",
+    "fold_units",
     "load_tradeoff_data",
     "sample_folds",
     "vibration_data",

@@ -21,7 +21,15 @@ from .inputs import (
     load_tradeoff_data,
     vibration_samples,
 )
-from .selection import fold_interval, one_standard_error_choice, pareto_front
+from .selection import (
+    MIN_UNITS,
+    above_baseline,
+    choose,
+    majority_predictions,
+    pareto_front,
+    unit_accuracy,
+    unit_interval,
+)
 
 STUDY_WINDOW = 800
 """The vibration study's reference window (samples)."""
@@ -61,6 +69,18 @@ class TradeoffResult:
         Filled by a breaking-point study of the candidates (:mod:`tactile_torch.robustness`) before
         :func:`~.output.write_outputs`: ``{"rows": [...], "figures": [paths]}`` and anything
         JSON-serialisable; written to ``tradeoff.json`` and as a table and charts in ``tradeoff.md``.
+    target : float or None
+        The accuracy a deployment needs (``--target``), if given.
+    chance : float
+        ``1 / n_classes``.
+    baselines : dict of str to dict
+        The trivial baseline (majority class of each training fold) per raw input: ``accuracy``
+        (mean over units), ``accuracy_low``, ``accuracy_high``, ``interval``, ``unit``, ``n_units``.
+    warnings : list of str
+        One line each (e.g. too few units for an interval).
+    deployed : list of dict
+        The candidates refitted on all the data and written (:func:`~.deploy.deploy_candidate`): name,
+        files (``recommended.onnx``, ``recommended.npz``, ...), samples, agreement, notes.
     """
 
     data: TradeoffData
@@ -75,6 +95,20 @@ class TradeoffResult:
     study_model: str | None = None
     inputs: dict[str, Samples] = field(default_factory=dict, repr=False)
     breaking_points: dict | None = None
+    target: float | None = None
+    chance: float = 0.0
+    baselines: dict[str, dict] = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
+    deployed: list[dict] = field(default_factory=list)
+
+    @property
+    def status(self) -> str:
+        """``"recommended"``, ``"none adequate"`` (candidates were measured, none reaches the rule's bar) or
+        ``"none exported"`` (no candidate could be fitted and exported)."""
+        if self.recommended is not None:
+            return "recommended"
+        measured = any(r["decision_s"] is not None and r["accuracy"] is not None for r in self.rows)
+        return "none adequate" if measured else "none exported"
 
     def row(self, name: str) -> dict:
         """Return the row of candidate ``name``."""
@@ -200,6 +234,8 @@ def plan_tradeoff(
     learned: bool = True,
     random_state: int = 0,
     allow_pickle: bool = False,
+    csv_session: str = "number",
+    exact_folds: bool = False,
     tune: bool = True,
     log: Callable[[str], None] = print,
 ) -> TradeoffPlan:
@@ -237,6 +273,12 @@ def plan_tradeoff(
         Add the learned models on the raw input (:mod:`.learned`; ``False``: the classical ones only).
     random_state : int
     allow_pickle : bool
+    csv_session : {"number", "file"}
+        CSV logs: session from the file name's trailing number, or one per file
+        (:func:`~.inputs.load_tradeoff_data`).
+    exact_folds : bool
+        Raise ``ValueError`` when the data allow fewer than ``n_folds`` folds (default: use fewer,
+        said in the split's description).
     tune : bool
         Tune every candidate inside each training fold (nested, :mod:`.candidates`); ``False`` runs them
         at the catalogue's defaults (for comparison; ``--no-tune``).
@@ -261,24 +303,28 @@ def plan_tradeoff(
     start = time.perf_counter()
     check_positive(n_folds, "n_folds", integer=True)
     if n_folds < 2:
-        raise ValueError(f"n_folds must be >= 2, got {n_folds}")
+        raise ValueError(f"n_folds (--folds) must be >= 2, got {n_folds}")
     if window is not None:
         check_positive(window, "window", integer=True)
-    if max_per_class not in ("auto", None):
-        if (
-            isinstance(max_per_class, bool)
-            or not isinstance(max_per_class, int | np.integer)
-            or max_per_class < 2
-        ):
-            raise ValueError(f"max_per_class must be 'auto', None or an integer >= 2, got {max_per_class!r}")
+    if max_per_class not in ("auto", None) and (
+        isinstance(max_per_class, bool)
+        or not isinstance(max_per_class, int | np.integer)
+        or max_per_class < 2
+    ):
+        raise ValueError(
+            f"max_per_class (--max-per-class) must be 'auto' or a whole number >= 2 (two samples of every class "
+            f"in every training fold), got {max_per_class!r}"
+        )
     if frame_rate_hz is not None and not (
         isinstance(frame_rate_hz, int | float) and np.isfinite(frame_rate_hz) and frame_rate_hz > 0
     ):
         raise ValueError(
-            f"frame_rate_hz must be a positive finite number of frames per second, got {frame_rate_hz!r}"
+            f"frame_rate_hz (--frame-rate) must be a positive finite number of frames per second, got {frame_rate_hz!r}"
         )
     if not isinstance(data, TradeoffData):
-        data = load_tradeoff_data(data, frame_rate_hz=frame_rate_hz, allow_pickle=allow_pickle)
+        data = load_tradeoff_data(
+            data, frame_rate_hz=frame_rate_hz, allow_pickle=allow_pickle, csv_session=csv_session
+        )
     cap = MAX_PER_CLASS["quick" if quick else "full"] if max_per_class == "auto" else max_per_class
     notes = list(data.notes)
     log(f"[tradeoff] {data.description}")
@@ -317,6 +363,13 @@ def plan_tradeoff(
         notes.extend(f"feature set {fs.name!r} left out (features=)" for fs in sets if fs not in kept)
         sets = kept
     _check_folds_fit(n_folds, inputs)
+    if exact_folds:
+        fewest = min(inputs.values(), key=lambda s: len(s.folds))
+        if len(fewest.folds) < n_folds:
+            raise ValueError(
+                f"n_folds (--folds): {n_folds} folds asked, but the data allow {len(fewest.folds)} "
+                f"({fewest.key}: {fewest.split}); ask for {len(fewest.folds)} or fewer"
+            )
     candidates = build_candidates(
         sets, quick=quick, classifiers=classifiers, random_state=random_state, tune=tune
     )
@@ -358,7 +411,7 @@ def _check_folds_fit(n_folds: int, inputs: dict[str, Samples]) -> None:
             most = min(len(np.unique(s.groups[s.y == c])) for c in np.unique(s.y))
         if n_folds > max(most, 5):
             raise ValueError(
-                f"n_folds must be at most {max(most, 5)} here (the rarest class of {s.key} has {most} "
+                f"n_folds (--folds) must be at most {max(most, 5)} here (the rarest class of {s.key} has {most} "
                 f"{'groups' if s.groups is not None else 'samples'}), got {n_folds}"
             )
 
@@ -367,7 +420,8 @@ def execute_plan(
     plan: TradeoffPlan,
     pool: ExportPool,
     *,
-    out_dir: str | Path = "runs/tradeoff",
+    out_dir: str | Path,
+    target: float | None = None,
     progress: bool = True,
     log: Callable[[str], None] = print,
     backend: str | None = None,
@@ -377,9 +431,13 @@ def execute_plan(
 ) -> TradeoffResult:
     """Cross-validate, export and time the candidates of ``plan`` (fronts already submitted to ``pool``).
 
+    The timing files (each candidate fitted on the first training fold, for latency and size only) go
+    to ``out_dir / "timing"``. ``target``: the accuracy a deployment needs (:func:`~.selection.choose`).
     ``backend``, ``n_jobs`` and ``scheduler`` say where the cross-validation tasks run
     (:class:`tactile_torch.engine.Backend`: ``"loky"``, ``"threading"``, ``"dask"`` with a scheduler
-    address ...); the results do not depend on them."""
+    address ...); the results do not depend on them.
+    """
+    check_target(target)
     start = time.perf_counter()
     data, inputs = plan.data, plan.inputs
     submit_fronts(plan.candidates, inputs, pool)
@@ -396,12 +454,13 @@ def execute_plan(
         random_state=random_state,
     )
     log(
-        f"[tradeoff] cross-validation: {time.perf_counter() - stage:.1f} s; exporting every candidate to ONNX"
+        f"[tradeoff] cross-validation: {time.perf_counter() - stage:.1f} s; exporting every candidate to ONNX "
+        "(timing files)"
     )
     stage = time.perf_counter()
     meta = {"sample_rate_hz": data.rate_hz} if data.kind == "vibration" else {}
     parts = export_and_time(
-        results, inputs, data.class_names, Path(out_dir) / "models", pool, metadata=meta, progress=progress
+        results, inputs, data.class_names, Path(out_dir) / "timing", pool, metadata=meta, progress=progress
     )
     log(f"[tradeoff] ONNX export and timing: {time.perf_counter() - stage:.1f} s ({parts} exported parts)")
     stage = time.perf_counter()
@@ -411,16 +470,20 @@ def execute_plan(
     def fold_file(cand, model, path):
         return classical_fold_file(pool, cand, inputs[cand.input], data.class_names, meta)(model, path)
 
-    models_dir = Path(out_dir) / "models"
+    models_dir = Path(out_dir) / "timing"
     add_int8_and_memory(results, inputs, models_dir, fold_file=fold_file, quick=plan.quick, progress=progress)
-    rows, recommended, runner_up = summarise(results)
+    rows, recommended, runner_up = summarise(results, inputs, target=target)
     only = None
     if plan.quick:  # a child process per file: the front, the learned and the int8 ones
         only = {r["name"] for r in rows if r["pareto"] or r["family"] != "classical" or r["quantisation"]}
     measure_memory(results, inputs, models_dir, only=only, progress=progress)
-    for row, res in zip(rows, results, strict=True):
-        row["memory_mib"] = res.memory_mib
+    memory = {res.candidate.name: res.memory_mib for res in results}
+    for row in rows:
+        row["memory_mib"] = memory.get(row["name"])
     log(f"[tradeoff] int8 variants and memory: {time.perf_counter() - stage:.1f} s")
+    baselines = baseline_rows(inputs)
+    for b in baselines.values():
+        b.pop("_units")
     return TradeoffResult(
         data=data,
         results=results,
@@ -433,7 +496,34 @@ def execute_plan(
         exports=parts,
         study_model=_study_model(plan),
         inputs=inputs,
+        target=target,
+        chance=1.0 / len(data.class_names),
+        baselines=baselines,
+        warnings=_unit_warnings(inputs),
     )
+
+
+def check_target(target: float | None) -> None:
+    """Raise ``ValueError`` unless ``target`` is ``None`` or an accuracy in (0, 1]."""
+    if target is None:
+        return
+    if isinstance(target, bool) or not isinstance(target, int | float | np.number) or not 0 < target <= 1:
+        raise ValueError(f"target (--target) must be an accuracy in (0, 1], got {target!r}")
+
+
+def _unit_warnings(inputs: dict[str, Samples]) -> list[str]:
+    few = {
+        k: (s.unit, len(np.unique(s.units))) for k, s in inputs.items() if len(np.unique(s.units)) < MIN_UNITS
+    }
+    if not few:
+        return []
+    where = "" if len(few) == len(inputs) else f" ({', '.join(few)})"
+    words = " / ".join(dict.fromkeys(_unit_words(unit, n) for unit, n in few.values()))
+    unit = next(iter(few.values()))[0]
+    return [
+        f"warning: only {words} in the data{where}: accuracies are given as the range over the {unit}s "
+        f"(lowest, highest), not as an interval; {MIN_UNITS} or more give a 95 % interval for a new {unit}"
+    ]
 
 
 def _study_model(plan: TradeoffPlan) -> str | None:
@@ -447,9 +537,10 @@ def _study_model(plan: TradeoffPlan) -> str | None:
 def run_tradeoff(
     data: str | Path | Sequence[str | Path] | TradeoffData,
     *,
-    out_dir: str | Path = "runs/tradeoff",
+    out_dir: str | Path,
     progress: bool = True,
     background: bool = True,
+    deploy: str | Sequence[str] | None = "recommended",
     log: Callable[[str], None] = print,
     backend: str | None = None,
     n_jobs: int | None = None,
@@ -468,11 +559,18 @@ def run_tradeoff(
     data : path(s) or TradeoffData
         See :func:`~.inputs.load_tradeoff_data`.
     out_dir : path
-        The candidates' ``.onnx`` files go to ``out_dir / "models"``.
+        The candidates' timing ``.onnx`` files (fitted on the first training fold: latency and size
+        only, not for deployment) go to ``out_dir / "timing"``; the deployed model to
+        ``out_dir / "recommended.onnx"`` and ``out_dir / "recommended.npz"`` (see ``deploy``). Required: nothing is written anywhere else
+        (e.g. into the working directory).
     progress : bool
         Progress bars (stderr).
     background : bool
         Export the feature graphs in a second process while cross-validating.
+    deploy : str, sequence of str or None
+        ``"recommended"`` (default): refit the recommended candidate (if any) on all the data and write
+        ``recommended.onnx`` and its model file ``recommended.npz`` (:mod:`.deploy`); a candidate's
+        name: that one too (``<slug>.onnx``, ``<slug>.npz``); ``None``: nothing.
     log : callable
         Receives one line per stage.
     backend : {"sequential", "loky", "threading", "multiprocessing", "dask"} or None
@@ -484,7 +582,7 @@ def run_tradeoff(
         ``backend="dask"``: the address of a running ``dask.distributed`` scheduler; ``None`` starts a
         local cluster for the run. Results do not depend on the backend or the number of workers.
     **options
-        See :func:`plan_tradeoff`.
+        See :func:`plan_tradeoff`, and ``target`` (the accuracy a deployment needs, in (0, 1]).
 
     Returns
     -------
@@ -493,12 +591,40 @@ def run_tradeoff(
     from ..engine import Backend
 
     runner = Backend(backend, n_jobs, scheduler)  # checked before any work
+    target = options.pop("target", None)
+    check_target(target)
     plan = plan_tradeoff(data, log=log, **options)
     seed = int(options.get("random_state", 0))
-    with ExportPool(Path(out_dir) / "models" / "parts", background=background) as pool, runner:
-        return execute_plan(
-            plan, pool, out_dir=out_dir, progress=progress, log=log, backend=runner, random_state=seed
+    wanted = [deploy] if isinstance(deploy, str) else list(deploy or ())
+    known = [c.name for c in plan.candidates]
+    unknown = [d for d in wanted if d != "recommended" and d not in known]
+    if unknown:
+        raise ValueError(
+            f"deploy (--deploy) must name a candidate of this study, got {unknown[0]!r}; candidates: {known}"
         )
+    with ExportPool(Path(out_dir) / "timing" / "parts", background=background) as pool, runner:
+        result = execute_plan(
+            plan,
+            pool,
+            out_dir=out_dir,
+            target=target,
+            progress=progress,
+            log=log,
+            backend=runner,
+            random_state=seed,
+        )
+        names = [result.recommended if d == "recommended" else d for d in wanted]
+        for name in dict.fromkeys(n for n in names if n is not None):
+            from .deploy import deploy_candidate
+
+            stage = time.perf_counter()
+            result.deployed.append(deploy_candidate(result, name, out_dir, pool, random_state=seed))
+            result.seconds += time.perf_counter() - stage
+            log(
+                f"[tradeoff] {name} refitted (tuned) on all the data and exported: "
+                f"{time.perf_counter() - stage:.1f} s"
+            )
+        return result
 
 
 def _plain(params: dict) -> dict:
@@ -510,24 +636,92 @@ def _plain(params: dict) -> dict:
     return out
 
 
-def summarise(results: list[CandidateResult]) -> tuple[list[dict], str | None, str | None]:
-    """Return the JSON rows (with ``pareto``), the recommended candidate and the runner-up."""
+def _unit_words(unit: str, n: int) -> str:
+    return f"{n} {unit}{'' if n == 1 else 's'}"
+
+
+def baseline_rows(samples: dict[str, Samples]) -> dict[str, dict]:
+    """The trivial baseline (each fold's majority class) of every raw input, with its per-unit interval."""
+    out = {}
+    for key, s in samples.items():
+        predicted = majority_predictions(s.y, s.folds)
+        ids, correct, count = unit_accuracy(s.y, predicted, s.units)
+        u = unit_interval(correct, count, units=ids)
+        out[key] = {
+            "name": "majority class",
+            "accuracy": u.mean,
+            "accuracy_low": u.low,
+            "accuracy_high": u.high,
+            "interval": u.kind,
+            "unit": s.unit,
+            "n_units": u.n,
+            "_units": u,
+        }
+    return out
+
+
+def summarise(
+    results: list[CandidateResult],
+    samples: dict[str, Samples] | None = None,
+    *,
+    target: float | None = None,
+) -> tuple[list[dict], str | None, str | None]:
+    """Return the JSON rows (with ``pareto``), the recommended candidate and the runner-up (:mod:`.selection`).
+
+    ``samples`` (the raw inputs, with their units and folds) gives the per-unit intervals and the
+    trivial baseline; without it, every fold counts as a unit. ``target``: see :func:`~.selection.choose`.
+    """
+    baselines = baseline_rows(samples) if samples else {}
     rows = []
     for res in results:
-        mean = se = low = high = None
-        if res.fold_accuracy:
-            mean, se, low, high = fold_interval(res.fold_accuracy)
         c = res.candidate
-        rows.append(
+        row = {
+            "name": c.name,
+            "classifier": c.classifier,
+            "features": c.features,
+            "input": c.input,
+            "accuracy": None,
+            "accuracy_low": None,
+            "accuracy_high": None,
+            "accuracy_se": None,
+            "interval": None,
+            "unit": None,
+            "n_units": None,
+            "unit_accuracy": [],
+            "fold_accuracy": list(res.fold_accuracy),
+            "baseline_accuracy": None,
+            "above_baseline": None,
+            "baseline_p": None,
+        }
+        if res.fold_accuracy:
+            s = samples[c.input] if samples else None
+            if s is not None and res.predictions is not None:
+                ids, correct, count = unit_accuracy(s.y, res.predictions, s.units)
+                u = unit_interval(correct, count, units=ids)
+                unit = s.unit
+            else:  # no samples given: the folds are the units, with equal weight
+                n = np.ones(len(res.fold_accuracy))
+                u = unit_interval(np.asarray(res.fold_accuracy), n, units=np.arange(len(n)))
+                unit = "fold"
+            row.update(
+                accuracy=u.mean,
+                accuracy_low=u.low,
+                accuracy_high=u.high,
+                accuracy_se=u.se,
+                interval=u.kind,
+                unit=unit,
+                n_units=u.n,
+                unit_accuracy=[
+                    {"unit": str(i), "accuracy": float(a), "samples": int(k)}
+                    for i, a, k in zip(u.units, u.accuracy, u.count, strict=True)
+                ],
+            )
+            if c.input in baselines:
+                base = baselines[c.input]
+                significant, p = above_baseline(u, base["_units"])
+                row.update(baseline_accuracy=base["accuracy"], above_baseline=bool(significant), baseline_p=p)
+        row.update(
             {
-                "name": c.name,
-                "classifier": c.classifier,
-                "features": c.features,
-                "accuracy": mean,
-                "accuracy_low": low,
-                "accuracy_high": high,
-                "accuracy_se": se,
-                "fold_accuracy": list(res.fold_accuracy),
                 "fit_s": res.fit_s if res.fold_accuracy else None,
                 "tune_s": res.tune_s if res.fold_accuracy else None,
                 "params": [_plain(p) for p in res.params],
@@ -539,28 +733,34 @@ def summarise(results: list[CandidateResult]) -> tuple[list[dict], str | None, s
                 "memory_mib": res.memory_mib,
                 "decision_s": res.decision_s,
                 "pareto": False,
-                "onnx_file": res.onnx_file,
+                "adequate": False,
+                "timing_onnx_file": res.onnx_file,
                 "onnx_agreement": res.onnx_agreement,
                 "notes": res.notes,
             }
         )
-    ok = [i for i, r in enumerate(rows) if r["decision_s"] is not None]
+        rows.append(row)
+    ok = [i for i, r in enumerate(rows) if r["decision_s"] is not None and r["accuracy"] is not None]
     if not ok:
         return rows, None, None
     acc = np.array([rows[i]["accuracy"] for i in ok])
     se = np.array([rows[i]["accuracy_se"] for i in ok])
+    low = np.array([rows[i]["accuracy_low"] for i in ok])
     cost = np.array([rows[i]["decision_s"] for i in ok])
     size = np.array([rows[i]["size_bytes"] for i in ok], dtype=np.float64)
-    for i, on in zip(ok, pareto_front(acc, cost), strict=True):
+    adequate = np.array([rows[i]["above_baseline"] is not False for i in ok])
+    if target is not None:
+        adequate = low >= target - 1e-12
+    for i, on, fit in zip(ok, pareto_front(acc, cost), adequate, strict=True):
         rows[i]["pareto"] = bool(on)
-    first = one_standard_error_choice(acc, se, cost, size)
-    recommended = rows[ok[first]]["name"]
-    runner_up = None
-    if len(ok) > 1:
-        excluded = np.zeros(len(ok), dtype=bool)
-        excluded[first] = True
-        runner_up = rows[ok[one_standard_error_choice(acc, se, cost, size, exclude=excluded)]]["name"]
-    return rows, recommended, runner_up
+        rows[i]["adequate"] = bool(fit)
+    first = choose(acc, se, low, cost, size, adequate=adequate, target=target)
+    if first is None:
+        return rows, None, None
+    excluded = np.zeros(len(ok), dtype=bool)
+    excluded[first] = True
+    second = choose(acc, se, low, cost, size, adequate=adequate, target=target, exclude=excluded)
+    return rows, rows[ok[first]]["name"], None if second is None else rows[ok[second]]["name"]
 
 
 __all__ = [
@@ -568,6 +768,8 @@ __all__ = [
     "STUDY_WINDOW",
     "TradeoffPlan",
     "TradeoffResult",
+    "baseline_rows",
+    "check_target",
     "execute_plan",
     "plan_tradeoff",
     "run_tradeoff",

@@ -477,7 +477,16 @@ class FeaturePassthrough(TransformerMixin, BaseEstimator):
         return np.asarray(_as_array(X), dtype=np.float64)
 
     def to_module(self) -> nn.Module:
-        return nn.Identity()
+        """Return the graph's front end: the features cast to float32, the dtype every head is exported for
+        (the other fronts compute float32 features; a float64 file fed to a float32 head fails to load)."""
+        return ToFloat32()
+
+
+class ToFloat32(nn.Module):
+    """Features ``(B, F)`` of any float dtype → float32."""
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return x.to(torch.float32)
 
 
 class ColumnSelect(nn.Module):
@@ -569,6 +578,7 @@ __all__ = [
     "RankedFeatureSelector",
     "TaxelFeatureTransformer",
     "TaxelFeatures",
+    "ToFloat32",
     "WindowFeatureTransformer",
     "display_factor",
     "relative_erosion",

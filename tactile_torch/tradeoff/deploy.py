@@ -1,0 +1,199 @@
+"""Deploying a trade-off candidate: refit it on all the data, export it, write its model file.
+
+The cross-validation measures a *procedure* (features, selection, scaling, classifier, and any tuning
+inside it) on folds; what a robot runs is that procedure fitted once on all the data.
+:func:`deploy_candidate` tunes the candidate as the folds did (its grid on inner folds of all the data,
+:meth:`tactile_torch.engine.CVResult.final_model`), fits it with the chosen parameters on every sample
+of its raw input and writes
+
+* ``<name>.onnx``: raw input → labels and scores, with the metadata ``tactile-torch predict`` and
+  ``stream`` read (one file, onnxruntime only); its labels are checked against the refitted
+  pipeline's on up to :data:`CHECK_SAMPLES` samples;
+* ``<name>.npz``: the same model as a model file (:mod:`tactile_torch.model_file`, no pickle), which
+  ``tactile-torch export`` turns into the same graph, for the feature sets a model file describes
+  (vibration windows, RGB explorations, feature matrices, with or without a best-ranked subset);
+  raw pressure maps and per-taxel features have no model-file form yet, said in one note.
+
+``<name>`` is ``recommended`` for the recommended candidate, the candidate's slug otherwise.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from sklearn.base import clone
+
+CHECK_SAMPLES = 64
+"""Samples on which the deployed ONNX file's labels are compared with the refitted pipeline's."""
+
+
+def _slug(name: str) -> str:
+    return "-".join("".join(ch if ch.isalnum() else " " for ch in name.lower()).split())
+
+
+def _source(step: object, samples: object, rate_hz: float | None) -> dict | None:
+    """The model file's ``source`` of a fitted ``features`` step, or ``None`` when it has no model-file form."""
+    from ..image import DEFAULT_THRESHOLD
+    from .transformers import FeaturePassthrough, ImageFeatureTransformer, WindowFeatureTransformer
+
+    if isinstance(step, WindowFeatureTransformer):
+        return {
+            "kind": "vibration",
+            "window": int(step.window_size_),
+            "step": int(step.window_size_),
+            "rate_hz": float(rate_hz),
+        }
+    if isinstance(step, FeaturePassthrough):
+        return {"kind": "features", "n_features": int(step.n_features_in_)}
+    if isinstance(step, ImageFeatureTransformer):
+        source = {
+            "kind": "image",
+            "fuse": bool(step.fuse),
+            "frame_shape": [int(v) for v in step.frame_shape_],
+        }
+        if step.threshold_ != DEFAULT_THRESHOLD:
+            source["threshold"] = float(step.threshold_)
+        source["erosion"] = int(step.erosion_)
+        return source
+    return None
+
+
+def write_model_file(
+    path: str | Path,
+    model: object,
+    class_names: tuple[str, ...],
+    *,
+    rate_hz: float | None,
+    extra: dict | None = None,
+) -> Path | None:
+    """Write a fitted candidate ``Pipeline`` as a model file; return its path, or ``None`` if it has no form."""
+    from ..training import write_classifier_file
+
+    steps = model.named_steps
+    source = _source(steps["features"], None, rate_hz)
+    if source is None:
+        return None
+    scaler, classifier = steps["scale"], steps["classifier"]
+    select = steps["select"].columns_ if "select" in steps else None
+    return write_classifier_file(
+        path,
+        classifier,
+        class_names=[class_names[int(c)] for c in classifier.classes_],
+        source=source,
+        scale=scaler.scale_,
+        center=scaler.mean_,
+        select=select,
+        extra=extra,
+    )
+
+
+def _json_params(params: dict) -> dict:
+    out = {}
+    for k, v in params.items():
+        v = v.item() if isinstance(v, np.generic) else v
+        out[k.split("__")[-1]] = v if isinstance(v, str | int | float | bool | type(None)) else repr(v)
+    return out
+
+
+def deploy_candidate(
+    result: object, name: str, out_dir: str | Path, pool: object, *, random_state: int = 0
+) -> dict:
+    """Refit candidate ``name`` of ``result`` on all its data; write ``<stem>.onnx`` (and ``<stem>.npz``).
+
+    Parameters
+    ----------
+    result : TradeoffResult
+    name : str
+        A candidate of ``result`` (``ValueError`` naming the candidates otherwise).
+    out_dir : path
+    pool : ExportPool
+        The study's pool (the feature graphs are already exported there).
+    random_state : int
+        Seeds the tuning on all the data (as the study's).
+
+    Returns
+    -------
+    dict
+        ``name``, ``onnx`` (path), ``model_file`` (path or ``None``), ``samples`` (fitted on),
+        ``agreement`` (share of checked samples whose ONNX label equals the pipeline's), ``notes``.
+    """
+    from ..runtime import DEFAULT_RANGE_G, RANGE_METADATA_KEY, OnnxPipeline
+    from .evaluation import _head_modules, _stateless, features_key
+    from .export import bind_head, export_fixed_head, export_front, export_head, head_key, join
+
+    names = [r.candidate.name for r in result.results]
+    if name not in names:
+        raise ValueError(
+            f"deploy (--deploy) must name a candidate of this study, got {name!r}; candidates: {names}"
+        )
+    cand = result.result(name).candidate
+    s = result.inputs[cand.input]
+    data = result.data
+    cv = result.result(name).cv
+    params: dict = {}
+    if cv is not None:  # tuned as in the folds, on inner folds of all the data, then fitted on all of it
+        model, params = cv.final_model(s.X, s.y, s.groups, random_state=random_state)
+    else:
+        model = clone(cand.estimator).fit(s.X, s.y)
+    stem = "recommended" if name == result.recommended else _slug(name)
+    out = Path(out_dir)
+    check = np.ascontiguousarray(
+        s.X[np.linspace(0, len(s.y) - 1, min(CHECK_SAMPLES, len(s.y))).round().astype(int)]
+    )
+    step = model.named_steps["features"]
+    front = ("front", *features_key(cand))
+    if not _stateless(step):
+        front = (*front, "all data")
+        pool.submit(front, export_front, step, check[:2], background=False)
+    else:
+        pool.submit(
+            front, export_front, clone(step).fit(check[:2]), check[:2]
+        )  # a no-op when already exported
+    modules = _head_modules(model)
+    n_features = int(step.transform(check[:1]).shape[1])
+    head = ("head", *head_key(modules, n_features))
+    pool.submit(head, export_head, modules, n_features, background=False)
+    try:
+        classifier = bind_head(pool.result(head), modules)
+    except Exception:  # a structure that cannot be exported with free sizes
+        plain = ("plain head", name, "all data")
+        pool.submit(plain, export_fixed_head, modules, n_features, background=False)
+        classifier = pool.result(plain)
+    classes = model.named_steps["classifier"].classes_
+    meta = {
+        "tactile_torch.pipeline": f"tradeoff: {name}, fitted on all {len(s.y)} samples",
+        "input_shape": [None, *s.X.shape[1:]],
+        "input_layout": s.layout,
+        "class_names": [data.class_names[int(c)] for c in classes],
+    }
+    if s.window is not None:
+        meta.update(window_size=s.window, step=s.window, sample_rate_hz=data.rate_hz)
+        meta[RANGE_METADATA_KEY] = DEFAULT_RANGE_G
+    path = join(pool.result(front), classifier, out / f"{stem}.onnx", meta)
+    agreement = float(np.mean(classes[OnnxPipeline(path).predict(check)] == model.predict(check)))
+    notes = []
+    model_file = write_model_file(
+        out / f"{stem}.npz",
+        model,
+        data.class_names,
+        rate_hz=data.rate_hz,
+        extra={"tradeoff": {"candidate": name, "samples": len(s.y), "tuned": _json_params(params)}},
+    )
+    if model_file is None:
+        notes.append(
+            f"{stem}.npz not written: the feature set {cand.features!r} ({type(step).__name__}) has no model-file "
+            f"form; {stem}.onnx is the deployable file"
+        )
+    return {
+        "name": name,
+        "onnx": str(path),
+        "model_file": None if model_file is None else str(model_file),
+        "samples": len(s.y),
+        "params": _json_params(params),
+        "agreement": agreement,
+        "notes": notes,
+    }
+
+
+__all__ = ["CHECK_SAMPLES", "deploy_candidate", "write_model_file"]
