@@ -70,8 +70,8 @@ def test_tradeoff_lists_neural_and_int8_candidates_with_parameters_and_memory(tm
     # the float file agrees with the torch model at a batch size other than the export's
     model = result.result(cnn["name"]).model.steps[-1][1]
     windows = result.inputs["windows-400"].X[:5]
-    labels, scores = OnnxPipeline(tmp_path / "o" / "timing" / cnn["onnx_file"]).predict_scores(windows)
+    labels, scores = OnnxPipeline(tmp_path / "o" / "timing" / cnn["timing_onnx_file"]).predict_scores(windows)
     proba = model.predict_proba(windows)
     assert np.array_equal(labels, proba.argmax(1))
     np.testing.assert_allclose(scores, proba, atol=1e-4)
-    assert OnnxPipeline(tmp_path / "o" / "timing" / int8["onnx_file"]).metadata["quantisation"] == "dynamic"
+    assert OnnxPipeline(tmp_path / "o" / "timing" / int8["timing_onnx_file"]).metadata["quantisation"] == "dynamic"

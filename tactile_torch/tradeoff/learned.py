@@ -213,6 +213,7 @@ def add_int8_and_memory(
         s = samples[res.candidate.input]
         first = out_dir / res.onnx_file
         fold_accuracy, q_first, agreement, mode = [], None, None, None
+        predictions = np.full(len(s.y), -1, dtype=np.int64)
         try:
             for k, (train, test) in enumerate(s.folds):
                 path = _fold_file(res, k, first, s, parts, fold_file)
@@ -231,6 +232,7 @@ def add_int8_and_memory(
                 q = OnnxPipeline(q_path)
                 labels = q.predict(s.X[test])
                 classes = res.cv.models[k].steps[-1][1].classes_
+                predictions[test] = classes[labels]
                 fold_accuracy.append(float(np.mean(classes[labels] == s.y[test])))
                 if k == 0:
                     q_first = q_path
@@ -257,6 +259,7 @@ def add_int8_and_memory(
             onnx_file=q_first.name,
             notes=[f"int8 ({mode}) of {res.candidate.name}; onnx_agreement: with the float file, first fold"],
         )
+        variant.predictions = predictions  # every sample's out-of-fold int8 label (per-unit intervals)
         variant.n_parameters = res.n_parameters
         variant.quantisation = mode
         variant.family = res.family
