@@ -74,4 +74,7 @@ def test_tradeoff_lists_neural_and_int8_candidates_with_parameters_and_memory(tm
     proba = model.predict_proba(windows)
     assert np.array_equal(labels, proba.argmax(1))
     np.testing.assert_allclose(scores, proba, atol=1e-4)
-    assert OnnxPipeline(tmp_path / "o" / "timing" / int8["timing_onnx_file"]).metadata["quantisation"] == "dynamic"
+    assert (
+        OnnxPipeline(tmp_path / "o" / "timing" / int8["timing_onnx_file"]).metadata["quantisation"]
+        == "dynamic"
+    )
