@@ -13,6 +13,24 @@ knn     kNN       ``KNeighborsClassifier(3, metric="cityblock", weights="distanc
 ncm     NCM       nearest class mean, scikit-learn ``NearestCentroid`` (Euclidean)               shrinkage
 ======  ========  ============================================================================  ==========
 
+Learned models (family ``"neural"``, and ``"learned front end"``) take a raw input instead of
+features (:attr:`ClassifierEntry.raw_input`); :data:`CLASSIFIERS` lists the classical keys (what
+``train --method`` accepts), :data:`LEARNED` the others (``tradeoff --classifiers`` accepts both):
+
+==================  ========================  =====================================================  ===========
+key                 name                      estimator (:mod:`tactile_torch.neural`)                raw input
+==================  ========================  =====================================================  ===========
+cnn-small           1-D CNN small             ``WindowCNNClassifier("small")`` (about 4 k parameters)   windows
+cnn-large           1-D CNN large             ``WindowCNNClassifier("large")`` (about 90 k)             windows
+taxel-cnn           temporal CNN              ``TaxelCNNClassifier()``                                  pressure
+image-cnn           exploration CNN           ``ExplorationCNNClassifier()``                            frames
+learned-front-end   learned front end         ``LearnedFrontEndClassifier()`` (method 1, hinge head)    frames
+learned-cutoff      learned cut-off           ``LearnedCutoffClassifier()`` (method 2, hinge head)      windows
+==================  ========================  =====================================================  ===========
+
+They are not tuned over a grid: the networks stop early on an inner validation split of each training
+fold instead.
+
 ``svm`` is an alias of ``svc`` (what ``tactile-torch train --method svm`` always meant), and the display
 names (``"HM-SVM"``, ``"kNN"`` ...) resolve to their keys in any case (:func:`resolve`), so old spellings
 keep working.
@@ -82,6 +100,9 @@ class ClassifierEntry:
         or the SVMs' ``to_module``).
     aliases : tuple of str
         Other lower-case spellings that resolve to ``key``.
+    raw_input : tuple of str
+        Learned models: the raw inputs they take (``"windows"``, ``"pressure"``, ``"frames"``); empty
+        for the classical ones, which take features.
     """
 
     key: str
@@ -93,6 +114,7 @@ class ClassifierEntry:
     needs_scaling: bool = True
     exportable: bool = True
     aliases: tuple[str, ...] = ()
+    raw_input: tuple[str, ...] = ()
 
 
 def _hmsvm(random_state=None, **params):
@@ -126,6 +148,19 @@ def _ncm(random_state=None, **params):
     from sklearn.neighbors import NearestCentroid
 
     return NearestCentroid(**params)
+
+
+def _neural(name: str, *args: Any):
+    def build(random_state=None, **params):
+        from . import neural
+
+        return getattr(neural, name)(*args, **{"random_state": random_state, **params})
+
+    return build
+
+
+def _no_grid(n_features: int, quick: bool) -> dict:
+    return {}
 
 
 def _svm_grid(n_features: int, quick: bool) -> dict:
@@ -191,12 +226,82 @@ ENTRIES: dict[str, ClassifierEntry] = {
             _ncm,
             _ncm_grid,
         ),
+        *(
+            ClassifierEntry(
+                key,
+                name,
+                family,
+                description,
+                _neural(cls, *args),
+                _no_grid,
+                needs_scaling=False,
+                raw_input=raw,
+            )
+            for key, name, family, description, cls, args, raw in (
+                (
+                    "cnn-small",
+                    "1-D CNN small",
+                    "neural",
+                    "1-D CNN on the raw window, about 4 k parameters",
+                    "WindowCNNClassifier",
+                    ("small",),
+                    ("windows",),
+                ),
+                (
+                    "cnn-large",
+                    "1-D CNN large",
+                    "neural",
+                    "1-D CNN on the raw window, about 90 k parameters",
+                    "WindowCNNClassifier",
+                    ("large",),
+                    ("windows",),
+                ),
+                (
+                    "taxel-cnn",
+                    "temporal CNN",
+                    "neural",
+                    "temporal CNN over every taxel of raw pressure maps",
+                    "TaxelCNNClassifier",
+                    (),
+                    ("pressure",),
+                ),
+                (
+                    "image-cnn",
+                    "exploration CNN",
+                    "neural",
+                    "small CNN on an exploration's mean and max darkness",
+                    "ExplorationCNNClassifier",
+                    (),
+                    ("frames",),
+                ),
+                (
+                    "learned-front-end",
+                    "learned front end",
+                    "learned front end",
+                    "method 1 with threshold and edge threshold learned through the soft ops, hinge head",
+                    "LearnedFrontEndClassifier",
+                    (),
+                    ("frames",),
+                ),
+                (
+                    "learned-cutoff",
+                    "learned cut-off",
+                    "learned front end",
+                    "method 2 with the spectral cut-off learned through a soft mask, hinge head",
+                    "LearnedCutoffClassifier",
+                    (),
+                    ("windows",),
+                ),
+            )
+        ),
     )
 }
-"""The catalogue, in report order (issue 20 adds the ``"neural"`` family here)."""
+"""The catalogue, in report order: the classical classifiers, then the learned models."""
 
-CLASSIFIERS: tuple[str, ...] = tuple(ENTRIES)
-"""Catalogue keys, in report order."""
+CLASSIFIERS: tuple[str, ...] = tuple(k for k, e in ENTRIES.items() if e.family == "classical")
+"""Keys of the classical classifiers (they take features), in report order."""
+LEARNED: tuple[str, ...] = tuple(k for k, e in ENTRIES.items() if e.family != "classical")
+"""Keys of the learned models (they take a raw input: :attr:`ClassifierEntry.raw_input`)."""
 
 
 def resolve(name: str) -> str:
@@ -212,7 +317,10 @@ def resolve(name: str) -> str:
         for e in ENTRIES.values():
             if text == e.key or text == e.name.lower() or text in e.aliases:
                 return e.key
-    raise ValueError(f"classifier must be one of {list(CLASSIFIERS)} (or svm for svc), got {name!r}")
+    raise ValueError(
+        f"classifier must be one of {list(CLASSIFIERS)} (or svm for svc) or a learned model of "
+        f"{list(LEARNED)}, got {name!r}"
+    )
 
 
 def entry(name: str) -> ClassifierEntry:
@@ -226,7 +334,7 @@ def display_name(name: str) -> str:
 
 
 def choices() -> list[str]:
-    """Return the keys and aliases a command line accepts (``--method``, ``--classifiers``)."""
+    """Return the classical keys and aliases a command line accepts for ``--method``."""
     return [*CLASSIFIERS, *(a for e in ENTRIES.values() for a in e.aliases)]
 
 
@@ -266,6 +374,7 @@ def prefixed(grid: dict | list, prefix: str) -> dict | list:
 __all__ = [
     "CLASSIFIERS",
     "ENTRIES",
+    "LEARNED",
     "ClassifierEntry",
     "choices",
     "display_name",

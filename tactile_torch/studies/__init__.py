@@ -26,6 +26,7 @@ STUDIES: list[str] = [
     "vibration_classification",  # method 2: RBF SVM, feature ranking (tactile_torch.svm)
     "clustering",  # method 2: Pitman-Yor mixture (tactile_torch.mixture)
     "tradeoff",  # speed against accuracy, the simplest adequate model (tactile_torch.tradeoff)
+    "learned_models",  # neural, learned front end and int8 against the classical models (tactile_torch.neural)
     "breaking_points",  # both methods: where each model breaks (tactile_torch.robustness)
     "claims",  # both methods: do the conclusions hold on other generators and real data?
 ]

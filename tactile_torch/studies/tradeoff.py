@@ -7,6 +7,9 @@ interval for a new unit, or the range over fewer than 5 units), fit time, ONNX l
 and time to a decision, the chance level and the majority-class baseline, the charts, and the
 recommendation (the one-standard-error rule among the candidates above the baseline; docs/tradeoff.md).
 
+The learned models (networks, learned front ends) have their own section (:mod:`.learned_models`), so
+this one runs the classical candidates only (``learned=False``).
+
 Sizes: ``make run`` uses the quick candidate set (every classifier on the reference feature set, the
 HM-SVM and LDA on the others) on a subset of the bundled data, so that the section stays within its
 time budget; ``tactile-torch report --full`` runs every candidate (every window size, three
@@ -154,7 +157,9 @@ def run(section, ctx) -> None:
         (
             title,
             name,
-            plan_tradeoff(data, quick=quick, random_state=ctx.random_state, log=lambda s: None, **options),
+            plan_tradeoff(
+                data, quick=quick, random_state=ctx.random_state, log=lambda s: None, learned=False, **options
+            ),
         )
         for title, name, data, options in runs
     ]

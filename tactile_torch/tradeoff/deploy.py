@@ -141,6 +141,10 @@ def deploy_candidate(
     check = np.ascontiguousarray(
         s.X[np.linspace(0, len(s.y) - 1, min(CHECK_SAMPLES, len(s.y))).round().astype(int)]
     )
+    from .learned import is_learned
+
+    if is_learned(model):  # a network or learned front end: its own graph, exported whole (docs/neural.md)
+        return _deploy_learned(result, name, model, check, out / f"{stem}.onnx", len(s.y))
     step = model.named_steps["features"]
     front = ("front", *features_key(cand))
     if not _stateless(step):
@@ -191,6 +195,39 @@ def deploy_candidate(
         "model_file": None if model_file is None else str(model_file),
         "samples": len(s.y),
         "params": _json_params(params),
+        "agreement": agreement,
+        "notes": notes,
+    }
+
+
+def _deploy_learned(result, name: str, model, check: np.ndarray, path: Path, samples: int) -> dict:
+    """Export a learned candidate fitted on all the data (its int8 variant quantised as in the study)."""
+    from ..neural import export_classifier
+    from ..runtime import OnnxPipeline
+    from .int8 import quantise_bundle
+
+    clf = model.steps[-1][1]
+    s = result.inputs[result.result(name).candidate.input]
+    meta = {"tactile_torch.pipeline": f"tradeoff: {name}, fitted on all {samples} samples"}
+    if s.window is not None:
+        meta.update(window_size=s.window, step=s.window, sample_rate_hz=result.data.rate_hz)
+    names = [result.data.class_names[int(c)] for c in clf.classes_]
+    path = export_classifier(clf, path, check[:2], class_names=names, metadata=meta)
+    variant = result.result(name)
+    if variant.quantisation is not None:
+        quantised = path.with_name(f"{path.stem}-int8.onnx")
+        quantise_bundle(path, quantised, calibration=check, mode=variant.quantisation)
+        path = quantised.replace(path)
+    agreement = float(np.mean(clf.classes_[OnnxPipeline(path).predict(check)] == model.predict(check)))
+    notes = [
+        f"{path.stem}.npz not written: a learned model has no model-file form; {path.name} is the deployable file"
+    ]
+    return {
+        "name": name,
+        "onnx": str(path),
+        "model_file": None,
+        "samples": samples,
+        "params": {},
         "agreement": agreement,
         "notes": notes,
     }

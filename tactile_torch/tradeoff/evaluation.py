@@ -86,6 +86,10 @@ class CandidateResult:
     tune_s: float = 0.0
     params: list[dict] = field(default_factory=list)
     cv: CVResult | None = field(default=None, repr=False)
+    n_parameters: int | None = None
+    memory_mib: float | None = None
+    quantisation: str | None = None
+    family: str = "classical"
 
 
 def _stateless(step: object) -> bool:
@@ -184,7 +188,9 @@ def cross_validate(
 
 
 def _head_modules(model: Pipeline) -> list:
-    """The fitted steps after ``features`` as torch modules: selection, standardisation, classifier."""
+    """The fitted steps after ``features`` as torch modules: selection, standardisation, classifier.
+
+    A learned candidate (:mod:`.learned`) has no such head: it is exported whole."""
     from ..baselines import inference_module
     from .export import Standardize, absorb_rbf_gamma, share_tree_depth
     from .transformers import ColumnSelect
@@ -240,12 +246,20 @@ def export_and_time(
     from ..metrics import time_per_sample
     from ..runtime import OnnxPipeline
     from .export import bind_head, export_fixed_head, export_front, export_head, head_key, join
+    from .learned import export_learned, is_learned, n_parameters
 
     out_dir = Path(out_dir)
-    plans, n_features_of = [], {}
+    plans, n_features_of, learned = [], {}, []
     for res in results:  # queue every export first: the background process works while this one does
         cand, model = res.candidate, res.model
         if model is None:
+            continue
+        res.n_parameters = n_parameters(model)
+        if is_learned(model):
+            from .. import catalogue
+
+            res.family = catalogue.entry(cand.key).family
+            learned.append(res)
             continue
         s = samples[cand.input]
         raw = np.ascontiguousarray(s.X[s.folds[0][1][:PARITY_SAMPLES]])
@@ -294,12 +308,60 @@ def export_and_time(
         except Exception as err:  # a failed export leaves the candidate out of the choice, said in its notes
             lines = [line for line in str(err).splitlines() if line.strip()]
             res.notes.append(f"ONNX export failed: {type(err).__name__}: {(lines or [''])[-1][:200]}")
-    return len({key for plan in plans for key in plan[2:4]})
+    for res in _progress(learned, "ONNX export (learned models)", progress):
+        s = samples[res.candidate.input]
+        raw = np.ascontiguousarray(s.X[s.folds[0][1][:PARITY_SAMPLES]])
+        try:
+            path = export_learned(
+                res, s, class_names, out_dir / f"{_slug(res.candidate.name)}.onnx", metadata or {}
+            )
+            pipe = OnnxPipeline(path)
+            classes = res.model.steps[-1][1].classes_
+            res.onnx_agreement = float(np.mean(classes[pipe.predict(raw)] == res.parity_predictions))
+            res.latency_ms = 1e3 * time_per_sample(pipe.predict, raw[:1])
+            res.size_bytes = int(path.stat().st_size)
+            res.decision_s = s.acquisition_s + res.latency_ms / 1e3
+            res.onnx_file = path.name
+        except Exception as err:
+            lines = [line for line in str(err).splitlines() if line.strip()]
+            res.notes.append(f"ONNX export failed: {type(err).__name__}: {(lines or [''])[-1][:200]}")
+    return len({key for plan in plans for key in plan[2:4]}) + len(learned)
+
+
+def classical_fold_file(
+    pool: object, candidate: Candidate, samples: Samples, class_names: tuple[str, ...], metadata: dict
+):
+    """Return ``fold_file(model, path)``: writes a classical fold model of ``candidate`` to one ONNX file
+    (its stateless feature graph from ``pool``, its head bound to the fold's tensors); ``None`` for a
+    features step fitted per fold (its graph would be exported once per fold)."""
+    from .export import bind_head, export_head, head_key, join
+
+    def fold_file(model: Pipeline, path: Path) -> Path | None:
+        step = model.named_steps["features"]
+        if not _stateless(step):
+            return None
+        modules = _head_modules(model)
+        n_features = int(step.transform(samples.X[:1]).shape[1])
+        head = ("head", *head_key(modules, n_features))
+        pool.submit(head, export_head, modules, n_features, background=False)
+        classes = model.named_steps["classifier"].classes_
+        meta = {
+            "tactile_torch.pipeline": f"tradeoff: {candidate.name}",
+            "input_shape": [None, *samples.X.shape[1:]],
+            "input_layout": samples.layout,
+            "class_names": [class_names[int(c)] for c in classes],
+            **metadata,
+        }
+        front = pool.result(("front", *features_key(candidate)))
+        return join(front, bind_head(pool.result(head), modules), path, meta)
+
+    return fold_file
 
 
 __all__ = [
     "PARITY_SAMPLES",
     "CandidateResult",
+    "classical_fold_file",
     "cross_validate",
     "export_and_time",
     "features_key",

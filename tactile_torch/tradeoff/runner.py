@@ -214,6 +214,7 @@ class TradeoffPlan:
     notes: list[str]
     precomputed: dict = field(default_factory=dict)
     seconds: float = 0.0
+    quick: bool = False
 
 
 def plan_tradeoff(
@@ -230,6 +231,7 @@ def plan_tradeoff(
     max_per_class: int | str | None = "auto",
     classifiers: Sequence[str] | None = None,
     features: Sequence[str] | None = None,
+    learned: bool = True,
     random_state: int = 0,
     allow_pickle: bool = False,
     csv_session: str = "number",
@@ -267,6 +269,8 @@ def plan_tradeoff(
         Only these of :data:`~.candidates.CLASSIFIERS`.
     features : sequence of str, optional
         Only the feature sets whose name starts with one of these (e.g. ``["fused", "per-taxel"]``).
+    learned : bool
+        Add the learned models on the raw input (:mod:`.learned`; ``False``: the classical ones only).
     random_state : int
     allow_pickle : bool
     csv_session : {"number", "file"}
@@ -369,6 +373,19 @@ def plan_tradeoff(
     candidates = build_candidates(
         sets, quick=quick, classifiers=classifiers, random_state=random_state, tune=tune
     )
+    if learned and sets and data.kind in ("vibration", "image", "pressure"):
+        from .learned import learned_candidates
+
+        reference = sets[0].input
+        candidates += learned_candidates(
+            data.kind,
+            reference,
+            quick=quick,
+            classifiers=classifiers,
+            random_state=random_state,
+            threshold=resolved if data.kind == "image" else "auto",
+            window=inputs[reference].window,
+        )
     if not candidates:
         raise ValueError(f"classifiers {list(classifiers)} leave no candidate in this mode (quick={quick})")
     precomputed = {}
@@ -379,7 +396,7 @@ def plan_tradeoff(
             index = inputs[cand.input].index
             F, seconds = known
             precomputed[features_key(cand)] = (F[index], seconds * len(index) / len(F))
-    return TradeoffPlan(data, inputs, candidates, notes, precomputed, time.perf_counter() - start)
+    return TradeoffPlan(data, inputs, candidates, notes, precomputed, time.perf_counter() - start, quick)
 
 
 def _check_folds_fit(n_folds: int, inputs: dict[str, Samples]) -> None:
@@ -446,7 +463,24 @@ def execute_plan(
         results, inputs, data.class_names, Path(out_dir) / "timing", pool, metadata=meta, progress=progress
     )
     log(f"[tradeoff] ONNX export and timing: {time.perf_counter() - stage:.1f} s ({parts} exported parts)")
+    stage = time.perf_counter()
+    from .evaluation import classical_fold_file
+    from .learned import add_int8_and_memory, measure_memory
+
+    def fold_file(cand, model, path):
+        return classical_fold_file(pool, cand, inputs[cand.input], data.class_names, meta)(model, path)
+
+    models_dir = Path(out_dir) / "timing"
+    add_int8_and_memory(results, inputs, models_dir, fold_file=fold_file, quick=plan.quick, progress=progress)
     rows, recommended, runner_up = summarise(results, inputs, target=target)
+    only = None
+    if plan.quick:  # a child process per file: the front, the learned and the int8 ones
+        only = {r["name"] for r in rows if r["pareto"] or r["family"] != "classical" or r["quantisation"]}
+    measure_memory(results, inputs, models_dir, only=only, progress=progress)
+    memory = {res.candidate.name: res.memory_mib for res in results}
+    for row in rows:
+        row["memory_mib"] = memory.get(row["name"])
+    log(f"[tradeoff] int8 variants and memory: {time.perf_counter() - stage:.1f} s")
     baselines = baseline_rows(inputs)
     for b in baselines.values():
         b.pop("_units")
@@ -691,8 +725,12 @@ def summarise(
                 "fit_s": res.fit_s if res.fold_accuracy else None,
                 "tune_s": res.tune_s if res.fold_accuracy else None,
                 "params": [_plain(p) for p in res.params],
+                "family": res.family,
+                "n_parameters": res.n_parameters,
+                "quantisation": res.quantisation,
                 "latency_ms": res.latency_ms,
                 "size_bytes": res.size_bytes,
+                "memory_mib": res.memory_mib,
                 "decision_s": res.decision_s,
                 "pareto": False,
                 "adequate": False,

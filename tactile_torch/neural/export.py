@@ -1,0 +1,74 @@
+"""ONNX export of a fitted neural classifier (or learned front end) as a tactile-torch bundle.
+
+The graph is the estimator's :meth:`to_module` (raw input → ``labels``, ``scores``), exported with the
+project's exporter (:func:`tactile_torch._onnx.export_onnx`: ``torch.onnx.export(..., dynamo=True)``,
+dynamic batch, ``onnx.checker``) with the metadata :class:`tactile_torch.runtime.OnnxPipeline` reads.
+Labels index the estimator's ``classes_`` (metadata ``class_names``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from .._onnx import export_onnx
+
+LAYOUTS = {3: "B,3,W", 4: "B,T,H,W", 5: "B,T,3,H,W"}
+"""Input layout by the raw input's number of dimensions."""
+
+
+def export_classifier(
+    estimator: object,
+    path: str | Path,
+    example: np.ndarray,
+    *,
+    class_names: Sequence[str] | None = None,
+    metadata: dict[str, object] | None = None,
+) -> Path:
+    """Write ``estimator``'s inference graph to the ONNX bundle ``path``; return the path.
+
+    Parameters
+    ----------
+    estimator : fitted neural classifier
+        Anything with ``to_module()``, ``classes_`` and ``input_shape_``.
+    path : path
+    example : ndarray of shape (B, ...)
+        Raw input of the graph's dtype (uint8 frames, float32 windows or maps) for the trace; the batch
+        size stays free.
+    class_names : sequence of str, optional
+        Name of each class of ``classes_`` (default: the classes as strings).
+    metadata : dict, optional
+        Further metadata (window size, sample rate ...); JSON for non-strings.
+    """
+    import json
+
+    from .. import __version__
+
+    example = np.ascontiguousarray(example)
+    if example.ndim not in LAYOUTS:
+        raise ValueError(f"example must have 3, 4 or 5 dimensions (B, ...), got shape {example.shape}")
+    names = list(class_names) if class_names is not None else [str(c) for c in estimator.classes_]
+    meta = {
+        "tactile_torch.pipeline": f"neural: {type(estimator).__name__}",
+        "tactile_torch.version": __version__,
+        "input_shape": json.dumps([None, *estimator.input_shape_]),
+        "input_layout": LAYOUTS[example.ndim],
+        "class_names": json.dumps(names),
+        "n_parameters": str(getattr(estimator, "n_parameters_", "")),
+    }
+    for key, value in (metadata or {}).items():
+        meta[key] = value if isinstance(value, str) else json.dumps(value)
+    return export_onnx(
+        estimator.to_module(),
+        (torch.from_numpy(example),),
+        path,
+        input_names=["raw"],
+        output_names=["labels", "scores"],
+        metadata=meta,
+    )
+
+
+__all__ = ["LAYOUTS", "export_classifier"]

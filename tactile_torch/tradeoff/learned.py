@@ -1,0 +1,305 @@
+"""Learned models and int8 variants in the trade-off study, and the memory column.
+
+* **Learned candidates** (:func:`learned_candidates`): the catalogue's learned models
+  (:data:`tactile_torch.catalogue.LEARNED`) on the raw input they take, each a ``Pipeline`` whose
+  ``features`` step is :class:`RawInput` (the raw input itself: nothing to fit, so the engine passes it
+  on once for all folds) and whose ``classifier`` is the model. Default (full) set: vibration, the small
+  and large 1-D CNN and the learned spectral cut-off on the reference window; image explorations, the
+  exploration CNN and the learned method-1 front end; raw pressure maps, the temporal taxel CNN.
+  ``quick``: none unless ``classifiers`` names them (then at most :data:`QUICK_EPOCHS` epochs): with
+  the small CNN, ``tradeoff --quick`` on the bundled stylus recordings took 194 s, over its 2-minute
+  budget. They are exported whole
+  (:func:`tactile_torch.neural.export_classifier`) and timed like the others.
+* **int8** (:func:`add_int8_and_memory`): every exported candidate (``quick``: the learned ones) gets an
+  int8 variant (:func:`tactile_torch.tradeoff.int8.quantise_bundle`: static, calibrated on 32 samples of
+  each training fold; dynamic for the networks, whose labels static int8 kept only 0.55-0.60 of on the
+  bundled and HapMat windows against 0.91-0.94 for dynamic), a candidate of its own: every fold's model is exported (a learned model's
+  first-fold file rebound to the fold's weights, a classical head bound to the fold's tensors), quantised
+  and scored on that fold's test samples; latency, size and memory are the first fold's file's.
+  A classical candidate whose features are fitted per fold (raw pressure maps) gets none (its feature
+  graph would be exported once per fold), said in its notes.
+* **Memory** (``memory_mib``): the peak resident memory the onnxruntime session of the candidate's
+  file adds at batch 1, in a child process (:func:`tactile_torch.tradeoff.memory.peak_memory_mib`);
+  ``quick``: only for the Pareto front's candidates and the learned and int8 ones (a child process
+  costs about a second).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from sklearn.base import BaseEstimator, TransformerMixin
+from sklearn.pipeline import Pipeline
+
+from .. import catalogue
+
+QUICK_EPOCHS = 30
+"""Epochs of the networks under ``quick`` (early stopping may end them sooner)."""
+CALIBRATION_SAMPLES = 32
+"""Training samples of each fold that calibrate its static int8 quantisation."""
+RAW_NAMES = {"windows": "raw window", "frames": "raw frames", "pressure": "raw maps"}
+
+
+class RawInput(TransformerMixin, BaseEstimator):
+    """The raw input unchanged (the ``features`` step of a learned candidate); nothing is learnt."""
+
+    def fit(self, X: object, y: object = None) -> RawInput:
+        self.input_shape_ = tuple(np.shape(X)[1:])
+        return self
+
+    def transform(self, X: object) -> np.ndarray:
+        return np.asarray(X)
+
+    def to_module(self) -> object:
+        from torch import nn
+
+        return nn.Identity()
+
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        tags.requires_fit = False
+        return tags
+
+
+def is_learned(model: object) -> bool:
+    """Return whether a candidate's (fitted or not) pipeline is a learned model on the raw input."""
+    steps = getattr(model, "steps", None)
+    return bool(steps) and isinstance(steps[0][1], RawInput)
+
+
+def learned_keys(kind: str, *, quick: bool) -> list[str]:
+    """Return the catalogue keys of the learned candidates of a data kind (module notes)."""
+    keys = {
+        "vibration": ["cnn-small", "cnn-large", "learned-cutoff"],
+        "image": ["image-cnn", "learned-front-end"],
+        "pressure": ["taxel-cnn"],
+    }
+    # --quick leaves them out unless named: with the small CNN, `tradeoff --quick` on the bundled stylus
+    # recordings took 194 s wall (137 CPU-s, load 3.5-6), over its 2-minute budget.
+    return [] if quick else keys.get(kind, [])
+
+
+def learned_candidates(
+    kind: str,
+    input_key: str,
+    *,
+    quick: bool = False,
+    classifiers: list[str] | None = None,
+    random_state: int = 0,
+    threshold: float | str = "auto",
+    window: int | None = None,
+) -> list:
+    """Return the learned :class:`~.candidates.Candidate`\\ s for ``kind`` on the raw input ``input_key``.
+
+    ``classifiers`` (keys or names, as ``tradeoff --classifiers``) keeps only those named; without it
+    the set of the module notes. ``threshold`` (the image pipeline's, when a float) starts the learned
+    front end.
+    """
+    from .candidates import Candidate
+
+    wanted = None
+    if classifiers is not None:
+        wanted = set()
+        for name in classifiers:
+            try:
+                wanted.add(catalogue.resolve(name))
+            except ValueError:
+                continue
+    keys = learned_keys(kind, quick=quick)
+    if wanted is not None:
+        keys = [k for k in catalogue.LEARNED if k in wanted and kind_of(k) == kind]
+    raw = RAW_NAMES["windows" if kind == "vibration" else "frames" if kind == "image" else "pressure"]
+    what = f"{raw}, W = {window}" if window else raw
+    out = []
+    for key in keys:
+        params = {}
+        entry = catalogue.entry(key)
+        if entry.family == "neural":
+            params = {"learning_rate": 1e-2 if key != "cnn-large" else 3e-3}
+            if quick:
+                params["max_epochs"] = QUICK_EPOCHS
+        if key == "learned-front-end" and isinstance(threshold, float):
+            params["threshold"] = threshold
+        model = catalogue.make_classifier(key, random_state=random_state, **params)
+        pipe = Pipeline([("features", RawInput()), ("classifier", model)])
+        out.append(Candidate(f"{entry.name} | {what}", entry.name, what, input_key, pipe, key, None))
+    return out
+
+
+def kind_of(key: str) -> str:
+    """Return the data kind (``"vibration"``, ``"image"``, ``"pressure"``) a learned model takes."""
+    raw = catalogue.entry(key).raw_input[0]
+    return {"windows": "vibration", "frames": "image", "pressure": "pressure"}[raw]
+
+
+def n_parameters(model: object) -> int | None:
+    """Return the learned numbers of a fitted candidate: a network's trained scalars (plus the learned
+    front-end settings), or the numbers a classical head stores (support vectors, coefficients, means)."""
+    clf = model.steps[-1][1]
+    if hasattr(clf, "n_parameters_"):
+        return int(clf.n_parameters_)
+    from .evaluation import _head_modules
+
+    try:
+        return int(sum(b.numel() for m in _head_modules(model) for b in m.buffers()))
+    except (TypeError, ValueError, KeyError):
+        return None
+
+
+def export_learned(res: object, samples: object, class_names: tuple, path: Path, metadata: dict) -> Path:
+    """Export a learned candidate's first-fold model to ``path`` with the trade-off's metadata."""
+    from ..neural import export_classifier
+
+    clf = res.model.steps[-1][1]
+    s = samples
+    raw = np.ascontiguousarray(s.X[s.folds[0][0][:2]])
+    names = [class_names[int(c)] for c in clf.classes_]
+    meta = {"tactile_torch.pipeline": f"tradeoff: {res.candidate.name}", **metadata}
+    if s.window is not None:
+        meta.update(window_size=s.window, step=s.window)
+    return export_classifier(clf, path, raw, class_names=names, metadata=meta)
+
+
+def _fold_file(res: object, k: int, first: Path, samples: object, parts: Path, fold_file) -> Path | None:
+    """Return an ONNX file of fold ``k``'s model of ``res`` (the first fold's file for ``k == 0``)."""
+    if k == 0:
+        return first
+    model = res.cv.models[k]
+    path = parts / f"{first.stem}-fold{k}.onnx"
+    test = samples.folds[k][1]
+    if is_learned(model):
+        from ..neural.comparison import rebind
+
+        clf = model.steps[-1][1]
+        done = rebind(first, clf, np.ascontiguousarray(samples.X[test[:5]]), path)
+        if done is not None:
+            return done
+        import onnx
+
+        meta = {p.key: p.value for p in onnx.load(str(first)).metadata_props}
+        from ..neural import export_classifier
+
+        names = __import__("json").loads(meta["class_names"])
+        return export_classifier(clf, path, np.ascontiguousarray(samples.X[test[:2]]), class_names=names)
+    return fold_file(res.candidate, model, path)
+
+
+def add_int8_and_memory(
+    results: list,
+    samples: dict,
+    out_dir: str | Path,
+    *,
+    fold_file,
+    quick: bool,
+    progress: bool = True,
+) -> list:
+    """Append the int8 variants to ``results`` and fill ``memory_mib`` (module notes); return ``results``.
+
+    ``fold_file(candidate, model, path)`` writes a classical fold model's file (the trade-off's export pool) and
+    returns its path, or ``None`` when it cannot (features fitted per fold).
+    """
+    import dataclasses
+
+    from ..runtime import OnnxPipeline
+    from .evaluation import CandidateResult, _progress
+    from .int8 import quantise_bundle
+
+    out_dir = Path(out_dir)
+    parts = out_dir / "parts-int8"
+    added = []
+    chosen = [r for r in results if r.onnx_file and (not quick or is_learned(r.model))]
+    for res in _progress(chosen, "int8", progress):
+        s = samples[res.candidate.input]
+        first = out_dir / res.onnx_file
+        fold_accuracy, q_first, agreement, mode = [], None, None, None
+        predictions = np.full(len(s.y), -1, dtype=np.int64)
+        try:
+            for k, (train, test) in enumerate(s.folds):
+                path = _fold_file(res, k, first, s, parts, fold_file)
+                if path is None:
+                    raise ValueError("features fitted per fold: no int8 variant (one feature graph per fold)")
+                calibration = OnnxPipeline(path).validate(
+                    np.ascontiguousarray(s.X[train[:CALIBRATION_SAMPLES]])
+                )
+                target = (
+                    out_dir / f"{first.stem}-int8.onnx" if k == 0 else parts / f"{first.stem}-int8-{k}.onnx"
+                )
+                # The networks get dynamic int8: static ranges from the calibration windows kept only
+                # 0.55-0.60 of their labels on two data sets (docs/neural.md), dynamic 0.91-0.94.
+                mode = "dynamic" if res.family == "neural" else "static"
+                q_path, mode = quantise_bundle(path, target, calibration=calibration, mode=mode)
+                q = OnnxPipeline(q_path)
+                labels = q.predict(s.X[test])
+                classes = res.cv.models[k].steps[-1][1].classes_
+                predictions[test] = classes[labels]
+                fold_accuracy.append(float(np.mean(classes[labels] == s.y[test])))
+                if k == 0:
+                    q_first = q_path
+                    agreement = float(np.mean(labels == OnnxPipeline(path).predict(s.X[test])))
+        except Exception as err:
+            lines = [line for line in str(err).splitlines() if line.strip()]
+            res.notes.append(f"int8: {type(err).__name__}: {(lines or [''])[-1][:200]}")
+            continue
+        from ..metrics import time_per_sample
+
+        pipe = OnnxPipeline(q_first)
+        raw = np.ascontiguousarray(s.X[s.folds[0][1][:1]])
+        latency = 1e3 * time_per_sample(pipe.predict, raw)
+        cand = dataclasses.replace(res.candidate, name=f"{res.candidate.name} (int8)")
+        variant = CandidateResult(
+            cand,
+            fold_accuracy,
+            res.fit_s,
+            None,
+            latency_ms=latency,
+            size_bytes=int(q_first.stat().st_size),
+            decision_s=s.acquisition_s + latency / 1e3,
+            onnx_agreement=agreement,
+            onnx_file=q_first.name,
+            notes=[f"int8 ({mode}) of {res.candidate.name}; onnx_agreement: with the float file, first fold"],
+        )
+        variant.predictions = predictions  # every sample's out-of-fold int8 label (per-unit intervals)
+        variant.n_parameters = res.n_parameters
+        variant.quantisation = mode
+        variant.family = res.family
+        added.append(variant)
+    results.extend(added)
+    import shutil
+
+    shutil.rmtree(parts, ignore_errors=True)
+    return results
+
+
+def measure_memory(
+    results: list, samples: dict, out_dir: str | Path, *, only: set[str] | None, progress: bool
+) -> None:
+    """Fill ``memory_mib`` of the results with a file (only those named in ``only`` when given)."""
+    from ..runtime import OnnxPipeline
+    from .evaluation import _progress
+    from .memory import peak_memory_mib
+
+    chosen = [r for r in results if r.onnx_file and (only is None or r.candidate.name in only)]
+    for res in _progress(chosen, "memory", progress):
+        s = samples[res.candidate.input]
+        path = Path(out_dir) / res.onnx_file
+        try:
+            sample = OnnxPipeline(path).validate(np.ascontiguousarray(s.X[s.folds[0][1][:1]]))
+            res.memory_mib = peak_memory_mib(path, sample)
+        except Exception as err:
+            res.notes.append(f"memory not measured: {type(err).__name__}: {str(err)[:200]}")
+
+
+__all__ = [
+    "CALIBRATION_SAMPLES",
+    "QUICK_EPOCHS",
+    "RawInput",
+    "add_int8_and_memory",
+    "export_learned",
+    "is_learned",
+    "kind_of",
+    "learned_candidates",
+    "learned_keys",
+    "measure_memory",
+    "n_parameters",
+]
