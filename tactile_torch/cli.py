@@ -11,6 +11,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+from .cli_data import add_data_options, read_data_arg
+
 NOT_BUILT_EXIT = 2
 """Exit status when a command cannot do its work (e.g. ``bench`` outside a source checkout)."""
 BAD_INPUT_EXIT = 2
@@ -74,7 +76,11 @@ def _train(args: argparse.Namespace) -> int:
             "save an SVM (--method hmsvm or svm) or drop --out"
         )
     features = load_features(
-        args.data, window=args.window, step=args.step, fuse=not args.no_fuse, allow_pickle=args.allow_pickle
+        read_data_arg(args),
+        window=args.window,
+        step=args.step,
+        fuse=not args.no_fuse,
+        name=_data_name(args.data),
     )
     print(
         f"{_data_name(args.data)}: {features.X.shape[0]} samples x {features.X.shape[1]} features "
@@ -87,15 +93,18 @@ def _train(args: argparse.Namespace) -> int:
             C=args.C,
             gamma=gamma,
             kernel=args.kernel,
+            n_folds=args.folds,
             test_size=args.test_size,
             random_state=args.seed,
         )
     except ValueError as err:  # e.g. a class with one sample: name the file it came from
         raise ValueError(f"{_data_name(args.data)}: {err}") from err
-    print(
-        f"{args.method}: trained on {len(model.train_index)}, tested on {len(model.test_index)} held-out samples"
-    )
+    print(f"{args.method}: held-out accuracy from {model.split}")
     _print_class_report(model.report)
+    print(
+        f"held out: accuracy per fold {', '.join(f'{a:.3f}' for a in model.fold_accuracy)}; the model "
+        f"(--out) is then trained on all {len(model.train_index)} samples"
+    )
     if args.out:
         print(f"model written to {save_model(args.out, model, features)}")
     return 0
@@ -122,20 +131,17 @@ def _bench(args: argparse.Namespace) -> int:
 def _cluster(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from .formats import read_data
     from .metrics import pairwise_accuracy
     from .mixture import PitmanYorGMM
     from .pipeline import save_clustering_model
     from .training import load_features
 
-    data = read_data(args.data, allow_pickle=args.allow_pickle)
+    data = read_data_arg(args)
     if data.kind == "features":  # labels optional: clustering does not need them
         X, truth = data.features, data.labels
         source = {"kind": "features", "n_features": int(X.shape[1])}
     elif data.kind == "vibration":
-        features = load_features(
-            args.data, window=args.window, step=args.step, allow_pickle=args.allow_pickle
-        )
+        features = load_features(data, window=args.window, step=args.step, name=_data_name(args.data))
         X, truth, source = features.X, features.y, dict(features.source)
     else:
         raise UsageError(
@@ -445,7 +451,7 @@ def _simulate_sensor(args: argparse.Namespace) -> int:
 
 
 def _tradeoff(args: argparse.Namespace) -> int:
-    from .tradeoff import run_tradeoff, summary_lines, write_outputs
+    from .tradeoff import load_tradeoff_data, run_tradeoff, summary_lines, write_outputs
 
     def number_or(name: str, text: str, *words: str) -> str | float | int:
         if text in words:
@@ -471,8 +477,9 @@ def _tradeoff(args: argparse.Namespace) -> int:
         if getattr(args, name) != defaults[name]:
             options.append(f"--{name.replace('_', '-')} {getattr(args, name)}")
     command = "tactile-torch tradeoff " + " ".join(options)
+    data = load_tradeoff_data(read_data_arg(args), frame_rate_hz=args.frame_rate, name=_data_name(args.data))
     result = run_tradeoff(
-        args.data,
+        data,
         quick=args.quick,
         n_folds=args.folds,
         window=args.window,
@@ -541,13 +548,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser(
         "train", help="train a classifier on an image, vibration or feature .npz; print a class report"
     )
-    p.add_argument(
-        "--data",
-        required=True,
-        nargs="+",
-        help="a .npz of docs/formats.md (frames, signals or features), or CSV logs t,x,y,z (class from the "
-        "file name: cork_1.csv -> cork)",
-    )
+    add_data_options(p)
     p.add_argument(
         "--method",
         default="hmsvm",
@@ -564,7 +565,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--step", type=int, default=None, help="vibration window hop (default: the window)")
     p.add_argument("--no-fuse", action="store_true", help="image: per-frame features instead of fused ones")
     p.add_argument(
-        "--test-size", type=float, default=0.25, help="held-out share for the report (default: 0.25)"
+        "--folds",
+        type=int,
+        default=5,
+        help="held-out folds, grouped by session or recording, or time blocks (default: 5)",
+    )
+    p.add_argument(
+        "--test-size", type=float, default=None, help="(old) held-out share: --folds round(1 / share)"
     )
     p.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
     _add_allow_pickle(p)
@@ -579,12 +586,10 @@ def build_parser() -> argparse.ArgumentParser:
         "summary (posterior of K first) to OUT/summary.txt and the model to OUT/model.npz (for tactile-torch "
         "export).",
     )
-    p.add_argument(
-        "--data",
-        required=True,
-        nargs="+",
-        help="vibration recordings (.npz with 'signals', or CSV logs), or a .npz with 'features' (n, D) "
-        "and optionally 'labels' (n,)",
+    add_data_options(
+        p,
+        data_help="vibration recordings (.npz with 'signals', CSV logs, ROS 2 bags), or a .npz with "
+        "'features' (n, D) and optionally 'labels' (n,)",
     )
     p.add_argument("--out", default="runs/cluster", help="output directory (default: runs/cluster)")
     p.add_argument("--window", type=int, default=800, help="recordings: window in samples (default: 800)")
@@ -761,11 +766,10 @@ def build_parser() -> argparse.ArgumentParser:
         "accuracy against latency, size and time to a decision; the recommendation is the cheapest model on the "
         "Pareto front within one standard error of the best (docs/tradeoff.md).",
     )
-    p.add_argument(
-        "--data",
-        required=True,
-        nargs="+",
-        help="an image-exploration, pressure-map, vibration or feature .npz, or vibration CSV logs (t,x,y,z)",
+    add_data_options(
+        p,
+        data_help="an image-exploration, pressure-map, vibration or feature .npz, vibration CSV logs "
+        "(t,x,y,z) or ROS 2 bags (IMU or pressure-array topics)",
     )
     p.add_argument("--out", default="runs/tradeoff", help="output directory (default: runs/tradeoff)")
     p.add_argument("--quick", action="store_true", help="fewer candidates and at most 60 samples per class")

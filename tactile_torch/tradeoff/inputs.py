@@ -110,24 +110,31 @@ class TradeoffData:
 
 
 def load_tradeoff_data(
-    paths: str | Path | Sequence[str | Path],
+    paths,
     *,
     frame_rate_hz: float | None = None,
     allow_pickle: bool = False,
+    options=None,
+    name: str | None = None,
 ) -> TradeoffData:
-    """Read a data file (or CSV logs) for :func:`~tactile_torch.tradeoff.run_tradeoff`, with
-    :func:`tactile_torch.formats.read_data` (docs/formats.md).
+    """Read a data file (or CSV logs, ROS 2 bags) for :func:`~tactile_torch.tradeoff.run_tradeoff`, with
+    :func:`tactile_torch.data.sources.read_source` (docs/formats.md).
 
     Parameters
     ----------
-    paths : path or sequence of paths
+    paths : path, sequence of paths, or arrays already read
         One ``.npz`` (image explorations ``frames``, raw pressure maps ``frames`` ``(N, T, H, W)``
-        float, vibration recordings ``signals`` or a ``features`` matrix with ``labels``), or vibration
-        CSV logs ``t,x,y,z`` (one recording per file, class from the file name).
+        float, vibration recordings ``signals`` or a ``features`` matrix with ``labels``), vibration
+        CSV logs ``t,x,y,z`` or ROS 2 bags (one recording per file, class and session from the file
+        name: ``felt_3.csv`` → ``felt``, session ``3``); or what ``read_source`` returned.
     frame_rate_hz : float, optional
         Frames per second of explorations (default 10, the study's).
     allow_pickle : bool
         Legacy vibration files that pickled recordings of different lengths (trusted files only).
+    options : DataOptions, optional
+        Columns, units, time unit, topic ... (:class:`tactile_torch.data.sources.DataOptions`).
+    name : str, optional
+        How the description names the data (default: the file).
 
     Raises
     ------
@@ -136,10 +143,16 @@ def load_tradeoff_data(
     FileNotFoundError
         If a path does not exist.
     """
-    from ..formats import data_name, read_data
+    from ..formats import data_name
 
-    data = read_data(paths, allow_pickle=allow_pickle)
-    name = Path(data_name(paths)).name
+    if hasattr(paths, "kind"):
+        data, where = paths, name or "data"
+    else:
+        from ..data.sources import DataOptions, read_source
+
+        data = read_source(paths, options or DataOptions(allow_pickle=allow_pickle))
+        where = name or data_name(paths)
+    name = Path(where).name
     if data.kind == "vibration":
         return vibration_data(data, name)
     if data.kind == "image":
@@ -166,9 +179,7 @@ def load_tradeoff_data(
             notes=notes,
         )
     if data.labels is None:
-        raise ValueError(
-            f"{data_name(paths)}: a feature file needs 'labels' next to 'features' to compare models"
-        )
+        raise ValueError(f"{where}: a feature file needs 'labels' next to 'features' to compare models")
     return TradeoffData(
         kind="features",
         class_names=tuple(data.class_names),
@@ -295,10 +306,66 @@ def vibration_samples(
     from ..formats import window_recordings
 
     ds = window_recordings(recordings.signals, window)
-    X, recording, position = ds.windows, ds.recording, ds.position
-    y = np.asarray(recordings.labels)[recording]
+    y = np.asarray(recordings.labels)[ds.recording]
+    given = recordings.session is not None
+    session = recordings.session if given else np.arange(len(recordings))
+    group, keep, folds, split = window_folds(
+        ds.recording,
+        ds.position,
+        y,
+        session,
+        group_label="session" if given else "recording",
+        n_folds=n_folds,
+        names=names,
+        window=window,
+        max_per_class=max_per_class,
+        random_state=random_state,
+    )
+    split = f"{len(keep)} windows; {split}"
+    X, y, group = ds.windows[keep], y[keep], group[keep]
     rate = float(recordings.rate_hz)
-    session = recordings.session if recordings.session is not None else np.arange(len(recordings))
+    return Samples(f"windows-{window}", X, y, folds, "B,3,W", window / rate, split, window, groups=group)
+
+
+def window_folds(
+    recording: np.ndarray,
+    position: np.ndarray,
+    y: np.ndarray,
+    session: np.ndarray,
+    *,
+    group_label: str = "session",
+    n_folds: int,
+    names: Sequence[str],
+    window: int,
+    guard: int = 1,
+    max_per_class: int | None = None,
+    random_state: RandomState = None,
+) -> tuple[np.ndarray, np.ndarray, list[Fold], str]:
+    """Folds of windows cut from recordings that never split neighbouring windows (module notes).
+
+    Parameters
+    ----------
+    recording, position, y : ndarray (N,)
+        Each window's recording, its index within the recording (time order), its class.
+    session : ndarray (R,)
+        Each recording's session (or its index); windows are grouped by it.
+    group_label : str
+        What ``session`` holds, in the description (``"session"``, ``"recording"``).
+    guard : int
+        Time blocks: windows dropped at the start of every later block (``ceil(W / step)`` for
+        windows cut every ``step`` samples, so that no kept window overlaps another block's).
+
+    Returns
+    -------
+    groups : ndarray (N,)
+        What the folds keep on one side (session or recording, or a recording's time block).
+    keep : ndarray
+        The windows used (every window but the guards, at most ``max_per_class`` per class).
+    folds : list of (train, test)
+        Index arrays into ``keep``.
+    split : str
+        How the folds were made, in words.
+    """
     group = _group_ids(np.asarray(session))[recording]
     per_class = np.array([len(np.unique(group[y == c])) for c in np.unique(y)])
     if per_class.min() >= 2:
@@ -309,16 +376,12 @@ def vibration_samples(
             n_folds=n_folds,
             names=names,
             what="recordings",
-            group_label="session" if recordings.session is not None else "recording",
+            group_label=group_label,
             random_state=random_state,
         )
-    else:  # one recording for some class: consecutive time blocks of every recording, a guard between
-        group, keep, folds, split = _time_blocks(
-            recording, position, y, window, n_folds, max_per_class, names
-        )
-    split = f"{len(keep)} windows; {split}"
-    X, y, group = X[keep], y[keep], group[keep]
-    return Samples(f"windows-{window}", X, y, folds, "B,3,W", window / rate, split, window, groups=group)
+        return group, keep, folds, split
+    # one recording (or session) for some class: consecutive time blocks of every recording
+    return _time_blocks(recording, position, y, window, n_folds, max_per_class, names, guard)
 
 
 def _time_blocks(
@@ -329,27 +392,33 @@ def _time_blocks(
     n_folds: int,
     max_per_class: int | None,
     names: Sequence[str],
+    guard: int = 1,
 ) -> tuple[np.ndarray, np.ndarray, list[Fold], str]:
     """Time-block folds: ``(block of each window, windows kept, folds over the kept ones, description)``."""
     present = np.unique(recording)
     n_windows = np.bincount(recording)[present]
-    blocks = min(n_folds, int(n_windows.min() // 2))  # every later block keeps a window after its guard
+    blocks = min(
+        n_folds, int(n_windows.min() // (guard + 1))
+    )  # every later block keeps a window after its guard
     if blocks < 2:
         short = names[int(y[recording == present[n_windows.argmin()]][0])]
+        need = 2 * (guard + 1)
         raise ValueError(
             f"window: {window} samples leaves a recording of class {short!r} only {n_windows.min()} window(s); "
-            "time-block folds need at least 4 (two blocks of two, one a guard): choose a shorter --window"
+            f"time-block folds need at least {need} (two blocks, each with {guard} guard window(s)): choose a "
+            "shorter --window"
         )
     count = np.bincount(recording)[recording]
     block = position * blocks // count
-    guard = (position > 0) & (block != (position - 1) * blocks // count)
-    keep = np.flatnonzero(~guard)
+    guarded = (position > 0) & (block != np.maximum(position - guard, 0) * blocks // count)
+    keep = np.flatnonzero(~guarded)
     keep = keep[cap_per_class(y[keep], max_per_class)]
     folds = [(np.flatnonzero(block[keep] != b), np.flatnonzero(block[keep] == b)) for b in range(blocks)]
     _check_folds(folds, y[keep], names, "windows")
+    dropped = "the first window" if guard == 1 else f"the first {guard} windows"
     split = (
         f"{blocks} folds of consecutive time blocks of every recording (a class has a single recording); "
-        "the first window of each later block is dropped so that no neighbouring windows are split"
+        f"{dropped} of each later block is dropped so that no neighbouring windows are split"
     )
     return recording * blocks + block, keep, folds, split
 
@@ -399,4 +468,5 @@ __all__ = [
     "sample_folds",
     "vibration_data",
     "vibration_samples",
+    "window_folds",
 ]
