@@ -415,10 +415,14 @@ def _time_blocks(
     keep = keep[cap_per_class(y[keep], max_per_class)]
     folds = [(np.flatnonzero(block[keep] != b), np.flatnonzero(block[keep] == b)) for b in range(blocks)]
     _check_folds(folds, y[keep], names, "windows")
-    dropped = "the first window" if guard == 1 else f"the first {guard} windows"
+    dropped = (
+        "the first window of each later block is"
+        if guard == 1
+        else f"the first {guard} windows of each later block are"
+    )
     split = (
         f"{blocks} folds of consecutive time blocks of every recording (a class has a single recording); "
-        f"{dropped} of each later block is dropped so that no neighbouring windows are split"
+        f"{dropped} dropped so that no neighbouring windows are split"
     )
     return recording * blocks + block, keep, folds, split
 
