@@ -11,7 +11,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from .cli_data import add_data_options, read_data_arg
+from .cli_data import add_data_options, data_options, read_data_arg
 
 NOT_BUILT_EXIT = 2
 """Exit status when a command cannot do its work (e.g. ``bench`` outside a source checkout)."""
@@ -247,7 +247,7 @@ def _predict(args: argparse.Namespace) -> int:
     windows = pipe.input_layout == "B,3,W"
     if range_g is not None and not windows:
         raise UsageError(f"--range: {args.model} takes no vibration windows ({pipe.pipeline} bundle)")
-    data = pipe.read_npz(args.data, allow_pickle=args.allow_pickle)
+    data = pipe.read_npz(args.data, allow_pickle=args.allow_pickle, options=data_options(args))
     where = _data_name(args.data)
     mismatch = pipe.sample_rate_mismatch(data.rate_hz)
     if mismatch:
@@ -631,12 +631,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="classify a data file with an exported ONNX pipeline (onnxruntime, no torch); print a class report",
     )
     p.add_argument("--model", required=True, help="the .onnx bundle written by tactile-torch export")
-    p.add_argument(
-        "--data",
-        required=True,
-        nargs="+",
-        help="a .npz of docs/formats.md (frames, signals or features), or CSV logs t,x,y,z",
-    )
+    add_data_options(p, sensor_range=False)  # predict's --range leaves windows out instead
     p.add_argument("--out", default="", help="also write the predicted labels and names to this .npz")
     p.add_argument("--batch", type=int, default=256, help="samples per onnxruntime call (default: 256)")
     p.add_argument("--threads", type=int, default=1, help="onnxruntime intra-op threads (default: 1)")

@@ -33,8 +33,14 @@ def _positive(text: str) -> float:
     return value
 
 
-def add_data_options(p: argparse.ArgumentParser, *, data_help: str = DATA_HELP) -> None:
-    """Add ``--data`` and the options saying how to read it to the subcommand parser ``p``."""
+def add_data_options(
+    p: argparse.ArgumentParser, *, data_help: str = DATA_HELP, sensor_range: bool = True
+) -> None:
+    """Add ``--data`` and the options saying how to read it to the subcommand parser ``p``.
+
+    ``sensor_range``: add ``--sensor-range`` (recordings beyond it are refused); without it, no range
+    check (``predict`` leaves such windows out with its own ``--range``).
+    """
     p.add_argument("--data", required=True, nargs="+", help=data_help)
     g = p.add_argument_group("reading the data (docs/formats.md)")
     g.add_argument(
@@ -61,14 +67,15 @@ def add_data_options(p: argparse.ArgumentParser, *, data_help: str = DATA_HELP) 
         choices=["auto", "s", "ms", "us"],
         help="CSV logs: unit of the time column (default: auto, seconds unless the rate is implausible)",
     )
-    g.add_argument(
-        "--sensor-range",
-        dest="data_sensor_range",
-        type=_positive,
-        default=None,
-        metavar="G",
-        help="recordings with samples beyond +-G g are refused; inf: no check (default: 5, the ADXL345)",
-    )
+    if sensor_range:
+        g.add_argument(
+            "--sensor-range",
+            dest="data_sensor_range",
+            type=_positive,
+            default=None,
+            metavar="G",
+            help="recordings with samples beyond +-G g are refused; inf: no check (default: 5, the ADXL345)",
+        )
     g.add_argument(
         "--topic", default=None, help="ROS 2 bags: the topic (default: the only IMU or array topic)"
     )
@@ -107,7 +114,9 @@ def data_options(args: argparse.Namespace):
         shape=args.shape,
         frames=args.frames,
         index=args.index,
-        sensor_range_g=args.data_sensor_range or DEFAULT_RANGE_G,
+        sensor_range_g=(args.data_sensor_range or DEFAULT_RANGE_G)
+        if "data_sensor_range" in args
+        else float("inf"),
         max_messages=args.max_messages or MAX_BAG_MESSAGES,
         allow_pickle=getattr(args, "allow_pickle", False),
     )
