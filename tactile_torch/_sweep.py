@@ -1,36 +1,22 @@
-"""The evaluation engine behind :func:`tactile_torch.robustness.sweep` (internal).
+"""The degradations, curves and bootstrap behind :func:`tactile_torch.robustness.sweep` (internal).
 
-Models are split into a shared ``features`` step and a per-model rest, so that models with the same
-features step (same class and parameters) share its fits and transforms; a step that does not require
-fitting is applied to the whole set once per data variant. Every evaluation pools one prediction per
-test sample; correct predictions are summed per group for the cluster bootstrap of the intervals.
+Built on the evaluation engine (:mod:`tactile_torch.engine`): models are split into shared ``features``
+steps and per-model rests, so that models with the same features step share its fits and transforms, and
+a step that needs no fit is applied to the whole set once per data variant. Every evaluation pools one
+prediction per test sample; correct predictions are summed per group for the cluster bootstrap of the
+intervals. This module never imports :mod:`tactile_torch.robustness` (which sits above it).
 """
 
 from __future__ import annotations
 
 import math
-import zlib
 from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 import torch
-from sklearn.base import clone
-from sklearn.model_selection import StratifiedGroupKFold
-from sklearn.pipeline import Pipeline
 
-Folds = list[tuple[np.ndarray, np.ndarray]]
-
-
-def seed_of(base: int, *parts: object) -> int:
-    """A 62-bit seed from ``base`` and the reprs of ``parts`` (stable across runs and platforms)."""
-    words = [base] + [zlib.crc32(repr(p).encode()) for p in parts]
-    return int(np.random.SeedSequence(words).generate_state(1, np.uint64)[0] >> np.uint64(2))
-
-
-def take(X: Any, idx: np.ndarray) -> Any:
-    """Rows ``idx`` of a tensor or an array."""
-    return X[torch.from_numpy(idx)] if isinstance(X, torch.Tensor) else X[idx]
+from .engine import Folds, Models, cross_validate, last_input, seed_of, take
 
 
 def apply_raw(apply: Any, X: Any, level: Any, seed: int) -> Any:
@@ -42,171 +28,31 @@ def apply_raw(apply: Any, X: Any, level: Any, seed: int) -> Any:
     return out if isinstance(X, torch.Tensor) else out.numpy()
 
 
-def make_folds(y: np.ndarray, groups: np.ndarray, n_splits: int, seed: int) -> Folds:
-    """Stratified grouped folds (every group in one fold), at most as many as the rarest class has groups."""
-    classes = np.unique(y)
-    per_class = [len(np.unique(groups[y == c])) for c in classes]
-    n = min(n_splits, min(per_class))
-    if n < 2:
-        worst = classes[int(np.argmin(per_class))]
-        raise ValueError(
-            f"groups must give every class at least 2 groups for grouped folds, class {worst!r} has "
-            f"{min(per_class)} (cut long recordings into time blocks with recording_blocks)"
-        )
-    cv = StratifiedGroupKFold(n_splits=n, shuffle=True, random_state=seed % (2**31))
-    return [(np.sort(tr), np.sort(te)) for tr, te in cv.split(np.zeros(len(y)), y, groups)]
-
-
-def stateless(step: Any) -> bool:
-    """Whether a transformer needs no fit (scikit-learn's ``requires_fit`` tag is False)."""
-    from sklearn.utils import get_tags
-
-    if step is None:
-        return True
-    try:
-        return get_tags(step).requires_fit is False
-    except (AttributeError, TypeError, ValueError):
-        return False
-
-
-def with_params(step: Any, params: Mapping[str, Any]) -> Any:
-    """A clone of ``step`` with ``params`` set (into ``kw_args`` for a ``FunctionTransformer`` whose
-    function takes them)."""
-    import inspect
-
-    from sklearn.preprocessing import FunctionTransformer
-
-    step = clone(step)
-    names = step.get_params(deep=False)
-    if all(k in names for k in params):
-        return step.set_params(**params)
-    if isinstance(step, FunctionTransformer) and step.func is not None:
-        try:
-            accepted = inspect.signature(step.func).parameters
-        except (TypeError, ValueError):  # a builtin without a signature
-            accepted = {}
-        takes_any = any(p.kind is inspect.Parameter.VAR_KEYWORD for p in accepted.values())
-        if takes_any or all(k in accepted for k in params):
-            return step.set_params(kw_args={**(step.kw_args or {}), **params})
-    raise ValueError(f"the features step {type(step).__name__} has no parameter(s) {sorted(params)}")
-
-
-def last_input(rest: Any, Z: Any) -> tuple[Any, Any]:
-    """``(input of the last step, last step)`` of a fitted model rest on features ``Z``."""
-    if isinstance(rest, Pipeline):
-        return (rest[:-1].transform(Z) if len(rest.steps) > 1 else Z), rest.steps[-1][1]
-    return Z, rest
-
-
-def signature(step: Any) -> str:
-    """A key equal for feature steps of one class with equal parameters (which fit and transform alike);
-    a parameter that cannot be pickled (a lambda) counts by identity."""
-    import pickle
-
-    import joblib
-
-    params = step.get_params(deep=True)
-    try:
-        return joblib.hash((type(step), params))
-    except (pickle.PicklingError, TypeError, AttributeError):
-        safe = {}
-        for name, value in params.items():
-            try:
-                pickle.dumps(value)
-                safe[name] = value
-            except (pickle.PicklingError, TypeError, AttributeError):
-                safe[name] = ("unpicklable", id(value))
-        return joblib.hash((type(step), safe))
-
-
-class Models:
-    """Models split into shared ``features`` steps (by signature) and per-model rests."""
-
-    def __init__(self, models: Mapping[str, Any], params: Mapping[str, Any] | None = None) -> None:
-        self.models = dict(models)
-        self.names = list(models)
-        self.steps: dict[str, Any] = {}
-        self.signature: dict[str, str] = {}
-        self.rest: dict[str, Any] = {}
-        self.errors: dict[str, str] = {}
-        for name, model in models.items():
-            step, rest = None, model
-            if isinstance(model, Pipeline) and model.steps[0][0] == "features" and len(model.steps) > 1:
-                step, rest = model.steps[0][1], model[1:]
-            if step is not None and params:
-                try:
-                    step = with_params(step, params)
-                except ValueError as err:
-                    self.errors[name] = str(err)
-                    continue
-            key = "identity" if step is None else signature(step)
-            self.steps.setdefault(key, step)
-            self.signature[name] = key
-            self.rest[name] = rest
-
-    def features(self, X: Any, y: np.ndarray, folds: Folds, clean: dict | None = None) -> dict:
-        """Per signature: a list over folds of ``(fitted step, Z_train, Z_test)``, or the error.
-
-        ``clean`` holds the whole-set features of stateless steps on the same ``X`` (reused)."""
-        out: dict[str, Any] = {}
-        for key, step in self.steps.items():
-            try:
-                if step is None:
-                    out[key] = [(None, take(X, tr), take(X, te)) for tr, te in folds]
-                elif stateless(step):
-                    Z = clean[key] if clean and key in clean else clone(step).fit(X, y).transform(X)
-                    out[key] = [(step, take(Z, tr), take(Z, te)) for tr, te in folds]
-                else:
-                    per_fold = []
-                    for tr, te in folds:
-                        fitted = clone(step)
-                        Z_tr = fitted.fit_transform(take(X, tr), y[tr])
-                        per_fold.append((fitted, Z_tr, fitted.transform(take(X, te))))
-                    out[key] = per_fold
-            except Exception as err:  # as in fit_predict: a degraded input may break the features step
-                out[key] = err
-        return out
-
-    def whole(self, X: Any, y: np.ndarray) -> dict:
-        """Whole-set features of the stateless steps (to pass as ``clean`` to :meth:`features`)."""
-        return {
-            key: (X if step is None else clone(step).fit(X, y).transform(X))
-            for key, step in self.steps.items()
-            if stateless(step)
-        }
-
-    def transform(self, key: str, fitted: Any, X: Any) -> Any:
-        step = self.steps[key]
-        if step is None:
-            return X
-        return (clone(step).fit(X[:1]) if stateless(step) else fitted).transform(X)
-
-
-def fit_predict(models: Models, X: Any, y: np.ndarray, folds: Folds, clean: dict | None = None):
-    """Fit every model on each fold's training part of ``X`` and test on its test part.
+def fit_predict(models: Models, X: Any, y: np.ndarray, folds: Folds, clean: dict | None = None, backend=None):
+    """Fit every model on each fold's training part of ``X`` and test on its test part (the engine's
+    :func:`~tactile_torch.engine.cross_validate`, untuned).
 
     Returns ``(correct, fitted, feats)``: per model an array ``(N,)`` of 1/0 (NaN where untested) or
     the error message of a failed fit; per model the fitted rests by fold; the features by signature.
+    ``clean`` holds the whole-set features of the steps that need no fit on the same ``X`` (reused).
     """
-    feats = models.features(X, y, folds, clean)
-    correct: dict[str, Any] = dict(models.errors)
+    feats: dict[str, Any] = {}
+    cache = {key: (Z, 0.0) for key, Z in (clean or {}).items()}
+    results = cross_validate(
+        models, X, y, folds, cache=cache, keep_models=True, backend=backend, features_out=feats
+    )
+    correct: dict[str, Any] = {}
     fitted: dict[str, list] = {}
-    for m in models.rest:
-        per = feats[models.signature[m]]
-        if isinstance(per, Exception):
-            correct[m] = f"features: {per}"
+    for m, res in results.items():
+        if res.error is not None:
+            correct[m] = res.error
             continue
         hits = np.full(len(y), np.nan)
-        fitted[m] = []
-        try:
-            for (tr, te), (_, Z_tr, Z_te) in zip(folds, per, strict=True):
-                rest = clone(models.rest[m]).fit(Z_tr, y[tr])
-                fitted[m].append(rest)
-                hits[te] = rest.predict(Z_te) == y[te]
-        except Exception as err:  # a degraded input may break any estimator in any way: record it
-            correct[m] = f"{type(err).__name__}: {err}"
-            continue
+        tested = res.fold >= 0
+        hits[tested] = res.predictions[tested] == y[tested]
         correct[m] = hits
+        identity = models.signature[m] == "identity"
+        fitted[m] = [model if identity else model[1:] for model in res.models]
     return correct, fitted, feats
 
 
@@ -355,9 +201,8 @@ def level_text(f, levels: list, position: float) -> tuple[str, float | None]:
 def build_curve(
     f, model: str, levels: tuple, rows: list, groups: np.ndarray, chance: float, n_bootstrap: int, seed: int
 ):
-    """The :class:`~tactile_torch.robustness.Curve` of one model from its per-sample rows."""
-    from .robustness import BreakingPoint, Curve
-
+    """The fields of one model's :class:`~tactile_torch.robustness.Curve` from its per-sample rows
+    (``breaking``: the fields of its :class:`~tactile_torch.robustness.BreakingPoint` in order)."""
     note, failed = "", None
     if isinstance(rows[-1], str):
         if len(rows) == 1:
@@ -405,7 +250,7 @@ def build_curve(
         status, text = "not reached", f"not reached by {f.label(path_levels[-1])}"
         if math.isfinite(lo_pos):
             text += f" [{level_text(f, path_levels, lo_pos)[0]}, beyond]"
-    return Curve(
+    return dict(
         factor=f,
         model=model,
         levels=levels,
@@ -416,6 +261,6 @@ def build_curve(
         clean_low=float(low[0]),
         clean_high=float(high[0]),
         chance=chance,
-        breaking=BreakingPoint(status, position, lo_pos, hi_pos, float(threshold), text, value),
+        breaking=(status, position, lo_pos, hi_pos, float(threshold), text, value),
         note=note,
     )

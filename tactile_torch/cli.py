@@ -470,6 +470,7 @@ def _tradeoff(args: argparse.Namespace) -> int:
 
     options = [f"--data {' '.join(args.data)}", f"--out {args.out}", *(["--quick"] if args.quick else [])]
     options += ["--no-breaking"] if args.no_breaking else []
+    options += ["--no-tune"] if args.no_tune else []
     defaults = vars(build_parser().parse_args(["tradeoff", "--data", "-"]))
     names = ("folds", "window", "windows", "frame_rate", "threshold", "erosion", "contact", "max_per_class")
     names += ("classifiers", "features", "seed")
@@ -494,6 +495,10 @@ def _tradeoff(args: argparse.Namespace) -> int:
         out_dir=args.out,
         random_state=args.seed,
         allow_pickle=args.allow_pickle,
+        tune=not args.no_tune,
+        backend=args.backend,
+        n_jobs=args.n_jobs,
+        scheduler=args.scheduler,
         progress=not args.quiet,
         log=(lambda line: None) if args.quiet else (lambda line: print(line, file=sys.stderr)),
     )
@@ -516,6 +521,13 @@ def _add_allow_pickle(p: argparse.ArgumentParser) -> None:
         action="store_true",
         help="read the pickled recordings of a trusted vibration .npz written by tactile-torch 0.1",
     )
+
+
+def catalogue_choices() -> list[str]:
+    """The ``--method`` choices: the classifier catalogue's keys and aliases (:mod:`tactile_torch.catalogue`)."""
+    from .catalogue import choices
+
+    return choices()
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -552,8 +564,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--method",
         default="hmsvm",
-        choices=["hmsvm", "svm", "lda", "knn"],
-        help="classifier (default: hmsvm)",
+        choices=catalogue_choices(),
+        help="classifier of the catalogue, docs/tradeoff.md (default: hmsvm; svm = svc)",
     )
     p.add_argument(
         "--out", default="", help="write the trained SVM's model file here (no pickle), e.g. model.npz"
@@ -797,6 +809,25 @@ def build_parser() -> argparse.ArgumentParser:
         "--no-breaking",
         action="store_true",
         help="skip the breaking points of the recommended and the study's model (docs/robustness.md)",
+    )
+    p.add_argument(
+        "--no-tune",
+        action="store_true",
+        help="run every candidate at the catalogue's default hyper-parameters instead of tuning it inside "
+        "each training fold (for comparison)",
+    )
+    p.add_argument(
+        "--backend",
+        default=None,
+        choices=["sequential", "loky", "threading", "multiprocessing", "dask"],
+        help="where the cross-validation tasks run (default: this process; loky with --n-jobs); dask needs "
+        "the optional extra dask",
+    )
+    p.add_argument("--n-jobs", type=int, default=None, help="parallel workers (-1: every core)")
+    p.add_argument(
+        "--scheduler",
+        default=None,
+        help="--backend dask: address of a running dask scheduler (tcp://host:8786)",
     )
     _add_allow_pickle(p)
     p.set_defaults(handler=_tradeoff)

@@ -574,6 +574,7 @@ def sweep(
     from tqdm.auto import tqdm
 
     from . import _sweep
+    from .engine import Models, make_folds
 
     y, groups = _check_inputs(X, y, groups)
     found = infer_kind(X)
@@ -598,9 +599,9 @@ def sweep(
         else tuple(factor(f) if isinstance(f, str) else f for f in factors)
     )
     seed = int(numpy_rng(random_state).integers(2**62))
-    folds = _sweep.make_folds(y, groups, n_splits, seed)
+    folds = make_folds(y, groups, n_splits, seed)
     chance = 1.0 / len(np.unique(y))
-    base = _sweep.Models(models)
+    base = Models(models)
     whole = base.whole(X, y)
     clean, fitted, feats = _sweep.fit_predict(base, X, y, folds, whole)
     for name, value in clean.items():
@@ -630,7 +631,7 @@ def sweep(
                 continue
             names = base.names
             if f.stage == "parameter":  # a model without the parameter is not swept (not broken)
-                probe = _sweep.Models(models, f.apply(context, levels[0]))
+                probe = Models(models, f.apply(context, levels[0]))
                 result.skipped += [(f"{f.name} for {m}", why) for m, why in probe.errors.items()]
                 names = [m for m in names if m not in probe.errors]
             rows = {m: [clean[m]] for m in names}
@@ -645,9 +646,8 @@ def sweep(
             bar.close()
             group_of = groups
         for m in rows:
-            result.curves.append(
-                _sweep.build_curve(f, m, levels, rows[m], group_of, chance, n_bootstrap, seed)
-            )
+            fields = _sweep.build_curve(f, m, levels, rows[m], group_of, chance, n_bootstrap, seed)
+            result.curves.append(Curve(**{**fields, "breaking": BreakingPoint(*fields["breaking"])}))
     return result
 
 

@@ -3,8 +3,9 @@
 :func:`load_features` reads a data file of ``docs/formats.md`` through :mod:`tactile_torch.formats`
 (image explorations: ``frames``; vibration recordings: ``signals`` or CSV logs; a ready ``features``
 matrix) and computes its features (:func:`tactile_torch.image.exploration_features`, or windows and
-:func:`tactile_torch.signal.window_features`). :func:`train_classifier` reports the accuracy of the
-HM-SVM, a one-vs-one SVM, LDA or kNN (k = 3, city-block, inverse-distance weights) held out by
+:func:`tactile_torch.signal.window_features`). :func:`train_classifier` reports the accuracy of a
+classifier of the catalogue (:mod:`tactile_torch.catalogue`: the HM-SVM, a one-vs-one SVM, LDA, kNN
+with k = 3, city-block distance and inverse-distance weights, or nearest class mean) held out by
 recording, session or time block (the trade-off's folds, :func:`held_out_folds`), then fits it on
 every sample, each feature scaled to unit standard deviation (as in the study; the scale is kept
 with the model). :func:`save_model` writes an SVM's model
@@ -20,9 +21,12 @@ from pathlib import Path
 
 import numpy as np
 
+from . import catalogue
 from ._checks import RandomState, check_positive, numpy_rng
 
-METHODS = ("hmsvm", "svm", "lda", "knn")
+METHODS = tuple(catalogue.choices())
+"""Accepted ``method`` names: the catalogue's keys (:data:`tactile_torch.catalogue.CLASSIFIERS`) and
+``"svm"``, an alias of ``"svc"`` (the one-vs-one SVM)."""
 MODEL_FORMAT = "tactile-torch/model"
 """``format`` of model files (:data:`tactile_torch.model_file.FORMAT`; kept for old imports)."""
 
@@ -152,24 +156,14 @@ def make_classifier(
     kernel: str = "rbf",
     random_state: RandomState = None,
 ):
-    """Return an unfitted classifier: ``hmsvm``, ``svm`` (one-vs-one), ``lda`` or ``knn``."""
-    if method == "hmsvm":
-        from .svm import HierarchicalSVC
-
-        return HierarchicalSVC(C=C, gamma=gamma, kernel=kernel, random_state=random_state)
-    if method == "svm":
-        from .svm import SVC
-
-        return SVC(C=C, gamma=gamma, kernel=kernel, random_state=random_state)
-    if method == "lda":
-        from sklearn.discriminant_analysis import LinearDiscriminantAnalysis
-
-        return LinearDiscriminantAnalysis()
-    if method == "knn":
-        from sklearn.neighbors import KNeighborsClassifier
-
-        return KNeighborsClassifier(n_neighbors=3, metric="cityblock", weights="distance")
-    raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+    """Return an unfitted classifier of the catalogue (:mod:`tactile_torch.catalogue`): ``hmsvm``,
+    ``svc`` (or ``svm``, one-vs-one), ``lda``, ``knn`` or ``ncm``, at its defaults; ``C``, ``gamma`` and
+    ``kernel`` apply to the SVMs only."""
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+    key = catalogue.resolve(method)
+    params = {"C": C, "gamma": gamma, "kernel": kernel} if key in ("hmsvm", "svc") else {}
+    return catalogue.make_classifier(key, random_state=random_state, **params)
 
 
 @dataclass

@@ -12,7 +12,7 @@ from sklearn.neighbors import KNeighborsClassifier, NearestCentroid
 from sklearn.pipeline import Pipeline
 from sklearn.preprocessing import FunctionTransformer, StandardScaler
 
-from tactile_torch import _sweep
+from tactile_torch import _sweep, engine
 from tactile_torch.robustness import (
     FACTORS,
     Degradation,
@@ -146,7 +146,7 @@ def test_test_stage_accuracy_equals_a_hand_computation():
     model = NearestCentroid()
     result = sweep({"nc": model}, X, y, factors=[shift], n_splits=4, random_state=5)
     seed = int(np.random.default_rng(5).integers(2**62))
-    folds = _sweep.make_folds(y, np.arange(len(y)), 4, seed)
+    folds = engine.make_folds(y, np.arange(len(y)), 4, seed)
     for level, got in zip(shift.levels, result.curves[0].accuracy, strict=True):
         hits = 0
         for tr, te in folds:
@@ -275,9 +275,9 @@ def test_parameter_factor_skips_models_without_the_parameter():
     from tactile_torch.studies._models import image_features
 
     fused = _pipe(image_features)  # a FunctionTransformer whose function takes erosion: kw_args get it
-    assert _sweep.with_params(fused.steps[0][1], {"erosion": 3}).kw_args == {"erosion": 3}
+    assert engine.with_params(fused.steps[0][1], {"erosion": 3}).kw_args == {"erosion": 3}
     with pytest.raises(ValueError, match=r"has no parameter\(s\) \['erosion'\]"):
-        _sweep.with_params(_pipe(_mean_features).steps[0][1], {"erosion": 3})  # its function takes none
+        engine.with_params(_pipe(_mean_features).steps[0][1], {"erosion": 3})  # its function takes none
     frames, y = _tiny_frames()
     result = sweep(
         {"plain": _pipe(_mean_features)},
@@ -295,7 +295,7 @@ def test_parameter_factor_skips_models_without_the_parameter():
     )
     assert result.curves == []  # features kind: the factor does not apply
     with pytest.raises(ValueError, match="has no parameter"):
-        _sweep.with_params(StandardScaler(), {"erosion": 3})
+        engine.with_params(StandardScaler(), {"erosion": 3})
 
 
 def _drifting_windows(n_rec=2, n_win=20, width=64, seed=0):

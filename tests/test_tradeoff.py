@@ -288,8 +288,9 @@ def test_cached_features_equal_fitting_the_whole_pipeline(recordings):
     candidates = build_candidates(sets[:2], classifiers=["LDA", "NCM"])
     results = cross_validate(candidates, {s.key: s}, progress=False)
     for res in results:
+        assert len(res.params) == len(s.folds) and all(res.params)  # tuned in every fold
         for k, (train, test) in enumerate(s.folds):
-            model = clone(res.candidate.estimator).fit(s.X[train], s.y[train])
+            model = clone(res.candidate.estimator).set_params(**res.params[k]).fit(s.X[train], s.y[train])
             assert res.fold_accuracy[k] == pytest.approx(np.mean(model.predict(s.X[test]) == s.y[test]))
 
 

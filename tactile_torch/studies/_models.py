@@ -46,22 +46,14 @@ def _pipeline(features, classifier, *, scale: bool = True):
 
 
 def classifiers(random_state: int, *, svm_c: float = 10.0, svm_gamma="scale") -> dict:
-    """The study's classifiers: HM-SVM, LDA, kNN (k = 3, city-block, inverse-distance weights).
-
-    kNN searches a ball tree: the same neighbours as brute force, and an order of magnitude faster
-    than scikit-learn's brute-force city-block distances on a busy 2-core machine (measured).
-    """
-    from sklearn.discriminant_analysis import LinearDiscriminantAnalysis
-    from sklearn.neighbors import KNeighborsClassifier
-
-    from ..svm import HierarchicalSVC
+    """The study's classifiers from the catalogue (:mod:`tactile_torch.catalogue`): HM-SVM, LDA, kNN
+    (k = 3, city-block, inverse-distance weights, searched in a ball tree), by display name."""
+    from .. import catalogue
 
     return {
-        "HM-SVM": HierarchicalSVC(C=svm_c, gamma=svm_gamma, random_state=random_state),
-        "LDA": LinearDiscriminantAnalysis(),
-        "kNN": KNeighborsClassifier(
-            n_neighbors=3, metric="cityblock", weights="distance", algorithm="ball_tree"
-        ),
+        "HM-SVM": catalogue.make_classifier("hmsvm", random_state=random_state, C=svm_c, gamma=svm_gamma),
+        "LDA": catalogue.make_classifier("lda"),
+        "kNN": catalogue.make_classifier("knn"),
     }
 
 

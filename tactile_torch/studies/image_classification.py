@@ -32,20 +32,16 @@ def _command(ctx) -> str:
 
 
 def classifiers(random_state: int) -> dict:
-    """The three classifiers of the study, each behind a standard scaler fitted on training data."""
-    from sklearn.discriminant_analysis import LinearDiscriminantAnalysis
-    from sklearn.neighbors import KNeighborsClassifier
+    """The three classifiers of the study (the catalogue's, :mod:`tactile_torch.catalogue`), each behind a
+    standard scaler fitted on training data."""
     from sklearn.pipeline import make_pipeline
     from sklearn.preprocessing import StandardScaler
 
-    from ..svm import HierarchicalSVC
+    from .. import catalogue
 
     return {
-        "HM-SVM": make_pipeline(StandardScaler(), HierarchicalSVC(random_state=random_state)),
-        "LDA": make_pipeline(StandardScaler(), LinearDiscriminantAnalysis()),
-        "kNN": make_pipeline(
-            StandardScaler(), KNeighborsClassifier(n_neighbors=3, metric="cityblock", weights="distance")
-        ),
+        name: make_pipeline(StandardScaler(), catalogue.make_classifier(key, random_state=random_state))
+        for key, name in (("hmsvm", "HM-SVM"), ("lda", "LDA"), ("knn", "kNN"))
     }
 
 

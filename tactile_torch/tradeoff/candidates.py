@@ -5,15 +5,19 @@ Every candidate is ``Pipeline([("features", <raw input → features>), ("select"
 so it can be cross-validated, exported whole and swept over input degradations (``sklearn.base.clone``
 gives an unfitted copy).
 
-Classifiers (:data:`CLASSIFIERS`), at fixed hyper-parameters (the study compares model families, not
-tuning; a grid search per candidate would multiply the cost):
+Classifiers come from the catalogue (:mod:`tactile_torch.catalogue`: HM-SVM, SVC, LDA, kNN, NCM, one
+set of names and settings for the whole package). :data:`CLASSIFIERS` holds their display names, which
+candidate names and tables use; ``classifiers=`` takes keys (``"hmsvm"``) or display names.
 
-* ``HM-SVM``: :class:`~tactile_torch.svm.HierarchicalSVC`, RBF, ``C = 16`` (the vibration study's),
-  ``gamma = 1 / n_features`` (scikit-learn's ``"scale"`` on standardised features);
-* ``SVC``: :class:`~tactile_torch.svm.SVC`, the same kernel and parameters;
-* ``LDA``: scikit-learn's ``LinearDiscriminantAnalysis``;
-* ``kNN``: ``KNeighborsClassifier(n_neighbors=3, metric="cityblock", weights="distance")`` (the study's);
-* ``NCM``: nearest class mean, scikit-learn's ``NearestCentroid`` (Euclidean), the simplest baseline.
+Tuning (nested, :class:`tactile_torch.engine.Tuning`): every candidate with hyper-parameters is tuned
+inside each outer training fold over the catalogue's grid (``quick``: the smaller grid) on 3 inner
+folds, grouped where the data's groups allow: the SVMs over C x gamma (the batched
+:class:`~tactile_torch.model_selection.SVMGridSearchCV`), kNN over k, LDA over shrinkage, NCM over its
+shrink threshold. The study's own model (the HM-SVM on the reference feature set) is tuned as the study
+tuned it: on vibration windows by stratified 10-fold grid search (3 folds with ``quick``), method 2's
+protocol; on explorations by one validation part of the training folds (60 % train, 20 % validation of
+the whole), method 1's protocol. ``tune=False`` runs every candidate at the catalogue's defaults
+(``C = 16``, ``gamma = 1 / n_features``, k = 3, plain LDA and NCM), for comparison.
 
 Feature sets by input kind (:func:`feature_sets`): vibration: the 21 features at every allowed window
 size and the ``k`` best-ranked of the 21 at the reference window; RGB explorations: fused 12,
@@ -30,6 +34,8 @@ from dataclasses import dataclass
 from sklearn.pipeline import Pipeline
 from sklearn.preprocessing import StandardScaler
 
+from .. import catalogue
+from ..engine import Tuning
 from .transformers import (
     MAX_TAXELS,
     FeaturePassthrough,
@@ -40,35 +46,48 @@ from .transformers import (
     WindowFeatureTransformer,
 )
 
-CLASSIFIERS = ("HM-SVM", "SVC", "LDA", "kNN", "NCM")
-"""Classifier names, in report order."""
-SVM_C = 16.0
-"""Penalty of both SVMs (the vibration study's choice)."""
+CLASSIFIERS = tuple(catalogue.display_name(key) for key in catalogue.CLASSIFIERS)
+"""Classifier display names, in report order (the catalogue's; its keys work too)."""
+SVM_C = catalogue.SVM_C
+"""Default penalty of both SVMs (the vibration study's choice; tuned unless ``tune=False``)."""
 TOP_K = (3, 7, 14)
 """Numbers of best-ranked features tried (those below the feature count)."""
 QUICK_TOP_K = (7,)
 QUICK_OTHER_CLASSIFIERS = ("HM-SVM", "LDA")
 """In quick mode every classifier runs on the reference feature set, these two on the others."""
+INNER_FOLDS = 3
+"""Inner folds of every candidate's tuning."""
+STUDY_INNER_FOLDS = {"quick": 3, "full": 10}
+"""Inner folds of the study's own model on vibration windows (method 2: stratified 10-fold)."""
+STUDY_VALIDATION_FOLDS = 4
+"""Explorations: the study's model is tuned on one of 4 inner folds of an 80 % training part (20 % of
+the whole) after training on the other three (60 %): method 1's 60/20/20 protocol."""
 
 
 def make_classifier(name: str, n_features: int, random_state: int = 0) -> object:
-    """Return an unfitted classifier of :data:`CLASSIFIERS` for ``n_features`` standardised features."""
-    from sklearn.discriminant_analysis import LinearDiscriminantAnalysis
-    from sklearn.neighbors import KNeighborsClassifier, NearestCentroid
+    """Return an unfitted classifier of the catalogue at its defaults for ``n_features`` standardised
+    features (the SVMs' ``gamma = 1 / n_features``, scikit-learn's ``"scale"`` on standardised features)."""
+    key = catalogue.resolve(name)
+    params = {"gamma": 1.0 / n_features} if key in ("hmsvm", "svc") else {}
+    return catalogue.make_classifier(key, random_state=random_state, **params)
 
-    from ..svm import SVC, HierarchicalSVC
 
-    gamma = 1.0 / n_features
-    factories: dict[str, Callable[[], object]] = {
-        "HM-SVM": lambda: HierarchicalSVC(C=SVM_C, gamma=gamma, random_state=random_state),
-        "SVC": lambda: SVC(C=SVM_C, gamma=gamma, random_state=random_state),
-        "LDA": LinearDiscriminantAnalysis,
-        "kNN": lambda: KNeighborsClassifier(n_neighbors=3, metric="cityblock", weights="distance"),
-        "NCM": NearestCentroid,
-    }
-    if name not in factories:
-        raise ValueError(f"classifier must be one of {CLASSIFIERS}, got {name!r}")
-    return factories[name]()
+def candidate_tuning(
+    name: str, n_features: int, *, quick: bool = False, study: str | None = None
+) -> Tuning | None:
+    """Return how a candidate's classifier is tuned (see the module notes), ``None`` without a grid.
+
+    ``study`` is ``"vibration"`` or ``"exploration"`` for the study's own model (tuned by its protocol).
+    """
+    grid = catalogue.param_grid(name, n_features, quick=quick)
+    if not grid:
+        return None
+    grid = catalogue.prefixed(grid, "classifier__")
+    if study == "vibration":
+        return Tuning(grid, STUDY_INNER_FOLDS["quick" if quick else "full"], "kfold")
+    if study == "exploration":
+        return Tuning(grid, STUDY_VALIDATION_FOLDS, "validation")
+    return Tuning(grid, INNER_FOLDS, "kfold")
 
 
 @dataclass(frozen=True)
@@ -105,10 +124,15 @@ class Candidate:
     name : str
         ``"<classifier> | <feature set>"``, unique in a study.
     classifier : str
+        The classifier's display name (``"HM-SVM"``).
     features : str
     input : str
     estimator : sklearn.pipeline.Pipeline
-        Unfitted; steps ``features``, (``select``), ``scale``, ``classifier``.
+        Unfitted, at the catalogue's defaults; steps ``features``, (``select``), ``scale``, ``classifier``.
+    key : str
+        The classifier's catalogue key (``"hmsvm"``).
+    tuning : Tuning or None
+        How ``classifier__*`` parameters are chosen inside each training fold; ``None``: not tuned.
     """
 
     name: str
@@ -116,10 +140,12 @@ class Candidate:
     features: str
     input: str
     estimator: Pipeline
+    key: str = ""
+    tuning: Tuning | None = None
 
 
 def build_pipeline(features: FeatureSet, classifier: str, random_state: int = 0) -> Pipeline:
-    """Return the unfitted ``Pipeline`` of ``classifier`` on ``features``."""
+    """Return the unfitted ``Pipeline`` of ``classifier`` (a catalogue key or name) on ``features``."""
     steps = [("features", features.make())]
     if features.select is not None:
         steps.append(("select", RankedFeatureSelector(features.select)))
@@ -220,22 +246,38 @@ def build_candidates(
     quick: bool = False,
     classifiers: Sequence[str] | None = None,
     random_state: int = 0,
+    tune: bool = True,
 ) -> list[Candidate]:
     """Return the candidates: every classifier on every feature set (quick: every classifier on the
-    first set, :data:`QUICK_OTHER_CLASSIFIERS` on the others), only those in ``classifiers`` if given."""
+    first set, :data:`QUICK_OTHER_CLASSIFIERS` on the others), only those in ``classifiers`` (catalogue
+    keys or display names) if given; each with its :func:`candidate_tuning` unless ``tune=False``."""
+    wanted = None
     if classifiers is not None:
-        unknown = sorted(set(classifiers) - set(CLASSIFIERS))
-        if unknown or not classifiers:
-            raise ValueError(f"classifiers must name some of {CLASSIFIERS}, got {list(classifiers)}")
+        try:
+            wanted = {catalogue.resolve(c) for c in classifiers}
+        except ValueError:
+            wanted = set()
+        if not wanted or not classifiers:
+            raise ValueError(
+                f"classifiers must name some of {list(catalogue.CLASSIFIERS)} (or {list(CLASSIFIERS)}), "
+                f"got {list(classifiers)}"
+            )
     out = []
     for i, fs in enumerate(sets):
         names = CLASSIFIERS if (i == 0 or not quick) else QUICK_OTHER_CLASSIFIERS
         for clf in names:
-            if classifiers is not None and clf not in classifiers:
+            key = catalogue.resolve(clf)
+            if wanted is not None and key not in wanted:
                 continue
-            out.append(
-                Candidate(f"{clf} | {fs.name}", clf, fs.name, fs.input, build_pipeline(fs, clf, random_state))
-            )
+            tuning = None
+            if tune:
+                study = None
+                if i == 0 and key == "hmsvm":
+                    study = "vibration" if fs.input.startswith("windows") else "exploration"
+                    study = None if fs.input == "features" else study
+                tuning = candidate_tuning(key, fs.n_features, quick=quick, study=study)
+            pipe = build_pipeline(fs, clf, random_state)
+            out.append(Candidate(f"{clf} | {fs.name}", clf, fs.name, fs.input, pipe, key, tuning))
     return out
 
 
@@ -246,6 +288,7 @@ __all__ = [
     "FeatureSet",
     "build_candidates",
     "build_pipeline",
+    "candidate_tuning",
     "feature_sets",
     "make_classifier",
 ]

@@ -2,13 +2,16 @@
 
 Stages (each with a progress bar):
 
-1. **features**: a ``features`` step that learns nothing from the data (``stateless``) gives the same
-   features whichever fold it is fitted on, so they are computed once per feature set for all
-   samples, and its time is shared out over the samples. Steps that learn (the pressure maps'
-   resting and pressed levels, a threshold from the histogram) are fitted on each training fold.
-2. **cross-validation**: per fold, the rest of the pipeline is fitted on the training samples and
-   scored on the test samples. *Fit time* = computing the training samples' features plus fitting
-   the rest, averaged over folds.
+1. **features** and 2. **cross-validation** run on the evaluation engine
+   (:func:`tactile_torch.engine.cross_validate`), one raw input at a time, on the backend the caller
+   chose (in this process, joblib's workers or a Dask cluster). A ``features`` step that needs no fit
+   (scikit-learn's ``requires_fit`` tag is False) gives the same features whichever fold it is fitted
+   on, so they are computed once per feature set for all samples, and its time is shared out over the
+   samples; steps that learn (the pressure maps' resting and pressed levels, a threshold from the
+   histogram) are fitted on each training fold. Per fold, each candidate is tuned on inner folds of the
+   training part (:attr:`~.candidates.Candidate.tuning`), refitted with the chosen parameters and
+   scored on the test part. *Fit time* = the training samples' features + tuning + the final fit,
+   averaged over folds; *tuning time* is shown on its own too.
 3. **ONNX**: the first fold's fitted pipeline is exported (:mod:`.export`); its
    *latency* is the median time of ``OnnxPipeline.predict`` on one held-out sample (batch 1,
    onnxruntime on one thread, input validation included), its *size* the file's bytes, and its labels
@@ -18,8 +21,6 @@ Stages (each with a progress bar):
 
 from __future__ import annotations
 
-import time
-import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -27,6 +28,8 @@ import numpy as np
 from sklearn.base import clone
 from sklearn.pipeline import Pipeline
 
+from ..engine import Backend, CVResult, needs_fit, signature
+from ..engine import cross_validate as engine_cross_validate
 from .candidates import Candidate
 from .inputs import Samples
 
@@ -44,6 +47,7 @@ class CandidateResult:
     fold_accuracy : list of float
         Empty when fitting failed (see ``notes``).
     fit_s : float
+        Mean seconds of one fold's fit, tuning included.
     model : Pipeline or None
         Fitted on the first training fold (the exported one); ``None`` when fitting failed.
     latency_ms, size_bytes, decision_s, onnx_agreement : float or None
@@ -54,6 +58,14 @@ class CandidateResult:
     parity_predictions : ndarray or None
         The first fold's predictions of its first :data:`PARITY_SAMPLES` test samples (what the
         exported file must reproduce).
+    tune_s : float
+        Mean seconds of one fold's tuning (0 when not tuned).
+    params : list of dict
+        The parameters tuning chose in each fold (``{}`` per fold when not tuned).
+    cv : CVResult or None
+        The engine's result: every sample's out-of-fold prediction with its group and fold
+        (``cv.predictions``, ``cv.groups``, ``cv.fold``) and ``cv.final_model`` to refit the tuned
+        candidate on all data.
     """
 
     candidate: Candidate
@@ -67,10 +79,13 @@ class CandidateResult:
     onnx_file: str | None = None
     notes: list[str] = field(default_factory=list)
     parity_predictions: np.ndarray | None = field(default=None, repr=False)
+    tune_s: float = 0.0
+    params: list[dict] = field(default_factory=list)
+    cv: CVResult | None = field(default=None, repr=False)
 
 
 def _stateless(step: object) -> bool:
-    return bool(getattr(step, "stateless", False))
+    return not needs_fit(step)
 
 
 def _progress(items, desc: str, enabled: bool):
@@ -87,90 +102,78 @@ def features_key(candidate: Candidate) -> tuple:
     return candidate.input, type(step).__name__, repr(sorted(step.get_params().items()))
 
 
-class _Features:
-    """Features of every raw input and feature step, computed once (stateless) or per fold."""
-
-    def __init__(self, samples: dict[str, Samples], precomputed: dict | None = None) -> None:
-        self.samples = samples
-        self._all: dict[tuple, tuple[np.ndarray, float]] = dict(precomputed or {})
-        self._fold: dict[tuple, tuple[object, np.ndarray, np.ndarray, float]] = {}
-
-    key = staticmethod(features_key)
-
-    def precompute(self, candidate: Candidate) -> None:
-        step = candidate.estimator.named_steps["features"]
-        key = self.key(candidate)
-        if _stateless(step) and key not in self._all:
-            X = self.samples[candidate.input].X
-            start = time.perf_counter()
-            F = clone(step).fit(X).transform(X)
-            self._all[key] = (F, time.perf_counter() - start)
-
-    def fold(self, candidate: Candidate, k: int) -> tuple[object, np.ndarray, np.ndarray, float]:
-        """Return ``(fitted step, train features, test features, seconds for the train features)``."""
-        samples = self.samples[candidate.input]
-        train, test = samples.folds[k]
-        step = candidate.estimator.named_steps["features"]
-        key = self.key(candidate)
-        if _stateless(step):
-            F, seconds = self._all[key]
-            fitted = clone(step).fit(samples.X[train[:2]])  # learns the shape only
-            return fitted, F[train], F[test], seconds * len(train) / len(samples.y)
-        if (key, k) not in self._fold:
-            start = time.perf_counter()
-            fitted = clone(step).fit(samples.X[train])
-            F_train = fitted.transform(samples.X[train])
-            seconds = time.perf_counter() - start
-            self._fold[(key, k)] = (fitted, F_train, fitted.transform(samples.X[test]), seconds)
-        return self._fold[(key, k)]
-
-
 def cross_validate(
     candidates: list[Candidate],
     samples: dict[str, Samples],
     *,
     precomputed: dict | None = None,
     progress: bool = True,
+    backend: Backend | str | None = None,
+    n_jobs: int | None = None,
+    scheduler: str | None = None,
+    random_state: int = 0,
 ) -> list[CandidateResult]:
     """Stages 1 and 2 of the module notes for every candidate; return their results in order.
 
     ``precomputed`` maps :func:`features_key` to ``(features of every sample, seconds they took)`` for
-    stateless steps whose features are already known (e.g. computed by an earlier report section).
+    steps that need no fit whose features are already known (e.g. computed by an earlier report
+    section). ``backend``, ``n_jobs`` and ``scheduler`` say where the engine's tasks run
+    (:class:`tactile_torch.engine.Backend`); the results do not depend on them.
     """
-    features = _Features(samples, precomputed)
-    for cand in _progress(candidates, "features", progress):
-        features.precompute(cand)
+    from ..engine import as_backend
+
+    runner = as_backend(backend, n_jobs, scheduler)
+    by_input: dict[str, list[Candidate]] = {}
+    for cand in candidates:
+        by_input.setdefault(cand.input, []).append(cand)
+    cv: dict[str, CVResult] = {}
+    with runner:
+        for key, cands in by_input.items():
+            s = samples[key]
+            cache = {}
+            for cand in cands:
+                known = (precomputed or {}).get(features_key(cand))
+                if known is not None:
+                    cache[signature(cand.estimator.named_steps["features"])] = known
+            cv.update(
+                engine_cross_validate(
+                    {c.name: c.estimator for c in cands},
+                    s.X,
+                    s.y,
+                    s.folds,
+                    groups=s.groups,
+                    tuning={c.name: c.tuning for c in cands},
+                    cache=cache,
+                    backend=runner,
+                    random_state=random_state,
+                    keep_models=True,
+                    progress=progress,
+                    desc=f"{key}: ",
+                )
+            )
     results = []
-    for cand in _progress(candidates, "cross-validation", progress):
-        s = samples[cand.input]
-        accuracy, seconds, notes = [], [], set()
-        model = None
-        try:
-            for k, (train, test) in enumerate(s.folds):
-                fitted_step, F_train, F_test, feature_s = features.fold(cand, k)
-                tail = Pipeline([(name, clone(step)) for name, step in cand.estimator.steps[1:]])
-                with warnings.catch_warnings(record=True) as caught:
-                    warnings.simplefilter("always")
-                    start = time.perf_counter()
-                    tail.fit(F_train, s.y[train])
-                    seconds.append(feature_s + time.perf_counter() - start)
-                    predicted = tail.predict(F_test)
-                    accuracy.append(float(np.mean(predicted == s.y[test])))
-                notes.update(f"{w.category.__name__}: {str(w.message).splitlines()[0]}" for w in caught)
-                if k == 0:
-                    model = Pipeline([("features", fitted_step), *tail.steps])
-                    first_predictions = predicted[:PARITY_SAMPLES]
-        except (
-            ValueError,
-            ArithmeticError,
-            np.linalg.LinAlgError,
-        ) as err:  # this candidate cannot learn here
-            notes.add(f"fit failed: {type(err).__name__}: {str(err).splitlines()[0][:200]}")
-            accuracy, model = [], None
-        fit_s = float(np.mean(seconds)) if accuracy else float("nan")
-        result = CandidateResult(cand, accuracy, fit_s, model, notes=sorted(notes))
-        if model is not None:
-            result.parity_predictions = first_predictions
+    for cand in candidates:
+        res = cv[cand.name]
+        notes = list(res.notes)
+        if res.error is not None:
+            notes.append(f"fit failed: {res.error[:200]}")
+            results.append(CandidateResult(cand, [], float("nan"), None, notes=sorted(notes), cv=res))
+            continue
+        if cand.tuning is not None:
+            for how in sorted(set(res.tuning_notes)):
+                notes.append(how if how.startswith("not tuned") else f"tuned on {how} of each training fold")
+        test = samples[cand.input].folds[0][1]
+        result = CandidateResult(
+            cand,
+            list(res.fold_accuracy),
+            res.fit_s,
+            res.models[0],
+            notes=sorted(notes),
+            tune_s=res.tune_s,
+            params=list(res.params),
+            cv=res,
+        )
+        result.parity_predictions = res.predictions[test[:PARITY_SAMPLES]]
         results.append(result)
     return results
 

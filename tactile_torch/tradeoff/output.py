@@ -196,6 +196,7 @@ def table_rows(result: TradeoffResult) -> list[dict]:
                 "accuracy": r["accuracy"] if fitted else "fit failed",
                 "95 % interval": f"[{r['accuracy_low']:.3f}, {r['accuracy_high']:.3f}]" if fitted else "-",
                 "fit s": r["fit_s"] if fitted else "-",
+                "of it tuning s": r.get("tune_s") if fitted and r.get("tune_s") is not None else "-",
                 "latency ms": r["latency_ms"] if r["latency_ms"] is not None else "-",
                 "size": _size(r["size_bytes"]),
                 "decision s": r["decision_s"] if r["decision_s"] is not None else "-",

@@ -198,6 +198,7 @@ def plan_tradeoff(
     features: Sequence[str] | None = None,
     random_state: int = 0,
     allow_pickle: bool = False,
+    tune: bool = True,
     log: Callable[[str], None] = print,
 ) -> TradeoffPlan:
     """Read the data, cut the raw inputs, make the folds and the candidates.
@@ -232,14 +233,25 @@ def plan_tradeoff(
         Only the feature sets whose name starts with one of these (e.g. ``["fused", "per-taxel"]``).
     random_state : int
     allow_pickle : bool
+    tune : bool
+        Tune every candidate inside each training fold (nested, :mod:`.candidates`); ``False`` runs them
+        at the catalogue's defaults (for comparison; ``--no-tune``).
     log : callable
         Receives one line per stage.
 
     Returns
     -------
     TradeoffPlan
+
+    Raises
+    ------
+    ValueError
+        One line naming the argument: ``n_folds`` below 2 or above what the data allow (a class with
+        fewer samples, groups or time blocks), ``max_per_class`` below 2, ``frame_rate_hz`` not
+        positive and finite, ``window`` not a positive integer.
     """
     from .._checks import check_positive
+    from ..engine import needs_fit
     from .evaluation import features_key
 
     start = time.perf_counter()
@@ -248,6 +260,19 @@ def plan_tradeoff(
         raise ValueError(f"n_folds must be >= 2, got {n_folds}")
     if window is not None:
         check_positive(window, "window", integer=True)
+    if max_per_class not in ("auto", None):
+        if (
+            isinstance(max_per_class, bool)
+            or not isinstance(max_per_class, int | np.integer)
+            or max_per_class < 2
+        ):
+            raise ValueError(f"max_per_class must be 'auto', None or an integer >= 2, got {max_per_class!r}")
+    if frame_rate_hz is not None and not (
+        isinstance(frame_rate_hz, int | float) and np.isfinite(frame_rate_hz) and frame_rate_hz > 0
+    ):
+        raise ValueError(
+            f"frame_rate_hz must be a positive finite number of frames per second, got {frame_rate_hz!r}"
+        )
     if not isinstance(data, TradeoffData):
         data = load_tradeoff_data(data, frame_rate_hz=frame_rate_hz, allow_pickle=allow_pickle)
     cap = MAX_PER_CLASS["quick" if quick else "full"] if max_per_class == "auto" else max_per_class
@@ -287,18 +312,38 @@ def plan_tradeoff(
             )
         notes.extend(f"feature set {fs.name!r} left out (features=)" for fs in sets if fs not in kept)
         sets = kept
-    candidates = build_candidates(sets, quick=quick, classifiers=classifiers, random_state=random_state)
+    _check_folds_fit(n_folds, inputs)
+    candidates = build_candidates(
+        sets, quick=quick, classifiers=classifiers, random_state=random_state, tune=tune
+    )
     if not candidates:
         raise ValueError(f"classifiers {list(classifiers)} leave no candidate in this mode (quick={quick})")
     precomputed = {}
     for cand in candidates:
         known = data.precomputed.get(cand.features)
         step = cand.estimator.named_steps["features"]
-        if known is not None and getattr(step, "stateless", False):
+        if known is not None and not needs_fit(step):
             index = inputs[cand.input].index
             F, seconds = known
             precomputed[features_key(cand)] = (F[index], seconds * len(index) / len(F))
     return TradeoffPlan(data, inputs, candidates, notes, precomputed, time.perf_counter() - start)
+
+
+def _check_folds_fit(n_folds: int, inputs: dict[str, Samples]) -> None:
+    """``n_folds`` asked for more folds than the data allow: one line, rather than silently fewer.
+
+    The default (5) may drop to what small data allow (the folds' description says how many); a number
+    the user gave above every input's count of samples (or groups) per class is a mistake."""
+    for s in inputs.values():
+        counts = np.bincount(s.y)
+        most = int(counts[counts > 0].min())
+        if s.groups is not None:
+            most = min(len(np.unique(s.groups[s.y == c])) for c in np.unique(s.y))
+        if n_folds > max(most, 5):
+            raise ValueError(
+                f"n_folds must be at most {max(most, 5)} here (the rarest class of {s.key} has {most} "
+                f"{'groups' if s.groups is not None else 'samples'}), got {n_folds}"
+            )
 
 
 def execute_plan(
@@ -308,14 +353,31 @@ def execute_plan(
     out_dir: str | Path = "runs/tradeoff",
     progress: bool = True,
     log: Callable[[str], None] = print,
+    backend: str | None = None,
+    n_jobs: int | None = None,
+    scheduler: str | None = None,
+    random_state: int = 0,
 ) -> TradeoffResult:
-    """Cross-validate, export and time the candidates of ``plan`` (fronts already submitted to ``pool``)."""
+    """Cross-validate, export and time the candidates of ``plan`` (fronts already submitted to ``pool``).
+
+    ``backend``, ``n_jobs`` and ``scheduler`` say where the cross-validation tasks run
+    (:class:`tactile_torch.engine.Backend`: ``"loky"``, ``"threading"``, ``"dask"`` with a scheduler
+    address ...); the results do not depend on them."""
     start = time.perf_counter()
     data, inputs = plan.data, plan.inputs
     submit_fronts(plan.candidates, inputs, pool)
     log(f"[tradeoff] {len(plan.candidates)} candidates, {len(inputs)} raw input(s); cross-validating")
     stage = time.perf_counter()
-    results = cross_validate(plan.candidates, inputs, precomputed=plan.precomputed, progress=progress)
+    results = cross_validate(
+        plan.candidates,
+        inputs,
+        precomputed=plan.precomputed,
+        progress=progress,
+        backend=backend,
+        n_jobs=n_jobs,
+        scheduler=scheduler,
+        random_state=random_state,
+    )
     log(
         f"[tradeoff] cross-validation: {time.perf_counter() - stage:.1f} s; exporting every candidate to ONNX"
     )
@@ -356,14 +418,17 @@ def run_tradeoff(
     progress: bool = True,
     background: bool = True,
     log: Callable[[str], None] = print,
+    backend: str | None = None,
+    n_jobs: int | None = None,
+    scheduler: str | None = None,
     **options: object,
 ) -> TradeoffResult:
     """Evaluate every candidate model on a data file and recommend the simplest that does the job.
 
     Plans the study (:func:`plan_tradeoff`, which takes ``data`` and ``options``: ``quick``,
     ``n_folds``, ``window``, ``windows``, ``frame_rate_hz``, ``threshold``, ``erosion``, ``contact``,
-    ``max_per_class``, ``classifiers``, ``features``, ``random_state``, ``allow_pickle``), then
-    cross-validates, exports and times the candidates (:func:`execute_plan`).
+    ``max_per_class``, ``classifiers``, ``features``, ``random_state``, ``allow_pickle``, ``tune``), then
+    cross-validates (on ``backend``), exports and times the candidates (:func:`execute_plan`).
 
     Parameters
     ----------
@@ -377,6 +442,14 @@ def run_tradeoff(
         Export the feature graphs in a second process while cross-validating.
     log : callable
         Receives one line per stage.
+    backend : {"sequential", "loky", "threading", "multiprocessing", "dask"} or None
+        Where the cross-validation tasks (candidate x fold) run; default: in this process, or ``"loky"``
+        worker processes when ``n_jobs`` is not 1. ``"dask"`` needs the optional extra ``dask``.
+    n_jobs : int or None
+        Workers (-1: every core or every worker of the cluster).
+    scheduler : str or None
+        ``backend="dask"``: the address of a running ``dask.distributed`` scheduler; ``None`` starts a
+        local cluster for the run. Results do not depend on the backend or the number of workers.
     **options
         See :func:`plan_tradeoff`.
 
@@ -384,9 +457,24 @@ def run_tradeoff(
     -------
     TradeoffResult
     """
+    from ..engine import Backend
+
+    runner = Backend(backend, n_jobs, scheduler)  # checked before any work
     plan = plan_tradeoff(data, log=log, **options)
-    with ExportPool(Path(out_dir) / "models" / "parts", background=background) as pool:
-        return execute_plan(plan, pool, out_dir=out_dir, progress=progress, log=log)
+    seed = int(options.get("random_state", 0))
+    with ExportPool(Path(out_dir) / "models" / "parts", background=background) as pool, runner:
+        return execute_plan(
+            plan, pool, out_dir=out_dir, progress=progress, log=log, backend=runner, random_state=seed
+        )
+
+
+def _plain(params: dict) -> dict:
+    """Tuned parameters as JSON values (``classifier__C`` -> ``C``)."""
+    out = {}
+    for k, v in params.items():
+        v = v.item() if isinstance(v, np.generic) else v
+        out[k.split("__")[-1]] = v if isinstance(v, str | int | float | bool | type(None)) else repr(v)
+    return out
 
 
 def summarise(results: list[CandidateResult]) -> tuple[list[dict], str | None, str | None]:
@@ -408,6 +496,8 @@ def summarise(results: list[CandidateResult]) -> tuple[list[dict], str | None, s
                 "accuracy_se": se,
                 "fold_accuracy": list(res.fold_accuracy),
                 "fit_s": res.fit_s if res.fold_accuracy else None,
+                "tune_s": res.tune_s if res.fold_accuracy else None,
+                "params": [_plain(p) for p in res.params],
                 "latency_ms": res.latency_ms,
                 "size_bytes": res.size_bytes,
                 "decision_s": res.decision_s,

@@ -120,10 +120,12 @@ class ImageFeatureTransformer(TransformerMixin, BaseEstimator):
         self.threshold = threshold
         self.erosion = erosion
 
-    @property
-    def stateless(self) -> bool:
-        """Whether ``fit`` learns nothing from the values (features can be computed once for all folds)."""
-        return self.threshold != "otsu"
+    def __sklearn_tags__(self):
+        # Only Otsu's threshold is learnt from the training frames; otherwise fit learns the shapes only,
+        # so the features can be computed once for all folds (the engine's one "needs no fit" protocol).
+        tags = super().__sklearn_tags__()
+        tags.requires_fit = self.threshold == "otsu"
+        return tags
 
     def fit(self, X: object, y: object = None) -> ImageFeatureTransformer:
         X = _as_array(X)
@@ -274,8 +276,6 @@ class PressureImageFeatures(TransformerMixin, BaseEstimator):
         self.contact = contact
         self.upsample = upsample
 
-    stateless = False  # the resting levels and the pressed level are learnt from the training maps
-
     def fit(self, X: object, y: object = None) -> PressureImageFeatures:
         X = _as_array(X)
         _check_ndim(X, 4, "(N, T, H, W)")
@@ -407,7 +407,10 @@ class TaxelFeatureTransformer(TransformerMixin, BaseEstimator):
     Nothing is learnt.
     """
 
-    stateless = True
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        tags.requires_fit = False  # fit learns the input's shape only: features once for all folds
+        return tags
 
     def fit(self, X: object, y: object = None) -> TaxelFeatureTransformer:
         X = _as_array(X)
@@ -434,7 +437,10 @@ class TaxelFeatureTransformer(TransformerMixin, BaseEstimator):
 class WindowFeatureTransformer(TransformerMixin, BaseEstimator):
     """The 21 vibration features of windows ``(N, 3, W)`` (:func:`~tactile_torch.signal.window_features`)."""
 
-    stateless = True
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        tags.requires_fit = False  # fit learns the input's shape only: features once for all folds
+        return tags
 
     def fit(self, X: object, y: object = None) -> WindowFeatureTransformer:
         X = _as_array(X)
@@ -455,7 +461,10 @@ class WindowFeatureTransformer(TransformerMixin, BaseEstimator):
 class FeaturePassthrough(TransformerMixin, BaseEstimator):
     """A feature matrix ``(N, F)`` passed through unchanged (the ``features`` step of a feature file)."""
 
-    stateless = True
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        tags.requires_fit = False  # fit learns the input's shape only: features once for all folds
+        return tags
 
     def fit(self, X: object, y: object = None) -> FeaturePassthrough:
         X = _as_array(X)

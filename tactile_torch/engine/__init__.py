@@ -1,0 +1,78 @@
+"""The evaluation engine: cross-validation of raw-input scikit-learn models, for every study.
+
+One engine serves the trade-off (:mod:`tactile_torch.tradeoff`), the breaking points
+(:mod:`tactile_torch.robustness`) and the report's studies:
+
+* **folds that keep groups apart**: :func:`make_folds` (stratified, grouped by recording, session or
+  object) and, inside each outer training part, :func:`inner_splits` for tuning;
+* **feature caching**: models are ``Pipeline``\\ s whose first step is named ``"features"``; models with
+  equal feature steps (class and parameters, :func:`signature`) share them, and a step that needs no fit
+  (scikit-learn's ``requires_fit`` tag is False, :func:`needs_fit`: the one protocol) is computed once
+  on all samples;
+* **nested tuning**: :class:`Tuning` chooses a model's hyper-parameters on inner folds of every outer
+  training part (the SVMs through the batched :class:`~tactile_torch.model_selection.SVMGridSearchCV`,
+  anything else through scikit-learn's ``GridSearchCV``); its time counts in the fit time;
+* **tasks on any joblib backend**: the (model x fold) tasks run in this process, on joblib's workers
+  (``"loky"``, ``"threading"``) or on a Dask cluster (``"dask"``, the optional extra ``dask``)
+  through :class:`Backend`; every task derives its seed from the names (:func:`seed_of`), so results
+  do not depend on the backend or the number of workers.
+
+:func:`cross_validate` returns per model a :class:`CVResult`: every sample's out-of-fold prediction
+with its group and fold, the accuracy per fold, fit time with tuning (and tuning alone), the
+parameters chosen per fold, and :meth:`CVResult.final_model` to refit the tuned model on all data.
+
+Examples
+--------
+>>> import numpy as np
+>>> from sklearn.discriminant_analysis import LinearDiscriminantAnalysis
+>>> from sklearn.neighbors import KNeighborsClassifier
+>>> rng = np.random.default_rng(0)
+>>> y = np.repeat([0, 1, 2], 20)
+>>> X = rng.normal(size=(60, 4)) + 2.0 * np.eye(3, 4)[y]
+>>> groups = np.arange(60) // 5                       # 12 recordings of 5 samples
+>>> folds = make_folds(y, groups, 4, seed=0)
+>>> res = cross_validate(
+...     {"LDA": LinearDiscriminantAnalysis(), "kNN": KNeighborsClassifier()}, X, y, folds,
+...     groups=groups, tuning={"kNN": Tuning({"n_neighbors": [1, 5, 9]})})
+>>> len(res["kNN"].params), sorted(res["kNN"].params[0])
+(4, ['n_neighbors'])
+>>> bool((res["LDA"].fold >= 0).all())                # every sample tested once
+True
+"""
+
+from ._crossval import CVResult, cross_validate
+from ._models import (
+    Folds,
+    Models,
+    inner_splits,
+    last_input,
+    make_folds,
+    needs_fit,
+    seed_of,
+    signature,
+    take,
+    with_params,
+)
+from ._tasks import BACKENDS, Backend, as_backend
+from ._tuning import PROTOCOLS, Tuning, tune
+
+__all__ = [
+    "BACKENDS",
+    "PROTOCOLS",
+    "Backend",
+    "CVResult",
+    "Folds",
+    "Models",
+    "Tuning",
+    "as_backend",
+    "cross_validate",
+    "inner_splits",
+    "last_input",
+    "make_folds",
+    "needs_fit",
+    "seed_of",
+    "signature",
+    "take",
+    "tune",
+    "with_params",
+]
