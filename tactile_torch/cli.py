@@ -82,6 +82,7 @@ def _train(args: argparse.Namespace) -> int:
         fuse=not args.no_fuse,
         name=_data_name(args.data),
     )
+    _declare_range(features.source, args)
     print(
         f"{_data_name(args.data)}: {features.X.shape[0]} samples x {features.X.shape[1]} features "
         f"({features.source['kind']}), {len(features.class_names)} classes"
@@ -108,6 +109,13 @@ def _train(args: argparse.Namespace) -> int:
     if args.out:
         print(f"model written to {save_model(args.out, model, features)}")
     return 0
+
+
+def _declare_range(source: dict, args: argparse.Namespace) -> None:
+    """Keep a declared finite ``--sensor-range`` in a vibration model's source (export's default range)."""
+    declared = getattr(args, "data_sensor_range", None)
+    if source.get("kind") == "vibration" and declared is not None and declared != float("inf"):
+        source["sensor_range_g"] = float(declared)
 
 
 def _bench(args: argparse.Namespace) -> int:
@@ -143,6 +151,7 @@ def _cluster(args: argparse.Namespace) -> int:
     elif data.kind == "vibration":
         features = load_features(data, window=args.window, step=args.step, name=_data_name(args.data))
         X, truth, source = features.X, features.y, dict(features.source)
+        _declare_range(source, args)
     else:
         raise UsageError(
             f"{_data_name(args.data)}: --data must hold vibration recordings ('signals') or a 'features' "

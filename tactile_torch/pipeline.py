@@ -155,7 +155,10 @@ def _front_end(
             "window_size": window,
             "step": int(source.get("step") or window),
             "sample_rate_hz": float(source["rate_hz"]),
-            RANGE_METADATA_KEY: DEFAULT_RANGE_G if sensor_range_g is None else sensor_range_g,
+            # the range given at export, else the one declared at training (source), else the ADXL345's
+            RANGE_METADATA_KEY: float(source.get("sensor_range_g", DEFAULT_RANGE_G))
+            if sensor_range_g is None
+            else sensor_range_g,
         }
         return [WindowFeatures(window)], [None, 3, window], "B,3,W", meta
     if kind == "image":

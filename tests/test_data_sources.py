@@ -238,3 +238,22 @@ def test_bags_without_rosbags_get_one_line_naming_the_extra(tmp_path, monkeypatc
     assert main(["train", "--data", str(bag)]) == BAD_INPUT_EXIT
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "pip install 'tactile-torch[ros]'" in err
+
+
+def test_declared_sensor_range_reaches_the_exported_bundle(tmp_path, rec, capsys):
+    from tactile_torch.model_file import load_model_file
+    from tactile_torch.pipeline import pipeline_from_model
+
+    paths = _logs(tmp_path, rec)
+    table = np.loadtxt(paths[0], delimiter=",", skiprows=1)
+    table[10, 3] = 6.5  # a 16 g sensor's sample, beyond the default ±5 g
+    np.savetxt(paths[0], table, delimiter=",", header="t,x,y,z", comments="", fmt="%.9g")
+    argv = ["train", "--data", *map(str, paths), "--method", "svm", "--window", "400"]
+    assert main(argv) == BAD_INPUT_EXIT
+    assert "sample 10 (t = 0.0125 s) reads 6.5 g on z" in capsys.readouterr().err
+    out = tmp_path / "model.npz"
+    assert main([*argv, "--sensor-range", "16", "--out", str(out)]) == 0
+    model = load_model_file(out)
+    assert model.source["sensor_range_g"] == 16.0
+    assert pipeline_from_model(model).extra_metadata["sensor_range_g"] == 16.0  # export's default
+    assert pipeline_from_model(model, sensor_range_g=8.0).extra_metadata["sensor_range_g"] == 8.0
