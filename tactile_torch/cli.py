@@ -11,7 +11,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from .cli_data import add_data_options, data_options, read_data_arg
+from .cli_data import add_data_options, data_option_words, data_options, read_data_arg
 
 NOT_BUILT_EXIT = 2
 """Exit status when a command cannot do its work (e.g. ``bench`` outside a source checkout)."""
@@ -477,7 +477,8 @@ def _tradeoff(args: argparse.Namespace) -> int:
             raise ValueError(f"--{name} must be comma-separated whole numbers, got {text!r}")
         return [int(part) for part in text.split(",")]
 
-    options = [f"--data {' '.join(args.data)}", f"--out {args.out}", *(["--quick"] if args.quick else [])]
+    options = [f"--data {' '.join(args.data)}", *data_option_words(args), f"--out {args.out}"]
+    options += ["--quick"] if args.quick else []
     options += ["--no-breaking"] if args.no_breaking else []
     options += ["--no-tune"] if args.no_tune else []
     defaults = vars(build_parser().parse_args(["tradeoff", "--data", "-"]))

@@ -122,6 +122,38 @@ def data_options(args: argparse.Namespace):
     )
 
 
+_OPTION_NAMES = {
+    "columns": "--columns",
+    "units": "--units",
+    "scale": "--scale",
+    "time_unit": "--time-unit",
+    "data_sensor_range": "--sensor-range",
+    "topic": "--topic",
+    "shape": "--shape",
+    "frames": "--frames",
+    "max_messages": "--max-messages",
+    "index": "--index",
+}
+
+
+def data_option_words(args: argparse.Namespace) -> list[str]:
+    """Return the data options given (not at their defaults) as command-line words, to rerun a command."""
+    words = []
+    for name, option in _OPTION_NAMES.items():
+        value = getattr(args, name, None)
+        if value is None or (name == "time_unit" and value == "auto"):
+            continue
+        text = (
+            ",".join(str(v) for v in value)
+            if isinstance(value, tuple)
+            else f"{value:g}"
+            if isinstance(value, float)
+            else str(value)
+        )
+        words.append(f"{option} {text}")
+    return words
+
+
 def read_data_arg(args: argparse.Namespace):
     """Read ``--data`` with the declared options; return the arrays (``.kind`` says which)."""
     from .data.sources import read_source
@@ -129,4 +161,4 @@ def read_data_arg(args: argparse.Namespace):
     return read_source(args.data, data_options(args))
 
 
-__all__ = ["DATA_HELP", "add_data_options", "data_options", "read_data_arg"]
+__all__ = ["DATA_HELP", "add_data_options", "data_option_words", "data_options", "read_data_arg"]

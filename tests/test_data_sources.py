@@ -257,3 +257,27 @@ def test_declared_sensor_range_reaches_the_exported_bundle(tmp_path, rec, capsys
     assert model.source["sensor_range_g"] == 16.0
     assert pipeline_from_model(model).extra_metadata["sensor_range_g"] == 16.0  # export's default
     assert pipeline_from_model(model, sensor_range_g=8.0).extra_metadata["sensor_range_g"] == 8.0
+
+
+def test_data_options_are_written_back_into_the_command_line():
+    from tactile_torch.cli import build_parser
+    from tactile_torch.cli_data import data_option_words, data_options
+
+    argv = [
+        "tradeoff",
+        "--data",
+        "a.csv",
+        "--columns",
+        "time,ax,ay,az",
+        "--units",
+        "m/s2",
+        "--time-unit",
+        "ms",
+    ]
+    argv += ["--sensor-range", "16", "--shape", "4,5", "--scale", "0.0039", "--index", "i.csv"]
+    args = build_parser().parse_args(argv)
+    words = " ".join(data_option_words(args)).split()
+    again = build_parser().parse_args(["tradeoff", "--data", "a.csv", *words])
+    assert data_options(again) == data_options(args)
+    assert data_options(args).sensor_range_g == 16.0 and data_options(args).shape == (4, 5)
+    assert data_option_words(build_parser().parse_args(["tradeoff", "--data", "a.csv"])) == []

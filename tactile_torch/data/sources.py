@@ -130,6 +130,11 @@ def read_source(paths: PathLike | Sequence[PathLike], options: DataOptions | Non
             return read_data(path, allow_pickle=options.allow_pickle)
         signals = arrays["signals"]
         factor = UNITS[units] * (1.0 if options.scale is None else float(options.scale))
+        if signals.dtype == object and factor != 1.0:
+            raise ValueError(
+                f"{path}: units or a scale apply to plain signals arrays, not to the pickled recordings of "
+                "tactile-torch 0.1: re-save the file first (docs/formats.md)"
+            )
         if signals.dtype != object and (factor != 1.0 or options.scale is not None):
             if np.issubdtype(signals.dtype, np.integer) and options.scale is None:
                 from .logs import integer_counts_message
