@@ -17,7 +17,7 @@ header line. What varies between loggers is declared, never guessed silently:
 
 **Naming rule** (:func:`class_and_session`): a file ``<class>_<n>.<ext>`` whose name ends in
 ``_`` and a number is recording ``n`` (the session) of class ``<class>``: ``felt_3.csv`` → class
-``felt``, session ``3``. Any other name is a class of its own and its own session: ``glass.csv``
+``felt``, session ``3`` (``felt_03.csv`` too). Any other name is a class of its own and its own session: ``glass.csv``
 → class ``glass``, session ``glass``. An index CSV (:func:`read_index`) overrides the rule.
 
 Examples
@@ -62,7 +62,7 @@ def class_and_session(path: PathLike) -> tuple[str, str]:
     )
     base, _, tail = stem.rpartition("_")
     if base and tail.isdigit():
-        return base, tail
+        return base, str(int(tail))  # felt_03 and cork_3 are both session 3
     return stem, stem
 
 

@@ -306,24 +306,29 @@ def vibration_samples(
     from ..formats import window_recordings
 
     ds = window_recordings(recordings.signals, window)
-    y = np.asarray(recordings.labels)[ds.recording]
-    given = recordings.session is not None
-    session = recordings.session if given else np.arange(len(recordings))
-    group, keep, folds, split = window_folds(
-        ds.recording,
-        ds.position,
-        y,
-        session,
-        group_label="session" if given else "recording",
-        n_folds=n_folds,
-        names=names,
-        window=window,
-        max_per_class=max_per_class,
-        random_state=random_state,
-    )
-    split = f"{len(keep)} windows; {split}"
-    X, y, group = ds.windows[keep], y[keep], group[keep]
+    X, recording, position = ds.windows, ds.recording, ds.position
+    y = np.asarray(recordings.labels)[recording]
     rate = float(recordings.rate_hz)
+    session = recordings.session if recordings.session is not None else np.arange(len(recordings))
+    group = _group_ids(np.asarray(session))[recording]
+    per_class = np.array([len(np.unique(group[y == c])) for c in np.unique(y)])
+    if per_class.min() >= 2:
+        keep = cap_per_class(y, max_per_class)
+        folds, split = sample_folds(
+            y[keep],
+            group[keep],
+            n_folds=n_folds,
+            names=names,
+            what="recordings",
+            group_label="session" if recordings.session is not None else "recording",
+            random_state=random_state,
+        )
+    else:  # one recording for some class: consecutive time blocks of every recording, a guard between
+        group, keep, folds, split = _time_blocks(
+            recording, position, y, window, n_folds, max_per_class, names
+        )
+    split = f"{len(keep)} windows; {split}"
+    X, y, group = X[keep], y[keep], group[keep]
     return Samples(f"windows-{window}", X, y, folds, "B,3,W", window / rate, split, window, groups=group)
 
 
@@ -341,7 +346,12 @@ def window_folds(
     max_per_class: int | None = None,
     random_state: RandomState = None,
 ) -> tuple[np.ndarray, np.ndarray, list[Fold], str]:
-    """Folds of windows cut from recordings that never split neighbouring windows (module notes).
+    """Folds of windows cut from recordings, every ``step`` samples, that never split neighbouring windows.
+
+    The decision of :func:`vibration_samples` (module notes) for windows that may overlap: grouped by
+    session (or recording) when every class has two, else consecutive time blocks with ``guard``
+    windows dropped between blocks. What ``tactile-torch train`` reports on
+    (:func:`tactile_torch.training.held_out_folds`).
 
     Parameters
     ----------
