@@ -119,6 +119,7 @@ def data_options(args: argparse.Namespace):
         else float("inf"),
         max_messages=args.max_messages or MAX_BAG_MESSAGES,
         allow_pickle=getattr(args, "allow_pickle", False),
+        check="data_sensor_range" in args,  # predict: no --sensor-range; it leaves such windows out
     )
 
 

@@ -57,6 +57,9 @@ class DataOptions:
         Bags: messages read per topic at most.
     allow_pickle : bool
         Legacy vibration ``.npz`` of tactile-torch 0.1 (trusted files only).
+    check : bool
+        Refuse implausible recordings (:func:`check_recordings`); ``predict`` leaves the windows it
+        cannot classify out instead.
     """
 
     columns: str | Sequence[str | int] | None = None
@@ -70,6 +73,7 @@ class DataOptions:
     sensor_range_g: float = DEFAULT_RANGE_G
     max_messages: int = MAX_BAG_MESSAGES
     allow_pickle: bool = False
+    check: bool = True
 
 
 def _kind_of(path: Path) -> str:
@@ -145,7 +149,10 @@ def read_source(paths: PathLike | Sequence[PathLike], options: DataOptions | Non
         data = recordings_from_arrays(arrays, path)
         session = data.session if data.session is not None else np.arange(len(data))
         sources = [f"{path}: recording {i} (session {s})" for i, s in enumerate(session)]
-    check_recordings(data.signals, sources, data.rate_hz, sensor_range_g=options.sensor_range_g, units=units)
+    if options.check:
+        check_recordings(
+            data.signals, sources, data.rate_hz, sensor_range_g=options.sensor_range_g, units=units
+        )
     return data
 
 
@@ -172,7 +179,10 @@ def _read_bags(paths: list[Path], options: DataOptions):
         return _explorations(topics, labels, names, options.frames)
     signals = [t.values for t in topics]
     sources = [t.name for t in topics]
-    check_recordings(signals, sources, float(rates[0]), sensor_range_g=options.sensor_range_g, units="m/s2")
+    if options.check:
+        check_recordings(
+            signals, sources, float(rates[0]), sensor_range_g=options.sensor_range_g, units="m/s2"
+        )
     return RecordingArrays(signals, labels, names, float(rates[0]), np.array(sessions))
 
 
