@@ -33,6 +33,12 @@ def _positive(text: str) -> float:
     return value
 
 
+def _count(text: str) -> int:
+    if not text.strip().isdigit() or int(text) < 1:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {text!r}")
+    return int(text)
+
+
 def add_data_options(
     p: argparse.ArgumentParser, *, data_help: str = DATA_HELP, sensor_range: bool = True
 ) -> None:
@@ -88,13 +94,13 @@ def add_data_options(
     )
     g.add_argument(
         "--frames",
-        type=int,
+        type=_count,
         default=None,
         help="ROS 2 bags of pressure maps: frames per exploration (default: the shortest bag's)",
     )
     g.add_argument(
         "--max-messages",
-        type=int,
+        type=_count,
         default=None,
         help="ROS 2 bags: read at most this many messages per topic (default: 10,000,000)",
     )
