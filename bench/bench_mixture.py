@@ -192,13 +192,20 @@ def run(quick: bool) -> dict:
     notes += first["notes"]
 
     with threads(1):
-        for label, n_sm in (
-            ("ours, split-merge (default)", 5),
-            ("ours, no split-merge (= reference sampler)", 0),
+        for label, n_sm, prior in (
+            ("ours, split-merge (default), Pitman-Yor", 5, "pyp"),
+            ("ours, split-merge (default), mixture of finite mixtures", 5, "mfm"),
+            ("ours, no split-merge (= reference sampler)", 0, "pyp"),
         ):
             t0 = time.perf_counter()
             model = PitmanYorGMM(
-                n_iter=n_sweeps, burn_in=n_sweeps // 5, n_chains=1, n_split_merge=n_sm, random_state=0
+                model=prior,
+                coarsen=None,
+                n_iter=n_sweeps,
+                burn_in=n_sweeps // 5,
+                n_chains=1,
+                n_split_merge=n_sm,
+                random_state=0,
             )
             model.set_params(progress=False).fit(X)
             total = time.perf_counter() - t0
@@ -237,7 +244,13 @@ def run(quick: bool) -> dict:
         for init in ("one", "kmeans"):
             t0 = time.perf_counter()
             model = PitmanYorGMM(
-                n_iter=400 if not quick else 150, burn_in=50, n_chains=1, init=init, random_state=1
+                model="pyp",
+                coarsen=None,
+                n_iter=400 if not quick else 150,
+                burn_in=50,
+                n_chains=1,
+                init=init,
+                random_state=1,
             )
             model.set_params(progress=False).fit(X)
             hit = first_sweep_hitting(model.trace_["n_clusters"], n_clusters)
@@ -256,7 +269,15 @@ def run(quick: bool) -> dict:
     sweeps = 150 if quick else 1000
     for jobs in (1, None):
         t0 = time.perf_counter()
-        model = PitmanYorGMM(n_iter=sweeps, burn_in=sweeps // 4, n_chains=4, n_jobs=jobs, random_state=0)
+        model = PitmanYorGMM(
+            model="pyp",
+            coarsen=None,
+            n_iter=sweeps,
+            burn_in=sweeps // 4,
+            n_chains=4,
+            n_jobs=jobs,
+            random_state=0,
+        )
         model.set_params(progress=False).fit(X)
         rows.append(
             {

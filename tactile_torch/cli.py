@@ -136,6 +136,16 @@ def _bench(args: argparse.Namespace) -> int:
     return subprocess.call(cmd)
 
 
+def _n_iter(text: str) -> int | str:
+    """``--n-iter``: a number of sweeps or 'auto'."""
+    if text == "auto":
+        return text
+    try:
+        return int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number of sweeps or 'auto', got {text!r}") from None
+
+
 def _cluster(args: argparse.Namespace) -> int:
     import numpy as np
 
@@ -169,10 +179,19 @@ def _cluster(args: argparse.Namespace) -> int:
             f"{X.shape[1]} principal components"
         )
     init = int(args.init) if args.init.isdigit() else args.init
+    if args.model == "mfm" and (args.alpha is not None or args.discount is not None):
+        raise UsageError(
+            "--alpha and --discount apply to --model pyp (the Pitman-Yor mixture), got --model mfm"
+        )
+    if args.model == "pyp" and args.coarsen is not None:
+        raise UsageError("--coarsen applies to --model mfm, got --model pyp")
     model = PitmanYorGMM(
+        model=args.model,
+        coarsen=args.coarsen,
         alpha=args.alpha,
         discount=args.discount,
         n_iter=args.n_iter,
+        max_iter=args.max_iter,
         burn_in=args.burn_in,
         n_chains=args.chains,
         init=init,
@@ -601,7 +620,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser(
         "cluster",
-        help="discover surfaces with the Pitman-Yor mixture (how many, and which window is which)",
+        help="discover surfaces with a Bayesian mixture (how many, and which window is which)",
         description="Fit tactile_torch.mixture.PitmanYorGMM to vibration recordings (windows -> 21 features -> "
         "the unsupervised transform -> principal components) or to a 'features' array (n, D); write the point "
         "estimate of the clustering (and the MAP sample, the posterior samples of K) to OUT/clustering.npz, a "
@@ -619,9 +638,30 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--components", type=int, default=3, help="recordings: principal components (default: 3)")
     _add_allow_pickle(p)
     p.add_argument(
-        "--n-iter", type=int, default=1000, help="Gibbs sweeps per chain, burn-in included (default: 1000)"
+        "--model",
+        choices=("mfm", "pyp"),
+        default="mfm",
+        help="prior: 'mfm' mixture of finite mixtures, consistent for K (default); 'pyp' the study's Pitman-Yor",
     )
-    p.add_argument("--burn-in", type=int, default=250, help="sweeps discarded per chain (default: 250)")
+    p.add_argument(
+        "--coarsen",
+        type=float,
+        default=None,
+        help="coarsened posterior: likelihood to the power a/(a+n) (--model mfm; default: off, see docs/mixture.md)",
+    )
+    p.add_argument(
+        "--n-iter",
+        type=_n_iter,
+        default="auto",
+        help="Gibbs sweeps per chain, burn-in included, or 'auto': until R-hat < 1.01 and ESS of K >= 400 "
+        "(default: auto)",
+    )
+    p.add_argument(
+        "--max-iter", type=int, default=16000, help="--n-iter auto: most sweeps per chain (default: 16000)"
+    )
+    p.add_argument(
+        "--burn-in", type=int, default=250, help="sweeps discarded per chain, at least (default: 250)"
+    )
     p.add_argument("--chains", type=int, default=4, help="independent chains, run in parallel (default: 4)")
     p.add_argument("--alpha", type=float, default=None, help="fix the concentration (default: sampled)")
     p.add_argument("--discount", type=float, default=None, help="fix the discount; 0 = Dirichlet process")

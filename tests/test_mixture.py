@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -33,6 +34,9 @@ from tactile_torch.mixture import (
 from tactile_torch.studies.clustering import have_vibration_features
 
 from .reference_mixture import reference_gibbs
+
+PYP = {"model": "pyp", "coarsen": None}
+"""The study's Pitman-Yor mixture (the estimator's default model is the mixture of finite mixtures)."""
 
 # Short chains in these tests: their R-hat warnings are expected, not failures.
 pytestmark = pytest.mark.filterwarnings("ignore:PitmanYorGMM. R-hat:RuntimeWarning")
@@ -138,7 +142,10 @@ def test_wishart_draws_have_the_right_mean_and_logdet():
     assert abs(ldets.mean() - want) < 5 * ldets.std() / math.sqrt(n)
 
 
-def test_component_step_density_is_the_product_of_its_conditionals():
+@pytest.mark.parametrize("zeta", [1.0, 0.4])
+def test_component_step_density_is_the_product_of_its_conditionals(zeta):
+    # zeta < 1 (coarsened posterior): the likelihood to the power zeta, i.e. every count and sum of
+    # the points weighted by zeta; the conditionals stay Wishart x normal
     rng = np.random.default_rng(3)
     D = 3
     pts = rng.normal(size=(7, D))
@@ -148,15 +155,19 @@ def test_component_step_density_is_the_product_of_its_conditionals():
     W, R = spd(rng, D) / 5, spd(rng, D) / 5
     beta = 4.2
     mu, L = np.empty(D), np.empty((D, D))
-    logq, ldet = conditionals.component_step(7, mean, scat, mu0, beta, W, R, R @ xi, True, mu, L, 0.0, rng)
+    logq, ldet = conditionals.component_step(
+        7, mean, scat, mu0, beta, W, R, R @ xi, True, mu, L, 0.0, zeta, rng
+    )
     S = L @ L.T
-    P = beta * W + (pts - mu0).T @ (pts - mu0)
-    want = stats.wishart(df=beta + 7, scale=np.linalg.inv(P)).logpdf(S)
-    lam = R + 7 * S
-    m = np.linalg.solve(lam, R @ xi + S @ pts.sum(0))
+    P = beta * W + zeta * (pts - mu0).T @ (pts - mu0)
+    want = stats.wishart(df=beta + zeta * 7, scale=np.linalg.inv(P)).logpdf(S)
+    lam = R + zeta * 7 * S
+    m = np.linalg.solve(lam, R @ xi + zeta * S @ pts.sum(0))
     want += stats.multivariate_normal(m, np.linalg.inv(lam)).logpdf(mu)
     np.testing.assert_allclose(logq, want, rtol=1e-9)
-    again, _ = conditionals.component_step(7, mean, scat, mu0, beta, W, R, R @ xi, False, mu, L, ldet, rng)
+    again, _ = conditionals.component_step(
+        7, mean, scat, mu0, beta, W, R, R @ xi, False, mu, L, ldet, zeta, rng
+    )
     np.testing.assert_allclose(again, logq, rtol=1e-12)
 
 
@@ -173,6 +184,7 @@ def test_prior_only_chain_samples_the_pitman_yor_prior_of_k(alpha, discount):
     n = 12
     X = np.random.default_rng(0).normal(size=(n, 2))
     model = PitmanYorGMM(
+        **PYP,
         alpha=alpha,
         discount=discount,
         n_iter=6000,
@@ -200,7 +212,7 @@ def test_prior_only_chain_samples_the_hyperpriors():
     n, D = 10, 2
     X = np.random.default_rng(0).normal(size=(n, D))
     model = PitmanYorGMM(
-        n_iter=12000, burn_in=500, n_chains=1, prior_only=True, random_state=2, progress=False
+        **PYP, n_iter=12000, burn_in=500, n_chains=1, prior_only=True, random_state=2, progress=False
     ).fit(X)
     thin = slice(None, None, 20)
     d = model.discount_samples_[thin]
@@ -251,7 +263,7 @@ def test_split_merge_moves_leave_the_posterior_unchanged():
     # 1-D, three overlapping groups: single-site Gibbs mixes here, so both chains can be compared
     rng = np.random.default_rng(5)
     X = np.concatenate([rng.normal(m, 1.0, size=(10, 1)) for m in (-2.5, 0.0, 2.5)])
-    common = dict(alpha=1.0, discount=0.2, n_iter=8000, burn_in=500, n_chains=1, progress=False)
+    common = dict(**PYP, alpha=1.0, discount=0.2, n_iter=8000, burn_in=500, n_chains=1, progress=False)
     with_moves = PitmanYorGMM(n_split_merge=3, random_state=1, **common).fit(X).n_clusters_samples_
     without = PitmanYorGMM(n_split_merge=0, random_state=2, **common).fit(X).n_clusters_samples_
     se = math.hypot(_batch_se(with_moves), _batch_se(without))
@@ -265,7 +277,14 @@ def test_posterior_of_k_agrees_with_the_independent_numpy_reference():
     rng = np.random.default_rng(6)
     X = np.concatenate([rng.normal(m, 0.6, size=(8, 2)) for m in ((-2, 0), (2, 0), (0, 2.5))])
     ours = PitmanYorGMM(
-        discount=0.0, n_iter=4000, burn_in=300, n_chains=1, n_split_merge=0, random_state=3, progress=False
+        **PYP,
+        discount=0.0,
+        n_iter=4000,
+        burn_in=300,
+        n_chains=1,
+        n_split_merge=0,
+        random_state=3,
+        progress=False,
     )
     ks = ours.fit(X).n_clusters_samples_
     ref = reference_gibbs(X, n_iter=1000, discount=0.0, random_state=4)
@@ -336,7 +355,7 @@ def test_seeded_runs_are_reproducible_whatever_the_threads():
         np.testing.assert_array_equal(a.trace_[k], b.trace_[k])
     np.testing.assert_array_equal(a.labels_samples_, b.labels_samples_)
     np.testing.assert_array_equal(a.predict(X), b.predict(X))
-    assert not np.array_equal(a.trace_["alpha"], c.trace_["alpha"])
+    assert not np.array_equal(a.trace_["beta"], c.trace_["beta"])
     assert a.trace_["n_clusters"].shape == (2, 60) and a.n_clusters_samples_.shape == (100,)
     gen = PitmanYorGMM(n_iter=20, burn_in=5, random_state=torch.Generator().manual_seed(3), progress=False)
     assert gen.fit(X).n_iter_ == 20
@@ -489,16 +508,37 @@ def test_rhat_and_ess_match_arviz(name):
 
 def test_convergence_diagnostics_are_reported_and_warned():
     X, _ = blobs(n_clusters=4, per=20, dim=2)
-    model = PitmanYorGMM(n_iter=120, burn_in=40, random_state=0, progress=False).fit(X)
+    model = PitmanYorGMM(**PYP, n_iter=120, burn_in=40, random_state=0, progress=False).fit(X)
     assert [r["quantity"] for r in model.convergence_] == ["K", "alpha", "d"]
+    assert [
+        r["quantity"]
+        for r in PitmanYorGMM(n_iter=120, burn_in=40, random_state=0, progress=False).fit(X).convergence_
+    ] == ["K"]
     assert "R-hat" in model.summary() and "ESS" in model.summary()
     # chains stuck in different places (no split-merge, one-cluster vs k-means starts are not mixed)
     rng = np.random.default_rng(0)
     Y = np.concatenate([rng.normal(m, 0.3, size=(40, 1)) for m in range(0, 40, 4)])
-    stuck = PitmanYorGMM(n_iter=60, burn_in=20, n_split_merge=0, init="one", random_state=0, progress=False)
-    with pytest.warns(RuntimeWarning, match=r"R-hat > 1.01"):
+    stuck = PitmanYorGMM(
+        **PYP, n_iter=60, burn_in=20, n_split_merge=0, init="one", random_state=0, progress=False
+    )
+    with pytest.warns(RuntimeWarning, match=r"R-hat > 1.01 .* after 60 sweeps per chain.*n_iter='auto'"):
         stuck.set_params(n_chains=3).fit(Y)
     assert "WARNING: R-hat > 1.01" in stuck.summary()
+    # n_iter="auto": the warning only when the budget ran out, and it names the budget
+    with pytest.warns(RuntimeWarning, match=r"after 40 sweeps per chain.*raise max_iter \(now 40\)"):
+        stuck.set_params(n_iter="auto", max_iter=40, burn_in=10).fit(Y)
+    assert stuck.budget_exhausted_ and stuck.n_iter_ == 40
+
+
+def test_auto_run_length_stops_at_the_targets():
+    X, _ = blobs(n_clusters=3, per=20, dim=2)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)  # converged: no warning
+        model = PitmanYorGMM(n_chains=2, random_state=0, progress=False).fit(X)
+    assert model.n_iter_ == 1000 and not model.budget_exhausted_  # the first round was enough
+    conv = {r["quantity"]: r for r in model.convergence_}
+    assert conv["K"]["R-hat"] < 1.01
+    assert model.labels_samples_.shape[1] <= 200 and model.labels_sweeps_.min() >= 250
 
 
 def test_map_and_binder_point_estimates_are_available():
@@ -535,7 +575,7 @@ def test_map_component_module_exports_to_onnx(tmp_path):
 
 def test_scikit_learn_conventions_and_tensor_input():
     X, y = blobs(n_clusters=3, per=15, dim=2)
-    model = PitmanYorGMM(alpha=1.0, n_iter=50, burn_in=10, n_chains=2, random_state=0, progress=False)
+    model = PitmanYorGMM(**PYP, alpha=1.0, n_iter=50, burn_in=10, n_chains=2, random_state=0, progress=False)
     twin = clone(model)
     assert twin.get_params() == model.get_params()
     labels = model.fit_predict(torch.as_tensor(X, dtype=torch.float32))
@@ -604,11 +644,18 @@ def test_surface_discovery_proposes_after_n_consecutive_novel_windows():
         (dict(point_estimate="mean"), ValueError, "'point_estimate' parameter"),
         (dict(init=np.zeros(3)), ValueError, r"init as labels must have shape \(20,\)"),
         (dict(random_state="seed"), ValueError, "'random_state' parameter"),
+        (dict(n_iter="long"), ValueError, "'n_iter' parameter of PitmanYorGMM must be an int"),
+        (dict(model="dp"), ValueError, "'model' parameter"),
+        (dict(coarsen=0.0), ValueError, "'coarsen' parameter"),
+        (dict(model="mfm", alpha=1.0), ValueError, "alpha and discount apply to model='pyp'"),
+        (dict(n_iter="auto", max_iter=10, burn_in=10), ValueError, "burn_in must be < max_iter"),
     ],
 )
 def test_bad_parameters_raise(kwargs, exc, match):
     X = np.random.default_rng(0).normal(size=(20, 2))
     params = dict(n_iter=5, burn_in=1, n_chains=1, progress=False) | kwargs
+    if "alpha" in kwargs or "discount" in kwargs:
+        params = PYP | params
     model = PitmanYorGMM(**params)  # nothing is validated before fit
     with pytest.raises(exc, match=match):
         model.fit(X)
@@ -801,3 +848,143 @@ def test_cli_stream_discover_proposes_a_surface_the_clustering_never_saw(tmp_pat
     novel = [i for i, line in enumerate(lines) if line.startswith("  novel window")]
     assert len(novel) >= 3 and lines[novel[-1]] == "  novel window -> new surface 1"
     assert novel[0] > 5  # the first windows (a known surface) are not novel
+
+
+# ------------------------------------------------------------------------------------------------
+# the mixture of finite mixtures and the coarsened posterior (issue 22)
+# ------------------------------------------------------------------------------------------------
+def _set_partitions(n):
+    """Every set partition of n items as a restricted growth string (labels 0 .. K-1)."""
+    z = [0] * n
+
+    def rec(i, k):
+        if i == n:
+            yield list(z)
+            return
+        for c in range(k + 1):
+            z[i] = c
+            yield from rec(i + 1, max(k, c + 1))
+
+    yield from rec(1, 1) if n > 1 else iter([[0]])
+
+
+def _exact_prior_k(n, gamma, k_mean):
+    """P(K) of the MFM partition prior by enumerating every set partition of n items."""
+    from tactile_torch.mixture._mfm import log_v
+
+    lv = log_v(n, gamma, k_mean)
+    p = np.zeros(n + 1)
+    for z in _set_partitions(n):
+        counts = np.bincount(z)
+        t = counts.size
+        p[t] += math.exp(lv[t] + (gammaln(counts + gamma) - gammaln(gamma)).sum())
+    return p / p.sum()
+
+
+def test_mfm_log_v_matches_the_lah_numbers_for_gamma_one():
+    # gamma = 1: sum over partitions with t blocks of prod n_c! is the Lah number C(n-1, t-1) n!/t!,
+    # so V_n(t) L(n, t) must be a distribution over t
+    from tactile_torch.mixture._mfm import log_v
+
+    n = 9
+    lv = log_v(n, 1.0, 4.0)
+    lah = [math.comb(n - 1, t - 1) * math.factorial(n) / math.factorial(t) for t in range(1, n + 1)]
+    p = np.exp(lv[1 : n + 1]) * lah
+    np.testing.assert_allclose(p.sum(), 1.0, rtol=1e-10)
+    np.testing.assert_allclose(p, _exact_prior_k(n, 1.0, 4.0)[1:], rtol=1e-9)
+
+
+@pytest.mark.parametrize(("gamma", "coarsen"), [(1.0, None), (0.6, 8.0)])
+def test_prior_only_chain_samples_the_mfm_partition_prior(gamma, coarsen):
+    # allocation (algorithm 8 with the MFM weights) and split-merge against exact enumeration (the
+    # coarsened posterior tempers the likelihood only: its prior is the same)
+    n = 8
+    X = np.random.default_rng(0).normal(size=(n, 2))
+    model = PitmanYorGMM(
+        model="mfm",
+        coarsen=coarsen,
+        weight_concentration=gamma,
+        k_prior_mean=3.0,
+        n_iter=6000,
+        burn_in=200,
+        n_chains=1,
+        prior_only=True,
+        random_state=1,
+        progress=False,
+    ).fit(X)
+    ks = model.n_clusters_samples_
+    exact = _exact_prior_k(n, gamma, 3.0)
+    assert abs(ks.mean() - (np.arange(n + 1) * exact).sum()) < 4 * _batch_se(ks)
+    for k in range(1, n + 1):
+        ind = (ks == k).astype(float)
+        se = max(_batch_se(ind), math.sqrt(exact[k] * (1 - exact[k]) / len(ks)), 1e-3)
+        assert abs(ind.mean() - exact[k]) < 4.5 * se, (k, ind.mean(), exact[k])
+    st = model.split_merge_stats_
+    assert st["split_accepted"] > 100 and st["merge_accepted"] > 100
+
+
+def test_coarsened_split_merge_moves_leave_the_posterior_unchanged():
+    # the Metropolis-Hastings ratio with the tempered likelihood against single-site Gibbs
+    rng = np.random.default_rng(5)
+    X = np.concatenate([rng.normal(m, 1.0, size=(10, 1)) for m in (-2.5, 0.0, 2.5)])
+    common = dict(model="mfm", coarsen=20.0, n_iter=8000, burn_in=500, n_chains=1, progress=False)
+    with_moves = PitmanYorGMM(n_split_merge=3, random_state=1, **common).fit(X).n_clusters_samples_
+    without = PitmanYorGMM(n_split_merge=0, random_state=2, **common).fit(X).n_clusters_samples_
+    se = math.hypot(_batch_se(with_moves), _batch_se(without))
+    assert abs(with_moves.mean() - without.mean()) < 4 * se
+    for k in (1, 2, 3):
+        a, b = (with_moves == k).astype(float), (without == k).astype(float)
+        assert abs(a.mean() - b.mean()) < 4 * math.hypot(_batch_se(a), _batch_se(b)) + 0.01
+
+
+def test_pitman_yor_option_reproduces_the_study_sampler():
+    # model="pyp", coarsen=None runs the study's sampler: its chain agrees with the numpy reference
+    # (above) and its zeta is 1; here: alpha and d are sampled and reported, as before
+    X, _ = blobs(n_clusters=3, per=15, dim=2)
+    model = PitmanYorGMM(
+        model="pyp", coarsen=None, n_iter=60, burn_in=20, n_chains=2, random_state=0, progress=False
+    )
+    model.fit(X)
+    assert model.zeta_ == 1.0
+    assert {r["quantity"] for r in model.convergence_} == {"K", "alpha", "d"}
+    assert np.ptp(model.alpha_samples_) > 0 and np.ptp(model.discount_samples_) > 0
+    with pytest.raises(ValueError, match="coarsen needs model='mfm'"):
+        PitmanYorGMM(model="pyp", coarsen=50.0, n_iter=5, burn_in=1, progress=False).fit(X)
+
+
+@pytest.mark.parametrize("model_name", ["mfm", "pyp"])
+def test_predictions_are_finite_for_every_finite_input(model_name):
+    X, _ = blobs(n_clusters=3, per=15, dim=2)
+    kw = {"model": model_name} | ({"coarsen": None} if model_name == "pyp" else {})
+    model = PitmanYorGMM(n_iter=60, burn_in=20, n_chains=2, random_state=0, progress=False, **kw).fit(X)
+    far = np.array([[1e6, -1e6], [1e200, 1e200], [-1e300, 3.0], [0.0, 0.0]])
+    with np.errstate(divide="raise", invalid="raise"), warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        for using in ("samples", "point"):
+            proba = model.predict_proba(far, using=using)
+            assert np.all(np.isfinite(proba)), using
+            np.testing.assert_allclose(proba.sum(1), 1.0, rtol=1e-12)
+            assert np.all(np.isfinite(model.novelty_proba(far, using=using)))
+            labels = model.predict(far, using=using)
+            assert labels[0] == -1 and labels[1] == -1  # far away: a new component
+        assert np.all(np.isfinite(model.score_samples(far)))
+    assert model.score_samples(far)[1] < model.score_samples(far)[0] < model.score_samples(far)[3]
+
+
+def test_summary_words_and_interval_are_computed_from_the_fit():
+    X, _ = blobs(n_clusters=3, per=15, dim=2)
+    model = PitmanYorGMM(n_iter=80, burn_in=20, n_chains=2, random_state=0, progress=False).fit(X)
+    ks = model.n_clusters_summary_
+    lo, hi = ks["interval"]
+    assert isinstance(lo, int) and isinstance(hi, int) and lo in model.n_clusters_samples_
+    text = model.summary()
+    assert f"95% interval [{lo}, {hi}]" in text
+    assert "under-counts" not in text
+    k = model.map_n_clusters_
+    side = "equal to" if k == ks["mode"] else "below" if k < ks["mode"] else "above"
+    assert f"K = {k}, {side} the posterior mode {ks['mode']}" in text
+    # the interval of a posterior whose quantile falls between two values is still made of integers
+    from tactile_torch.mixture._summaries import n_clusters_summary
+
+    s = n_clusters_summary(np.array([3] * 50 + [6] * 1 + [4] * 49), 3, 5)
+    assert s["interval"] == (3, 4)

@@ -8,7 +8,7 @@ import numpy as np
 from numba import njit
 
 from .conditionals import _draw_mean, _draw_precision_given_point, component_step
-from .densities import wishart_draw
+from .densities import log_new_weight, wishart_draw
 from .linalg import LOG2PI, LOGPI, _quad_rows, _scale_factor, _tril_inverse
 from .state import activate, deactivate, pop_free
 
@@ -46,6 +46,12 @@ def allocate(X, st, m, use_lik, rng):
     draws its precision from ``S | mu, x_i`` (conjugate) when it is opened. This partially
     collapsed form of algorithm 8 leaves the same posterior invariant and needs no Wishart draw per
     auxiliary.
+
+    Mixture of finite mixtures (``sc[4] = gamma > 0``): the weights are ``n_j + gamma`` and
+    ``gamma V_n(K + 1) / V_n(K) / m`` (:func:`log_new_weight`). Coarsened posterior (``sc[3] = zeta
+    < 1``): every likelihood is raised to ``zeta``; the auxiliaries' integrated likelihood then is
+    ``pi^(-zeta D/2) Gamma_D((beta + zeta)/2) / Gamma_D(beta/2) |V|^(zeta/2) (1 + zeta q)^(-(beta + zeta)/2)``
+    with ``V = (beta W)^{-1}`` and ``q = (x - mu)^T V (x - mu)`` (the Student-t above when zeta = 1).
     """
     z, cnt, mu, L, ldet, act, ist, sc, xi, GR, W = (
         st.z, st.cnt, st.mu, st.L, st.ldet, st.act, st.ist, st.sc, st.xi, st.GR, st.W
@@ -53,30 +59,37 @@ def allocate(X, st, m, use_lik, rng):
     cap = cnt.shape[0]
     D = X.shape[1]
     half = 0.5 * D * LOG2PI
-    # cached per component: log(n_j - d) and log|S_j|/2 - D/2 log(2 pi)
+    zeta = sc[3]
+    hz = 0.5 * zeta
+    # cached per component: log(n_j - d) and zeta (log|S_j|/2 - D/2 log(2 pi))
     lcnt = np.zeros(cap)
     lnorm = np.zeros(cap)
     for t in range(ist[0]):
         j = act[t]
         lcnt[j] = math.log(cnt[j] - sc[1])
-        lnorm[j] = 0.5 * ldet[j] - half
+        lnorm[j] = zeta * (0.5 * ldet[j] - half)
     # FR = GR^{-T} (upper): FR FR^T = R^{-1}; CW CW^T = V0 = (beta W)^{-1}
     FR = np.ascontiguousarray(_tril_inverse(GR).T)
     CW = np.empty((D, D))
     ldet_v0 = -_scale_factor(sc[2] * W, CW)
     CW3 = CW.reshape((1, D, D))
     n, D = X.shape
-    alpha, d, beta = sc[0], sc[1], sc[2]
+    d, beta = sc[1], sc[2]
     half = 0.5 * D * LOG2PI
     logm = math.log(m)
     # log Student-t normaliser: lgamma((beta+1)/2) - lgamma((beta-D+1)/2) - D/2 log(pi) + log|V|/2
-    t_norm = (
-        math.lgamma(0.5 * (beta + 1.0))
-        - math.lgamma(0.5 * (beta - D + 1.0))
-        - 0.5 * D * LOGPI
-        + 0.5 * ldet_v0
-    )
-    t_pow = 0.5 * (beta + 1.0)
+    if zeta == 1.0:
+        t_norm = (
+            math.lgamma(0.5 * (beta + 1.0))
+            - math.lgamma(0.5 * (beta - D + 1.0))
+            - 0.5 * D * LOGPI
+            + 0.5 * ldet_v0
+        )
+    else:
+        t_norm = -0.5 * zeta * D * LOGPI + 0.5 * zeta * ldet_v0
+        for a in range(D):
+            t_norm += math.lgamma(0.5 * (beta + zeta - a)) - math.lgamma(0.5 * (beta - a))
+    t_pow = 0.5 * (beta + zeta)
     amu = np.empty((m, D))
     lw = np.empty(n + m + 1)
     dev = np.empty(D)
@@ -106,13 +119,13 @@ def allocate(X, st, m, use_lik, rng):
                     for a in range(c, D):
                         v += L[j, a, c] * dev[a]
                     q += v * v
-                lw[t] = lcnt[j] + lnorm[j] - 0.5 * q
+                lw[t] = lcnt[j] + lnorm[j] - hz * q
             else:
                 lw[t] = lcnt[j]
-        lnew = (math.log(alpha + d * K) if K > 0 else 0.0) - logm
+        lnew = (log_new_weight(sc, st.lv, K) if K > 0 else 0.0) - logm
         for k in range(m):
             if use_lik:
-                lw[K + k] = lnew + t_norm - t_pow * math.log1p(_quad_rows(CW3, 0, amu, k, X, i))
+                lw[K + k] = lnew + t_norm - t_pow * math.log1p(zeta * _quad_rows(CW3, 0, amu, k, X, i))
             else:
                 lw[K + k] = lnew
         t = _categorical(rng, lw, K + m)
@@ -123,10 +136,10 @@ def allocate(X, st, m, use_lik, rng):
             j = pop_free(st)
             mu[j] = amu[k]
             if use_lik:
-                ldet[j] = _draw_precision_given_point(rng, X[i], amu[k], beta, W, L[j])
+                ldet[j] = _draw_precision_given_point(rng, X[i], amu[k], beta, W, zeta, L[j])
             else:
                 ldet[j] = wishart_draw(rng, CW, ldet_v0, beta, L[j])
-            lnorm[j] = 0.5 * ldet[j] - half
+            lnorm[j] = zeta * (0.5 * ldet[j] - half)
             cnt[j] = 0
             activate(j, st)
         z[i] = j
@@ -183,9 +196,9 @@ def update_components(X, st, use_lik, rng):
         j = act[t]
         if use_lik:
             _, ldet[j] = component_step(
-                cnt[j], means[j], scats[j], mu[j].copy(), sc[2], W, R, Rxi, True, mu[j], L[j], 0.0, rng
+                cnt[j], means[j], scats[j], mu[j].copy(), sc[2], W, R, Rxi, True, mu[j], L[j], 0.0, sc[3], rng
             )
         else:
             _, ldet[j] = component_step(
-                0, zero_mean, zero_scat, mu[j].copy(), sc[2], W, R, Rxi, True, mu[j], L[j], 0.0, rng
+                0, zero_mean, zero_scat, mu[j].copy(), sc[2], W, R, Rxi, True, mu[j], L[j], 0.0, 1.0, rng
             )

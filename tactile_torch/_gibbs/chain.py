@@ -67,7 +67,7 @@ def init_components(X, st, use_lik, rng):
         if use_lik:
             st.ldet[j] = component_step(
                 st.cnt[j], means[j], scats[j], means[j].copy(), st.sc[2], st.W, st.R, Rxi, True,
-                st.mu[j], st.L[j], 0.0, rng,
+                st.mu[j], st.L[j], 0.0, st.sc[3], rng,
             )[1]  # fmt: skip
         else:
             st.ldet[j] = component_step(
@@ -83,6 +83,7 @@ def init_components(X, st, use_lik, rng):
                 st.mu[j],
                 st.L[j],
                 0.0,
+                1.0,
                 rng,
             )[1]
 

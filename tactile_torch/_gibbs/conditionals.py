@@ -17,11 +17,13 @@ from .linalg import (
 
 
 @njit(cache=True)
-def component_step(n, mean, scat, mu0, beta, W, R, Rxi, draw, mu, L, ldet_in, rng):
+def component_step(n, mean, scat, mu0, beta, W, R, Rxi, draw, mu, L, ldet_in, zeta, rng):
     """One Gibbs update of a component's (S, mu) given its data; return (log density of the move, log|S|).
 
     ``S | mu0 ~ Wishart(beta + n, (beta W + sum_i (x_i - mu0)(x_i - mu0)^T)^{-1})`` then
-    ``mu | S ~ N(Lambda^{-1}(R xi + S sum_i x_i), Lambda^{-1})`` with ``Lambda = R + n S``. The data
+    ``mu | S ~ N(Lambda^{-1}(R xi + S sum_i x_i), Lambda^{-1})`` with ``Lambda = R + n S``; under
+    the coarsened posterior (likelihood to the power ``zeta``) every ``n`` and every sum over the
+    points is multiplied by ``zeta`` (conjugacy is kept). The data
     enter through ``n``, their ``mean`` and their scatter ``scat`` about the mean (``n = 0``: the
     prior). With ``draw`` the new (mu, L) are drawn into ``mu``/``L``; without, the density of
     moving to the given ``mu``/``L`` (with ``log|S| = ldet_in``) is evaluated. The log density is the
@@ -34,10 +36,11 @@ def component_step(n, mean, scat, mu0, beta, W, R, Rxi, draw, mu, L, ldet_in, rn
         for b in range(D):
             P[a, b] = beta * W[a, b]
             if n > 0:  # n = 0: no data, whatever mean/scat hold
-                P[a, b] += scat[a, b] + n * da * (mean[b] - mu0[b])
+                P[a, b] += zeta * (scat[a, b] + n * da * (mean[b] - mu0[b]))
     C = np.empty((D, D))
     ldet_p = _scale_factor(P, C)
-    nu = beta + n
+    nz = zeta * n
+    nu = beta + nz
     if draw:
         ldet_s = wishart_draw(rng, C, -ldet_p, nu, L)
     else:
@@ -49,9 +52,9 @@ def component_step(n, mean, scat, mu0, beta, W, R, Rxi, draw, mu, L, ldet_in, rn
     for a in range(D):
         s = Rxi[a]
         for b in range(D):
-            lam[a, b] = R[a, b] + n * S[a, b]
+            lam[a, b] = R[a, b] + nz * S[a, b]
             if n > 0:
-                s += n * S[a, b] * mean[b]
+                s += nz * S[a, b] * mean[b]
         h[a] = s
     G = np.empty((D, D))
     _cholesky(lam, G)
@@ -83,13 +86,13 @@ def _draw_mean(rng, xi, FR, Mu, k):
 
 
 @njit(cache=True)
-def _draw_precision_given_point(rng, x, mu, beta, W, L):
-    """Draw ``S | mu, x ~ Wishart(beta + 1, (beta W + (x - mu)(x - mu)^T)^{-1})`` into ``L``; return log|S|."""
+def _draw_precision_given_point(rng, x, mu, beta, W, zeta, L):
+    """Draw ``S | mu, x ~ Wishart(beta + zeta, (beta W + zeta (x - mu)(x - mu)^T)^{-1})`` into ``L``; return log|S|."""
     D = x.shape[0]
     P = np.empty((D, D))
     for a in range(D):
         for b in range(D):
-            P[a, b] = beta * W[a, b] + (x[a] - mu[a]) * (x[b] - mu[b])
+            P[a, b] = beta * W[a, b] + zeta * ((x[a] - mu[a]) * (x[b] - mu[b]))
     C = np.empty((D, D))
     ldet_p = _scale_factor(P, C)
-    return wishart_draw(rng, C, -ldet_p, beta + 1.0, L)
+    return wishart_draw(rng, C, -ldet_p, beta + zeta, L)

@@ -131,6 +131,32 @@ def log_eppf(cnt, act, K, n, alpha, d):
 
 
 @njit(cache=True)
+def log_eppf_mfm(cnt, act, K, gamma, lv):
+    """Log partition probability of the mixture of finite mixtures (Miller & Harrison 2018, eq. 3.2).
+
+    ``V_n(K) prod_j gamma^(n_j)`` with ``gamma^(m)`` the rising factorial and ``lv[K] = log V_n(K)``.
+    """
+    out = lv[K]
+    lg = math.lgamma(gamma)
+    for t in range(K):
+        out += math.lgamma(cnt[act[t]] + gamma) - lg
+    return out
+
+
+@njit(cache=True)
+def log_new_weight(sc, lv, t):
+    """Log weight of a new component when ``t`` components hold the other points (Gibbs conditional).
+
+    Pitman-Yor: ``log(alpha + d t)``; mixture of finite mixtures (``sc[4] = gamma > 0``):
+    ``log(gamma V_n(t + 1) / V_n(t))`` (Miller & Harrison 2018, eq. 3.6). The weight of an existing
+    component is ``n_j - d`` in both (``d = -gamma`` for the mixture of finite mixtures).
+    """
+    if sc[4] > 0.0:
+        return math.log(sc[4]) + lv[t + 1] - lv[t]
+    return math.log(sc[0] + sc[1] * t)
+
+
+@njit(cache=True)
 def _log_prior_beta(beta, D):
     # 1/(beta - D + 1) ~ Gamma(shape 1/2, rate D/2), as a density in beta.
     g = 1.0 / (beta - D + 1.0)

@@ -13,6 +13,7 @@ import numpy as np
 from numba import njit
 
 from .conditionals import base_logpdf, component_step
+from .densities import log_new_weight
 from .linalg import LOG2PI, _logdet_chol, _quad_chol
 from .state import activate, deactivate, pop_free
 
@@ -56,7 +57,8 @@ def _group_stats(X, anchors, idx, ns, lab, want, mean, scat):
 
 
 @njit(cache=True)
-def _group_loglik(X, anchors, idx, ns, lab, want, mu, L, ldet):
+def _group_loglik(X, anchors, idx, ns, lab, want, mu, L, ldet, zeta):
+    """Log likelihood (to the power ``zeta``) of ``anchors`` and the ``idx[t]`` with ``lab[t] == want``."""
     D = X.shape[1]
     norm = 0.5 * ldet - 0.5 * D * LOG2PI
     out = 0.0
@@ -65,11 +67,11 @@ def _group_loglik(X, anchors, idx, ns, lab, want, mu, L, ldet):
     for t in range(ns):
         if want < 0 or lab[t] == want:
             out += norm - 0.5 * _quad_chol(L, X[idx[t]], mu)
-    return out
+    return zeta * out
 
 
 @njit(cache=True)
-def _restricted_scan(X, i, j, idx, ns, lab, target, muA, LA, ldA, muB, LB, ldB, d, use_lik, draw, rng):
+def _restricted_scan(X, i, j, idx, ns, lab, target, muA, LA, ldA, muB, LB, ldB, d, zeta, use_lik, draw, rng):
     """Restricted Gibbs scan of the labels of ``idx`` between component A (holds i) and B (holds j).
 
     With ``draw`` the labels are sampled; otherwise they are set to ``target``. Returns the log
@@ -95,8 +97,8 @@ def _restricted_scan(X, i, j, idx, ns, lab, target, muA, LA, ldA, muB, LB, ldB, 
         la = math.log(nA - d)
         lb = math.log(nB - d)
         if use_lik:
-            la += normA - 0.5 * _quad_chol(LA, X[k], muA)
-            lb += normB - 0.5 * _quad_chol(LB, X[k], muB)
+            la += zeta * (normA - 0.5 * _quad_chol(LA, X[k], muA))
+            lb += zeta * (normB - 0.5 * _quad_chol(LB, X[k], muB))
         mx = max(la, lb)
         lz = mx + math.log(math.exp(la - mx) + math.exp(lb - mx))
         if draw:
@@ -123,7 +125,7 @@ def _part_step(X, anchor, idx, ns, lab, want, mu0, sc, R, Rxi, W, use_lik, draw,
     scat = np.empty((D, D))
     n = _group_stats(X, anchor, idx, ns, lab, want, mean, scat)
     logq, ldet = component_step(
-        n if use_lik else 0, mean, scat, mu0, sc[2], W, R, Rxi, draw, mu, L, ldet_in, rng
+        n if use_lik else 0, mean, scat, mu0, sc[2], W, R, Rxi, draw, mu, L, ldet_in, sc[3], rng
     )
     return n, logq, ldet
 
@@ -153,7 +155,7 @@ def _split_launch(X, i, j, idx, ns, lab, muA, LA, muB, LB, n_launch, sc, R, Rxi,
     for it in range(n_launch + 1):
         if it > 0:
             _restricted_scan(
-                X, i, j, idx, ns, lab, lab, muA, LA, ldA, muB, LB, ldB, sc[1], use_lik, True, rng
+                X, i, j, idx, ns, lab, lab, muA, LA, ldA, muB, LB, ldB, sc[1], sc[3], use_lik, True, rng
             )
         ldA = _part_step(
             X, anchA, idx, ns, lab, 0, muA.copy(), sc, R, Rxi, W, use_lik, True, muA, LA, 0.0, rng
@@ -178,7 +180,7 @@ def _merge_launch(X, i, j, idx, ns, lab, mu0, n_launch, sc, R, Rxi, W, use_lik, 
     mu0[:] = mean if use_lik else X[i]
     Ltmp = np.empty((D, D))
     for _ in range(n_launch + 1):
-        component_step(nM, mean, scat, mu0.copy(), sc[2], W, R, Rxi, True, mu0, Ltmp, 0.0, rng)
+        component_step(nM, mean, scat, mu0.copy(), sc[2], W, R, Rxi, True, mu0, Ltmp, 0.0, sc[3], rng)
     return nM, mean, scat
 
 
@@ -205,7 +207,7 @@ def split_merge_moves(n_moves, X, st, n_launch, use_lik, rng, counters):
                 idx[ns] = k
                 ns += 1
         lab = np.empty(ns, dtype=np.int64)
-        alpha, d, beta = sc[0], sc[1], sc[2]
+        d, beta, zeta = sc[1], sc[2], sc[3]
         K = st.ist[0]
         Rxi = np.empty(D)
         for a in range(D):
@@ -232,7 +234,7 @@ def split_merge_moves(n_moves, X, st, n_launch, use_lik, rng, counters):
             counters[SPLIT_PROPOSED] += 1
             # forward: final restricted scan from the split launch, then a parameter update of each part
             logq = _restricted_scan(
-                X, i, j, idx, ns, lab, lab, muA, LA, ldA, muB, LB, ldB, d, use_lik, True, rng
+                X, i, j, idx, ns, lab, lab, muA, LA, ldA, muB, LB, ldB, d, zeta, use_lik, True, rng
             )
             newA_mu, newB_mu = np.empty(D), np.empty(D)
             newA_L, newB_L = np.empty((D, D)), np.empty((D, D))
@@ -245,11 +247,24 @@ def split_merge_moves(n_moves, X, st, n_launch, use_lik, rng, counters):
             logq += qA + qB
             # reverse: the merge launch's final update landing on the current parameters
             logq_rev, _ = component_step(
-                nM, meanM, scatM, muM0, beta, W, R, Rxi, False, mu[ci].copy(), L[ci].copy(), ldet[ci], rng
+                nM,
+                meanM,
+                scatM,
+                muM0,
+                beta,
+                W,
+                R,
+                Rxi,
+                False,
+                mu[ci].copy(),
+                L[ci].copy(),
+                ldet[ci],
+                zeta,
+                rng,
             )
             nC = nA + nB
             log_ratio = (
-                math.log(alpha + d * K)
+                log_new_weight(sc, st.lv, K)
                 + math.lgamma(nA - d)
                 + math.lgamma(nB - d)
                 - math.lgamma(1.0 - d)
@@ -262,9 +277,9 @@ def split_merge_moves(n_moves, X, st, n_launch, use_lik, rng, counters):
             )
             if use_lik:
                 log_ratio += (
-                    _group_loglik(X, anchA, idx, ns, lab, 0, newA_mu, newA_L, newA_ld)
-                    + _group_loglik(X, anchB, idx, ns, lab, 1, newB_mu, newB_L, newB_ld)
-                    - _group_loglik(X, anchM, idx, ns, lab, -1, mu[ci], L[ci], ldet[ci])
+                    _group_loglik(X, anchA, idx, ns, lab, 0, newA_mu, newA_L, newA_ld, zeta)
+                    + _group_loglik(X, anchB, idx, ns, lab, 1, newB_mu, newB_L, newB_ld, zeta)
+                    - _group_loglik(X, anchM, idx, ns, lab, -1, mu[ci], L[ci], ldet[ci], zeta)
                 )
             if u > 0.0 and math.log(u) < log_ratio:
                 counters[SPLIT_ACCEPTED] += 1
@@ -287,14 +302,14 @@ def split_merge_moves(n_moves, X, st, n_launch, use_lik, rng, counters):
             newM_mu = np.empty(D)
             newM_L = np.empty((D, D))
             logq, newM_ld = component_step(
-                nM, meanM, scatM, muM0, beta, W, R, Rxi, True, newM_mu, newM_L, 0.0, rng
+                nM, meanM, scatM, muM0, beta, W, R, Rxi, True, newM_mu, newM_L, 0.0, zeta, rng
             )
             # reverse: the split launch's final scan landing on the current labels and parameters
             target = np.empty(ns, dtype=np.int64)
             for t in range(ns):
                 target[t] = 0 if z[idx[t]] == ci else 1
             logq_rev = _restricted_scan(
-                X, i, j, idx, ns, lab, target, muA, LA, ldA, muB, LB, ldB, d, use_lik, False, rng
+                X, i, j, idx, ns, lab, target, muA, LA, ldA, muB, LB, ldB, d, zeta, use_lik, False, rng
             )
             nA, qA, _ = _part_step(
                 X, anchA, idx, ns, lab, 0, muA, sc, R, Rxi, W, use_lik, False, mu[ci].copy(), L[ci].copy(), ldet[ci], rng
@@ -305,7 +320,7 @@ def split_merge_moves(n_moves, X, st, n_launch, use_lik, rng, counters):
             logq_rev += qA + qB
             nC = nA + nB
             log_ratio = (
-                -math.log(alpha + d * (K - 1))
+                -log_new_weight(sc, st.lv, K - 1)
                 + math.lgamma(1.0 - d)
                 + math.lgamma(nC - d)
                 - math.lgamma(nA - d)
@@ -318,9 +333,9 @@ def split_merge_moves(n_moves, X, st, n_launch, use_lik, rng, counters):
             )
             if use_lik:
                 log_ratio += (
-                    _group_loglik(X, anchM, idx, ns, lab, -1, newM_mu, newM_L, newM_ld)
-                    - _group_loglik(X, anchA, idx, ns, lab, 0, mu[ci], L[ci], ldet[ci])
-                    - _group_loglik(X, anchB, idx, ns, lab, 1, mu[cj], L[cj], ldet[cj])
+                    _group_loglik(X, anchM, idx, ns, lab, -1, newM_mu, newM_L, newM_ld, zeta)
+                    - _group_loglik(X, anchA, idx, ns, lab, 0, mu[ci], L[ci], ldet[ci], zeta)
+                    - _group_loglik(X, anchB, idx, ns, lab, 1, mu[cj], L[cj], ldet[cj], zeta)
                 )
             if u > 0.0 and math.log(u) < log_ratio:
                 counters[MERGE_ACCEPTED] += 1

@@ -7,7 +7,12 @@ the active ones listed in ``act[:ist[0]]``):
 - ``mu[j]`` component mean, ``L[j]`` lower Cholesky factor of its *precision* ``S_j = L_j L_j^T``,
   ``ldet[j] = log|S_j|`` (kept from the log-domain draw, so that it stays finite when a factor underflows);
 - ``pos[j]`` position of slot ``j`` in ``act`` (-1 if free); ``fre[:ist[1]]`` stack of free slots;
-- ``ist = [K, number of free slots]``; ``sc = [alpha, d, beta]``;
+- ``ist = [K, number of free slots]``; ``sc = [alpha, d, beta, zeta, gamma]``: the Pitman-Yor
+  parameters, beta, the power ``zeta`` of the likelihood (1: the standard posterior; < 1 the
+  coarsened posterior) and ``gamma`` (0: Pitman-Yor prior on the partition; > 0: the mixture of
+  finite mixtures, whose weights are ``n_j + gamma``, stored as ``d = -gamma``);
+- ``lv`` (n + 2,): ``log V_n(t)`` of the mixture of finite mixtures for t = 0 .. n + 1 (unused
+  under the Pitman-Yor prior);
 - ``xi`` (D,), ``R``, ``W`` (D, D) and ``GR``/``GW`` their lower Cholesky factors.
 
 It is a ``NamedTuple`` of arrays, which numba passes to compiled code as one argument (its fields
@@ -23,7 +28,7 @@ import numpy as np
 from numba import njit, types
 
 from .conditionals import base_logpdf
-from .densities import _log_prior_alpha, _log_prior_beta, log_eppf, wishart_logpdf
+from .densities import _log_prior_alpha, _log_prior_beta, log_eppf, log_eppf_mfm, wishart_logpdf
 from .linalg import A1, A2, A3, I1, LOG2PI, _logdet_chol, _quad_chol
 
 
@@ -45,16 +50,27 @@ class ChainState(NamedTuple):
     GR: np.ndarray
     W: np.ndarray
     GW: np.ndarray
+    lv: np.ndarray
 
 
-STATE = types.NamedTuple((I1, I1, A2, A3, A1, I1, I1, I1, I1, A1, A1, A2, A2, A2, A2), ChainState)
+STATE = types.NamedTuple((I1, I1, A2, A3, A1, I1, I1, I1, I1, A1, A1, A2, A2, A2, A2, A1), ChainState)
 """numba type of :class:`ChainState`."""
 
 
-def new_state(z: np.ndarray, D: int, alpha: float, discount: float) -> ChainState:
+def new_state(
+    z: np.ndarray,
+    D: int,
+    alpha: float,
+    discount: float,
+    zeta: float = 1.0,
+    gamma: float = 0.0,
+    lv: np.ndarray | None = None,
+) -> ChainState:
     """Return a state with the partition ``z`` (labels ``0 .. K-1``), identity hyperparameters, beta = D.
 
-    Component parameters are left at zero: the caller draws them (``init_components``).
+    ``gamma > 0`` selects the mixture of finite mixtures (then ``discount`` must be ``-gamma`` and
+    ``lv`` its ``log V_n(t)``, shape (n + 2,)); ``zeta`` is the power of the likelihood. Component
+    parameters are left at zero: the caller draws them (``init_components``).
     """
     n = z.shape[0]
     cap = n + 1
@@ -78,12 +94,13 @@ def new_state(z: np.ndarray, D: int, alpha: float, discount: float) -> ChainStat
         pos=pos,
         fre=fre,
         ist=np.array([K, free_slots.size], dtype=np.int64),
-        sc=np.array([alpha, discount, float(D)]),
+        sc=np.array([alpha, discount, float(D), zeta, gamma]),
         xi=np.zeros(D),
         R=np.eye(D),
         GR=np.eye(D),
         W=np.eye(D),
         GW=np.eye(D),
+        lv=np.zeros(n + 2) if lv is None else np.ascontiguousarray(lv, dtype=np.float64),
     )
 
 
@@ -105,6 +122,7 @@ def copy_state(src, dst):
     dst.GR[:] = src.GR
     dst.W[:] = src.W
     dst.GW[:] = src.GW
+    dst.lv[:] = src.lv
 
 
 # --------------------------------------------------------------------------------------------------
@@ -149,14 +167,17 @@ def log_joint(X, st, use_lik):
     n, D = X.shape
     z, cnt, mu, L, ldet, act = st.z, st.cnt, st.mu, st.L, st.ldet, st.act
     K = st.ist[0]
-    alpha, d, beta = st.sc[0], st.sc[1], st.sc[2]
+    alpha, d, beta, zeta = st.sc[0], st.sc[1], st.sc[2], st.sc[3]
     out = 0.0
     if use_lik:
         half = 0.5 * D * LOG2PI
         for i in range(n):
             j = z[i]
-            out += 0.5 * ldet[j] - half - 0.5 * _quad_chol(L[j], X[i], mu[j])
-    out += log_eppf(cnt, act, K, n, alpha, d)
+            out += zeta * (0.5 * ldet[j] - half - 0.5 * _quad_chol(L[j], X[i], mu[j]))
+    if st.sc[4] > 0.0:
+        out += log_eppf_mfm(cnt, act, K, st.sc[4], st.lv)
+    else:
+        out += log_eppf(cnt, act, K, n, alpha, d)
     ldet_w = _logdet_chol(st.GW)
     for t in range(K):
         j = act[t]

@@ -12,6 +12,42 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from .. import _gibbs as g
+from ._diagnostics import RHAT_THRESHOLD, ess_bulk, rhat
+
+# n_iter="auto": first run, snapshot spacing (sweeps), and the targets.
+AUTO_FIRST, AUTO_EVERY = 1000, 10
+_ESS_TARGET = 400.0
+# At most this many saved partitions per chain are kept (the point estimate uses 200 in all).
+_KEEP_PER_CHAIN = 200
+
+
+def targets_met(runs: list[dict], burn_in: int, quantities: tuple[str, ...]) -> bool:
+    """Whether R-hat < 1.01 for every quantity and bulk ESS of K >= 400 after ``burn_in`` sweeps."""
+    trace = np.stack([r["trace"][burn_in:] for r in runs])
+    k = trace[:, :, g.TRACE_NAMES.index("n_clusters")]
+    if np.ptp(k) == 0 and k.size >= _ESS_TARGET:
+        k_ok = True  # every chain on the same K throughout: nothing left to mix
+    else:
+        k_ok = ess_bulk(k) >= _ESS_TARGET
+    if len(runs) < 2:
+        return bool(k_ok)
+    for name in quantities:
+        r = rhat(trace[:, :, g.TRACE_NAMES.index(name)])
+        if not (np.isfinite(r) and r < RHAT_THRESHOLD):
+            return False
+    return bool(k_ok)
+
+
+def keep_after_burn_in(runs: list[dict], sweeps: np.ndarray, sample_from: int, burn_in: int) -> np.ndarray:
+    """Drop the saved partitions and samples before ``burn_in`` and thin to ``_KEEP_PER_CHAIN``; return the kept sweeps."""
+    after = np.flatnonzero(sweeps >= burn_in)
+    pick = after[np.unique(np.linspace(0, after.size - 1, min(after.size, _KEEP_PER_CHAIN)).astype(int))]
+    sampled = np.flatnonzero(sweeps >= sample_from)  # the snapshots whose components were saved
+    position = {int(s): i for i, s in enumerate(sampled)}
+    for r in runs:
+        r["labels"] = r["labels"][pick]
+        r["samples"] = [r["samples"][position[int(i)]] for i in pick]
+    return sweeps[pick]
 
 
 def run_chains(Xw, states, cfg, rngs, n_iter, snap_sweeps, workers, progress) -> list[dict]:
@@ -43,18 +79,26 @@ def run_chains(Xw, states, cfg, rngs, n_iter, snap_sweeps, workers, progress) ->
         bar.close()
 
 
-def run_chain(Xw, st, cfg, rng, n_iter, snap_sweeps, bar) -> dict:
+def run_chain(Xw, st, cfg, rng, n_iter, snap_sweeps, bar, previous: dict | None = None) -> dict:
     """Run one chain (in a worker thread); return its trace, MAP state and saved samples.
 
     The partition is saved at the sweeps ``snap_sweeps`` (components too from ``cfg.burn_in`` on).
+    ``previous``: the result of an earlier call on the same chain, continued from its last sweep up
+    to ``n_iter`` sweeps in all (its trace, counters, MAP state and saved samples are extended).
     """
-    trace = np.zeros((n_iter, len(g.TRACE_NAMES)))
-    counters = np.zeros(4, dtype=np.int64)
-    best = g.ChainState(*(a.copy() for a in st))
-    best_val = np.array([-np.inf])
+    if previous is None:
+        trace = np.zeros((n_iter, len(g.TRACE_NAMES)))
+        counters = np.zeros(4, dtype=np.int64)
+        best = g.ChainState(*(a.copy() for a in st))
+        best_val = np.array([-np.inf])
+        start = 0
+    else:
+        start = previous["trace"].shape[0]
+        trace = np.zeros((n_iter, len(g.TRACE_NAMES)))
+        trace[:start] = previous["trace"]
+        counters, best, best_val = previous["counters"], previous["best"], np.array([previous["best_val"]])
     labels = np.zeros((snap_sweeps.size, Xw.shape[0]), dtype=np.int32)
     samples = []
-    start = 0
     seconds = 0.0
     for k, s in enumerate(snap_sweeps):
         t0 = time.perf_counter()
@@ -80,7 +124,7 @@ def run_chain(Xw, st, cfg, rng, n_iter, snap_sweeps, bar) -> dict:
                     "GW": st.GW.copy(),
                 }
             )
-    return {
+    out = {
         "trace": trace,
         "counters": counters,
         "best": best,
@@ -89,3 +133,59 @@ def run_chain(Xw, st, cfg, rng, n_iter, snap_sweeps, bar) -> dict:
         "samples": samples,
         "seconds": seconds,
     }
+    if previous is not None:
+        out["labels"] = np.concatenate([previous["labels"], labels])
+        out["samples"] = previous["samples"] + samples
+        out["seconds"] += previous["seconds"]
+    return out
+
+
+def run_chains_until(
+    Xw, states, cfg, rngs, first, max_iter, every, workers, progress, done
+) -> tuple[list[dict], np.ndarray]:
+    """Run every chain ``first`` sweeps, then keep doubling the run until ``done(runs)`` or ``max_iter``.
+
+    The partition is saved every ``every`` sweeps. Returns (the chains' results as :func:`run_chain`'s,
+    the saved sweeps). ``done`` sees the results after each round; a run with the same seed stops at
+    the same sweep whatever the machine (the budget counts sweeps, not seconds).
+    """
+    from tqdm.auto import tqdm
+
+    n_chains = len(states)
+    runs: list[dict | None] = [None] * n_chains
+    saved = []
+    total = 0
+    target = min(first, max_iter)
+    bar = tqdm(
+        total=n_chains * target,
+        disable=not progress,
+        delay=1.0,
+        unit="sweep",
+        desc="PitmanYorGMM",
+        leave=False,
+    )
+    try:
+        with ThreadPoolExecutor(max_workers=min(workers, n_chains)) as pool:
+            while True:
+                snaps = np.arange(total, target)
+                snaps = snaps[(snaps + 1) % every == 0]
+                if snaps.size == 0 or snaps[-1] != target - 1:
+                    snaps = np.r_[snaps, target - 1]
+                runs = list(
+                    pool.map(
+                        lambda c, t=target, sn=snaps, prev=runs: run_chain(
+                            Xw, states[c], cfg, rngs[c], t, sn, bar, prev[c]
+                        ),
+                        range(n_chains),
+                    )
+                )
+                saved.append(snaps)
+                total = target
+                if total >= max_iter or done(runs):
+                    break
+                target = min(2 * total, max_iter)
+                bar.total = n_chains * target
+                bar.refresh()
+    finally:
+        bar.close()
+    return runs, np.concatenate(saved)

@@ -15,12 +15,15 @@ from sklearn.utils._param_validation import HasMethods, Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from ._diagnostics import RHAT_THRESHOLD, convergence_table
+from ._mfm import coarsening_power, log_v
 from ._point_estimate import choose_partition, partition_components
 from ._predictive import normalise, pack_predictive, point_scores, posterior_predictive
 from ._summaries import n_clusters_posterior, n_clusters_summary, summary_text
 
 # Floor on the eigenvalues of the hyperparameter W (whitened units; see the class docstring).
 W_FLOOR = 1e-10
+# Rows further than this from the data mean (whitened units) are novel by definition (prediction).
+_BEYOND = 1e100
 
 
 def _numpy_rng(random_state: object) -> np.random.Generator:
@@ -117,6 +120,26 @@ class PitmanYorGMM(ClusterMixin, BaseEstimator):
 
     Parameters
     ----------
+    model : {"mfm", "pyp"}, default "mfm"
+        Prior on the partition. ``"mfm"``: the mixture of finite mixtures (Miller & Harrison 2018):
+        K ~ geometric on {1, 2, ...} with mean ``k_prior_mean``, weights ~ symmetric
+        Dirichlet(``weight_concentration``); its posterior of K is consistent for the number of
+        components, the Pitman-Yor process's is not (Miller & Harrison 2014). Same sampler, weights
+        ``n_j + gamma`` and ``gamma V_n(K + 1) / V_n(K)`` (``alpha`` and ``discount`` are unused).
+        ``"pyp"``: the study's Pitman-Yor process (with ``coarsen=None`` it reproduces the
+        study's results bit for bit on a seed).
+    coarsen : float or None, default None
+        Coarsened posterior (Miller & Dunson 2018): the likelihood is raised to
+        ``zeta = coarsen / (coarsen + n)``, which asks the model to fit the data only up to a
+        discrepancy of order ``1 / coarsen`` (non-Gaussian features, session shifts) instead of
+        adding components for it (needs ``model="mfm"``). ``None``: the standard posterior, the
+        default: measured on five data sources (``docs/mixture.md``), the power merges real,
+        separated clusters long before it merges the spurious ones, because the partition prior's
+        cost of a split (about ``n`` times the entropy of the weights) is not tempered.
+    k_prior_mean : float, default 10
+        Mean of the geometric prior on K (``model="mfm"``).
+    weight_concentration : float, default 1
+        ``gamma`` of the symmetric Dirichlet prior on the weights (``model="mfm"``).
     alpha : float or None, default None
         Pitman-Yor concentration. ``None``: sampled, prior ``1/alpha ~ Gamma(1/2, 1/2)``. A number
         keeps it fixed; it must exceed ``-discount`` (or ``-1`` when the discount is sampled, whose
@@ -124,11 +147,18 @@ class PitmanYorGMM(ClusterMixin, BaseEstimator):
     discount : float or None, default None
         Pitman-Yor discount ``d`` in ``[0, 1)``. ``None``: sampled, prior ``U(0, 1)``; ``0`` gives the
         Dirichlet process.
-    n_iter : int, default 1000
+    n_iter : int or "auto", default "auto"
         Sweeps per chain, burn-in included (4 chains x 1000 sweeps on 2 cores take the wall time of
-        one chain of 2000).
+        one chain of 2000). ``"auto"``: run 1000 sweeps, then keep doubling the run until the
+        convergence targets hold (rank-normalised R-hat of K, and of alpha and d when sampled,
+        below 1.01 across chains; bulk ESS of K at least 400) or ``max_iter`` sweeps; the first
+        quarter of every chain (at least ``burn_in``) is discarded. The budget counts sweeps, not
+        seconds, so that a seed gives the same result on any machine.
+    max_iter : int, default 16000
+        Budget of ``n_iter="auto"``: most sweeps per chain. A warning says when it ran out.
     burn_in : int, default 250
-        Sweeps of each chain discarded from the posterior (``0 <= burn_in < n_iter``).
+        Sweeps of each chain discarded from the posterior (``0 <= burn_in < n_iter``); with
+        ``n_iter="auto"`` the minimum burn-in.
     n_chains : int, default 4
         Independent chains (R-hat needs at least 2).
     n_jobs : int or None, default None
@@ -147,12 +177,15 @@ class PitmanYorGMM(ClusterMixin, BaseEstimator):
     thin : int or None, default None
         Save the partition (and, after burn-in, the components) of every ``thin``-th sweep, counted
         back from the last one. ``None``: about 200 per chain. Scalar traces are kept for every sweep.
+        With ``n_iter="auto"`` the partition is saved every 10 sweeps and thinned to 200 per chain
+        after the burn-in (``thin`` is not used).
     point_estimate : {"vi", "binder", "map"}, default "vi"
         What ``labels_`` is: the minimiser of the expected Variation of Information, of Binder's
         loss (equal costs), or the MAP sample.
     prior_only : bool, default False
         Ignore the data (likelihood switched off): the chain then samples the prior, which checks
-        the sampler against the known prior distribution of K (a diagnostic).
+        the sampler against the known prior distribution of K (a diagnostic). With ``coarsen`` the
+        partition prior is the coarsened one (counts times ``zeta``).
     random_state : int, numpy.random.Generator, torch.Generator or None
         Seed of every random choice (starts, chains, Monte Carlo draws). Same seed, same result,
         whatever ``n_jobs``.
@@ -230,9 +263,14 @@ class PitmanYorGMM(ClusterMixin, BaseEstimator):
     """
 
     _parameter_constraints: ClassVar[dict] = {
+        "model": [StrOptions({"mfm", "pyp"})],
+        "coarsen": [Interval(Real, 0, None, closed="neither"), None],
+        "k_prior_mean": [Interval(Real, 1, None, closed="left")],
+        "weight_concentration": [Interval(Real, 0, None, closed="neither")],
         "alpha": [Interval(Real, -1, None, closed="neither"), None],
         "discount": [Interval(Real, 0, 1, closed="left"), None],
-        "n_iter": [Interval(Integral, 1, None, closed="left")],
+        "n_iter": [Interval(Integral, 1, None, closed="left"), StrOptions({"auto"})],
+        "max_iter": [Interval(Integral, 1, None, closed="left")],
         "burn_in": [Interval(Integral, 0, None, closed="left")],
         "n_chains": [Interval(Integral, 1, None, closed="left")],
         "n_jobs": [Interval(Integral, 1, None, closed="left"), None],
@@ -254,9 +292,14 @@ class PitmanYorGMM(ClusterMixin, BaseEstimator):
 
     def __init__(
         self,
+        model: str = "mfm",
+        coarsen: float | None = None,
+        k_prior_mean: float = 10.0,
+        weight_concentration: float = 1.0,
         alpha: float | None = None,
         discount: float | None = None,
-        n_iter: int = 1000,
+        n_iter: int | str = "auto",
+        max_iter: int = 16000,
         burn_in: int = 250,
         n_chains: int = 4,
         n_jobs: int | None = None,
@@ -270,9 +313,14 @@ class PitmanYorGMM(ClusterMixin, BaseEstimator):
         random_state: object = None,
         progress: bool = True,
     ) -> None:
+        self.model = model
+        self.coarsen = coarsen
+        self.k_prior_mean = k_prior_mean
+        self.weight_concentration = weight_concentration
         self.alpha = alpha
         self.discount = discount
         self.n_iter = n_iter
+        self.max_iter = max_iter
         self.burn_in = burn_in
         self.n_chains = n_chains
         self.n_jobs = n_jobs
@@ -292,8 +340,19 @@ class PitmanYorGMM(ClusterMixin, BaseEstimator):
     def _check_params(self) -> None:
         """Validate the hyper-parameters from the table, then the two that constrain each other."""
         self._validate_params()
-        if self.burn_in >= self.n_iter:
-            raise ValueError(f"burn_in must be < n_iter, got burn_in={self.burn_in}, n_iter={self.n_iter}")
+        limit, name = (self.max_iter, "max_iter") if self.n_iter == "auto" else (self.n_iter, "n_iter")
+        if self.burn_in >= limit:
+            raise ValueError(f"burn_in must be < {name}, got burn_in={self.burn_in}, {name}={limit}")
+        if self.model == "mfm" and (self.alpha is not None or self.discount is not None):
+            raise ValueError(
+                f"alpha and discount apply to model='pyp' (the Pitman-Yor mixture), got alpha={self.alpha}, "
+                f"discount={self.discount} with model='mfm'"
+            )
+        if self.model == "pyp" and self.coarsen is not None:
+            raise ValueError(
+                f"coarsen needs model='mfm' (the coarsened partition prior is the mixture of finite "
+                f"mixtures'), got model='pyp', coarsen={self.coarsen}; pass coarsen=None with model='pyp'"
+            )
         if self.alpha is not None and self.discount is not None and not self.alpha > -self.discount:
             raise ValueError(
                 f"alpha must be > -discount = {-self.discount}, got alpha={self.alpha}, discount={self.discount}"
@@ -335,18 +394,36 @@ class PitmanYorGMM(ClusterMixin, BaseEstimator):
         self._check_params()
         # the compiled kernels load here, at the first fit of a process, not at import
         from .. import _gibbs as g
-        from ._chains import run_chains
+        from ._chains import (
+            AUTO_EVERY,
+            AUTO_FIRST,
+            keep_after_burn_in,
+            run_chains,
+            run_chains_until,
+            targets_met,
+        )
 
         X = validate_data(self, _as_array(X), dtype=np.float64)
         rng = _numpy_rng(self.random_state)
         n, D = X.shape
         mean, scale = _whitening(X)
         Xw = np.ascontiguousarray(np.linalg.solve(scale, (X - mean).T).T)
-        fit_alpha, fit_d = self.alpha is None, self.discount is None
+        mfm = self.model == "mfm"
+        fit_alpha, fit_d = self.alpha is None and not mfm, self.discount is None and not mfm
         d_low = max(0.0, -float(self.alpha)) if (not fit_alpha and fit_d) else 0.0
-        alpha0 = 1.0 if fit_alpha else float(self.alpha)
-        d0 = (d_low + 0.5 * (1.0 - d_low) if d_low > 0 else 0.25) if fit_d else float(self.discount)
-        n_iter, burn_in, n_chains = int(self.n_iter), int(self.burn_in), int(self.n_chains)
+        alpha0 = 1.0 if fit_alpha else float(self.alpha or 0.0)
+        d0 = (d_low + 0.5 * (1.0 - d_low) if d_low > 0 else 0.25) if fit_d else float(self.discount or 0.0)
+        gamma = float(self.weight_concentration) if mfm else 0.0
+        zeta = coarsening_power(self.coarsen, n)
+        if mfm:
+            alpha0, d0 = 0.0, -gamma
+            lv = log_v(n, gamma, float(self.k_prior_mean))
+        else:
+            lv = None
+        self.zeta_ = zeta
+        auto = self.n_iter == "auto"
+        n_iter = int(self.max_iter) if auto else int(self.n_iter)
+        burn_in, n_chains = int(self.burn_in), int(self.n_chains)
         thin = int(self.thin) if self.thin is not None else max(1, math.ceil(n_iter / 200))
         snap_sweeps = np.arange(n_iter - 1, -1, -thin)[::-1]
         cfg = g.Settings(
@@ -364,29 +441,50 @@ class PitmanYorGMM(ClusterMixin, BaseEstimator):
         chain_rngs = rng.spawn(n_chains)
         chains = []
         for c in range(n_chains):
-            st = g.new_state(self._initial_labels(Xw, chain_rngs[c]), D, alpha0, d0)
+            st = g.new_state(self._initial_labels(Xw, chain_rngs[c]), D, alpha0, d0, zeta, gamma, lv)
             g.init_components(Xw, st, cfg.use_lik, chain_rngs[c])
             chains.append(st)
         workers = self.n_jobs or min(
             n_chains,
             len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1),
         )
-        runs = run_chains(Xw, chains, cfg, chain_rngs, n_iter, snap_sweeps, workers, self.progress)
+        if auto:
+            quantities = ("n_clusters",) + ("alpha",) * fit_alpha + ("discount",) * fit_d
+            runs, snap_sweeps = run_chains_until(
+                Xw, chains, cfg, chain_rngs, AUTO_FIRST, n_iter, AUTO_EVERY, workers, self.progress,
+                lambda runs: targets_met(runs, max(burn_in, runs[0]["trace"].shape[0] // 4), quantities),
+            )  # fmt: skip
+            n_iter = runs[0]["trace"].shape[0]
+            burn_in = max(burn_in, n_iter // 4)
+            snap_sweeps = keep_after_burn_in(runs, snap_sweeps, cfg.burn_in, burn_in)
+            self.budget_exhausted_ = not targets_met(runs, burn_in, quantities)
+        else:
+            runs = run_chains(Xw, chains, cfg, chain_rngs, n_iter, snap_sweeps, workers, self.progress)
+            self.budget_exhausted_ = not targets_met(
+                runs, burn_in, ("n_clusters",) + ("alpha",) * fit_alpha + ("discount",) * fit_d
+            )
         self.n_features_in_ = D
         self.data_mean_, self.data_scale_ = mean, scale
         self.n_iter_ = n_iter
         self._store_chains(runs, snap_sweeps, burn_in, n)
         self._store_point_estimate(Xw, runs, cfg, rng)
-        self._pred = pack_predictive(runs, snap_sweeps, burn_in, n, self.labels_, rng)
+        self._pred = pack_predictive(
+            runs, snap_sweeps, burn_in, n, self.labels_, rng, float(self.k_prior_mean)
+        )
         self.sweep_seconds_ = float(np.mean([r["seconds"] for r in runs]) / n_iter)
         self.fit_seconds_ = time.perf_counter() - t_fit
         if any(not row["converged"] for row in self.convergence_ if np.isfinite(row["R-hat"])):
             bad = ", ".join(
                 f"{r['quantity']} {r['R-hat']:.3f}" for r in self.convergence_ if not r["converged"]
             )
+            change = (
+                f"raise max_iter (now {self.max_iter})"
+                if auto
+                else "pass n_iter='auto' (runs until converged) or more sweeps than n_iter"
+            )
             warnings.warn(
-                f"PitmanYorGMM: R-hat > {RHAT_THRESHOLD} ({bad}): the chains disagree; run more sweeps "
-                "(n_iter) or check summary()",
+                f"PitmanYorGMM: R-hat > {RHAT_THRESHOLD} ({bad}) after {n_iter} sweeps per chain: the "
+                f"chains disagree; {change}",
                 RuntimeWarning,
                 stacklevel=2,
             )
@@ -415,9 +513,9 @@ class PitmanYorGMM(ClusterMixin, BaseEstimator):
             "merge_accepted": int(counters[g.MERGE_ACCEPTED]),
         }
         chains = {"K": post["n_clusters"]}
-        if self.alpha is None:
+        if self.alpha is None and self.model == "pyp":
             chains["alpha"] = post["alpha"]
-        if self.discount is None:
+        if self.discount is None and self.model == "pyp":
             chains["d"] = post["discount"]
         self.convergence_ = convergence_table(chains)
         # the MAP sample over all chains
@@ -448,7 +546,9 @@ class PitmanYorGMM(ClusterMixin, BaseEstimator):
         self.n_clusters_summary_ = n_clusters_summary(
             self.n_clusters_samples_, self.n_clusters_, self.map_n_clusters_
         )
-        c = partition_components(Xw, labels, self._map_state, cfg, rng, self.data_mean_, self.data_scale_)
+        c = partition_components(
+            Xw, labels, self._map_state, cfg, rng, self.data_mean_, self.data_scale_, float(self.k_prior_mean)
+        )
         self.alpha_, self.discount_ = c.alpha, c.discount
         self.weights_, self.novelty_weight_ = c.weights, c.novelty_weight
         self.means_, self.covariances_ = c.means, c.covariances
@@ -464,11 +564,23 @@ class PitmanYorGMM(ClusterMixin, BaseEstimator):
         return np.linalg.solve(self.data_scale_, (X - self.data_mean_).T).T
 
     def _cluster_and_new(self, X: object, using: str) -> tuple[np.ndarray, np.ndarray]:
+        """(n, K) log probability of joining each cluster and (n,) of a new component.
+
+        A row more than ``_BEYOND`` whitened units from the data mean (where every Gaussian log
+        density overflows the float range) is novel by definition: log P(new) = 0, the clusters
+        equally likely.
+        """
+        if using not in ("samples", "point"):
+            raise ValueError(f"using must be 'samples' or 'point', got {using!r}")
+        Z = self._whiten(X)
+        beyond = np.abs(Z).max(axis=1) > _BEYOND
         if using == "samples":
-            return posterior_predictive(self._whiten(X), self._pred, self.n_clusters_)
-        if using == "point":
-            return normalise(*self._point_scores(X))
-        raise ValueError(f"using must be 'samples' or 'point', got {using!r}")
+            log_joint, log_new = posterior_predictive(Z, self._pred, self.n_clusters_)
+        else:
+            log_joint, log_new = normalise(*self._point_scores(X))
+        log_joint[beyond] = -math.log(self.n_clusters_)
+        log_new[beyond] = 0.0
+        return log_joint, log_new
 
     def _point_scores(self, X: object) -> tuple[np.ndarray, np.ndarray]:
         check_is_fitted(self)
@@ -481,7 +593,8 @@ class PitmanYorGMM(ClusterMixin, BaseEstimator):
 
         ``using="samples"``: the posterior predictive averaged over saved partitions (default);
         ``"point"``: the point estimate's components, as in the exported graph. A row is novel when
-        the probability of a new component exceeds that of every cluster.
+        the probability of a new component exceeds that of every cluster; a row more than 1e100
+        whitened units from the data is novel by definition.
         """
         joint, new = self._cluster_and_new(X, using)
         labels = np.argmax(joint, axis=1)
@@ -490,17 +603,25 @@ class PitmanYorGMM(ClusterMixin, BaseEstimator):
 
     def predict_proba(self, X: object, *, using: str = "samples") -> np.ndarray:
         """Return the probability of each cluster for every row of ``X``, given that it joins one: (n, K), rows sum to 1."""
-        joint, _ = self._cluster_and_new(X, using)
-        return joint / joint.sum(axis=1, keepdims=True)
+        from scipy.special import softmax
+
+        log_joint, _ = self._cluster_and_new(X, using)
+        return softmax(log_joint, axis=1)  # log space: finite for every finite row (see LOG_FLOOR)
 
     def novelty_proba(self, X: object, *, using: str = "samples") -> np.ndarray:
         """Return the probability that each row of ``X`` opens a new component (a new surface), shape (n,)."""
-        return self._cluster_and_new(X, using)[1]
+        return np.exp(self._cluster_and_new(X, using)[1])
 
     def score_samples(self, X: object) -> np.ndarray:
-        """Return the log density of every row of ``X`` under the point estimate's mixture (``weights_``), shape (n,)."""
+        """Return the log density of every row of ``X`` under the point estimate's mixture (``weights_``), shape (n,).
+
+        Finite for every finite row: a density below ``exp(-1.8e308)`` (a point ~1e154 standard
+        deviations from every component) is reported as ``-1.8e308``.
+        """
+        from ._predictive import LOG_FLOOR
+
         known, _ = self._point_scores(X)
-        return np.logaddexp.reduce(known - math.log(1 - self.novelty_weight_), axis=1)
+        return np.maximum(np.logaddexp.reduce(known - math.log(1 - self.novelty_weight_), axis=1), LOG_FLOOR)
 
     def fit_predict(self, X: object, y: object = None) -> np.ndarray:
         """Fit and return ``labels_`` (the point estimate of the training points' partition)."""

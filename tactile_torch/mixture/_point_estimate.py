@@ -92,7 +92,7 @@ class Components(NamedTuple):
     novelty_precisions_cholesky: np.ndarray
 
 
-def partition_components(Xw, labels, map_state, cfg, rng, data_mean, data_scale) -> Components:
+def partition_components(Xw, labels, map_state, cfg, rng, data_mean, data_scale, k_mean=10.0) -> Components:
     """Return the components of the partition ``labels``: posterior means from a fixed-partition Gibbs run.
 
     The run starts from the MAP sample's hyperparameters and uses the sampler's own component and
@@ -106,13 +106,13 @@ def partition_components(Xw, labels, map_state, cfg, rng, data_mean, data_scale)
     n, D = Xw.shape
     K = int(labels.max()) + 1
     st = g.new_state(labels, D, float(map_state.sc[0]), float(map_state.sc[1]))
-    for name in ("sc", "xi", "R", "GR", "W", "GW"):
+    for name in ("sc", "xi", "R", "GR", "W", "GW"):  # lv is not used: the partition is fixed
         np.copyto(getattr(st, name), getattr(map_state, name))
     fixed = cfg._replace(allocate=False, burn_in=_FIXED_SWEEPS)
     g.init_components(Xw, st, fixed.use_lik, rng)
     trace = np.zeros((_FIXED_SWEEPS, len(g.TRACE_NAMES)))
     kept = _FIXED_SWEEPS - _FIXED_SWEEPS // 4
-    mus, covs, scs, novelty = np.zeros((K, D)), np.zeros((K, D, D)), np.zeros(3), []
+    mus, covs, scs, novelty = np.zeros((K, D)), np.zeros((K, D, D)), np.zeros(st.sc.size), []
     unused = g.ChainState(*(a.copy() for a in st))
     for s in range(_FIXED_SWEEPS):
         g.run_sweeps(Xw, st, fixed, rng, s, 1, trace, np.zeros(4, dtype=np.int64), unused, np.array([np.inf]))
@@ -127,16 +127,25 @@ def partition_components(Xw, labels, map_state, cfg, rng, data_mean, data_scale)
     mus /= kept
     covs /= kept
     scs /= kept
-    alpha, d = float(scs[0]), float(scs[1])
+    alpha, d, gamma = float(scs[0]), float(scs[1]), float(scs[4])
     sizes = np.bincount(labels, minlength=K).astype(np.float64)
+    weights = (sizes - d) / (n - d * K)
+    if gamma > 0.0:
+        from ._mfm import predictive_weights
+
+        log_join, log_new = predictive_weights(n, sizes, alpha, d, gamma, k_mean)
+        novelty_weight = math.exp(log_new)
+        weights = np.exp(log_join) / np.exp(log_join).sum()
+    else:
+        novelty_weight = float((alpha + d * K) / (n + alpha))
     A, m = data_scale, data_mean
     covariances = A @ covs @ A.T
     return Components(
         means=m + mus @ A.T,
         covariances=covariances,
         precisions_cholesky=np.stack([precision_cholesky(c) for c in covariances]),
-        weights=(sizes - d) / (n - d * K),
-        novelty_weight=float((alpha + d * K) / (n + alpha)),
+        weights=weights,
+        novelty_weight=novelty_weight,
         alpha=alpha,
         discount=d,
         novelty_means=np.stack([m + A @ mu for mu, _ in novelty]),

@@ -14,6 +14,7 @@ import math
 
 import numpy as np
 
+from ._mfm import predictive_weights
 from ._point_estimate import new_component_gaussian, precision_cholesky
 
 # At most this many saved partitions per chain enter the posterior predictive of predict/predict_proba.
@@ -21,20 +22,44 @@ _PREDICTIVE_SAMPLES = 50
 _LOG_2PI = math.log(2.0 * math.pi)
 
 
+# Log densities below this (a point ~1e154 standard deviations away, whose squared distance
+# overflows) are reported as this value: finite, and below every representable density.
+LOG_FLOOR = -np.finfo(np.float64).max
+
+
+def _quadratic(y: np.ndarray) -> np.ndarray:
+    """``sum(y**2, axis=-1)`` without overflow to inf: the result saturates at the largest float."""
+    with np.errstate(over="ignore"):
+        q = np.einsum("...e,...e->...", y, y)
+    return np.minimum(q, np.finfo(np.float64).max)
+
+
 def log_gauss(Z: np.ndarray, mu: np.ndarray, L: np.ndarray, ldet: np.ndarray) -> np.ndarray:
-    """(n, C) ``log N(z | mu_c, (L_c L_c^T)^{-1})`` for whitened rows and components (``ldet = log|L L^T|``)."""
-    y = np.einsum("nd,cde->nce", Z, L) - np.einsum("cd,cde->ce", mu, L)[None]
-    return 0.5 * ldet - 0.5 * Z.shape[1] * _LOG_2PI - 0.5 * np.einsum("nce,nce->nc", y, y)
+    """(n, C) ``log N(z | mu_c, (L_c L_c^T)^{-1})`` for whitened rows and components (``ldet = log|L L^T|``).
+
+    Finite for finite input: values below ``LOG_FLOOR`` are clipped to it.
+    """
+    with np.errstate(over="ignore", invalid="ignore"):
+        y = np.einsum("nd,cde->nce", Z, L) - np.einsum("cd,cde->ce", mu, L)[None]
+    y = np.nan_to_num(
+        y, nan=np.finfo(np.float64).max, posinf=np.finfo(np.float64).max, neginf=-np.finfo(np.float64).max
+    )
+    out = 0.5 * ldet - 0.5 * Z.shape[1] * _LOG_2PI - 0.5 * _quadratic(y)
+    return np.maximum(out, LOG_FLOOR)
 
 
 def log_gauss_upper(X: np.ndarray, means: np.ndarray, U: np.ndarray) -> np.ndarray:
-    """(n, K) ``log N(x | mean_k, (U_k U_k^T)^{-1})`` (the formula of :func:`gaussian_mixture_scores`)."""
-    y = np.einsum("nd,kde->nke", X, U) - np.einsum("kd,kde->ke", means, U)[None]
+    """(n, K) ``log N(x | mean_k, (U_k U_k^T)^{-1})`` (the formula of :func:`gaussian_mixture_scores`), clipped like :func:`log_gauss`."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        y = np.einsum("nd,kde->nke", X, U) - np.einsum("kd,kde->ke", means, U)[None]
+    y = np.nan_to_num(
+        y, nan=np.finfo(np.float64).max, posinf=np.finfo(np.float64).max, neginf=-np.finfo(np.float64).max
+    )
     log_det = np.log(np.abs(np.diagonal(U, axis1=1, axis2=2))).sum(axis=1)
-    return log_det - 0.5 * X.shape[1] * _LOG_2PI - 0.5 * np.einsum("nke,nke->nk", y, y)
+    return np.maximum(log_det - 0.5 * X.shape[1] * _LOG_2PI - 0.5 * _quadratic(y), LOG_FLOOR)
 
 
-def pack_predictive(runs, snap_sweeps, burn_in, n, labels, rng) -> dict:
+def pack_predictive(runs, snap_sweeps, burn_in, n, labels, rng, k_mean: float = 10.0) -> dict:
     """Pack the components of (at most ``_PREDICTIVE_SAMPLES`` per chain) saved sweeps for prediction.
 
     ``runs``: the chains' saved samples; ``labels``: the point estimate, onto whose clusters every
@@ -52,13 +77,14 @@ def pack_predictive(runs, snap_sweeps, burn_in, n, labels, rng) -> dict:
         )
         for k in pick:
             smp = run["samples"][k]
-            alpha, d, beta = smp["sc"]
+            alpha, d, beta, _, gamma = smp["sc"]
             Ks = smp["cnt"].size
+            log_join, log_new = predictive_weights(n, smp["cnt"], alpha, d, gamma, k_mean)
             s = len(new_logw)
             mus.append(smp["mu"])
             Ls.append(smp["L"])
             ldets.append(smp["ldet"])
-            logw.append(np.log((smp["cnt"] - d) / (n + alpha)))
+            logw.append(log_join)
             table = np.zeros((Ks, K))
             np.add.at(table, (saved_labels[k], labels), 1.0)
             share.append(table / table.sum(axis=1, keepdims=True))
@@ -68,7 +94,7 @@ def pack_predictive(runs, snap_sweeps, burn_in, n, labels, rng) -> dict:
             new_mu.append(xi)
             new_prec.append(U)
             new_ldet.append(2.0 * np.log(np.abs(np.diag(U))).sum())
-            new_logw.append(math.log((alpha + d * Ks) / (n + alpha)))
+            new_logw.append(log_new)
     return {
         "mu": np.concatenate(mus).reshape(-1, D),
         "L": np.concatenate(Ls).reshape(-1, D, D),
@@ -84,15 +110,18 @@ def pack_predictive(runs, snap_sweeps, burn_in, n, labels, rng) -> dict:
 
 
 def posterior_predictive(Z: np.ndarray, p: dict, K: int) -> tuple[np.ndarray, np.ndarray]:
-    """(n, K) probability of joining each point-estimate cluster and (n,) of a new component, averaged over samples.
+    """(n, K) log probability of joining each point-estimate cluster and (n,) of a new component, averaged over samples.
 
-    ``Z``: whitened rows; ``p``: :func:`pack_predictive`'s output. Samples are processed in blocks
-    of about 2e6 numbers.
+    ``Z``: whitened rows; ``p``: :func:`pack_predictive`'s output. Every step is in log space (a
+    point far from every component gets finite log probabilities, never 0/0). Samples are processed
+    in blocks of about 2e6 numbers.
     """
+    from scipy.special import logsumexp
+
     S = p["new_logw"].size
     n = Z.shape[0]
-    joint = np.zeros((n, K))
-    new = np.zeros(n)
+    log_joint = np.full((n, K), -np.inf)
+    log_new = np.full(n, -np.inf)
     starts = np.flatnonzero(np.r_[True, p["owner"][1:] != p["owner"][:-1]])
     bounds = np.r_[starts, p["owner"].size]
     step = max(1, int(2e6 // max(1, n * (bounds[-1] / S) * Z.shape[1])))
@@ -104,14 +133,20 @@ def posterior_predictive(Z: np.ndarray, p: dict, K: int) -> tuple[np.ndarray, np
             Z, p["new_mu"][s0:s1], p["new_L"][s0:s1], p["new_ldet"][s0:s1]
         )
         seg = starts[s0:s1] - lo
-        top = np.maximum(np.maximum.reduceat(comp, seg, axis=1), fresh)
         owner = p["owner"][lo:hi] - s0
-        e = np.exp(comp - top[:, owner])
-        ef = np.exp(fresh - top)
-        total = np.add.reduceat(e, seg, axis=1) + ef
-        joint += (e / total[:, owner]) @ p["share"][lo:hi]
-        new += (ef / total).sum(axis=1)
-    return joint / S, new / S
+        # per sample: log of its normaliser (its components and its new component)
+        top = np.maximum(np.maximum.reduceat(comp, seg, axis=1), fresh)
+        log_total = top + np.log(
+            np.add.reduceat(np.exp(comp - top[:, owner]), seg, axis=1) + np.exp(fresh - top)
+        )
+        comp_norm = comp - log_total[:, owner]  # log P(component | x) within its sample
+        log_new = np.logaddexp(log_new, logsumexp(fresh - log_total, axis=1))
+        # log sum_c P(c | x) share[c, k], with the largest term factored out (exact in log space)
+        m = comp_norm.max(axis=1, keepdims=True)
+        with np.errstate(divide="ignore"):  # a cluster no component of the block maps to: log 0
+            block = np.log(np.exp(comp_norm - m) @ p["share"][lo:hi]) + m
+        log_joint = np.logaddexp(log_joint, block)
+    return log_joint - math.log(S), log_new - math.log(S)
 
 
 def point_scores(X: np.ndarray, c) -> tuple[np.ndarray, np.ndarray]:
@@ -128,8 +163,6 @@ def point_scores(X: np.ndarray, c) -> tuple[np.ndarray, np.ndarray]:
 
 
 def normalise(known: np.ndarray, new: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Probabilities from the log scores of :func:`point_scores`: (n, K) per cluster and (n,) new."""
-    top = np.maximum(known.max(axis=1), new)
-    e, en = np.exp(known - top[:, None]), np.exp(new - top)
-    total = e.sum(axis=1) + en
-    return e / total[:, None], en / total
+    """Log probabilities from the log scores of :func:`point_scores`: (n, K) per cluster and (n,) new."""
+    total = np.logaddexp(np.logaddexp.reduce(known, axis=1), new)
+    return known - total[:, None], new - total

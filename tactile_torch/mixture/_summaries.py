@@ -22,16 +22,25 @@ def n_clusters_posterior(ks: np.ndarray) -> dict[int, float]:
 def n_clusters_summary(ks: np.ndarray, point_estimate: int, map_k: int) -> dict:
     """Return the summary of the posterior of K from its samples ``ks`` (see ``n_clusters_summary_``)."""
     values, counts = np.unique(ks, return_counts=True)
-    lo, hi = np.quantile(ks, [0.025, 0.975])
+    # K is an integer: the interval's ends are sampled values (inverted-CDF quantiles), never 6.025
+    lo, hi = (int(v) for v in np.quantile(ks, [0.025, 0.975], method="inverted_cdf"))
     return {
         "mode": int(values[np.argmax(counts)]),
         "mode_probability": float(counts.max() / ks.size),
         "median": float(np.median(ks)),
         "mean": float(ks.mean()),
-        "interval": (float(lo), float(hi)),
+        "interval": (lo, hi),
         "point_estimate": point_estimate,
         "map": map_k,
     }
+
+
+def _versus_mode(k: int, ks: dict) -> str:
+    """Where ``k`` sits in the posterior of K summarised by ``ks``: the words are computed, never fixed."""
+    lo, hi = ks["interval"]
+    side = "equal to" if k == ks["mode"] else ("below" if k < ks["mode"] else "above")
+    where = "inside" if lo <= k <= hi else "outside"
+    return f"{side} the posterior mode {ks['mode']}, {where} the 95% interval"
 
 
 def summary_text(model) -> str:
@@ -44,10 +53,10 @@ def summary_text(model) -> str:
         f"PitmanYorGMM: {chains} chain(s) x {n_iter} sweeps ({model.n_clusters_samples_.size // chains} "
         f"per chain after burn-in), {model.sweep_seconds_ * 1e3:.2f} ms/sweep, {model.fit_seconds_:.1f} s",
         f"K, posterior: mode {ks['mode']} (p = {ks['mode_probability']:.3f}), median {ks['median']:g}, "
-        f"95% interval [{ks['interval'][0]:g}, {ks['interval'][1]:g}]",
+        f"95% interval [{ks['interval'][0]}, {ks['interval'][1]}]",
         f"point estimate ({_POINT_ESTIMATE_NAMES[model.point_estimate]}; {loss} {model.expected_loss_:.4f}): "
         f"{model.n_clusters_} clusters",
-        f"MAP sample (largest joint density; under-counts K): K = {model.map_n_clusters_} "
+        f"MAP sample (largest joint density): K = {model.map_n_clusters_}, {_versus_mode(model.map_n_clusters_, ks)} "
         f"(chain {model.map_chain_}, sweep {model.map_sweep_})",
         "P(K): " + ", ".join(f"{k}: {p:.3f}" for k, p in sorted(post.items(), key=lambda kv: -kv[1])[:8]),
         "convergence (rank-normalised split R-hat; bulk / tail ESS): "
@@ -61,11 +70,22 @@ def summary_text(model) -> str:
         lines.append(
             f"WARNING: R-hat > {RHAT_THRESHOLD} for {', '.join(bad)}: the chains disagree, run longer"
         )
-    for name, s in (
-        ("alpha", model.alpha_samples_),
-        ("d", model.discount_samples_),
-        ("beta", model.beta_samples_),
-    ):
+    if model.model == "mfm":
+        lines.insert(
+            2,
+            f"model: mixture of finite mixtures (K ~ geometric, mean {model.k_prior_mean:g}; weights ~ "
+            f"Dirichlet({model.weight_concentration:g})), likelihood power zeta = {model.zeta_:.4g}"
+            + (" (not coarsened)" if model.zeta_ == 1.0 else f" (coarsened, coarsen = {model.coarsen:g})"),
+        )
+        hyper = (("beta", model.beta_samples_),)
+    else:
+        lines.insert(2, "model: Pitman-Yor process mixture (the study's)")
+        hyper = (
+            ("alpha", model.alpha_samples_),
+            ("d", model.discount_samples_),
+            ("beta", model.beta_samples_),
+        )
+    for name, s in hyper:
         q = np.quantile(s, [0.025, 0.5, 0.975])
         lines.append(f"{name}: median {q[1]:.3g}, 95% interval [{q[0]:.3g}, {q[2]:.3g}]")
     st = model.split_merge_stats_

@@ -33,7 +33,9 @@ import numpy as np
 from ..metrics import pairwise_accuracy
 from ..mixture import PitmanYorGMM, baseline_clusterings
 
-TITLE = "Clustering: how many surfaces (Pitman-Yor mixture)"
+TITLE = "Clustering: how many surfaces (Pitman-Yor mixture, mixture of finite mixtures)"
+STUDY = {"model": "pyp", "coarsen": None}
+"""The study's Pitman-Yor mixture (``PitmanYorGMM``'s defaults are the mixture of finite mixtures)."""
 CMD = "tactile-torch report --only clustering --out runs/latest"
 WITHHELD = (3, 10, 17, 24)
 """Surfaces kept out of training in the novelty test (every seventh, from different families)."""
@@ -68,7 +70,7 @@ def k_row(model: PitmanYorGMM) -> dict[str, Any]:
     return {
         "K posterior mode": ks["mode"],
         "K median": ks["median"],
-        "K 95% interval": f"[{ks['interval'][0]:g}, {ks['interval'][1]:g}]",
+        "K 95% interval": f"[{ks['interval'][0]}, {ks['interval'][1]}]",
         "K point estimate": ks["point_estimate"],
         "K MAP sample": ks["map"],
     }
@@ -94,7 +96,7 @@ def cluster_and_compare(
 ) -> dict[str, Any]:
     """Fit the Pitman-Yor mixture and the scikit-learn baselines; return the model and Table 2's rows."""
     model = PitmanYorGMM(
-        n_iter=n_iter, burn_in=burn_in, n_chains=n_chains, random_state=random_state, progress=False
+        n_iter=n_iter, burn_in=burn_in, n_chains=n_chains, random_state=random_state, progress=False, **STUDY
     ).fit(X)
     n_true = int(np.unique(y).size)
     ks = model.n_clusters_summary_
@@ -103,7 +105,7 @@ def cluster_and_compare(
             "method": "Pitman-Yor mixture: point estimate (min. expected VI)",
             "K given": "no",
             "K found": ks["point_estimate"],
-            "posterior of K": f"mode {ks['mode']}, median {ks['median']:g}, 95% [{ks['interval'][0]:g}, {ks['interval'][1]:g}]",
+            "posterior of K": f"mode {ks['mode']}, median {ks['median']:g}, 95% [{ks['interval'][0]}, {ks['interval'][1]}]",
             "pairwise accuracy": pairwise_accuracy(y, model.labels_),
             "seconds": model.fit_seconds_,
         },
@@ -188,7 +190,8 @@ def study_windows(ctx) -> dict[str, Any]:
     sz = _sizes(ctx)
 
     def make() -> dict[str, Any]:
-        ds = bundled_recordings(ctx).windows(sz["W"], max_per_recording=sz["train"] + 5 * sz["test"])
+        rec = bundled_recordings(ctx)
+        ds = rec.windows(sz["W"], max_per_recording=sz["train"] + 5 * sz["test"])
         keep = ds.labels.numpy() < sz["surfaces"]
         pos, y = ds.position.numpy()[keep], ds.labels.numpy()[keep]
         feats = window_features(ds.windows[torch.as_tensor(keep)].to(torch.float64))
@@ -213,6 +216,7 @@ def study_windows(ctx) -> dict[str, Any]:
             "tests": [(X[block == b], y[block == b]) for b in range(5)],
             "session2": (np.asarray(transform.transform(f2)), later.labels.numpy()[second]),
             "transform": transform,
+            "names": [str(c) for c in rec.class_names[: sz["surfaces"]]],
         }
 
     return ctx.cached(f"clustering_study_{sz['W']}_{sz['train']}_{sz['surfaces']}", make)
@@ -296,6 +300,7 @@ def _run(section, ctx) -> None:
     model: PitmanYorGMM = out["model"]
     section.table(out["rows"], caption=f"Clustering {n_surf} surfaces: PYP mixture vs baselines (Table 2)")
     section.text("```\n" + model.summary() + "\n```")
+    _robust_k(section, X, y, model, sz, ctx)
     section.table(
         [{k: (round(v, 4) if isinstance(v, float) else v) for k, v in r.items()} for r in model.convergence_],
         caption="Convergence across chains: rank-normalised split R-hat and ESS (Vehtari et al. 2021; > 1.01 warns)",
@@ -310,6 +315,33 @@ def _run(section, ctx) -> None:
     real_data(section, ctx, n_iter=sz["n_iter"] // 2, burn_in=sz["burn_in"] // 2)
 
 
+def _robust_k(section, X: np.ndarray, y: np.ndarray, study: PitmanYorGMM, sz: dict, ctx) -> None:
+    """The posterior of K of the study's Pitman-Yor mixture and of the mixture of finite mixtures."""
+    from .clustering_k import SETTINGS, coverage_row, gaussian_three, k_coverage
+
+    fit = dict(
+        random_state=ctx.random_state, n_iter=sz["n_iter"], burn_in=sz["burn_in"], n_chains=sz["chains"]
+    )
+    rows = [coverage_row("this section's data", y, "pyp (study)", study, study.fit_seconds_)]
+    rows += k_coverage({"this section's data": (X, y)}, {"mfm": SETTINGS["mfm"]}, **fit)
+    if ctx.full:  # the default run keeps its time; docs/mixture.md has every source (clustering_k)
+        rows += k_coverage(
+            {"3 Gaussian clusters (sd 1, 5 apart)": gaussian_three()},
+            {k: SETTINGS[k] for k in ("pyp (study)", "mfm")},
+            **fit,
+        )
+    section.text(
+        "The posterior of K of a Dirichlet- or Pitman-Yor-process mixture is not consistent for the number of "
+        "components (Miller & Harrison 2014); a mixture of finite mixtures (MFM: a prior on K, Miller & Harrison "
+        "2018) is, with the same Gibbs sampler and other weights. `PitmanYorGMM`'s default model is the MFM; this "
+        "section's other tables use the study's Pitman-Yor mixture (`model='pyp'`). All five data sources, with "
+        "and without the coarsened posterior: `python -m tactile_torch.studies.clustering_k` (docs/mixture.md)."
+    )
+    section.table(
+        rows, caption="Posterior of K: the study's Pitman-Yor mixture vs the mixture of finite mixtures"
+    )
+
+
 def _posterior_figures(section, model: PitmanYorGMM, y: np.ndarray) -> None:
     import matplotlib.pyplot as plt
 
@@ -318,7 +350,9 @@ def _posterior_figures(section, model: PitmanYorGMM, y: np.ndarray) -> None:
     post = model.n_clusters_posterior()
     fig, ax = plt.subplots(figsize=(6, 3.2))
     ax.bar(list(post), list(post.values()), color="tab:blue", label="posterior of K")
-    ax.axvspan(*ks["interval"], color="tab:blue", alpha=0.1, label="95% interval")
+    ax.axvspan(
+        ks["interval"][0] - 0.5, ks["interval"][1] + 0.5, color="tab:blue", alpha=0.1, label="95% interval"
+    )
     ax.axvline(n_true, color="k", ls="--", lw=1, label=f"true K = {n_true}")
     ax.axvline(
         ks["point_estimate"], color="tab:green", lw=1.5, label=f"point estimate {ks['point_estimate']}"
@@ -346,23 +380,26 @@ def _posterior_figures(section, model: PitmanYorGMM, y: np.ndarray) -> None:
         "Posterior similarity matrix, windows sorted by the point estimate's clusters",
     )
 
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(9, 3))
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 3.4))
+    burn_in = model.n_iter_ - model.n_clusters_samples_.size // model.trace_["n_clusters"].shape[0]
     for c in range(model.trace_["n_clusters"].shape[0]):
         acc = [pairwise_accuracy(y, z) for z in model.labels_samples_[c]]
         ax1.plot(model.labels_sweeps_ + 1, acc, lw=1, label=f"chain {c}")
         ax2.plot(np.arange(1, model.n_iter_ + 1), model.trace_["n_clusters"][c], lw=0.8, label=f"chain {c}")
-    ax2.axhline(n_true, color="k", ls="--", lw=1)
+    ax2.axhline(n_true, color="k", ls="--", lw=1, label=f"true K = {n_true}")
+    ax1.axhline(1.0, color="k", ls=":", lw=0.8, label="perfect clustering")
     for ax in (ax1, ax2):
         ax.set_xscale("log")
         ax.set_xlabel("sweep (log scale)")
-        ax.axvline(model.burn_in + 1, color="grey", lw=0.8)
+        ax.axvline(burn_in + 1, color="grey", lw=0.8, label=f"end of burn-in ({burn_in} sweeps)")
+        ax.legend(fontsize=7)
     ax1.set_ylabel("pairwise accuracy")
-    ax2.set_ylabel("K")
-    ax1.legend(fontsize=7)
+    ax2.set_ylabel("number of components K")
+    fig.tight_layout()
     section.figure(
         fig,
         "clustering accuracy along chain",
-        "Pairwise accuracy and K along each chain (grey: end of burn-in), Fig. 10",
+        "Pairwise accuracy (saved partitions) and K along each chain, Fig. 10",
     )
 
     fig, ax = plt.subplots(figsize=(5, 3))
@@ -417,11 +454,16 @@ def _prediction(section, model: PitmanYorGMM, data: dict, ctx) -> None:
     cm = np.zeros((n, n + 1))
     np.add.at(cm, (yt, np.where(pt < 0, n, pt)), 1)
     cm /= np.maximum(cm.sum(axis=1, keepdims=True), 1)
-    fig, ax = plt.subplots(figsize=(5.5, 4.6))
+    names = list(data.get("names") or [str(k) for k in range(n)])[:n]
+    names += [str(k) for k in range(len(names), n)]
+    fig, ax = plt.subplots(figsize=(8.2, 7.4))
     im = ax.imshow(cm, cmap="Blues", vmin=0, vmax=1)
-    ax.set_xlabel("predicted surface (last column: novel)")
+    ax.set_xticks(np.arange(n + 1), [*names, "novel"], rotation=90, fontsize=6)
+    ax.set_yticks(np.arange(n), names, fontsize=6)
+    ax.set_xlabel("predicted surface (cluster mapped to its most frequent surface; last column: novel)")
     ax.set_ylabel("true surface")
-    fig.colorbar(im, ax=ax, label="share of the true surface's windows")
+    fig.colorbar(im, ax=ax, label="share of the true surface's windows", shrink=0.8)
+    fig.tight_layout()
     section.figure(
         fig,
         "clustering confusion",
@@ -451,6 +493,7 @@ def learning_curve(
         keep = np.concatenate([np.flatnonzero(y == c)[:m] for c in classes])
         for discount in discounts:
             model = PitmanYorGMM(
+                **STUDY,
                 discount=discount,
                 n_iter=n_iter,
                 burn_in=burn_in,
@@ -489,7 +532,9 @@ def _learning_curve(section, data: dict, sz: dict, ctx) -> None:
         rows,
         caption="Learning curve: K and pairwise accuracy with m windows per surface, DP vs PYP (Figs. 12, 14)",
     )
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(9, 3))
+    from matplotlib.ticker import NullFormatter, ScalarFormatter
+
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 3.4))
     for prior, style in (("DP", "o-"), ("PYP", "s--")):
         sel = [r for r in rows if r["prior"] == prior]
         ax1.plot([r["per class"] for r in sel], [r["expected K"] for r in sel], style, label=prior)
@@ -499,8 +544,12 @@ def _learning_curve(section, data: dict, sz: dict, ctx) -> None:
     ax2.set_ylabel("pairwise accuracy (point estimate)")
     for ax in (ax1, ax2):
         ax.set_xscale("log")
+        ax.set_xticks(per)  # the measured sizes, as plain numbers (not 10^0, 10^1)
+        ax.xaxis.set_major_formatter(ScalarFormatter())
+        ax.xaxis.set_minor_formatter(NullFormatter())
         ax.set_xlabel("windows per surface (log scale)")
         ax.legend(fontsize=7)
+    fig.tight_layout(w_pad=2.0)  # the right panel's y-label clear of the left panel
     section.figure(
         fig, "clustering learning curve", "Learning curve, Dirichlet process vs Pitman-Yor (Figs. 12, 14)"
     )
@@ -511,6 +560,7 @@ def novelty_test(
     y: np.ndarray,
     tests: list[tuple[np.ndarray, np.ndarray]],
     withheld: tuple[int, ...],
+    n_consecutive: int = 3,
     **fit: Any,
 ) -> dict[str, Any]:
     """Fit without the ``withheld`` classes; return novelty recall on them and false alarms on the others.
@@ -519,7 +569,7 @@ def novelty_test(
     false-alarm rate: share of the known classes' test windows labelled -1.
     """
     known = ~np.isin(y, withheld)
-    model = PitmanYorGMM(progress=False, **fit).fit(X[known])
+    model = PitmanYorGMM(progress=False, **(STUDY | fit)).fit(X[known])
     Xt = np.concatenate([t[0] for t in tests])
     yt = np.concatenate([t[1] for t in tests])
     new = np.isin(yt, withheld)
@@ -531,31 +581,55 @@ def novelty_test(
         novel = model.predict(Xt, using=using) == -1
         row[f"recall ({using})"] = float(novel[new].mean()) if new.any() else float("nan")
         row[f"false alarms ({using})"] = float(novel[~new].mean())
+    # decided after n consecutive novel windows of one surface (tactile-torch stream --discover n)
+    novel = model.predict(Xt, using="point") == -1
+    run = consecutive_flags(novel, yt, n_consecutive)
+    row[f"recall after {n_consecutive} in a row (point)"] = (
+        float(run[new].mean()) if new.any() else float("nan")
+    )
+    row[f"false alarms after {n_consecutive} in a row (point)"] = float(run[~new].mean())
     row["max R-hat"] = max_rhat(model)
     return row
 
 
+def consecutive_flags(novel: np.ndarray, labels: np.ndarray, n: int) -> np.ndarray:
+    """Return, per window, whether it ends a run of ``n`` novel windows of its own class (windows in time order per class)."""
+    out = np.zeros(novel.shape, dtype=bool)
+    for c in np.unique(labels):
+        idx = np.flatnonzero(labels == c)
+        run = 0
+        for i in idx:
+            run = run + 1 if novel[i] else 0
+            out[i] = run >= n
+    return out
+
+
 def _novelty(section, data: dict, sz: dict, ctx) -> None:
     withheld = tuple(c for c in WITHHELD if c < sz["surfaces"]) or (0,)
-    row = novelty_test(
-        data["X"],
-        data["y"],
-        data["tests"],
-        withheld,
-        n_iter=sz["n_iter"] // 2,
-        burn_in=sz["burn_in"] // 2,
-        n_chains=2,
-        random_state=ctx.random_state,
-    )
+    rows = []
+    for prior in ("pyp", "mfm"):
+        row = novelty_test(
+            data["X"],
+            data["y"],
+            data["tests"],
+            withheld,
+            model=prior,
+            coarsen=None,
+            n_iter=sz["n_iter"] // 2,
+            burn_in=sz["burn_in"] // 2,
+            n_chains=2,
+            random_state=ctx.random_state,
+        )
+        rows.append({"data": "bundled stylus recordings", "model": prior, **row})
     section.text(
         f"New surfaces: surfaces {list(withheld)} are withheld from training; the test windows of all surfaces "
-        "are then labelled. A window is novel (label -1) when the Pitman-Yor prior predictive of a new component, "
-        "weighted by alpha + d K, beats every existing component. `tactile-torch stream --discover N` proposes a "
-        "new surface after N novel windows in a row."
+        "are then labelled. A window is novel (label -1) when the prior predictive of a new component, weighted "
+        "by the prior's new-component weight (Pitman-Yor: alpha + d K; MFM: gamma V_n(K+1)/V_n(K)), beats every "
+        "existing component: a new surface is a new component of the model. `tactile-torch stream --discover N` "
+        "proposes a new surface after N novel windows in a row; the columns 'after 3 in a row' decide so (N = 3)."
     )
     section.table(
-        [{"data": "bundled stylus recordings", **row}],
-        caption="Novelty: recall on withheld surfaces, false alarms on known ones",
+        rows, caption="Novelty: recall on withheld surfaces, false alarms on known ones (per window)"
     )
 
 
@@ -573,6 +647,7 @@ def _window_sizes(section, ctx, sz: dict) -> None:
         X = np.asarray(ClusteringTransform(n_components=3).fit_transform(feats))
         y = ds.labels.numpy()
         model = PitmanYorGMM(
+            **STUDY,
             n_iter=sz["n_iter"] // 2,
             burn_in=sz["burn_in"] // 2,
             random_state=ctx.random_state,
@@ -628,6 +703,9 @@ def real_data(section, ctx, *, n_iter: int, burn_in: int) -> None:
     for name in present:
         X, y, pos, n_classes = real_windows(name, per)
         model = PitmanYorGMM(
+            n_iter=n_iter, burn_in=burn_in, random_state=ctx.random_state, progress=False, **STUDY
+        ).fit(X)
+        robust = PitmanYorGMM(
             n_iter=n_iter, burn_in=burn_in, random_state=ctx.random_state, progress=False
         ).fit(X)
         km_labels = KMeans(n_classes, n_init=10, random_state=ctx.random_state).fit_predict(X)
@@ -637,6 +715,8 @@ def real_data(section, ctx, *, n_iter: int, burn_in: int) -> None:
                 "classes": n_classes,
                 "windows": len(y),
                 **k_row(model),
+                "MFM: K 95% interval": "[{}, {}]".format(*robust.n_clusters_summary_["interval"]),
+                "MFM: K point estimate": robust.n_clusters_,
                 "pairwise accuracy (point estimate)": pairwise_accuracy(y, model.labels_),
                 "pairwise accuracy (MAP)": pairwise_accuracy(y, model.map_labels_),
                 "k-means given K": pairwise_accuracy(y, km_labels),
@@ -649,16 +729,21 @@ def real_data(section, ctx, *, n_iter: int, burn_in: int) -> None:
             idx = np.flatnonzero(y == c)
             first[idx[np.argsort(pos[idx])[: idx.size // 2]]] = True
         withheld = (int(y.max()),)
-        row = novelty_test(
-            X[first], y[first], [(X[~first], y[~first])], withheld,
-            n_iter=n_iter, burn_in=burn_in, n_chains=2, random_state=ctx.random_state,
-        )  # fmt: skip
-        nov.append({"data": name, **row})
+        for prior in ("pyp", "mfm"):
+            row = novelty_test(
+                X[first], y[first], [(X[~first], y[~first])], withheld, model=prior, coarsen=None,
+                n_iter=n_iter, burn_in=burn_in, n_chains=2, random_state=ctx.random_state,
+            )  # fmt: skip
+            nov.append({"data": name, "model": prior, **row})
     section.text(
         "Real accelerometer data (`tactile_torch.data.load_hapmat_imu5` / `load_borealtc_imu`: 100 Hz IMU logs, "
         f"not an 800 Hz stylus): 2 s windows, up to {per} per class, the same features and transform."
     )
-    section.table(rows, caption="Real data sets: the posterior of K, the point estimate and the MAP sample")
+    section.table(
+        rows,
+        caption="Real data sets: the posterior of K, the point estimate and the MAP sample (Pitman-Yor, the "
+        "study's), and the mixture of finite mixtures (MFM, PitmanYorGMM's default model) at the same chain length",
+    )
     section.table(
         nov, caption="Real data sets: novelty of a withheld class (trained on the first half of each class)"
     )

@@ -173,21 +173,26 @@ def _clustering_scatter(section, ds, feats) -> None:
     transform = ClusteringTransform(n_components=3).fit(feats)
     comps = transform.transform(feats).numpy()
     labels = ds.labels.numpy()
-    fig, ax = plt.subplots(figsize=(7, 5.5))
+    ratio = transform.explained_variance_ratio_
+    fig, ax = plt.subplots(figsize=(8.5, 5.5))
+    markers = ("o", "^", "s", "D")
     for c, name in enumerate(ds.class_names):
         sel = labels == c
+        # 10 colours x 4 markers: no two surfaces share a colour and a marker (up to 40 surfaces)
         ax.scatter(
             comps[sel, 0],
             comps[sel, 1],
-            s=4,
-            color=plt.cm.tab20(c % 20),
-            marker="o" if c < 20 else "^",
+            s=6,
+            color=plt.cm.tab10(c % 10),
+            marker=markers[(c // 10) % len(markers)],
             label=name,
         )
-    ax.set_xlabel("PC 1")
-    ax.set_ylabel("PC 2")
-    ax.legend(fontsize=5, ncol=2, markerscale=2, loc="best")
-    ratio = transform.explained_variance_ratio_
+    ax.set_xlabel(f"PC 1 ({100 * ratio[0]:.0f} % of the variance)")
+    ax.set_ylabel(f"PC 2 ({100 * ratio[1]:.0f} % of the variance)")
+    # the legend beside the axes, never over the data
+    ax.legend(
+        fontsize=6, ncol=2, markerscale=1.5, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0
+    )
     fig.tight_layout()
     section.figure(
         fig,

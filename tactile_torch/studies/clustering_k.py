@@ -1,0 +1,217 @@
+"""How many surfaces, on five data sources: the posterior of K of each prior and power of the likelihood.
+
+Five data sources, each with a known number of surfaces (:func:`k_sources`):
+
+- ``gaussian-3``: 3 Gaussian clusters in D = 3 (sd 1, centres 5 apart on an equilateral triangle,
+  50 points each): well specified, the theory's case;
+- ``bundled-28``: the README's example (28 bundled synthetic stylus surfaces, 60 s each, W = 800,
+  PCA-3 features; several surfaces are near-duplicates);
+- ``sessions-3x3``: 3 bundled surfaces recorded in 3 sessions, each session's signal scaled by its own
+  gain (0.8, 1.0, 1.25: a re-mounted sensor), as CSV logs of a user would be;
+- ``hapmat``, ``borealtc``: the real 5-material / 5-terrain IMU sets when present (2 s windows, up to
+  60 per class, PCA-3).
+
+:func:`k_coverage` fits :class:`~tactile_torch.mixture.PitmanYorGMM` with each setting on each source
+and returns one row per (source, setting): the posterior of K, whether its 95 % interval covers the
+truth, R-hat, ESS and time. ``python -m tactile_torch.studies.clustering_k`` prints the table
+(``--quick`` for short chains).
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from typing import Any
+
+import numpy as np
+
+SESSION_GAINS = (0.8, 1.0, 1.25)
+"""Gain of each session of ``sessions-3x3`` (a sensor re-mounted between sessions)."""
+
+SETTINGS: dict[str, dict[str, Any]] = {
+    "pyp (study)": {"model": "pyp", "coarsen": None},
+    "mfm": {"model": "mfm", "coarsen": None},
+    "mfm, coarsen 10000": {"model": "mfm", "coarsen": 10000.0},
+    "mfm, coarsen 3000": {"model": "mfm", "coarsen": 3000.0},
+    "mfm, coarsen 1000": {"model": "mfm", "coarsen": 1000.0},
+    "mfm, coarsen 300": {"model": "mfm", "coarsen": 300.0},
+}
+"""Settings compared by :func:`k_coverage` (keyword arguments of PitmanYorGMM)."""
+
+
+def gaussian_three(seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """Return (X (150, 3), labels): 3 Gaussian clusters, sd 1, centres 5 apart, 50 points each."""
+    rng = np.random.default_rng(seed)
+    centres = np.array([[0.0, 0.0, 0.0], [5.0, 0.0, 0.0], [2.5, 2.5 * np.sqrt(3.0), 0.0]])
+    X = np.concatenate([rng.normal(c, 1.0, size=(50, 3)) for c in centres])
+    return X, np.repeat(np.arange(3), 50)
+
+
+def _pca_features(windows) -> np.ndarray:
+    import torch
+
+    from ..signal import ClusteringTransform, window_features
+
+    feats = window_features(windows.to(torch.float64))
+    return np.asarray(ClusteringTransform(n_components=3).fit_transform(feats))
+
+
+def bundled_28(seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """Return the README example's PCA-3 features (28 surfaces, 60 s, W = 800) and labels."""
+    from ..data import make_vibration_recordings
+
+    ds = make_vibration_recordings(28, duration_s=60, random_state=seed).windows(800)
+    return _pca_features(ds.windows), ds.labels.numpy()
+
+
+def sessions_3x3(seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """Return PCA-3 features and labels of 3 surfaces x 3 sessions with the gains ``SESSION_GAINS``."""
+    from ..data import make_vibration_recordings
+    from ..data.vibration import VibrationRecordings
+
+    rec = make_vibration_recordings(3, duration_s=30, n_sessions=3, random_state=seed)
+    session = np.array([int(str(s).rsplit("/", 1)[1]) for s in rec.session])
+    signals = [
+        (s * np.float32(SESSION_GAINS[k])).astype(np.float32)
+        for s, k in zip(rec.signals, session, strict=True)
+    ]
+    shifted = VibrationRecordings(signals, rec.labels, rec.class_names, rec.rate_hz, rec.session)
+    ds = shifted.windows(800)
+    return _pca_features(ds.windows), ds.labels.numpy()
+
+
+def session_overlap(seed: int = 0) -> np.ndarray:
+    """Return the Bhattacharyya distances (9, 9) between the (surface, session) groups of ``sessions-3x3``.
+
+    Rows and columns ordered surface-major: (0, 0), (0, 1), (0, 2), (1, 0), ... Gaussian fits of each
+    group's PCA-3 features; a distance below about 1 means two groups overlap (a Bayes error above
+    about 18 %).
+    """
+    from ..data import make_vibration_recordings
+
+    X, y = sessions_3x3(seed)
+    rec = make_vibration_recordings(3, duration_s=30, n_sessions=3, random_state=seed)
+    session = np.array([int(str(s).rsplit("/", 1)[1]) for s in rec.session])
+    sess = session[rec.windows(800).recording.numpy()]
+    groups = [(c, k) for c in range(3) for k in range(3)]
+    stats = []
+    for c, k in groups:
+        sel = (y == c) & (sess == k)
+        stats.append((X[sel].mean(0), np.cov(X[sel].T)))
+    out = np.zeros((9, 9))
+    for i, (m1, c1) in enumerate(stats):
+        for j, (m2, c2) in enumerate(stats):
+            S = (c1 + c2) / 2
+            d = m1 - m2
+            out[i, j] = d @ np.linalg.solve(S, d) / 8 + 0.5 * np.log(
+                np.linalg.det(S) / np.sqrt(np.linalg.det(c1) * np.linalg.det(c2))
+            )
+    return out
+
+
+def real_set(name: str, per: int = 60) -> tuple[np.ndarray, np.ndarray]:
+    """Return PCA-3 features and labels of up to ``per`` 2 s windows per class of a real set."""
+    from .clustering import real_windows
+
+    X, y, _, _ = real_windows(name, per)
+    return X, y
+
+
+def k_sources(quick: bool = False) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Return {source name: (X, labels)} for the sources available here (the real sets when present)."""
+    from ..data import shared_data_dir
+
+    out = {"gaussian-3": gaussian_three()}
+    from .clustering import have_vibration_features
+
+    if have_vibration_features():
+        out["sessions-3x3"] = sessions_3x3()
+        if not quick:
+            out["bundled-28"] = bundled_28()
+        for name, key in (("hapmat_imu5", "hapmat"), ("borealtc_imu", "borealtc")):
+            if shared_data_dir(name) is not None:
+                out[key] = real_set(name, 30 if quick else 60)
+    return out
+
+
+def k_coverage(
+    sources: dict[str, tuple[np.ndarray, np.ndarray]],
+    settings: dict[str, dict[str, Any]] | None = None,
+    *,
+    random_state: int = 0,
+    **fit: Any,
+) -> list[dict[str, Any]]:
+    """Return one row per (source, setting): posterior of K, coverage of the truth, R-hat, ESS, seconds.
+
+    ``fit``: further keyword arguments of every PitmanYorGMM (``n_iter``, ``burn_in``, ...).
+    """
+    from ..mixture import PitmanYorGMM
+
+    rows = []
+    for source, (X, y) in sources.items():
+        for name, kw in (settings or SETTINGS).items():
+            t0 = time.perf_counter()
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)
+                model = PitmanYorGMM(random_state=random_state, progress=False, **kw, **fit).fit(X)
+            rows.append(coverage_row(source, y, name, model, time.perf_counter() - t0))
+    return rows
+
+
+def coverage_row(source: str, y: np.ndarray, setting: str, model, seconds: float) -> dict[str, Any]:
+    """One row of :func:`k_coverage` for a fitted ``model`` on labels ``y``."""
+    truth = int(np.unique(y).size)
+    ks = model.n_clusters_summary_
+    lo, hi = ks["interval"]
+    conv = {r["quantity"]: r for r in model.convergence_}
+    return {
+        "source": source,
+        "n": len(y),
+        "true K": truth,
+        "setting": setting,
+        "K mode": ks["mode"],
+        "K 95% interval": f"[{lo}, {hi}]",
+        "covers": "yes" if lo <= truth <= hi else "no",
+        "K point estimate": ks["point_estimate"],
+        "R-hat K": round(float(conv["K"]["R-hat"]), 3),
+        "ESS K": round(float(conv["K"]["ESS bulk"])),
+        "sweeps": model.n_iter_,
+        "seconds": round(seconds, 1),
+    }
+
+
+def _main(argv: list[str] | None = None) -> None:
+    import argparse
+
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="short chains, fewer windows")
+    parser.add_argument(
+        "--overlap",
+        action="store_true",
+        help="print the Bhattacharyya distances of sessions-3x3's groups and stop",
+    )
+    parser.add_argument("--only", nargs="*", help="sources to run (default: all available)")
+    parser.add_argument("--settings", nargs="*", help="settings to run (names of SETTINGS)")
+    parser.add_argument("--n-iter", default="auto", type=lambda v: v if v == "auto" else int(v))
+    parser.add_argument("--burn-in", default=250, type=int)
+    args = parser.parse_args(argv)
+    if args.overlap:
+        np.set_printoptions(precision=1, suppress=True, linewidth=150)
+        print(session_overlap())
+        return
+    sources = k_sources(args.quick)
+    if args.only:
+        sources = {k: v for k, v in sources.items() if k in args.only}
+    settings = {k: v for k, v in SETTINGS.items() if not args.settings or k in args.settings}
+    fit = {"n_iter": 300, "burn_in": 100} if args.quick else {"n_iter": args.n_iter, "burn_in": args.burn_in}
+    for i, (name, data) in enumerate(sources.items()):
+        rows = k_coverage({name: data}, settings, **fit)
+        if i == 0:
+            print("| " + " | ".join(rows[0]) + " |")
+            print("|" + " --- |" * len(rows[0]))
+        for r in rows:
+            print("| " + " | ".join(str(v) for v in r.values()) + " |", flush=True)
+
+
+if __name__ == "__main__":
+    _main()
