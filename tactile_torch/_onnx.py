@@ -9,6 +9,7 @@ from __future__ import annotations
 import contextlib
 import io
 import logging
+import tempfile
 import warnings
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -28,18 +29,21 @@ def export_onnx(
     metadata: Mapping[str, str] | None = None,
     opset_version: int | None = None,
     dynamic_shapes: object | None = None,
+    inputs: Sequence[str | Path] = (),
 ) -> Path:
     """Export ``module(*example_inputs)`` to ``path`` with ``torch.onnx.export(..., dynamo=True)``.
 
     Dimension 0 of every input is a dynamic batch size unless ``dynamic_batch=False``;
     ``dynamic_shapes`` (``torch.export``'s, structured like ``forward``'s arguments) replaces that
     default when given. ``metadata`` goes into the model's ``metadata_props``. The exported model is
-    checked with ``onnx.checker``. Returns ``path``.
+    checked with ``onnx.checker`` and written atomically (:func:`save_onnx`: never onto a directory, a
+    device, a symbolic link or one of ``inputs``). Returns ``path``.
     """
     import onnx
 
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
+    from .safe_write import check_output_path
+
+    path = check_output_path(path, inputs=inputs)  # refuse before the (slow) export, not after
     example_inputs = tuple(example_inputs)
     if dynamic_shapes is None and dynamic_batch:
         batch = torch.export.Dim("batch", min=1, max=1 << 20)
@@ -66,17 +70,28 @@ def export_onnx(
             )
     finally:
         quiet.setLevel(level)
-    program.save(str(path))
-    model = onnx.load(str(path))
-    dropped = drop_unused_initializers(model)
+    with tempfile.TemporaryDirectory() as scratch:  # the exporter writes a path; ours is written atomically
+        program.save(str(Path(scratch) / "model.onnx"))
+        model = onnx.load(str(Path(scratch) / "model.onnx"))
+    drop_unused_initializers(model)
     if metadata:
         for key, value in metadata.items():
             entry = model.metadata_props.add()
             entry.key, entry.value = str(key), str(value)
-    if metadata or dropped:
-        onnx.save(model, str(path))
     onnx.checker.check_model(model, full_check=True)
-    return path
+    return save_onnx(model, path, inputs=inputs)
+
+
+def save_onnx(model: object, path: str | Path, *, inputs: Sequence[str | Path] = ()) -> Path:
+    """Write an ``onnx.ModelProto`` to ``path`` atomically, refusing unsafe targets; return ``path``.
+
+    A directory, a device, a symbolic link or one of ``inputs`` at ``path`` is refused in one line
+    (:func:`tactile_torch.safe_write.write_atomic`); the file appears under its name only complete.
+    """
+    from .safe_write import write_atomic
+
+    data = model.SerializeToString()
+    return write_atomic(path, lambda f: f.write(data), inputs=inputs)
 
 
 def _used_names(graph) -> set[str]:

@@ -82,7 +82,9 @@ def crossing(acc: np.ndarray, chance: float) -> np.ndarray:
     return np.where(clean > chance, pos, 0.0)
 
 
-def evaluate(f, level, base, fitted, feats, whole, X, y, folds, context, n_trials, seed) -> dict:
+def evaluate(
+    f, level, base, fitted, feats, whole, X, y, folds, context, n_trials, seed, backend=None
+) -> dict:
     """Per model: correct (1/0) per sample at one level of ``f``, averaged over trials, or an error."""
     trials = n_trials if f.random else 1
     total: dict[str, Any] = {}
@@ -118,15 +120,15 @@ def evaluate(f, level, base, fitted, feats, whole, X, y, folds, context, n_trial
         elif f.stage == "train":
             rng = np.random.default_rng(trial_seed)
             subsets = [(tr[f.apply(y[tr], level, rng)], te) for tr, te in folds]
-            for m, value in fit_predict(base, X, y, subsets, whole)[0].items():
+            for m, value in fit_predict(base, X, y, subsets, whole, backend)[0].items():
                 add(m, value)
         elif f.stage == "retrain":
             Xd = apply_raw(f.apply, X, level, trial_seed)
-            for m, value in fit_predict(base, Xd, y, folds)[0].items():
+            for m, value in fit_predict(base, Xd, y, folds, backend=backend)[0].items():
                 add(m, value)
         elif f.stage == "parameter":
             models = Models(base.models, f.apply(context, level))
-            for m, value in fit_predict(models, X, y, folds)[0].items():
+            for m, value in fit_predict(models, X, y, folds, backend=backend)[0].items():
                 add(m, value)
         else:
             raise ValueError(f"stage {f.stage!r} is not one that evaluate handles")
@@ -134,7 +136,15 @@ def evaluate(f, level, base, fitted, feats, whole, X, y, folds, context, n_trial
 
 
 def drift_rows(
-    f, base: Models, X: Any, y: np.ndarray, context: Mapping, whole: dict, share: float, segments: int
+    f,
+    base: Models,
+    X: Any,
+    y: np.ndarray,
+    context: Mapping,
+    whole: dict,
+    share: float,
+    segments: int,
+    backend=None,
 ):
     """Rows of the drift factor: train on ``position < share`` of every recording, test on the rest cut
     into ``segments`` equal segments (row 0: the first segment with windows, the clean reference).
@@ -158,7 +168,7 @@ def drift_rows(
     present = [j for j in range(segments) if (segment == j).any()]  # short recordings leave gaps
     if len(present) < 2 or not len(train):
         return None
-    correct = fit_predict(base, X, y, [(train, test)], whole)[0]
+    correct = fit_predict(base, X, y, [(train, test)], whole, backend)[0]
     rows: dict[str, list] = {}
     for m in base.names:
         if isinstance(correct[m], str):

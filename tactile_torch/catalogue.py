@@ -41,7 +41,7 @@ from typing import Any
 
 SVM_C = 16.0
 """Default penalty of both SVMs (the vibration study's choice)."""
-SVM_C_GRID = (1.0, 4.0, 16.0, 64.0, 256.0)
+SVM_C_GRID = (1.0, 4.0, 16.0, 64.0, 256.0, 1024.0)
 SVM_QUICK_C_GRID = (1.0, 16.0, 256.0)
 SVM_GAMMA_GRID = (0.25, 1.0, 4.0)
 """RBF ``gamma`` values of the SVM grid, as multiples of ``1 / n_features``."""

@@ -7,6 +7,7 @@ Every subcommand of the toolkit is listed; the handlers import their modules laz
 from __future__ import annotations
 
 import argparse
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -18,6 +19,8 @@ NOT_BUILT_EXIT = 2
 BAD_INPUT_EXIT = 2
 """Exit status for bad input (a missing or malformed file, a wrong option), after one line on stderr."""
 INTERNAL_ERROR_EXIT = 1
+MAX_READ_ENV = "TACTILE_TORCH_MAX_READ_MB"
+"""Where ``--max-read-mb`` puts the read bound (:func:`tactile_torch.formats.max_read_bytes` reads it)."""
 """Exit status for an unexpected error (a bug): one line on stderr, the traceback with ``--debug``."""
 
 TRAIN_EXTRA = "train"
@@ -252,7 +255,7 @@ def _export(args: argparse.Namespace) -> int:
 
     sensor_range = _range_g(args.sensor_range, "--sensor-range", off=False)
     pipeline = pipeline_from_model(load_model_file(args.model), sensor_range_g=sensor_range)
-    path = export_pipeline(pipeline, args.out)
+    path = export_pipeline(pipeline, args.out, inputs=[args.model])
     size = path.stat().st_size / 1024
     print(
         f"exported {pipeline.name}: input ({pipeline.input_layout}) = {pipeline.input_shape}, "
@@ -268,8 +271,10 @@ def _predict(args: argparse.Namespace) -> int:
     import numpy as np
 
     from .metrics import class_report
-    from .runtime import OnnxPipeline, beyond_range, sensor_range_g
+    from .runtime import UNKNOWN, OnnxPipeline
 
+    if args.batch < 1:
+        raise UsageError(f"--batch must be an int >= 1, got {args.batch}")
     pipe = OnnxPipeline(args.model, intra_op_threads=args.threads)
     range_g = _range_g(args.range, "--range", off=True)
     windows = pipe.input_layout == "B,3,W"
@@ -280,41 +285,60 @@ def _predict(args: argparse.Namespace) -> int:
     mismatch = pipe.sample_rate_mismatch(data.rate_hz)
     if mismatch:
         print(f"tactile-torch predict: warning: {where}: {mismatch}", file=sys.stderr)
-    # Windows holding a sample the sensor cannot give (a corrupted value) are not classified, as in stream.
-    classified = np.ones(len(data.raw), dtype=bool)
-    if windows:
-        range_g = sensor_range_g(pipe.metadata) if range_g is None else range_g
-        classified = ~beyond_range(data.raw, range_g)
-    beyond = f"beyond ±{range_g:g} g" if windows else ""
-    n_out = int((~classified).sum())
-    if n_out == len(classified):
+    # Windows holding a sample the sensor cannot give (a corrupted value), and samples whose features
+    # lie far from the training data, are "unknown" (-1), as in stream and OnnxPipeline.classify.
+    range_g = pipe.range_g if range_g is None else range_g
+    parts = [
+        pipe.classify(data.raw[i : i + args.batch], range_g=range_g)
+        for i in range(0, len(data.raw), args.batch)
+    ]
+    labels = np.concatenate([p.labels for p in parts])
+    reasons = [r for p in parts for r in p.reasons]
+    beyond = f"beyond ±{range_g:g} g"
+    n_range = sum(r is not None and r.endswith(f"range ±{range_g:g} g") for r in reasons)
+    n_ood = sum(r is not None and r.startswith("out of distribution") for r in reasons)
+    n_nan = sum(r is not None and r.startswith("scores not finite") for r in reasons)
+    classified = labels != UNKNOWN
+    if windows and n_range == len(labels):
         raise UsageError(
-            f"{where}: all {n_out} windows have samples {beyond}, so none was classified (the range is the "
+            f"{where}: all {n_range} windows have samples {beyond}, so none was classified (the range is the "
             "bundle's sensor_range_g, else 5 g; --range sets it)"
         )
-    if n_out:
+    if n_range:
         print(
-            f"tactile-torch predict: warning: {where}: {n_out} of {len(classified)} windows have samples "
+            f"tactile-torch predict: warning: {where}: {n_range} of {len(labels)} windows have samples "
             f"{beyond} and were not classified",
             file=sys.stderr,
         )
-    raw = data.raw[classified] if n_out else data.raw
-    labels = np.full(len(classified), -1, dtype=np.int64)
-    labels[classified] = np.concatenate(
-        [pipe.predict(raw[i : i + args.batch]) for i in range(0, len(raw), args.batch)]
-    )
     print(f"{pipe!r}: {len(labels)} samples of {where}")
     if args.out:
         from .formats import write_npz
 
-        names = np.array([*pipe.class_names, f"not classified: {beyond}"])[labels]  # -1: the last
-        write_npz(args.out, {"labels": labels, "names": names})
+        names = np.array(
+            [
+                pipe.label_name(int(v)) if r is None else f"unknown: {r}"
+                for v, r in zip(labels, reasons, strict=True)
+            ]
+        )
+        write_npz(args.out, {"labels": labels, "names": names}, inputs=[*args.data, args.model])
         print(f"labels written to {args.out}")
-    if n_out:
-        print(f"{n_out} windows with samples {beyond} were not classified and are left out")
+    if n_range:
+        print(f"{n_range} windows with samples {beyond} were not classified and are left out")
+    if n_ood:
+        threshold = pipe.ood_threshold
+        print(
+            f"{n_ood} samples are unknown: out of distribution (distance to the training data beyond "
+            f"{threshold:.3g}, the {float(pipe.metadata.get('ood_quantile', 'nan')):.1%} quantile of the "
+            "training windows) and are left out"
+        )
+    if n_nan:
+        print(f"{n_nan} samples gave non-finite scores and are left out")
     if data.labels is not None and pipe.pipeline.endswith("-pyp"):
         from .metrics import pairwise_accuracy
 
+        if not classified.any():
+            print("no sample was classified")
+            return 0
         found = labels[classified]  # the components, scored against the file's classes
         accuracy = pairwise_accuracy(data.file_labels[classified], found)
         print(f"{len(np.unique(found))} components used; pairwise accuracy {accuracy:.4f}")
@@ -327,6 +351,7 @@ def _predict(args: argparse.Namespace) -> int:
         counts = np.bincount(labels[classified], minlength=len(pipe.class_names))
         for name, n in zip(pipe.class_names, counts, strict=True):
             print(f"{name:<24} {n:>7}")
+        print(f"{'unknown':<24} {int((~classified).sum()):>7}")
         return 0
     n = len(pipe.class_names)
     _print_class_report(
@@ -339,6 +364,8 @@ STREAM_NO_DATA_EXIT = 3
 """Exit status of ``stream`` when no sample came within the start or idle timeout."""
 STREAM_DISCONNECTED_EXIT = 4
 """Exit status of ``stream`` when the port failed and was not (or could not be) reconnected."""
+STREAM_STOPPED_EXIT = 0
+"""Exit status of ``stream`` stopped by SIGTERM or SIGINT (Ctrl-C): a requested end, after the summary."""
 
 
 def _at_least(minimum: float, kind: type = float):
@@ -357,8 +384,36 @@ def _at_least(minimum: float, kind: type = float):
     return parse
 
 
+MAX_SIMULATED_S = 600
+"""Longest synthetic recording ``simulate-sensor`` generates (28 surfaces are generated: 160 MB)."""
+
+
+def _in_range(low: float, high: float):
+    """Return an argparse type: a finite number ``low < x <= high``, else a one-line usage error."""
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+        if not low < value <= high:
+            raise argparse.ArgumentTypeError(f"expected a number > {low:g} and <= {high:g}, got {text!r}")
+        return value
+
+    return parse
+
+
 def _stream(args: argparse.Namespace) -> int:
     # torch-free: pyserial, numpy and onnxruntime only, as on the robot.
+    # SIGTERM (how systemd stops a service) ends the stream as Ctrl-C does: summary line, status 0.
+    restore = _stop_on_sigterm()
+    try:
+        return _stream_until_stopped(args)
+    finally:
+        restore()
+
+
+def _stream_until_stopped(args: argparse.Namespace) -> int:
     import math
 
     import numpy as np
@@ -374,7 +429,7 @@ def _stream(args: argparse.Namespace) -> int:
         print(f"tactile-torch stream: {args.model} does not take vibration windows", file=sys.stderr)
         return 2
     size = int(pipe.metadata["window_size"])
-    step = args.step or size // 2
+    step = args.step if args.step is not None else max(size // 2, 1)
     rate = float(pipe.metadata["sample_rate_hz"]) if "sample_rate_hz" in pipe.metadata else None
     if args.time_unit == "samples" and rate is None:
         print(
@@ -390,6 +445,17 @@ def _stream(args: argparse.Namespace) -> int:
     def open_port():
         return serial.serial_for_url(args.port, baudrate=args.baud, timeout=min(0.1, args.silence / 2))
 
+    reading = []  # printed once the port is open (and the model warm): a sensor may start then
+
+    def opened(name: str) -> None:
+        if not reading:
+            reading.append(name)
+            print(
+                f"{pipe!r}: reading {args.port}, windows of {size} samples every {step}, range ±{reader.range_g:g} g",
+                file=info,
+                flush=True,
+            )
+
     reader = WindowReader(
         open_port,
         window_size=size,
@@ -403,27 +469,30 @@ def _stream(args: argparse.Namespace) -> int:
         start_timeout_s=args.start_timeout or math.inf,
         reconnect=args.reconnect,
         on_event=lambda event: say(event.message),
+        on_open=opened,
         name=args.port,
     )
     vote = WindowVote(args.vote, args.vote_method, pipe.class_names) if args.vote > 1 else None
     # Each classified window goes to every consumer in turn.
     write = result_json if args.json else result_text
-    consumers = [lambda result: print(write(result), flush=True)]
+    unknown = [0]
+
+    def show(result) -> None:
+        unknown[0] += result.label == -1
+        print(write(result), flush=True)
+
+    consumers = [show]
     if args.discover:  # new surfaces: N novel windows in a row (tactile_torch.discovery)
         from .discovery import stream_consumer
 
         consumers.append(stream_consumer(pipe, args.discover, info))
-    print(
-        f"{pipe!r}: reading {args.port}, windows of {size} samples every {step}, range ±{reader.range_g:g} g",
-        file=info,
-        flush=True,
-    )
-    pipe.predict_scores(
-        np.zeros((1, 3, size), np.float32)
-    )  # the first call allocates: not in a window's latency
     status = 0
     try:
-        for result in classify_windows(reader, pipe, vote=vote):
+        # The first call allocates: run it before the port is opened (opening flushes the port's
+        # buffer), so that neither the warm-up nor the open costs the sensor's first samples.
+        warm = np.linspace(-0.5, 0.5, 3 * size, dtype=np.float32).reshape(1, 3, size)
+        pipe.classify(warm)
+        for result in classify_windows(reader, pipe, vote=vote, range_g=reader.range_g):
             for consume in consumers:
                 consume(result)
     except StreamTimeout as err:
@@ -432,16 +501,37 @@ def _stream(args: argparse.Namespace) -> int:
     except StreamDisconnected as err:
         say(str(err))
         status = STREAM_DISCONNECTED_EXIT
-    except KeyboardInterrupt:
-        status = 130
+    except (KeyboardInterrupt, _Stopped) as err:
+        say(f"stopped by {'SIGTERM' if isinstance(err, _Stopped) else 'SIGINT (Ctrl-C)'}")
+        status = STREAM_STOPPED_EXIT
     print(
         f"{reader.samples} samples read, {reader.windows} windows, {reader.skipped} lines skipped, "
         f"{reader.rejected} samples out of range, {reader.gaps} gaps ({reader.lost} samples known lost), "
-        f"{reader.reconnects} reconnections",
+        f"{reader.reconnects} reconnections, {unknown[0]} windows unknown, {reader.format_switches} "
+        "line-format switches",
         file=info,
         flush=True,
     )
     return status
+
+
+class _Stopped(Exception):
+    """SIGTERM arrived while streaming."""
+
+
+def _stop_on_sigterm():
+    """Make SIGTERM raise :class:`_Stopped` in the main thread; return the function that restores it."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        return lambda: None
+
+    def stop(signum, frame):
+        raise _Stopped()
+
+    previous = signal.signal(signal.SIGTERM, stop)
+    return lambda: signal.signal(signal.SIGTERM, previous)
 
 
 def _simulate_sensor(args: argparse.Namespace) -> int:
@@ -559,17 +649,24 @@ def catalogue_choices() -> list[str]:
     return choices()
 
 
+class _Parser(argparse.ArgumentParser):
+    """An argument parser whose usage errors are one line (``tactile-torch CMD: argument --x: ...``), status 2."""
+
+    def error(self, message: str):
+        self.exit(BAD_INPUT_EXIT, f"{self.prog}: {' '.join(message.split())}\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """Return the argument parser with every subcommand."""
     from . import __version__
 
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="tactile-torch",
         description="Recognise surfaces from tactile images and vibration; train, cluster, export, run.",
     )
     parser.add_argument("--version", action="version", version=f"tactile-torch {__version__}")
     parser.add_argument("--debug", action="store_true", help="show the traceback of an error")
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True, parser_class=_Parser)
 
     p = sub.add_parser("report", help="run every pipeline on the bundled data and write a report (make run)")
     p.add_argument("--out", default="runs/latest", help="output directory (default: runs/latest)")
@@ -720,9 +817,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--baud", type=int, default=230400, help="baud rate (default: 230400)")
     p.add_argument(
         "--step",
-        type=_at_least(0, int),
-        default=0,
-        help="new samples between windows (default: half a window)",
+        type=_at_least(1, int),
+        default=None,
+        help="new samples between windows, >= 1 (default: half a window)",
     )
     p.add_argument(
         "--max-windows",
@@ -804,9 +901,17 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--data", default="", help="vibration .npz to play (default: a synthetic surface)")
     p.add_argument("--recording", type=int, default=0, help="index of the recording to play (default: 0)")
-    p.add_argument("--seconds", type=float, default=10.0, help="synthetic: length in seconds (default: 10)")
     p.add_argument(
-        "--rate", type=float, default=800.0, help="sample rate when the file has none (default: 800)"
+        "--seconds",
+        type=_in_range(0, MAX_SIMULATED_S),
+        default=10.0,
+        help=f"synthetic: length in seconds, at most {MAX_SIMULATED_S} (default: 10)",
+    )
+    p.add_argument(
+        "--rate",
+        type=_in_range(0, 1e6),
+        default=800.0,
+        help="sample rate (Hz) when the file has none, > 0 (default: 800)",
     )
     p.add_argument("--baud", type=int, default=230400, help="baud rate (default: 230400)")
     p.add_argument("--fast", action="store_true", help="write as fast as possible instead of in real time")
@@ -886,6 +991,14 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument(
             "--debug", action="store_true", default=argparse.SUPPRESS, help="show the traceback of an error"
         )
+        p.add_argument(
+            "--max-read-mb",
+            type=_at_least(0.001),
+            default=None,
+            metavar="MB",
+            help="refuse input files whose arrays would take more than MB MiB in memory (default: 1024; "
+            "docs/formats.md)",
+        )
     return parser
 
 
@@ -908,6 +1021,74 @@ def _one_line(err: BaseException) -> str:
     return text or type(err).__name__
 
 
+WRITES_OUT_FILE = ("train", "predict", "export")
+"""Commands whose ``--out`` is one file: it is checked against their inputs before any work."""
+
+
+def _check_out(args: argparse.Namespace) -> None:
+    """Refuse an ``--out`` that is an input, a directory, a device or a symbolic link (one line, status 2)."""
+    from .safe_write import check_output_path
+
+    out = getattr(args, "out", "")
+    if args.command not in WRITES_OUT_FILE or not out:
+        return
+    inputs = list(getattr(args, "data", None) or [])
+    inputs += [args.model] if getattr(args, "model", None) else []
+    check_output_path(out, inputs=inputs, what="--out")
+
+
+class _StdoutGuard:
+    """``sys.stdout`` that survives a closed pipe (``tactile-torch train ... | head -1``).
+
+    After the reader of the pipe has gone, further output is discarded (the descriptor is pointed
+    at ``os.devnull``, so the interpreter's final flush does not fail either) and the command goes on
+    to write its files.
+    """
+
+    def __init__(self, stream) -> None:
+        self._stream = stream
+
+    def _drop(self) -> None:
+        import os
+
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        try:
+            os.dup2(devnull, self._stream.fileno())
+        finally:
+            os.close(devnull)
+
+    def write(self, text: str) -> int:
+        try:
+            return self._stream.write(text)
+        except BrokenPipeError:
+            self._drop()
+            return len(text)
+
+    def flush(self) -> None:
+        try:
+            self._stream.flush()
+        except BrokenPipeError:
+            self._drop()
+            try:
+                self._stream.flush()
+            except BrokenPipeError:
+                pass
+
+    def __getattr__(self, name: str):
+        return getattr(self._stream, name)
+
+
+def _guard_stdout():
+    """Return the ``sys.stdout`` to restore; wrap it in :class:`_StdoutGuard` when it is a real file."""
+    original = sys.stdout
+    try:
+        original.fileno()
+    except (AttributeError, OSError, ValueError):  # captured output (tests): nothing to guard
+        return original
+    sys.stdout = _StdoutGuard(original)
+    return original
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the command line; return the exit status.
 
@@ -928,13 +1109,21 @@ def main(argv: list[str] | None = None) -> int:
                 file=sys.stderr,
             )
             return BAD_INPUT_EXIT
+    stdout = _guard_stdout()
+    limit_before = os.environ.get(MAX_READ_ENV)
+    if getattr(args, "max_read_mb", None) is not None:  # read by every reader (formats.max_read_bytes)
+        os.environ[MAX_READ_ENV] = repr(float(args.max_read_mb))
     try:
+        _check_out(args)
         return int(args.handler(args))
     except KeyboardInterrupt:
         if debug:
             raise
         print(f"{prefix}: interrupted", file=sys.stderr)
         return 130
+    except _Stopped:  # SIGTERM to stream before it was reading: nothing read, a requested end
+        print(f"{prefix}: stopped by SIGTERM before reading", file=sys.stderr)
+        return STREAM_STOPPED_EXIT
     except ModuleNotFoundError as err:
         if debug:
             raise
@@ -952,6 +1141,15 @@ def main(argv: list[str] | None = None) -> int:
             raise
         print(f"{prefix}: {_one_line(err)}", file=sys.stderr)
         return BAD_INPUT_EXIT
+    except MemoryError:
+        if debug:
+            raise
+        print(
+            f"{prefix}: not enough memory for this input (reads are bounded by --max-read-mb, "
+            "docs/formats.md); use smaller files or a larger machine",
+            file=sys.stderr,
+        )
+        return BAD_INPUT_EXIT
     except Exception as err:
         if debug:
             raise
@@ -961,6 +1159,12 @@ def main(argv: list[str] | None = None) -> int:
             file=sys.stderr,
         )
         return INTERNAL_ERROR_EXIT
+    finally:
+        sys.stdout = stdout
+        if limit_before is None:
+            os.environ.pop(MAX_READ_ENV, None)
+        else:
+            os.environ[MAX_READ_ENV] = limit_before
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -41,7 +41,6 @@ from __future__ import annotations
 
 import io
 import os
-import tempfile
 import zipfile
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -150,14 +149,108 @@ def _check_exists(path: Path) -> None:
         raise ValueError(f"{path}: is a directory, expected a file")
 
 
+# ------------------------------------------------------------------------------------ read limits
+DEFAULT_MAX_READ_MB = 1024
+"""Default bound (MiB) on what one data, model or bundle file may make the reader allocate."""
+MAX_READ_ENV = "TACTILE_TORCH_MAX_READ_MB"
+"""Environment variable that replaces :data:`DEFAULT_MAX_READ_MB` (``--max-read-mb`` sets it)."""
+_MIB = 1 << 20
+_CSV_EXPANSION = 4  # bytes of parsed table per byte of CSV text, at most ("0,0,0,0\n": 8 bytes, 4 float64)
+
+
+def max_read_bytes(max_bytes: int | None = None) -> int:
+    """Return the read bound in bytes: ``max_bytes`` if given, else ``$TACTILE_TORCH_MAX_READ_MB`` MiB, else 1 GiB.
+
+    Every reader of this module checks what a file declares (the sizes in a zip's member headers,
+    the shape and dtype in each ``.npy`` header, a CSV's size) against this bound before reading, so
+    a crafted file (a zip bomb, a header declaring 10^12 samples) is refused in one line instead of
+    exhausting the memory of a robot's computer.
+    """
+    if max_bytes is None:
+        text = os.environ.get(MAX_READ_ENV, "")
+        try:
+            mib = float(text) if text else float(DEFAULT_MAX_READ_MB)
+        except ValueError:
+            mib = float("nan")
+        if not (mib > 0 and np.isfinite(mib)):
+            raise ValueError(f"{MAX_READ_ENV} must be a number of MiB > 0, got {text!r}")
+        return int(mib * _MIB)
+    if isinstance(max_bytes, bool) or not isinstance(max_bytes, int | np.integer) or max_bytes < 1:
+        raise ValueError(f"max_bytes must be an int >= 1, got {max_bytes!r}")
+    return int(max_bytes)
+
+
+def _too_large(path: Path, what: str, size: int, limit: int) -> ValueError:
+    return ValueError(
+        f"{path}: {what} needs {size / _MIB:,.1f} MiB, more than the read limit of {limit / _MIB:,.0f} MiB "
+        f"(raise it with --max-read-mb or {MAX_READ_ENV} if the file is trusted)"
+    )
+
+
+def _npy_header(member, version: tuple[int, int]) -> tuple[tuple[int, ...], bool, np.dtype]:
+    if version == (1, 0):
+        return np.lib.format.read_array_header_1_0(member)
+    if version == (2, 0):
+        return np.lib.format.read_array_header_2_0(member)
+    raise ValueError(f"unsupported .npy format version {version}")
+
+
+def check_npz_size(path: PathLike, *, max_bytes: int | None = None, what: str = ".npz archive") -> int:
+    """Check a ``.npz`` against the read bound without decompressing it; return the bytes its arrays need.
+
+    Reads the zip's central directory (the declared uncompressed size of each member: ``zipfile``
+    never inflates a member beyond it) and the header of each ``.npy`` member (shape and dtype,
+    computed with Python integers: no overflow), and raises ``ValueError`` in one line when either
+    total exceeds :func:`max_read_bytes`, or a member's shape needs more bytes than it holds.
+    """
+    path = Path(path)
+    limit = max_read_bytes(max_bytes)
+    try:
+        with zipfile.ZipFile(path) as archive:
+            members = archive.infolist()
+            declared = sum(info.file_size for info in members)
+            if declared > limit:
+                raise _too_large(path, f"decompressing the {what}", declared, limit)
+            needed = 0
+            for info in members:
+                with archive.open(info) as member:
+                    try:
+                        version = np.lib.format.read_magic(member)
+                        shape, _, dtype = _npy_header(member, version)
+                    except ValueError:
+                        continue  # not a .npy member: read_npz names it
+                if dtype.hasobject:
+                    continue  # pickled: refused by read_npz unless allow_pickle
+                size = dtype.itemsize
+                for n in shape:
+                    size *= int(n)
+                if size > info.file_size:
+                    raise ValueError(
+                        f"{path}: {info.filename} declares shape {tuple(shape)} {dtype} ({size:,} bytes) but "
+                        f"holds {info.file_size:,} bytes: a crafted or truncated {what}"
+                    )
+                needed += size
+    except (zipfile.BadZipFile, EOFError, OSError) as err:
+        raise ValueError(f"{path}: truncated or corrupt {what} ({err})") from None
+    if needed > limit:
+        raise _too_large(path, f"the {what}'s arrays", needed, limit)
+    return needed
+
+
 def read_npz(
-    path: PathLike, *, allow_pickle: bool = False, what: str = ".npz archive"
+    path: PathLike,
+    *,
+    allow_pickle: bool = False,
+    what: str = ".npz archive",
+    max_bytes: int | None = None,
 ) -> dict[str, np.ndarray]:
     """Return every array of a ``.npz`` file by name, or raise one ``ValueError`` naming the file.
 
     Empty, truncated or corrupt archives, files of another kind (a ``.npy``, an ONNX model, text) and
     pickled object arrays (unless ``allow_pickle``) are refused with a one-line reason; ``what``
-    names the expected content in the messages (e.g. ``"tactile-torch model file"``).
+    names the expected content in the messages (e.g. ``"tactile-torch model file"``). Before any
+    array is read, the declared sizes are checked against ``max_bytes`` (default
+    :func:`max_read_bytes`: 1 GiB, ``--max-read-mb``) by :func:`check_npz_size`.
     """
     path = Path(path)
     _check_exists(path)
@@ -168,6 +261,7 @@ def read_npz(
     if not head.startswith(NPZ_MAGIC):
         found = "a single .npy array" if head.startswith(NPY_MAGIC) else "not a zip archive"
         raise ValueError(f"{path}: expected a {what} (.npz), found {found}")
+    check_npz_size(path, max_bytes=max_bytes, what=what)
     arrays: dict[str, np.ndarray] = {}
     try:
         with np.load(path, allow_pickle=allow_pickle) as npz:
@@ -194,27 +288,27 @@ def read_npz(
     return arrays
 
 
-def write_npz(path: PathLike, arrays: dict[str, np.ndarray], *, compress: bool = True) -> Path:
+def write_npz(
+    path: PathLike,
+    arrays: dict[str, np.ndarray],
+    *,
+    compress: bool = True,
+    inputs: Sequence[PathLike] = (),
+) -> Path:
     """Write ``arrays`` to ``path`` exactly (no ``.npz`` appended), atomically; return the path.
 
     The archive is written to a temporary file next to ``path`` and renamed over it, so a crash or a
-    full disk never leaves a truncated file under the final name. Object arrays are refused.
+    full disk never leaves a truncated file under the final name; a directory, a device, a symbolic
+    link or one of ``inputs`` (the files the caller read) at ``path`` is refused in one line
+    (:func:`tactile_torch.safe_write.write_atomic`). Object arrays are refused.
     """
-    path = Path(path)
+    from .safe_write import write_atomic
+
     for key, value in arrays.items():
         if np.asarray(value).dtype == object:
             raise TypeError(f"{key} must be a plain (non-object) array to be written without pickle")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as f:
-            (np.savez_compressed if compress else np.savez)(f, **arrays)
-        os.chmod(tmp, 0o644)  # mkstemp creates 0600; data and model files are meant to be shared
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
+    save = np.savez_compressed if compress else np.savez
+    return write_atomic(path, lambda f: save(f, **arrays), inputs=inputs)
 
 
 def _data_path(path: PathLike) -> Path:
@@ -257,7 +351,27 @@ def _names(value: np.ndarray, path: Path, name: str = "class_names") -> tuple[st
         raise ValueError(f"{path}: {name} must be a 1-D array of strings, got {value.dtype} {value.shape}")
     if value.dtype.kind == "S":
         value = np.char.decode(value, "utf-8")
-    return tuple(str(c) for c in value)
+    return check_class_names([str(c) for c in value], f"{path}: {name}")
+
+
+def check_class_names(names: Sequence[str], where: str = "class_names") -> tuple[str, ...]:
+    """Return ``names`` as a tuple if they can name classes, else raise ``ValueError`` starting with ``where``.
+
+    A class name is printed in reports, one per line, and written into bundles: it must hold no
+    control character (a newline would inject a line into a report), and no two may be equal (the
+    labels would be ambiguous).
+    """
+    for i, name in enumerate(names):
+        if any(ord(ch) < 32 or ord(ch) == 127 for ch in name):
+            raise ValueError(
+                f"{where} must hold no control characters (newline, tab, ...), got {name!r} at index {i}"
+            )
+    seen: dict[str, int] = {}
+    for i, name in enumerate(names):
+        if name in seen:
+            raise ValueError(f"{where} must be distinct, got {name!r} at indices {seen[name]} and {i}")
+        seen[name] = i
+    return tuple(names)
 
 
 def _labels(value: np.ndarray, path: Path, n: int, names: tuple[str, ...]) -> np.ndarray:
@@ -500,10 +614,10 @@ def write_csv_recording(path: PathLike, signal: np.ndarray, rate_hz: float) -> P
     table = np.column_stack([np.arange(len(signal)) / float(rate_hz), signal.astype(np.float64)])
     buffer = io.StringIO()
     np.savetxt(buffer, table, delimiter=",", fmt="%.9g", header="t,x,y,z", comments="")
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(buffer.getvalue())
-    return path
+    from .safe_write import write_atomic
+
+    text = buffer.getvalue().encode("ascii")
+    return write_atomic(path, lambda f: f.write(text))
 
 
 def csv_class_name(path: PathLike) -> str:
@@ -553,7 +667,7 @@ def read_csv_recordings(
             f"the files have different sample rates ({paths[0]}: {rates[0]:g} Hz, {paths[odd]}: "
             f"{rates[odd]:g} Hz); resample them to a common rate (load_vibration_csv(..., rate_hz=))"
         )
-    classes = tuple(sorted(set(names)))
+    classes = check_class_names(sorted(set(names)), "class names (of the CSV files)")
     return RecordingArrays(
         signals=[s for s, _ in read],
         labels=np.array([classes.index(n) for n in names], dtype=np.int64),
@@ -710,14 +824,19 @@ def window_recordings(
 
 
 __all__ = [
+    "DEFAULT_MAX_READ_MB",
     "KINDS",
+    "MAX_READ_ENV",
     "ExplorationArrays",
     "FeatureArrays",
     "RecordingArrays",
     "Windows",
+    "check_class_names",
+    "check_npz_size",
     "csv_class_name",
     "data_kind",
     "data_name",
+    "max_read_bytes",
     "read_csv_recording",
     "read_csv_recordings",
     "read_data",

@@ -15,13 +15,16 @@ Layout (format version 1, ``docs/formats.md``):
     ``"vibration"`` with ``window``, ``step``, ``rate_hz``; ``"image"`` with ``fuse``,
     ``frame_shape`` ``[T, 3, H, W]``; ``"features"`` with ``n_features``), ``head`` (its ``type``
     and settings), optional ``transform``, ``params`` (hyper-parameters), ``test_accuracy``,
-    ``summary``.
+    ``summary``; classifiers: ``ood`` (``type`` ``"mahalanobis"``, ``quantile``, ``threshold``: the
+    out-of-distribution distance of :mod:`tactile_torch.ood`).
 ``scale`` ``(F,)``
     classifiers: the training standard deviation each feature is divided by.
 ``head.<name>``
     the head's arrays: an SVM's ``support_vectors`` ``(S, F)``, ``dual_coef`` ``(M, S)``,
     ``intercept`` ``(M,)`` (and the tree tables of a hierarchical SVM); a mixture's ``means``
     ``(K, D)``, ``precisions_cholesky`` ``(K, D, D)``, ``log_weights`` ``(K,)``.
+``ood.means`` ``(C, F)``, ``ood.precision_cholesky`` ``(F, F)``
+    classifiers: the statistics of the out-of-distribution distance (older files lack them).
 ``transform.<name>``
     clusterings of vibration windows: the fitted attributes of the
     :class:`~tactile_torch.signal.ClusteringTransform` (``mean_``, ``scale_``, ``components_``, ...).
@@ -44,7 +47,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .formats import PathLike, read_npz, write_npz
+from .formats import PathLike, check_class_names, read_npz, write_npz
 
 FORMAT = "tactile-torch/model"
 FORMAT_VERSION = 1
@@ -339,6 +342,7 @@ def validate_model(header: object, arrays: Mapping[str, np.ndarray], *, where: s
     names = header.get("class_names")
     if not isinstance(names, list) or not names or not all(isinstance(c, str) for c in names):
         _fail(where, f"class_names must be a non-empty list of strings, got {names!r:.80}")
+    check_class_names(names, f"{where}: class_names")
     n_features = _check_source(where, header.get("source"))
     dims: dict[str, int] = {"C": len(names)}
     head = _check_settings(where, "head", {}, header.get("head"), HEADS)
@@ -365,6 +369,8 @@ def validate_model(header: object, arrays: Mapping[str, np.ndarray], *, where: s
         if (arrays["scale"] <= 0).any():
             _fail(where, "scale must be > 0 (a standard deviation per feature)")
     _check_arrays(where, "head", head_arrays, arrays, dims)
+    if kind == "classifier" and header.get("ood") is not None:
+        _check_ood(where, header["ood"], arrays, dims)
     if head["type"] == "svm" and head["mode"] == "tree":
         _check_tree(where, arrays, dims, head["depth"])
     if head["type"] == "svm" and head["mode"] == "ovo":
@@ -376,6 +382,18 @@ def validate_model(header: object, arrays: Mapping[str, np.ndarray], *, where: s
                 where,
                 f"head.n_support must count the {dims['S']} support vectors per class, got {counts.tolist()}",
             )
+
+
+def _check_ood(where: str, ood: object, arrays: Mapping[str, np.ndarray], dims: dict[str, int]) -> None:
+    # the out-of-distribution distance (tactile_torch.ood): per-class means and a precision factor
+    if not isinstance(ood, dict) or ood.get("type") != "mahalanobis":
+        _fail(where, f"ood.type must be 'mahalanobis', got {ood!r:.80}")
+    for name in ("quantile", "threshold"):
+        _check_type(where, f"ood.{name}", ood.get(name), float)
+    if not (0 < ood["quantile"] <= 1 and ood["threshold"] > 0):
+        _fail(where, f"ood must have 0 < quantile <= 1 and threshold > 0, got {ood}")
+    spec = {"means": (("C", "F"), "f"), "precision_cholesky": (("F", "F"), "f")}
+    _check_arrays(where, "ood", spec, arrays, dims)
 
 
 def _check_tree(where: str, arrays: Mapping[str, np.ndarray], dims: dict[str, int], depth: int) -> None:

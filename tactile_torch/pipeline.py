@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -45,7 +46,7 @@ import torch
 from torch import nn
 
 from .model_file import FORMAT, ModelFile, load_model_file
-from .runtime import DEFAULT_RANGE_G, RANGE_METADATA_KEY
+from .runtime import DEFAULT_RANGE_G, LABELS_OUTPUT, RANGE_METADATA_KEY, SCORES_OUTPUT
 
 CLUSTERING_FORMAT = FORMAT
 """``format`` of model files (:data:`tactile_torch.model_file.FORMAT`); kept for old imports."""
@@ -226,9 +227,20 @@ def pipeline_from_model(
     if model.header.get("test_accuracy") is not None:
         meta["test_accuracy"] = float(model.header["test_accuracy"])
     front = nn.Sequential(*modules, _scaler(model.arrays["scale"]))
+    classifier = _svm_head(head, model.part("head"))
+    ood = model.header.get("ood")
+    if ood is not None:  # "unknown" as an answer: the graph also gives the distance to training
+        from .ood import QUANTILE_KEY, THRESHOLD_KEY, MahalanobisDistance, WithDistance
+
+        state = model.part("ood")
+        classifier = WithDistance(
+            classifier, MahalanobisDistance(state["means"], state["precision_cholesky"])
+        )
+        meta[THRESHOLD_KEY] = float(ood["threshold"])
+        meta[QUANTILE_KEY] = float(ood["quantile"])
     return InferencePipeline(
         front,
-        _svm_head(head, model.part("head")),
+        classifier,
         name=f"{source['kind']}-{model.method}",
         input_shape=shape,
         input_layout=layout,
@@ -351,19 +363,28 @@ def _clustering_pipeline(model: ModelFile, sensor_range_g: float | None) -> Infe
     )
 
 
-def export_pipeline(pipeline: InferencePipeline, path: str | Path, *, example_batch: int = 2) -> Path:
+def export_pipeline(
+    pipeline: InferencePipeline,
+    path: str | Path,
+    *,
+    example_batch: int = 2,
+    inputs: Sequence[str | Path] = (),
+) -> Path:
     """Export ``pipeline`` to one ONNX file at ``path`` (dynamo exporter, dynamic batch, metadata); return it.
 
     The outputs are named ``labels`` and ``scores`` and the input ``raw``, as
-    :class:`tactile_torch.runtime.OnnxPipeline` expects; ``onnx.checker`` validates the file.
+    :class:`tactile_torch.runtime.OnnxPipeline` expects; ``onnx.checker`` validates the file. The
+    file is written atomically and never onto a directory, a device, a symbolic link or one of
+    ``inputs`` (e.g. the model file it was built from): ``ValueError`` in one line.
     """
     from ._onnx import export_onnx
-    from .runtime import LABELS_OUTPUT, SCORES_OUTPUT
 
     if not isinstance(pipeline, InferencePipeline):
         raise TypeError(f"pipeline must be an InferencePipeline, got {type(pipeline).__name__}")
     example = pipeline.example_input(example_batch)
-    extra = list(getattr(pipeline.head, "output_names", ())[2:])  # the mixture's novelty flag
+    extra = list(
+        getattr(pipeline.head, "output_names", ())[2:]
+    )  # the mixture's novelty flag, the OOD distance
     return export_onnx(
         pipeline.eval(),
         (example,),
@@ -371,6 +392,7 @@ def export_pipeline(pipeline: InferencePipeline, path: str | Path, *, example_ba
         input_names=["raw"],
         output_names=[LABELS_OUTPUT, SCORES_OUTPUT, *extra],
         metadata=pipeline.metadata(),
+        inputs=inputs,
     )
 
 
@@ -381,7 +403,8 @@ def compare_with_runtime(pipeline: InferencePipeline, bundle: object, raw: np.nd
     relative to ``max(|score|, 1)`` (the mixture's log responsibilities reach hundreds in float32).
     """
     raw = bundle.validate(raw)
-    labels, scores = bundle.predict_scores(raw)
+    out = bundle.run(raw)  # the graph's own labels: no "unknown" applied
+    labels, scores = np.asarray(out[LABELS_OUTPUT]), out[SCORES_OUTPUT]
     with torch.no_grad():
         t_labels, t_scores = pipeline(torch.from_numpy(raw))[:2]
     t_scores = t_scores.numpy()

@@ -523,6 +523,9 @@ def sweep(
     n_bootstrap: int = 1000,
     random_state: RandomState = None,
     progress: bool = False,
+    backend: str | None = None,
+    n_jobs: int | None = None,
+    scheduler: str | None = None,
 ) -> SweepResult:
     """Sweep every factor over every model; return the accuracy curves and their breaking points.
 
@@ -560,6 +563,10 @@ def sweep(
         Folds, noise and bootstrap. With an int, every model meets the same folds and noise draws.
     progress : bool
         A progress bar per factor (tqdm, on stderr).
+    backend, n_jobs, scheduler
+        Where the fits (model x fold, at every level that retrains) run: the evaluation engine's
+        :class:`tactile_torch.engine.Backend` (``"loky"``, ``"threading"``, ``"dask"`` with a scheduler
+        address ...); default in this process. Results do not depend on them.
 
     Returns
     -------
@@ -574,8 +581,9 @@ def sweep(
     from tqdm.auto import tqdm
 
     from . import _sweep
-    from .engine import Models, make_folds
+    from .engine import Models, as_backend, make_folds
 
+    runner = as_backend(backend, n_jobs, scheduler)  # a Dask client opens for each stage's tasks
     y, groups = _check_inputs(X, y, groups)
     found = infer_kind(X)
     kind = found if kind is None else kind
@@ -603,7 +611,7 @@ def sweep(
     chance = 1.0 / len(np.unique(y))
     base = Models(models)
     whole = base.whole(X, y)
-    clean, fitted, feats = _sweep.fit_predict(base, X, y, folds, whole)
+    clean, fitted, feats = _sweep.fit_predict(base, X, y, folds, whole, runner)
     for name, value in clean.items():
         if isinstance(value, str):
             raise ValueError(f"models[{name!r}] could not be fitted on the clean folds: {value}")
@@ -617,7 +625,9 @@ def sweep(
             result.skipped.append((f.name, why))
             continue
         if f.stage == "time":
-            drift = _sweep.drift_rows(f, base, X, y, context, whole, DRIFT_TRAIN_SHARE, DRIFT_SEGMENTS)
+            drift = _sweep.drift_rows(
+                f, base, X, y, context, whole, DRIFT_TRAIN_SHARE, DRIFT_SEGMENTS, backend=runner
+            )
             if drift is None:
                 result.skipped.append(
                     (f.name, "recordings too short: fewer than two test segments hold samples")
@@ -638,7 +648,9 @@ def sweep(
             bar = tqdm(total=len(levels), desc=f.name, disable=not progress, leave=False)
             for level in levels:
                 n = trials.get(f.name, default_trials)
-                got = _sweep.evaluate(f, level, base, fitted, feats, whole, X, y, folds, context, n, seed)
+                got = _sweep.evaluate(
+                    f, level, base, fitted, feats, whole, X, y, folds, context, n, seed, backend=runner
+                )
                 for m in rows:
                     if not isinstance(rows[m][-1], str):
                         rows[m].append(got[m])

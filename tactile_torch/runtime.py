@@ -22,8 +22,12 @@ Metadata keys read here (all values are strings; JSON where structured):
     JSON list of the class (or component) names indexed by label.
 ``sensor_range_g``
     vibration bundles: the sensor's range in g (``tactile-torch export --sensor-range``, 5 by
-    default); windows holding a sample beyond it are not classified by ``tactile-torch predict``,
-    and such samples are rejected by ``stream`` (:func:`sensor_range_g`, :func:`beyond_range`).
+    default); windows holding a sample beyond it are "unknown" (label -1) in :meth:`OnnxPipeline.classify`,
+    ``predict`` and ``tactile-torch predict``, and such samples are rejected by ``stream``
+    (:func:`sensor_range_g`, :func:`beyond_range`).
+``ood_threshold``, ``ood_quantile``
+    classifier bundles: samples whose ``ood_distance`` output (the distance of their features to the
+    training data, :mod:`tactile_torch.ood`) exceeds the threshold are "unknown" (label -1).
 
 Other keys (window size, sample rate, thresholds, feature scale ...) are kept in
 :attr:`OnnxPipeline.metadata` for the caller.
@@ -79,6 +83,38 @@ def beyond_range(raw: np.ndarray, range_g: float) -> np.ndarray:
     values = np.asarray(raw).reshape(len(raw), -1)
     # reductions, not np.abs: no temporary as large as the batch
     return ~((values.max(axis=1) <= range_g) & (values.min(axis=1) >= -range_g))
+
+
+UNKNOWN = -1
+"""Label of a sample the bundle does not classify (beyond the sensor's range, or out of distribution)."""
+UNKNOWN_NAME = "unknown"
+OOD_OUTPUT = "ood_distance"
+"""Output of the distance to the training data (:mod:`tactile_torch.ood`, which needs torch)."""
+THRESHOLD_KEY = "ood_threshold"
+"""Metadata key of the distance beyond which a sample is unknown."""
+
+
+@dataclass
+class Prediction:
+    """What :meth:`OnnxPipeline.classify` returns for a batch of ``B`` samples.
+
+    Attributes
+    ----------
+    labels : ndarray of shape (B,) int64
+        Class index, or ``-1`` ("unknown").
+    scores : ndarray of shape (B, C) float32
+        The graph's scores; NaN for samples beyond the sensor's range (not run).
+    distance : ndarray of shape (B,) float32
+        Distance of each sample to the training data (:mod:`tactile_torch.ood`); NaN when the bundle
+        has none or the sample was not run.
+    reasons : list of (str or None)
+        Why each unknown sample is unknown (one line), ``None`` for classified samples.
+    """
+
+    labels: np.ndarray
+    scores: np.ndarray
+    distance: np.ndarray
+    reasons: list[str | None]
 
 
 class NonFiniteScoresError(ValueError):
@@ -173,6 +209,14 @@ class OnnxPipeline:
             raise FileNotFoundError(
                 f"path must name an exported .onnx bundle, got {str(path)!r} (no such file)"
             )
+        from .formats import max_read_bytes
+
+        limit = max_read_bytes()
+        if path.stat().st_size > limit:  # onnxruntime holds the whole file (and its weights) in memory
+            raise ValueError(
+                f"{path}: the bundle is {path.stat().st_size / 2**20:,.1f} MiB, more than the read limit of "
+                f"{limit / 2**20:,.0f} MiB (raise it with --max-read-mb if the file is trusted)"
+            )
         for name, value in (("intra_op_threads", intra_op_threads), ("inter_op_threads", inter_op_threads)):
             if isinstance(value, bool) or not isinstance(value, int) or value < 0:
                 raise ValueError(f"{name} must be an int >= 0, got {value!r}")
@@ -202,11 +246,64 @@ class OnnxPipeline:
         scale = self.metadata.get("uint8_scale")
         self._uint8_scale = float(scale) if scale else None
         self.input_dtype = np.dtype(_ONNX_DTYPES.get(self._input.type, "float32"))
+        self._check_header()
 
     def _declared_shape(self) -> tuple[int | None, ...]:
         if "input_shape" in self.metadata:
-            return tuple(json.loads(self.metadata["input_shape"]))
+            try:
+                shape = json.loads(self.metadata["input_shape"])
+            except json.JSONDecodeError:
+                shape = None
+            if not isinstance(shape, list) or not all(
+                d is None or (isinstance(d, int) and not isinstance(d, bool) and d >= 1) for d in shape
+            ):
+                raise ValueError(
+                    f"{self.path}: metadata input_shape must be a JSON list of sizes >= 1 or null, "
+                    f"got {self.metadata['input_shape']!r:.80}"
+                )
+            return tuple(shape)
         return tuple(d if isinstance(d, int) else None for d in self._input.shape)
+
+    def _check_header(self) -> None:
+        """Refuse metadata that disagree with the graph they describe (a crafted or mixed-up header)."""
+        where = f"{self.path}: the bundle's metadata disagree with its graph"
+        graph = tuple(d if isinstance(d, int) else None for d in self._input.shape)
+        if len(graph) != len(self.input_shape):
+            raise ValueError(f"{where}: input_shape {list(self.input_shape)}, graph input {list(graph)}")
+        for axis, (want, got) in enumerate(zip(self.input_shape, graph, strict=True)):
+            if got is not None and want != got:
+                raise ValueError(f"{where}: input_shape axis {axis} is {want}, the graph takes {got}")
+        if len(self.input_layout.split(",")) != len(self.input_shape):
+            raise ValueError(
+                f"{where}: input_layout {self.input_layout!r}, input_shape {list(self.input_shape)}"
+            )
+        if self.input_layout == "B,3,W":
+            if self.input_shape[1] != 3:
+                raise ValueError(
+                    f"{where}: windows of 3 channels (x, y, z), input_shape {list(self.input_shape)}"
+                )
+            meta = self.metadata
+            for key, check in (
+                ("window_size", lambda v: int(v) == self.input_shape[2]),
+                ("step", lambda v: int(v) >= 1),
+                ("sample_rate_hz", lambda v: math.isfinite(float(v)) and float(v) > 0),
+            ):
+                if key in meta:
+                    try:
+                        ok = check(meta[key])
+                    except ValueError:
+                        ok = False
+                    if not ok:
+                        raise ValueError(
+                            f"{where}: {key} = {meta[key]!r:.40} (the graph takes windows of {self.input_shape[2]} samples)"
+                        )
+            sensor_range_g(meta)  # a number > 0
+        if self.class_names:
+            scores = self.session.get_outputs()[self._outputs.index(SCORES_OUTPUT)].shape
+            if len(scores) == 2 and isinstance(scores[1], int) and scores[1] != len(self.class_names):
+                raise ValueError(
+                    f"{where}: {len(self.class_names)} class_names, the graph gives {scores[1]} scores"
+                )
 
     @property
     def pipeline(self) -> str:
@@ -277,21 +374,109 @@ class OnnxPipeline:
             raise NonFiniteScoresError(np.flatnonzero(~finite), len(scores))
         return out
 
-    def predict(self, raw: np.ndarray) -> np.ndarray:
-        """Return the predicted label of each sample, shape ``(B,)`` int64."""
-        return np.asarray(self.run(raw)[LABELS_OUTPUT], dtype=np.int64)
+    @property
+    def range_g(self) -> float:
+        """The sensor range (g) samples are checked against: the bundle's, else 5; ``inf`` for other input."""
+        return sensor_range_g(self.metadata) if self.input_layout == "B,3,W" else math.inf
 
-    def predict_scores(self, raw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Return ``(labels, scores)``: labels ``(B,)`` int64 and the graph's scores ``(B, C)`` float32."""
-        out = self.run(raw)
-        return np.asarray(out[LABELS_OUTPUT], dtype=np.int64), out[SCORES_OUTPUT]
+    @property
+    def ood_threshold(self) -> float | None:
+        """The bundle's out-of-distribution threshold (:mod:`tactile_torch.ood`), ``None`` if it has none."""
+        if OOD_OUTPUT not in self._outputs or THRESHOLD_KEY not in self.metadata:
+            return None
+        return float(self.metadata[THRESHOLD_KEY])
+
+    def classify(self, raw: np.ndarray, *, range_g: float | None = None) -> Prediction:
+        """Return the :class:`Prediction` of each sample, with ``-1`` ("unknown") and its reason where due.
+
+        A sample is unknown when (checked in this order) it holds a value beyond ``±range_g`` (vibration
+        windows; default :attr:`range_g`, the bundle's ``sensor_range_g``; ``math.inf``: no check),
+        when it is a vibration window constant on every axis (no vibration to classify), when the graph's scores for it are not finite, or when its features lie further from the
+        training data than the bundle's ``ood_threshold`` (bundles exported from model files written
+        since the distance exists; :mod:`tactile_torch.ood`). Samples beyond the range are not run
+        through the graph: their scores and distance are NaN.
+        """
+        x = self.validate(raw)
+        limit = self.range_g if range_g is None else float(range_g)
+        n = len(x)
+        labels = np.full(n, UNKNOWN, dtype=np.int64)
+        scores = np.full((n, max(len(self.class_names), 1)), np.nan, dtype=np.float32)
+        distance = np.full(n, np.nan, dtype=np.float32)
+        reasons: list[str | None] = [None] * n
+        beyond = beyond_range(x, limit) if math.isfinite(limit) else np.zeros(n, dtype=bool)
+        for i in np.flatnonzero(beyond):
+            peak = float(np.abs(x[i]).max())
+            reasons[i] = f"a sample of {peak:.3g} g, beyond the sensor's range ±{limit:g} g"
+        if self.input_layout == "B,3,W":
+            # A window constant on every axis carries no vibration: its features are conventions
+            # (zero variance, no crossings), not measurements, so it is not classified.
+            flat = ~beyond & (x.max(axis=2) == x.min(axis=2)).all(axis=1)
+            for i in np.flatnonzero(flat):
+                reasons[i] = (
+                    f"no vibration: every axis is constant ({', '.join(f'{v:g}' for v in x[i, :, 0])} g)"
+                )
+            beyond = beyond | flat
+        run = np.flatnonzero(~beyond)
+        if len(run):
+            values = self.session.run(None, {self._input.name: x[run]})
+            out = dict(zip(self._outputs, values, strict=True))
+            got = out[SCORES_OUTPUT].reshape(len(run), -1)
+            if got.shape[1] != scores.shape[1]:
+                scores = np.full((n, got.shape[1]), np.nan, dtype=np.float32)
+            scores[run] = got
+            labels[run] = np.asarray(out[LABELS_OUTPUT], dtype=np.int64)
+            finite = np.isfinite(got).all(axis=1)
+            threshold = self.ood_threshold
+            if threshold is not None:
+                distance[run] = out[OOD_OUTPUT]
+            for j, i in enumerate(run):
+                if not finite[j]:
+                    labels[i] = UNKNOWN
+                    reasons[i] = (
+                        "scores not finite (values far outside the sensor's range overflow the features)"
+                    )
+                elif threshold is not None and not distance[i] <= threshold:
+                    labels[i] = UNKNOWN
+                    reasons[i] = (
+                        f"out of distribution: distance {distance[i]:.3g} to the training data > {threshold:.3g}"
+                    )
+        return Prediction(labels, scores, distance, reasons)
+
+    def _raise_non_finite(self, prediction: Prediction) -> None:
+        bad = np.array([r is not None and r.startswith("scores not finite") for r in prediction.reasons])
+        if bad.any():
+            raise NonFiniteScoresError(np.flatnonzero(bad), len(bad))
+
+    def predict(self, raw: np.ndarray, *, range_g: float | None = None) -> np.ndarray:
+        """Return the predicted label of each sample, shape ``(B,)`` int64; ``-1`` is "unknown".
+
+        See :meth:`classify` for when a sample is unknown (and why; ``range_g`` as there). Raises
+        :class:`NonFiniteScoresError` when a sample within the sensor's range gave non-finite scores.
+        """
+        prediction = self.classify(raw, range_g=range_g)
+        self._raise_non_finite(prediction)
+        return prediction.labels
+
+    def predict_scores(
+        self, raw: np.ndarray, *, range_g: float | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Return ``(labels, scores)``: labels ``(B,)`` int64 (``-1``: unknown) and scores ``(B, C)`` float32.
+
+        Scores of samples beyond the sensor's range are NaN (they are not run through the graph).
+        """
+        prediction = self.classify(raw, range_g=range_g)
+        self._raise_non_finite(prediction)
+        return prediction.labels, prediction.scores
 
     def predict_names(self, raw: np.ndarray) -> list[str]:
-        """Return the predicted class name of each sample (the label when the bundle has no names)."""
-        labels = self.predict(raw)
-        if not self.class_names:
-            return [str(int(label)) for label in labels]
-        return [self.class_names[int(label)] for label in labels]
+        """Return the predicted class name of each sample (the label when the bundle has no names), ``"unknown"`` for -1."""
+        return [self.label_name(int(label)) for label in self.predict(raw)]
+
+    def label_name(self, label: int) -> str:
+        """Return the name of ``label``: its class name, ``"unknown"`` for -1, else the label as a string."""
+        if label == UNKNOWN:
+            return UNKNOWN_NAME
+        return self.class_names[label] if 0 <= label < len(self.class_names) else str(label)
 
     def read_npz(
         self, path: str | Path | Sequence[str | Path], *, allow_pickle: bool = False, options=None
@@ -382,11 +567,16 @@ class OnnxPipeline:
 __all__ = [
     "DEFAULT_RANGE_G",
     "LABELS_OUTPUT",
+    "OOD_OUTPUT",
     "RANGE_METADATA_KEY",
     "SCORES_OUTPUT",
+    "THRESHOLD_KEY",
+    "UNKNOWN",
+    "UNKNOWN_NAME",
     "LabelledInput",
     "NonFiniteScoresError",
     "OnnxPipeline",
+    "Prediction",
     "beyond_range",
     "sensor_range_g",
 ]

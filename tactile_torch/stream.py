@@ -61,6 +61,7 @@ RATE_TOLERANCE = 0.05
 """A window whose ``t`` span gives a rate off the expected one by more than this share is flagged ``"rate"``."""
 
 _RATE_RUN = 16  # consecutive equal off-period steps of t after which the stream's own rate is adopted
+_FORMAT_RUN = 16  # consecutive lines of the other format (x,y,z / t,x,y,z) after which it is followed
 _EVENT_INTERVAL_S = (
     1.0  # gap/range events beyond _EVENTS_PER_INTERVAL in this interval are counted, not shown
 )
@@ -88,7 +89,8 @@ class StreamEvent:
     kind : str
         ``"waiting"`` (no data yet), ``"first"`` (first sample), ``"silence"``, ``"resumed"``, ``"gap"``,
         ``"range"`` (a sample out of range), ``"rate"`` (``t`` runs at another rate than expected),
-        ``"disconnected"``, ``"reconnected"``.
+        ``"format"`` (the lines switched between ``x,y,z`` and ``t,x,y,z``), ``"disconnected"``,
+        ``"reconnected"``.
     message : str
         One line for a person.
     """
@@ -199,6 +201,9 @@ class WindowReader:
         First and longest wait between reconnection attempts; the wait doubles after each failure.
     on_event : callable, optional
         Called with each :class:`StreamEvent`.
+    on_open : callable, optional
+        Called with the port's name once it is open at the start (opening a serial port discards
+        what it had buffered: a sensor should be started after this, not before).
     max_line_bytes : int, default 256
         A partial line longer than this (binary noise with no newline) is dropped as skipped.
     name : str, optional
@@ -222,6 +227,8 @@ class WindowReader:
         Windows yielded.
     reconnects : int
         Successful reconnections.
+    format_switches : int
+        Switches between the ``x,y,z`` and ``t,x,y,z`` line formats that were followed.
     """
 
     def __init__(
@@ -240,6 +247,7 @@ class WindowReader:
         reconnect: bool = False,
         backoff_s: tuple[float, float] = (0.5, 8.0),
         on_event: Callable[[StreamEvent], None] | None = None,
+        on_open: Callable[[str], None] | None = None,
         max_line_bytes: int = 256,
         name: str | None = None,
         clock: Callable[[], float] = time.monotonic,
@@ -277,13 +285,14 @@ class WindowReader:
         self.time_unit = time_unit
         self.reconnect = bool(reconnect)
         self.on_event = on_event
+        self.on_open = on_open
         self._source = source
         self._opens = opens
         self._name = name
         self._clock = clock
         self._sleep = sleep
         self.samples = self.skipped = self.rejected = self.gaps = self.lost = 0
-        self.windows = self.reconnects = 0
+        self.windows = self.reconnects = self.format_switches = 0
         self._event_window: dict[str, tuple[float, int]] = {}
         self._held_events: dict[str, int] = {}
 
@@ -353,12 +362,13 @@ class WindowReader:
             if error is not None:
                 limit = self.idle_timeout_s if self.samples else self.start_timeout_s
                 waited = self._clock() - self._last_sample_at
-                if limit is not None and waited + self._delay > limit:
+                if limit is not None and waited >= limit:
                     raise StreamDisconnected(
                         f"{name}: gave up reconnecting after {attempts} attempt(s), {waited:.1f} s without a "
                         f"sample (idle timeout {limit:g} s): {error}"
                     )
-                self._sleep(self._delay)
+                # the last wait is cut short so that one attempt is made at the timeout itself
+                self._sleep(self._delay if limit is None else min(self._delay, limit - waited))
                 self._delay = min(2 * self._delay, self.backoff_s[1])
             attempts += 1
             try:
@@ -391,6 +401,10 @@ class WindowReader:
             port = self._reopen(None) if self._opens else self._open()
             name = self._port_name(port)
             read = self._reader_of(port)
+            # the clocks start once the port is open (opening may take a while, and flushes it)
+            self._last_sample_at = clock()
+            if self.on_open is not None:
+                self.on_open(name)
             while True:
                 before = clock()
                 try:
@@ -415,34 +429,40 @@ class WindowReader:
                         partial = b""
                     for line in lines:
                         yield line, now
-                    continue
-                if self.idle_timeout_s is None:  # end of input; the last line may lack its newline
+                    if self.idle_timeout_s is None:
+                        continue
+                    now = clock()
+                elif self.idle_timeout_s is None:  # end of input; the last line may lack its newline
                     if partial:
                         yield partial, now
                     return
-                if now - before < 1e-3:  # a port without a read timeout, or a file at its end: do not spin
+                elif now - before < 1e-3:  # a port without a read timeout, or a file at its end: do not spin
                     self._sleep(0.01)
                     now = clock()
+                # Time counts since the last VALID sample: bytes that never parse (garbage, a sensor at
+                # the wrong baud rate, a line format the stream refuses) do not keep the stream alive.
                 waited = now - self._last_sample_at
                 limit = self.idle_timeout_s if self.samples else self.start_timeout_s
+                what = "no valid sample" if self.skipped else "no data" if not self.samples else "no sample"
+                skipped = f", {self.skipped} lines skipped" if self.skipped else ""
                 if waited >= limit:
                     raise StreamTimeout(
-                        f"{name}: {'no sample' if self.samples else 'no data'} for {waited:.1f} s "
-                        f"(timeout {limit:g} s); {self.samples} samples read, {self.skipped} lines skipped"
+                        f"{name}: {what} for {waited:.1f} s (timeout {limit:g} s); {self.samples} samples "
+                        f"read, {self.skipped} lines skipped"
                     )
                 if waited >= self.silence_s and not self._silent:
                     self._silent = True
                     if self.samples:
                         self._emit(
                             "silence",
-                            f"no sample for {waited:.1f} s after {self.samples} samples; waiting "
+                            f"{what} for {waited:.1f} s after {self.samples} samples{skipped}; waiting "
                             f"({_giving_up(limit)})",
                         )
                         yield None, now
                     else:
                         self._emit(
                             "waiting",
-                            f"no data yet on {name} after {waited:.1f} s ({_giving_up(limit)})",
+                            f"{what} yet on {name} after {waited:.1f} s{skipped} ({_giving_up(limit)})",
                         )
         finally:
             self._close(port)
@@ -505,16 +525,38 @@ class WindowReader:
         ring_skipped = [0] * w
         count = since_window = 0  # samples in the current segment, samples since the last window
         timed: bool | None = None  # whether the lines carry t (set by the first sample of a connection)
+        other_run = 0  # consecutive lines of the other format
         at_window = (0, 0, 0)  # skipped, rejected, gaps at the previous window
         for line, now in self._lines():
-            if line is None:  # silence or reconnection: a gap, and the format may change
-                count, timed, self._prev_t = 0, None, None
-                self.gaps += 1
+            if line is None:  # silence or reconnection: a gap (if a segment was open), the format may change
+                self.gaps += count > 0
+                count, timed, self._prev_t, other_run = 0, None, None, 0
                 continue
             parsed = parse_line(line)
-            if parsed is None or (timed and parsed[0] is None):
+            if parsed is None:
                 self.skipped += 1
                 continue
+            if timed is not None and (parsed[0] is not None) != timed and count <= 1:
+                # the connection's first line was a partial one: the second sets the format
+                timed, count, self._prev_t = None, 0, None
+            if timed is not None and (parsed[0] is not None) != timed:
+                # A line of the other format: one alone is garbage (a line cut short and merged with
+                # the next gives four numbers); a run of them is the sensor switching formats.
+                other_run += 1
+                if other_run < _FORMAT_RUN:
+                    self.skipped += 1
+                    continue
+                new, old = ("t,x,y,z", "x,y,z") if not timed else ("x,y,z", "t,x,y,z")
+                self.format_switches += 1
+                self._emit(
+                    "format",
+                    f"the lines changed from {old} to {new} ({_FORMAT_RUN} in a row) after {self.samples} "
+                    f"samples; following the new format (the {_FORMAT_RUN - 1} lines before this one were "
+                    "skipped)",
+                )
+                self.gaps += count > 0
+                timed, count, self._prev_t = not timed, 0, None
+            other_run = 0
             t, x, y, z = parsed
             if not (-range_g <= x <= range_g and -range_g <= y <= range_g and -range_g <= z <= range_g):
                 # a sample is known to be missing here: end the segment
@@ -535,15 +577,12 @@ class WindowReader:
                     self._emit("first", f"first sample after {waited:.1f} s")
                 self._silent = False
             self._last_sample_at = now
+            if timed is None:  # the first sample of a connection sets the line format
+                timed = t is not None
             if t is not None:
-                if not timed:  # the lines now carry t: what came before is another segment
-                    self.gaps += count > 0
-                    timed, count = True, 0
                 t *= unit
                 if self._time_gap(t):
                     count = 0
-            elif timed is None:
-                timed = False
             if not count:  # a segment starts: the connection works, so the next failure waits little
                 self._delay = self.backoff_s[0]
             i = self.samples % w

@@ -6,6 +6,9 @@ latency, flags, and optionally a vote over the last windows); :func:`result_json
 :func:`result_text` give one line per result. numpy and an exported bundle only: importing this
 module never imports torch.
 
+A window the bundle does not classify (a sample beyond the sensor's range, no vibration at all, or
+features far from the training data: :meth:`~tactile_torch.runtime.OnnxPipeline.classify`) is
+"unknown": ``label`` -1, ``name`` ``"unknown"``, the flag ``"unknown"`` and a one-line ``reason``.
 A window whose scores are not all finite (its samples overflow the features) gets no label:
 ``label``, ``name`` and ``scores`` are ``None`` and its flags hold ``"non_finite_scores"``.
 
@@ -29,7 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .runtime import NonFiniteScoresError, OnnxPipeline
+from .runtime import UNKNOWN, OnnxPipeline
 from .stream import Window
 
 VOTE_METHODS = ("majority", "mean")
@@ -66,7 +69,7 @@ class WindowResult:
     window : Window
         The window (data, sample count, ``t`` span, line counts).
     label : int or None
-        ``None`` when the scores were not finite.
+        ``-1`` when unknown (see ``reason``); ``None`` when the scores were not finite.
     name : str or None
         The label's class name (the label as a string when the bundle has none).
     scores : ndarray of shape (C,) or None
@@ -76,9 +79,11 @@ class WindowResult:
     time : float
         Wall-clock time (``time.time()``) when the result was ready.
     flags : tuple of str
-        The window's flags (``"skipped"``, ``"rate"``) and ``"non_finite_scores"``.
+        The window's flags (``"skipped"``, ``"rate"``), ``"unknown"`` and ``"non_finite_scores"``.
     vote : VoteResult or None
         The vote including this window, when voting.
+    reason : str or None
+        Why the window is unknown (label -1), one line; ``None`` otherwise.
     """
 
     window: Window
@@ -89,6 +94,7 @@ class WindowResult:
     time: float
     flags: tuple[str, ...]
     vote: VoteResult | None = None
+    reason: str | None = None
 
 
 class WindowVote:
@@ -155,6 +161,7 @@ def classify_windows(
     *,
     vote: WindowVote | None = None,
     clock: Callable[[], float] = time.monotonic,
+    range_g: float | None = None,
 ) -> Iterator[WindowResult]:
     """Yield the :class:`WindowResult` of each window, classified by an exported vibration bundle.
 
@@ -168,26 +175,44 @@ def classify_windows(
         Adds the vote over the last windows to each result (cleared at gaps).
     clock : callable, default time.monotonic
         The clock of the reader (``Window.read_at``), for the latency.
+    range_g : float, optional
+        Windows holding a value beyond ``±range_g`` are unknown (default: the bundle's range; pass
+        the reader's ``range_g`` when it was set otherwise, ``math.inf`` for none).
+
+    A window the bundle does not classify (beyond the range, constant, or out of distribution:
+    :meth:`~tactile_torch.runtime.OnnxPipeline.classify`) gets label ``-1``, name ``"unknown"``, the
+    flag ``"unknown"`` and its ``reason``; it does not vote.
     """
-    names = pipeline.class_names
     for window in windows:
         flags = window.flags
-        try:
-            labels, scores = pipeline.predict_scores(window.data)
-        except NonFiniteScoresError:
+        prediction = pipeline.classify(window.data, range_g=range_g)
+        label, reason, row = int(prediction.labels[0]), prediction.reasons[0], prediction.scores[0]
+        if reason is not None and reason.startswith("scores not finite"):
             label = name = row = None
             flags += ("non_finite_scores",)
         else:
-            label, row = int(labels[0]), scores[0]
-            name = names[label] if label < len(names) else str(label)
+            name = pipeline.label_name(label)
+            row = row if np.isfinite(row).all() else None
+            if label == UNKNOWN:
+                flags += ("unknown",)
         latency_ms = (clock() - window.read_at) * 1e3
         voted = None
         if vote is not None:
             if window.gaps:
                 vote.reset()
-            if label is not None:
+            if label is not None and label != UNKNOWN:
                 voted = vote.update(label, row)
-        yield WindowResult(window, label, name, row, latency_ms, time.time(), flags, voted)
+        yield WindowResult(
+            window,
+            label,
+            name,
+            row,
+            latency_ms,
+            time.time(),
+            flags,
+            voted,
+            reason if label is not None else None,
+        )
 
 
 def _number(value: float | None, digits: int) -> float | None:
@@ -213,13 +238,14 @@ def result_json(result: WindowResult) -> str:
         "rate_hz": _number(w.rate_hz, 3),
         "label": result.label,
         "name": result.name,
-        "score": None if scores is None else scores[result.label],
+        "score": None if scores is None or result.label == UNKNOWN else scores[result.label],
         "scores": scores,
         "latency_ms": round(result.latency_ms, 4),
         "skipped": w.skipped,
         "rejected": w.rejected,
         "gaps": w.gaps,
         "flags": list(result.flags),
+        "reason": result.reason,
         "vote": None,
     }
     if result.vote is not None:
@@ -238,6 +264,10 @@ def result_text(result: WindowResult) -> str:
     w = result.window
     if result.label is None:
         line = f"{w.index:>6} {w.end_sample:>9} {'-':<24} no label: scores not finite"
+    elif result.label == UNKNOWN:
+        line = (
+            f"{w.index:>6} {w.end_sample:>9} {result.name:<24} {result.reason} ({result.latency_ms:.2f} ms)"
+        )
     else:
         score = float(result.scores[result.label])
         line = f"{w.index:>6} {w.end_sample:>9} {result.name:<24} score {score:+.3f} ({result.latency_ms:.2f} ms)"

@@ -136,6 +136,14 @@ def load_features(
     except ValueError as err:
         raise ValueError(f"{where}: {err}; pass a smaller window (--window)") from None
     X = window_features(torch.from_numpy(cut.windows)).double().numpy()
+    overflow = ~np.isfinite(X).all(axis=1)
+    if overflow.any():  # e.g. a corrupted 1e30 sample: say so, rather than "X must be finite" later
+        first = int(np.argmax(overflow))
+        peak = float(np.abs(cut.windows[first]).max())
+        raise ValueError(
+            f"{where}: {int(overflow.sum())} window(s) hold samples out of range (window {first} of recording "
+            f"{int(cut.recording[first])} reaches {peak:.3g} g), whose features overflow; remove or clip them"
+        )
     source = {"kind": "vibration", "window": window, "step": step or window, "rate_hz": data.rate_hz}
     return FeatureSet(
         X,
@@ -367,6 +375,20 @@ def save_model(path: str | Path, model: TrainedModel, features: FeatureSet) -> P
     }
     arrays = {"scale": np.asarray(model.scale, dtype=np.float64)}
     arrays.update({f"head.{name}": buf.numpy() for name, buf in module.named_buffers()})
+    # "unknown" as an answer: the distance of a sample's features to the training classes
+    # (tactile_torch.ood), fitted on the training rows, classes in the order of the head's labels
+    from .ood import DEFAULT_QUANTILE, fit_ood
+
+    classes = np.asarray(model.estimator.classes_)
+    known = np.isin(features.y, classes)  # every row of the data: train and test part alike
+    head_labels = np.searchsorted(classes, features.y[known])
+    ood = fit_ood(features.X[known] / model.scale, head_labels, quantile=DEFAULT_QUANTILE)
+    header["ood"] = {
+        "type": "mahalanobis",
+        "quantile": DEFAULT_QUANTILE,
+        "threshold": float(ood["threshold"]),
+    }
+    arrays.update({"ood.means": ood["means"], "ood.precision_cholesky": ood["precision_cholesky"]})
     return save_model_file(path, header, arrays)
 
 

@@ -111,6 +111,41 @@ def expected_axis(window: np.ndarray) -> str:
     return "xyz"[int(np.argmax((window.astype(np.float32) ** 2).mean(axis=1)))]
 
 
+def _varint(n: int) -> bytes:
+    out = bytearray()
+    n &= (1 << 64) - 1  # negative int64 as protobuf writes it
+    while True:
+        byte, n = n & 0x7F, n >> 7
+        out.append(byte | (0x80 if n else 0))
+        if not n:
+            return bytes(out)
+
+
+def _field(number: int, value: int | str | bytes) -> bytes:
+    """One protobuf field: an int (varint) or a string/bytes/message (length-delimited)."""
+    if isinstance(value, int):
+        return _varint(number << 3) + _varint(value)
+    data = value.encode() if isinstance(value, str) else value
+    return _varint(number << 3 | 2) + _varint(len(data)) + data
+
+
+def _tensor_info(name: str, elem_type: int, dims: list[int | str]) -> bytes:
+    shape = b"".join(_field(1, _field(2 if isinstance(d, str) else 1, d)) for d in dims)
+    tensor = _field(1, elem_type) + _field(2, shape)  # TypeProto.Tensor
+    return _field(1, name) + _field(2, _field(1, tensor))  # ValueInfoProto
+
+
+def _node(op: str, inputs: list[str], outputs: list[str], **attributes: int | list[int]) -> bytes:
+    body = b"".join(_field(1, i) for i in inputs) + b"".join(_field(2, o) for o in outputs) + _field(4, op)
+    for name, value in attributes.items():
+        if isinstance(value, list):  # AttributeProto: INTS (type 7) in field 8, else INT (type 2) in 3
+            attr = _field(1, name) + b"".join(_field(8, v) for v in value) + _field(20, 7)
+        else:
+            attr = _field(1, name) + _field(3, value) + _field(20, 2)
+        body += _field(5, attr)
+    return body
+
+
 def energy_bundle(
     path: Path,
     *,
@@ -118,29 +153,26 @@ def energy_bundle(
     rate_hz: float = 800.0,
     step: int | None = None,
     drop: tuple[str, ...] = (),
+    metadata: dict[str, str] | None = None,
 ) -> Path:
     """Write a vibration bundle: scores = per-axis mean square over the window, label = their argmax.
 
-    ``drop`` leaves metadata keys out (e.g. ``("window_size",)`` for a bundle that is not a vibration one).
-    """
-    import onnx
-    from onnx import TensorProto, helper
+    ``drop`` leaves metadata keys out (e.g. ``("window_size",)`` for a bundle that is not a vibration one);
+    ``metadata`` replaces or adds keys (e.g. a header that lies about the window).
 
-    graph = helper.make_graph(
-        [
-            helper.make_node("Mul", ["raw", "raw"], ["square"]),
-            helper.make_node("ReduceMean", ["square"], ["scores"], axes=[2], keepdims=0),
-            helper.make_node("ArgMax", ["scores"], ["labels"], axis=1, keepdims=0),
-        ],
-        "energy",
-        [helper.make_tensor_value_info("raw", TensorProto.FLOAT, ["B", 3, window])],
-        [
-            helper.make_tensor_value_info("labels", TensorProto.INT64, ["B"]),
-            helper.make_tensor_value_info("scores", TensorProto.FLOAT, ["B", 3]),
-        ],
+    The ONNX protobuf is encoded here by hand (a dozen fields of ``onnx.proto``), so that the stream
+    and runtime tests run on the robot install, which has onnxruntime but not the ``onnx`` package.
+    """
+    float_, int64 = 1, 7  # TensorProto.DataType
+    graph = (
+        _field(1, _node("Mul", ["raw", "raw"], ["square"]))
+        + _field(1, _node("ReduceMean", ["square"], ["scores"], axes=[2], keepdims=0))
+        + _field(1, _node("ArgMax", ["scores"], ["labels"], axis=1, keepdims=0))
+        + _field(2, "energy")
+        + _field(11, _tensor_info("raw", float_, ["B", 3, window]))
+        + _field(12, _tensor_info("labels", int64, ["B"]))
+        + _field(12, _tensor_info("scores", float_, ["B", 3]))
     )
-    model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", 13)])
-    model.ir_version = 8
     meta = {
         "tactile_torch.pipeline": "vibration-energy",
         "tactile_torch.version": "test",
@@ -150,8 +182,14 @@ def energy_bundle(
         "window_size": str(window),
         "step": str(step or window),
         "sample_rate_hz": str(float(rate_hz)),
+        **(metadata or {}),
     }
-    helper.set_model_props(model, {k: v for k, v in meta.items() if k not in drop})
-    onnx.checker.check_model(model)
-    onnx.save(model, path)
+    model = (
+        _field(1, 8)  # ir_version
+        + _field(2, "tactile-torch tests")  # producer_name
+        + _field(7, graph)
+        + _field(8, _field(1, "") + _field(2, 13))  # opset_import: the default domain, opset 13
+        + b"".join(_field(14, _field(1, k) + _field(2, v)) for k, v in meta.items() if k not in drop)
+    )
+    Path(path).write_bytes(model)
     return path

@@ -63,6 +63,9 @@ def files(tmp_path_factory):
     signals = spike["signals"].copy()
     signals[1, 250, 0] = -6.0  # one sample beyond the ADXL345's ±5 g: window 16 + 2 (W = 100)
     np.savez(d / "spike.npz", **{**{k: spike[k] for k in spike.files}, "signals": signals})
+    e30 = signals.copy()
+    e30[2, 10, 0] = 1e30  # a corrupted sample in recording 2, window 0
+    np.savez(d / "e30.npz", **{**{k: spike[k] for k in spike.files}, "signals": e30})
     slow = make_vibration_recordings(4, duration_s=2, random_state=1)
     slow.rate_hz = 100.0  # the same numbers declared as a 100 Hz recording
     slow.save(d / "slow.npz")
@@ -160,6 +163,16 @@ CASES = [
         "stream",
         ["--model", "m.onnx", "--port", "/dev/null", "--range", "0"],
         "--range must be a number of g > 0 ('inf': no check), got '0'",
+    ),
+    (
+        "train",
+        ["--data", "e30.npz", "--window", "100"],
+        "e30.npz: 1 window(s) hold samples out of range (window 32 of recording 2 reaches 1e+30 g)",
+    ),
+    (
+        "predict",
+        ["--model", "m.onnx", "--data", "rec.npz", "--batch", "0"],
+        "--batch must be an int >= 1, got 0",
     ),
     (
         "predict",
@@ -284,13 +297,16 @@ def test_predict_does_not_classify_a_window_beyond_the_sensor_range(files, tmp_p
     )
     assert "1 windows with samples beyond ±5 g were not classified and are left out" in out
     window = 16 + 250 // 100  # recording 1 (16 windows of 100 samples), sample 250
-    assert spiked["labels"][window] == -1 and spiked["names"][window] == "not classified: beyond ±5 g"
+    assert spiked["labels"][window] == -1
+    assert spiked["names"][window] == "unknown: a sample of 6 g, beyond the sensor's range ±5 g"
     others = np.arange(64) != window
     np.testing.assert_array_equal(spiked["labels"][others], clean["labels"][others])
     np.testing.assert_array_equal(spiked["names"][others], clean["names"][others])
-    # --range overrides the bundle's: at ±7 g every window is classified, without a warning
+    # --range overrides the bundle's: at ±7 g no window is refused for its range, without a warning
     wider = _predicted(files, tmp_path, "spike.npz", "--range", "7")
-    assert capsys.readouterr().err == "" and (wider["labels"] >= 0).all()
+    assert capsys.readouterr().err == "" and (wider["labels"][others] >= 0).all()
+    # ... but a -6 g spike lies far from the training windows: "unknown", out of distribution
+    assert wider["labels"][window] == -1 and wider["names"][window].startswith("unknown: out of distribution")
 
 
 def test_commands_that_need_the_training_extra_say_so(files):
@@ -352,3 +368,216 @@ def test_simulate_sensor_plays_any_layout(tmp_path, monkeypatch, capsys):
     np.testing.assert_allclose(sent, signals[1], atol=5e-6)  # 5 decimals on the wire
     assert main([*argv[:4], "2", *argv[5:]]) == BAD_INPUT_EXIT
     assert "--recording must be in 0..1" in capsys.readouterr().err
+
+
+# ---------------------------------------------------------------------------------- bounded reads
+def _declared_npz(path, shape, *, pad=64):
+    """A .npz whose 'signals' header declares ``shape`` float32 but holds only ``pad`` bytes of data."""
+    import io
+    import zipfile
+
+    header = io.BytesIO()
+    np.lib.format.write_array_header_1_0(
+        header, {"descr": "<f4", "fortran_order": False, "shape": tuple(shape)}
+    )
+    vib = {"labels": np.array([0]), "class_names": np.array(["a"]), "rate_hz": np.float64(800.0)}
+    with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as z:
+        z.writestr("signals.npy", header.getvalue() + b"\0" * pad)
+        for key, value in vib.items():
+            buf = io.BytesIO()
+            np.save(buf, value)
+            z.writestr(f"{key}.npy", buf.getvalue())
+    return path
+
+
+def _zip_bomb(path, mib):
+    """A real zip bomb: ``mib`` MiB of zeros as (n, 800, 3) float32 signals, deflated to about 1/1000."""
+    import zipfile
+
+    n = mib * 2**20 // (800 * 3 * 4)
+    header = {"descr": "<f4", "fortran_order": False, "shape": (n, 800, 3)}
+    vib = {"labels": np.zeros(n, np.int64), "class_names": np.array(["a"]), "rate_hz": np.float64(800.0)}
+    chunk = bytes(800 * 3 * 4 * 64)
+    with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as z:
+        with z.open("signals.npy", "w", force_zip64=True) as member:
+            np.lib.format.write_array_header_1_0(member, header)
+            for start in range(0, n, 64):
+                member.write(chunk[: min(64, n - start) * 800 * 3 * 4])
+        for key, value in vib.items():
+            with z.open(f"{key}.npy", "w") as member:
+                np.save(member, value)
+    return path
+
+
+@pytest.mark.parametrize("command", ["train", "predict", "simulate-sensor"])
+def test_a_huge_declared_shape_is_refused_before_reading(files, tmp_path, capsys, command):
+    bomb = _declared_npz(tmp_path / "huge.npz", (10**7, 800, 3))  # 89 GiB declared in a 1 kB file
+    argv = {
+        "train": ["train", "--data", str(bomb)],
+        "predict": ["predict", "--model", str(files / "m.onnx"), "--data", str(bomb)],
+        "simulate-sensor": ["simulate-sensor", "--data", str(bomb), "--port", "loop://"],
+    }[command]
+    assert main(argv) == BAD_INPUT_EXIT
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "huge.npz: signals.npy declares shape (10000000, 800, 3)" in err, err
+
+
+def test_a_zip_bomb_is_refused_under_a_memory_cap(files, tmp_path):
+    """An 8 MiB-class zip bomb through predict, in a process that may not map more than 1.5 GiB."""
+    bomb = _zip_bomb(tmp_path / "bomb.npz", 1100)  # 1.1 GiB of zeros, ~1 MiB on disk
+    assert bomb.stat().st_size < 4 * 2**20
+    code = (
+        "import resource, sys\n"
+        "resource.setrlimit(resource.RLIMIT_AS, (3 << 29, 3 << 29))\n"
+        "from tactile_torch.cli import main\n"
+        f"sys.exit(main(['predict', '--model', {str(files / 'm.onnx')!r}, '--data', {str(bomb)!r}]))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == BAD_INPUT_EXIT, out.stderr
+    assert out.stderr.count("\n") == 1 and "more than the read limit of 1,024 MiB" in out.stderr, out.stderr
+
+
+def test_the_read_limit_option_lowers_and_raises_the_bound(files, capsys):
+    argv = ["predict", "--model", str(files / "m.onnx"), "--data", str(files / "rec.npz")]
+    assert main([*argv, "--max-read-mb", "0.01"]) == BAD_INPUT_EXIT
+    assert "more than the read limit of 0 MiB" in capsys.readouterr().err
+    assert main([*argv, "--max-read-mb", "64"]) == 0
+
+
+def test_a_csv_larger_than_the_read_limit_is_refused(tmp_path, capsys):
+    path = tmp_path / "cork_1.csv"
+    path.write_text("t,x,y,z\n" + "".join(f"{i / 800},0,0,1\n" for i in range(20000)))
+    assert main(["train", "--data", str(path), "--max-read-mb", "1"]) == BAD_INPUT_EXIT
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "cork_1.csv: parsing the CSV log needs" in err, err
+
+
+def test_a_header_only_csv_is_one_line_without_a_numpy_warning(tmp_path):
+    path = tmp_path / "cork_1.csv"
+    path.write_text("t,x,y,z\n")
+    argv = ["predict", "--model", "m.onnx", "--data", str(path)]
+    out = subprocess.run(
+        [
+            sys.executable,
+            "-W",
+            "default",
+            "-c",
+            f"from tactile_torch.formats import read_data; read_data({[str(path)]!r})",
+        ],
+        capture_output=True,
+        text=True,
+    )
+    assert "must hold at least 2 samples, got 0" in out.stderr and "Warning" not in out.stderr, out.stderr
+    del argv
+
+
+# ---------------------------------------------------------------------------------- class names
+@pytest.mark.parametrize(
+    ("names", "says"),
+    [
+        (["cork\nfake row 1.0000", "felt"], "class_names must hold no control characters"),
+        (["cork", "cork"], "class_names must be distinct, got 'cork' at indices 0 and 1"),
+    ],
+)
+def test_class_names_with_newlines_or_twice_are_refused(tmp_path, capsys, names, says):
+    rng = np.random.default_rng(0)
+    path = tmp_path / "feat.npz"
+    np.savez(path, features=rng.normal(size=(20, 3)), labels=np.arange(20) % 2, class_names=np.array(names))
+    assert main(["train", "--data", str(path)]) == BAD_INPUT_EXIT
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and says in err, err
+
+
+# ---------------------------------------------------------------------------------- safe outputs
+def test_export_onto_its_model_file_is_refused_and_the_model_kept(files, tmp_path, capsys):
+    model = tmp_path / "m.npz"
+    model.write_bytes((files / "m.npz").read_bytes())
+    before = model.read_bytes()
+    assert main(["export", "--model", str(model), "--out", str(model)]) == BAD_INPUT_EXIT
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "is the input file" in err and model.read_bytes() == before
+
+
+def test_predict_onto_its_data_file_is_refused_and_the_data_kept(files, tmp_path, capsys):
+    data = tmp_path / "d.npz"
+    data.write_bytes((files / "rec.npz").read_bytes())
+    link = tmp_path / "hard.npz"
+    link.hardlink_to(data)  # another name of the same file is the same input
+    for out in (data, link):
+        argv = ["predict", "--model", str(files / "m.onnx"), "--data", str(data), "--out", str(out)]
+        assert main(argv) == BAD_INPUT_EXIT
+        assert "is the input file" in capsys.readouterr().err
+    assert data.read_bytes() == (files / "rec.npz").read_bytes()
+
+
+def _device_node(tmp_path):
+    """A character device to aim --out at: our own null device when root may make one, else /dev/null.
+
+    Never /dev/null itself as root: code without the fix (run to check that this test fails before it)
+    would replace the system's /dev/null with a regular file, as the issue found.
+    """
+    import os
+    import stat
+
+    node = tmp_path / "null"
+    try:
+        os.mknod(node, stat.S_IFCHR | 0o666, os.makedev(1, 3))
+    except (PermissionError, OSError):
+        if os.geteuid() == 0:
+            pytest.skip("cannot make a device node here, and /dev/null must not be put at risk as root")
+        return Path("/dev/null")  # not root: /dev cannot be written, the node is safe
+    return node
+
+
+@pytest.mark.parametrize("target", ["device", "directory", "symlink", "fifo"])
+@pytest.mark.parametrize("command", ["train", "predict", "export"])
+def test_out_onto_a_device_directory_symlink_or_fifo_is_refused(files, tmp_path, capsys, command, target):
+    import os
+
+    out = {"device": _device_node(tmp_path), "directory": tmp_path, "symlink": tmp_path / "l.npz"}.get(
+        target, tmp_path / "fifo"
+    )
+    if target == "symlink":
+        (tmp_path / "elsewhere.npz").write_bytes(b"keep")
+        out.symlink_to(tmp_path / "elsewhere.npz")
+    if target == "fifo":
+        os.mkfifo(out)
+    argv = {
+        "train": ["train", "--data", str(files / "rec.npz"), "--window", "100", "--method", "svm"],
+        "predict": ["predict", "--model", str(files / "m.onnx"), "--data", str(files / "rec.npz")],
+        "export": ["export", "--model", str(files / "m.npz")],
+    }[command]
+    assert main([*argv, "--out", str(out)]) == BAD_INPUT_EXIT
+    err = capsys.readouterr().err
+    what = {"device": "is a device", "directory": "is a directory", "symlink": "is a symbolic link"}
+    assert err.count("\n") == 1 and what.get(target, "is a FIFO") in err, err
+    assert Path("/dev/null").is_char_device() and (target != "device" or out.is_char_device())
+    if target == "symlink":
+        assert out.is_symlink() and (tmp_path / "elsewhere.npz").read_bytes() == b"keep"
+
+
+def test_write_atomic_leaves_no_partial_file(tmp_path):
+    from tactile_torch.safe_write import write_atomic
+
+    path = tmp_path / "out.bin"
+    path.write_bytes(b"old")
+
+    def fail(f):
+        f.write(b"half")
+        raise OSError("disk full")
+
+    with pytest.raises(OSError, match="disk full"):
+        write_atomic(path, fail)
+    assert path.read_bytes() == b"old" and sorted(p.name for p in tmp_path.iterdir()) == ["out.bin"]
+
+
+def test_train_piped_into_head_still_writes_the_model(files, tmp_path):
+    model = tmp_path / "m.npz"
+    cmd = (
+        f"{sys.executable} -m tactile_torch.cli train --data {files / 'rec.npz'} --window 100 --method svm "
+        f"--out {model} | head -1"
+    )
+    out = subprocess.run(["bash", "-o", "pipefail", "-c", cmd], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.count("\n") == 1 and "Broken pipe" not in out.stderr, out.stderr
+    assert model.is_file() and model.stat().st_size > 0

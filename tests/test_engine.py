@@ -277,3 +277,17 @@ def test_backend_errors_name_the_argument(monkeypatch):
     monkeypatch.setitem(sys.modules, "distributed", None)  # as if the extra were not installed
     with pytest.raises(ValueError, match=r"needs the optional extra dask.*tactile-torch\[dask\]"):
         Backend("dask")
+
+
+def test_breaking_point_sweeps_run_on_the_engine_backends():
+    from tactile_torch.robustness import sweep
+
+    X, y, groups = _data(n_groups=12)
+    models = {"lda": _pipe(LinearDiscriminantAnalysis()), "ncm": _pipe(NearestCentroid())}
+    options = dict(factors=["feature SNR", "training samples"], n_splits=3, n_trials=1, n_bootstrap=50)
+    local = sweep(models, X, y, groups, random_state=3, **options)
+    threads = sweep(models, X, y, groups, random_state=3, backend="threading", n_jobs=2, **options)
+    assert len(local.curves) == len(threads.curves) == 4
+    for a, b in zip(local.curves, threads.curves, strict=True):
+        assert (a.factor.name, a.model, a.clean) == (b.factor.name, b.model, b.clean)
+        assert np.array_equal(a.accuracy, b.accuracy) and a.breaking.text == b.breaking.text

@@ -170,6 +170,21 @@ def _changed(model, header=None, arrays=None, drop=()):
             _changed(_tree_model(), {"class_names": ["a", "b"]}),
             r"head.dual_coef has shape \(2, 4\): axis 0 \(decision functions\) must be 1",
         ),
+        (_changed(_svm_model(), {"class_names": ["cork", "cork"]}), "class_names must be distinct"),
+        (_changed(_svm_model(), {"class_names": ["cork\nx", "felt"]}), "class_names must hold no control"),
+        (_changed(_svm_model(), {"ood": {"type": "euclid"}}), "ood.type must be 'mahalanobis'"),
+        (
+            _changed(_svm_model(), {"ood": {"type": "mahalanobis", "quantile": 0.995, "threshold": -1.0}}),
+            "ood must have 0 < quantile <= 1 and threshold > 0",
+        ),
+        (
+            _changed(
+                _svm_model(),
+                {"ood": {"type": "mahalanobis", "quantile": 0.995, "threshold": 3.0}},
+                {"ood.means": np.zeros((2, 3)), "ood.precision_cholesky": np.eye(4)},
+            ),
+            r"ood.precision_cholesky has shape \(4, 4\): axis 0 \(features the head takes\) must be 3",
+        ),
     ],
 )
 def test_validation_names_the_field(tmp_path, model, match):

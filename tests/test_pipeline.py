@@ -30,8 +30,10 @@ from .conftest import require_shared_data, run_without_torch
 def _assert_parity(
     pipe: InferencePipeline, bundle: OnnxPipeline, raw: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Labels identical and scores within 1e-5 between the torch pipeline and onnxruntime."""
-    labels, scores = bundle.predict_scores(raw)
+    """Labels identical and scores within 1e-5 between the torch pipeline and onnxruntime (the graph's
+    own labels: no "unknown" applied)."""
+    out = bundle.run(raw)
+    labels, scores = out["labels"], out["scores"]
     with torch.no_grad():
         t_labels, t_scores = pipe(torch.from_numpy(bundle.validate(raw)))[:2]
     np.testing.assert_array_equal(labels, t_labels.numpy())
@@ -100,7 +102,7 @@ def test_image_pipeline_accepts_uint8_frames_and_matches_torch(tmp_path, capsys)
     np.testing.assert_array_equal(labels, model.predict(features.X[:5]))
     # the graph takes the frames as uint8; float frames in [0, 1] are quantised to the same levels
     assert bundle.input_dtype == np.uint8
-    np.testing.assert_array_equal(bundle.predict(raw[:5].astype(np.float32) / 255), labels)
+    np.testing.assert_array_equal(bundle.run(raw[:5].astype(np.float32) / 255)["labels"], labels)
     with pytest.raises(ValueError, match=r"raw float frames must be in \[0, 1\]"):
         bundle.predict(raw[:1].astype(np.float32))
     with pytest.raises(TypeError, match="raw must have dtype uint8"):
@@ -219,3 +221,168 @@ def test_cli_stream_classifies_a_simulated_sensor(tmp_path, vibration_npz, capsy
     sent = np.array([parse_sample(format_sample(s)) for s in recording[:1000]], dtype=np.float32)
     windows = np.stack([sent[s : s + 400].T for s in (0, 200, 400, 600)])
     assert printed == bundle.predict_names(windows)
+
+
+# ------------------------------------------------------------------------ "unknown" as an answer
+def _out_of_distribution(n, window, rate, rng):
+    """Signals no surface gives: zeros, constants, white noise, pure tones, square waves ``(n, 3, W)``."""
+    t = np.arange(window) / rate
+    freq = rng.uniform(5, rate / 2.2, (n, 1, 1))
+    phase = rng.uniform(0, 2 * np.pi, (n, 3, 1))
+    amp = rng.uniform(0.05, 4, (n, 1, 1))
+    signals = {
+        "zeros": np.zeros((n, 3, window)),
+        "constant": np.zeros((n, 3, window)) + rng.uniform(-4, 4, (n, 3, 1)),
+        "constant 1 g": np.zeros((n, 3, window)) + np.array([0.0, 0.0, 1.0])[:, None],
+        "white noise 4.9 g": rng.uniform(-4.9, 4.9, (n, 3, window)),
+        "white noise sd 0.1 g": rng.normal(0, 0.1, (n, 3, window)),
+        "white noise sd 1 g": rng.normal(0, 1.0, (n, 3, window)).clip(-5, 5),
+        "pure tone": amp * np.sin(2 * np.pi * freq * t + phase),
+        "square wave": amp * np.sign(np.sin(2 * np.pi * freq * t + phase)),
+    }
+    return {name: x.astype(np.float32) for name, x in signals.items()}
+
+
+def _unknown_rates(tmp_path, signals, labels, names, rate, window):
+    """Train on even windows, export; return the unknown share on odd (held-in) windows and on OOD signals."""
+    from tactile_torch.formats import window_recordings
+    from tactile_torch.signal import window_features
+    from tactile_torch.training import FeatureSet
+
+    cut = window_recordings(signals, window, window)
+    X = window_features(torch.from_numpy(cut.windows)).double().numpy()
+    y = labels[cut.recording]
+    held = cut.position % 2 == 1
+    source = {"kind": "vibration", "window": window, "step": window, "rate_hz": float(rate)}
+    train = FeatureSet(X[~held], y[~held], tuple(names), source)
+    model = train_classifier(train, "hmsvm", test_size=0.2, random_state=0)
+    path = save_model(tmp_path / "ood.npz", model, train)
+    bundle = OnnxPipeline(export_pipeline(pipeline_from_model(path), tmp_path / "ood.onnx"))
+    assert bundle.ood_threshold > 0 and float(bundle.metadata["ood_quantile"]) == 0.995
+    held_in = bundle.classify(cut.windows[held])
+    rng = np.random.default_rng(1)
+    rates = {
+        k: float(np.mean(bundle.predict(x) == -1))
+        for k, x in _out_of_distribution(200, window, rate, rng).items()
+    }
+    reasons = bundle.classify(np.zeros((1, 3, window), np.float32)).reasons
+    return float(np.mean(held_in.labels == -1)), rates, reasons
+
+
+def test_unknown_on_held_in_data_and_out_of_distribution_signals(tmp_path):
+    """At most 1 % of held-in windows unknown; zeros, constants, noise, tones, square waves >= 99 %."""
+    rec = make_vibration_recordings(12, duration_s=20, random_state=0)
+    held_in, rates, reasons = _unknown_rates(
+        tmp_path,
+        [np.asarray(x) for x in rec.signals],
+        np.asarray(rec.labels),
+        rec.class_names,
+        rec.rate_hz,
+        800,
+    )
+    assert held_in <= 0.01, held_in
+    assert all(rate >= 0.99 for rate in rates.values()), rates
+    assert reasons[0].startswith("no vibration: every axis is constant")
+
+
+def test_unknown_on_real_recordings(tmp_path):
+    """The same measure on a second, real source (HapMat IMU, 100 Hz, windows of 1 s)."""
+    from tactile_torch.data import load_hapmat_imu5
+
+    rec = load_hapmat_imu5(require_shared_data("hapmat_imu5"))
+    held_in, rates, _ = _unknown_rates(
+        tmp_path, list(rec.signals), np.asarray(rec.labels), rec.class_names, rec.rate_hz, 100
+    )
+    assert held_in <= 0.01, held_in
+    assert all(rate >= 0.99 for rate in rates.values()), rates
+
+
+def test_ood_distance_in_the_graph_matches_numpy(tmp_path, vibration_npz):
+    from tactile_torch.ood import ood_distance
+
+    features, _, path = _trained(tmp_path, vibration_npz, "svm", window=400)
+    mf = load_model_file(path)
+    bundle = OnnxPipeline(export_pipeline(pipeline_from_model(mf), tmp_path / "d.onnx"))
+    raw = bundle.read_npz(vibration_npz).raw[:7]
+    want = ood_distance(
+        features.X[:7] / mf.arrays["scale"], mf.arrays["ood.means"], mf.arrays["ood.precision_cholesky"]
+    )
+    np.testing.assert_allclose(bundle.classify(raw).distance, want, rtol=1e-4)
+    assert mf.header["ood"]["threshold"] == pytest.approx(bundle.ood_threshold)
+
+
+def test_a_header_is_checked_against_its_graph(tmp_path, vibration_npz):
+    """A crafted header (window = 5) must not export a graph that labels 5-sample windows."""
+    import json as json_
+
+    from tactile_torch.model_file import HEADER
+
+    _, _, path = _trained(tmp_path, vibration_npz, "svm", window=400)
+    arrays = dict(np.load(path))
+    header = json_.loads(str(arrays.pop(HEADER)))
+    header["source"]["window"] = 5
+    crafted = tmp_path / "crafted.npz"
+    np.savez(crafted, **{HEADER: np.array(json_.dumps(header))}, **arrays)
+    bundle = OnnxPipeline(export_pipeline(pipeline_from_model(crafted), tmp_path / "c.onnx"))
+    # the graph takes what its header says; the OOD statistics were fitted on 400-sample windows, so
+    # 5-sample windows are unknown rather than labelled
+    raw = np.random.default_rng(0).normal(0, 0.3, (20, 3, 5)).astype(np.float32)
+    assert (bundle.predict(raw) == -1).mean() >= 0.9
+
+
+def test_out_of_distribution_windows_are_unknown_in_predict_and_stream(tmp_path, vibration_npz, capsys):
+    """A pure tone through `predict` and through `stream` over a pty: "unknown" with the reason."""
+    from tactile_torch.stream import format_sample
+
+    from .stream_helpers import PtySensor
+
+    _, _, model_path = _trained(tmp_path, vibration_npz, "svm", window=400)
+    onnx_path = tmp_path / "svm.onnx"
+    assert main(["export", "--model", str(model_path), "--out", str(onnx_path)]) == 0
+    t = np.arange(4000) / 800.0
+    tone = (np.sin(2 * np.pi * 100 * t)[:, None] * np.array([0.5, 0.2, 1.0])).astype(np.float32)
+    data = tmp_path / "tone.npz"
+    np.savez(data, signals=tone[None], labels=[0], class_names=["tone"], rate_hz=800.0)
+    capsys.readouterr()
+    assert (
+        main(["predict", "--model", str(onnx_path), "--data", str(data), "--out", str(tmp_path / "p.npz")])
+        == 0
+    )
+    out = capsys.readouterr().out
+    assert "10 samples are unknown: out of distribution" in out
+    assert (np.load(tmp_path / "p.npz")["labels"] == -1).all()
+    sensor = PtySensor()
+    try:
+        writer = threading.Thread(target=sensor.write, args=(b"".join(format_sample(s) for s in tone),))
+        opened = threading.Event()
+        real = serial.serial_for_url
+
+        def serial_for_url(url, **kwargs):
+            port = real(url, **kwargs)
+            opened.set()
+            return port
+
+        serial.serial_for_url, restore = serial_for_url, serial.serial_for_url
+        try:
+            threading.Thread(target=lambda: (opened.wait(30), writer.start())).start()
+            argv = [
+                "stream",
+                "--model",
+                str(onnx_path),
+                "--port",
+                sensor.path,
+                "--json",
+                "--max-windows",
+                "5",
+            ]
+            assert main(argv) == 0
+        finally:
+            serial.serial_for_url = restore
+        writer.join(30)
+    finally:
+        sensor.close()
+    captured = capsys.readouterr()
+    records = [json.loads(line) for line in captured.out.splitlines()]
+    assert len(records) == 5 and all(r["label"] == -1 and r["name"] == "unknown" for r in records)
+    assert all(r["reason"].startswith("out of distribution: distance") for r in records)
+    assert "5 windows unknown" in captured.err.splitlines()[-1]

@@ -378,9 +378,43 @@ def test_reconnection_gives_up_after_the_idle_timeout():
         sleep=clock.sleep,
         name="/dev/imu",
     )
-    with pytest.raises(StreamDisconnected, match=r"gave up reconnecting after 3 attempt\(s\)"):
+    # waits 0.5, 1, 2 s, then the last wait is cut to 1.5 s: one attempt at the timeout itself
+    with pytest.raises(StreamDisconnected, match=r"gave up reconnecting after 4 attempt\(s\), 5.0 s"):
         list(reader)
-    assert sum(clock.slept) <= 5.0
+    assert clock.slept == [0.5, 1.0, 2.0, 1.5]
+
+
+def test_a_port_back_before_the_idle_timeout_is_reopened():
+    """The issue's case: idle timeout 10 s, the port back after 8.5 s (the old backoff gave up at 7.5 s)."""
+    clock = _Clock()
+    rec = _recording(24)
+    lines = [format_sample(s) for s in rec]
+
+    def opener():
+        if not clock.slept:
+            return _ScriptedPort([b"".join(lines[:8]), OSError(5, "Input/output error")], clock)
+        if sum(clock.slept) < 8.5:
+            raise OSError(2, "No such file")
+        return _ScriptedPort([b"".join(lines[8:])], clock)
+
+    events = []
+    reader = WindowReader(
+        opener,
+        window_size=8,
+        reconnect=True,
+        idle_timeout_s=10.0,
+        clock=clock,
+        sleep=clock.sleep,
+        name="/dev/imu",
+        on_event=events.append,
+    )
+    windows = []
+    with pytest.raises(StreamTimeout):  # the scripted port goes silent after its lines
+        for window in reader:
+            windows.append(window)
+    assert reader.reconnects == 1 and len(windows) == 3
+    assert clock.slept[:5] == [0.5, 1.0, 2.0, 4.0, 2.5]  # the attempt at 10 s finds it
+    assert "open after 10.0 s (5 attempt(s))" in next(e.message for e in events if e.kind == "reconnected")
 
 
 def test_reader_over_a_pseudo_terminal_until_the_writer_closes_it():

@@ -327,12 +327,15 @@ def test_simulate_sensor_plays_a_recording_on_a_pty(tmp_path):
         (["--silence", "-1"], "argument --silence: expected a number >= 0.01, got '-1'"),
         (["--idle-timeout", "soon"], "argument --idle-timeout/--timeout: expected a number, got 'soon'"),
         (["--step", "1.5"], "argument --step: expected an integer, got '1.5'"),
+        (["--step", "0"], "argument --step: expected a number >= 1, got '0'"),
     ],
 )
 def test_stream_bad_options_are_one_usage_error(model, args, match, capsys):
     with pytest.raises(SystemExit) as exit_:
         main(["stream", "--model", model, "--port", "/dev/null", *args])
-    assert exit_.value.code == 2 and capsys.readouterr().err.splitlines()[-1].endswith(match)
+    err = capsys.readouterr().err
+    assert exit_.value.code == 2 and err.count("\n") == 1 and err.startswith("tactile-torch stream: ")
+    assert err.strip().endswith(match)
 
 
 def test_stream_refuses_a_bundle_that_takes_no_windows(tmp_path, capsys):
@@ -353,3 +356,154 @@ def sensor_pty():
     sensor = PtySensor()
     yield sensor
     sensor.close()
+
+
+# ---------------------------------------------------------------- issue 23: a stream a robot can supervise
+def test_a_merged_line_in_an_xyz_stream_does_not_stall_it(model, sensor_pty, opened, capsys):
+    """A line cut after its first comma merges with the next into four numbers: skipped, not a format."""
+    rec, _ = axis_recording("xyz", 200)  # 600 samples = 37 windows of 16 (+ 8)
+    lines = [format_sample(s) for s in rec]
+    cut = lines[20].split(b",")[0] + b","  # "x," then the next line: "x,x,y,z"
+    sent = b"".join(lines[:20]) + cut + b"".join(lines[21:])
+
+    def sensor():
+        opened(1)
+        sensor_pty.write(sent)
+        sensor_pty.drain()
+
+    writer = _Writer(sensor)
+    status = _stream(model, sensor_pty, "--step", "16", "--idle-timeout", "1")
+    writer.finish()
+    out, err = capsys.readouterr()
+    records = _records(out)
+    assert status == STREAM_NO_DATA_EXIT  # the sensor stopped: the idle timeout, not a stall
+    # 599 samples were sent intact but one (merged into the skipped line): 37 windows of 16, none lost
+    assert len(records) == 37 and records[-1]["sample"] == 592, (len(records), err)
+    assert "changed from" not in err and "0 line-format switches" in err.splitlines()[-1]
+    assert "598 samples read, 37 windows, 1 lines skipped" in err.splitlines()[-1]
+
+
+def test_a_real_switch_of_line_format_is_reported_once_and_followed(model, sensor_pty, opened, capsys):
+    rec, _ = axis_recording("xz", 64)
+    sent = b"".join(format_sample(s) for s in rec[:64]) + b"".join(
+        format_sample(s, t) for s, t in zip(rec[64:], _t(64, 64), strict=True)
+    )
+
+    def sensor():
+        opened(1)
+        sensor_pty.write(sent)
+        sensor_pty.drain()
+
+    writer = _Writer(sensor)
+    status = _stream(model, sensor_pty, "--step", "16", "--idle-timeout", "1")
+    writer.finish()
+    out, err = capsys.readouterr()
+    records = _records(out)
+    events = [line for line in err.splitlines() if "changed from x,y,z to t,x,y,z" in line]
+    assert status == STREAM_NO_DATA_EXIT and len(events) == 1, err
+    # 4 windows before; 15 timed lines skipped, the 16th confirms the switch: 49 samples, 3 windows
+    assert [r["sample"] for r in records] == [16, 32, 48, 64, 80, 96, 112], err
+    assert all(r["t_start"] is not None for r in records[4:]) and records[4]["gaps"] == 1
+    assert "113 samples read, 7 windows, 15 lines skipped" in err.splitlines()[-1]
+    assert "1 line-format switches" in err.splitlines()[-1]
+
+
+def test_garbage_at_the_wrong_baud_rate_times_out_like_silence(model, sensor_pty, opened, capsys):
+    """Bytes that never parse do not keep the stream alive: --timeout counts time without a valid sample."""
+    stop = threading.Event()
+    rng = np.random.default_rng(0)
+
+    def sensor():
+        opened(1)
+        while not stop.is_set():  # what a 9600-baud sensor looks like on a 230400-baud port
+            sensor_pty.write(bytes(rng.integers(0, 256, 200, dtype=np.uint8)) + b"\n")
+            time.sleep(0.02)
+
+    writer = _Writer(sensor)
+    started = time.monotonic()
+    status = _stream(model, sensor_pty, "--timeout", "1", "--start-timeout", "1.5")
+    elapsed = time.monotonic() - started
+    stop.set()
+    writer.finish()
+    err = capsys.readouterr().err.splitlines()
+    assert status == STREAM_NO_DATA_EXIT and elapsed < 10, (elapsed, err)
+    assert re.search(
+        r": no valid sample for 1\.\d s \(timeout 1\.5 s\); 0 samples read, \d+ lines skipped$", err[-2]
+    )
+    assert re.search(r"no valid sample yet on \S+ after 0\.\d s, \d+ lines skipped", "\n".join(err))
+
+
+def _start_stream(model, port, *args):
+    """``tactile-torch stream`` in its own process (as systemd runs it); returns it once it says "reading"."""
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "tactile_torch.cli", "stream", "--model", model, "--port", port, *args],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    header = proc.stdout.readline()
+    assert "reading" in header, (header, proc.stderr.read() if proc.poll() is not None else "")
+    return proc
+
+
+def test_samples_sent_right_after_reading_are_all_counted(model, sensor_pty):
+    """'reading' comes once the port is open and the model warm: nothing the sensor sends then is lost."""
+    rec, _ = axis_recording("xy", 80)
+    proc = _start_stream(model, sensor_pty.path, "--step", "16", "--max-windows", "10")
+    sensor_pty.write_samples(rec[:160], _t(0, 160))  # at once: 10 windows
+    out, err = proc.communicate(timeout=60)
+    lines = out.splitlines()
+    assert proc.returncode == 0, err
+    assert [line.split()[1] for line in lines[:10]] == [str(16 * (i + 1)) for i in range(10)], out
+    assert "160 samples read, 10 windows, 0 lines skipped" in lines[-1]
+
+
+@pytest.mark.parametrize("how", ["SIGTERM", "SIGINT"])
+def test_sigterm_and_sigint_end_with_the_summary_and_status_0(model, sensor_pty, how):
+    import signal
+
+    rec, _ = axis_recording("z", 64)
+    proc = _start_stream(model, sensor_pty.path, "--step", "16")
+    sensor_pty.write_samples(rec, _t(0, 64))
+    sensor_pty.drain()
+    deadline = time.monotonic() + 30
+    seen = []
+    while len(seen) < 4 and time.monotonic() < deadline:  # the 4 windows of 16 samples
+        seen.append(proc.stdout.readline())
+    proc.send_signal(getattr(signal, how))
+    out, err = proc.communicate(timeout=30)
+    assert proc.returncode == 0, err
+    assert out.splitlines()[-1].startswith("64 samples read, 4 windows, 0 lines skipped"), out
+    assert f"stopped by {how}" in err and "Traceback" not in err
+
+
+@pytest.mark.slow
+def test_a_five_minute_real_time_stream_loses_and_mislabels_nothing(model, sensor_pty, tmp_path):
+    """The issue's soak: 800 Hz in real time for 5 minutes, then SIGTERM; every window sent is reported."""
+    import signal
+
+    seconds = 300
+    rec, _ = axis_recording("xyz", int(RATE) * seconds // 3, random_state=5)
+    out_path = tmp_path / "windows.jsonl"
+    with out_path.open("w") as out:
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "tactile_torch.cli", "stream", "--model", model, "--port", sensor_pty.path,
+             "--step", str(W), "--json"],
+            stdout=out, stderr=subprocess.PIPE, text=True,
+        )  # fmt: skip
+        assert "reading" in proc.stderr.readline()
+        start = time.perf_counter()
+        for i in range(0, len(rec), 80):  # 100 ms of samples at a time, paced against the clock
+            time.sleep(max(0.0, start + i / RATE - time.perf_counter()))
+            sensor_pty.write_samples(rec[i : i + 80], _t(i, len(rec[i : i + 80])))
+        sensor_pty.drain()
+        time.sleep(0.5)
+        proc.send_signal(signal.SIGTERM)
+        err = proc.communicate(timeout=60)[1]
+    records = _records(out_path.read_text())
+    assert proc.returncode == 0, err
+    assert len(records) == len(rec) // W  # windows sent == windows reported
+    _check_windows(records, rec)
+    assert err.splitlines()[-1].startswith(
+        f"{len(rec)} samples read, {len(rec) // W} windows, 0 lines skipped"
+    )

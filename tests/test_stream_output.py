@@ -44,7 +44,7 @@ def test_results_carry_the_bundle_label_and_a_latency(bundle):
 def test_a_window_with_non_finite_scores_gets_no_label(bundle):
     data = np.ones((1, 3, 16), np.float32)
     data[0, 1, 3] = 1e30  # the square overflows float32: inf scores, as in a trained bundle's features
-    results = list(classify_windows([_window(data, flags=("skipped",))], bundle))
+    results = list(classify_windows([_window(data, flags=("skipped",))], bundle, range_g=math.inf))
     (r,) = results
     assert r.label is None and r.name is None and r.scores is None
     assert r.flags == ("skipped", "non_finite_scores")
@@ -55,6 +55,25 @@ def test_a_window_with_non_finite_scores_gets_no_label(bundle):
         and record["flags"] == ["skipped", "non_finite_scores"]
     )
     assert "no label: scores not finite" in result_text(r) and "inf" not in result_text(r)
+
+
+def test_a_window_beyond_the_range_or_constant_is_unknown_with_its_reason(bundle):
+    beyond = np.ones((1, 3, 16), np.float32)
+    beyond[0, 1, 3] = 20.0
+    flat = np.zeros((1, 3, 16), np.float32)
+    ok = np.ones((1, 3, 16), np.float32) * np.linspace(-1, 1, 16, dtype=np.float32)
+    windows = [_window(d, index=i) for i, d in enumerate((beyond, flat, ok))]
+    vote = WindowVote(3, class_names=bundle.class_names)
+    r = list(classify_windows(windows, bundle, vote=vote))
+    assert [x.label for x in r[:2]] == [-1, -1] and [x.name for x in r[:2]] == ["unknown", "unknown"]
+    assert r[0].reason == "a sample of 20 g, beyond the sensor's range ±5 g" and r[0].flags == ("unknown",)
+    assert r[1].reason.startswith("no vibration: every axis is constant")
+    assert r[0].vote is None and r[2].vote.windows == 1  # unknown windows do not vote
+    record = json.loads(result_json(r[0]))
+    assert record["label"] == -1 and record["name"] == "unknown" and record["score"] is None
+    assert record["reason"] == r[0].reason and record["flags"] == ["unknown"]
+    assert "unknown" in result_text(r[0]) and "beyond the sensor's range" in result_text(r[0])
+    assert r[2].label >= 0 and r[2].reason is None and json.loads(result_json(r[2]))["reason"] is None
 
 
 def test_majority_vote_ties_go_to_the_most_recent_label():
@@ -82,9 +101,9 @@ def test_mean_vote_is_the_argmax_of_the_mean_scores():
 
 def test_the_vote_is_cleared_at_a_gap_and_skips_unlabelled_windows(bundle):
     x = np.zeros((1, 3, 16), np.float32)
-    x[0, 0] = 1.0
+    x[0, 0] = np.linspace(0.5, 1.5, 16)  # not constant: a constant window is unknown
     y = np.zeros((1, 3, 16), np.float32)
-    y[0, 1] = 1.0
+    y[0, 1] = np.linspace(0.5, 1.5, 16)
     bad = x.copy()
     bad[0, 2, 0] = 1e30
     windows = [_window(x, index=0), _window(x, index=1), _window(bad, index=2), _window(y, index=3, gaps=1)]
@@ -110,7 +129,7 @@ def test_json_lines_are_strict_json_with_every_field(bundle):
     first = records[0]
     assert set(first) == {
         "window", "time", "sample", "t_start", "t_end", "rate_hz", "label", "name", "score", "scores",
-        "latency_ms", "skipped", "rejected", "gaps", "flags", "vote",
+        "latency_ms", "skipped", "rejected", "gaps", "flags", "reason", "vote",
     }  # fmt: skip
     assert (first["window"], first["sample"], first["name"], first["skipped"]) == (0, 16, "y", 1)
     assert first["t_start"] == 0.0 and first["t_end"] == pytest.approx(15 / 800.0)
@@ -122,7 +141,7 @@ def test_json_lines_are_strict_json_with_every_field(bundle):
 
 def test_text_lines_name_the_class_and_what_happened_on_the_line(bundle):
     x = np.zeros((1, 3, 16), np.float32)
-    x[0, 0] = 0.5
+    x[0, 0] = np.resize([0.5, -0.5], 16)  # mean square 0.25; not constant
     window = Window(data=x, index=7, end_sample=400, read_at=0.0, skipped=2, gaps=1, flags=("skipped",))
     (r,) = classify_windows([window], bundle, vote=WindowVote(3, class_names="xyz"))
     line = result_text(r)

@@ -43,7 +43,7 @@ def test_cli_train_prints_a_class_report_and_saves_the_model(feature_npz, tmp_pa
     model = train_classifier(load_features(path), "hmsvm", C=10.0, random_state=0)  # what the CLI fitted
     np.testing.assert_array_equal(model.scale, scale)
     head = pipeline_from_model(saved).head
-    labels, _ = head(torch.tensor(X / scale))
+    labels = head(torch.tensor(X / scale))[0]  # (labels, scores, ood_distance)
     np.testing.assert_array_equal(labels.numpy(), model.estimator.predict(X / scale))
 
 

@@ -44,8 +44,6 @@ TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6}
 """Accepted ``time_unit`` and their factor to seconds (``"auto"`` picks seconds, see the module notes)."""
 PLAUSIBLE_RATE_HZ = (10.0, 100_000.0)
 """Sample rates an accelerometer log is taken to have under ``time_unit="auto"``."""
-MAX_LOG_BYTES = 1 << 30
-"""Largest CSV log read (1 GiB, about 25 million rows); a larger file is refused before reading."""
 INDEX_COLUMNS = ("file", "class")
 """Columns an index CSV must have (``session`` is optional)."""
 
@@ -248,8 +246,8 @@ def read_csv_log(
     ValueError
         One line naming the file: a missing column, a value that is not a finite number, fewer than
         2 rows, time stamps that do not strictly increase, an implausible rate under
-        ``time_unit="auto"``, integer counts without ``scale``, an unknown unit, or a file larger
-        than :data:`MAX_LOG_BYTES`.
+        ``time_unit="auto"``, integer counts without ``scale``, an unknown unit, or a file whose parsing
+        would exceed the read bound (:func:`tactile_torch.formats.max_read_bytes`, ``--max-read-mb``).
     """
     import warnings
 
@@ -262,9 +260,11 @@ def read_csv_log(
         raise FileNotFoundError(f"{path}: no such file")
     if path.is_dir():
         raise ValueError(f"{path}: is a directory, expected a CSV log")
-    size = path.stat().st_size
-    if size > MAX_LOG_BYTES:
-        raise ValueError(f"{path}: {size} bytes, more than the {MAX_LOG_BYTES} bytes a CSV log may have")
+    from ..formats import _CSV_EXPANSION, _too_large, max_read_bytes
+
+    limit = max_read_bytes()  # the readers' one bound (--max-read-mb, TACTILE_TORCH_MAX_READ_MB)
+    if path.stat().st_size * _CSV_EXPANSION > limit:  # parsing takes up to ~4 bytes per byte of text
+        raise _too_large(path, "parsing the CSV log", path.stat().st_size * _CSV_EXPANSION, limit)
     spec = _column_spec(columns)
     with path.open(newline="") as f:
         first = next(csv.reader(f), None)
@@ -279,8 +279,8 @@ def read_csv_log(
         raise ValueError(f"{path}: rows must have 4 columns t,x,y,z, the first has {len(first)}")
     index = _column_index(path, header, spec, len(first))
     try:
-        with warnings.catch_warnings():  # a blank last line is fine: numpy warns that it holds no row
-            warnings.filterwarnings("ignore", message="Input line", category=UserWarning)
+        with warnings.catch_warnings():  # a blank line or a header-only file: numpy warns; we say it below
+            warnings.simplefilter("ignore", UserWarning)
             table = np.loadtxt(
                 path, delimiter=",", skiprows=0 if header is None else 1, usecols=index, ndmin=2, dtype=str
             )
@@ -324,7 +324,6 @@ def read_csv_log(
 
 __all__ = [
     "INDEX_COLUMNS",
-    "MAX_LOG_BYTES",
     "PLAUSIBLE_RATE_HZ",
     "TIME_UNITS",
     "UNITS",

@@ -33,7 +33,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from .._onnx import drop_unused_initializers, export_onnx
+from .._onnx import drop_unused_initializers, export_onnx, save_onnx
 
 
 class Standardize(nn.Module):
@@ -192,10 +192,7 @@ def join(front: object, head: object, path: str | Path, metadata: dict[str, obje
         entry = model.metadata_props.add()
         entry.key, entry.value = str(key), value if isinstance(value, str) else json.dumps(value)
     onnx.checker.check_model(model)  # the parts were fully checked (shapes inferred) when exported
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    onnx.save(model, str(path))
-    return path
+    return save_onnx(model, path)  # atomic; never onto a directory, a device or a symbolic link
 
 
 class ExportPool:
