@@ -346,12 +346,18 @@ def _int_vector(value: np.ndarray, path: Path, name: str, n: int) -> np.ndarray:
     return value.astype(np.int64)
 
 
-def _names(value: np.ndarray, path: Path, name: str = "class_names") -> tuple[str, ...]:
+def _names(
+    value: np.ndarray, path: Path, name: str = "class_names", *, distinct: bool = True
+) -> tuple[str, ...]:
     if value.ndim != 1 or value.dtype.kind not in "US":
         raise ValueError(f"{path}: {name} must be a 1-D array of strings, got {value.dtype} {value.shape}")
     if value.dtype.kind == "S":
         value = np.char.decode(value, "utf-8")
-    return check_class_names([str(c) for c in value], f"{path}: {name}")
+    names = [str(c) for c in value]
+    if not distinct:  # sessions repeat across classes (felt_3 and cork_3 are both session 3)
+        check_class_names(sorted(set(names)), f"{path}: {name}")
+        return tuple(names)
+    return check_class_names(names, f"{path}: {name}")
 
 
 def check_class_names(names: Sequence[str], where: str = "class_names") -> tuple[str, ...]:
@@ -541,7 +547,7 @@ def _recordings(arrays: dict[str, np.ndarray], path: Path) -> RecordingArrays:
         raise ValueError(f"{path}: rate_hz must be finite, got {rate_hz}")
     session = arrays.get("session")
     if session is not None:
-        session = np.asarray(_names(session, path, "session"))
+        session = np.asarray(_names(session, path, "session", distinct=False))
         if session.shape != (len(signals),):
             raise ValueError(f"{path}: session must have shape ({len(signals)},), got {session.shape}")
     return RecordingArrays(signals, labels, names, rate_hz, session)
