@@ -16,6 +16,8 @@ import warnings
 from collections.abc import Iterator
 from pathlib import Path
 
+from .cli_data import add_data_options, data_option_words, data_options, read_data_arg
+
 NOT_BUILT_EXIT = 2
 """Exit status when a command cannot do its work (e.g. ``bench`` outside a source checkout)."""
 BAD_INPUT_EXIT = 2
@@ -83,8 +85,13 @@ def _train(args: argparse.Namespace) -> int:
     if args.select is not None and args.select < 1:
         raise UsageError(f"--select must be a number of features >= 1, got {args.select}")
     features = load_features(
-        args.data, window=args.window, step=args.step, fuse=not args.no_fuse, allow_pickle=args.allow_pickle
+        read_data_arg(args),
+        window=args.window,
+        step=args.step,
+        fuse=not args.no_fuse,
+        name=_data_name(args.data),
     )
+    _declare_range(features.source, args)
     print(
         f"{_data_name(args.data)}: {features.X.shape[0]} samples x {features.X.shape[1]} features "
         f"({features.source['kind']}), {len(features.class_names)} classes"
@@ -96,19 +103,29 @@ def _train(args: argparse.Namespace) -> int:
             C=args.C,
             gamma=gamma,
             kernel=args.kernel,
+            n_folds=args.folds,
             test_size=args.test_size,
             select=args.select,
             random_state=args.seed,
         )
     except ValueError as err:  # e.g. a class with one sample: name the file it came from
         raise ValueError(f"{_data_name(args.data)}: {err}") from err
-    print(
-        f"{args.method}: trained on {len(model.train_index)}, tested on {len(model.test_index)} held-out samples"
-    )
+    print(f"{args.method}: held-out accuracy from {model.split}")
     _print_class_report(model.report)
+    print(
+        f"held out: accuracy per fold {', '.join(f'{a:.3f}' for a in model.fold_accuracy)}; the model "
+        f"(--out) is then trained on all {len(model.train_index)} samples"
+    )
     if args.out:
         print(f"model written to {save_model(args.out, model, features)}")
     return 0
+
+
+def _declare_range(source: dict, args: argparse.Namespace) -> None:
+    """Keep a declared finite ``--sensor-range`` in a vibration model's source (export's default range)."""
+    declared = getattr(args, "data_sensor_range", None)
+    if source.get("kind") == "vibration" and declared is not None and declared != float("inf"):
+        source["sensor_range_g"] = float(declared)
 
 
 def _bench(args: argparse.Namespace) -> int:
@@ -145,21 +162,19 @@ def _n_iter(text: str) -> int | str:
 def _cluster(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from .formats import read_data
     from .metrics import pairwise_accuracy
     from .mixture import PitmanYorGMM
     from .pipeline import save_clustering_model
     from .training import load_features
 
-    data = read_data(args.data, allow_pickle=args.allow_pickle)
+    data = read_data_arg(args)
     if data.kind == "features":  # labels optional: clustering does not need them
         X, truth = data.features, data.labels
         source = {"kind": "features", "n_features": int(X.shape[1])}
     elif data.kind == "vibration":
-        features = load_features(
-            args.data, window=args.window, step=args.step, allow_pickle=args.allow_pickle
-        )
+        features = load_features(data, window=args.window, step=args.step, name=_data_name(args.data))
         X, truth, source = features.X, features.y, dict(features.source)
+        _declare_range(source, args)
     else:
         raise UsageError(
             f"{_data_name(args.data)}: --data must hold vibration recordings ('signals') or a 'features' "
@@ -301,7 +316,7 @@ def _predict(args: argparse.Namespace) -> int:
     windows = pipe.input_layout == "B,3,W"
     if range_g is not None and not windows:
         raise UsageError(f"--range: {args.model} takes no vibration windows ({pipe.pipeline} bundle)")
-    data = pipe.read_npz(args.data, allow_pickle=args.allow_pickle)
+    data = pipe.read_npz(args.data, allow_pickle=args.allow_pickle, options=data_options(args))
     where = _data_name(args.data)
     mismatch = pipe.sample_rate_mismatch(data.rate_hz)
     if mismatch:
@@ -592,7 +607,7 @@ def _simulate_sensor(args: argparse.Namespace) -> int:
 def _tradeoff(args: argparse.Namespace) -> int:
     import math
 
-    from .tradeoff import run_tradeoff, summary_lines, write_outputs
+    from .tradeoff import load_tradeoff_data, run_tradeoff, summary_lines, write_outputs
     from .tradeoff.output import staged_output
 
     def number_or(name: str, text: str, *words: str) -> str | float | int:
@@ -620,7 +635,8 @@ def _tradeoff(args: argparse.Namespace) -> int:
         raise UsageError(f"--frame-rate must be a number of frames/s > 0, got {args.frame_rate:g}")
     if args.target is not None and not (math.isfinite(args.target) and 0 < args.target <= 1):
         raise UsageError(f"--target must be an accuracy in (0, 1], got {args.target:g}")
-    options = [f"--data {' '.join(args.data)}", f"--out {args.out}", *(["--quick"] if args.quick else [])]
+    options = [f"--data {' '.join(args.data)}", *data_option_words(args), f"--out {args.out}"]
+    options += ["--quick"] if args.quick else []
     options += ["--no-breaking"] if args.no_breaking else []
     options += ["--no-tune"] if args.no_tune else []
     defaults = vars(build_parser().parse_args(["tradeoff", "--data", "-"]))
@@ -631,9 +647,15 @@ def _tradeoff(args: argparse.Namespace) -> int:
             options.append(f"--{name.replace('_', '-')} {getattr(args, name)}")
     command = "tactile-torch tradeoff " + " ".join(options)
     log = (lambda line: None) if args.quiet else (lambda line: print(line, file=sys.stderr))
+    import numpy as np
+
+    data = read_data_arg(args)
+    if args.csv_session == "file" and all(str(p).lower().endswith(".csv") for p in args.data):
+        data.session = np.array([Path(p).stem for p in args.data])  # every log its own session
+    data = load_tradeoff_data(data, frame_rate_hz=args.frame_rate, name=_data_name(args.data))
     with staged_output(args.out) as staging:  # a killed or failed run leaves the previous --out as it was
         result = run_tradeoff(
-            args.data,
+            data,
             quick=args.quick,
             n_folds=folds,
             exact_folds=args.folds is not None,
@@ -736,13 +758,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser(
         "train", help="train a classifier on an image, vibration or feature .npz; print a class report"
     )
-    p.add_argument(
-        "--data",
-        required=True,
-        nargs="+",
-        help="a .npz of docs/formats.md (frames, signals or features), or CSV logs t,x,y,z (class from the "
-        "file name: cork_1.csv -> cork)",
-    )
+    add_data_options(p)
     p.add_argument(
         "--method",
         default="hmsvm",
@@ -766,7 +782,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--step", type=int, default=None, help="vibration window hop (default: the window)")
     p.add_argument("--no-fuse", action="store_true", help="image: per-frame features instead of fused ones")
     p.add_argument(
-        "--test-size", type=float, default=0.25, help="held-out share for the report (default: 0.25)"
+        "--folds",
+        type=int,
+        default=5,
+        help="held-out folds, grouped by session or recording, or time blocks (default: 5)",
+    )
+    p.add_argument(
+        "--test-size", type=float, default=None, help="(old) held-out share: --folds round(1 / share)"
     )
     p.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
     _add_allow_pickle(p)
@@ -781,12 +803,10 @@ def build_parser() -> argparse.ArgumentParser:
         "summary (posterior of K first) to OUT/summary.txt and the model to OUT/model.npz (for tactile-torch "
         "export).",
     )
-    p.add_argument(
-        "--data",
-        required=True,
-        nargs="+",
-        help="vibration recordings (.npz with 'signals', or CSV logs), or a .npz with 'features' (n, D) "
-        "and optionally 'labels' (n,)",
+    add_data_options(
+        p,
+        data_help="vibration recordings (.npz with 'signals', CSV logs, ROS 2 bags), or a .npz with "
+        "'features' (n, D) and optionally 'labels' (n,)",
     )
     p.add_argument("--out", default="runs/cluster", help="output directory (default: runs/cluster)")
     p.add_argument("--window", type=int, default=800, help="recordings: window in samples (default: 800)")
@@ -849,12 +869,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="classify a data file with an exported ONNX pipeline (onnxruntime, no torch); print a class report",
     )
     p.add_argument("--model", required=True, help="the .onnx bundle written by tactile-torch export")
-    p.add_argument(
-        "--data",
-        required=True,
-        nargs="+",
-        help="a .npz of docs/formats.md (frames, signals or features), or CSV logs t,x,y,z",
-    )
+    add_data_options(p, sensor_range=False)  # predict's --range leaves windows out instead
     p.add_argument("--out", default="", help="also write the predicted labels and names to this .npz")
     p.add_argument("--batch", type=int, default=256, help="samples per onnxruntime call (default: 256)")
     p.add_argument("--threads", type=int, default=1, help="onnxruntime intra-op threads (default: 1)")
@@ -992,11 +1007,10 @@ def build_parser() -> argparse.ArgumentParser:
         "accuracy against latency, size and time to a decision; the recommendation is the cheapest model on the "
         "Pareto front within one standard error of the best (docs/tradeoff.md).",
     )
-    p.add_argument(
-        "--data",
-        required=True,
-        nargs="+",
-        help="an image-exploration, pressure-map, vibration or feature .npz, or vibration CSV logs (t,x,y,z)",
+    add_data_options(
+        p,
+        data_help="an image-exploration, pressure-map, vibration or feature .npz, vibration CSV logs "
+        "(t,x,y,z) or ROS 2 bags (IMU or pressure-array topics)",
     )
     p.add_argument("--out", default="runs/tradeoff", help="output directory (default: runs/tradeoff)")
     p.add_argument("--quick", action="store_true", help="fewer candidates and at most 60 samples per class")

@@ -39,10 +39,8 @@ Examples
 
 from __future__ import annotations
 
-import csv
 import io
 import os
-import warnings
 import zipfile
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -348,12 +346,18 @@ def _int_vector(value: np.ndarray, path: Path, name: str, n: int) -> np.ndarray:
     return value.astype(np.int64)
 
 
-def _names(value: np.ndarray, path: Path, name: str = "class_names") -> tuple[str, ...]:
+def _names(
+    value: np.ndarray, path: Path, name: str = "class_names", *, distinct: bool = True
+) -> tuple[str, ...]:
     if value.ndim != 1 or value.dtype.kind not in "US":
         raise ValueError(f"{path}: {name} must be a 1-D array of strings, got {value.dtype} {value.shape}")
     if value.dtype.kind == "S":
         value = np.char.decode(value, "utf-8")
-    return check_class_names([str(c) for c in value], f"{path}: {name}")
+    names = [str(c) for c in value]
+    if not distinct:  # sessions repeat across classes (felt_3 and cork_3 are both session 3)
+        check_class_names(sorted(set(names)), f"{path}: {name}")
+        return tuple(names)
+    return check_class_names(names, f"{path}: {name}")
 
 
 def check_class_names(names: Sequence[str], where: str = "class_names") -> tuple[str, ...]:
@@ -398,10 +402,9 @@ def _check_finite(value: np.ndarray, path: Path, name: str) -> None:
 
 def _float_signals(value: np.ndarray, path: Path) -> None:
     if np.issubdtype(value.dtype, np.integer):
-        raise ValueError(
-            f"{path}: signals must be float accelerations in g, got {value.dtype} (raw sensor counts? "
-            "convert them to g first, e.g. counts * 0.0039 for the ADXL345 at full resolution)"
-        )
+        from .data.logs import integer_counts_message
+
+        raise ValueError(integer_counts_message(f"{path}: signals", f"{value.dtype}"))
     if not np.issubdtype(value.dtype, np.floating):
         raise ValueError(f"{path}: signals must be float accelerations in g, got dtype {value.dtype}")
 
@@ -486,6 +489,15 @@ def read_recordings(
     return _recordings(arrays, path)
 
 
+def recordings_from_arrays(arrays: dict[str, np.ndarray], path: PathLike) -> RecordingArrays:
+    """Validate the arrays of a vibration ``.npz`` (as :func:`read_npz` returns them); return the recordings.
+
+    For readers that convert ``signals`` first (declared units or a scale for integer counts,
+    :func:`tactile_torch.data.sources.read_source`); the checks are :func:`read_recordings`'s.
+    """
+    return _recordings(arrays, Path(path))
+
+
 def _recordings(arrays: dict[str, np.ndarray], path: Path) -> RecordingArrays:
     _require(arrays, path, ("signals", "labels", "class_names", "rate_hz"), "vibration recordings")
     raw = arrays["signals"]
@@ -535,7 +547,7 @@ def _recordings(arrays: dict[str, np.ndarray], path: Path) -> RecordingArrays:
         raise ValueError(f"{path}: rate_hz must be finite, got {rate_hz}")
     session = arrays.get("session")
     if session is not None:
-        session = np.asarray(_names(session, path, "session"))
+        session = np.asarray(_names(session, path, "session", distinct=False))
         if session.shape != (len(signals),):
             raise ValueError(f"{path}: session must have shape ({len(signals)},), got {session.shape}")
     return RecordingArrays(signals, labels, names, rate_hz, session)
@@ -568,79 +580,30 @@ def write_recordings(path: PathLike, data: RecordingArrays) -> Path:
 
 
 def read_csv_recording(
-    path: PathLike, *, columns: Sequence[str] | None = None, scale: float = 1.0
+    path: PathLike,
+    *,
+    columns: str | Sequence[str | int] | None = None,
+    scale: float | None = None,
+    units: str = "g",
+    time_unit: str = "auto",
 ) -> tuple[np.ndarray, float]:
-    """Read one CSV log of time and three accelerations; return ``(signal (n, 3) float32, rate_hz)``.
+    """Read one CSV log of time and three accelerations; return ``(signal (n, 3) float32 in g, rate_hz)``.
 
-    The file has a time column in seconds and x, y, z accelerations, comma-separated. With a header
-    line, the columns are found by name: ``columns`` (4 names: time, x, y, z) if given, else ``t``
-    or ``time`` and ``x``, ``y``, ``z`` (case-insensitive); without one, the first four columns are
-    taken in that order. Accelerations are multiplied by ``scale`` (e.g. ``1 / 9.80665`` for m/s^2
-    → g). The rate is ``1 / median(dt)``; samples are taken as uniformly spaced (a warning says when
-    a step deviates from the median by more than 5 %).
+    ``columns`` (names or indices of t, x, y, z), ``units`` (``"g"``, ``"m/s2"``), ``scale`` (units
+    per count, required for integer counts) and ``time_unit`` (``"s"``, ``"ms"``, ``"us"``,
+    ``"auto"``) are those of :func:`tactile_torch.data.logs.read_csv_log`, which reads the file
+    (NumPy only). The rate is ``1 / median(dt)``.
 
     Raises
     ------
     ValueError
-        If a column is missing, a value is not a finite number, there are fewer than 2 rows, or the
-        time stamps do not strictly increase.
+        If a column is missing, a value is not a finite number, there are fewer than 2 rows, the
+        time stamps do not strictly increase, the rate is implausible for the time unit, or the
+        accelerations are integer counts without a ``scale``.
     """
-    path = Path(path)
-    _check_exists(path)
-    limit = max_read_bytes()
-    if path.stat().st_size * _CSV_EXPANSION > limit:  # parsing takes up to ~4 bytes per byte of text
-        raise _too_large(path, "parsing the CSV log", path.stat().st_size * _CSV_EXPANSION, limit)
-    with path.open(newline="") as f:
-        first = next(csv.reader(f), None)
-    if first is None:
-        raise ValueError(f"{path}: empty file, expected a CSV log with columns t,x,y,z")
-    try:
-        [float(v) for v in first]
-        header = None
-    except ValueError:
-        header = [h.strip().lower() for h in first]
-    if header is None:
-        if columns is not None:
-            raise ValueError(f"{path} has no header line, so columns={list(columns)} cannot be found")
-        if len(first) < 4:
-            raise ValueError(f"{path}: rows must have 4 columns t,x,y,z, the first has {len(first)}")
-        index = [0, 1, 2, 3]
-    else:
-        wanted = [c.lower() for c in columns] if columns is not None else None
-        if wanted is not None and len(wanted) != 4:
-            raise ValueError(f"columns must name 4 columns (time, x, y, z), got {list(columns)}")
-        if wanted is None:
-            wanted = ["time" if "time" in header else "t", "x", "y", "z"]
-        absent = [c for c in wanted if c not in header]
-        if absent:
-            raise ValueError(f"{path} must have columns {wanted}, missing {absent} (header: {header})")
-        index = [header.index(c) for c in wanted]
-    try:
-        with warnings.catch_warnings():  # a header-only file: numpy warns "no data"; we say it below
-            warnings.simplefilter("ignore", UserWarning)
-            table = np.loadtxt(
-                path, delimiter=",", skiprows=0 if header is None else 1, usecols=index, ndmin=2
-            )
-    except ValueError as err:
-        raise ValueError(f"{path}: every value of columns {index} must be a number ({err})") from None
-    if len(table) < 2:
-        raise ValueError(f"{path} must hold at least 2 samples, got {len(table)}")
-    if not np.isfinite(table).all():
-        raise ValueError(f"{path} must hold finite values, got {int((~np.isfinite(table)).sum())} NaN/inf")
-    dt = np.diff(table[:, 0])
-    if (dt <= 0).any():
-        raise ValueError(
-            f"{path}: time stamps must strictly increase, row {int(np.argmax(dt <= 0)) + 1} does not"
-        )
-    step = float(np.median(dt))
-    rate = float(f"{1.0 / step:.9g}")  # 0.01 s steps written as text give 100.00000000000213 Hz
-    if np.abs(dt - step).max() > 0.05 * step:
-        warnings.warn(
-            f"{path}: time steps vary by up to {np.abs(dt - step).max() / step:.0%} of the median; "
-            "the samples are taken as uniformly spaced",
-            stacklevel=2,
-        )
-    return (table[:, 1:] * scale).astype(np.float32), rate
+    from .data.logs import read_csv_log
+
+    return read_csv_log(path, columns=columns, units=units, scale=scale, time_unit=time_unit)
 
 
 def write_csv_recording(path: PathLike, signal: np.ndarray, rate_hz: float) -> Path:
@@ -664,41 +627,51 @@ def write_csv_recording(path: PathLike, signal: np.ndarray, rate_hz: float) -> P
 
 
 def csv_class_name(path: PathLike) -> str:
-    """Return the class a CSV log is named after: its stem without a trailing ``_<number>``.
+    """Return the class a CSV log is named after (:func:`tactile_torch.data.logs.class_and_session`).
 
     >>> csv_class_name("logs/cork_12.csv"), csv_class_name("glass.csv")
     ('cork', 'glass')
     """
-    stem = Path(path).stem
-    base, _, tail = stem.rpartition("_")
-    return base if base and tail.isdigit() else stem
+    from .data.logs import class_and_session
+
+    return class_and_session(path)[0]
 
 
 def read_csv_recordings(
     paths: Sequence[PathLike],
     *,
     class_names: Sequence[str] | None = None,
-    columns: Sequence[str] | None = None,
-    scale: float = 1.0,
+    sessions: Sequence[str] | None = None,
+    index: PathLike | None = None,
+    columns: str | Sequence[str | int] | None = None,
+    scale: float | None = None,
+    units: str = "g",
+    time_unit: str = "auto",
 ) -> RecordingArrays:
     """Read CSV logs (one recording each) sharing one sample rate as :class:`RecordingArrays`.
 
-    ``class_names`` gives each file's class; default :func:`csv_class_name` (``cork_1.csv`` → ``cork``).
-    Labels index the sorted distinct names; ``session`` is each file's stem. The files must share
-    one sample rate within 0.1 % (:meth:`tactile_torch.data.VibrationRecordings.resample` converts).
+    Each file's class and session come from ``class_names``/``sessions``, else an ``index`` CSV
+    (``file,class[,session]``), else the naming rule (``felt_3.csv`` → class ``felt``, session
+    ``3``; :func:`tactile_torch.data.logs.class_and_session`). Labels index the sorted distinct
+    classes. ``columns``, ``scale``, ``units``, ``time_unit``: see :func:`read_csv_recording`. The
+    files must share one sample rate within 0.1 %
+    (:meth:`tactile_torch.data.VibrationRecordings.resample` converts).
     """
+    from .data.logs import names_for
+
     paths = [Path(p) for p in paths]
     if not paths:
         raise ValueError("paths must name at least one CSV file, got none")
-    names = [csv_class_name(p) for p in paths] if class_names is None else [str(c) for c in class_names]
-    if len(names) != len(paths):
-        raise ValueError(f"class_names must give one class per file ({len(paths)}), got {len(names)}")
-    read = [read_csv_recording(p, columns=columns, scale=scale) for p in paths]
+    names, session = names_for(paths, class_names=class_names, sessions=sessions, index=index)
+    read = [
+        read_csv_recording(p, columns=columns, scale=scale, units=units, time_unit=time_unit) for p in paths
+    ]
     rates = np.array([r for _, r in read])
     if np.abs(rates / rates[0] - 1).max() > 1e-3:
+        odd = int(np.argmax(np.abs(rates / rates[0] - 1)))
         raise ValueError(
-            f"the files have different sample rates ({sorted(set(np.round(rates, 3)))} Hz, "
-            f"{paths[0]}: {rates[0]:g} Hz); resample them to a common rate"
+            f"the files have different sample rates ({paths[0]}: {rates[0]:g} Hz, {paths[odd]}: "
+            f"{rates[odd]:g} Hz); resample them to a common rate (load_vibration_csv(..., rate_hz=))"
         )
     classes = check_class_names(sorted(set(names)), "class names (of the CSV files)")
     return RecordingArrays(
@@ -706,7 +679,7 @@ def read_csv_recordings(
         labels=np.array([classes.index(n) for n in names], dtype=np.int64),
         class_names=classes,
         rate_hz=float(rates[0]),
-        session=np.array([p.stem for p in paths]),
+        session=np.array(session),
     )
 
 
@@ -877,6 +850,7 @@ __all__ = [
     "read_features",
     "read_npz",
     "read_recordings",
+    "recordings_from_arrays",
     "window_recordings",
     "write_csv_recording",
     "write_explorations",

@@ -159,7 +159,10 @@ def _front_end(
             "window_size": window,
             "step": int(source.get("step") or window),
             "sample_rate_hz": float(source["rate_hz"]),
-            RANGE_METADATA_KEY: DEFAULT_RANGE_G if sensor_range_g is None else sensor_range_g,
+            # the range given at export, else the one declared at training (source), else the ADXL345's
+            RANGE_METADATA_KEY: float(source.get("sensor_range_g", DEFAULT_RANGE_G))
+            if sensor_range_g is None
+            else sensor_range_g,
         }
         return [WindowFeatures(window)], [None, 3, window], "B,3,W", meta
     if kind == "image":
@@ -493,7 +496,7 @@ def build_default_bundles(
         raw, labels = ds.windows[held_out].numpy(), ds.labels[held_out].numpy()
         if "vibration-hmsvm" in kinds:
             train = FeatureSet(X[fit_on], ds.labels.numpy()[fit_on], ds.class_names, source)
-            model = train_classifier(train, "hmsvm", test_size=0.2, random_state=random_state)
+            model = train_classifier(train, "hmsvm", n_folds=2, random_state=random_state)
             path = save_model(out / "vibration-hmsvm.npz", model, train)
             built["vibration-hmsvm"] = Bundle(pipeline_from_model(load_model_file(path)), path, raw, labels)
         if "vibration-pyp" in kinds:
@@ -519,7 +522,7 @@ def build_default_bundles(
         held_out = np.arange(len(X)) % 2 == 1
         source = {"kind": "image", "fuse": True, "frame_shape": list(data.frames.shape[1:])}
         train = FeatureSet(X[~held_out], data.labels.numpy()[~held_out], data.class_names, source)
-        model = train_classifier(train, "hmsvm", test_size=0.25, random_state=random_state)
+        model = train_classifier(train, "hmsvm", n_folds=2, random_state=random_state)
         path = save_model(out / "image-hmsvm.npz", model, train)
         raw = data.frames[held_out].numpy()
         built["image-hmsvm"] = Bundle(

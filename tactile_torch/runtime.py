@@ -479,7 +479,7 @@ class OnnxPipeline:
         return self.class_names[label] if 0 <= label < len(self.class_names) else str(label)
 
     def read_npz(
-        self, path: str | Path | Sequence[str | Path], *, allow_pickle: bool = False
+        self, path: str | Path | Sequence[str | Path], *, allow_pickle: bool = False, options=None
     ) -> LabelledInput:
         """Read a data file into this bundle's raw input (:func:`tactile_torch.formats.read_data`).
 
@@ -492,11 +492,17 @@ class OnnxPipeline:
 
         Raises ``ValueError`` naming the file when it does not fit the bundle (e.g. recordings for
         an image bundle, recordings shorter than one window) or breaks the format (see
-        ``docs/formats.md``).
+        ``docs/formats.md``). ``options`` (:class:`tactile_torch.data.sources.DataOptions`, NumPy
+        only) declares how CSV logs and ROS 2 bags are read (columns, units, time unit, topic).
         """
         from .formats import data_name, read_data, window_recordings
 
-        data = read_data(path, allow_pickle=allow_pickle)
+        if options is None:
+            data = read_data(path, allow_pickle=allow_pickle)
+        else:
+            from .data.sources import read_source
+
+            data = read_source(path, options)
         where = data_name(path)
         layout, rate = self.input_layout, None
         if data.kind == "image" and layout == "B,T,3,H,W":

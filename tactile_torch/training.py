@@ -3,13 +3,14 @@
 :func:`load_features` reads a data file of ``docs/formats.md`` through :mod:`tactile_torch.formats`
 (image explorations: ``frames``; vibration recordings: ``signals`` or CSV logs; a ready ``features``
 matrix) and computes its features (:func:`tactile_torch.image.exploration_features`, or windows and
-:func:`tactile_torch.signal.window_features`). :func:`train_classifier` holds out a stratified test
-part, scales every feature to unit standard deviation on the training part (as in the study; the scale is
-kept with the model), fits a classifier of the catalogue (:mod:`tactile_torch.catalogue`: the HM-SVM,
-a one-vs-one SVM, LDA, kNN with k = 3, city-block distance and inverse-distance weights, or nearest class
-mean) and reports on the test part. :func:`save_model` writes the model file
-(:mod:`tactile_torch.model_file`: plain arrays and a JSON header, no pickle) with everything the export
-needs: the scale, the class names, how the features were made and the arrays of the classifier's
+:func:`tactile_torch.signal.window_features`). :func:`train_classifier` reports the accuracy of a
+classifier of the catalogue (:mod:`tactile_torch.catalogue`: the HM-SVM, a one-vs-one SVM, LDA, kNN
+with k = 3, city-block distance and inverse-distance weights, or nearest class mean) held out by
+recording, session or time block (the trade-off's folds, :func:`held_out_folds`), then fits it on
+every sample, each feature scaled to unit standard deviation (as in the study; the scale is kept
+with the model); ``select`` keeps the best-ranked features only. :func:`save_model` writes the model
+file (:mod:`tactile_torch.model_file`: plain arrays and a JSON header, no pickle) with everything the
+export needs: the scale, the class names, how the features were made and the arrays of the SVM's
 inference module (:func:`classifier_head`).
 """
 
@@ -45,30 +46,42 @@ class FeatureSet:
         How the features were made (``kind`` = ``"image"``, ``"vibration"`` or ``"features"``, plus
         the window size, step and sample rate, or the fusion flag and the frame shape ``(T, 3, H, W)``,
         or the number of features).
+    groups : ndarray of shape (N,), optional
+        What must stay on one side of a held-out split: each window's recording session (the file's
+        ``session``, else its recording), or an exploration's ``groups``; ``None``: independent rows.
+    recording, position : ndarray of shape (N,), optional
+        Vibration windows: the recording each comes from and its index in it (time order).
     """
 
     X: np.ndarray
     y: np.ndarray
     class_names: tuple[str, ...]
     source: dict = field(default_factory=dict)
+    groups: np.ndarray | None = None
+    recording: np.ndarray | None = None
+    position: np.ndarray | None = None
 
 
 def load_features(
-    path: str | Path | Sequence[str | Path],
+    path,
     *,
     window: int = 800,
     step: int | None = None,
     fuse: bool = True,
     allow_pickle: bool = False,
+    options=None,
+    name: str | None = None,
 ) -> FeatureSet:
-    """Read a data file (:func:`tactile_torch.formats.read_data`) and return its features.
+    """Read a data file (:func:`tactile_torch.data.sources.read_source`) and return its features.
 
     Parameters
     ----------
-    path : path or sequence of paths
+    path : path, sequence of paths, or arrays already read
         Image explorations (``frames``), vibration recordings (``signals``) or a feature matrix
-        (``features``) in one ``.npz``, each with ``labels`` (and ``class_names``); or CSV logs
-        ``t,x,y,z`` (one recording each, class from the file name). See ``docs/formats.md``.
+        (``features``) in one ``.npz``, each with ``labels`` (and ``class_names``); CSV logs
+        (one recording each); ROS 2 bags. Class and session of logs and bags come from the naming
+        rule (``felt_3.csv``: class ``felt``, session ``3``) or an index. See ``docs/formats.md``.
+        Or what :func:`~tactile_torch.data.sources.read_source` returned.
     window, step : int
         Vibration windows: length and hop in samples (default hop: ``window``, no overlap).
     fuse : bool
@@ -76,21 +89,31 @@ def load_features(
     allow_pickle : bool
         Only for vibration files written by tactile-torch 0.1 with recordings of different lengths
         (a pickled object array): allow it only for files you trust.
+    options : DataOptions, optional
+        Columns, units, time unit, topic ... (:class:`tactile_torch.data.sources.DataOptions`).
+    name : str, optional
+        How messages name the data (default: the file, or ``"data"`` for arrays already read).
 
     Returns
     -------
     FeatureSet
+        With ``groups`` (and, for windows, ``recording`` and ``position``) for held-out splits.
 
     Raises
     ------
     FileNotFoundError, ValueError
-        One line naming the file and the field (see :mod:`tactile_torch.formats`); labels are
-        required here.
+        One line naming the file and the field (see :mod:`tactile_torch.formats`), or the
+        recording and sample that the declared units make implausible; labels are required here.
     """
-    from .formats import data_name, read_data
+    from .formats import data_name
 
-    data = read_data(path, allow_pickle=allow_pickle)
-    where = data_name(path)
+    if hasattr(path, "kind"):
+        data, where = path, name or "data"
+    else:
+        from .data.sources import DataOptions, read_source
+
+        data = read_source(path, options or DataOptions(allow_pickle=allow_pickle))
+        where = name or data_name(path)
     if data.kind == "features":
         if data.labels is None:
             raise ValueError(f"{where}: missing 'labels'; training needs labels (N,) next to 'features'")
@@ -103,7 +126,7 @@ def load_features(
         images = explorations_from_arrays(data)
         X = exploration_features(images.frames, fuse=fuse).double().numpy()
         source = {"kind": "image", "fuse": fuse, "frame_shape": list(images.frames.shape[1:])}
-        return FeatureSet(X, data.labels, data.class_names, source)
+        return FeatureSet(X, data.labels, data.class_names, source, groups=data.groups)
     import torch
 
     from .formats import window_recordings
@@ -123,7 +146,15 @@ def load_features(
             f"{int(cut.recording[first])} reaches {peak:.3g} g), whose features overflow; remove or clip them"
         )
     source = {"kind": "vibration", "window": window, "step": step or window, "rate_hz": data.rate_hz}
-    return FeatureSet(X, data.labels[cut.recording], data.class_names, source)
+    return FeatureSet(
+        X,
+        data.labels[cut.recording],
+        data.class_names,
+        source,
+        groups=None if data.session is None else np.asarray(data.session)[cut.recording],
+        recording=cut.recording,
+        position=cut.position,
+    )
 
 
 def make_classifier(
@@ -146,7 +177,28 @@ def make_classifier(
 
 @dataclass
 class TrainedModel:
-    """A classifier fitted by :func:`train_classifier`, with its feature scale and test report."""
+    """A classifier fitted by :func:`train_classifier`, with its feature scale and held-out report.
+
+    Attributes
+    ----------
+    method : str
+    estimator : fitted classifier (on every sample)
+    scale : ndarray (F,)
+        Of the selected features when ``select`` is set.
+    report : ClassReport
+        Of the held-out predictions: every sample of ``test_index`` predicted by the fold's model
+        that did not see its group.
+    train_index : ndarray
+        The samples the final ``estimator`` was fitted on (all of them).
+    test_index : ndarray
+        The samples with a held-out prediction (all but the guard windows of time-block folds).
+    select : ndarray or None
+        The columns kept by ``select`` (ranked on every sample), else ``None``.
+    split : str
+        How the held-out folds were made, in words.
+    fold_accuracy : list of float
+        Accuracy on each fold's test part.
+    """
 
     method: str
     estimator: object
@@ -155,6 +207,8 @@ class TrainedModel:
     train_index: np.ndarray
     test_index: np.ndarray
     select: np.ndarray | None = None
+    split: str = ""
+    fold_accuracy: list = field(default_factory=list)
 
     def predict(self, X: np.ndarray) -> np.ndarray:
         """Return the class index of each row of unscaled features ``X`` (N, F)."""
@@ -164,6 +218,59 @@ class TrainedModel:
         return self.estimator.predict(X / self.scale)
 
 
+def held_out_folds(features: FeatureSet, n_folds: int = 5, *, random_state: RandomState = None):
+    """Return ``(keep, folds, split)``: the folds ``train`` reports on, those of the trade-off.
+
+    Windows are grouped by session (or recording) when every class has two, else cut into
+    consecutive time blocks of every recording with guard windows between blocks
+    (:func:`tactile_torch.tradeoff.inputs.window_folds`); explorations and feature rows are grouped
+    by ``groups`` when given, else stratified (:func:`~tactile_torch.tradeoff.inputs.sample_folds`).
+    ``folds`` index ``keep``, the samples used; ``split`` names the split in words.
+    """
+    from .tradeoff.inputs import sample_folds, window_folds
+
+    names = features.class_names
+    if features.recording is not None:
+        window = int(features.source.get("window", 1))
+        step = int(features.source.get("step", window))
+        n_rec = int(features.recording.max()) + 1
+        given = features.groups is not None
+        session = np.arange(n_rec).astype(object)
+        if given:
+            session[features.recording] = np.asarray(features.groups).astype(str)
+        _, keep, folds, split = window_folds(
+            features.recording,
+            features.position,
+            features.y,
+            session.astype(str) if given else np.arange(n_rec),
+            group_label="session" if given else "recording",
+            n_folds=n_folds,
+            names=names,
+            window=window,
+            guard=-(-window // step),
+            random_state=random_state,
+        )
+        return keep, folds, f"{len(keep)} windows; {split}"
+    what = "samples" if features.source.get("kind") == "features" else "explorations"
+    folds, split = sample_folds(
+        features.y, features.groups, n_folds=n_folds, names=names, what=what, random_state=random_state
+    )
+    return np.arange(len(features.y)), folds, f"{len(features.y)} {what}; {split}"
+
+
+def _fit_scaled(method: str, X: np.ndarray, y: np.ndarray, seed: int, select: int | None, **params):
+    """Return ``(fitted classifier, scale, selected columns or None)`` fitted on ``X``, ``y``."""
+    columns = None
+    if select is not None:
+        from .tradeoff.transformers import RankedFeatureSelector
+
+        columns = RankedFeatureSelector(select).fit(X, y).columns_
+        X = X[:, columns]
+    std = X.std(axis=0, ddof=1)
+    scale = np.where(std > 0, std, 1.0)
+    return make_classifier(method, random_state=seed, **params).fit(X / scale, y), scale, columns
+
+
 def train_classifier(
     features: FeatureSet,
     method: str = "hmsvm",
@@ -171,23 +278,39 @@ def train_classifier(
     C: float = 16.0,
     gamma: str | float = "scale",
     kernel: str = "rbf",
-    test_size: float = 0.25,
+    n_folds: int = 5,
+    test_size: float | None = None,
     select: int | None = None,
     random_state: RandomState = None,
 ) -> TrainedModel:
-    """Fit ``method`` on a stratified ``1 - test_size`` of the features; report on the rest.
+    """Fit ``method`` on every sample; report its accuracy held out by recording, session or time block.
 
-    Each feature is divided by its standard deviation (``ddof=1``) on the training part (1 for a
-    constant feature); the same scale applies to any data the model classifies. ``select``: keep only
-    the ``select`` best-ranked features of the training part (the trade-off's "top k" feature sets,
-    :class:`~tactile_torch.tradeoff.transformers.RankedFeatureSelector`).
+    The held-out report pools the test parts of :func:`held_out_folds` (the trade-off's folds): each
+    sample is predicted by a model fitted on the other folds, which never saw its recording or
+    session (or, with one recording per class, its time block). No random split of windows: the
+    neighbouring windows of one recording are alike, and a random split scores memory, not
+    recognition. The returned model is then fitted on every sample. Each feature is divided by its
+    standard deviation (``ddof=1``) on the data a model is fitted on (1 for a constant feature);
+    the final scale applies to any data the model classifies. ``select``: keep only the ``select``
+    best-ranked features (the trade-off's "top k" feature sets,
+    :class:`~tactile_torch.tradeoff.transformers.RankedFeatureSelector`), ranked on the data each model
+    is fitted on.
+
+    Parameters
+    ----------
+    n_folds : int
+        Folds (at most; fewer when a class has fewer groups or time blocks), at least 2.
+    test_size : float, optional
+        Kept for old callers: ``n_folds = round(1 / test_size)`` (0.25 → 4 folds).
     """
-    from sklearn.model_selection import train_test_split
-
     from .metrics import class_report
 
-    if not 0.0 < test_size < 1.0:
-        raise ValueError(f"test_size must be in (0, 1), got {test_size!r}")
+    if test_size is not None:
+        if not 0.0 < test_size < 1.0:
+            raise ValueError(f"test_size must be in (0, 1), got {test_size!r}")
+        n_folds = max(2, round(1.0 / test_size))
+    if isinstance(n_folds, bool) or not isinstance(n_folds, int | np.integer) or n_folds < 2:
+        raise ValueError(f"n_folds must be an int >= 2, got {n_folds!r}")
     check_positive(C, "C")
     counts = np.bincount(features.y, minlength=len(features.class_names))
     if (counts == 1).any():
@@ -201,26 +324,35 @@ def train_classifier(
             f"labels: training needs at least 2 classes with samples, got {int((counts > 0).sum())}"
         )
     seed = int(numpy_rng(random_state).integers(2**31))
-    index = np.arange(features.X.shape[0])
-    train, test = train_test_split(index, test_size=test_size, stratify=features.y, random_state=seed)
-    columns = None
-    X = features.X
     if select is not None:
-        from .tradeoff.transformers import RankedFeatureSelector
-
         check_positive(select, "select", integer=True)
-        if select > X.shape[1]:
-            raise ValueError(f"select must be at most the {X.shape[1]} features, got {select}")
-        columns = RankedFeatureSelector(select).fit(X[train], features.y[train]).columns_
-        X = X[:, columns]
-    std = X[train].std(axis=0, ddof=1)
-    scale = np.where(std > 0, std, 1.0)
-    estimator = make_classifier(method, C=C, gamma=gamma, kernel=kernel, random_state=seed)
-    estimator.fit(X[train] / scale, features.y[train])
-    pred = estimator.predict(X[test] / scale)
+        if select > features.X.shape[1]:
+            raise ValueError(f"select must be at most the {features.X.shape[1]} features, got {select}")
+    keep, folds, split = held_out_folds(features, n_folds, random_state=seed)
+    X, y = features.X[keep], features.y[keep]
+    params = {"C": C, "gamma": gamma, "kernel": kernel}
+    pred = np.empty(len(keep), dtype=np.int64)
+    fold_accuracy = []
+    for train, test in folds:
+        fitted, scale, columns = _fit_scaled(method, X[train], y[train], seed, select, **params)
+        X_test = X[test] if columns is None else X[test][:, columns]
+        pred[test] = fitted.predict(X_test / scale)
+        fold_accuracy.append(float(np.mean(pred[test] == y[test])))
+    tested = np.unique(np.concatenate([test for _, test in folds]))
+    estimator, scale, columns = _fit_scaled(method, features.X, features.y, seed, select, **params)
     names = features.class_names
-    report = class_report(features.y[test], pred, labels=np.arange(len(names)), names=names)
-    return TrainedModel(method, estimator, scale, report, np.sort(train), np.sort(test), columns)
+    report = class_report(y[tested], pred[tested], labels=np.arange(len(names)), names=names)
+    return TrainedModel(
+        method,
+        estimator,
+        scale,
+        report,
+        np.arange(len(features.y)),
+        np.sort(keep[tested]),
+        columns,
+        split=split,
+        fold_accuracy=fold_accuracy,
+    )
 
 
 def classifier_head(estimator: object) -> tuple[str, dict, dict[str, np.ndarray]]:
@@ -372,6 +504,7 @@ __all__ = [
     "FeatureSet",
     "TrainedModel",
     "classifier_head",
+    "held_out_folds",
     "load_features",
     "load_model",
     "make_classifier",

@@ -316,11 +316,11 @@ def test_csv_loader(tmp_path):
     c = _write_csv(tmp_path / "felt_1.csv", _log()[:, [1, 0, 2, 3]], header="X,Time,Y,Z")
     rec = load_vibration_csv([a, b, c], class_names=["cork", "cork", "felt"])
     assert rec.rate_hz == 100.0 and rec.class_names == ("cork", "felt") and rec.labels.tolist() == [0, 0, 1]
-    assert rec.session.tolist() == ["cork_1", "cork_2", "felt_1"]
+    assert rec.session.tolist() == ["1", "2", "1"]  # the naming rule: <class>_<session>
     for s in rec.signals:
         np.testing.assert_allclose(s, _log()[:, 1:], atol=1e-6)
-    single = load_vibration_csv(a)
-    assert single.class_names == ("cork_1",)
+    single = load_vibration_csv(a)  # the same rule as the command line: cork_1.csv is class cork
+    assert single.class_names == ("cork",) and single.session.tolist() == ["1"]
     signal, _ = read_csv_recording(
         _write_csv(tmp_path / "ms2.csv", _log(scale=9.80665), header="time,ax,ay,az"),
         columns=("time", "ax", "ay", "az"),
@@ -339,9 +339,9 @@ def test_csv_loader(tmp_path):
     ("content", "kwargs", "error", "match"),
     [
         ("", {}, ValueError, "empty file"),
-        ("t,x,y\n0,1,2\n0.01,1,2\n", {}, ValueError, "missing"),
+        ("t,x,y\n0,1,2\n0.01,1,2\n", {}, ValueError, "no column 'z'"),
         ("0,1,2,3\n0.01,1,2,3\n", {"columns": ("t", "x", "y", "z")}, ValueError, "no header"),
-        ("t,x,y,z\n0,1,2,3\n0.01,1,2\n", {}, ValueError, "number"),
+        ("t,x,y,z\n0,1,2,3\n0.01,1,2\n", {}, ValueError, "every row must have the columns"),
         ("t,x,y,z\n0,1,2,3\n", {}, ValueError, "at least 2 samples"),
         ("t,x,y,z\n0,1,2,3\n0.01,1,nan,3\n", {}, ValueError, "finite"),
         ("t,x,y,z\n0,1,2,3\n0.01,1,2,3\n0.01,1,2,3\n", {}, ValueError, "strictly increase"),

@@ -112,7 +112,7 @@ def test_csv_round_trip_and_class_names(tmp_path):
     write_csv_recording(tmp_path / "felt.csv", rec.signals[0][:300], 800.0)
     both = read_data([path, tmp_path / "felt.csv"])
     assert both.kind == "vibration" and both.class_names == ("cork", "felt")
-    assert [len(s) for s in both.signals] == [400, 300] and list(both.session) == ["cork_3", "felt"]
+    assert [len(s) for s in both.signals] == [400, 300] and list(both.session) == ["3", "felt"]
     write_csv_recording(tmp_path / "slow.csv", rec.signals[0], 100.0)
     with pytest.raises(ValueError, match="different sample rates"):
         read_data([path, tmp_path / "slow.csv"])
@@ -205,7 +205,7 @@ def _vib(**change):
         ),
         (
             _vib(signals=np.zeros((2, 50, 3), np.int16)),
-            r"signals must be float accelerations in g, got int16 \(raw",
+            r"signals: accelerations must be in g or m/s\^2, got int16 \(raw sensor counts\?\); declare the scale",
         ),
         (_vib(signals=np.full((2, 50, 3), np.nan)), r"signals must be finite, got 300 NaN/inf value\(s\)"),
         (_vib(labels=np.array([0.0, 1.0])), r"labels must be integers of shape \(2,\), got float64"),

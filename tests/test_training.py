@@ -30,7 +30,8 @@ def test_cli_train_prints_a_class_report_and_saves_the_model(feature_npz, tmp_pa
     assert main(["train", "--data", str(path), "--method", "hmsvm", "--out", str(out), "--C", "10"]) == 0
     text = capsys.readouterr().out
     assert "120 samples x 5 features (features), 3 classes" in text
-    assert "trained on 90, tested on 30 held-out samples" in text
+    assert "held-out accuracy from 120 samples; 5 stratified folds" in text  # feature rows: no groups
+    assert "trained on all 120 samples" in text
     for name in ("cork", "felt", "glass", "mean", "overall accuracy"):
         assert name in text
     saved = load_model(out)
@@ -72,13 +73,11 @@ def test_train_classifier_methods(feature_npz, method):
     path, X, _ = feature_npz
     feats = load_features(path)
     model = train_classifier(feats, method, C=10.0, random_state=0)
-    assert model.report.overall_accuracy > 0.9
-    assert len(model.train_index) + len(model.test_index) == 120
-    std = X[model.train_index].std(0, ddof=1)
+    assert model.report.overall_accuracy > 0.9 and len(model.fold_accuracy) == 5
+    assert len(model.train_index) == len(model.test_index) == 120  # fitted on all, each held out once
+    std = X.std(0, ddof=1)
     np.testing.assert_allclose(model.scale, std)
-    np.testing.assert_array_equal(
-        model.predict(X[model.test_index]), model.estimator.predict(X[model.test_index] / std)
-    )
+    np.testing.assert_array_equal(model.predict(X), model.estimator.predict(X / std))
 
 
 def test_training_errors(tmp_path, feature_npz):

@@ -24,13 +24,10 @@ transfer. Read each set's ``PROVENANCE.md`` (licence, source commit, caveats).
 from __future__ import annotations
 
 import csv
-from dataclasses import replace
 from pathlib import Path
 
-import numpy as np
-
 from . import shared_data_dir
-from .vibration import STANDARD_GRAVITY, VibrationRecordings, load_vibration_csv
+from .vibration import VibrationRecordings, load_vibration_csv
 
 HAPMAT_COLUMNS = ("time", "accel_x", "accel_y", "accel_z")
 BOREALTC_COLUMNS = ("time", "ax", "ay", "az")
@@ -64,7 +61,8 @@ def load_hapmat_imu5(
     Returns
     -------
     VibrationRecordings
-        Class = material (the file name before the last ``_``), session = file name.
+        Class = material, session = the number after it (the naming rule: ``Fabric_1.csv`` →
+        ``Fabric``, session ``1``).
 
     Examples
     --------
@@ -75,13 +73,7 @@ def load_hapmat_imu5(
     files = sorted(_data_dir("hapmat_imu5", root).glob("*.csv"))
     if not files:
         raise FileNotFoundError(f"no CSV file in {_data_dir('hapmat_imu5', root)}")
-    return load_vibration_csv(
-        files,
-        class_names=[f.stem.rsplit("_", 1)[0] for f in files],
-        columns=HAPMAT_COLUMNS,
-        scale=scale,
-        rate_hz=rate_hz,
-    )
+    return load_vibration_csv(files, columns=HAPMAT_COLUMNS, scale=scale, rate_hz=rate_hz)
 
 
 def load_borealtc_imu(root: str | Path | None = None, *, rate_hz: float | None = None) -> VibrationRecordings:
@@ -110,14 +102,14 @@ def load_borealtc_imu(root: str | Path | None = None, *, rate_hz: float | None =
         files = sorted(path.glob("*/imu_*.csv"))
     if not files:
         raise FileNotFoundError(f"no imu_*.csv file in {path}")
-    rec = load_vibration_csv(
+    return load_vibration_csv(
         files,
         class_names=[f.parent.name for f in files],
+        sessions=[f"{f.parent.name}/{f.stem}" for f in files],
         columns=BOREALTC_COLUMNS,
-        scale=1.0 / STANDARD_GRAVITY,
+        units="m/s2",
         rate_hz=rate_hz,
     )
-    return replace(rec, session=np.array([f"{f.parent.name}/{f.stem}" for f in files]))
 
 
 __all__ = ["load_borealtc_imu", "load_hapmat_imu5"]

@@ -240,34 +240,55 @@ def load_vibration_csv(
     paths: str | Path | Sequence[str | Path],
     *,
     class_names: Sequence[str] | None = None,
-    columns: Sequence[str] | None = None,
-    scale: float = 1.0,
+    sessions: Sequence[str] | None = None,
+    index: str | Path | None = None,
+    columns: str | Sequence[str | int] | None = None,
+    units: str = "g",
+    scale: float | None = None,
+    time_unit: str = "auto",
     rate_hz: float | None = None,
 ) -> VibrationRecordings:
-    """Load CSV logs ``t,x,y,z`` (one recording per file) as :class:`VibrationRecordings`.
+    """Load CSV logs (one recording per file) as :class:`VibrationRecordings` in g.
 
     Parameters
     ----------
     paths : path or sequence of paths
-    class_names : sequence of str, optional
-        Class of each file (same length as ``paths``); default the file name without extension.
-        Labels index the sorted distinct names; ``session`` is the file name.
-    columns, scale
-        See :func:`read_csv_recording`.
+    class_names, sessions : sequence of str, optional
+        Class and session of each file (same length as ``paths``); default from ``index``, else
+        the naming rule: ``felt_3.csv`` → class ``felt``, session ``3``; ``glass.csv`` → class and
+        session ``glass`` (:func:`tactile_torch.data.logs.class_and_session`, the rule of the
+        command line). Labels index the sorted distinct classes.
+    index : path, optional
+        A CSV with columns ``file,class[,session]`` (files relative to it).
+    columns : str or sequence, optional
+        The t, x, y, z columns by name or 0-based index, or x, y, z (``"accel_x,accel_y,accel_z"``).
+    units : {"g", "m/s2"}
+    scale : float, optional
+        Units per count, required for integer sensor counts (``0.0039`` for the ADXL345).
+    time_unit : {"auto", "s", "ms", "us"}
+        ``"auto"``: seconds, unless that makes an implausible rate (refused in one line naming the
+        unit to pass).
     rate_hz : float, optional
         Resample every file to this rate. Without it, all files must share one rate (within 0.1 %).
 
+    Raises
+    ------
+    ValueError
+        One line naming the file (:func:`tactile_torch.data.logs.read_csv_log`).
+
     Examples
     --------
-    >>> rec = load_vibration_csv(["cork_1.csv", "cork_2.csv"], class_names=["cork", "cork"])  # doctest: +SKIP
+    >>> rec = load_vibration_csv(["felt_1.csv", "felt_2.csv"], units="m/s2", time_unit="ms")  # doctest: +SKIP
+    >>> rec.class_names, rec.session  # doctest: +SKIP
+    (('felt',), array(['1', '2'], dtype='<U1'))
     """
+    from .logs import names_for, read_csv_log
+
     paths = [paths] if isinstance(paths, str | Path) else list(paths)
     if not paths:
         raise ValueError("paths must name at least one CSV file, got none")
-    names = [Path(p).stem for p in paths] if class_names is None else [str(c) for c in class_names]
-    if len(names) != len(paths):
-        raise ValueError(f"class_names must give one class per file ({len(paths)}), got {len(names)}")
-    read = [read_csv_recording(p, columns=columns, scale=scale) for p in paths]
+    names, session = names_for(paths, class_names=class_names, sessions=sessions, index=index)
+    read = [read_csv_log(p, columns=columns, units=units, scale=scale, time_unit=time_unit) for p in paths]
     classes = tuple(sorted(set(names)))
     rates = np.array([r for _, r in read])
     signals = [s for s, _ in read]
@@ -290,7 +311,7 @@ def load_vibration_csv(
         labels=np.array([classes.index(n) for n in names]),
         class_names=classes,
         rate_hz=common,
-        session=np.array([Path(p).stem for p in paths]),
+        session=np.array(session),
     )
 
 

@@ -126,21 +126,24 @@ class TradeoffData:
 
 
 def load_tradeoff_data(
-    paths: str | Path | Sequence[str | Path],
+    paths,
     *,
     frame_rate_hz: float | None = None,
     allow_pickle: bool = False,
     csv_session: str = "number",
+    options=None,
+    name: str | None = None,
 ) -> TradeoffData:
-    """Read a data file (or CSV logs) for :func:`~tactile_torch.tradeoff.run_tradeoff`, with
-    :func:`tactile_torch.formats.read_data` (docs/formats.md).
+    """Read a data file (or CSV logs, ROS 2 bags) for :func:`~tactile_torch.tradeoff.run_tradeoff`, with
+    :func:`tactile_torch.data.sources.read_source` (docs/formats.md).
 
     Parameters
     ----------
-    paths : path or sequence of paths
+    paths : path, sequence of paths, or arrays already read
         One ``.npz`` (image explorations ``frames``, raw pressure maps ``frames`` ``(N, T, H, W)``
-        float, vibration recordings ``signals`` or a ``features`` matrix with ``labels``), or vibration
-        CSV logs ``t,x,y,z`` (one recording per file, class from the file name).
+        float, vibration recordings ``signals`` or a ``features`` matrix with ``labels``), vibration
+        CSV logs ``t,x,y,z`` or ROS 2 bags (one recording per file, class and session from the file
+        name: ``felt_3.csv`` → ``felt``, session ``3``); or what ``read_source`` returned.
     frame_rate_hz : float, optional
         Frames per second of explorations (default 10, the study's).
     allow_pickle : bool
@@ -149,6 +152,10 @@ def load_tradeoff_data(
         CSV logs: the session of each file. ``"number"`` (default): the trailing number of its name
         (``felt_3.csv`` and ``cork_3.csv`` are session ``3``), or the file itself when a name has
         none; ``"file"``: every file is its own session (recording).
+    options : DataOptions, optional
+        Columns, units, time unit, topic ... (:class:`tactile_torch.data.sources.DataOptions`).
+    name : str, optional
+        How the description names the data (default: the file).
 
     Raises
     ------
@@ -157,7 +164,7 @@ def load_tradeoff_data(
     FileNotFoundError
         If a path does not exist.
     """
-    from ..formats import data_name, read_data
+    from ..formats import data_name
 
     if frame_rate_hz is not None and (
         isinstance(frame_rate_hz, bool)
@@ -170,11 +177,19 @@ def load_tradeoff_data(
         )
     if csv_session not in ("number", "file"):
         raise ValueError(f"csv_session must be 'number' or 'file', got {csv_session!r}")
-    data = read_data(paths, allow_pickle=allow_pickle)
-    name = Path(data_name(paths)).name
+    if hasattr(paths, "kind"):
+        data, where = paths, name or "data"
+    else:
+        from ..data.sources import DataOptions, read_source
+
+        data = read_source(paths, options or DataOptions(allow_pickle=allow_pickle))
+        where = name or data_name(paths)
+    name = Path(where).name
     if data.kind == "vibration":
-        if csv_session == "number" and data.session is not None and _all_csv(paths):
-            data.session = np.array([_trailing_number(stem) for stem in data.session])
+        if csv_session == "file" and not hasattr(paths, "kind") and _all_csv(paths):
+            # the naming rule (data.logs) gave each log the trailing number of its name as session
+            files = [paths] if isinstance(paths, str | Path) else list(paths)
+            data.session = np.array([Path(p).stem for p in files])
         return vibration_data(data, name)
     if data.kind == "image":
         notes = []
@@ -200,9 +215,7 @@ def load_tradeoff_data(
             notes=notes,
         )
     if data.labels is None:
-        raise ValueError(
-            f"{data_name(paths)}: a feature file needs 'labels' next to 'features' to compare models"
-        )
+        raise ValueError(f"{where}: a feature file needs 'labels' next to 'features' to compare models")
     return TradeoffData(
         kind="features",
         class_names=tuple(data.class_names),
@@ -384,6 +397,68 @@ def vibration_samples(
     )
 
 
+def window_folds(
+    recording: np.ndarray,
+    position: np.ndarray,
+    y: np.ndarray,
+    session: np.ndarray,
+    *,
+    group_label: str = "session",
+    n_folds: int,
+    names: Sequence[str],
+    window: int,
+    guard: int = 1,
+    max_per_class: int | None = None,
+    random_state: RandomState = None,
+) -> tuple[np.ndarray, np.ndarray, list[Fold], str]:
+    """Folds of windows cut from recordings, every ``step`` samples, that never split neighbouring windows.
+
+    The decision of :func:`vibration_samples` (module notes) for windows that may overlap: grouped by
+    session (or recording) when every class has two, else consecutive time blocks with ``guard``
+    windows dropped between blocks. What ``tactile-torch train`` reports on
+    (:func:`tactile_torch.training.held_out_folds`).
+
+    Parameters
+    ----------
+    recording, position, y : ndarray (N,)
+        Each window's recording, its index within the recording (time order), its class.
+    session : ndarray (R,)
+        Each recording's session (or its index); windows are grouped by it.
+    group_label : str
+        What ``session`` holds, in the description (``"session"``, ``"recording"``).
+    guard : int
+        Time blocks: windows dropped at the start of every later block (``ceil(W / step)`` for
+        windows cut every ``step`` samples, so that no kept window overlaps another block's).
+
+    Returns
+    -------
+    groups : ndarray (N,)
+        What the folds keep on one side (session or recording, or a recording's time block).
+    keep : ndarray
+        The windows used (every window but the guards, at most ``max_per_class`` per class).
+    folds : list of (train, test)
+        Index arrays into ``keep``.
+    split : str
+        How the folds were made, in words.
+    """
+    group = _group_ids(np.asarray(session))[recording]
+    per_class = np.array([len(np.unique(group[y == c])) for c in np.unique(y)])
+    if per_class.min() >= 2:
+        keep = cap_per_class(y, max_per_class)
+        folds, split = sample_folds(
+            y[keep],
+            group[keep],
+            n_folds=n_folds,
+            names=names,
+            what="recordings",
+            group_label=group_label,
+            random_state=random_state,
+        )
+        return group, keep, folds, split
+    # one recording (or session) for some class: consecutive time blocks of every recording
+    return _time_blocks(recording, position, y, window, n_folds, max_per_class, names, guard)
+
+
 def _time_blocks(
     recording: np.ndarray,
     position: np.ndarray,
@@ -392,27 +467,37 @@ def _time_blocks(
     n_folds: int,
     max_per_class: int | None,
     names: Sequence[str],
+    guard: int = 1,
 ) -> tuple[np.ndarray, np.ndarray, list[Fold], str]:
     """Time-block folds: ``(block of each window, windows kept, folds over the kept ones, description)``."""
     present = np.unique(recording)
     n_windows = np.bincount(recording)[present]
-    blocks = min(n_folds, int(n_windows.min() // 2))  # every later block keeps a window after its guard
+    blocks = min(
+        n_folds, int(n_windows.min() // (guard + 1))
+    )  # every later block keeps a window after its guard
     if blocks < 2:
         short = names[int(y[recording == present[n_windows.argmin()]][0])]
+        need = 2 * (guard + 1)
         raise ValueError(
             f"window: {window} samples leaves a recording of class {short!r} only {n_windows.min()} window(s); "
-            "time-block folds need at least 4 (two blocks of two, one a guard): choose a shorter --window"
+            f"time-block folds need at least {need} (two blocks, each with {guard} guard window(s)): choose a "
+            "shorter --window"
         )
     count = np.bincount(recording)[recording]
     block = position * blocks // count
-    guard = (position > 0) & (block != (position - 1) * blocks // count)
-    keep = np.flatnonzero(~guard)
+    guarded = (position > 0) & (block != np.maximum(position - guard, 0) * blocks // count)
+    keep = np.flatnonzero(~guarded)
     keep = keep[cap_per_class(y[keep], max_per_class)]
     folds = [(np.flatnonzero(block[keep] != b), np.flatnonzero(block[keep] == b)) for b in range(blocks)]
     _check_folds(folds, y[keep], names, "windows")
+    dropped = (
+        "the first window of each later block is"
+        if guard == 1
+        else f"the first {guard} windows of each later block are"
+    )
     split = (
         f"{blocks} folds of consecutive time blocks of every recording (a class has a single recording); "
-        "the first window of each later block is dropped so that no neighbouring windows are split"
+        f"{dropped} dropped so that no neighbouring windows are split"
     )
     return recording * blocks + block, keep, folds, split
 
@@ -477,4 +562,5 @@ __all__ = [
     "sample_folds",
     "vibration_data",
     "vibration_samples",
+    "window_folds",
 ]

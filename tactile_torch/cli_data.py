@@ -1,0 +1,171 @@
+"""The data options of the command line (``--data`` and how to read it), shared by train, cluster and tradeoff.
+
+:func:`add_data_options` declares them on a subcommand; :func:`data_options` turns the parsed
+arguments into a :class:`tactile_torch.data.sources.DataOptions`; :func:`read_data_arg` reads
+``--data`` with them (:func:`tactile_torch.data.sources.read_source`).
+"""
+
+from __future__ import annotations
+
+import argparse
+
+DATA_HELP = (
+    "a .npz of docs/formats.md (frames, signals or features), CSV logs (t,x,y,z; --columns to name others), "
+    "or ROS 2 bags (directories or .db3/.mcap files; --topic). Class and session from the file name: "
+    "felt_3.csv -> class felt, session 3 (or --index)"
+)
+
+
+def _shape(text: str) -> tuple[int, int]:
+    parts = text.replace("x", ",").split(",")
+    if len(parts) != 2 or not all(p.strip().isdigit() and int(p) > 0 for p in parts):
+        raise argparse.ArgumentTypeError(f"expected H,W (two whole numbers > 0), got {text!r}")
+    return int(parts[0]), int(parts[1])
+
+
+def _positive(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"expected a number > 0, got {text!r}")
+    return value
+
+
+def _count(text: str) -> int:
+    if not text.strip().isdigit() or int(text) < 1:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {text!r}")
+    return int(text)
+
+
+def add_data_options(
+    p: argparse.ArgumentParser, *, data_help: str = DATA_HELP, sensor_range: bool = True
+) -> None:
+    """Add ``--data`` and the options saying how to read it to the subcommand parser ``p``.
+
+    ``sensor_range``: add ``--sensor-range`` (recordings beyond it are refused); without it, no range
+    check (``predict`` leaves such windows out with its own ``--range``).
+    """
+    p.add_argument("--data", required=True, nargs="+", help=data_help)
+    g = p.add_argument_group("reading the data (docs/formats.md)")
+    g.add_argument(
+        "--columns",
+        default=None,
+        help="CSV logs: the t,x,y,z columns by name or 0-based index, or x,y,z (time: t or time), "
+        "e.g. time,accel_x,accel_y,accel_z (default: t/time,x,y,z by name, else the first four)",
+    )
+    g.add_argument(
+        "--units",
+        default=None,
+        choices=["g", "m/s2"],
+        help="CSV and .npz accelerations (default: g); ROS Imu topics are m/s2 by definition",
+    )
+    g.add_argument(
+        "--scale",
+        type=_positive,
+        default=None,
+        help="units per count for integer sensor counts, e.g. 0.0039 (ADXL345 at full resolution)",
+    )
+    g.add_argument(
+        "--time-unit",
+        default="auto",
+        choices=["auto", "s", "ms", "us"],
+        help="CSV logs: unit of the time column (default: auto, seconds unless the rate is implausible)",
+    )
+    if sensor_range:
+        g.add_argument(
+            "--sensor-range",
+            dest="data_sensor_range",
+            type=_positive,
+            default=None,
+            metavar="G",
+            help="recordings with samples beyond +-G g are refused; inf: no check (default: 5, the ADXL345)",
+        )
+    g.add_argument(
+        "--topic", default=None, help="ROS 2 bags: the topic (default: the only IMU or array topic)"
+    )
+    g.add_argument(
+        "--shape",
+        type=_shape,
+        default=None,
+        metavar="H,W",
+        help="ROS 2 bags: taxels of Float32MultiArray pressure maps (default: the message layout)",
+    )
+    g.add_argument(
+        "--frames",
+        type=_count,
+        default=None,
+        help="ROS 2 bags of pressure maps: frames per exploration (default: the shortest bag's)",
+    )
+    g.add_argument(
+        "--max-messages",
+        type=_count,
+        default=None,
+        help="ROS 2 bags: read at most this many messages per topic (default: 10,000,000)",
+    )
+    g.add_argument("--index", default=None, help="CSV file,class[,session] giving each data file's class")
+
+
+def data_options(args: argparse.Namespace):
+    """Return the :class:`~tactile_torch.data.sources.DataOptions` the parsed arguments declare."""
+    from .data.sources import DEFAULT_RANGE_G, MAX_BAG_MESSAGES, DataOptions
+
+    return DataOptions(
+        columns=args.columns,
+        units=args.units,
+        scale=args.scale,
+        time_unit=args.time_unit,
+        topic=args.topic,
+        shape=args.shape,
+        frames=args.frames,
+        index=args.index,
+        sensor_range_g=(args.data_sensor_range or DEFAULT_RANGE_G)
+        if "data_sensor_range" in args
+        else float("inf"),
+        max_messages=args.max_messages or MAX_BAG_MESSAGES,
+        allow_pickle=getattr(args, "allow_pickle", False),
+        check="data_sensor_range" in args,  # predict: no --sensor-range; it leaves such windows out
+    )
+
+
+_OPTION_NAMES = {
+    "columns": "--columns",
+    "units": "--units",
+    "scale": "--scale",
+    "time_unit": "--time-unit",
+    "data_sensor_range": "--sensor-range",
+    "topic": "--topic",
+    "shape": "--shape",
+    "frames": "--frames",
+    "max_messages": "--max-messages",
+    "index": "--index",
+}
+
+
+def data_option_words(args: argparse.Namespace) -> list[str]:
+    """Return the data options given (not at their defaults) as command-line words, to rerun a command."""
+    words = []
+    for name, option in _OPTION_NAMES.items():
+        value = getattr(args, name, None)
+        if value is None or (name == "time_unit" and value == "auto"):
+            continue
+        text = (
+            ",".join(str(v) for v in value)
+            if isinstance(value, tuple)
+            else f"{value:g}"
+            if isinstance(value, float)
+            else str(value)
+        )
+        words.append(f"{option} {text}")
+    return words
+
+
+def read_data_arg(args: argparse.Namespace):
+    """Read ``--data`` with the declared options; return the arrays (``.kind`` says which)."""
+    from .data.sources import read_source
+
+    return read_source(args.data, data_options(args))
+
+
+__all__ = ["DATA_HELP", "add_data_options", "data_option_words", "data_options", "read_data_arg"]

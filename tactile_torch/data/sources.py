@@ -1,0 +1,263 @@
+"""One entry for every data argument: a ``.npz``, CSV logs or ROS 2 bags, read with declared units and checked.
+
+:func:`read_source` is what ``tactile-torch train``, ``cluster`` and ``tradeoff`` (and
+:func:`tactile_torch.training.load_features`, :func:`tactile_torch.tradeoff.load_tradeoff_data`)
+call on their ``--data``: it returns the arrays of :mod:`tactile_torch.formats`
+(``ExplorationArrays``, ``RecordingArrays`` or ``FeatureArrays``), and refuses, in one line naming
+the file and the sample, vibration recordings that the declared units make implausible
+(:func:`check_recordings`).
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .bags import MAX_BAG_MESSAGES, PRESSURE_TYPE, is_bag, read_bag
+from .logs import STANDARD_GRAVITY, UNITS, names_for
+
+PathLike = str | os.PathLike
+
+DEFAULT_RANGE_G = 5.0
+"""Sensor range assumed when none is declared: the ±5 g of the study's ADXL345 (as ``export``)."""
+GRAVITY_BAND_G = (7.0, 12.0)
+"""A recording whose mean acceleration has a norm in this band, read as g, is gravity in m/s^2."""
+
+
+@dataclass(frozen=True)
+class DataOptions:
+    """How to read a data argument (the data options of the command line, in the same names).
+
+    Attributes
+    ----------
+    columns : str or sequence, optional
+        CSV logs: the t, x, y, z columns by name or 0-based index (:mod:`tactile_torch.data.logs`).
+    units : {"g", "m/s2"}, optional
+        Accelerations of CSV logs and ``.npz`` recordings (default: g, as docs/formats.md says).
+        IMU topics are m/s^2 by definition and converted whatever this says.
+    scale : float, optional
+        Units per count, for integer counts (refused without it).
+    time_unit : {"auto", "s", "ms", "us"}
+        CSV logs: unit of the time column.
+    topic : str, optional
+        Bags: the topic to read (default: the only IMU or pressure-array topic).
+    shape : (H, W), optional
+        Bags: the taxel grid of pressure-array messages.
+    frames : int, optional
+        Bags of pressure maps: frames per exploration (default: the shortest recording's length).
+    index : path, optional
+        A CSV ``file,class[,session]`` giving each file's class and session (else the naming rule).
+    sensor_range_g : float
+        Samples beyond ±this are refused (``inf``: no check).
+    max_messages : int
+        Bags: messages read per topic at most.
+    allow_pickle : bool
+        Legacy vibration ``.npz`` of tactile-torch 0.1 (trusted files only).
+    check : bool
+        Refuse implausible recordings (:func:`check_recordings`); ``predict`` leaves the windows it
+        cannot classify out instead.
+    """
+
+    columns: str | Sequence[str | int] | None = None
+    units: str | None = None
+    scale: float | None = None
+    time_unit: str = "auto"
+    topic: str | None = None
+    shape: tuple[int, int] | None = None
+    frames: int | None = None
+    index: PathLike | None = None
+    sensor_range_g: float = DEFAULT_RANGE_G
+    max_messages: int = MAX_BAG_MESSAGES
+    allow_pickle: bool = False
+    check: bool = True
+
+
+def _kind_of(path: Path) -> str:
+    if is_bag(path):
+        return "bag"
+    return "csv" if path.suffix.lower() == ".csv" else "npz"
+
+
+def read_source(paths: PathLike | Sequence[PathLike], options: DataOptions | None = None):
+    """Read ``paths`` (one ``.npz``, CSV logs, or ROS 2 bags) with ``options``; return its arrays.
+
+    Returns
+    -------
+    ExplorationArrays, RecordingArrays or FeatureArrays
+        As :func:`tactile_torch.formats.read_data` (``.kind`` says which). Vibration recordings are
+        in g and have passed :func:`check_recordings`; ``RecordingArrays.session`` is set from the
+        naming rule or the index.
+
+    Raises
+    ------
+    ValueError
+        One line naming the file: anything :mod:`tactile_torch.formats`, :mod:`.logs` or
+        :mod:`.bags` refuse, files of different kinds together, or implausible samples.
+    """
+    from ..formats import data_kind, read_csv_recordings, read_npz, recordings_from_arrays
+
+    options = options or DataOptions()
+    paths = [Path(paths)] if isinstance(paths, str | os.PathLike) else [Path(p) for p in paths]
+    if not paths:
+        raise ValueError("data must name a .npz file, CSV logs or ROS 2 bags, got none")
+    kinds = {_kind_of(p) for p in paths}
+    if len(kinds) > 1 or (kinds == {"npz"} and len(paths) > 1):
+        raise ValueError(
+            f"data must be one .npz file, or CSV logs, or ROS 2 bags (one kind), got {[str(p) for p in paths]}"
+        )
+    kind = kinds.pop()
+    units = options.units or "g"
+    if units not in UNITS:
+        raise ValueError(f"units must be one of {list(UNITS)}, got {units!r}")
+    if kind == "bag":
+        return _read_bags(paths, options)
+    if kind == "csv":
+        data = read_csv_recordings(
+            paths,
+            index=options.index,
+            columns=options.columns,
+            scale=options.scale,
+            units=units,
+            time_unit=options.time_unit,
+        )
+        sources = [str(p) for p in paths]
+    else:
+        path = paths[0]
+        arrays = read_npz(path, allow_pickle=options.allow_pickle, what="data file (.npz of docs/formats.md)")
+        if data_kind(arrays, path) != "vibration":
+            from ..formats import read_data
+
+            return read_data(path, allow_pickle=options.allow_pickle)
+        signals = arrays["signals"]
+        factor = UNITS[units] * (1.0 if options.scale is None else float(options.scale))
+        if signals.dtype == object and factor != 1.0:
+            raise ValueError(
+                f"{path}: units or a scale apply to plain signals arrays, not to the pickled recordings of "
+                "tactile-torch 0.1: re-save the file first (docs/formats.md)"
+            )
+        if signals.dtype != object and (factor != 1.0 or options.scale is not None):
+            if np.issubdtype(signals.dtype, np.integer) and options.scale is None:
+                from .logs import integer_counts_message
+
+                raise ValueError(integer_counts_message(f"{path}: signals", f"{signals.dtype}"))
+            if np.issubdtype(signals.dtype, np.number):
+                arrays["signals"] = signals.astype(np.float64) * factor
+        data = recordings_from_arrays(arrays, path)
+        session = data.session if data.session is not None else np.arange(len(data))
+        sources = [f"{path}: recording {i} (session {s})" for i, s in enumerate(session)]
+    if options.check:
+        check_recordings(
+            data.signals, sources, data.rate_hz, sensor_range_g=options.sensor_range_g, units=units
+        )
+    return data
+
+
+def _read_bags(paths: list[Path], options: DataOptions):
+    from ..formats import RecordingArrays
+
+    classes, sessions = names_for(paths, index=options.index)
+    topics = [
+        read_bag(p, options.topic, shape=options.shape, max_messages=options.max_messages) for p in paths
+    ]
+    kinds = {t.msgtype for t in topics}
+    if len(kinds) > 1:
+        raise ValueError(f"the bags' topics hold different types ({sorted(kinds)}); read one kind at a time")
+    rates = np.array([t.rate_hz for t in topics])
+    if np.abs(rates / rates[0] - 1).max() > 1e-2:
+        odd = int(np.argmax(np.abs(rates / rates[0] - 1)))
+        raise ValueError(
+            f"the bags have different rates ({topics[0].name}: {rates[0]:g} Hz, {topics[odd].name}: "
+            f"{rates[odd]:g} Hz); resample them to a common rate"
+        )
+    names = tuple(sorted(set(classes)))
+    labels = np.array([names.index(c) for c in classes], dtype=np.int64)
+    if kinds == {PRESSURE_TYPE}:
+        return _explorations(topics, labels, names, options.frames)
+    signals = [t.values for t in topics]
+    sources = [t.name for t in topics]
+    if options.check:
+        check_recordings(
+            signals, sources, float(rates[0]), sensor_range_g=options.sensor_range_g, units="m/s2"
+        )
+    return RecordingArrays(signals, labels, names, float(rates[0]), np.array(sessions))
+
+
+def _explorations(topics, labels: np.ndarray, names: tuple[str, ...], frames: int | None):
+    """Cut each bag's pressure maps into explorations of ``frames`` maps; groups = the bag."""
+    from ..formats import ExplorationArrays
+
+    shapes = {t.values.shape[1:] for t in topics}
+    if len(shapes) > 1:
+        raise ValueError(
+            f"the bags' pressure maps differ in shape ({sorted(shapes)}); give bags of one sensor"
+        )
+    shortest = min(len(t.values) for t in topics)
+    frames = shortest if frames is None else int(frames)
+    if frames < 1 or frames > shortest:
+        short = min(topics, key=lambda t: len(t.values))
+        raise ValueError(
+            f"frames must be in 1..{shortest} (the shortest recording, {short.name}, has {shortest} maps), got {frames}"
+        )
+    parts, y, groups = [], [], []
+    for g, (t, label) in enumerate(zip(topics, labels, strict=True)):
+        n = len(t.values) // frames
+        parts.append(t.values[: n * frames].reshape(n, frames, *t.values.shape[1:]))
+        y += [label] * n
+        groups += [g] * n
+    return ExplorationArrays(
+        None, np.concatenate(parts), np.array(y, np.int64), names, np.array(groups, np.int64)
+    )
+
+
+def check_recordings(
+    signals: Sequence[np.ndarray],
+    sources: Sequence[str],
+    rate_hz: float,
+    *,
+    sensor_range_g: float = DEFAULT_RANGE_G,
+    units: str = "g",
+) -> None:
+    """Refuse recordings whose samples the declared units make implausible; return ``None`` if all pass.
+
+    Checked per recording ``(n, 3)`` in g, in this order: the mean acceleration's norm lies in
+    :data:`GRAVITY_BAND_G` (gravity of m/s^2 data read as g; only when ``units`` is ``"g"``); a
+    sample beyond ``±sensor_range_g`` (1e30, a corrupted value, a wrong scale); every axis constant
+    (a disconnected sensor: no vibration to classify). Non-finite samples are refused by the readers.
+
+    Raises
+    ------
+    ValueError
+        One line naming the recording (``sources[i]``), the sample (index and time) and the value.
+    """
+    for signal, where in zip(signals, sources, strict=True):
+        s = np.asarray(signal, dtype=np.float64)
+        if not len(s):
+            continue
+        mean = s.mean(axis=0)
+        norm = float(np.linalg.norm(mean))
+        if units == "g" and GRAVITY_BAND_G[0] <= norm <= GRAVITY_BAND_G[1]:
+            raise ValueError(
+                f"{where}: the mean acceleration is {norm:.3g} g (x, y, z = {', '.join(f'{m:.3g}' for m in mean)}): "
+                f"gravity reads 1 g, so these look like m/s^2 ({STANDARD_GRAVITY} m/s^2 = 1 g); pass --units m/s2 "
+                "(units='m/s2')"
+            )
+        beyond = np.abs(s) > sensor_range_g
+        if beyond.any():
+            row, axis = (int(i) for i in np.argwhere(beyond)[0])
+            raise ValueError(
+                f"{where}: sample {row} (t = {row / rate_hz:.4g} s) reads {s[row, axis]:.4g} g on {'xyz'[axis]}, "
+                f"beyond the sensor's ±{sensor_range_g:g} g ({int(beyond.any(axis=1).sum())} samples beyond); "
+                "declare the range with --sensor-range G (sensor_range_g=), or the units with --units / --scale"
+            )
+        if len(s) > 1 and (np.ptp(s, axis=0) == 0).all():
+            raise ValueError(
+                f"{where}: all {len(s)} samples are equal ({', '.join(f'{v:.4g}' for v in s[0])} g): no vibration "
+                "(a disconnected or saturated sensor?)"
+            )
+
+
+__all__ = ["DEFAULT_RANGE_G", "GRAVITY_BAND_G", "DataOptions", "check_recordings", "read_source"]

@@ -1,0 +1,155 @@
+"""ROS 2 bags (sqlite3 and MCAP storage) written with rosbags' own writer and read back as recordings:
+IMU topics in g with header stamps, pressure-array topics as explorations, bad bags in one line, and
+``--data bag --topic`` on the command line. Needs the optional extra ``ros`` (rosbags)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from tactile_torch.cli import BAD_INPUT_EXIT, main
+from tactile_torch.data import make_vibration_recordings
+from tactile_torch.data.bags import read_bag
+from tactile_torch.data.sources import DataOptions, read_source
+
+pytest.importorskip(
+    "rosbags", reason="the optional extra 'ros' (rosbags) is not installed: pip install -e '.[ros]'"
+)
+
+G = 9.80665
+
+
+@pytest.fixture(scope="module")
+def rec():
+    return make_vibration_recordings(4, duration_s=4.0, random_state=0)
+
+
+def _typestore():
+    from rosbags.typesys import Stores, get_typestore
+
+    return get_typestore(Stores.ROS2_HUMBLE)
+
+
+def write_imu_bag(path, signal_g, rate, *, storage="sqlite3", topic="/imu", start_s=1_700_000_000):
+    """A rosbag2 of sensor_msgs/msg/Imu messages (m/s^2) written with rosbags' writer."""
+    from rosbags.rosbag2 import StoragePlugin, Writer
+
+    ts = _typestore()
+    t = ts.types
+    plugin = StoragePlugin.SQLITE3 if storage == "sqlite3" else StoragePlugin.MCAP
+    with Writer(path, version=9, storage_plugin=plugin) as writer:
+        conn = writer.add_connection(topic, "sensor_msgs/msg/Imu", typestore=ts)
+        other = writer.add_connection("/status", "std_msgs/msg/String", typestore=ts)
+        zero = t["geometry_msgs/msg/Vector3"](x=0.0, y=0.0, z=0.0)
+        for i, a in enumerate(np.asarray(signal_g, dtype=np.float64) * G):
+            ns = start_s * 10**9 + round(1e9 * i / rate)
+            header = t["std_msgs/msg/Header"](
+                stamp=t["builtin_interfaces/msg/Time"](sec=ns // 10**9, nanosec=ns % 10**9), frame_id="imu"
+            )
+            msg = t["sensor_msgs/msg/Imu"](
+                header=header,
+                orientation=t["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0),
+                orientation_covariance=np.zeros(9),
+                angular_velocity=zero,
+                angular_velocity_covariance=np.zeros(9),
+                linear_acceleration=t["geometry_msgs/msg/Vector3"](x=a[0], y=a[1], z=a[2]),
+                linear_acceleration_covariance=np.zeros(9),
+            )
+            writer.write(conn, ns + 5000, ts.serialize_cdr(msg, "sensor_msgs/msg/Imu"))
+        writer.write(
+            other,
+            start_s * 10**9,
+            ts.serialize_cdr(t["std_msgs/msg/String"](data="ok"), "std_msgs/msg/String"),
+        )
+    return path
+
+
+def write_pressure_bag(path, maps, *, storage="mcap", topic="/pressure", layout=True):
+    from rosbags.rosbag2 import StoragePlugin, Writer
+
+    ts = _typestore()
+    t = ts.types
+    plugin = StoragePlugin.SQLITE3 if storage == "sqlite3" else StoragePlugin.MCAP
+    dims = [
+        t["std_msgs/msg/MultiArrayDimension"](label=k, size=n, stride=0)
+        for k, n in zip("hw", maps.shape[1:], strict=True)
+    ]
+    with Writer(path, version=9, storage_plugin=plugin) as writer:
+        conn = writer.add_connection(topic, "std_msgs/msg/Float32MultiArray", typestore=ts)
+        for i, m in enumerate(maps):
+            msg = t["std_msgs/msg/Float32MultiArray"](
+                layout=t["std_msgs/msg/MultiArrayLayout"](dim=dims if layout else [], data_offset=0),
+                data=m.astype(np.float32).ravel(),
+            )
+            writer.write(conn, 10**9 + i * 10**8, ts.serialize_cdr(msg, "std_msgs/msg/Float32MultiArray"))
+    return path
+
+
+@pytest.mark.parametrize("storage", ["sqlite3", "mcap"])
+def test_imu_bags_read_back_in_g_with_header_stamps(tmp_path, rec, storage):
+    signal = rec.signals[1][:800]
+    bag = write_imu_bag(tmp_path / "felt_2", signal, 800.0, storage=storage)
+    topic = read_bag(bag)  # the only Imu topic is found (the /status strings are left alone)
+    assert topic.topic == "/imu" and topic.rate_hz == 800.0 and topic.values.shape == (800, 3)
+    np.testing.assert_allclose(topic.values, signal, atol=1e-6)
+    np.testing.assert_allclose(topic.stamps_s[:3], [0, 1 / 800, 2 / 800], atol=1e-9)
+    storage_file = next(p for p in bag.iterdir() if p.suffix in (".db3", ".mcap"))
+    np.testing.assert_array_equal(read_bag(storage_file, "/imu").values, topic.values)
+    data = read_source([bag], DataOptions(topic="/imu"))
+    assert data.class_names == ("felt",) and data.session.tolist() == ["2"]
+
+
+def test_pressure_bags_become_explorations(tmp_path):
+    rng = np.random.default_rng(0)
+    maps = [rng.uniform(0, 1, (n, 4, 5)).astype(np.float32) for n in (25, 30)]
+    bags = [
+        write_pressure_bag(tmp_path / "dots_1", maps[0]),
+        write_pressure_bag(tmp_path / "grid_1", maps[1], storage="sqlite3", layout=False),
+    ]
+    with pytest.raises(
+        ValueError, match=r"grid_1:/pressure: message 0 has 20 values and a layout of 0 dimension"
+    ):
+        read_source(bags)
+    data = read_source(bags, DataOptions(shape=(4, 5), frames=10))
+    assert data.kind == "image" and data.frames is None and data.pressure.shape == (5, 10, 4, 5)
+    assert data.labels.tolist() == [0, 0, 1, 1, 1] and data.groups.tolist() == [0, 0, 1, 1, 1]
+    np.testing.assert_array_equal(data.pressure[3], maps[1][10:20])
+    with pytest.raises(ValueError, match=r"not the 2 x 5 of the shape"):
+        read_source(bags[:1], DataOptions(shape=(2, 5)))
+
+
+def test_bad_bags_get_one_line(tmp_path, rec):
+    bag = write_imu_bag(tmp_path / "run", rec.signals[0][:100], 800.0)
+    with pytest.raises(
+        ValueError, match=r"run: no topic '/imu/data'; the bag has /imu \(sensor_msgs/msg/Imu\), /status"
+    ):
+        read_bag(bag, "/imu/data")
+    with pytest.raises(
+        ValueError, match=r"run: topic /status holds std_msgs/msg/String, expected sensor_msgs/msg/Imu"
+    ):
+        read_bag(bag, "/status")
+    with pytest.raises(ValueError, match=r"run:/imu: 100 messages, more than the 50 read at most"):
+        read_bag(bag, max_messages=50)
+    empty = write_imu_bag(tmp_path / "empty", np.zeros((0, 3)), 800.0, storage="mcap")
+    with pytest.raises(ValueError, match=r"empty:/imu: 0 message\(s\), at least 2 are needed"):
+        read_bag(empty)
+    (tmp_path / "junk.mcap").write_bytes(b"not a bag at all")
+    with pytest.raises(ValueError, match=r"junk\.mcap: not a readable ROS 2 bag|junk\.mcap:None: unreadable"):
+        read_bag(tmp_path / "junk.mcap")
+    with pytest.raises(FileNotFoundError, match=r"nothing\.mcap: no such bag"):
+        read_bag(tmp_path / "nothing.mcap")
+
+
+def test_cli_trains_on_bags_written_outside(tmp_path, rec, capsys):
+    bags = []
+    for k, (signal, label) in enumerate(zip(rec.signals, rec.labels, strict=True)):
+        for half, part in enumerate((signal[:1600], signal[1600:]), start=1):
+            name = f"{rec.class_names[label]}_{half}"
+            bags.append(write_imu_bag(tmp_path / name, part, 800.0, storage="mcap" if k % 2 else "sqlite3"))
+    argv = ["train", "--data", *map(str, bags), "--topic", "/imu", "--window", "400"]
+    assert main(argv) == 0
+    text = capsys.readouterr().out
+    assert "32 samples x 21 features (vibration), 4 classes" in text and "2 folds grouped by session" in text
+    assert main([*argv[:-2], "--window", "400", "--topic", "/nope"]) == BAD_INPUT_EXIT
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "no topic '/nope'; the bag has /imu (sensor_msgs/msg/Imu)" in err
