@@ -100,4 +100,4 @@ def test_run_tradeoff_writes_only_under_out_dir(tmp_path, monkeypatch):
         background=False,
     )
     assert list(cwd.iterdir()) == []
-    assert list((tmp_path / "out" / "models").glob("*.onnx"))
+    assert list((tmp_path / "out" / "timing").glob("*.onnx"))  # the timing files, under out_dir only

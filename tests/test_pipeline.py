@@ -330,6 +330,7 @@ def test_a_header_is_checked_against_its_graph(tmp_path, vibration_npz):
     assert (bundle.predict(raw) == -1).mean() >= 0.9
 
 
+@pytest.mark.slow  # trains and exports its own bundle (about 40 s); the API and predict have faster tests above
 def test_out_of_distribution_windows_are_unknown_in_predict_and_stream(tmp_path, vibration_npz, capsys):
     """A pure tone through `predict` and through `stream` over a pty: "unknown" with the reason."""
     from tactile_torch.stream import format_sample
