@@ -73,31 +73,3 @@ def test_run_tradeoff_needs_the_output_directory():
 
     with pytest.raises(TypeError, match="out_dir"):
         run_tradeoff("recordings.npz", quick=True)
-
-
-def test_run_tradeoff_writes_only_under_out_dir(tmp_path, monkeypatch):
-    import numpy as np
-
-    from tactile_torch.data.images import make_explorations
-    from tactile_torch.tradeoff import run_tradeoff
-
-    data = make_explorations(3, n_frames=6, frame_size=24, sensels=6, random_state=1, keep_pressure=True)
-    path = tmp_path / "taxels.npz"
-    np.savez(path, frames=200.0 + data.pressure.numpy(), labels=data.labels.numpy(),
-             class_names=np.array(data.class_names))  # fmt: skip
-    cwd = tmp_path / "cwd"
-    cwd.mkdir()
-    monkeypatch.chdir(cwd)
-    run_tradeoff(
-        path,
-        features=["fused"],
-        classifiers=["LDA"],
-        quick=True,
-        n_folds=3,
-        out_dir=tmp_path / "out",
-        progress=False,
-        log=lambda s: None,
-        background=False,
-    )
-    assert list(cwd.iterdir()) == []
-    assert list((tmp_path / "out" / "timing").glob("*.onnx"))  # the timing files, under out_dir only

@@ -388,8 +388,9 @@ def test_tradeoff_command_writes_the_breaking_points(tmp_path, capsys):
     assert "drift" in str(doc["breaking_points"]["skipped"])  # no positions within recordings here
 
 
-def test_tradeoff_on_small_taxel_arrays(tmp_path):
-    """Raw pressure maps of a 6 x 6 array (raw counts, resting at 200) through the same study."""
+def test_tradeoff_on_small_taxel_arrays(tmp_path, monkeypatch):
+    """Raw pressure maps of a 6 x 6 array (raw counts, resting at 200) through the same study; nothing is
+    written outside ``out_dir`` (the working directory stays empty)."""
     from tactile_torch.tradeoff import run_tradeoff, write_outputs
 
     data = make_explorations(3, n_frames=6, frame_size=24, sensels=6, random_state=1, keep_pressure=True)
@@ -400,6 +401,9 @@ def test_tradeoff_on_small_taxel_arrays(tmp_path):
         labels=data.labels.numpy(),
         class_names=np.array(data.class_names),
     )
+    cwd = tmp_path / "cwd"
+    cwd.mkdir()
+    monkeypatch.chdir(cwd)
     result = run_tradeoff(  # the per-frame ablation runs through the same step as the fused features
         path,
         features=["fused", "per-taxel"],
@@ -411,6 +415,8 @@ def test_tradeoff_on_small_taxel_arrays(tmp_path):
         log=lambda s: None,
         background=False,
     )
+    assert list(cwd.iterdir()) == []
+    assert list((tmp_path / "o" / "timing").glob("*.onnx"))  # the timing files, under out_dir only
     features = [r["features"] for r in result.rows]
     assert features == ["fused 12", "per-taxel 252"]
     assert all(r["onnx_agreement"] == 1.0 for r in result.rows)
@@ -586,7 +592,10 @@ def test_units_of_explorations_and_time_blocks(recordings):
 
 
 # ------------------------------------------------------------------- feature files, atomic output
-@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+@pytest.mark.parametrize(
+    "dtype",
+    [np.float32, pytest.param(np.float64, marks=pytest.mark.slow)],  # same path; keeps the suite short
+)
 def test_tradeoff_on_a_feature_file_exports_and_recommends(tmp_path, capsys, dtype):
     from tactile_torch.runtime import OnnxPipeline
 
