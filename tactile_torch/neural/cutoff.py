@@ -32,7 +32,7 @@ from sklearn.utils.validation import check_is_fitted
 from torch import nn
 
 from .._checks import numpy_rng, torch_generator
-from .front_end import HardFrontEndGraph, _train_head, crammer_singer_loss
+from .front_end import HardFrontEndGraph, _fit_standardised_head, crammer_singer_loss
 
 HF_COLUMNS = (6, 13, 20)
 """Columns of ``hf`` among the 21 features (axis-major order)."""
@@ -202,15 +202,8 @@ class LearnedCutoffClassifier(ClassifierMixin, BaseEstimator):
         with serial_torch_ops_in_this_thread():
             if self.learn:
                 self._learn(windows, targets, generator)
-            F = self._features(windows)
-            self.feature_mean_, self.feature_scale_ = F.mean(0), F.std(0).clamp_min(1e-6)
-            self.linear_ = _train_head(
-                (F - self.feature_mean_) / self.feature_scale_,
-                targets,
-                len(self.classes_),
-                self.alpha,
-                self.head_steps,
-                generator,
+            self.feature_mean_, self.feature_scale_, self.linear_ = _fit_standardised_head(
+                self._features(windows), targets, len(self.classes_), self.alpha, self.head_steps, generator
             )
         self.n_parameters_ = int(self.linear_.weight.numel() + self.linear_.bias.numel()) + (
             2 if self.learn else 0

@@ -143,6 +143,17 @@ def _train_head(
     return linear
 
 
+def _fit_standardised_head(
+    F: torch.Tensor, y: torch.Tensor, n_classes: int, alpha: float, steps: int, generator: torch.Generator
+) -> tuple[torch.Tensor, torch.Tensor, nn.Linear]:
+    """Return ``(mean, scale, head)``: ``F``'s standardisation and :func:`_train_head` fitted on it."""
+    from .._parallel import serial_torch_ops_in_this_thread
+
+    mean, scale = F.mean(0), F.std(0).clamp_min(1e-6)
+    with serial_torch_ops_in_this_thread():
+        return mean, scale, _train_head((F - mean) / scale, y, n_classes, alpha, steps, generator)
+
+
 class LearnedFrontEndClassifier(ClassifierMixin, BaseEstimator):
     """Method 1 with its front-end settings learned through the soft ops and a hinge-loss linear head.
 
@@ -315,19 +326,9 @@ class LearnedFrontEndClassifier(ClassifierMixin, BaseEstimator):
         self.history_ = []
         if self.learn:
             self._learn_front_end(frames, targets, generator)
-        from .._parallel import serial_torch_ops_in_this_thread
-
-        F = self._hard_features(frames)
-        self.feature_mean_, self.feature_scale_ = F.mean(0), F.std(0).clamp_min(1e-6)
-        with serial_torch_ops_in_this_thread():
-            self.linear_ = _train_head(
-                (F - self.feature_mean_) / self.feature_scale_,
-                targets,
-                len(self.classes_),
-                self.alpha,
-                self.head_steps,
-                generator,
-            )
+        self.feature_mean_, self.feature_scale_, self.linear_ = _fit_standardised_head(
+            self._hard_features(frames), targets, len(self.classes_), self.alpha, self.head_steps, generator
+        )
         self.n_parameters_ = int(self.linear_.weight.numel() + self.linear_.bias.numel()) + (
             4 if self.learn else 0
         )

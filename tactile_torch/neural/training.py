@@ -22,6 +22,8 @@ import numpy as np
 import torch
 from torch import nn
 
+from .._parallel import serial_torch_ops_in_this_thread
+
 
 def inner_split(
     y: np.ndarray, groups: np.ndarray | None, fraction: float, rng: np.random.Generator
@@ -87,6 +89,7 @@ def _mean_loss(network: nn.Module, loss_fn: Callable, X: torch.Tensor, y: torch.
     return total / len(X)
 
 
+@serial_torch_ops_in_this_thread()  # a fresh context per call (contextlib's decorator form)
 def train_network(
     network: nn.Module,
     X: torch.Tensor,
@@ -123,42 +126,6 @@ def train_network(
     progress : bool
         A tqdm bar over the epochs (stderr), with the losses.
     """
-    from .._parallel import serial_torch_ops_in_this_thread
-
-    with serial_torch_ops_in_this_thread():
-        return _train(
-            network,
-            X,
-            y,
-            validation=validation,
-            loss_fn=loss_fn,
-            generator=generator,
-            max_epochs=max_epochs,
-            batch_size=batch_size,
-            learning_rate=learning_rate,
-            weight_decay=weight_decay,
-            patience=patience,
-            progress=progress,
-            description=description,
-        )
-
-
-def _train(
-    network: nn.Module,
-    X: torch.Tensor,
-    y: torch.Tensor,
-    *,
-    validation: tuple[torch.Tensor, torch.Tensor] | None,
-    loss_fn: Callable[[torch.Tensor, torch.Tensor], torch.Tensor],
-    generator: torch.Generator,
-    max_epochs: int,
-    batch_size: int,
-    learning_rate: float,
-    weight_decay: float,
-    patience: int,
-    progress: bool,
-    description: str,
-) -> TrainingLog:
     optimiser = torch.optim.Adam(network.parameters(), lr=learning_rate, weight_decay=weight_decay)
     has_validation = validation is not None and len(validation[0]) > 0
     log = TrainingLog()
