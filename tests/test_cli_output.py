@@ -10,6 +10,8 @@ from pathlib import Path
 import pytest
 
 from tactile_torch import cli
+from tactile_torch.cli import _output
+from tactile_torch.cli import bench as bench_command
 
 
 def test_a_warning_prints_as_one_line_without_source(monkeypatch, tmp_path, capsys):
@@ -17,7 +19,7 @@ def test_a_warning_prints_as_one_line_without_source(monkeypatch, tmp_path, caps
         warnings.warn("R-hat > 1.01:\n  the chains disagree", RuntimeWarning, stacklevel=1)
         return 0
 
-    monkeypatch.setattr(cli, "_bench", handler)
+    monkeypatch.setattr(bench_command, "run_bench", handler)
     before = warnings.showwarning
     assert cli.main(["bench", "--out", str(tmp_path)]) == 0
     err = capsys.readouterr().err
@@ -30,7 +32,7 @@ def test_debug_leaves_warnings_to_python(monkeypatch, tmp_path, capsys):
         warnings.warn("plain", UserWarning, stacklevel=1)
         return 0
 
-    monkeypatch.setattr(cli, "_bench", handler)
+    monkeypatch.setattr(bench_command, "run_bench", handler)
     with pytest.warns(UserWarning, match="plain"):  # shown the usual way, with its file and line
         assert cli.main(["--debug", "bench", "--out", str(tmp_path)]) == 0
     assert "tactile-torch bench: warning" not in capsys.readouterr().err
@@ -38,7 +40,7 @@ def test_debug_leaves_warnings_to_python(monkeypatch, tmp_path, capsys):
 
 def test_bench_writes_under_out_and_not_into_the_checkout(monkeypatch, tmp_path, capsys):
     calls = []
-    monkeypatch.setattr(cli.subprocess, "call", lambda cmd: calls.append(cmd) or 0)
+    monkeypatch.setattr(bench_command.subprocess, "call", lambda cmd: calls.append(cmd) or 0)
     monkeypatch.chdir(tmp_path)
     assert cli.main(["bench", "--only", "signal"]) == 0
     assert cli.main(["bench", "--out", "elsewhere"]) == 0
@@ -60,10 +62,10 @@ def test_bench_runner_takes_out(tmp_path):
 
 
 def test_a_long_silent_step_shows_its_label_and_clears_it(capsys):
-    with cli._stage("export: tracing", delay=0):
+    with _output.stage("export: tracing", delay=0):
         pass
     assert "export: tracing: 00:00" in capsys.readouterr().err
-    with cli._stage("export: tracing"):  # a step quicker than the delay prints nothing
+    with _output.stage("export: tracing"):  # a step quicker than the delay prints nothing
         pass
     assert capsys.readouterr().err == ""
 

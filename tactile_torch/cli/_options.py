@@ -1,13 +1,36 @@
-"""The data options of the command line (``--data`` and how to read it), shared by train, cluster and tradeoff.
+"""The options several commands share, and how their values are checked.
 
-:func:`add_data_options` declares them on a subcommand; :func:`data_options` turns the parsed
-arguments into a :class:`tactile_torch.data.sources.DataOptions`; :func:`read_data_arg` reads
-``--data`` with them (:func:`tactile_torch.data.sources.read_source`).
+- the data options (``--data`` and how to read it), shared by train, cluster, predict and tradeoff:
+  :func:`add_data_options` declares them on a subcommand; :func:`data_options` turns the parsed
+  arguments into a :class:`tactile_torch.data.sources.DataOptions`; :func:`read_data_arg` reads
+  ``--data`` with them (:func:`tactile_torch.data.sources.read_source`);
+- the value types of numeric options (:func:`at_least`, :func:`in_range`) and the sensor ranges in g
+  (:func:`range_g`, :func:`declare_range`);
+- the check of an ``--out`` file against the command's inputs (:func:`check_out`);
+- :class:`CommandParser`, whose usage errors are one line, and :class:`UsageError`, a bad combination
+  of options found by a handler.
+
+Torch-free: ``predict`` and ``stream`` import it on the robot.
 """
 
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
+
+from . import BAD_INPUT_EXIT
+
+
+class UsageError(ValueError):
+    """Bad command-line input detected by a handler (reported in one line, like any ``ValueError``)."""
+
+
+class CommandParser(argparse.ArgumentParser):
+    """An argument parser whose usage errors are one line (``tactile-torch CMD: argument --x: ...``), status 2."""
+
+    def error(self, message: str):
+        self.exit(BAD_INPUT_EXIT, f"{self.prog}: {' '.join(message.split())}\n")
+
 
 DATA_HELP = (
     "a .npz of docs/formats.md (frames, signals or features), CSV logs (t,x,y,z; --columns to name others), "
@@ -109,7 +132,7 @@ def add_data_options(
 
 def data_options(args: argparse.Namespace):
     """Return the :class:`~tactile_torch.data.sources.DataOptions` the parsed arguments declare."""
-    from .data.sources import DEFAULT_RANGE_G, MAX_BAG_MESSAGES, DataOptions
+    from ..data.sources import DEFAULT_RANGE_G, MAX_BAG_MESSAGES, DataOptions
 
     return DataOptions(
         columns=args.columns,
@@ -163,9 +186,111 @@ def data_option_words(args: argparse.Namespace) -> list[str]:
 
 def read_data_arg(args: argparse.Namespace):
     """Read ``--data`` with the declared options; return the arrays (``.kind`` says which)."""
-    from .data.sources import read_source
+    from ..data.sources import read_source
 
     return read_source(args.data, data_options(args))
 
 
-__all__ = ["DATA_HELP", "add_data_options", "data_option_words", "data_options", "read_data_arg"]
+def data_name(paths: str | Path | list) -> str:
+    """Return how messages name ``--data`` (one file, or the first of several)."""
+    from ..formats import data_name as name
+
+    return name(paths)
+
+
+def add_allow_pickle(p: argparse.ArgumentParser) -> None:
+    """Add ``--allow-pickle`` to the subcommand parser ``p``."""
+    p.add_argument(
+        "--allow-pickle",
+        action="store_true",
+        help="read the pickled recordings of a trusted vibration .npz written by tactile-torch 0.1",
+    )
+
+
+def at_least(minimum: float, kind: type = float):
+    """Return an argparse type: a number of ``kind`` >= ``minimum``, else a one-line usage error."""
+
+    def parse(text: str):
+        try:
+            value = kind(text)
+        except ValueError:
+            what = "an integer" if kind is int else "a number"
+            raise argparse.ArgumentTypeError(f"expected {what}, got {text!r}") from None
+        if not value >= minimum:
+            raise argparse.ArgumentTypeError(f"expected a number >= {minimum:g}, got {text!r}")
+        return value
+
+    return parse
+
+
+def in_range(low: float, high: float):
+    """Return an argparse type: a finite number ``low < x <= high``, else a one-line usage error."""
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+        if not low < value <= high:
+            raise argparse.ArgumentTypeError(f"expected a number > {low:g} and <= {high:g}, got {text!r}")
+        return value
+
+    return parse
+
+
+def parse_range_g(text: str | None, option: str, *, off: bool) -> float | None:
+    """Return the sensor range in g an option gives (``None`` when not given), or raise a one-line error.
+
+    ``off``: ``inf`` is accepted (no range check).
+    """
+    if text is None:
+        return None
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not (value > 0 and (off or value != float("inf"))):
+        expected = "a number of g > 0 ('inf': no check)" if off else "a finite number of g > 0"
+        raise UsageError(f"{option} must be {expected}, got {text!r}")
+    return value
+
+
+def declare_range(source: dict, args: argparse.Namespace) -> None:
+    """Keep a declared finite ``--sensor-range`` in a vibration model's source (export's default range)."""
+    declared = getattr(args, "data_sensor_range", None)
+    if source.get("kind") == "vibration" and declared is not None and declared != float("inf"):
+        source["sensor_range_g"] = float(declared)
+
+
+WRITES_OUT_FILE = ("train", "predict", "export")
+"""Commands whose ``--out`` is one file: it is checked against their inputs before any work."""
+
+
+def check_out(args: argparse.Namespace) -> None:
+    """Refuse an ``--out`` that is an input, a directory, a device or a symbolic link (one line, status 2)."""
+    from ..safe_write import check_output_path
+
+    out = getattr(args, "out", "")
+    if args.command not in WRITES_OUT_FILE or not out:
+        return
+    inputs = list(getattr(args, "data", None) or [])
+    inputs += [args.model] if getattr(args, "model", None) else []
+    check_output_path(out, inputs=inputs, what="--out")
+
+
+__all__ = [
+    "DATA_HELP",
+    "CommandParser",
+    "UsageError",
+    "add_allow_pickle",
+    "add_data_options",
+    "at_least",
+    "check_out",
+    "data_name",
+    "data_option_words",
+    "data_options",
+    "declare_range",
+    "in_range",
+    "parse_range_g",
+    "read_data_arg",
+]

@@ -1,0 +1,110 @@
+"""What the commands print besides their results: class reports, a progress line for a silent step,
+warnings as one line, and a ``sys.stdout`` that survives a closed pipe.
+
+Torch-free: ``predict`` and ``stream`` import it on the robot (``stage`` imports tqdm when used).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import sys
+import threading
+from collections.abc import Iterator
+
+
+def print_class_report(rep) -> None:
+    """Print a :class:`tactile_torch.metrics.ClassReport` as a table, then the overall accuracy."""
+    print(f"{'class':<24} {'samples':>7} {'accuracy':>9} {'type I':>8} {'type II':>8}")
+    for row in rep.rows():
+        print(
+            f"{row['class']:<24} {row['samples']:>7} {row['accuracy']:>9.4f} "
+            f"{row['type I error']:>8.4f} {row['type II error']:>8.4f}"
+        )
+    print(f"overall accuracy {rep.overall_accuracy:.4f}")
+
+
+@contextlib.contextmanager
+def stage(label: str, *, delay: float = 1.0) -> Iterator[None]:
+    """Show ``label`` and the time elapsed on stderr while the block runs (a step of seconds that
+    reports nothing itself, such as the ONNX export), from ``delay`` seconds on (a quick step, or one
+    that fails at once, prints nothing); the line is cleared when it ends."""
+    from tqdm.auto import tqdm
+
+    bar = tqdm(desc=label, bar_format="{desc}: {elapsed}", file=sys.stderr, leave=False, delay=delay)
+    done = threading.Event()
+
+    def tick() -> None:
+        while not done.wait(0.5):
+            bar.refresh()
+
+    ticker = threading.Thread(target=tick, daemon=True)
+    ticker.start()
+    try:
+        yield
+    finally:
+        done.set()
+        ticker.join()
+        bar.close()
+
+
+def warning_line(prefix: str):
+    """A ``warnings.showwarning`` that prints one line, ``<prefix>: warning: <message>``, on stderr:
+    no file name, line number or source line (``--debug`` keeps Python's own format)."""
+
+    def show(message, category, filename, lineno, file=None, line=None) -> None:
+        text = " ".join(str(message).split())
+        print(f"{prefix}: warning: {text}", file=sys.stderr if file is None else file)
+
+    return show
+
+
+class StdoutGuard:
+    """``sys.stdout`` that survives a closed pipe (``tactile-torch train ... | head -1``).
+
+    After the reader of the pipe has gone, further output is discarded (the descriptor is pointed
+    at ``os.devnull``, so the interpreter's final flush does not fail either) and the command goes on
+    to write its files.
+    """
+
+    def __init__(self, stream) -> None:
+        self._stream = stream
+
+    def _drop(self) -> None:
+        import os
+
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        try:
+            os.dup2(devnull, self._stream.fileno())
+        finally:
+            os.close(devnull)
+
+    def write(self, text: str) -> int:
+        try:
+            return self._stream.write(text)
+        except BrokenPipeError:
+            self._drop()
+            return len(text)
+
+    def flush(self) -> None:
+        try:
+            self._stream.flush()
+        except BrokenPipeError:
+            self._drop()
+            try:
+                self._stream.flush()
+            except BrokenPipeError:
+                pass
+
+    def __getattr__(self, name: str):
+        return getattr(self._stream, name)
+
+
+def guard_stdout():
+    """Return the ``sys.stdout`` to restore; wrap it in :class:`StdoutGuard` when it is a real file."""
+    original = sys.stdout
+    try:
+        original.fileno()
+    except (AttributeError, OSError, ValueError):  # captured output (tests): nothing to guard
+        return original
+    sys.stdout = StdoutGuard(original)
+    return original

@@ -1,0 +1,119 @@
+"""``tactile-torch cluster``: discover surfaces with a Bayesian mixture (:mod:`tactile_torch.clustering`)."""
+
+from __future__ import annotations
+
+import argparse
+
+from ._options import UsageError, add_allow_pickle, add_data_options, data_name, read_data_arg
+
+
+def _n_iter(text: str) -> int | str:
+    """``--n-iter``: a number of sweeps or 'auto'."""
+    if text == "auto":
+        return text
+    try:
+        return int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number of sweeps or 'auto', got {text!r}") from None
+
+
+def register(sub) -> None:
+    """Add the ``cluster`` command to the subparsers ``sub``."""
+    p = sub.add_parser(
+        "cluster",
+        help="discover surfaces with a Bayesian mixture (how many, and which window is which)",
+        description="Fit tactile_torch.mixture.PitmanYorGMM to vibration recordings (windows -> 21 features -> "
+        "the unsupervised transform -> principal components) or to a 'features' array (n, D); write the point "
+        "estimate of the clustering (and the MAP sample, the posterior samples of K) to OUT/clustering.npz, a "
+        "summary (posterior of K first) to OUT/summary.txt and the model to OUT/model.npz (for tactile-torch "
+        "export).",
+    )
+    add_data_options(
+        p,
+        data_help="vibration recordings (.npz with 'signals', CSV logs, ROS 2 bags), or a .npz with "
+        "'features' (n, D) and optionally 'labels' (n,)",
+    )
+    p.add_argument("--out", default="runs/cluster", help="output directory (default: runs/cluster)")
+    p.add_argument("--window", type=int, default=800, help="recordings: window in samples (default: 800)")
+    p.add_argument("--step", type=int, default=None, help="recordings: window hop (default: the window)")
+    p.add_argument("--components", type=int, default=3, help="recordings: principal components (default: 3)")
+    add_allow_pickle(p)
+    p.add_argument(
+        "--model",
+        choices=("mfm", "pyp"),
+        default="mfm",
+        help="prior: 'mfm' mixture of finite mixtures, consistent for K (default); 'pyp' the study's Pitman-Yor",
+    )
+    p.add_argument(
+        "--coarsen",
+        type=float,
+        default=None,
+        help="coarsened posterior: likelihood to the power a/(a+n) (--model mfm; default: off, see docs/mixture.md)",
+    )
+    p.add_argument(
+        "--n-iter",
+        type=_n_iter,
+        default="auto",
+        help="Gibbs sweeps per chain, burn-in included, or 'auto': until R-hat < 1.01 and ESS of K >= 400 "
+        "(default: auto)",
+    )
+    p.add_argument(
+        "--max-iter", type=int, default=16000, help="--n-iter auto: most sweeps per chain (default: 16000)"
+    )
+    p.add_argument(
+        "--burn-in", type=int, default=250, help="sweeps discarded per chain, at least (default: 250)"
+    )
+    p.add_argument("--chains", type=int, default=4, help="independent chains, run in parallel (default: 4)")
+    p.add_argument("--alpha", type=float, default=None, help="fix the concentration (default: sampled)")
+    p.add_argument("--discount", type=float, default=None, help="fix the discount; 0 = Dirichlet process")
+    p.add_argument(
+        "--init", default="kmeans", help="'kmeans' (default), 'one', or a number of k-means clusters"
+    )
+    p.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(handler=run_cluster)
+
+
+def run_cluster(args: argparse.Namespace) -> int:
+    """Fit the mixture, write and print its results; return the exit status."""
+    from ..clustering import CLUSTERED_KINDS, clustering_summary, fit_clustering, write_clustering
+
+    if args.model == "mfm" and (args.alpha is not None or args.discount is not None):
+        raise UsageError(
+            "--alpha and --discount apply to --model pyp (the Pitman-Yor mixture), got --model mfm"
+        )
+    if args.model == "pyp" and args.coarsen is not None:
+        raise UsageError("--coarsen applies to --model mfm, got --model pyp")
+    data = read_data_arg(args)
+    if data.kind not in CLUSTERED_KINDS:
+        raise UsageError(
+            f"{data_name(args.data)}: --data must hold vibration recordings ('signals') or a 'features' "
+            f"array (n, D) to cluster, got {data.kind} data"
+        )
+    clustering = fit_clustering(
+        data,
+        window=args.window,
+        step=args.step,
+        components=args.components,
+        sensor_range_g=getattr(args, "data_sensor_range", None),
+        name=data_name(args.data),
+        log=print,
+        model=args.model,
+        coarsen=args.coarsen,
+        alpha=args.alpha,
+        discount=args.discount,
+        n_iter=args.n_iter,
+        max_iter=args.max_iter,
+        burn_in=args.burn_in,
+        n_chains=args.chains,
+        init=int(args.init) if args.init.isdigit() else args.init,
+        random_state=args.seed,
+        progress=not args.quiet,
+    )
+    paths = write_clustering(args.out, clustering)
+    print(clustering_summary(clustering))
+    print(
+        f"written: {paths['results']}, {paths['summary']}, {paths['model']} (tactile-torch export: "
+        f"the point estimate's {clustering.mixture.n_clusters_} components)"
+    )
+    return 0

@@ -1,0 +1,244 @@
+"""``tactile-torch tradeoff``: speed against accuracy, the candidates evaluated on the user's data and the
+simplest adequate one recommended (:mod:`tactile_torch.tradeoff`, :mod:`tactile_torch.tradeoff.job`).
+
+The study's options default to ``None`` here, "not given": their defaults are those of
+:class:`tactile_torch.tradeoff.job.TradeoffOptions` (which the library reads too), and the reproduce
+line repeats the options whose values differ from them. The parser does not import the library (it
+needs torch): ``predict`` and ``stream`` build the same parser on the robot.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from . import NO_RECOMMENDATION_EXIT, NOT_EXPORTED_EXIT
+from ._options import (
+    UsageError,
+    add_allow_pickle,
+    add_data_options,
+    data_name,
+    data_option_words,
+    data_options,
+)
+
+REPRODUCED = (
+    ("n_folds", "folds"),
+    ("window", "window"),
+    ("windows", "windows"),
+    ("frame_rate_hz", "frame_rate"),
+    ("threshold", "threshold"),
+    ("erosion", "erosion"),
+    ("contact", "contact"),
+    ("max_per_class", "max_per_class"),
+    ("classifiers", "classifiers"),
+    ("features", "features"),
+    ("random_state", "seed"),
+    ("target", "target"),
+    ("deploy", "deploy"),
+    ("csv_session", "csv_session"),
+)
+"""The options the reproduce line repeats when they are not at their defaults: (option of
+:class:`~tactile_torch.tradeoff.job.TradeoffOptions`, attribute of the parsed arguments), in the
+line's order."""
+
+
+def register(sub) -> None:
+    """Add the ``tradeoff`` command to the subparsers ``sub``."""
+    p = sub.add_parser(
+        "tradeoff",
+        help="speed against accuracy: evaluate candidate models on your data and recommend the simplest adequate one",
+        description="Cross-validate candidate models (HM-SVM, SVC, LDA, kNN, nearest class mean on every feature set) "
+        "on a data file, export each to ONNX and time it, and write OUT/tradeoff.json, OUT/tradeoff.md and charts of "
+        "accuracy against latency, size and time to a decision; the recommendation is the cheapest model on the "
+        "Pareto front within one standard error of the best (docs/tradeoff.md).",
+    )
+    add_data_options(
+        p,
+        data_help="an image-exploration, pressure-map, vibration or feature .npz, vibration CSV logs "
+        "(t,x,y,z) or ROS 2 bags (IMU or pressure-array topics)",
+    )
+    p.add_argument("--out", default="runs/tradeoff", help="output directory (default: runs/tradeoff)")
+    p.add_argument("--quick", action="store_true", help="fewer candidates and at most 60 samples per class")
+    p.add_argument(
+        "--folds",
+        type=int,
+        default=None,
+        help="cross-validation folds (default: 5, or fewer when the data allow fewer; a number the data do "
+        "not allow is an error)",
+    )
+    p.add_argument(
+        "--window", type=int, default=None, help="vibration: reference window in samples (default: 800)"
+    )
+    p.add_argument(
+        "--windows", default=None, help="vibration: window sizes to try (default: 200,400,800,1600)"
+    )
+    p.add_argument(
+        "--frame-rate", type=float, default=None, help="explorations: frames/s (default: file or 10)"
+    )
+    p.add_argument(
+        "--threshold", default=None, help="image threshold: auto (default), otsu, display or a number"
+    )
+    p.add_argument("--erosion", default=None, help="erosion in pixels, or relative (default)")
+    p.add_argument(
+        "--contact",
+        default=None,
+        choices=["raises", "lowers", "auto"],
+        help="pressure maps: does contact raise (default) or lower the reading",
+    )
+    p.add_argument("--max-per-class", default=None, help="samples kept per class (default: 60 quick, 300)")
+    p.add_argument("--classifiers", default=None, help="comma-separated subset of HM-SVM,SVC,LDA,kNN,NCM")
+    p.add_argument(
+        "--features", default=None, help="comma-separated feature-set name prefixes (e.g. fused,top)"
+    )
+    p.add_argument(
+        "--target",
+        type=float,
+        default=None,
+        metavar="ACC",
+        help="the accuracy a deployment needs: recommend the cheapest candidate whose interval's lower end "
+        "reaches it (default: the one-standard-error rule; docs/tradeoff.md)",
+    )
+    p.add_argument(
+        "--deploy",
+        default=None,
+        metavar="NAME",
+        help="also refit candidate NAME (as in tradeoff.json) on all the data and write OUT/<name>.onnx and .npz "
+        "(the recommended one always goes to OUT/recommended.onnx)",
+    )
+    p.add_argument(
+        "--csv-session",
+        default=None,
+        choices=["number", "file"],
+        help="CSV logs: session from the file name's trailing number (felt_3.csv -> 3, default) or one per file",
+    )
+    p.add_argument("--seed", type=int, default=None, help="random seed (default: 0)")
+    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    p.add_argument(
+        "--no-breaking",
+        action="store_true",
+        help="skip the breaking points of the recommended and the study's model (docs/robustness.md)",
+    )
+    p.add_argument(
+        "--no-tune",
+        action="store_true",
+        help="run every candidate at the catalogue's default hyper-parameters instead of tuning it inside "
+        "each training fold (for comparison)",
+    )
+    p.add_argument(
+        "--backend",
+        default=None,
+        choices=["sequential", "loky", "threading", "multiprocessing", "dask"],
+        help="where the cross-validation tasks run (default: this process; loky with --n-jobs); dask needs "
+        "the optional extra dask",
+    )
+    p.add_argument("--n-jobs", type=int, default=None, help="parallel workers (-1: every core)")
+    p.add_argument(
+        "--scheduler",
+        default=None,
+        help="--backend dask: address of a running dask scheduler (tcp://host:8786)",
+    )
+    add_allow_pickle(p)
+    p.set_defaults(handler=run_tradeoff_command)
+
+
+def _number_or(option: str, text: str, *words: str) -> str | float | int:
+    if text in words:
+        return text
+    try:
+        return int(text) if text.isdigit() else float(text)
+    except ValueError:
+        raise UsageError(f"--{option} must be one of {list(words)} or a number, got {text!r}") from None
+
+
+def _int_list(option: str, text: str | None) -> tuple[int, ...] | None:
+    if not text:
+        return None
+    if not all(part.strip().isdigit() for part in text.split(",")):
+        raise UsageError(f"--{option} must be comma-separated whole numbers, got {text!r}")
+    return tuple(int(part) for part in text.split(","))
+
+
+def _names(text: str | None) -> tuple[str, ...] | None:
+    return tuple(text.split(",")) if text else None
+
+
+def tradeoff_options(args: argparse.Namespace):
+    """Return the :class:`~tactile_torch.tradeoff.job.TradeoffOptions` the parsed arguments give: the
+    options given, the library's defaults for the others (checked: a bad value raises ``ValueError``)."""
+    from ..tradeoff.job import TradeoffOptions
+
+    given = {
+        "n_folds": args.folds,
+        "window": args.window,
+        "windows": _int_list("windows", args.windows),
+        "frame_rate_hz": args.frame_rate,
+        "threshold": None
+        if args.threshold is None
+        else _number_or("threshold", args.threshold, "auto", "otsu", "display"),
+        "erosion": None if args.erosion is None else _number_or("erosion", args.erosion, "relative"),
+        "contact": args.contact,
+        "max_per_class": None
+        if args.max_per_class is None
+        else _number_or("max-per-class", args.max_per_class, "auto"),
+        "classifiers": _names(args.classifiers),
+        "features": _names(args.features),
+        "target": args.target,
+        "deploy": args.deploy or None,
+        "csv_session": args.csv_session,
+        "random_state": args.seed,
+    }
+    return TradeoffOptions(
+        quick=args.quick,
+        tune=not args.no_tune,
+        breaking=not args.no_breaking,
+        **{name: value for name, value in given.items() if value is not None},
+    )
+
+
+def reproduce_line(args: argparse.Namespace, options) -> str:
+    """Return the command line that reproduces this run (the options not at their defaults)."""
+    words = [f"--data {' '.join(args.data)}", *data_option_words(args), f"--out {args.out}"]
+    words += ["--quick"] if args.quick else []
+    words += ["--no-breaking"] if args.no_breaking else []
+    words += ["--no-tune"] if args.no_tune else []
+    changed = options.changed()
+    words += [
+        f"--{name.replace('_', '-')} {getattr(args, name)}" for field, name in REPRODUCED if field in changed
+    ]
+    return "tactile-torch tradeoff " + " ".join(words)
+
+
+def run_tradeoff_command(args: argparse.Namespace) -> int:
+    """Run the study, print its summary and what was written; return the exit status."""
+    from ..tradeoff import load_tradeoff_data, summary_lines
+    from ..tradeoff.job import run_tradeoff_job
+
+    options = tradeoff_options(args)
+    command = reproduce_line(args, options)
+    log = (lambda line: None) if args.quiet else (lambda line: print(line, file=sys.stderr))
+    data = load_tradeoff_data(
+        args.data,
+        frame_rate_hz=options.frame_rate_hz,
+        csv_session=options.csv_session,
+        options=data_options(args),
+        name=data_name(args.data),
+    )
+    result, paths = run_tradeoff_job(
+        data,
+        options,
+        args.out,
+        command=command,
+        allow_pickle=args.allow_pickle,
+        backend=args.backend,
+        n_jobs=args.n_jobs,
+        scheduler=args.scheduler,
+        progress=not args.quiet,
+        log=log,
+    )
+    for line in summary_lines(result):
+        print(line)
+    print(f"written: {', '.join(str(p) for p in paths.values())} ({result.seconds:.0f} s)")
+    if result.status == "none exported":
+        return NOT_EXPORTED_EXIT
+    return 0 if result.status == "recommended" else NO_RECOMMENDATION_EXIT

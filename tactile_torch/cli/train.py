@@ -1,0 +1,109 @@
+"""``tactile-torch train``: train a classifier of the catalogue on a data file, print its held-out
+class report and write its model file (:mod:`tactile_torch.training`)."""
+
+from __future__ import annotations
+
+import argparse
+
+from ._options import (
+    UsageError,
+    add_allow_pickle,
+    add_data_options,
+    data_name,
+    declare_range,
+    read_data_arg,
+)
+from ._output import print_class_report
+
+
+def catalogue_choices() -> list[str]:
+    """The ``--method`` choices: the classifier catalogue's keys and aliases (:mod:`tactile_torch.catalogue`)."""
+    from ..catalogue import choices
+
+    return choices()
+
+
+def register(sub) -> None:
+    """Add the ``train`` command to the subparsers ``sub``."""
+    p = sub.add_parser(
+        "train", help="train a classifier on an image, vibration or feature .npz; print a class report"
+    )
+    add_data_options(p)
+    p.add_argument(
+        "--method",
+        default="hmsvm",
+        choices=catalogue_choices(),
+        help="classifier of the catalogue, docs/tradeoff.md (default: hmsvm; svm = svc); every one writes a model file (--out)",
+    )
+    p.add_argument(
+        "--select",
+        type=int,
+        default=None,
+        metavar="K",
+        help="keep the K best-ranked features (the trade-off's 'top K' feature sets; default: all)",
+    )
+    p.add_argument(
+        "--out", default="", help="write the trained model's file here (no pickle), e.g. model.npz"
+    )
+    p.add_argument("--C", type=float, default=16.0, help="SVM penalty (default: 16)")
+    p.add_argument("--gamma", default="scale", help="RBF width, a float or 'scale' (default)")
+    p.add_argument("--kernel", default="rbf", choices=["rbf", "linear"], help="SVM kernel (default: rbf)")
+    p.add_argument("--window", type=int, default=800, help="vibration window in samples (default: 800)")
+    p.add_argument("--step", type=int, default=None, help="vibration window hop (default: the window)")
+    p.add_argument("--no-fuse", action="store_true", help="image: per-frame features instead of fused ones")
+    p.add_argument(
+        "--folds",
+        type=int,
+        default=5,
+        help="held-out folds, grouped by session or recording, or time blocks (default: 5)",
+    )
+    p.add_argument(
+        "--test-size", type=float, default=None, help="(old) held-out share: --folds round(1 / share)"
+    )
+    p.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
+    add_allow_pickle(p)
+    p.set_defaults(handler=run_train)
+
+
+def run_train(args: argparse.Namespace) -> int:
+    """Train, print the class report, write the model file; return the exit status."""
+    from ..training import load_features, save_model, train_classifier
+
+    gamma = args.gamma if args.gamma == "scale" else float(args.gamma)
+    if args.select is not None and args.select < 1:
+        raise UsageError(f"--select must be a number of features >= 1, got {args.select}")
+    features = load_features(
+        read_data_arg(args),
+        window=args.window,
+        step=args.step,
+        fuse=not args.no_fuse,
+        name=data_name(args.data),
+    )
+    declare_range(features.source, args)
+    print(
+        f"{data_name(args.data)}: {features.X.shape[0]} samples x {features.X.shape[1]} features "
+        f"({features.source['kind']}), {len(features.class_names)} classes"
+    )
+    try:
+        model = train_classifier(
+            features,
+            args.method,
+            C=args.C,
+            gamma=gamma,
+            kernel=args.kernel,
+            n_folds=args.folds,
+            test_size=args.test_size,
+            select=args.select,
+            random_state=args.seed,
+        )
+    except ValueError as err:  # e.g. a class with one sample: name the file it came from
+        raise ValueError(f"{data_name(args.data)}: {err}") from err
+    print(f"{args.method}: held-out accuracy from {model.split}")
+    print_class_report(model.report)
+    print(
+        f"held out: accuracy per fold {', '.join(f'{a:.3f}' for a in model.fold_accuracy)}; the model "
+        f"(--out) is then trained on all {len(model.train_index)} samples"
+    )
+    if args.out:
+        print(f"model written to {save_model(args.out, model, features)}")
+    return 0
