@@ -13,6 +13,8 @@ from collections.abc import Sequence
 import numpy as np
 import torch
 
+from .errors import InputTypeError
+
 ShapeSpec = Sequence[str | int]
 
 
@@ -23,7 +25,7 @@ def _shape_str(spec: ShapeSpec) -> str:
 def check_tensor(x: object, name: str) -> torch.Tensor:
     """Return ``x`` if it is a tensor, else raise ``TypeError`` naming ``name``."""
     if not isinstance(x, torch.Tensor):
-        raise TypeError(f"{name} must be a torch.Tensor, got {type(x).__name__}")
+        raise InputTypeError(f"{name} must be a torch.Tensor, got {type(x).__name__}")
     return x
 
 
@@ -59,7 +61,7 @@ def check_shape(x: torch.Tensor, name: str, spec: ShapeSpec) -> dict[str, int]:
 def check_floating(x: torch.Tensor, name: str) -> torch.Tensor:
     """Raise ``TypeError`` unless ``x`` has a floating dtype."""
     if not x.is_floating_point():
-        raise TypeError(f"{name} must have a floating dtype (float32 or float64), got {x.dtype}")
+        raise InputTypeError(f"{name} must have a floating dtype (float32 or float64), got {x.dtype}")
     return x
 
 
@@ -79,7 +81,7 @@ def check_positive(value: object, name: str, *, strict: bool = True, integer: bo
     """Raise unless ``value`` is a (strictly) positive real (or integer) number."""
     kind = numbers.Integral if integer else numbers.Real
     if isinstance(value, bool) or not isinstance(value, kind):
-        raise TypeError(f"{name} must be {'an integer' if integer else 'a real number'}, got {value!r}")
+        raise InputTypeError(f"{name} must be {'an integer' if integer else 'a real number'}, got {value!r}")
     if not np.isfinite(value) or (value <= 0 if strict else value < 0):
         raise ValueError(f"{name} must be {'> 0' if strict else '>= 0'}, got {value!r}")
 
@@ -100,7 +102,7 @@ def numpy_rng(random_state: RandomState) -> np.random.Generator:
     if isinstance(random_state, torch.Generator):
         seed = int(torch.randint(0, 2**62, (1,), generator=random_state))
         return np.random.default_rng(seed)
-    raise TypeError(
+    raise InputTypeError(
         "random_state must be None, an int, a numpy.random.Generator or a torch.Generator, "
         f"got {type(random_state).__name__}"
     )
@@ -125,7 +127,7 @@ def as_feature_matrix(X: object, name: str = "X", n_features: int | None = None)
     try:
         arr = np.asarray(X, dtype=np.float64)
     except (TypeError, ValueError) as err:
-        raise TypeError(
+        raise InputTypeError(
             f"{name} must be a numeric array of shape (n_samples, n_features), got {type(X).__name__}"
         ) from err
     if arr.ndim != 2:

@@ -42,6 +42,8 @@ import numpy as np
 import torch
 from torch import nn
 
+from .errors import InputTypeError
+
 _CITY_BLOCK = ("manhattan", "cityblock", "l1")
 _EUCLIDEAN = ("euclidean", "l2")
 
@@ -198,7 +200,7 @@ def inference_module(estimator: object, *, dtype: torch.dtype = torch.float64) -
         means = np.asarray(estimator.centroids_, dtype=np.float64)
         # argmin ||x - m_c|| = argmax (2 x . m_c - ||m_c||^2): the nearest-mean rule is linear.
         return LinearInference(2.0 * means, -(means * means).sum(1), dtype=dtype)
-    raise TypeError(
+    raise InputTypeError(
         "estimator must be a fitted tactile_torch SVM, LinearDiscriminantAnalysis, KNeighborsClassifier or "
         f"NearestCentroid, got {type(estimator).__name__}"
     )

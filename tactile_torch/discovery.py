@@ -120,7 +120,8 @@ def stream_consumer(pipeline, n_consecutive: int, out: TextIO = sys.stdout) -> C
     outputs = [o.name for o in pipeline.session.get_outputs()]
     if NOVEL_OUTPUT not in outputs:
         raise ValueError(
-            f"--discover needs a clustering bundle with a '{NOVEL_OUTPUT}' output (tactile-torch cluster, then "
+            f"surface discovery (n_consecutive=) needs a clustering bundle with a '{NOVEL_OUTPUT}' output "
+            "(tactile-torch cluster, then "
             f"export), got outputs {outputs}"
         )
     discovery = SurfaceDiscovery(n_consecutive, pipeline.class_names)

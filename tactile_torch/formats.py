@@ -48,6 +48,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .errors import InputTypeError
+
 PathLike = str | os.PathLike
 NPZ_MAGIC = b"PK"
 NPY_MAGIC = b"\x93NUMPY"
@@ -183,7 +185,7 @@ def max_read_bytes(max_bytes: int | None = None) -> int:
 def _too_large(path: Path, what: str, size: int, limit: int) -> ValueError:
     return ValueError(
         f"{path}: {what} needs {size / _MIB:,.1f} MiB, more than the read limit of {limit / _MIB:,.0f} MiB "
-        f"(raise it with --max-read-mb or {MAX_READ_ENV} if the file is trusted)"
+        f"(raise it with {MAX_READ_ENV}=MB if the file is trusted)"
     )
 
 
@@ -274,7 +276,7 @@ def read_npz(
                     raise ValueError(
                         f"{path}: {key} is a pickled object array, which tactile-torch does not load by "
                         "default (unpickling can run code); re-save it as plain arrays (docs/formats.md), or "
-                        "pass allow_pickle=True (--allow-pickle) if you trust the file"
+                        "pass allow_pickle=True if you trust the file"
                     ) from None
                 if not isinstance(value, np.ndarray):  # a zip member that is not a .npy array
                     raise ValueError(f"{path}: expected a {what} (.npz), found a zip archive holding {key!r}")
@@ -306,7 +308,7 @@ def write_npz(
 
     for key, value in arrays.items():
         if np.asarray(value).dtype == object:
-            raise TypeError(f"{key} must be a plain (non-object) array to be written without pickle")
+            raise InputTypeError(f"{key} must be a plain (non-object) array to be written without pickle")
     save = np.savez_compressed if compress else np.savez
     return write_atomic(path, lambda f: save(f, **arrays), inputs=inputs)
 

@@ -39,6 +39,7 @@ from sklearn.utils._param_validation import Interval, Options
 from sklearn.utils.validation import check_is_fitted
 
 from ._checks import RandomState, numpy_rng
+from .errors import InputTypeError
 
 VIBRATION_STUDY_C = 16.0
 """Method 2: the RBF SVM's penalty ``C`` the study chose (stratified 10-fold CV)."""
@@ -351,7 +352,7 @@ class SVMGridSearchCV(MetaEstimatorMixin, ClassifierMixin, BaseEstimator):
 
         self._validate_params()
         if not supports_batched_search(self.estimator):
-            raise TypeError(
+            raise InputTypeError(
                 "estimator must be tactile_torch.svm.SVC or HierarchicalSVC, or a Pipeline ending with "
                 f"one, got {type(self.estimator).__name__} (use sklearn's GridSearchCV for others)"
             )

@@ -45,6 +45,7 @@ import numpy as np
 import torch
 from torch import nn
 
+from .errors import InputTypeError
 from .model_file import FORMAT, ModelFile, load_model_file
 from .runtime import DEFAULT_RANGE_G, LABELS_OUTPUT, RANGE_METADATA_KEY, SCORES_OUTPUT
 
@@ -148,8 +149,7 @@ def _front_end(
     kind = source.get("kind")
     if sensor_range_g is not None and kind != "vibration":
         raise ValueError(
-            "sensor_range_g (tactile-torch export --sensor-range) applies to models of vibration windows "
-            f"only, got a model of {kind} input"
+            f"sensor_range_g applies to models of vibration windows only, got a model of {kind} input"
         )
     if kind == "vibration":
         from .signal import WindowFeatures
@@ -207,13 +207,13 @@ def pipeline_from_model(
     if isinstance(model, str | Path):
         model = load_model_file(model)
     if not isinstance(model, ModelFile):
-        raise TypeError(
+        raise InputTypeError(
             f"model must be a ModelFile (tactile_torch.model_file.load_model_file(path)) or a path, "
             f"got {type(model).__name__}"
         )
     if sensor_range_g is not None:
         if isinstance(sensor_range_g, bool) or not isinstance(sensor_range_g, int | float | np.number):
-            raise TypeError(f"sensor_range_g must be a number of g, got {type(sensor_range_g).__name__}")
+            raise InputTypeError(f"sensor_range_g must be a number of g, got {type(sensor_range_g).__name__}")
         if not (math.isfinite(sensor_range_g) and sensor_range_g > 0):
             raise ValueError(f"sensor_range_g must be a finite number of g > 0, got {sensor_range_g!r}")
         sensor_range_g = float(sensor_range_g)
@@ -406,7 +406,7 @@ def export_pipeline(
     from ._onnx import export_onnx
 
     if not isinstance(pipeline, InferencePipeline):
-        raise TypeError(f"pipeline must be an InferencePipeline, got {type(pipeline).__name__}")
+        raise InputTypeError(f"pipeline must be an InferencePipeline, got {type(pipeline).__name__}")
     example = pipeline.example_input(example_batch)
     extra = list(
         getattr(pipeline.head, "output_names", ())[2:]

@@ -54,6 +54,7 @@ import torch
 
 from . import noise
 from ._checks import RandomState, check_positive, numpy_rng
+from .errors import InputTypeError
 
 KINDS = ("image", "vibration", "features")
 STAGES = ("features", "test", "retrain", "train", "parameter", "time")
@@ -478,7 +479,7 @@ def recording_blocks(recording: object, position: object, n_blocks: int = 5) -> 
 
 def _check_inputs(X: object, y: object, groups: object) -> tuple[np.ndarray, np.ndarray]:
     if not isinstance(X, torch.Tensor | np.ndarray):
-        raise TypeError(f"X must be a torch.Tensor or numpy.ndarray, got {type(X).__name__}")
+        raise InputTypeError(f"X must be a torch.Tensor or numpy.ndarray, got {type(X).__name__}")
     y = y.numpy() if isinstance(y, torch.Tensor) else np.asarray(y)
     n = X.shape[0]
     if y.shape != (n,):

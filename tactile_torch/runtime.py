@@ -49,6 +49,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .errors import InputTypeError
+
 _KIND_KEYS = {"image": "frames", "vibration": "signals", "features": "features"}
 _ONNX_DTYPES = {"tensor(uint8)": "uint8", "tensor(float)": "float32", "tensor(double)": "float64"}
 LABELS_OUTPUT = "labels"
@@ -215,7 +217,7 @@ class OnnxPipeline:
         if path.stat().st_size > limit:  # onnxruntime holds the whole file (and its weights) in memory
             raise ValueError(
                 f"{path}: the bundle is {path.stat().st_size / 2**20:,.1f} MiB, more than the read limit of "
-                f"{limit / 2**20:,.0f} MiB (raise it with --max-read-mb if the file is trusted)"
+                f"{limit / 2**20:,.0f} MiB (raise it with TACTILE_TORCH_MAX_READ_MB=MB if the file is trusted)"
             )
         for name, value in (("intra_op_threads", intra_op_threads), ("inter_op_threads", inter_op_threads)):
             if isinstance(value, bool) or not isinstance(value, int) or value < 0:
@@ -319,7 +321,7 @@ class OnnxPipeline:
         inf values raise.
         """
         if not isinstance(raw, np.ndarray):
-            raise TypeError(f"raw must be a numpy.ndarray, got {type(raw).__name__}")
+            raise InputTypeError(f"raw must be a numpy.ndarray, got {type(raw).__name__}")
         expected = "(" + ", ".join(self.input_layout.split(",")) + ")"
         fixed = tuple("B" if d is None else d for d in self.input_shape)
         if raw.ndim != len(self.input_shape) or any(
@@ -336,7 +338,7 @@ class OnnxPipeline:
             return raw.astype(np.float32) * np.float32(self._uint8_scale)
         if raw.dtype not in (np.float32, np.float64):
             accepted = "float32, float64" + (" or uint8" if self._uint8_scale is not None else "")
-            raise TypeError(f"raw must have dtype {accepted}, got {raw.dtype}")
+            raise InputTypeError(f"raw must have dtype {accepted}, got {raw.dtype}")
         raw = raw.astype(np.float32, copy=False)
         if not np.isfinite(raw).all():
             raise ValueError(f"raw must be finite, got {int((~np.isfinite(raw)).sum())} NaN/inf value(s)")
@@ -348,7 +350,7 @@ class OnnxPipeline:
         if raw.dtype == np.uint8:
             return np.ascontiguousarray(raw)
         if raw.dtype not in (np.float32, np.float64):
-            raise TypeError(
+            raise InputTypeError(
                 f"raw must have dtype uint8 (0-255), float32 or float64 (in [0, 1]), got {raw.dtype}"
             )
         if not np.isfinite(raw).all():

@@ -48,6 +48,7 @@ from typing import Protocol
 
 import numpy as np
 
+from .errors import InputTypeError
 from .runtime import DEFAULT_RANGE_G, RANGE_METADATA_KEY, sensor_range_g
 from .wire import format_sample, parse_line, parse_sample, pseudo_terminal, simulate_sensor
 
@@ -145,7 +146,7 @@ def _giving_up(limit: float) -> str:
 
 def _check_number(value: object, name: str, *, minimum: float = 0.0, strict: bool = True) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
-        raise TypeError(f"{name} must be a number, got {type(value).__name__}")
+        raise InputTypeError(f"{name} must be a number, got {type(value).__name__}")
     value = float(value)
     if math.isnan(value) or value < minimum or (strict and value == minimum):
         raise ValueError(f"{name} must be {'>' if strict else '>='} {minimum:g}, got {value:g}")
@@ -255,7 +256,7 @@ class WindowReader:
     ) -> None:
         opens = callable(source) and not hasattr(source, "read")
         if not opens and not hasattr(source, "read"):
-            raise TypeError(
+            raise InputTypeError(
                 "source must have a read(size) method (e.g. serial.Serial) or be a callable that "
                 f"opens one, got {type(source).__name__}"
             )
@@ -326,7 +327,7 @@ class WindowReader:
     def _open(self) -> _ReadablePort:
         port = self._source() if self._opens else self._source
         if not hasattr(port, "read"):
-            raise TypeError(f"source() must return a port with read(size), got {type(port).__name__}")
+            raise InputTypeError(f"source() must return a port with read(size), got {type(port).__name__}")
         return port
 
     def _close(self, port: object) -> None:

@@ -24,6 +24,7 @@ import numpy as np
 
 from . import catalogue
 from ._checks import RandomState, check_positive, numpy_rng
+from .errors import InputTypeError
 
 METHODS = tuple(catalogue.choices())
 """Accepted ``method`` names: the catalogue's keys (:data:`tactile_torch.catalogue.CLASSIFIERS`) and
@@ -135,7 +136,7 @@ def load_features(
     try:
         cut = window_recordings(data.signals, window, step)
     except ValueError as err:
-        raise ValueError(f"{where}: {err}; pass a smaller window (--window)") from None
+        raise ValueError(f"{where}: {err}; pass a smaller window (window=)") from None
     X = window_features(torch.from_numpy(cut.windows)).double().numpy()
     overflow = ~np.isfinite(X).all(axis=1)
     if overflow.any():  # e.g. a corrupted 1e30 sample: say so, rather than "X must be finite" later
@@ -403,7 +404,7 @@ def classifier_head(estimator: object) -> tuple[str, dict, dict[str, np.ndarray]
         }
         labels = buffers["votes"].argmax(1).astype(np.int64)
         return "knn", head, {"samples": buffers["samples"], "labels": labels}
-    raise TypeError(f"estimator has no model-file form: {type(estimator).__name__}")
+    raise InputTypeError(f"estimator has no model-file form: {type(estimator).__name__}")
 
 
 def write_classifier_file(

@@ -12,6 +12,7 @@ import torch
 
 from tactile_torch import cli
 from tactile_torch.cli import BAD_INPUT_EXIT, TRAIN_MODULES, main
+from tactile_torch.cli import train as train_command
 from tactile_torch.data import make_vibration_recordings
 from tactile_torch.runtime import OnnxPipeline, sensor_range_g
 
@@ -107,7 +108,7 @@ CASES = [
     (
         "tradeoff",
         ["--data", "feat.npz", "--folds", "1000"],
-        "n_folds (--folds) must be at most 10 here",
+        "--folds must be at most 10 here",
     ),
     ("tradeoff", ["--data", "feat.npz", "--folds", "1"], "--folds must be a whole number >= 2, got 1"),
     (
@@ -125,7 +126,7 @@ CASES = [
         ["--data", "feat.npz", "--target", "1.5"],
         "--target must be an accuracy in (0, 1], got 1.5",
     ),
-    ("tradeoff", ["--data", "feat.npz", "--deploy", "nonsense"], "deploy (--deploy) must name a candidate"),
+    ("tradeoff", ["--data", "feat.npz", "--deploy", "nonsense"], "--deploy must name a candidate"),
     ("cluster", ["--data", "images.npz"], "images.npz: --data must hold vibration recordings"),
     ("cluster", ["--data", "feat_nan.npz"], "feat_nan.npz: features must be finite"),
     ("export", ["--model", "missing.npz"], "missing.npz: no such file"),
@@ -235,7 +236,7 @@ def test_an_unexpected_error_is_one_line_with_status_1(monkeypatch, capsys):
     def broken(args):
         raise RuntimeError("something\nwent wrong")
 
-    monkeypatch.setattr(cli, "_train", broken)
+    monkeypatch.setattr(train_command, "run_train", broken)
     assert main(["train", "--data", "x.npz"]) == cli.INTERNAL_ERROR_EXIT
     err = capsys.readouterr().err
     assert err == (
@@ -602,3 +603,140 @@ def test_train_piped_into_head_still_writes_the_model(files, tmp_path):
     assert out.returncode == 0, out.stderr
     assert out.stdout.count("\n") == 1 and "Broken pipe" not in out.stderr, out.stderr
     assert model.is_file() and model.stat().st_size > 0
+
+
+# ---------------------------------------------------------------------------------- user error or bug
+BUGS = [
+    AttributeError("'NoneType' object has no attribute 'X'"),
+    TypeError("unsupported operand type(s) for +: 'int' and 'str'"),
+    IndexError("index 3 is out of bounds for axis 0 with size 3"),
+    KeyError("class_names"),
+]
+
+
+@pytest.mark.parametrize("bug", BUGS, ids=[type(b).__name__ for b in BUGS])
+def test_a_bug_inside_the_library_is_an_internal_error_not_bad_input(files, monkeypatch, capsys, bug):
+    import tactile_torch.training as training
+
+    def broken(*args, **kwargs):
+        raise bug
+
+    monkeypatch.setattr(training, "train_classifier", broken)  # past every check of the input
+    argv = ["train", "--data", str(files / "rec.npz"), "--window", "100", "--method", "svm"]
+    assert main(argv) == cli.INTERNAL_ERROR_EXIT
+    assert cli.INTERNAL_ERROR_EXIT not in (0, BAD_INPUT_EXIT)
+    captured = capsys.readouterr()
+    err = captured.err
+    assert err.count("\n") == 1 and "Traceback" not in err + captured.out, err
+    assert err.startswith(f"tactile-torch train: internal error: {type(bug).__name__}: "), err
+    assert err.endswith("(rerun with --debug for the traceback, and please report it)\n"), err
+    with pytest.raises(type(bug)):  # --debug: the exception and its traceback reach Python
+        main([*argv, "--debug"])
+
+
+def test_the_traceback_of_a_bug_is_shown_only_with_debug(files):
+    code = (
+        "import sys\n"
+        "import tactile_torch.training as training\n"
+        "def broken(*args, **kwargs):\n"
+        "    raise AttributeError('no attribute X')\n"
+        "training.train_classifier = broken\n"
+        "from tactile_torch.cli import main\n"
+        f"sys.exit(main(['train', '--data', {str(files / 'rec.npz')!r}, '--window', '100'] + sys.argv[1:]))\n"
+    )
+    plain = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert plain.returncode == cli.INTERNAL_ERROR_EXIT, plain.stderr
+    assert "Traceback" not in plain.stderr and "internal error: AttributeError" in plain.stderr
+    debug = subprocess.run(
+        [sys.executable, "-c", code, "--debug"], capture_output=True, text=True, timeout=300
+    )
+    assert debug.returncode == 1  # Python's own status for an uncaught exception
+    assert "Traceback" in debug.stderr and "AttributeError: no attribute X" in debug.stderr
+
+
+def test_an_input_error_of_the_library_is_bad_input_whatever_its_base(files, monkeypatch, capsys):
+    import tactile_torch.training as training
+    from tactile_torch.errors import InputTypeError
+
+    def refuse(*args, **kwargs):
+        raise InputTypeError("labels must be integers, got float64")
+
+    monkeypatch.setattr(training, "train_classifier", refuse)
+    argv = ["train", "--data", str(files / "rec.npz"), "--window", "100", "--method", "svm"]
+    assert main(argv) == BAD_INPUT_EXIT
+    assert capsys.readouterr().err == "tactile-torch train: rec.npz: labels must be integers, got float64\n"
+
+
+def test_the_validation_helpers_raise_input_errors():
+    from tactile_torch._checks import check_positive, check_tensor
+    from tactile_torch.errors import InputError, InputTypeError
+
+    with pytest.raises(InputTypeError, match=r"frames must be a torch\.Tensor, got list"):
+        check_tensor([1, 2], "frames")
+    with pytest.raises(InputTypeError, match=r"window must be an integer, got 2\.5"):
+        check_positive(2.5, "window", integer=True)
+    assert issubclass(InputTypeError, TypeError) and issubclass(InputTypeError, InputError)
+    assert cli.is_user_error(InputTypeError("x")) and cli.is_user_error(FileNotFoundError(2, "x", "f"))
+    assert not cli.is_user_error(TypeError("x")) and not cli.is_user_error(AttributeError("x"))
+
+
+def test_help_lists_the_exit_statuses(capsys):
+    with pytest.raises(SystemExit) as stop:
+        main(["--help"])
+    assert stop.value.code == 0
+    out = " ".join(capsys.readouterr().out.split())
+    assert "exit status: 0 done; 2 bad input" in out and "1 internal error (a bug" in out
+
+
+@pytest.mark.parametrize(
+    ("library", "command_line"),
+    [
+        ("n_folds must be at most 10 here", "--folds must be at most 10 here"),
+        ("window: none of the sizes fits; pass window=", "--window: none of the sizes fits; pass --window"),
+        ("x.csv: t looks like ms; pass time_unit='ms'", "x.csv: t looks like ms; pass --time-unit ms"),
+        (
+            "b: two topics; name one with topic=, the bag has",
+            "b: two topics; name one with --topic, the bag has",
+        ),
+        ("b: give the map's shape with shape=(H, W)", "b: give the map's shape with --shape H,W"),
+        (
+            "x.npz: pickled; pass allow_pickle=True if you trust it",
+            "x.npz: pickled; pass --allow-pickle if you trust it",
+        ),
+        ("x.npz: counts; scale=0.0039 for the ADXL345", "x.npz: counts; --scale 0.0039 for the ADXL345"),
+        ("x.npz: features must be finite", "x.npz: features must be finite"),  # about the file's content
+        (
+            "frames must have shape (B, T, 3, H, W)",
+            "frames must have shape (B, T, 3, H, W)",
+        ),  # not an option here
+    ],
+)
+def test_library_messages_name_arguments_and_the_cli_shows_its_options(library, command_line):
+    flags = {k: v for k, v in cli.ARGUMENT_FLAGS.items() if k != "frames"}  # as for train (no --frames)
+    assert cli.with_flags(library, flags) == command_line
+
+
+def test_library_error_messages_name_no_command_line_option():
+    """Every error and warning of the library names the argument; the options are the CLI's business
+    (a whole command line, ``'tactile-torch train --out'``, may be quoted)."""
+    import ast
+    import re
+
+    def texts(node):
+        return [n.value for n in ast.walk(node) if isinstance(n, ast.Constant) and isinstance(n.value, str)]
+
+    root = Path(__file__).resolve().parents[1] / "tactile_torch"
+    found = []
+    for path in root.rglob("*.py"):
+        if "cli" in path.relative_to(root).parts or path.parent.name == "studies":
+            continue  # the command line itself; the studies write reproduce lines, not errors
+        for node in ast.walk(ast.parse(path.read_text())):
+            warns = isinstance(node, ast.Call) and ast.unparse(node.func) in ("warnings.warn", "warn")
+            message = isinstance(node, ast.FunctionDef) and node.name.endswith("_message")
+            if isinstance(node, ast.Raise) or warns or message:
+                found += [
+                    f"{path.relative_to(root)}:{node.lineno}: {t}"
+                    for t in texts(node)
+                    if re.search(r"(^|[\s(])--[a-z]", re.sub(r"tactile-torch [\w-]+ --[\w-]+", "", t))
+                ]
+    assert not found, found

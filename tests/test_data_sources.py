@@ -82,12 +82,12 @@ def test_index_errors(tmp_path, rec):
 def test_csv_in_m_s2_with_headers_and_t_in_ms(tmp_path, rec):
     signal = rec.signals[0]
     path = _log(tmp_path / "ms2.csv", signal, 800.0, header="time,ax,ay,az", factor=G)
-    with pytest.raises(ValueError, match=r"ms2\.csv: no column 'x' .*--columns time,ax,ay,az"):
+    with pytest.raises(ValueError, match=r"ms2\.csv: no column 'x' .*columns='time,ax,ay,az'"):
         read_csv_log(path)
     # read as g, the m/s^2 log is refused where the data come in, naming the file and the fix
     with pytest.raises(
         ValueError,
-        match=r"ms2\.csv: the mean acceleration is 9\.\d+ g .*look like m/s\^2 .*; pass --units m/s2",
+        match=r"ms2\.csv: the mean acceleration is 9\.\d+ g .*look like m/s\^2 .*; pass units='m/s2'",
     ):
         read_source([path], DataOptions(columns="time,ax,ay,az"))
     back = read_source([path], DataOptions(columns="time,ax,ay,az", units="m/s2"))
@@ -100,7 +100,7 @@ def test_csv_in_m_s2_with_headers_and_t_in_ms(tmp_path, rec):
     ms = _log(tmp_path / "ms.csv", signal, 800.0, t_factor=1e3)
     with pytest.raises(
         ValueError,
-        match=r"t looks like milliseconds: median step 1\.25 s would be 0\.8 Hz; pass --time-unit ms",
+        match=r"t looks like milliseconds: median step 1\.25 s would be 0\.8 Hz; pass time_unit='ms'",
     ):
         read_csv_log(ms)
     assert read_csv_log(ms, time_unit="ms")[1] == 800.0
@@ -136,7 +136,7 @@ def test_hapmat_as_shipped_loads_with_columns(tmp_path, shared_data):
             header = "time,accel_x,accel_y,accel_z,gyro_x,gyro_y,gyro_z,rota_x,rota_y,rota_z"
             files.append(tmp_path / f"{name}.csv")
             np.savetxt(files[-1], table, delimiter=",", header=header, comments="", fmt="%.6f")
-    with pytest.raises(ValueError, match="--columns time,accel_x,accel_y,accel_z"):
+    with pytest.raises(ValueError, match="columns='time,accel_x,accel_y,accel_z'"):
         read_source(files)
     data = read_source(files, DataOptions(columns="time,accel_x,accel_y,accel_z"))
     assert data.rate_hz == 100.0 and data.class_names[0] == "Fabric" and set(data.session) == {"1"}
@@ -261,7 +261,7 @@ def test_declared_sensor_range_reaches_the_exported_bundle(tmp_path, rec, capsys
 
 def test_data_options_are_written_back_into_the_command_line():
     from tactile_torch.cli import build_parser
-    from tactile_torch.cli_data import data_option_words, data_options
+    from tactile_torch.cli._options import data_option_words, data_options
 
     argv = [
         "tradeoff",

@@ -575,7 +575,7 @@ def test_csv_sessions_come_from_the_trailing_number(tmp_path):
     assert "3 folds grouped by session" in s.split
     from tactile_torch.tradeoff.runner import plan_tradeoff
 
-    with pytest.raises(ValueError, match=r"n_folds \(--folds\): 4 folds asked, but the data allow 3"):
+    with pytest.raises(ValueError, match=r"n_folds: 4 folds asked, but the data allow 3"):
         plan_tradeoff(paths, n_folds=4, exact_folds=True, windows=[100], log=lambda s: None)
     by_file = load_tradeoff_data(paths, csv_session="file")
     assert sorted(by_file.recordings.session.tolist())[0] == "cork_1"

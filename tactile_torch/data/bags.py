@@ -106,13 +106,13 @@ def _pick_topic(path: Path, topics: dict[str, str], topic: str | None) -> str:
         if len(readable) == 1:
             return next(iter(readable))
         what = "several readable topics" if readable else "no IMU or pressure-array topic"
-        raise ValueError(f"{path}: {what}; name one with --topic (topic=), the bag has {_describe(topics)}")
+        raise ValueError(f"{path}: {what}; name one with topic=, the bag has {_describe(topics)}")
     if topic not in topics:
         raise ValueError(f"{path}: no topic {topic!r}; the bag has {_describe(topics)}")
     if topics[topic] not in READABLE_TYPES:
         raise ValueError(
             f"{path}: topic {topic} holds {topics[topic]}, expected {IMU_TYPE} (accelerations) or "
-            f"{PRESSURE_TYPE} (pressure maps, with --shape H,W)"
+            f"{PRESSURE_TYPE} (pressure maps, with shape=(H, W))"
         )
     return topic
 
@@ -124,7 +124,7 @@ def _map_shape(path: Path, topic: str, message, shape: tuple[int, int] | None, i
         if len(dims) != 2:
             raise ValueError(
                 f"{path}:{topic}: message {i} has {size} values and a layout of {len(dims)} dimension(s); "
-                "give the map's shape with --shape H,W (shape=(H, W))"
+                "give the map's shape with shape=(H, W)"
             )
         shape = (dims[0], dims[1])
     if shape[0] * shape[1] != size:
@@ -189,7 +189,7 @@ def read_bag(
         if declared > max_messages:
             raise ValueError(
                 f"{path}:{topic}: {declared} messages, more than the {max_messages} read at most "
-                "(max_messages=, --max-messages)"
+                "(max_messages=)"
             )
         stamps, values, n_bytes = [], [], 0
         for i, (_, received, raw) in enumerate(reader.messages(connections=connections)):

@@ -171,8 +171,7 @@ def _column_index(path: Path, header: list[str] | None, spec: list | None, n_col
         elif item not in header:
             raise ValueError(
                 f"{path}: no column {item!r} (header: {','.join(header)}); name the time and the three "
-                "acceleration columns with columns= / --columns, e.g. --columns "
-                f"{_suggest(header)}"
+                f"acceleration columns with columns=, e.g. columns={_suggest(header)!r}"
             )
         else:
             index.append(header.index(item))
@@ -199,12 +198,12 @@ def _seconds_per_tick(path: Path, step: float, time_unit: str) -> float:
         unit = plausible[0]
         raise ValueError(
             f"{path}: t looks like {name[unit]}: median step {step:g} s would be {1.0 / step:.3g} Hz; "
-            f"pass --time-unit {unit} (time_unit={unit!r}), or --time-unit s if the rate is right"
+            f"pass time_unit={unit!r}, or time_unit='s' if the rate is right"
         )
     raise ValueError(
         f"{path}: the median time step {step:g} gives {1.0 / step:.3g} Hz in seconds, "
         f"{1e3 / step:.3g} Hz in ms and {1e6 / step:.3g} Hz in us, none a plausible accelerometer rate "
-        f"({low:g} Hz to {high:g} Hz); check the time column (--columns) or pass --time-unit"
+        f"({low:g} Hz to {high:g} Hz); check the time column (columns=) or pass time_unit="
     )
 
 
@@ -212,7 +211,7 @@ def integer_counts_message(where: str, found: str) -> str:
     """The one message for accelerations given as integer counts without a declared scale (CSV and .npz)."""
     return (
         f"{where}: accelerations must be in g or m/s^2, got {found} (raw sensor counts?); declare the "
-        "scale in units per count, --scale 0.0039 (scale=0.0039) for the ADXL345 at full resolution, "
+        "scale in units per count, scale=0.0039 for the ADXL345 at full resolution, "
         "or convert them to g first"
     )
 

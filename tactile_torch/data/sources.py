@@ -242,8 +242,7 @@ def check_recordings(
         if units == "g" and GRAVITY_BAND_G[0] <= norm <= GRAVITY_BAND_G[1]:
             raise ValueError(
                 f"{where}: the mean acceleration is {norm:.3g} g (x, y, z = {', '.join(f'{m:.3g}' for m in mean)}): "
-                f"gravity reads 1 g, so these look like m/s^2 ({STANDARD_GRAVITY} m/s^2 = 1 g); pass --units m/s2 "
-                "(units='m/s2')"
+                f"gravity reads 1 g, so these look like m/s^2 ({STANDARD_GRAVITY} m/s^2 = 1 g); pass units='m/s2'"
             )
         beyond = np.abs(s) > sensor_range_g
         if beyond.any():
@@ -251,7 +250,7 @@ def check_recordings(
             raise ValueError(
                 f"{where}: sample {row} (t = {row / rate_hz:.4g} s) reads {s[row, axis]:.4g} g on {'xyz'[axis]}, "
                 f"beyond the sensor's ±{sensor_range_g:g} g ({int(beyond.any(axis=1).sum())} samples beyond); "
-                "declare the range with --sensor-range G (sensor_range_g=), or the units with --units / --scale"
+                "declare the range with sensor_range_g=G, or the units with units= / scale="
             )
         if len(s) > 1 and (np.ptp(s, axis=0) == 0).all():
             raise ValueError(

@@ -26,6 +26,7 @@ from dataclasses import dataclass, fields, replace
 import numpy as np
 
 from .._checks import RandomState, check_positive, numpy_rng
+from ..errors import InputTypeError
 from .vibration import QUANTUM_G, RANGE_G, SAMPLE_RATE_HZ, VibrationRecordings, VibrationWindows
 
 SPEED_M_S = 0.589  # turntable speed under the stylus, 58.9 cm/s
@@ -250,7 +251,7 @@ def make_vibration_recordings(
     """
     table = surface_table(n_surfaces) if surfaces is None else list(surfaces)
     if not table or not all(isinstance(s, Surface) for s in table):
-        raise TypeError(f"surfaces must be a non-empty sequence of Surface, got {surfaces!r}")
+        raise InputTypeError(f"surfaces must be a non-empty sequence of Surface, got {surfaces!r}")
     check_positive(n_sessions, "n_sessions", integer=True)
     check_positive(duration_s, "duration_s")
     check_positive(rate_hz, "rate_hz")

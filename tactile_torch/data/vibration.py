@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .._checks import check_positive
+from ..errors import InputTypeError
 from ..formats import read_csv_recording
 
 if TYPE_CHECKING:
@@ -72,7 +73,7 @@ class VibrationRecordings:
             if s.ndim != 2 or s.shape[1] != 3:
                 raise ValueError(f"signals[{i}] must have shape (n, 3), got {s.shape}")
             if not np.issubdtype(s.dtype, np.number):
-                raise TypeError(f"signals[{i}] must be numeric, got dtype {s.dtype}")
+                raise InputTypeError(f"signals[{i}] must be numeric, got dtype {s.dtype}")
             if not np.isfinite(s).all():
                 raise ValueError(
                     f"signals[{i}] must be finite, got {int((~np.isfinite(s)).sum())} NaN/inf value(s)"
@@ -86,7 +87,7 @@ class VibrationRecordings:
                 f"labels must have shape ({len(checked)},) (one per recording), got {labels.shape}"
             )
         if labels.size and not np.issubdtype(labels.dtype, np.integer):
-            raise TypeError(f"labels must be integers, got dtype {labels.dtype}")
+            raise InputTypeError(f"labels must be integers, got dtype {labels.dtype}")
         if labels.size and (labels.min() < 0 or labels.max() >= len(self.class_names)):
             raise ValueError(
                 f"labels must lie in 0..{len(self.class_names) - 1} (one per class name), "

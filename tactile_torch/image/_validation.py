@@ -9,6 +9,7 @@ from __future__ import annotations
 import torch
 
 from .._checks import check_finite, check_floating, check_positive, check_shape, check_tensor
+from ..errors import InputTypeError
 
 Threshold = float | torch.Tensor | str
 
@@ -18,7 +19,7 @@ def check_frames(frames: object, name: str = "frames", *, batched: bool = True) 
     check_tensor(frames, name)
     check_shape(frames, name, ["B", "T", 3, "H", "W"] if batched else ["*", 3, "H", "W"])
     if frames.dtype != torch.uint8 and not frames.is_floating_point():
-        raise TypeError(f"{name} must be uint8 (0-255) or float in [0, 1], got {frames.dtype}")
+        raise InputTypeError(f"{name} must be uint8 (0-255) or float in [0, 1], got {frames.dtype}")
     if any(s == 0 for s in frames.shape):
         what = (
             "frame per exploration (T >= 1)" if batched and frames.shape[1] == 0 else "non-empty dimensions"

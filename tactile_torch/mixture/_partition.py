@@ -24,6 +24,8 @@ import math
 import numpy as np
 from numba import njit, types
 
+from ..errors import InputTypeError
+
 _I1 = types.Array(types.int64, 1, "C")
 _I2 = types.Array(types.int64, 2, "C")
 _A2 = types.Array(types.float64, 2, "C")
@@ -66,7 +68,7 @@ def _check_samples(samples: object) -> np.ndarray:
     if arr.ndim != 2 or arr.shape[0] == 0 or arr.shape[1] == 0:
         raise ValueError(f"samples must have shape (n_samples, n_points) with both >= 1, got {arr.shape}")
     if not np.issubdtype(arr.dtype, np.integer):
-        raise TypeError(f"samples must hold integer labels, got dtype {arr.dtype}")
+        raise InputTypeError(f"samples must hold integer labels, got dtype {arr.dtype}")
     return np.ascontiguousarray(np.stack([_compact(row) for row in arr]))
 
 

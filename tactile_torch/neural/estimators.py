@@ -41,6 +41,7 @@ from sklearn.utils.validation import check_is_fitted
 from torch import nn
 
 from .._checks import numpy_rng, torch_generator
+from ..errors import InputTypeError
 from .networks import (
     WINDOW_WIDTHS,
     ClassifierGraph,
@@ -100,7 +101,7 @@ class _NeuralClassifier(ClassifierMixin, BaseEstimator):
         if X.ndim != len(self._layout) + 1 or X.shape[0] == 0:
             raise ValueError(f"{self._input_name} must have shape {layout} with N >= 1, got {X.shape}")
         if X.dtype.kind not in "fiu":
-            raise TypeError(f"{self._input_name} must be numeric, got dtype {X.dtype}")
+            raise InputTypeError(f"{self._input_name} must be numeric, got dtype {X.dtype}")
         if X.dtype.kind == "f" and not np.isfinite(X).all():
             raise ValueError(f"{self._input_name} must be finite, got NaN or inf values")
         return torch.from_numpy(np.ascontiguousarray(X, dtype=np.float32))

@@ -40,6 +40,7 @@ from sklearn.utils.validation import check_is_fitted
 from torch import nn
 
 from .._checks import numpy_rng, torch_generator
+from ..errors import InputTypeError
 
 INITIAL_TEMPERATURES = (0.02, 0.05, 0.5)
 """Starting temperatures of the soft threshold (gray levels on the 0-1 scale), the soft erosion and the
@@ -242,7 +243,7 @@ class LearnedFrontEndClassifier(ClassifierMixin, BaseEstimator):
         if raw.ndim != 5 or raw.shape[2] != 3 or raw.shape[0] == 0:
             raise ValueError(f"frames must have shape (N, T, 3, H, W) with N >= 1, got {raw.shape}")
         if raw.dtype != np.uint8:
-            raise TypeError(f"frames must be uint8 RGB (0-255), got dtype {raw.dtype}")
+            raise InputTypeError(f"frames must be uint8 RGB (0-255), got dtype {raw.dtype}")
         return torch.from_numpy(np.ascontiguousarray(raw))
 
     def _hard_features(self, frames: torch.Tensor) -> torch.Tensor:

@@ -11,6 +11,7 @@ from torch import nn
 
 from .._checks import check_finite, check_positive, check_shape, check_tensor
 from .._parallel import map_blocks, serial_torch_ops_in_this_thread
+from ..errors import InputTypeError
 
 AXES = ("x", "y", "z")
 AXIS_FEATURES = ("var", "skew", "kurt", "m5", "tv", "cross", "hf")
@@ -35,7 +36,7 @@ def _check_windows(windows: object) -> torch.Tensor:
     check_tensor(windows, "windows")
     check_shape(windows, "windows", ["*", 3, "W"])
     if windows.dtype not in (torch.float32, torch.float64):
-        raise TypeError(f"windows must have dtype float32 or float64, got {windows.dtype}")
+        raise InputTypeError(f"windows must have dtype float32 or float64, got {windows.dtype}")
     if windows.shape[-1] < 2:
         raise ValueError(
             f"windows must have at least 2 samples per axis (W >= 2), got shape {tuple(windows.shape)}"

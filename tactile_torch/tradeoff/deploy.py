@@ -124,9 +124,7 @@ def deploy_candidate(
 
     names = [r.candidate.name for r in result.results]
     if name not in names:
-        raise ValueError(
-            f"deploy (--deploy) must name a candidate of this study, got {name!r}; candidates: {names}"
-        )
+        raise ValueError(f"deploy must name a candidate of this study, got {name!r}; candidates: {names}")
     cand = result.result(name).candidate
     s = result.inputs[cand.input]
     data = result.data

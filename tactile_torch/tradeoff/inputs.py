@@ -172,9 +172,7 @@ def load_tradeoff_data(
         or not np.isfinite(frame_rate_hz)
         or frame_rate_hz <= 0
     ):
-        raise ValueError(
-            f"frame_rate_hz (--frame-rate) must be a finite number of frames/s > 0, got {frame_rate_hz!r}"
-        )
+        raise ValueError(f"frame_rate_hz must be a finite number of frames/s > 0, got {frame_rate_hz!r}")
     if csv_session not in ("number", "file"):
         raise ValueError(f"csv_session must be 'number' or 'file', got {csv_session!r}")
     if hasattr(paths, "kind"):
@@ -268,7 +266,7 @@ def _check_folds(folds: list[Fold], y: np.ndarray, names: Sequence[str], what: s
             c = classes[counts.argmin()]
             raise ValueError(
                 f"data: too few {what} of class {_class_name(names, c)!r} for the folds (a training fold "
-                f"holds {counts.min()}, at least 2 are needed); use fewer folds (--folds) or more data"
+                f"holds {counts.min()}, at least 2 are needed); use fewer folds (n_folds=) or more data"
             )
 
 
@@ -349,7 +347,7 @@ def vibration_samples(
             raise ValueError(
                 f"window: {window} samples is longer than every recording of class {name!r} (longest "
                 f"{longest} samples = {longest / recordings.rate_hz:g} s at {recordings.rate_hz:g} Hz); "
-                "choose a shorter --window"
+                "choose a shorter window (window=)"
             )
     from ..formats import window_recordings
 
@@ -481,7 +479,7 @@ def _time_blocks(
         raise ValueError(
             f"window: {window} samples leaves a recording of class {short!r} only {n_windows.min()} window(s); "
             f"time-block folds need at least {need} (two blocks, each with {guard} guard window(s)): choose a "
-            "shorter --window"
+            "shorter window (window=)"
         )
     count = np.bincount(recording)[recording]
     block = position * blocks // count

@@ -487,7 +487,7 @@ def staged_output(out_dir: str | Path):
     if out.exists():
         if not out.is_dir():
             shutil.rmtree(staging, ignore_errors=True)
-            raise ValueError(f"out (--out): {out} exists and is not a directory")
+            raise ValueError(f"out: {out} exists and is not a directory")
         out.rename(old)
     staging.rename(out)
     shutil.rmtree(old, ignore_errors=True)

@@ -148,7 +148,7 @@ def _resolve_threshold(data: TradeoffData, threshold: float | str, notes: list[s
         return DEFAULT_THRESHOLD
     notes.append(
         f"threshold: from each training fold's histogram (Otsu): only {share:.0%} of the pixels are white, "
-        "so the study's 240/255 does not fit this display (--threshold to set one)"
+        "so the study's 240/255 does not fit this display (threshold= to set one)"
     )
     return "otsu"
 
@@ -176,7 +176,7 @@ def _vibration_inputs(
         longest = max(len(s) for s in rec.signals)
         raise ValueError(
             f"window: none of the window sizes {tried} fits the recordings (longest {longest} samples at "
-            f"{rec.rate_hz:g} Hz) with {n_folds} folds; pass --window"
+            f"{rec.rate_hz:g} Hz) with {n_folds} folds; pass window="
         )
     if window is None:
         shorter = [w for w in allowed if w <= STUDY_WINDOW]
@@ -303,7 +303,7 @@ def plan_tradeoff(
     start = time.perf_counter()
     check_positive(n_folds, "n_folds", integer=True)
     if n_folds < 2:
-        raise ValueError(f"n_folds (--folds) must be >= 2, got {n_folds}")
+        raise ValueError(f"n_folds must be >= 2, got {n_folds}")
     if window is not None:
         check_positive(window, "window", integer=True)
     if max_per_class not in ("auto", None) and (
@@ -312,14 +312,14 @@ def plan_tradeoff(
         or max_per_class < 2
     ):
         raise ValueError(
-            f"max_per_class (--max-per-class) must be 'auto' or a whole number >= 2 (two samples of every class "
+            f"max_per_class must be 'auto' or a whole number >= 2 (two samples of every class "
             f"in every training fold), got {max_per_class!r}"
         )
     if frame_rate_hz is not None and not (
         isinstance(frame_rate_hz, int | float) and np.isfinite(frame_rate_hz) and frame_rate_hz > 0
     ):
         raise ValueError(
-            f"frame_rate_hz (--frame-rate) must be a positive finite number of frames per second, got {frame_rate_hz!r}"
+            f"frame_rate_hz must be a positive finite number of frames per second, got {frame_rate_hz!r}"
         )
     if not isinstance(data, TradeoffData):
         data = load_tradeoff_data(
@@ -367,7 +367,7 @@ def plan_tradeoff(
         fewest = min(inputs.values(), key=lambda s: len(s.folds))
         if len(fewest.folds) < n_folds:
             raise ValueError(
-                f"n_folds (--folds): {n_folds} folds asked, but the data allow {len(fewest.folds)} "
+                f"n_folds: {n_folds} folds asked, but the data allow {len(fewest.folds)} "
                 f"({fewest.key}: {fewest.split}); ask for {len(fewest.folds)} or fewer"
             )
     candidates = build_candidates(
@@ -411,7 +411,7 @@ def _check_folds_fit(n_folds: int, inputs: dict[str, Samples]) -> None:
             most = min(len(np.unique(s.groups[s.y == c])) for c in np.unique(s.y))
         if n_folds > max(most, 5):
             raise ValueError(
-                f"n_folds (--folds) must be at most {max(most, 5)} here (the rarest class of {s.key} has {most} "
+                f"n_folds must be at most {max(most, 5)} here (the rarest class of {s.key} has {most} "
                 f"{'groups' if s.groups is not None else 'samples'}), got {n_folds}"
             )
 
@@ -508,7 +508,7 @@ def check_target(target: float | None) -> None:
     if target is None:
         return
     if isinstance(target, bool) or not isinstance(target, int | float | np.number) or not 0 < target <= 1:
-        raise ValueError(f"target (--target) must be an accuracy in (0, 1], got {target!r}")
+        raise ValueError(f"target must be an accuracy in (0, 1], got {target!r}")
 
 
 def _unit_warnings(inputs: dict[str, Samples]) -> list[str]:
@@ -600,7 +600,7 @@ def run_tradeoff(
     unknown = [d for d in wanted if d != "recommended" and d not in known]
     if unknown:
         raise ValueError(
-            f"deploy (--deploy) must name a candidate of this study, got {unknown[0]!r}; candidates: {known}"
+            f"deploy must name a candidate of this study, got {unknown[0]!r}; candidates: {known}"
         )
     with ExportPool(Path(out_dir) / "timing" / "parts", background=background) as pool, runner:
         result = execute_plan(

@@ -306,7 +306,7 @@ class PressureImageFeatures(TransformerMixin, BaseEstimator):
             if abs(self.skewness_) < _MIN_SKEW:
                 raise ValueError(
                     "contact: the readings do not show whether contact raises or lowers them "
-                    f"(skewness {self.skewness_:.2f}); set contact='raises' or 'lowers' (--contact)"
+                    f"(skewness {self.skewness_:.2f}); set contact='raises' or contact='lowers'"
                 )
             self.sign_ = 1.0 if self.skewness_ > 0 else -1.0
         else:
@@ -318,7 +318,7 @@ class PressureImageFeatures(TransformerMixin, BaseEstimator):
         if self.scale_ <= 0:
             raise ValueError(
                 "contact: the pressure maps never rise above their resting level with "
-                f"contact={self.contact!r}; check contact= (--contact)"
+                f"contact={self.contact!r}; check contact="
             )
         if threshold == "otsu":
             unit = torch.from_numpy(above / self.scale_).reshape(1, -1)
@@ -326,7 +326,7 @@ class PressureImageFeatures(TransformerMixin, BaseEstimator):
             if not 0 < cut < 1:
                 raise ValueError(
                     "threshold: the histogram of the pressure maps has no Otsu split; set threshold= "
-                    "(--threshold, a fraction of the pressure scale in (0, 1), or 'display')"
+                    "(a fraction of the pressure scale in (0, 1), or 'display')"
                 )
             self.level_ = (1.0 - cut) * self.scale_
         elif threshold == "display":
