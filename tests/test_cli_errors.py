@@ -664,7 +664,10 @@ def test_an_input_error_of_the_library_is_bad_input_whatever_its_base(files, mon
     monkeypatch.setattr(training, "train_classifier", refuse)
     argv = ["train", "--data", str(files / "rec.npz"), "--window", "100", "--method", "svm"]
     assert main(argv) == BAD_INPUT_EXIT
-    assert capsys.readouterr().err == "tactile-torch train: rec.npz: labels must be integers, got float64\n"
+    assert (
+        capsys.readouterr().err
+        == f"tactile-torch train: {files / 'rec.npz'}: labels must be integers, got float64\n"
+    )
 
 
 def test_the_validation_helpers_raise_input_errors():

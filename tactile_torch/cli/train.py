@@ -67,6 +67,7 @@ def register(sub) -> None:
 
 def run_train(args: argparse.Namespace) -> int:
     """Train, print the class report, write the model file; return the exit status."""
+    from ..errors import InputError, InputValueError
     from ..training import load_features, save_model, train_classifier
 
     gamma = args.gamma if args.gamma == "scale" else float(args.gamma)
@@ -96,8 +97,8 @@ def run_train(args: argparse.Namespace) -> int:
             select=args.select,
             random_state=args.seed,
         )
-    except ValueError as err:  # e.g. a class with one sample: name the file it came from
-        raise ValueError(f"{data_name(args.data)}: {err}") from err
+    except (ValueError, InputError) as err:  # e.g. a class with one sample: name the file it came from
+        raise InputValueError(f"{data_name(args.data)}: {err}") from err
     print(f"{args.method}: held-out accuracy from {model.split}")
     print_class_report(model.report)
     print(
