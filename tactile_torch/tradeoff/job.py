@@ -161,9 +161,9 @@ def run_tradeoff_job(
         What :func:`~tactile_torch.tradeoff.write_outputs` wrote, by role, at their final place in
         ``out_dir``.
     """
+    from . import run_tradeoff, write_outputs  # the package's names: what callers (and tests) replace
     from .breaking import add_breaking_points
-    from .output import staged_output, write_outputs
-    from .runner import run_tradeoff
+    from .output import staged_output
 
     with staged_output(out_dir) as staging:
         result = run_tradeoff(
