@@ -5,7 +5,7 @@ The three default pipelines (:func:`tactile_torch.pipeline.build_default_bundles
 trained on the bundled synthetic data and exported. For each:
 
 - latency of one sample (batch 1): median and p99 over many calls, onnxruntime with one intra-op
-  thread (:class:`tactile_torch.runtime.OnnxPipeline`, input validation included) against the eager
+  thread (:class:`tactile_torch.robot.runtime.OnnxPipeline`, input validation included) against the eager
   torch pipeline at one thread; the targets are a W = 800 window under 1 ms and an
   exploration under 20 ms (median), both faster than eager torch;
 - throughput (samples per second) on a batch, at one thread and at the default thread count;
@@ -20,7 +20,7 @@ import torch
 
 from bench.common import threads, time_call
 from tactile_torch.pipeline import build_default_bundles, compare_with_runtime
-from tactile_torch.runtime import OnnxPipeline
+from tactile_torch.robot.runtime import OnnxPipeline
 
 TITLE = "Exported pipelines: onnxruntime vs eager torch (latency at batch 1, throughput)"
 

@@ -16,7 +16,7 @@ import argparse
 import sys
 
 from tactile_torch.pipeline import build_default_bundles, compare_with_runtime
-from tactile_torch.runtime import OnnxPipeline
+from tactile_torch.robot.runtime import OnnxPipeline
 
 
 def main(argv: list[str] | None = None) -> int:

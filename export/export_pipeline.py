@@ -15,7 +15,7 @@ import argparse
 import sys
 
 from tactile_torch.pipeline import compare_with_runtime, export_pipeline, load_model_file, pipeline_from_model
-from tactile_torch.runtime import OnnxPipeline
+from tactile_torch.robot.runtime import OnnxPipeline
 
 
 def main(argv: list[str] | None = None) -> int:

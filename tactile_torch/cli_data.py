@@ -109,7 +109,8 @@ def add_data_options(
 
 def data_options(args: argparse.Namespace):
     """Return the :class:`~tactile_torch.data.sources.DataOptions` the parsed arguments declare."""
-    from .data.sources import DEFAULT_RANGE_G, MAX_BAG_MESSAGES, DataOptions
+    from .data.sources import MAX_BAG_MESSAGES, DataOptions
+    from .robot.contract import DEFAULT_RANGE_G
 
     return DataOptions(
         columns=args.columns,

@@ -18,9 +18,9 @@ pipeline                  raw input                   graph
 Build them from the model files the command line writes: :func:`pipeline_from_model` reads a
 classifier written by ``tactile-torch train --out model.npz`` (:func:`tactile_torch.training.save_model`)
 or a clustering written by ``tactile-torch cluster`` (:func:`save_clustering_model`); model files
-are read and validated by :mod:`tactile_torch.model_file` (no pickle). :func:`export_pipeline`
+are read and validated by :mod:`tactile_torch.robot.model_file` (no pickle). :func:`export_pipeline`
 writes the pipeline to one ``.onnx`` file with a dynamic batch size and the metadata that
-:class:`tactile_torch.runtime.OnnxPipeline` reads (class names, input shape, window size, sample
+:class:`tactile_torch.robot.runtime.OnnxPipeline` reads (class names, input shape, window size, sample
 rate, sensor range, thresholds, feature scale, library version).
 
 Labels index :attr:`InferencePipeline.class_names`; scores are the SVM's per-class scores
@@ -35,7 +35,6 @@ Examples
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -45,11 +44,31 @@ import numpy as np
 import torch
 from torch import nn
 
-from .model_file import FORMAT, ModelFile, load_model_file
-from .runtime import DEFAULT_RANGE_G, LABELS_OUTPUT, RANGE_METADATA_KEY, SCORES_OUTPUT
+from .robot.contract import (
+    CLASS_NAMES_KEY,
+    DEFAULT_RANGE_G,
+    FEATURES_LAYOUT,
+    FRAMES_LAYOUT,
+    INPUT_LAYOUT_KEY,
+    INPUT_NAME,
+    INPUT_SHAPE_KEY,
+    LABELS_OUTPUT,
+    PIPELINE_KEY,
+    QUANTILE_KEY,
+    RANGE_METADATA_KEY,
+    SAMPLE_RATE_KEY,
+    SCORES_OUTPUT,
+    STEP_KEY,
+    THRESHOLD_KEY,
+    VERSION_KEY,
+    WINDOW_SIZE_KEY,
+    WINDOWS_LAYOUT,
+    metadata_strings,
+)
+from .robot.model_file import FORMAT, ModelFile, load_model_file
 
 CLUSTERING_FORMAT = FORMAT
-"""``format`` of model files (:data:`tactile_torch.model_file.FORMAT`); kept for old imports."""
+"""``format`` of model files (:data:`tactile_torch.robot.model_file.FORMAT`); kept for old imports."""
 
 
 class InferencePipeline(nn.Module):
@@ -102,7 +121,7 @@ class InferencePipeline(nn.Module):
     @property
     def input_dtype(self) -> torch.dtype:
         """dtype of the raw input the graph takes: uint8 for image frames, float32 otherwise."""
-        return torch.uint8 if self.input_layout == "B,T,3,H,W" else torch.float32
+        return torch.uint8 if self.input_layout == FRAMES_LAYOUT else torch.float32
 
     def example_input(self, batch: int = 2, *, random_state: int = 0) -> torch.Tensor:
         """Return a random input of the pipeline's shape and dtype with ``batch`` rows (for export)."""
@@ -116,16 +135,16 @@ class InferencePipeline(nn.Module):
         """Return the ONNX metadata properties of this pipeline (string values; JSON where structured)."""
         from . import __version__
 
-        meta = {
-            "tactile_torch.pipeline": self.name,
-            "tactile_torch.version": __version__,
-            "input_shape": json.dumps(self.input_shape),
-            "input_layout": self.input_layout,
-            "class_names": json.dumps(self.class_names),
-        }
-        for key, value in self.extra_metadata.items():
-            meta[key] = value if isinstance(value, str) else json.dumps(value)
-        return meta
+        return metadata_strings(
+            {
+                PIPELINE_KEY: self.name,
+                VERSION_KEY: __version__,
+                INPUT_SHAPE_KEY: self.input_shape,
+                INPUT_LAYOUT_KEY: self.input_layout,
+                CLASS_NAMES_KEY: self.class_names,
+                **self.extra_metadata,
+            }
+        )
 
     def extra_repr(self) -> str:
         return f"name={self.name!r}, input=({self.input_layout})={self.input_shape}, classes={len(self.class_names)}"
@@ -156,15 +175,15 @@ def _front_end(
 
         window = int(source["window"])
         meta = {
-            "window_size": window,
-            "step": int(source.get("step") or window),
-            "sample_rate_hz": float(source["rate_hz"]),
+            WINDOW_SIZE_KEY: window,
+            STEP_KEY: int(source.get("step") or window),
+            SAMPLE_RATE_KEY: float(source["rate_hz"]),
             # the range given at export, else the one declared at training (source), else the ADXL345's
             RANGE_METADATA_KEY: float(source.get("sensor_range_g", DEFAULT_RANGE_G))
             if sensor_range_g is None
             else sensor_range_g,
         }
-        return [WindowFeatures(window)], [None, 3, window], "B,3,W", meta
+        return [WindowFeatures(window)], [None, 3, window], WINDOWS_LAYOUT, meta
     if kind == "image":
         from .image import DEFAULT_EDGE_THRESHOLD, DEFAULT_EROSION, DEFAULT_THRESHOLD, ExplorationFeatures
 
@@ -182,24 +201,24 @@ def _front_end(
         erosion = int(source.get("erosion", DEFAULT_EROSION))
         meta.update(threshold=threshold, erosion=erosion)
         front = ExplorationFeatures(fuse=fuse, threshold=threshold, erosion=erosion)
-        return [front], [None, t, c, h, w], "B,T,3,H,W", meta
+        return [front], [None, t, c, h, w], FRAMES_LAYOUT, meta
     if kind == "features":
         n = int(source["n_features"])
-        return [], [None, n], "B,F", {}
+        return [], [None, n], FEATURES_LAYOUT, {}
     raise ValueError(f"the model's source kind must be 'vibration', 'image' or 'features', got {kind!r}")
 
 
 def pipeline_from_model(
     model: ModelFile | str | Path, *, sensor_range_g: float | None = None
 ) -> InferencePipeline:
-    """Build the inference pipeline of a model file (a :class:`~tactile_torch.model_file.ModelFile`,
+    """Build the inference pipeline of a model file (a :class:`~tactile_torch.robot.model_file.ModelFile`,
     or its path) written by ``tactile-torch train --out`` or ``tactile-torch cluster``.
 
     The torch modules are rebuilt from the file's arrays: the front end from ``source`` (window
     features, or exploration features), then the feature scale and the SVM's inference path, or the
     clustering transform and the MAP mixture.
 
-    ``sensor_range_g`` (vibration models only; default :data:`~tactile_torch.runtime.DEFAULT_RANGE_G`,
+    ``sensor_range_g`` (vibration models only; default :data:`~tactile_torch.robot.runtime.DEFAULT_RANGE_G`,
     5 g, the ADXL345 of the study) is the sensor's range, kept in the metadata (``sensor_range_g``):
     ``tactile-torch predict`` does not classify windows holding a sample beyond it and ``stream``
     rejects such samples. It must be finite and > 0.
@@ -208,7 +227,7 @@ def pipeline_from_model(
         model = load_model_file(model)
     if not isinstance(model, ModelFile):
         raise TypeError(
-            f"model must be a ModelFile (tactile_torch.model_file.load_model_file(path)) or a path, "
+            f"model must be a ModelFile (tactile_torch.robot.model_file.load_model_file(path)) or a path, "
             f"got {type(model).__name__}"
         )
     if sensor_range_g is not None:
@@ -238,7 +257,7 @@ def pipeline_from_model(
     classifier = _classifier_head(head, model.part("head"), len(model.class_names))
     ood = model.header.get("ood")
     if ood is not None:  # "unknown" as an answer: the graph also gives the distance to training
-        from .ood import QUANTILE_KEY, THRESHOLD_KEY, MahalanobisDistance, WithDistance
+        from .ood import MahalanobisDistance, WithDistance
 
         state = model.part("ood")
         classifier = WithDistance(
@@ -300,7 +319,7 @@ def save_clustering_model(
 ) -> Path:
     """Write a fitted :class:`~tactile_torch.mixture.PitmanYorGMM` (and the transform before it) to a model file.
 
-    The file (:mod:`tactile_torch.model_file`, no pickle) holds the MAP mixture's arrays, the
+    The file (:mod:`tactile_torch.robot.model_file`, no pickle) holds the MAP mixture's arrays, the
     fitted transform's, ``source`` and the posterior summary.
 
     Parameters
@@ -316,7 +335,7 @@ def save_clustering_model(
     transform : ClusteringTransform, optional
         Required for ``kind="vibration"``.
     """
-    from .model_file import save_model_file
+    from .robot.model_file import save_model_file
 
     if source.get("kind") == "vibration" and transform is None:
         raise ValueError("a vibration clustering needs the fitted ClusteringTransform (transform=)")
@@ -399,7 +418,7 @@ def export_pipeline(
     """Export ``pipeline`` to one ONNX file at ``path`` (dynamo exporter, dynamic batch, metadata); return it.
 
     The outputs are named ``labels`` and ``scores`` and the input ``raw``, as
-    :class:`tactile_torch.runtime.OnnxPipeline` expects; ``onnx.checker`` validates the file. The
+    :class:`tactile_torch.robot.runtime.OnnxPipeline` expects; ``onnx.checker`` validates the file. The
     file is written atomically and never onto a directory, a device, a symbolic link or one of
     ``inputs`` (e.g. the model file it was built from): ``ValueError`` in one line.
     """
@@ -415,7 +434,7 @@ def export_pipeline(
         pipeline.eval(),
         (example,),
         path,
-        input_names=["raw"],
+        input_names=[INPUT_NAME],
         output_names=[LABELS_OUTPUT, SCORES_OUTPUT, *extra],
         metadata=pipeline.metadata(),
         inputs=inputs,

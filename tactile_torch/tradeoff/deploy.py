@@ -9,7 +9,7 @@ of its raw input and writes
 * ``<name>.onnx``: raw input → labels and scores, with the metadata ``tactile-torch predict`` and
   ``stream`` read (one file, onnxruntime only); its labels are checked against the refitted
   pipeline's on up to :data:`CHECK_SAMPLES` samples;
-* ``<name>.npz``: the same model as a model file (:mod:`tactile_torch.model_file`, no pickle), which
+* ``<name>.npz``: the same model as a model file (:mod:`tactile_torch.robot.model_file`, no pickle), which
   ``tactile-torch export`` turns into the same graph, for the feature sets a model file describes
   (vibration windows, RGB explorations, feature matrices, with or without a best-ranked subset);
   raw pressure maps and per-taxel features have no model-file form yet, said in one note.
@@ -118,7 +118,7 @@ def deploy_candidate(
         ``name``, ``onnx`` (path), ``model_file`` (path or ``None``), ``samples`` (fitted on),
         ``agreement`` (share of checked samples whose ONNX label equals the pipeline's), ``notes``.
     """
-    from ..runtime import DEFAULT_RANGE_G, RANGE_METADATA_KEY, OnnxPipeline
+    from ..robot.runtime import DEFAULT_RANGE_G, RANGE_METADATA_KEY, OnnxPipeline
     from .evaluation import _head_modules, _stateless, features_key
     from .export import bind_head, export_fixed_head, export_front, export_head, head_key, join
 
@@ -203,7 +203,7 @@ def deploy_candidate(
 def _deploy_learned(result, name: str, model, check: np.ndarray, path: Path, samples: int) -> dict:
     """Export a learned candidate fitted on all the data (its int8 variant quantised as in the study)."""
     from ..neural import export_classifier
-    from ..runtime import OnnxPipeline
+    from ..robot.runtime import OnnxPipeline
     from .int8 import quantise_bundle
 
     clf = model.steps[-1][1]

@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from .._checks import RandomState, numpy_rng
+from ..robot.contract import FEATURES_LAYOUT, FRAMES_LAYOUT, PRESSURE_LAYOUT, WINDOWS_LAYOUT
 
 WINDOW_SIZES = (200, 400, 800, 1600)
 """Window sizes the study tries (those the recordings allow), in samples."""
@@ -164,7 +165,7 @@ def load_tradeoff_data(
     FileNotFoundError
         If a path does not exist.
     """
-    from ..formats import data_name
+    from ..robot.formats import data_name
 
     if frame_rate_hz is not None and (
         isinstance(frame_rate_hz, bool)
@@ -351,7 +352,7 @@ def vibration_samples(
                 f"{longest} samples = {longest / recordings.rate_hz:g} s at {recordings.rate_hz:g} Hz); "
                 "choose a shorter --window"
             )
-    from ..formats import window_recordings
+    from ..robot.windows import window_recordings
 
     ds = window_recordings(recordings.signals, window)
     X, recording, position = ds.windows, ds.recording, ds.position
@@ -387,7 +388,7 @@ def vibration_samples(
         X,
         y,
         folds,
-        "B,3,W",
+        WINDOWS_LAYOUT,
         window / rate,
         split,
         window,
@@ -528,7 +529,7 @@ def exploration_samples(
     folds, split = sample_folds(
         y, groups, n_folds=n_folds, names=data.class_names, what=what, random_state=random_state
     )
-    layout = {"image": "B,T,3,H,W", "pressure": "B,T,H,W", "features": "B,F"}[data.kind]
+    layout = {"image": FRAMES_LAYOUT, "pressure": PRESSURE_LAYOUT, "features": FEATURES_LAYOUT}[data.kind]
     key = {"image": "frames", "pressure": "pressure", "features": "features"}[data.kind]
     acquisition = 0.0 if data.kind == "features" else X.shape[1] / float(data.rate_hz)
     grouped = groups is not None and "grouped" in split

@@ -201,7 +201,7 @@ def add_int8_and_memory(
     """
     import dataclasses
 
-    from ..runtime import OnnxPipeline
+    from ..robot.runtime import OnnxPipeline
     from .evaluation import CandidateResult, _progress
     from .int8 import quantise_bundle
 
@@ -275,7 +275,7 @@ def measure_memory(
     results: list, samples: dict, out_dir: str | Path, *, only: set[str] | None, progress: bool
 ) -> None:
     """Fill ``memory_mib`` of the results with a file (only those named in ``only`` when given)."""
-    from ..runtime import OnnxPipeline
+    from ..robot.runtime import OnnxPipeline
     from .evaluation import _progress
     from .memory import peak_memory_mib
 
