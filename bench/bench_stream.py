@@ -34,7 +34,7 @@ import numpy as np
 import serial
 
 from tactile_torch.data import make_vibration_recordings
-from tactile_torch.pipeline import build_default_bundles
+from tactile_torch.default_bundles import build_default_bundles
 from tactile_torch.robot.runtime import OnnxPipeline
 from tactile_torch.robot.stream import WindowReader, format_sample, pseudo_terminal, simulate_sensor
 from tactile_torch.robot.stream_output import classify_windows

@@ -14,7 +14,8 @@ from __future__ import annotations
 import argparse
 import sys
 
-from tactile_torch.pipeline import compare_with_runtime, export_pipeline, load_model_file, pipeline_from_model
+from tactile_torch.pipeline import compare_with_runtime, export_pipeline, pipeline_from_model
+from tactile_torch.robot.model_file import load_model_file
 from tactile_torch.robot.runtime import OnnxPipeline
 
 

@@ -162,9 +162,9 @@ def _n_iter(text: str) -> int | str:
 def _cluster(args: argparse.Namespace) -> int:
     import numpy as np
 
+    from .clustering_model import save_clustering_model
     from .metrics import pairwise_accuracy
     from .mixture import PitmanYorGMM
-    from .pipeline import save_clustering_model
     from .training import load_features
 
     data = read_data_arg(args)
@@ -285,7 +285,8 @@ def _stage(label: str, *, delay: float = 1.0) -> Iterator[None]:
 
 
 def _export(args: argparse.Namespace) -> int:
-    from .pipeline import export_pipeline, load_model_file, pipeline_from_model
+    from .pipeline import export_pipeline, pipeline_from_model
+    from .robot.model_file import load_model_file
 
     sensor_range = _range_g(args.sensor_range, "--sensor-range", off=False)
     with _stage("export: building the pipeline"):

@@ -1,5 +1,10 @@
 """Whole inference pipelines (raw input → label and scores) as torch modules, and their ONNX export.
 
+This module builds graphs only: the default bundles are trained in :mod:`tactile_torch.default_bundles`,
+model files are written by their owners (:mod:`tactile_torch.training`,
+:mod:`tactile_torch.clustering_model`) through :mod:`tactile_torch.robot.model_file`, and the names the
+graph and its metadata carry are :mod:`tactile_torch.robot.contract`'s.
+
 Three pipelines, each one :class:`InferencePipeline` = a front end (features, scaling) and a head that
 returns ``(labels, scores)``:
 
@@ -17,7 +22,8 @@ pipeline                  raw input                   graph
 
 Build them from the model files the command line writes: :func:`pipeline_from_model` reads a
 classifier written by ``tactile-torch train --out model.npz`` (:func:`tactile_torch.training.save_model`)
-or a clustering written by ``tactile-torch cluster`` (:func:`save_clustering_model`); model files
+or a clustering written by ``tactile-torch cluster``
+(:func:`tactile_torch.clustering_model.save_clustering_model`); model files
 are read and validated by :mod:`tactile_torch.robot.model_file` (no pickle). :func:`export_pipeline`
 writes the pipeline to one ``.onnx`` file with a dynamic batch size and the metadata that
 :class:`tactile_torch.robot.runtime.OnnxPipeline` reads (class names, input shape, window size, sample
@@ -37,7 +43,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -65,10 +70,7 @@ from .robot.contract import (
     WINDOWS_LAYOUT,
     metadata_strings,
 )
-from .robot.model_file import FORMAT, ModelFile, load_model_file
-
-CLUSTERING_FORMAT = FORMAT
-"""``format`` of model files (:data:`tactile_torch.robot.model_file.FORMAT`); kept for old imports."""
+from .robot.model_file import ModelFile, load_model_file
 
 
 class InferencePipeline(nn.Module):
@@ -310,61 +312,6 @@ def _svm_head(settings: dict, arrays: dict[str, np.ndarray]) -> nn.Module:
     )
 
 
-def save_clustering_model(
-    path: str | Path,
-    mixture: object,
-    *,
-    source: dict,
-    transform: nn.Module | None = None,
-) -> Path:
-    """Write a fitted :class:`~tactile_torch.mixture.PitmanYorGMM` (and the transform before it) to a model file.
-
-    The file (:mod:`tactile_torch.robot.model_file`, no pickle) holds the MAP mixture's arrays, the
-    fitted transform's, ``source`` and the posterior summary.
-
-    Parameters
-    ----------
-    path : str or Path
-    mixture : PitmanYorGMM
-        Fitted; its point estimate's components (and novelty flag) are what the exported pipeline
-        classifies with (:meth:`~tactile_torch.mixture.PitmanYorGMM.to_module`).
-    source : dict
-        How the mixture's input is made: ``{"kind": "vibration", "window", "step", "rate_hz"}`` (raw
-        windows → :class:`~tactile_torch.signal.WindowFeatures` → ``transform``) or
-        ``{"kind": "features", "n_features"}``.
-    transform : ClusteringTransform, optional
-        Required for ``kind="vibration"``.
-    """
-    from .robot.model_file import save_model_file
-
-    if source.get("kind") == "vibration" and transform is None:
-        raise ValueError("a vibration clustering needs the fitted ClusteringTransform (transform=)")
-    module = mixture.to_module()
-    k = int(module.means.shape[0])
-    header = {
-        "kind": "clustering",
-        "method": "pyp",
-        "class_names": [f"component {i}" for i in range(k)],
-        "source": dict(source),
-        "head": {"type": "gaussian-mixture"},
-        "summary": mixture.summary(),
-        "k_summary": {
-            k: (list(v) if isinstance(v, tuple) else v) for k, v in mixture.n_clusters_summary_.items()
-        },
-    }
-    arrays = {f"head.{name}": buf.numpy() for name, buf in module.named_buffers()}
-    if transform is not None:
-        header["transform"] = {
-            "type": "clustering",
-            "n_components": int(transform.n_components),
-            "standardize": bool(transform.standardize),
-            "eps": float(transform.eps),
-        }
-        fitted = ("mean_", "scale_", "components_", "explained_variance_", "explained_variance_ratio_")
-        arrays.update({f"transform.{name}": getattr(transform, name) for name in fitted})
-    return save_model_file(path, header, arrays)
-
-
 def _clustering_pipeline(model: ModelFile, sensor_range_g: float | None) -> InferencePipeline:
     from .mixture import GaussianMixtureClassifier
 
@@ -458,109 +405,9 @@ def compare_with_runtime(pipeline: InferencePipeline, bundle: object, raw: np.nd
     return agreement, difference
 
 
-@dataclass
-class Bundle:
-    """One exported default pipeline (see :func:`build_default_bundles`).
-
-    Attributes
-    ----------
-    pipeline : InferencePipeline
-        The torch pipeline that was exported.
-    path : Path
-        Its ``.onnx`` file.
-    raw : ndarray
-        Held-out raw input of the pipeline's shape (uint8 frames, float32 windows).
-    labels : ndarray of shape (N,) int64
-        True class of each row of ``raw`` (index into the data set's classes).
-    """
-
-    pipeline: InferencePipeline
-    path: Path
-    raw: np.ndarray
-    labels: np.ndarray
-
-
-def build_default_bundles(
-    out_dir: str | Path,
-    *,
-    quick: bool = False,
-    random_state: int = 0,
-    kinds: tuple[str, ...] = ("vibration-hmsvm", "vibration-pyp", "image-hmsvm"),
-    log=print,
-) -> dict[str, Bundle]:
-    """Train the three default pipelines on the bundled synthetic data, export them, return them by name.
-
-    ``vibration-hmsvm``: 28 synthetic surfaces, 60 s each at 800 Hz (``quick``: 10 s), W = 800
-    windows, odd windows held out, HM-SVM with C = 16 and gamma ``"scale"`` on unit-std features.
-    ``vibration-pyp``: the same windows → unsupervised transform (3 components) → Pitman-Yor mixture
-    (300 sweeps, ``quick``: 40). ``image-hmsvm``: 20 synthetic explorations per class (``quick``: 8)
-    of 100 frames of 96 x 96, half held out. Writes ``<name>.npz`` (the model file) and
-    ``<name>.onnx`` to ``out_dir``.
-    """
-    from .training import FeatureSet, save_model, train_classifier
-
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    built: dict[str, Bundle] = {}
-    if any(k.startswith("vibration") for k in kinds):
-        from .data.stylus import make_vibration_recordings
-        from .model_selection import odd_even_split
-        from .signal import window_features
-
-        rec = make_vibration_recordings(28, duration_s=10 if quick else 60, random_state=random_state)
-        ds = rec.windows(800)
-        X = window_features(ds.windows).double().numpy()
-        fit_on, held_out = odd_even_split(ds.position)  # the study's split: even-numbered windows held out
-        source = {"kind": "vibration", "window": 800, "step": 800, "rate_hz": rec.rate_hz}
-        raw, labels = ds.windows[held_out].numpy(), ds.labels[held_out].numpy()
-        if "vibration-hmsvm" in kinds:
-            train = FeatureSet(X[fit_on], ds.labels.numpy()[fit_on], ds.class_names, source)
-            model = train_classifier(train, "hmsvm", n_folds=2, random_state=random_state)
-            path = save_model(out / "vibration-hmsvm.npz", model, train)
-            built["vibration-hmsvm"] = Bundle(pipeline_from_model(load_model_file(path)), path, raw, labels)
-        if "vibration-pyp" in kinds:
-            from .mixture import PitmanYorGMM
-            from .signal import ClusteringTransform
-
-            transform = ClusteringTransform(3).fit(X[fit_on])
-            pcs = transform.transform(X[fit_on])
-            sweeps = 40 if quick else 300
-            mixture = PitmanYorGMM(
-                n_iter=sweeps, burn_in=sweeps // 4, random_state=random_state, progress=False
-            )
-            path = save_clustering_model(
-                out / "vibration-pyp.npz", mixture.fit(pcs), source=source, transform=transform
-            )
-            built["vibration-pyp"] = Bundle(pipeline_from_model(load_model_file(path)), path, raw, labels)
-    if "image-hmsvm" in kinds:
-        from .data.images import make_explorations
-        from .image import exploration_features
-
-        data = make_explorations(8 if quick else 20, random_state=random_state)
-        X = exploration_features(data.frames).double().numpy()
-        held_out = np.arange(len(X)) % 2 == 1
-        source = {"kind": "image", "fuse": True, "frame_shape": list(data.frames.shape[1:])}
-        train = FeatureSet(X[~held_out], data.labels.numpy()[~held_out], data.class_names, source)
-        model = train_classifier(train, "hmsvm", n_folds=2, random_state=random_state)
-        path = save_model(out / "image-hmsvm.npz", model, train)
-        raw = data.frames[held_out].numpy()
-        built["image-hmsvm"] = Bundle(
-            pipeline_from_model(load_model_file(path)), path, raw, data.labels[held_out].numpy()
-        )
-    for name, bundle in built.items():
-        bundle.path = export_pipeline(bundle.pipeline, out / f"{name}.onnx")
-        log(f"[bundles] {name}: {bundle.path} ({bundle.path.stat().st_size / 1024:.0f} KiB)")
-    return built
-
-
 __all__ = [
-    "CLUSTERING_FORMAT",
-    "Bundle",
     "InferencePipeline",
-    "build_default_bundles",
     "compare_with_runtime",
     "export_pipeline",
-    "load_model_file",
     "pipeline_from_model",
-    "save_clustering_model",
 ]

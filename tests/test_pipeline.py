@@ -18,9 +18,9 @@ from tactile_torch.pipeline import (
     InferencePipeline,
     compare_with_runtime,
     export_pipeline,
-    load_model_file,
     pipeline_from_model,
 )
+from tactile_torch.robot.model_file import load_model_file
 from tactile_torch.robot.runtime import OnnxPipeline
 from tactile_torch.training import load_features, save_model, train_classifier
 

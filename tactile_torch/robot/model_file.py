@@ -41,8 +41,10 @@ Layout (format version 1, ``docs/formats.md``):
 :func:`load_model_file` validates all of it against :data:`HEADS` and :data:`TRANSFORMS` (field
 types, shapes that agree with each other, finite values, indices in range) and refuses anything else
 with one line naming the file and the field. What the arrays mean is the business of
-:mod:`tactile_torch.training` (classifiers) and :mod:`tactile_torch.pipeline` (clusterings, and
-building the torch pipeline from any model file).
+:mod:`tactile_torch.training` (classifiers) and :mod:`tactile_torch.clustering_model` (clusterings),
+which build their kind's header and arrays and write them through :func:`save_model_file`, the one
+writer; :func:`load_model_file` is the one reader, used by every command. Building the torch pipeline
+from any model file is :mod:`tactile_torch.pipeline`'s.
 """
 
 from __future__ import annotations
