@@ -5,10 +5,11 @@ Submodules (imported on demand, so that this package stays free of torch):
 ``vibration`` - triaxial recordings and windows (``.npz``/CSV loaders and savers);
 ``stylus`` - the seeded simulator of the study's stylus recordings;
 ``recordings`` - loaders of the shared real IMU data sets;
-``logs`` - CSV logs with declared columns, units and time unit, and the naming rule of classes and
-sessions (NumPy only);
 ``bags`` - ROS 2 bags (IMU and pressure-array topics) through the optional ``rosbags``;
 ``sources`` - one entry for a ``--data`` argument (``.npz``, CSV logs or bags), recordings checked.
+
+CSV logs (declared columns, units and time unit, and the naming rule of classes and sessions) are
+read by :mod:`tactile_torch.robot.csv_logs`: the robot reads them too (``tactile-torch predict``).
 
 Real data sets live outside the repository, in ``../shared/data/<name>/`` (each with a
 ``PROVENANCE.md``); :func:`shared_data_dir` finds them.

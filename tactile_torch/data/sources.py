@@ -94,7 +94,7 @@ def read_source(paths: PathLike | Sequence[PathLike], options: DataOptions | Non
     Raises
     ------
     ValueError
-        One line naming the file: anything :mod:`tactile_torch.robot.formats`, :mod:`.logs` or
+        One line naming the file: anything :mod:`tactile_torch.robot.formats`, :mod:`tactile_torch.robot.csv_logs` or
         :mod:`.bags` refuse, files of different kinds together, or implausible samples.
     """
     from ..robot.formats import data_kind, read_csv_recordings, recordings_from_arrays

@@ -188,7 +188,7 @@ def load_tradeoff_data(
     name = Path(where).name
     if data.kind == "vibration":
         if csv_session == "file" and not hasattr(paths, "kind") and _all_csv(paths):
-            # the naming rule (data.logs) gave each log the trailing number of its name as session
+            # the naming rule (robot.csv_logs) gave each log the trailing number of its name as session
             files = [paths] if isinstance(paths, str | Path) else list(paths)
             data.session = np.array([Path(p).stem for p in files])
         return vibration_data(data, name)
