@@ -72,7 +72,7 @@ def load_features(
     options=None,
     name: str | None = None,
 ) -> FeatureSet:
-    """Read a data file (:func:`tactile_torch.data.sources.read_source`) and return its features.
+    """Read a data file (:func:`tactile_torch.robot.data_sources.read_source`) and return its features.
 
     Parameters
     ----------
@@ -81,7 +81,7 @@ def load_features(
         (``features``) in one ``.npz``, each with ``labels`` (and ``class_names``); CSV logs
         (one recording each); ROS 2 bags. Class and session of logs and bags come from the naming
         rule (``felt_3.csv``: class ``felt``, session ``3``) or an index. See ``docs/formats.md``.
-        Or what :func:`~tactile_torch.data.sources.read_source` returned.
+        Or what :func:`~tactile_torch.robot.data_sources.read_source` returned.
     window, step : int
         Vibration windows: length and hop in samples (default hop: ``window``, no overlap).
     fuse : bool
@@ -90,7 +90,7 @@ def load_features(
         Only for vibration files written by tactile-torch 0.1 with recordings of different lengths
         (a pickled object array): allow it only for files you trust.
     options : DataOptions, optional
-        Columns, units, time unit, topic ... (:class:`tactile_torch.data.sources.DataOptions`).
+        Columns, units, time unit, topic ... (:class:`tactile_torch.robot.data_sources.DataOptions`).
     name : str, optional
         How messages name the data (default: the file, or ``"data"`` for arrays already read).
 
@@ -110,7 +110,7 @@ def load_features(
     if hasattr(path, "kind"):
         data, where = path, name or "data"
     else:
-        from .data.sources import DataOptions, read_source
+        from .robot.data_sources import DataOptions, read_source
 
         data = read_source(path, options or DataOptions(allow_pickle=allow_pickle))
         where = name or data_name(path)

@@ -11,9 +11,9 @@ import pytest
 
 from tactile_torch.cli import BAD_INPUT_EXIT, main
 from tactile_torch.data import load_hapmat_imu5, load_vibration_csv, make_vibration_recordings
-from tactile_torch.data.bags import MissingExtraError, read_bag
-from tactile_torch.data.sources import DataOptions, check_recordings, read_source
 from tactile_torch.robot.csv_logs import class_and_session, read_csv_log
+from tactile_torch.robot.data_sources import DataOptions, check_recordings, read_source
+from tactile_torch.robot.ros_bags import MissingExtraError, read_bag
 from tactile_torch.training import held_out_folds, load_features, train_classifier
 
 G = 9.80665

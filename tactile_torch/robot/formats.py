@@ -304,7 +304,7 @@ def recordings_from_arrays(arrays: dict[str, np.ndarray], path: PathLike) -> Rec
     """Validate the arrays of a vibration ``.npz`` (as :func:`read_npz` returns them); return the recordings.
 
     For readers that convert ``signals`` first (declared units or a scale for integer counts,
-    :func:`tactile_torch.data.sources.read_source`); the checks are :func:`read_recordings`'s.
+    :func:`tactile_torch.robot.data_sources.read_source`); the checks are :func:`read_recordings`'s.
     """
     return _recordings(arrays, Path(path))
 

@@ -481,7 +481,7 @@ class OnnxPipeline:
 
         Raises ``ValueError`` naming the file when it does not fit the bundle (e.g. recordings for
         an image bundle, recordings shorter than one window) or breaks the format (see
-        ``docs/formats.md``). ``options`` (:class:`tactile_torch.data.sources.DataOptions`, NumPy
+        ``docs/formats.md``). ``options`` (:class:`tactile_torch.robot.data_sources.DataOptions`, NumPy
         only) declares how CSV logs and ROS 2 bags are read (columns, units, time unit, topic).
         """
         from .formats import data_name, read_data
@@ -490,7 +490,7 @@ class OnnxPipeline:
         if options is None:
             data = read_data(path, allow_pickle=allow_pickle)
         else:
-            from ..data.sources import read_source
+            from .data_sources import read_source
 
             data = read_source(path, options)
         where = data_name(path)

@@ -136,7 +136,7 @@ def load_tradeoff_data(
     name: str | None = None,
 ) -> TradeoffData:
     """Read a data file (or CSV logs, ROS 2 bags) for :func:`~tactile_torch.tradeoff.run_tradeoff`, with
-    :func:`tactile_torch.data.sources.read_source` (docs/formats.md).
+    :func:`tactile_torch.robot.data_sources.read_source` (docs/formats.md).
 
     Parameters
     ----------
@@ -154,7 +154,7 @@ def load_tradeoff_data(
         (``felt_3.csv`` and ``cork_3.csv`` are session ``3``), or the file itself when a name has
         none; ``"file"``: every file is its own session (recording).
     options : DataOptions, optional
-        Columns, units, time unit, topic ... (:class:`tactile_torch.data.sources.DataOptions`).
+        Columns, units, time unit, topic ... (:class:`tactile_torch.robot.data_sources.DataOptions`).
     name : str, optional
         How the description names the data (default: the file).
 
@@ -181,7 +181,7 @@ def load_tradeoff_data(
     if hasattr(paths, "kind"):
         data, where = paths, name or "data"
     else:
-        from ..data.sources import DataOptions, read_source
+        from ..robot.data_sources import DataOptions, read_source
 
         data = read_source(paths, options or DataOptions(allow_pickle=allow_pickle))
         where = name or data_name(paths)

@@ -17,9 +17,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..robot.contract import DEFAULT_RANGE_G
-from ..robot.csv_logs import STANDARD_GRAVITY, UNITS, names_for
-from .bags import MAX_BAG_MESSAGES, PRESSURE_TYPE, is_bag, read_bag
+from .contract import DEFAULT_RANGE_G
+from .csv_logs import STANDARD_GRAVITY, UNITS, names_for
+from .ros_bags import MAX_BAG_MESSAGES, PRESSURE_TYPE, is_bag, read_bag
 
 PathLike = str | os.PathLike
 
@@ -97,8 +97,8 @@ def read_source(paths: PathLike | Sequence[PathLike], options: DataOptions | Non
         One line naming the file: anything :mod:`tactile_torch.robot.formats`, :mod:`tactile_torch.robot.csv_logs` or
         :mod:`.bags` refuse, files of different kinds together, or implausible samples.
     """
-    from ..robot.formats import data_kind, read_csv_recordings, recordings_from_arrays
-    from ..robot.npz import read_npz
+    from .formats import data_kind, read_csv_recordings, recordings_from_arrays
+    from .npz import read_npz
 
     options = options or DataOptions()
     paths = [Path(paths)] if isinstance(paths, str | os.PathLike) else [Path(p) for p in paths]
@@ -129,7 +129,7 @@ def read_source(paths: PathLike | Sequence[PathLike], options: DataOptions | Non
         path = paths[0]
         arrays = read_npz(path, allow_pickle=options.allow_pickle, what="data file (.npz of docs/formats.md)")
         if data_kind(arrays, path) != "vibration":
-            from ..robot.formats import read_data
+            from .formats import read_data
 
             return read_data(path, allow_pickle=options.allow_pickle)
         signals = arrays["signals"]
@@ -141,7 +141,7 @@ def read_source(paths: PathLike | Sequence[PathLike], options: DataOptions | Non
             )
         if signals.dtype != object and (factor != 1.0 or options.scale is not None):
             if np.issubdtype(signals.dtype, np.integer) and options.scale is None:
-                from ..robot.csv_logs import integer_counts_message
+                from .csv_logs import integer_counts_message
 
                 raise ValueError(integer_counts_message(f"{path}: signals", f"{signals.dtype}"))
             if np.issubdtype(signals.dtype, np.number):
@@ -157,7 +157,7 @@ def read_source(paths: PathLike | Sequence[PathLike], options: DataOptions | Non
 
 
 def _read_bags(paths: list[Path], options: DataOptions):
-    from ..robot.formats import RecordingArrays
+    from .formats import RecordingArrays
 
     classes, sessions = names_for(paths, index=options.index)
     topics = [
@@ -188,7 +188,7 @@ def _read_bags(paths: list[Path], options: DataOptions):
 
 def _explorations(topics, labels: np.ndarray, names: tuple[str, ...], frames: int | None):
     """Cut each bag's pressure maps into explorations of ``frames`` maps; groups = the bag."""
-    from ..robot.formats import ExplorationArrays
+    from .formats import ExplorationArrays
 
     shapes = {t.values.shape[1:] for t in topics}
     if len(shapes) > 1:
