@@ -74,6 +74,9 @@ def test_robot_modules_import_without_training_dependencies():
     assert out["attempts"] == [], f"robot modules tried to import {out['attempts']}"
     assert out["result"]["loaded"] == []
     assert set(modules) <= set(out["result"]["imported"])
+    # the robot side is the bottom floor: importing it loads nothing else of the library
+    others = [m for m in out["result"]["imported"] if not m.startswith("tactile_torch.robot")]
+    assert others == [], f"robot modules imported {others}"
 
 
 def test_robot_commands_start_without_training_dependencies():
