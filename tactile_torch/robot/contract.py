@@ -2,8 +2,8 @@
 
 Every exporter (:mod:`tactile_torch.inference_pipeline`, :mod:`tactile_torch.neural.export`,
 :mod:`tactile_torch.tradeoff.export`, :mod:`tactile_torch.ood`, the mixture's inference module) writes
-bundles with these names, and :class:`tactile_torch.robot.runtime.OnnxPipeline` reads them; nothing
-else spells them. A bundle is one ``.onnx`` file: input :data:`INPUT_NAME`, outputs
+bundles with these names, and :class:`tactile_torch.robot.runtime.OnnxPipeline` reads them: import
+them from here rather than spelling them. A bundle is one ``.onnx`` file: input :data:`INPUT_NAME`, outputs
 :data:`LABELS_OUTPUT` and :data:`SCORES_OUTPUT` (then optionally :data:`OOD_OUTPUT` or
 :data:`NOVEL_OUTPUT`), and string metadata properties (JSON where structured, :func:`metadata_strings`).
 
