@@ -14,7 +14,6 @@ from sklearn.base import clone
 from sklearn.exceptions import NotFittedError
 from sklearn.utils.estimator_checks import parametrize_with_checks
 
-from tactile_torch._gibbs import conditionals, densities, linalg
 from tactile_torch.discovery import SurfaceDiscovery
 from tactile_torch.metrics import pairwise_accuracy
 from tactile_torch.mixture import (
@@ -31,6 +30,7 @@ from tactile_torch.mixture import (
     rhat,
     variation_of_information,
 )
+from tactile_torch.mixture._gibbs import conditionals, densities, linalg
 from tactile_torch.studies.clustering import have_vibration_features
 
 from .reference_mixture import reference_gibbs

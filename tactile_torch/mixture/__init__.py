@@ -3,7 +3,7 @@
 :class:`PitmanYorGMM` is the unsupervised half of method 2: an infinite Gaussian mixture
 (Rasmussen 2000) with a Pitman-Yor prior on the partition, sampled with Neal's (2000) algorithm 8
 plus split-merge moves (Jain & Neal 2007), several chains in parallel. The inner loop is compiled
-with numba (:mod:`tactile_torch._gibbs`): 10,000 sweeps over the study's 1,400 windows take seconds
+with numba (:mod:`tactile_torch.mixture._gibbs`): 10,000 sweeps over the study's 1,400 windows take seconds
 rather than hours.
 
 It reports the posterior of the number of components K (mode, median, interval), a point estimate of

@@ -393,7 +393,7 @@ class PitmanYorGMM(ClusterMixin, BaseEstimator):
         t_fit = time.perf_counter()
         self._check_params()
         # the compiled kernels load here, at the first fit of a process, not at import
-        from .. import _gibbs as g
+        from . import _gibbs as g
         from ._chains import (
             AUTO_EVERY,
             AUTO_FIRST,
@@ -491,7 +491,7 @@ class PitmanYorGMM(ClusterMixin, BaseEstimator):
         return self
 
     def _store_chains(self, runs: list[dict], snap_sweeps: np.ndarray, burn_in: int, n: int) -> None:
-        from .. import _gibbs as g
+        from . import _gibbs as g
 
         trace = np.stack([r["trace"] for r in runs])  # (chains, n_iter, 5)
         self.trace_ = {k: trace[:, :, c].copy() for c, k in enumerate(g.TRACE_NAMES)}
