@@ -20,7 +20,7 @@ Examples
 'LDA | 21 features, W = 800'
 """
 
-from .candidates import CLASSIFIERS, Candidate, FeatureSet, build_candidates, feature_sets, make_classifier
+from .candidates import CLASSIFIERS, Candidate, FeatureRecipe, build_candidates, feature_sets, make_classifier
 from .evaluation import CandidateResult
 from .inputs import Samples, TradeoffData, load_tradeoff_data
 from .output import summary_lines, write_outputs
@@ -31,7 +31,7 @@ __all__ = [
     "CLASSIFIERS",
     "Candidate",
     "CandidateResult",
-    "FeatureSet",
+    "FeatureRecipe",
     "Samples",
     "TradeoffData",
     "TradeoffResult",
