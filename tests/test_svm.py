@@ -17,16 +17,15 @@ from tactile_torch._onnx import export_onnx, run_onnx
 from tactile_torch.svm import (
     SVC,
     HierarchicalSVC,
-    KernelData,
     SVMInference,
     kernel_matrix,
     path_scores,
     scale_gamma,
-    solve_dual,
     split_classes,
     tree_descent,
 )
-from tactile_torch.svm.solver import ProblemSet, solve_set
+from tactile_torch.svm.kernels import KernelData
+from tactile_torch.svm.solver import ProblemSet, solve_dual, solve_set
 from tests import reference_svm as ref
 
 
