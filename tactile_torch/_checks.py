@@ -84,14 +84,14 @@ def check_positive(value: object, name: str, *, strict: bool = True, integer: bo
         raise ValueError(f"{name} must be {'> 0' if strict else '>= 0'}, got {value!r}")
 
 
-RandomState = int | np.random.Generator | torch.Generator | None
+RandomState = int | np.random.Generator | np.random.RandomState | torch.Generator | None
 
 
 def numpy_rng(random_state: RandomState) -> np.random.Generator:
     """Return a ``numpy.random.Generator`` for an int seed, a numpy or torch generator, or ``None``.
 
-    A torch generator is consumed (one draw) to seed the numpy one, so the result stays a function of
-    the generator's state. ``None`` gives fresh OS entropy.
+    A torch generator or a legacy ``numpy.random.RandomState`` is consumed (one draw) to seed the numpy
+    one, so the result stays a function of the generator's state. ``None`` gives fresh OS entropy.
     """
     if random_state is None or isinstance(random_state, numbers.Integral):
         return np.random.default_rng(None if random_state is None else int(random_state))
@@ -100,9 +100,11 @@ def numpy_rng(random_state: RandomState) -> np.random.Generator:
     if isinstance(random_state, torch.Generator):
         seed = int(torch.randint(0, 2**62, (1,), generator=random_state))
         return np.random.default_rng(seed)
+    if isinstance(random_state, np.random.RandomState):  # scikit-learn's "random_state" allows it
+        return np.random.default_rng(int(random_state.randint(0, 2**31 - 1)))
     raise TypeError(
-        "random_state must be None, an int, a numpy.random.Generator or a torch.Generator, "
-        f"got {type(random_state).__name__}"
+        "random_state must be None, an int, a numpy.random.Generator, a numpy.random.RandomState or a "
+        f"torch.Generator, got {type(random_state).__name__}"
     )
 
 
