@@ -128,7 +128,7 @@ def image_sweep(ctx, progress: bool = True):
 
     size = SIZES[_mode(ctx)]
     frames, labels, _, pitch_px, _ = image_data(ctx)
-    models = image_candidates(ctx.random_state, names=size["image_models"])
+    models = image_candidates(ctx.seed("breaking_points", "image estimators"), names=size["image_models"])
     result = sweep(
         models,
         frames,
@@ -138,7 +138,7 @@ def image_sweep(ctx, progress: bool = True):
         context={"pitch_px": pitch_px},
         n_splits=size["folds"],
         n_trials=size["trials"],
-        random_state=ctx.random_state,
+        random_state=ctx.seed("breaking_points", "image sweep"),
         progress=progress,
     )
     return result, frames, labels, pitch_px
@@ -151,7 +151,9 @@ def vibration_sweep(ctx, progress: bool = True):
 
     size = SIZES[_mode(ctx)]
     windows, labels, groups, context, _ = vibration_data(ctx)
-    models = vibration_candidates(ctx.random_state, names=size["vibration_models"])
+    models = vibration_candidates(
+        ctx.seed("breaking_points", "vibration estimators"), names=size["vibration_models"]
+    )
     result = sweep(
         models,
         windows,
@@ -161,7 +163,7 @@ def vibration_sweep(ctx, progress: bool = True):
         context=context,
         n_splits=size["folds"],
         n_trials=size["trials"],
-        random_state=ctx.random_state,
+        random_state=ctx.seed("breaking_points", "vibration sweep"),
         progress=progress,
     )
     return result, windows
@@ -236,7 +238,9 @@ def _fig4(section, frames, ctx) -> None:
     fig, axes = plt.subplots(len(FIG4_NOISE), 3, figsize=(6.6, 2.2 * len(FIG4_NOISE)))
     for row, (mean, var) in enumerate(FIG4_NOISE):
         noisy = (
-            gaussian_image_noise(frame, mean, var, generator=ctx.random_state) if var else frame.float() / 255
+            gaussian_image_noise(frame, mean, var, generator=ctx.seed("breaking_points", "figure 4 noise"))
+            if var
+            else frame.float() / 255
         )
         g = image.to_grayscale(noisy)
         mask = image.pressure_mask(g)
@@ -343,7 +347,9 @@ def _real_sets(section, ctx, progress: bool) -> None:
         ds = rec.windows(round(rec.rate_hz))  # 1 s windows, as W = 800 at 800 Hz
         recording, position = ds.recording.numpy(), ds.position.numpy()
         result = sweep(
-            vibration_candidates(ctx.random_state, names=size["vibration_models"]),
+            vibration_candidates(
+                ctx.seed("breaking_points", "hapmat estimators"), names=size["vibration_models"]
+            ),
             ds.windows,
             ds.labels.numpy(),
             recording_blocks(recording, position, n_blocks=5),
@@ -354,7 +360,7 @@ def _real_sets(section, ctx, progress: bool) -> None:
             },
             n_splits=size["folds"],
             n_trials=size["trials"],
-            random_state=ctx.random_state,
+            random_state=ctx.seed("breaking_points", "hapmat sweep"),
             progress=progress,
         )
         section.text(
@@ -371,7 +377,9 @@ def _real_sets(section, ctx, progress: bool) -> None:
         data = load_drimus_grasps()
         erosion = erosion_for(data.frames)
         models = image_candidates(
-            ctx.random_state, erosion=erosion, names=("fused + LDA", "concatenated + LDA")
+            ctx.seed("breaking_points", "drimus estimators"),
+            erosion=erosion,
+            names=("fused + LDA", "concatenated + LDA"),
         )
         result = sweep(
             models,
@@ -381,7 +389,7 @@ def _real_sets(section, ctx, progress: bool) -> None:
             factors=_factors("image", ctx),
             n_splits=size["folds"],
             n_trials=size["trials"],
-            random_state=ctx.random_state,
+            random_state=ctx.seed("breaking_points", "drimus sweep"),
             progress=progress,
         )
         section.text(

@@ -204,8 +204,11 @@ def study_windows(ctx) -> dict[str, Any]:
             for s in surface_table(sz["surfaces"])
         ]
         seconds = (sz["train"] + 1) * sz["W"] / 800.0
-        rec2 = make_vibration_recordings(
-            surfaces=worn, duration_s=seconds, n_sessions=2, random_state=ctx.random_state
+        rec2 = make_vibration_recordings(  # the bundled recordings' seed: the same surfaces' jitter
+            surfaces=worn,
+            duration_s=seconds,
+            n_sessions=2,
+            random_state=ctx.seed("vibration_features", "bundled recordings"),
         )
         later = rec2.windows(sz["W"])
         second = np.char.endswith(np.asarray(rec2.session, dtype=str)[later.recording.numpy()], "/1")
@@ -224,7 +227,7 @@ def study_windows(ctx) -> dict[str, Any]:
 
 def _synthetic_study(ctx) -> dict[str, Any]:
     n, per = (6, 12) if ctx.quick else (28, 20)
-    X, y = synthetic_clusters(n, per + 50, seed=ctx.random_state)
+    X, y = synthetic_clusters(n, per + 50, seed=ctx.seed("clustering", "synthetic clusters"))
     first = np.tile(np.arange(per + 50), n) < per
     rest = ~first
     tests = [(X[rest][b::5], y[rest][b::5]) for b in range(5)]
@@ -292,7 +295,7 @@ def _run(section, ctx) -> None:
         n_iter=sz["n_iter"],
         burn_in=sz["burn_in"],
         n_chains=sz["chains"],
-        random_state=ctx.random_state,
+        random_state=ctx.seed("clustering", "study mixture and baselines"),
         max_components=n_surf + (2 if ctx.quick else 6 if ctx.full else 4),
         min_components=None if ctx.full else max(1, n_surf - 6),
         n_init=5 if ctx.full else 2,
@@ -320,13 +323,20 @@ def _robust_k(section, X: np.ndarray, y: np.ndarray, study: PitmanYorGMM, sz: di
     from .clustering_k import SETTINGS, coverage_row, gaussian_three, k_coverage
 
     fit = dict(
-        random_state=ctx.random_state, n_iter=sz["n_iter"], burn_in=sz["burn_in"], n_chains=sz["chains"]
+        random_state=ctx.seed("clustering", "posterior of K"),
+        n_iter=sz["n_iter"],
+        burn_in=sz["burn_in"],
+        n_chains=sz["chains"],
     )
     rows = [coverage_row("this section's data", y, "pyp (study)", study, study.fit_seconds_)]
     rows += k_coverage({"this section's data": (X, y)}, {"mfm": SETTINGS["mfm"]}, **fit)
     if ctx.full:  # the default run keeps its time; docs/mixture.md has every source (clustering_k)
         rows += k_coverage(
-            {"3 Gaussian clusters (sd 1, 5 apart)": gaussian_three()},
+            {
+                "3 Gaussian clusters (sd 1, 5 apart)": gaussian_three(
+                    ctx.seed("clustering", "three gaussian clusters")
+                )
+            },
             {k: SETTINGS[k] for k in ("pyp (study)", "mfm")},
             **fit,
         )
@@ -526,7 +536,7 @@ def _learning_curve(section, data: dict, sz: dict, ctx) -> None:
         per,
         n_iter=max(150, sz["n_iter"] // 3),
         burn_in=max(50, sz["burn_in"] // 3),
-        random_state=ctx.random_state,
+        random_state=ctx.seed("clustering", "learning curve"),
     )
     section.table(
         rows,
@@ -618,7 +628,7 @@ def _novelty(section, data: dict, sz: dict, ctx) -> None:
             n_iter=sz["n_iter"] // 2,
             burn_in=sz["burn_in"] // 2,
             n_chains=2,
-            random_state=ctx.random_state,
+            random_state=ctx.seed("clustering", "novelty"),
         )
         rows.append({"data": "bundled stylus recordings", "model": prior, **row})
     section.text(
@@ -650,7 +660,7 @@ def _window_sizes(section, ctx, sz: dict) -> None:
             **STUDY,
             n_iter=sz["n_iter"] // 2,
             burn_in=sz["burn_in"] // 2,
-            random_state=ctx.random_state,
+            random_state=ctx.seed("clustering", "window sizes"),
             progress=False,
         ).fit(X)
         rows.append(
@@ -702,13 +712,12 @@ def real_data(section, ctx, *, n_iter: int, burn_in: int) -> None:
     rows, nov = [], []
     for name in present:
         X, y, pos, n_classes = real_windows(name, per)
-        model = PitmanYorGMM(
-            n_iter=n_iter, burn_in=burn_in, random_state=ctx.random_state, progress=False, **STUDY
-        ).fit(X)
-        robust = PitmanYorGMM(
-            n_iter=n_iter, burn_in=burn_in, random_state=ctx.random_state, progress=False
-        ).fit(X)
-        km_labels = KMeans(n_classes, n_init=10, random_state=ctx.random_state).fit_predict(X)
+        seed = ctx.seed("clustering", f"real data {name}")
+        model = PitmanYorGMM(n_iter=n_iter, burn_in=burn_in, random_state=seed, progress=False, **STUDY).fit(
+            X
+        )
+        robust = PitmanYorGMM(n_iter=n_iter, burn_in=burn_in, random_state=seed, progress=False).fit(X)
+        km_labels = KMeans(n_classes, n_init=10, random_state=seed).fit_predict(X)
         rows.append(
             {
                 "data set": name,
@@ -732,7 +741,7 @@ def real_data(section, ctx, *, n_iter: int, burn_in: int) -> None:
         for prior in ("pyp", "mfm"):
             row = novelty_test(
                 X[first], y[first], [(X[~first], y[~first])], withheld, model=prior, coarsen=None,
-                n_iter=n_iter, burn_in=burn_in, n_chains=2, random_state=ctx.random_state,
+                n_iter=n_iter, burn_in=burn_in, n_chains=2, random_state=seed,
             )  # fmt: skip
             nov.append({"data": name, "model": prior, **row})
     section.text(

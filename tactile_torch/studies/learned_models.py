@@ -63,7 +63,7 @@ def _vibration_specs(ctx, full: bool) -> list:
     from ..neural.comparison import ModelSpec
     from ..tradeoff.transformers import WindowFeatureTransformer
 
-    seed = ctx.random_state
+    seed = ctx.seed("learned_models", "estimators")
     lda = _classical(WindowFeatureTransformer(), LinearDiscriminantAnalysis())
     small = WindowCNNClassifier("small", max_epochs=60 if full else 40, learning_rate=1e-2, random_state=seed)
     specs = [
@@ -94,7 +94,7 @@ def _image_specs(ctx, erosion: int) -> list:
     from ..neural.front_end import LearnedFrontEndClassifier
     from ..tradeoff.transformers import ImageFeatureTransformer
 
-    seed = ctx.random_state
+    seed = ctx.seed("learned_models", "estimators")
     return [
         ModelSpec(
             "LDA | fused 12",
@@ -129,7 +129,7 @@ def _taxel_specs(ctx) -> list:
     from ..neural.comparison import ModelSpec
     from ..tradeoff.transformers import TaxelFeatureTransformer
 
-    seed = ctx.random_state
+    seed = ctx.seed("learned_models", "estimators")
     return [
         ModelSpec(
             "LDA | per-taxel features",
@@ -157,7 +157,11 @@ def _bundled_vibration(ctx) -> list[dict]:
     per_class, folds = _size(ctx)
     rec = bundled_recordings(ctx)
     samples = vibration_samples(
-        rec, 800, n_folds=folds, max_per_class=per_class, random_state=ctx.random_state
+        rec,
+        800,
+        n_folds=folds,
+        max_per_class=per_class,
+        random_state=ctx.seed("learned_models", "bundled vibration folds"),
     )
     specs = _vibration_specs(ctx, _mode(ctx) == "full")
     return [
@@ -183,7 +187,10 @@ def _bundled_images(ctx) -> list[dict]:
     )
     h, w = images.frames.shape[-2:]
     samples = exploration_samples(
-        data, n_folds=folds, max_per_class=min(per_class, 12), random_state=ctx.random_state
+        data,
+        n_folds=folds,
+        max_per_class=min(per_class, 12),
+        random_state=ctx.seed("learned_models", "bundled image folds"),
     )
     specs = _image_specs(ctx, relative_erosion(h, w))
     return [
@@ -201,7 +208,9 @@ def _hapmat(ctx) -> list[dict]:
 
     hap = load_hapmat_imu5()
     _, folds = _size(ctx)
-    samples = vibration_samples(hap, 100, n_folds=folds, max_per_class=60, random_state=ctx.random_state)
+    samples = vibration_samples(
+        hap, 100, n_folds=folds, max_per_class=60, random_state=ctx.seed("learned_models", "hapmat folds")
+    )
     specs = _vibration_specs(ctx, True)
     return [
         {"name": "hapmat_imu5 (real)", "samples": samples, "classes": list(hap.class_names), "specs": specs}
@@ -226,7 +235,7 @@ def _drimus(ctx) -> list[dict]:
     pressure = TradeoffData("pressure", names, "drimus", raw=maps, labels=labels, rate_hz=15.0)
     rendered = TradeoffData("image", names, "drimus", raw=grasps.frames.numpy(), labels=labels, rate_hz=15.0)
     h, w = grasps.frames.shape[-2:]
-    seed = ctx.random_state
+    seed = ctx.seed("learned_models", "drimus folds")
     return [
         {
             "name": "drimus_sdh_tactile pressure maps (real)",

@@ -158,7 +158,12 @@ def run(section, ctx) -> None:
             title,
             name,
             plan_tradeoff(
-                data, quick=quick, random_state=ctx.random_state, log=lambda s: None, learned=False, **options
+                data,
+                quick=quick,
+                random_state=ctx.seed("tradeoff", name),
+                log=lambda s: None,
+                learned=False,
+                **options,
             ),
         )
         for title, name, data, options in runs
