@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from ..report import Report
+from ._reproduce import report_command
 from ._seeds import study_seed
 
 # Report order. Each entry is a module of this package with TITLE and run(section, ctx).
@@ -54,6 +55,12 @@ class RunContext:
         """Return the seed of the draw ``purpose`` of ``study`` under this run's seed (:func:`._seeds.study_seed`)."""
         return study_seed(self.random_state, study, purpose)
 
+    def command(self, *only: str) -> str:
+        """Return the command that reruns the studies ``only`` with this run's options (:func:`._reproduce.report_command`)."""
+        return report_command(
+            out_dir=self.out_dir, random_state=self.random_state, quick=self.quick, full=self.full, only=only
+        )
+
 
 def run_report(
     out_dir: str | Path,
@@ -73,8 +80,7 @@ def run_report(
     out_dir = Path(out_dir)
     ctx = RunContext(random_state=int(random_state), quick=quick, full=full, out_dir=out_dir)
     report = Report(out_dir)
-    cmd = f"tactile-torch report --out {out_dir} --seed {random_state}" + (" --quick" if quick else "")
-    cmd += " --full" if full else ""
+    cmd = ctx.command(*(only or ()))
     report.preamble.append(f"Written by `{cmd}` (`make run` runs it with the defaults).")
     for name in STUDIES:
         if only and name not in only:

@@ -65,11 +65,6 @@ def _mode(ctx) -> str:
     return "quick" if ctx.quick else "full" if ctx.full else "default"
 
 
-def _command(ctx, only: str = "breaking_points") -> str:
-    flag = {"quick": " --quick", "full": " --full", "default": ""}[_mode(ctx)]
-    return f"tactile-torch report --only {only} --seed {ctx.random_state} --out {ctx.out_dir}{flag}"
-
-
 def _factors(kind: str, ctx):
     """The factors of ``kind`` at this run's levels (the full run: every level of the records)."""
     from ..robustness import QUICK_LEVELS, factors_for
@@ -199,7 +194,7 @@ def _grid(section, result, ctx) -> None:
         section.text(
             "Image noise on the study's 5 x 5 grid of Table 4 and the sensel grid run under `--full` (every level "
             "rewrites every pixel of every frame): "
-            f"`{_command(dataclasses.replace(ctx, quick=False, full=True))}`; the `image_classification` "
+            f"`{dataclasses.replace(ctx, quick=False, full=True).command('breaking_points')}`; the `image_classification` "
             "section shows image noise on Table 4's diagonal in every run."
         )
         return
@@ -287,7 +282,7 @@ def _run(section, ctx) -> None:
         "recording and tests on later segments. A curve that stops early could not be fitted there. "
         "Definitions and API: `docs/robustness.md` (`tactile_torch.robustness`)."
     )
-    section.command(_command(ctx))
+    section.command(ctx.command("breaking_points"))
     progress = not ctx.quick
 
     result, frames, _, pitch_px = image_sweep(ctx, progress)
@@ -337,7 +332,7 @@ def _real_sets(section, ctx, progress: bool) -> None:
     if not ctx.full:
         section.text(
             "The same sweeps on real data (`hapmat_imu5` for method 2, `drimus_sdh_tactile` for method 1) run "
-            f"under `--full`: `{_command(dataclasses.replace(ctx, quick=False, full=True))}`."
+            f"under `--full`: `{dataclasses.replace(ctx, quick=False, full=True).command('breaking_points')}`."
         )
         return
     if shared_data_dir("hapmat_imu5") is not None:

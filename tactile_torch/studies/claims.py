@@ -21,6 +21,8 @@ source is reported as data-dependent. Checked here:
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 TITLE = "Claims checked beyond one generator"
@@ -74,11 +76,6 @@ WINDOW_SECONDS = (0.25, 0.5, 1.0, 2.0)  # the study's W = 200 ... 1600 at 800 Hz
 
 def _mode(ctx) -> str:
     return "quick" if ctx.quick else "full" if ctx.full else "default"
-
-
-def _command(ctx) -> str:
-    flag = {"quick": " --quick", "full": " --full", "default": ""}[_mode(ctx)]
-    return f"tactile-torch report --only claims --seed {ctx.random_state} --out {ctx.out_dir}{flag}"
 
 
 # ------------------------------------------------------------------------------------ image sources
@@ -421,7 +418,7 @@ def _run(section, ctx) -> None:
         f"(images: `{HARD_IMAGES}`; stylus: `{HARD_STYLUS}`), and the real sets when present. A conclusion "
         "that fails on some source is data-dependent, and the docs say so."
     )
-    section.command(_command(ctx))
+    section.command(ctx.command("claims"))
     size = SIZES[_mode(ctx)]
 
     sources = image_sources(ctx)
@@ -467,7 +464,7 @@ def _run(section, ctx) -> None:
         section.text(
             "The map along every generator knob (sensel pitch, contact size, texture scale, look-alike objects, "
             "noise, frames) runs under `--full`: "
-            f"`tactile-torch report --only claims --seed {ctx.random_state} --out {ctx.out_dir} --full`."
+            f"`{dataclasses.replace(ctx, quick=False, full=True).command('claims')}`."
         )
     fig, ax = plt.subplots(figsize=(6.4, 0.5 + 0.35 * len(summary)))
     ax.barh([s["source"] for s in summary], [s["mean gain"] for s in summary], color="C0")

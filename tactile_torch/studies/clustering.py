@@ -36,7 +36,6 @@ from ..mixture import PitmanYorGMM, baseline_clusterings
 TITLE = "Clustering: how many surfaces (Pitman-Yor mixture, mixture of finite mixtures)"
 STUDY = {"model": "pyp", "coarsen": None}
 """The study's Pitman-Yor mixture (``PitmanYorGMM``'s defaults are the mixture of finite mixtures)."""
-CMD = "tactile-torch report --only clustering --out runs/latest"
 WITHHELD = (3, 10, 17, 24)
 """Surfaces kept out of training in the novelty test (every seventh, from different families)."""
 
@@ -288,7 +287,7 @@ def _run(section, ctx) -> None:
             else " `--full` runs the study's size (W = 1600, longer chains, every window size)."
         )
     )
-    section.command(CMD + (" --quick" if ctx.quick else "") + (" --full" if ctx.full else ""))
+    section.command(ctx.command("clustering"))
     out = cluster_and_compare(
         X,
         y,

@@ -24,13 +24,6 @@ SNR_DB = (30, 25, 20, 15, 10, 8, 5, 3, 1)
 IMAGE_NOISE = ((0.1, 0.01), (0.2, 0.03), (0.3, 0.05), (0.4, 0.07), (0.5, 0.09))  # (mean, variance)
 
 
-def _command(ctx) -> str:
-    return (
-        f"tactile-torch report --only image_features,image_classification --seed {ctx.random_state} --out {ctx.out_dir}"
-        + (" --quick" if ctx.quick else "")
-    )
-
-
 def classifiers(random_state: int) -> dict:
     """The three classifiers of the study (the catalogue's, :mod:`tactile_torch.catalogue`), each behind a
     standard scaler fitted on training data."""
@@ -102,7 +95,7 @@ def run(section, ctx) -> None:
         "the 5th (20 %); every exploration is tested exactly once. Features standardised on the training "
         "folds. LDA and kNN (k = 3, city-block, inverse-distance weights) are scikit-learn's."
     )
-    section.command(_command(ctx))
+    section.command(ctx.command("image_features", "image_classification"))
     splits = rotating_splits(
         y, n_folds=n_folds, random_state=ctx.seed("image_classification", "rotating folds")
     )

@@ -161,9 +161,7 @@ def _fused_figure(data):
 def run(section, ctx) -> None:
     from ..image import FEATURE_NAMES
 
-    cmd = f"tactile-torch report --only image_features --seed {ctx.random_state}" + (
-        " --quick" if ctx.quick else ""
-    )
+    cmd = ctx.command("image_features")
     data = dataset(ctx)
     feats = features(ctx)
     n, t = data.frames.shape[:2]

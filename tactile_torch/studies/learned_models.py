@@ -42,11 +42,6 @@ def _mode(ctx) -> str:
     return "full" if ctx.full else "quick" if ctx.quick else "default"
 
 
-def _command(ctx) -> str:
-    flag = {"full": " --full", "quick": " --quick", "default": ""}[_mode(ctx)]
-    return f"tactile-torch report --only learned_models --seed {ctx.random_state} --out {ctx.out_dir}{flag}"
-
-
 def _classical(features: object, classifier: object):
     from sklearn.pipeline import Pipeline
     from sklearn.preprocessing import StandardScaler
@@ -337,7 +332,7 @@ def run(section, ctx) -> None:
             "`--full` adds the image explorations, the large CNN, the hand-set and learned front ends "
             "and the real data sets when present (`tradeoff` gives int8 variants of the classical models too)."
         )
-    section.command(_command(ctx))
+    section.command(ctx.command("learned_models"))
     out = ctx.out_dir / "learned_models"
     for source in _sources(ctx):
         samples = source["samples"]

@@ -31,13 +31,6 @@ WINDOW = 800
 STUDY_C, STUDY_GAMMA = 16.0, 0.0186
 
 
-def _command(ctx) -> str:
-    return (
-        f"tactile-torch report --only vibration_features,vibration_classification --seed {ctx.random_state} "
-        f"--out {ctx.out_dir}" + (" --quick" if ctx.quick else "")
-    )
-
-
 def scaled_features(windows, train: np.ndarray) -> np.ndarray:
     """The 21 features of ``windows`` scaled to unit standard deviation on the ``train`` rows."""
     import torch
@@ -71,7 +64,7 @@ def run(section, ctx) -> None:
         f"deviation on the {len(train)} odd-numbered (training) windows; the {len(test)} even-numbered "
         "windows test."
     )
-    section.command(_command(ctx))
+    section.command(ctx.command("vibration_features", "vibration_classification"))
 
     grid = (
         {"C": [STUDY_C], "gamma": [STUDY_GAMMA, 0.1]}

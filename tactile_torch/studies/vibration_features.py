@@ -39,12 +39,6 @@ def bundled_recordings(ctx):
     )
 
 
-def _command(ctx) -> str:
-    return f"tactile-torch report --only vibration_features --seed {ctx.random_state} --out {ctx.out_dir}" + (
-        " --quick" if ctx.quick else ""
-    )
-
-
 def run(section, ctx) -> None:
     from ..data.stylus import surface_table
     from ..model_selection import VIBRATION_STUDY_C, VIBRATION_STUDY_GAMMA
@@ -59,7 +53,7 @@ def run(section, ctx) -> None:
         "to measurements; "
         "see `docs/vibration.md` for the model. Alike pairs share their random jitter."
     )
-    section.command(_command(ctx))
+    section.command(ctx.command("vibration_features"))
     section.table(
         [
             {
