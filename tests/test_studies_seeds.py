@@ -2,11 +2,13 @@
 
 import json
 import re
+import shlex
 
 import numpy as np
 import pytest
 import torch
 
+from tactile_torch.cli import build_parser
 from tactile_torch.studies import RunContext, run_report
 from tactile_torch.studies._seeds import study_seed
 
@@ -71,12 +73,16 @@ def _numbers(path) -> dict:
 @pytest.mark.slow
 def test_report_sections_differ_between_seeds_and_repeat_at_one_seed(tmp_path):
     only = ["image_features", "image_classification", "vibration_classification", "clustering", "claims"]
-    runs = {
-        name: _numbers(
-            run_report(tmp_path / name, random_state=seed, quick=True, only=only, log=lambda s: None)
-        )
+    paths = {
+        name: run_report(tmp_path / name, random_state=seed, quick=True, only=only, log=lambda s: None)
         for name, seed in (("a", 11), ("b", 11), ("c", 12))
     }
+    runs = {name: _numbers(path) for name, path in paths.items()}
+    lines = re.findall(r"Reproduce with:\n\n```\n(.+)\n```", paths["c"].read_text())
+    assert len(lines) >= len(only)
+    for line in lines:  # every reproduce line carries this run's options
+        args = build_parser().parse_args(shlex.split(line)[1:])
+        assert (args.seed, args.quick, args.full, args.out) == (12, True, False, str(tmp_path / "c"))
     assert runs["a"] == runs["b"]
     titles = {title for title, _ in runs["a"]}
     assert len(titles) == len(only)
