@@ -1,7 +1,7 @@
 """Report section: where each model breaks (``tactile_torch.robustness``).
 
 For the study's models and the other candidates of both methods, every degradation of
-:data:`tactile_torch.robustness.FACTORS` is swept until accuracy falls halfway from its clean value to
+:data:`tactile_torch.robustness.degradations.FACTORS` is swept until accuracy falls halfway from its clean value to
 chance; the section reports that breaking point with its 95 % interval (cluster bootstrap), a table
 per method and one chart per factor with every candidate's curve, the study's Table 4 (image noise
 on the 5 x 5 grid of mean x variance, ``--full``) and its Fig. 4 (the first three preprocessing steps
@@ -67,7 +67,7 @@ def _mode(ctx) -> str:
 
 def _factors(kind: str, ctx):
     """The factors of ``kind`` at this run's levels (the full run: every level of the records)."""
-    from ..robustness import QUICK_LEVELS, factors_for
+    from ..robustness.degradations import QUICK_LEVELS, factors_for
 
     chosen = []
     for f in factors_for(kind):
@@ -103,7 +103,7 @@ def vibration_data(ctx):
     (``vibration_features`` section) cut into W = 800 windows, with time-block groups and positions."""
     from dataclasses import replace
 
-    from ..robustness import recording_blocks
+    from ..robustness.sweeps import recording_blocks
     from .vibration_features import bundled_recordings
 
     rec = bundled_recordings(ctx)
@@ -118,7 +118,7 @@ def vibration_data(ctx):
 
 def image_sweep(ctx, progress: bool = True):
     """Sweep the method-1 candidates over the image factors; returns (result, frames, labels)."""
-    from ..robustness import sweep
+    from ..robustness.sweeps import sweep
     from ._models import image_candidates
 
     size = SIZES[_mode(ctx)]
@@ -141,7 +141,7 @@ def image_sweep(ctx, progress: bool = True):
 
 def vibration_sweep(ctx, progress: bool = True):
     """Sweep the method-2 candidates over the vibration factors; returns (result, windows)."""
-    from ..robustness import sweep
+    from ..robustness.sweeps import sweep
     from ._models import vibration_candidates
 
     size = SIZES[_mode(ctx)]
@@ -166,7 +166,8 @@ def vibration_sweep(ctx, progress: bool = True):
 
 def add_results(section, result, *, name: str, study_model: str) -> None:
     """Add a sweep's breaking table, a chart per factor (panels of one figure) and the skipped factors."""
-    from ..robustness import breaking_table, plot_factors
+    from ..robustness.charts import plot_factors
+    from ..robustness.output import breaking_table
 
     section.table(
         breaking_table(result.curves),
@@ -187,7 +188,8 @@ def add_results(section, result, *, name: str, study_model: str) -> None:
 
 
 def _grid(section, result, ctx) -> None:
-    from ..robustness import IMAGE_NOISE_MEANS, IMAGE_NOISE_VARIANCES, plot_grid
+    from ..robustness.charts import plot_grid
+    from ..robustness.degradations import IMAGE_NOISE_MEANS, IMAGE_NOISE_VARIANCES
 
     grid = [c for c in result.curves if c.factor.name == "image noise" and c.factor.path is not None]
     if not grid:
@@ -324,7 +326,7 @@ def _real_sets(section, ctx, progress: bool) -> None:
     breaking points a property of the method or of the bundled generator? HapMat (100 Hz IMU, 5
     materials) for method 2, the Drimus pressure-array grasps (5 objects) for method 1."""
     from ..data import shared_data_dir
-    from ..robustness import recording_blocks, sweep
+    from ..robustness.sweeps import recording_blocks, sweep
     from ._models import erosion_for, image_candidates, vibration_candidates
 
     size = SIZES[_mode(ctx)]
