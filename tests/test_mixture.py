@@ -31,7 +31,7 @@ from tactile_torch.mixture import (
     rhat,
     variation_of_information,
 )
-from tactile_torch.studies.clustering import have_vibration_features
+from tactile_torch.studies.clustering_experiments import have_vibration_features
 
 from .reference_mixture import reference_gibbs
 
@@ -768,7 +768,7 @@ def test_clustering_study_quick_mode_writes_its_section(tmp_path):
 
 
 def test_learning_curve_rows():
-    from tactile_torch.studies.clustering import learning_curve, synthetic_clusters
+    from tactile_torch.studies.clustering_experiments import learning_curve, synthetic_clusters
 
     X, y = synthetic_clusters(4, 6, seed=1)
     rows = learning_curve(X, y, [1, 6], n_iter=40, burn_in=10, random_state=0)
