@@ -24,8 +24,9 @@ from .candidates import CLASSIFIERS, Candidate, FeatureSet, build_candidates, fe
 from .evaluation import CandidateResult
 from .inputs import Samples, TradeoffData, load_tradeoff_data
 from .output import summary_lines, write_outputs
-from .runner import TradeoffResult, run_tradeoff
+from .runner import run_tradeoff
 from .selection import fold_interval, one_standard_error_choice, pareto_front
+from .summary import TradeoffResult
 
 __all__ = [
     "CLASSIFIERS",
