@@ -71,7 +71,11 @@ def run_report(
     only: list[str] | None = None,
     log: Callable[[str], None] = print,
 ) -> Path:
-    """Run the studies (all, or those named in ``only``) and write the report; return its path."""
+    """Run the studies (all, or those named in ``only``) and write the report; return its path.
+
+    ``random_state`` is the root seed (``--seed``, a non-negative int): every random draw of every study
+    takes its own seed from it through :meth:`RunContext.seed`, so one root seed gives one report.
+    """
     if isinstance(random_state, bool) or not isinstance(random_state, numbers.Integral) or random_state < 0:
         raise ValueError(f"random_state must be a non-negative int, got {random_state!r}")
     unknown = sorted(set(only or []) - set(STUDIES))
