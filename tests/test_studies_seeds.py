@@ -54,7 +54,7 @@ def test_run_report_rejects_a_seed_that_is_not_a_non_negative_int(tmp_path, seed
 
 
 # Columns that measure time or memory: they differ between two runs of the same seed.
-_MEASURED = re.compile(r"second|\(ms\)|\(s\)|time|latency|memory|mib|kib|speed", re.IGNORECASE)
+_MEASURED = re.compile(r"second|\(ms\)|\(s\)|\bs\b|time|latency|memory|mib|kib|speed", re.IGNORECASE)
 
 
 def _numbers(path) -> dict:
