@@ -1,11 +1,11 @@
-"""Tests of novelty discovery (tactile_torch.discovery.SurfaceDiscovery) and ``tactile-torch stream --discover``."""
+"""Tests of novelty discovery (tactile_torch.robot.discovery.SurfaceDiscovery) and ``tactile-torch stream --discover``."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from tactile_torch.discovery import SurfaceDiscovery
+from tactile_torch.robot.discovery import SurfaceDiscovery
 
 # Short chains in these tests: their R-hat warnings are expected, not failures.
 pytestmark = pytest.mark.filterwarnings("ignore:PitmanYorGMM. R-hat:RuntimeWarning")
@@ -32,7 +32,7 @@ def test_cli_stream_discover_proposes_a_surface_the_clustering_never_saw(tmp_pat
 
     from tactile_torch.cli import main
     from tactile_torch.data.stylus import SURFACES, make_vibration_recordings
-    from tactile_torch.stream import format_sample
+    from tactile_torch.robot.stream import format_sample
 
     known = [SURFACES[0], SURFACES[5], SURFACES[7]]  # glass, cork, rubber
     rec = make_vibration_recordings(surfaces=known, duration_s=8.0, random_state=0)
