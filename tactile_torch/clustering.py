@@ -2,13 +2,13 @@
 
 The twin of :mod:`tactile_torch.training` for the unsupervised path (the clustering *study* of the
 report is :mod:`tactile_torch.studies.clustering`). :func:`fit_clustering` turns data read by
-:func:`tactile_torch.data.sources.read_source` into what the mixture clusters (vibration recordings:
+:func:`tactile_torch.robot.data_sources.read_source` into what the mixture clusters (vibration recordings:
 windows, their features (:func:`tactile_torch.training.load_features`), then the fitted
 :class:`~tactile_torch.signal.ClusteringTransform` and its principal components; a ``features``
 array as it is) and fits :class:`~tactile_torch.mixture.PitmanYorGMM` to it.
 :func:`write_clustering` writes the results into a directory: ``clustering.npz`` (the point estimate,
 the MAP sample, the posterior samples of K and of the prior's parameters), ``model.npz`` (the model
-file :func:`tactile_torch.pipeline.save_clustering_model` writes, for ``tactile-torch export``) and
+file :func:`tactile_torch.clustering_model.save_clustering_model` writes, for ``tactile-torch export``) and
 ``summary.txt`` (:func:`clustering_summary`).
 """
 
@@ -69,7 +69,7 @@ def fit_clustering(
     Parameters
     ----------
     data : DataArrays
-        What :func:`tactile_torch.data.sources.read_source` returned, of kind ``"vibration"``
+        What :func:`tactile_torch.robot.data_sources.read_source` returned, of kind ``"vibration"``
         (recordings) or ``"features"`` (a matrix ``(N, D)``, labels optional).
     window, step : int
         Vibration: window length and hop in samples (default hop: ``window``).
@@ -140,7 +140,7 @@ def write_clustering(out_dir: str | Path, clustering: Clustering) -> dict[str, P
     ``n_clusters_interval``, ``alpha_samples``, ``discount_samples``), ``"summary"``
     (``summary.txt``) and ``"model"`` (``model.npz``, for ``tactile-torch export``).
     """
-    from .pipeline import save_clustering_model
+    from .clustering_model import save_clustering_model
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)

@@ -1,7 +1,7 @@
 """The exceptions the library raises on purpose about its input.
 
 A caller (the command line, a service) tells a user error from a bug by their class: the
-validation helpers (:mod:`tactile_torch._checks`, the readers of :mod:`tactile_torch.formats`, the
+validation helpers (:mod:`tactile_torch._checks`, the readers of :mod:`tactile_torch.robot.formats`, the
 robot side's checks) raise :class:`InputValueError` or :class:`InputTypeError` when an argument, a
 file or the data do not fit, with one line naming it, what was expected and what was given. Both
 are also ``ValueError`` / ``TypeError``, so ``except ValueError`` and scikit-learn's conventions keep

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from tactile_torch.clustering import clustering_summary, fit_clustering, write_clustering
-from tactile_torch.data.sources import read_source
 from tactile_torch.metrics import pairwise_accuracy
+from tactile_torch.robot.data_sources import read_source
 
 FAST = {"n_iter": 40, "burn_in": 10, "n_chains": 1, "progress": False, "random_state": 0}
 

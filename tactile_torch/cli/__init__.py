@@ -49,7 +49,7 @@ EXIT_STATUSES = (
 """What ``tactile-torch --help`` says about exit statuses."""
 
 MAX_READ_ENV = "TACTILE_TORCH_MAX_READ_MB"
-"""Where ``--max-read-mb`` puts the read bound (:func:`tactile_torch.formats.max_read_bytes` reads it)."""
+"""Where ``--max-read-mb`` puts the read bound (:func:`tactile_torch.robot.npz.max_read_bytes` reads it)."""
 
 TRAIN_EXTRA = "train"
 TRAIN_MODULES = (
@@ -237,7 +237,7 @@ def _run(args: argparse.Namespace, prefix: str, debug: bool, flags: dict[str, st
             return BAD_INPUT_EXIT
     stdout = guard_stdout()
     limit_before = os.environ.get(MAX_READ_ENV)
-    if getattr(args, "max_read_mb", None) is not None:  # read by every reader (formats.max_read_bytes)
+    if getattr(args, "max_read_mb", None) is not None:  # read by every reader (robot.npz.max_read_bytes)
         os.environ[MAX_READ_ENV] = repr(float(args.max_read_mb))
     try:
         check_out(args)

@@ -2,10 +2,10 @@
 
 - the data options (``--data`` and how to read it), shared by train, cluster, predict and tradeoff:
   :func:`add_data_options` declares them on a subcommand; :func:`data_options` turns the parsed
-  arguments into a :class:`tactile_torch.data.sources.DataOptions`; :func:`read_data_arg` reads
-  ``--data`` with them (:func:`tactile_torch.data.sources.read_source`);
+  arguments into a :class:`tactile_torch.robot.data_sources.DataOptions`; :func:`read_data_arg` reads
+  ``--data`` with them (:func:`tactile_torch.robot.data_sources.read_source`);
 - the value types of numeric options (:func:`at_least`, :func:`in_range`) and the sensor ranges in g
-  (:func:`range_g`, :func:`declare_range`);
+  (:func:`parse_range_g`, :func:`declare_range`);
 - the check of an ``--out`` file against the command's inputs (:func:`check_out`);
 - :class:`CommandParser`, whose usage errors are one line, and :class:`UsageError`, a bad combination
   of options found by a handler.
@@ -131,8 +131,9 @@ def add_data_options(
 
 
 def data_options(args: argparse.Namespace):
-    """Return the :class:`~tactile_torch.data.sources.DataOptions` the parsed arguments declare."""
-    from ..data.sources import DEFAULT_RANGE_G, MAX_BAG_MESSAGES, DataOptions
+    """Return the :class:`~tactile_torch.robot.data_sources.DataOptions` the parsed arguments declare."""
+    from ..robot.contract import DEFAULT_RANGE_G
+    from ..robot.data_sources import MAX_BAG_MESSAGES, DataOptions
 
     return DataOptions(
         columns=args.columns,
@@ -186,14 +187,14 @@ def data_option_words(args: argparse.Namespace) -> list[str]:
 
 def read_data_arg(args: argparse.Namespace):
     """Read ``--data`` with the declared options; return the arrays (``.kind`` says which)."""
-    from ..data.sources import read_source
+    from ..robot.data_sources import read_source
 
     return read_source(args.data, data_options(args))
 
 
 def data_name(paths: str | Path | list) -> str:
     """Return how messages name ``--data`` (one file, or the first of several)."""
-    from ..formats import data_name as name
+    from ..robot.formats import data_name as name
 
     return name(paths)
 
@@ -268,7 +269,7 @@ WRITES_OUT_FILE = ("train", "predict", "export")
 
 def check_out(args: argparse.Namespace) -> None:
     """Refuse an ``--out`` that is an input, a directory, a device or a symbolic link (one line, status 2)."""
-    from ..safe_write import check_output_path
+    from ..robot.safe_write import check_output_path
 
     out = getattr(args, "out", "")
     if args.command not in WRITES_OUT_FILE or not out:

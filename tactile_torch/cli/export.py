@@ -30,7 +30,8 @@ def register(sub) -> None:
 
 def run_export(args: argparse.Namespace) -> int:
     """Export the model to ONNX and say what was written; return the exit status."""
-    from ..pipeline import export_pipeline, load_model_file, pipeline_from_model
+    from ..pipeline import export_pipeline, pipeline_from_model
+    from ..robot.model_file import load_model_file
 
     sensor_range = parse_range_g(args.sensor_range, "--sensor-range", off=False)
     with stage("export: building the pipeline"):

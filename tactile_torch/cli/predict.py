@@ -1,6 +1,6 @@
 """``tactile-torch predict``: classify a data file with an exported ONNX bundle (onnxruntime, no torch).
 
-Torch-free, as on the robot: :class:`tactile_torch.runtime.OnnxPipeline` and numpy only.
+Torch-free, as on the robot: :class:`tactile_torch.robot.runtime.OnnxPipeline` and numpy only.
 """
 
 from __future__ import annotations
@@ -39,13 +39,14 @@ def run_predict(args: argparse.Namespace) -> int:
     import numpy as np
 
     from ..metrics import class_report
-    from ..runtime import UNKNOWN, OnnxPipeline
+    from ..robot.contract import UNKNOWN, WINDOWS_LAYOUT
+    from ..robot.runtime import OnnxPipeline
 
     if args.batch < 1:
         raise UsageError(f"--batch must be an int >= 1, got {args.batch}")
     pipe = OnnxPipeline(args.model, intra_op_threads=args.threads)
     range_g = parse_range_g(args.range, "--range", off=True)
-    windows = pipe.input_layout == "B,3,W"
+    windows = pipe.input_layout == WINDOWS_LAYOUT
     if range_g is not None and not windows:
         raise UsageError(f"--range: {args.model} takes no vibration windows ({pipe.pipeline} bundle)")
     data = pipe.read_npz(args.data, allow_pickle=args.allow_pickle, options=data_options(args))
@@ -80,7 +81,7 @@ def run_predict(args: argparse.Namespace) -> int:
         )
     print(f"{pipe!r}: {len(labels)} samples of {where}")
     if args.out:
-        from ..formats import write_npz
+        from ..robot.npz import write_npz
 
         names = np.array(
             [

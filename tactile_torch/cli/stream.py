@@ -1,7 +1,7 @@
 """``tactile-torch stream`` and ``simulate-sensor``: classify a live serial accelerometer, and emulate one.
 
-Torch-free, as on the robot: pyserial, numpy and onnxruntime (:mod:`tactile_torch.stream`,
-:mod:`tactile_torch.stream_output`, :class:`tactile_torch.runtime.OnnxPipeline`).
+Torch-free, as on the robot: pyserial, numpy and onnxruntime (:mod:`tactile_torch.robot.stream`,
+:mod:`tactile_torch.robot.stream_output`, :class:`tactile_torch.robot.runtime.OnnxPipeline`).
 """
 
 from __future__ import annotations
@@ -156,9 +156,9 @@ def _stream_until_stopped(args: argparse.Namespace) -> int:
     import numpy as np
     import serial
 
-    from ..runtime import OnnxPipeline
-    from ..stream import StreamDisconnected, StreamTimeout, WindowReader, sensor_range_g
-    from ..stream_output import WindowVote, classify_windows, result_json, result_text
+    from ..robot.runtime import OnnxPipeline
+    from ..robot.stream import StreamDisconnected, StreamTimeout, WindowReader, sensor_range_g
+    from ..robot.stream_output import WindowVote, classify_windows, result_json, result_text
 
     range_g = parse_range_g(args.range, "--range", off=True)
     pipe = OnnxPipeline(args.model, intra_op_threads=args.threads)
@@ -219,8 +219,8 @@ def _stream_until_stopped(args: argparse.Namespace) -> int:
         print(write(result), flush=True)
 
     consumers = [show]
-    if args.discover:  # new surfaces: N novel windows in a row (tactile_torch.discovery)
-        from ..discovery import stream_consumer
+    if args.discover:  # new surfaces: N novel windows in a row (tactile_torch.robot.discovery)
+        from ..robot.discovery import stream_consumer
 
         consumers.append(stream_consumer(pipe, args.discover, info))
     status = 0
@@ -277,13 +277,13 @@ def run_simulate_sensor(args: argparse.Namespace) -> int:
 
     import serial
 
-    from ..stream import pseudo_terminal, simulate_sensor
+    from ..robot.stream import pseudo_terminal, simulate_sensor
 
     if bool(args.port) == args.pty:
         print("tactile-torch simulate-sensor: give either --port PORT or --pty", file=sys.stderr)
         return 2
     if args.data:  # any layout of docs/formats.md, incl. recordings of different lengths
-        from ..formats import read_recordings
+        from ..robot.formats import read_recordings
 
         data = read_recordings(args.data, allow_pickle=args.allow_pickle, default_rate_hz=args.rate)
         if not 0 <= args.recording < len(data):

@@ -5,10 +5,11 @@ Submodules (imported on demand, so that this package stays free of torch):
 ``vibration`` - triaxial recordings and windows (``.npz``/CSV loaders and savers);
 ``stylus`` - the seeded simulator of the study's stylus recordings;
 ``recordings`` - loaders of the shared real IMU data sets;
-``logs`` - CSV logs with declared columns, units and time unit, and the naming rule of classes and
-sessions (NumPy only);
-``bags`` - ROS 2 bags (IMU and pressure-array topics) through the optional ``rosbags``;
-``sources`` - one entry for a ``--data`` argument (``.npz``, CSV logs or bags), recordings checked.
+
+What a ``--data`` argument names (``.npz``, CSV logs with declared columns, units and time unit,
+ROS 2 bags) is read by the robot side, which reads it too (``tactile-torch predict``):
+:mod:`tactile_torch.robot.data_sources`, :mod:`tactile_torch.robot.csv_logs`,
+:mod:`tactile_torch.robot.ros_bags` and :mod:`tactile_torch.robot.formats`.
 
 Real data sets live outside the repository, in ``../shared/data/<name>/`` (each with a
 ``PROVENANCE.md``); :func:`shared_data_dir` finds them.
@@ -18,6 +19,8 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+
+from .._exports import lazy_exports
 
 SHARED_DATA_ENV = "TACTILE_TORCH_SHARED_DATA"
 
@@ -41,26 +44,18 @@ def shared_data_dir(name: str | None = None) -> Path | None:
     return None
 
 
-# Vibration recordings, imported on first use so that this package stays light to import.
-_LAZY = {
-    "VibrationRecordings": "vibration",
-    "VibrationWindows": "vibration",
-    "load_vibration_csv": "vibration",
-    "load_vibration_npz": "vibration",
-    "make_vibration_dataset": "stylus",
-    "make_vibration_recordings": "stylus",
-    "save_vibration_npz": "vibration",
-    "load_borealtc_imu": "recordings",
-    "load_hapmat_imu5": "recordings",
-}
-
-
-def __getattr__(name: str):
-    if name in _LAZY:
-        import importlib
-
-        return getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-__all__ = ["SHARED_DATA_ENV", "shared_data_dir", *_LAZY]
+__getattr__, __dir__, __all__ = lazy_exports(
+    __name__,
+    {
+        "vibration": (
+            "VibrationRecordings",
+            "VibrationWindows",
+            "load_vibration_csv",
+            "load_vibration_npz",
+            "save_vibration_npz",
+        ),
+        "stylus": ("make_vibration_dataset", "make_vibration_recordings"),
+        "recordings": ("load_borealtc_imu", "load_hapmat_imu5"),
+    },
+    defined=("SHARED_DATA_ENV", "shared_data_dir"),
+)

@@ -10,10 +10,12 @@ from numbers import Integral, Real
 from typing import ClassVar
 
 import numpy as np
-from sklearn.base import BaseEstimator, ClusterMixin
-from sklearn.utils._param_validation import HasMethods, Interval, StrOptions
+from sklearn.base import BaseEstimator, ClusterMixin, _fit_context
+from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted, validate_data
 
+from .._constraints import RANDOM_STATE
+from ..robot.checks import numpy_rng
 from ._diagnostics import RHAT_THRESHOLD, convergence_table
 from ._mfm import coarsening_power, log_v
 from ._point_estimate import choose_partition, partition_components
@@ -24,17 +26,6 @@ from ._summaries import n_clusters_posterior, n_clusters_summary, summary_text
 W_FLOOR = 1e-10
 # Rows further than this from the data mean (whitened units) are novel by definition (prediction).
 _BEYOND = 1e100
-
-
-def _numpy_rng(random_state: object) -> np.random.Generator:
-    # torch is imported only when the caller already uses it (a torch.Generator): fit stays light.
-    if random_state is None or isinstance(random_state, Integral):
-        return np.random.default_rng(None if random_state is None else int(random_state))
-    if isinstance(random_state, np.random.Generator):
-        return random_state
-    from .._checks import numpy_rng
-
-    return numpy_rng(random_state)
 
 
 def _as_array(X: object) -> object:
@@ -281,12 +272,7 @@ class PitmanYorGMM(ClusterMixin, BaseEstimator):
         "thin": [Interval(Integral, 1, None, closed="left"), None],
         "point_estimate": [StrOptions({"vi", "binder", "map"})],
         "prior_only": ["boolean"],
-        "random_state": [
-            None,
-            Integral,
-            np.random.Generator,
-            HasMethods(["manual_seed", "initial_seed"]),
-        ],  # the last: torch.Generator
+        "random_state": RANDOM_STATE,
         "progress": ["boolean"],
     }
 
@@ -338,8 +324,7 @@ class PitmanYorGMM(ClusterMixin, BaseEstimator):
     # validation
     # ------------------------------------------------------------------------------------------
     def _check_params(self) -> None:
-        """Validate the hyper-parameters from the table, then the two that constrain each other."""
-        self._validate_params()
+        """Validate the two hyper-parameters that constrain each other (the table is checked by ``fit``)."""
         limit, name = (self.max_iter, "max_iter") if self.n_iter == "auto" else (self.n_iter, "n_iter")
         if self.burn_in >= limit:
             raise ValueError(f"burn_in must be < {name}, got burn_in={self.burn_in}, {name}={limit}")
@@ -385,6 +370,7 @@ class PitmanYorGMM(ClusterMixin, BaseEstimator):
     # ------------------------------------------------------------------------------------------
     # fit
     # ------------------------------------------------------------------------------------------
+    @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X: object, y: object = None) -> PitmanYorGMM:
         """Run the chains on ``X`` of shape (n_samples, n_features); return ``self``.
 
@@ -393,7 +379,7 @@ class PitmanYorGMM(ClusterMixin, BaseEstimator):
         t_fit = time.perf_counter()
         self._check_params()
         # the compiled kernels load here, at the first fit of a process, not at import
-        from .. import _gibbs as g
+        from . import _gibbs as g
         from ._chains import (
             AUTO_EVERY,
             AUTO_FIRST,
@@ -404,7 +390,7 @@ class PitmanYorGMM(ClusterMixin, BaseEstimator):
         )
 
         X = validate_data(self, _as_array(X), dtype=np.float64)
-        rng = _numpy_rng(self.random_state)
+        rng = numpy_rng(self.random_state)
         n, D = X.shape
         mean, scale = _whitening(X)
         Xw = np.ascontiguousarray(np.linalg.solve(scale, (X - mean).T).T)
@@ -491,7 +477,7 @@ class PitmanYorGMM(ClusterMixin, BaseEstimator):
         return self
 
     def _store_chains(self, runs: list[dict], snap_sweeps: np.ndarray, burn_in: int, n: int) -> None:
-        from .. import _gibbs as g
+        from . import _gibbs as g
 
         trace = np.stack([r["trace"] for r in runs])  # (chains, n_iter, 5)
         self.trace_ = {k: trace[:, :, c].copy() for c, k in enumerate(g.TRACE_NAMES)}

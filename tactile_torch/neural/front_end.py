@@ -40,6 +40,7 @@ from sklearn.utils.validation import check_is_fitted
 from torch import nn
 
 from .._checks import numpy_rng, torch_generator
+from .._constraints import RANDOM_STATE
 from ..errors import InputTypeError
 
 INITIAL_TEMPERATURES = (0.02, 0.05, 0.5)
@@ -204,7 +205,7 @@ class LearnedFrontEndClassifier(ClassifierMixin, BaseEstimator):
         "learning_rate": [Interval(Real, 0, None, closed="neither")],
         "alpha": [Interval(Real, 0, None, closed="left")],
         "head_steps": [Interval(Integral, 1, None, closed="left")],
-        "random_state": ["random_state", torch.Generator],
+        "random_state": RANDOM_STATE,
         "progress": ["boolean"],
     }
 
