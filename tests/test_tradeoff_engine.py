@@ -70,9 +70,7 @@ def test_bad_arguments_give_one_line_naming_them(tmp_path, recordings, capsys):
     path = recordings.save(tmp_path / "rec.npz")
     with pytest.raises(ValueError, match=r"n_folds must be at most"):
         run_tradeoff(path, n_folds=1000, quick=True, out_dir=tmp_path / "o", log=lambda s: None)
-    with pytest.raises(
-        ValueError, match=r"max_per_class must be 'auto' or a whole number >= 2.*got 0"
-    ):
+    with pytest.raises(ValueError, match=r"max_per_class must be 'auto' or a whole number >= 2.*got 0"):
         run_tradeoff(path, max_per_class=0, out_dir=tmp_path / "o", log=lambda s: None)
     with pytest.raises(ValueError, match=r"frame_rate_hz must be a"):
         run_tradeoff(path, frame_rate_hz=0.0, out_dir=tmp_path / "o", log=lambda s: None)
