@@ -13,8 +13,8 @@ from collections.abc import Sequence
 import numpy as np
 import torch
 
-from .errors import InputTypeError
 from .robot.checks import check_count, check_number, check_positive, numpy_rng
+from .robot.errors import InputTypeError
 
 ShapeSpec = Sequence[str | int]
 

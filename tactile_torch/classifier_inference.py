@@ -42,7 +42,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from .errors import InputTypeError
+from .robot.errors import InputTypeError
 
 _CITY_BLOCK = ("manhattan", "cityblock", "l1")
 _EUCLIDEAN = ("euclidean", "l2")

@@ -40,7 +40,7 @@ from sklearn.utils._param_validation import Interval, Options
 from sklearn.utils.validation import check_is_fitted
 
 from ._checks import RandomState, numpy_rng
-from .errors import InputTypeError
+from .robot.errors import InputTypeError
 
 VIBRATION_STUDY_C = 16.0
 """Method 2: the RBF SVM's penalty ``C`` the study chose (stratified 10-fold CV)."""

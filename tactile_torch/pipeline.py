@@ -49,7 +49,6 @@ import numpy as np
 import torch
 from torch import nn
 
-from .errors import InputTypeError
 from .robot.contract import (
     CLASS_NAMES_KEY,
     DEFAULT_RANGE_G,
@@ -71,6 +70,7 @@ from .robot.contract import (
     WINDOWS_LAYOUT,
     metadata_strings,
 )
+from .robot.errors import InputTypeError
 from .robot.model_file import ModelFile, load_model_file
 
 

@@ -24,7 +24,7 @@ import numpy as np
 
 from . import catalogue
 from ._checks import RandomState, check_positive, numpy_rng
-from .errors import InputTypeError
+from .robot.errors import InputTypeError
 
 METHODS = tuple(catalogue.choices())
 """Accepted ``method`` names: the catalogue's keys (:data:`tactile_torch.catalogue.CLASSIFIERS`) and

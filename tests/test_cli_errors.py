@@ -656,7 +656,7 @@ def test_the_traceback_of_a_bug_is_shown_only_with_debug(files):
 
 def test_an_input_error_of_the_library_is_bad_input_whatever_its_base(files, monkeypatch, capsys):
     import tactile_torch.training as training
-    from tactile_torch.errors import InputTypeError
+    from tactile_torch.robot.errors import InputTypeError
 
     def refuse(*args, **kwargs):
         raise InputTypeError("labels must be integers, got float64")
@@ -672,7 +672,7 @@ def test_an_input_error_of_the_library_is_bad_input_whatever_its_base(files, mon
 
 def test_the_validation_helpers_raise_input_errors():
     from tactile_torch._checks import check_positive, check_tensor
-    from tactile_torch.errors import InputError, InputTypeError
+    from tactile_torch.robot.errors import InputError, InputTypeError
 
     with pytest.raises(InputTypeError, match=r"frames must be a torch\.Tensor, got list"):
         check_tensor([1, 2], "frames")

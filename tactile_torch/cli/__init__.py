@@ -143,7 +143,7 @@ def main(argv: list[str] | None = None) -> int:
 
     Bad input prints one line ``tactile-torch <command>: <file>: <what is wrong>`` on stderr and
     returns :data:`BAD_INPUT_EXIT`: the errors the library raises on purpose about its input
-    (:mod:`tactile_torch.errors`), any ``ValueError`` (numpy and scikit-learn raise it for bad data),
+    (:mod:`tactile_torch.robot.errors`), any ``ValueError`` (numpy and scikit-learn raise it for bad data),
     ``OSError`` (files, ports, disks) and a missing optional dependency; the argument names in the
     message become the options that set them (:func:`with_flags`). Any other exception is a bug: one
     line saying so, asking to report it, and :data:`INTERNAL_ERROR_EXIT`. ``--debug`` shows the
@@ -172,7 +172,7 @@ def _subparser(parser: argparse.ArgumentParser, command: str) -> argparse.Argume
 
 def is_user_error(err: BaseException) -> bool:
     """Return whether ``err`` is about the user's input (reported in one line, status 2), not a bug."""
-    from ..errors import InputError
+    from ..robot.errors import InputError
 
     return isinstance(err, InputError | ValueError | OSError)
 

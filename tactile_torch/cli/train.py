@@ -67,7 +67,7 @@ def register(sub) -> None:
 
 def run_train(args: argparse.Namespace) -> int:
     """Train, print the class report, write the model file; return the exit status."""
-    from ..errors import InputError, InputValueError
+    from ..robot.errors import InputError, InputValueError
     from ..training import load_features, save_model, train_classifier
 
     gamma = args.gamma if args.gamma == "scale" else float(args.gamma)

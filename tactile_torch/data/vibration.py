@@ -26,8 +26,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .._checks import check_positive
-from ..errors import InputTypeError
 from ..robot.csv_logs import read_csv_recording
+from ..robot.errors import InputTypeError
 
 if TYPE_CHECKING:
     import torch

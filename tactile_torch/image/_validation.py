@@ -9,7 +9,7 @@ from __future__ import annotations
 import torch
 
 from .._checks import check_finite, check_floating, check_positive, check_shape, check_tensor
-from ..errors import InputTypeError
+from ..robot.errors import InputTypeError
 
 Threshold = float | torch.Tensor | str
 

@@ -42,7 +42,7 @@ from torch import nn
 
 from .._checks import numpy_rng, torch_generator
 from .._constraints import RANDOM_STATE
-from ..errors import InputTypeError
+from ..robot.errors import InputTypeError
 from .networks import (
     WINDOW_WIDTHS,
     ClassifierGraph,

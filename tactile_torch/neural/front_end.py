@@ -41,7 +41,7 @@ from torch import nn
 
 from .._checks import numpy_rng, torch_generator
 from .._constraints import RANDOM_STATE
-from ..errors import InputTypeError
+from ..robot.errors import InputTypeError
 
 INITIAL_TEMPERATURES = (0.02, 0.05, 0.5)
 """Starting temperatures of the soft threshold (gray levels on the 0-1 scale), the soft erosion and the

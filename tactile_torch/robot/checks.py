@@ -21,7 +21,7 @@ import sys
 
 import numpy as np
 
-from ..errors import InputTypeError
+from .errors import InputTypeError
 
 
 def check_count(value: object, name: str, minimum: int) -> int:

@@ -27,8 +27,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputTypeError
 from .checks import check_count
+from .errors import InputTypeError
 from .safe_write import write_atomic
 
 PathLike = str | os.PathLike

@@ -13,8 +13,8 @@ from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from typing import Protocol
 
-from ..errors import InputTypeError
 from .checks import check_count, check_number
+from .errors import InputTypeError
 
 _EVENT_INTERVAL_S = (
     1.0  # gap/range events beyond _EVENTS_PER_INTERVAL in this interval are counted, not shown

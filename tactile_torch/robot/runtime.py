@@ -32,7 +32,6 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputTypeError
 from .checks import check_count
 from .contract import (
     CLASS_NAMES_KEY,
@@ -55,6 +54,7 @@ from .contract import (
     WINDOW_SIZE_KEY,
     WINDOWS_LAYOUT,
 )
+from .errors import InputTypeError
 
 _KIND_KEYS = {"image": "frames", "vibration": "signals", "features": "features"}
 _ONNX_DTYPES = {"tensor(uint8)": "uint8", "tensor(float)": "float32", "tensor(double)": "float64"}

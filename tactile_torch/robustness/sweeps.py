@@ -13,7 +13,7 @@ import numpy as np
 import torch
 
 from .._checks import RandomState, check_positive, numpy_rng
-from ..errors import InputTypeError
+from ..robot.errors import InputTypeError
 from .degradations import (
     DEFAULT_TRIALS,
     DRIFT_SEGMENTS,

@@ -11,7 +11,7 @@ from torch import nn
 
 from .._checks import check_finite, check_positive, check_shape, check_tensor
 from .._parallel import map_blocks, serial_torch_ops_in_this_thread
-from ..errors import InputTypeError
+from ..robot.errors import InputTypeError
 
 AXES = ("x", "y", "z")
 AXIS_FEATURES = ("var", "skew", "kurt", "m5", "tv", "cross", "hf")

@@ -7,7 +7,8 @@ file or the data do not fit, with one line naming it, what was expected and what
 are also ``ValueError`` / ``TypeError``, so ``except ValueError`` and scikit-learn's conventions keep
 working. A bare ``TypeError`` or ``AttributeError`` escaping the library is a bug.
 
-Torch-free and import-free: the robot side uses it.
+Torch-free and import-free: it lives in the robot package, whose validators use it, and the rest
+of the library imports it from there.
 """
 
 from __future__ import annotations
