@@ -357,6 +357,7 @@ def _clustering_pipeline(model: ModelFile, sensor_range_g: float | None) -> Infe
         novelty_means=state.get("novelty_means"),
         novelty_precisions_cholesky=state.get("novelty_precisions_cholesky"),
         novelty_log_weight=float(state.get("novelty_log_weight", 0.0)),
+        novelty_thresholds=state.get("novelty_thresholds"),
     )
     source = model.source
     modules, shape, layout, meta = _front_end(source, sensor_range_g)
@@ -369,6 +370,8 @@ def _clustering_pipeline(model: ModelFile, sensor_range_g: float | None) -> Infe
             ClusteringProjection(fitted["mean_"], fitted["scale_"], fitted["components_"], eps=spec["eps"])
         )
     meta["method"] = "pyp"
+    # thresholds of the mean novelty score over N = 1, 2, ... windows (tactile-torch stream --discover N)
+    meta["novelty_thresholds"] = [float(t) for t in head.novelty_thresholds]
     k = int(np.asarray(state["means"]).shape[0])
     ks = model.header.get("k_summary")
     meta["k_exported"] = f"K = {k} components: the point estimate of the clustering" + (

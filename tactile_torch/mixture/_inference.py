@@ -7,7 +7,7 @@ import math
 import numpy as np
 import torch
 
-from ..discovery import NOVEL_OUTPUT
+from ..discovery import NOVEL_OUTPUT, NOVELTY_SCORE_OUTPUT
 
 
 def gaussian_mixture_scores(
@@ -39,21 +39,24 @@ def gaussian_mixture_scores(
 
 
 class GaussianMixtureClassifier(torch.nn.Module):
-    """Most likely component, and novelty: ``x (B, D) -> (labels (B,), log_resp (B, K), novel (B,))``.
+    """Most likely component, and novelty: ``x (B, D) -> (labels (B,), log_resp (B, K), novel (B,), novelty (B,))``.
 
     Holds ``means`` (K, D), ``precisions_cholesky`` (K, D, D) and ``log_weights`` (K,) as buffers
     (float32 by default) and calls :func:`gaussian_mixture_scores`; exports to ONNX with a dynamic
     batch. ``log_resp`` are the log responsibilities over the K components (rows log-sum-exp to 0).
 
-    ``novel`` is True where a *new* component explains the row better than every existing one: the
-    score of the new component is ``novelty_log_weight + log mean_m N(x | novelty_means[m],
+    ``novelty`` is the log-odds that a *new* component explains the row rather than the best existing
+    one: the score of the new component is ``novelty_log_weight + log mean_m N(x | novelty_means[m],
     (U_m U_m^T)^{-1})``, a Monte Carlo form of the prior predictive density of a new component (see
-    :meth:`tactile_torch.mixture.PitmanYorGMM.to_module`). Without novelty buffers (``M = 0``)
-    ``novel`` is all False.
+    :meth:`tactile_torch.mixture.PitmanYorGMM.to_module`), minus the best component's score.
+    ``novel`` is ``novelty > novelty_thresholds[0]``; ``novelty_thresholds`` (N,) holds the
+    thresholds of the mean score over N = 1, 2, ... windows (zeros: the model's own rule; see
+    :meth:`~tactile_torch.mixture.PitmanYorGMM.calibrate_novelty`). Without novelty buffers
+    (``M = 0``) ``novelty`` is ``-inf`` and ``novel`` all False.
     """
 
-    output_names = ("labels", "scores", NOVEL_OUTPUT)
-    """Names of the three outputs in an exported graph."""
+    output_names = ("labels", "scores", NOVEL_OUTPUT, NOVELTY_SCORE_OUTPUT)
+    """Names of the four outputs in an exported graph."""
 
     def __init__(
         self,
@@ -63,6 +66,7 @@ class GaussianMixtureClassifier(torch.nn.Module):
         novelty_means: object | None = None,
         novelty_precisions_cholesky: object | None = None,
         novelty_log_weight: float = 0.0,
+        novelty_thresholds: object | None = None,
         dtype: torch.dtype = torch.float32,
     ) -> None:
         super().__init__()
@@ -78,8 +82,10 @@ class GaussianMixtureClassifier(torch.nn.Module):
         buffer("novelty_means", novelty_means, (0, D))
         buffer("novelty_precisions_cholesky", novelty_precisions_cholesky, (0, D, D))
         self.register_buffer("novelty_log_weight", torch.tensor(float(novelty_log_weight), dtype=dtype))
+        thresholds = np.zeros(1) if novelty_thresholds is None else np.asarray(novelty_thresholds).ravel()
+        self.register_buffer("novelty_thresholds", torch.as_tensor(thresholds, dtype=dtype))
 
-    def forward(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    def forward(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
         scores = gaussian_mixture_scores(x, self.means, self.precisions_cholesky, self.log_weights)
         best = scores.max(dim=-1).values
         log_resp = scores - torch.logsumexp(scores, dim=-1, keepdim=True)
@@ -91,7 +97,7 @@ class GaussianMixtureClassifier(torch.nn.Module):
                 self.novelty_precisions_cholesky,
                 torch.full((m,), -math.log(m), dtype=x.dtype),
             )
-            novel = torch.logsumexp(new, dim=-1) + self.novelty_log_weight > best
+            novelty = torch.logsumexp(new, dim=-1) + self.novelty_log_weight - best
         else:
-            novel = torch.zeros_like(best, dtype=torch.bool)
-        return torch.argmax(scores, dim=-1), log_resp, novel
+            novelty = torch.full_like(best, -math.inf)
+        return torch.argmax(scores, dim=-1), log_resp, novelty > self.novelty_thresholds[0], novelty
