@@ -8,6 +8,12 @@ Five data sources, each with a known number of surfaces (:func:`k_sources`):
   PCA-3 features; several surfaces are near-duplicates);
 - ``sessions-3x3``: 3 bundled surfaces recorded in 3 sessions, each session's signal scaled by its own
   gain (0.8, 1.0, 1.25: a re-mounted sensor), as CSV logs of a user would be;
+- ``sessions-3x3, per-session standardised``: the same with every feature standardised within each
+  session (the remedy when sessions are known; the real sets have one surface per recording, so it
+  does not apply to them);
+- ``hapmat-3-sessions`` (with and without per-session standardisation): HapMat's recordings cut into
+  thirds, third k scaled by ``SESSION_GAINS[k]`` (:func:`real_sessions`): real surfaces, simulated
+  re-mounting;
 - ``hapmat``, ``borealtc``: the real 5-material / 5-terrain IMU sets when present (2 s windows, up to
   60 per class, PCA-3).
 
@@ -64,8 +70,12 @@ def bundled_28(seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
     return _pca_features(ds.windows), ds.labels.numpy()
 
 
-def sessions_3x3(seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    """Return PCA-3 features and labels of 3 surfaces x 3 sessions with the gains ``SESSION_GAINS``."""
+def sessions_3x3(seed: int = 0, *, per_session: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """Return PCA-3 features and labels of 3 surfaces x 3 sessions with the gains ``SESSION_GAINS``.
+
+    ``per_session``: standardise the features within each session
+    (:func:`tactile_torch.signal.sessions.standardise_per_session`), the remedy when sessions are known.
+    """
     from ..data import make_vibration_recordings
     from ..data.vibration import VibrationRecordings
 
@@ -77,7 +87,49 @@ def sessions_3x3(seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
     ]
     shifted = VibrationRecordings(signals, rec.labels, rec.class_names, rec.rate_hz, rec.session)
     ds = shifted.windows(800)
-    return _pca_features(ds.windows), ds.labels.numpy()
+    X = _pca_features(ds.windows)
+    if per_session:
+        from ..signal.sessions import standardise_per_session
+
+        X = standardise_per_session(X, session[ds.recording.numpy()])
+    return X, ds.labels.numpy()
+
+
+def real_sessions(name: str = "hapmat_imu5", *, per_session: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """Return PCA-3 features and labels of a real set cut into 3 sessions with the gains ``SESSION_GAINS``.
+
+    Each recording is cut into thirds in time; third k is session k, its signal scaled by
+    ``SESSION_GAINS[k]`` (every session then holds every surface, as CSV logs of a re-mounted sensor
+    would). 2 s windows, 1 s apart. ``per_session``: standardise within each session.
+    """
+    from ..data.recordings import load_borealtc_imu, load_hapmat_imu5
+    from ..data.vibration import VibrationRecordings
+
+    rec = {"hapmat_imu5": load_hapmat_imu5, "borealtc_imu": load_borealtc_imu}[name]()
+    signals, labels, sessions = [], [], []
+    for sig, label in zip(rec.signals, rec.labels, strict=True):
+        sig = np.asarray(sig)
+        cuts = np.linspace(0, sig.shape[0], 4).astype(int)  # (n, 3): time first
+        for k in range(3):
+            signals.append(
+                (sig[cuts[k] : cuts[k + 1]] * np.float32(SESSION_GAINS[k])).astype(np.float32)
+            )
+            labels.append(int(label))
+            sessions.append(k)
+    shifted = VibrationRecordings(
+        signals,
+        np.asarray(labels),
+        rec.class_names,
+        rec.rate_hz,
+        [f"{i}/{k}" for i, k in enumerate(sessions)],
+    )
+    ds = shifted.windows(int(2 * rec.rate_hz), int(rec.rate_hz))
+    X = _pca_features(ds.windows)
+    if per_session:
+        from ..signal.sessions import standardise_per_session
+
+        X = standardise_per_session(X, np.asarray(sessions)[ds.recording.numpy()])
+    return X, ds.labels.numpy()
 
 
 def session_overlap(seed: int = 0) -> np.ndarray:
@@ -126,11 +178,15 @@ def k_sources(quick: bool = False) -> dict[str, tuple[np.ndarray, np.ndarray]]:
 
     if have_vibration_features():
         out["sessions-3x3"] = sessions_3x3()
+        out["sessions-3x3, per-session standardised"] = sessions_3x3(per_session=True)
         if not quick:
             out["bundled-28"] = bundled_28()
         for name, key in (("hapmat_imu5", "hapmat"), ("borealtc_imu", "borealtc")):
             if shared_data_dir(name) is not None:
                 out[key] = real_set(name, 30 if quick else 60)
+        if shared_data_dir("hapmat_imu5") is not None:
+            out["hapmat-3-sessions"] = real_sessions()
+            out["hapmat-3-sessions, per-session standardised"] = real_sessions(per_session=True)
     return out
 
 

@@ -11,8 +11,10 @@ recording:
 
 - ``new component``: the model's own rule, a window is novel when a new component is more probable
   than every known cluster (a fixed threshold, not calibrated); after N windows: N novel in a row;
-- ``new component, calibrated``: the log-odds of a new component against the best known cluster,
-  thresholded at the ``1 - false_alarm`` quantile of the calibration windows;
+- the shipped rule (:data:`SHIPPED`): the log-odds of a new component against the best known
+  cluster (:meth:`PitmanYorGMM.novelty_score`), averaged over N windows, above the ``1 -
+  false_alarm`` quantile of the same on the calibration windows (:meth:`PitmanYorGMM.calibrate_novelty`,
+  :meth:`PitmanYorGMM.novel_after`);
 - ``new component, calibrated on training windows``: the same, the quantile taken on the training
   windows (in-sample);
 - ``new component, oracle threshold``: the same, the quantile taken on the known surfaces' *test*
@@ -37,9 +39,14 @@ from typing import Any
 
 import numpy as np
 
+from ..mixture._novelty import window_means
+
+SHIPPED = "calibrated mean log-odds (PitmanYorGMM.calibrate_novelty, novel_after)"
+"""The rule the estimator, the exported graph and ``stream --discover`` use (same as ``new component, calibrated``)."""
+
 RULES = (
+    SHIPPED,
     "new component",
-    "new component, calibrated",
     "new component, calibrated on training windows",
     "new component, oracle threshold",
     "log density",
@@ -120,7 +127,6 @@ def scores(model, X: np.ndarray) -> dict[str, np.ndarray]:
     dens = -model.score_samples(X)
     return {
         "new component": new - best,
-        "new component, calibrated": new - best,
         "new component, calibrated on training windows": new - best,
         "new component, oracle threshold": new - best,
         "log density": dens,
@@ -154,7 +160,8 @@ def evaluate(
         agg_c = agg_c[np.isfinite(agg_c)]
         if agg_c.size == 0:  # no run of n calibration windows
             return np.zeros(0, dtype=bool), np.zeros(0, dtype=bool)
-        threshold = np.quantile(agg_c, 1.0 - false_alarm)
+        # the estimator's calibration (PitmanYorGMM.calibrate_novelty): at most false_alarm above
+        threshold = np.quantile(agg_c, 1.0 - false_alarm, method="higher")
     agg, last = window_runs(np.where(test, score, np.nan), recording, position, n, how)
     keep = np.isfinite(agg)
     return agg[keep] > threshold, new[last[keep]]
@@ -166,6 +173,7 @@ def novelty_rows(
     windows: tuple[int, ...] = (1, 3, 5, 10),
     false_alarm: float = 0.02,
     seed: int = 0,
+    n_components: int = 3,
     **fit: Any,
 ) -> list[dict[str, Any]]:
     """Return one row per (rule, N): recall and false alarms pooled over the source's withheld sets.
@@ -186,11 +194,21 @@ def novelty_rows(
         test = part == 2
         import torch
 
-        transform = ClusteringTransform(n_components=3).fit(data["features"][torch.as_tensor(train)])
+        transform = ClusteringTransform(n_components=n_components).fit(
+            data["features"][torch.as_tensor(train)]
+        )
         X = np.asarray(transform.transform(data["features"]))
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)
             model = PitmanYorGMM(random_state=seed, progress=False, **fit).fit(X[train])
+        # the shipped rule, through the estimator (rows are in time order within each recording)
+        model.calibrate_novelty(
+            X[calibration], false_alarm=false_alarm, max_windows=max(windows), groups=rec[calibration]
+        )
+        for n in windows:
+            decided = model.novel_after(X[test], n, groups=rec[test])
+            keep = np.isfinite(window_means(np.zeros(int(test.sum())), n, rec[test]))  # runs of n
+            pooled.setdefault((SHIPPED, n), []).append((decided[keep], new[test][keep]))
         for rule, score in scores(model, X).items():
             for n in windows:
                 decided, is_new = evaluate(
@@ -226,6 +244,7 @@ def _main(argv: list[str] | None = None) -> None:
     parser.add_argument("--n-iter", type=int, default=1000)
     parser.add_argument("--burn-in", type=int, default=250)
     parser.add_argument("--chains", type=int, default=2)
+    parser.add_argument("--components", type=int, default=3, help="principal components of the features")
     parser.add_argument("--rules", nargs="*", default=list(RULES), help="rules to report (names of RULES)")
     args = parser.parse_args(argv)
     first = True
@@ -237,6 +256,7 @@ def _main(argv: list[str] | None = None) -> None:
             n_iter=args.n_iter,
             burn_in=args.burn_in,
             n_chains=args.chains,
+            n_components=args.components,
         )
         if first:
             print("| " + " | ".join(rows[0]) + " |")
