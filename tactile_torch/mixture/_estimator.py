@@ -110,6 +110,10 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
     component's training points in each cluster. A point is *novel* (label -1 in :meth:`predict`)
     when the probability of a new component exceeds that of every cluster. ``using="point"``
     computes the same from the point estimate's components alone, as the exported graph does.
+    :meth:`calibrate_novelty` replaces the threshold (log-odds 0) of the point estimate's rule by
+    quantiles of the :meth:`novelty_score` of windows of known surfaces, one per number of
+    consecutive windows averaged (:meth:`novel_after`, ``tactile-torch stream --discover N``), so
+    that the false-alarm rate is set on those windows.
 
     Parameters
     ----------

@@ -111,9 +111,7 @@ def real_sessions(name: str = "hapmat_imu5", *, per_session: bool = False) -> tu
         sig = np.asarray(sig)
         cuts = np.linspace(0, sig.shape[0], 4).astype(int)  # (n, 3): time first
         for k in range(3):
-            signals.append(
-                (sig[cuts[k] : cuts[k + 1]] * np.float32(SESSION_GAINS[k])).astype(np.float32)
-            )
+            signals.append((sig[cuts[k] : cuts[k + 1]] * np.float32(SESSION_GAINS[k])).astype(np.float32))
             labels.append(int(label))
             sessions.append(k)
     shifted = VibrationRecordings(
