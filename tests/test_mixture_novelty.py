@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 import torch
@@ -114,3 +116,17 @@ def test_novelty_study_reports_every_rule_on_the_bundled_data():
     # calibrated on known windows, the rule finds more of the withheld surfaces than the model's own threshold
     assert shipped[3]["recall"] > own[3]["recall"] and shipped[3]["recall"] >= 0.5
     assert all(0.0 <= r["false alarms"] <= 1.0 for r in rows)
+
+
+def test_calibrated_thresholds_travel_through_the_model_file_to_the_bundle(fitted, tmp_path):
+    from tactile_torch.discovery import THRESHOLDS_METADATA_KEY
+    from tactile_torch.pipeline import export_pipeline, pipeline_from_model, save_clustering_model
+    from tactile_torch.runtime import OnnxPipeline
+
+    model, X, y, first = fitted
+    calibration = (y < 3) & ~first
+    model.calibrate_novelty(X[calibration], false_alarm=0.05, max_windows=4, groups=y[calibration])
+    path = save_clustering_model(tmp_path / "m.npz", model, source={"kind": "features", "n_features": 3})
+    bundle = OnnxPipeline(export_pipeline(pipeline_from_model(path), tmp_path / "m.onnx"))
+    got = json.loads(bundle.metadata[THRESHOLDS_METADATA_KEY])
+    np.testing.assert_allclose(got, model.novelty_thresholds_, rtol=1e-6)
