@@ -7,8 +7,8 @@ that a *new* component explains better than every known one (output ``novel``, s
 bump, a slip); :class:`SurfaceDiscovery` proposes a new surface only after ``n_consecutive`` novel
 windows in a row, and keeps classifying: the windows of the run are named after the proposed
 surface, the others after their known component. Runs separated by a known window count as
-separate proposals. With the bundle's per-window novelty scores (output ``novelty``, the log-odds of
-a new component) and the thresholds it carries (metadata ``novelty_thresholds``, calibrated on windows
+separate proposals. With the bundle's per-window novelty scores (output ``novelty``, minus the log
+density under the mixture) and the thresholds it carries (metadata ``novelty_thresholds``, calibrated on windows
 of known surfaces by :meth:`~tactile_torch.mixture.PitmanYorGMM.calibrate_novelty`), a window is
 novel when the mean score of the last ``n_consecutive`` windows exceeds the threshold of that N:
 the decision :meth:`~tactile_torch.mixture.PitmanYorGMM.novel_after` makes. Importing this module
@@ -36,7 +36,7 @@ from typing import TextIO
 NOVEL_OUTPUT = "novel"
 """Name of the novelty-flag output of an exported mixture graph."""
 NOVELTY_SCORE_OUTPUT = "novelty"
-"""Name of the per-window novelty score output (log-odds of a new component)."""
+"""Name of the per-window novelty score output (minus the log density under the mixture)."""
 THRESHOLDS_METADATA_KEY = "novelty_thresholds"
 """Bundle metadata key: JSON list of the thresholds of the mean novelty score over N = 1, 2, ... windows."""
 

@@ -370,8 +370,8 @@ def _clustering_pipeline(model: ModelFile, sensor_range_g: float | None) -> Infe
             ClusteringProjection(fitted["mean_"], fitted["scale_"], fitted["components_"], eps=spec["eps"])
         )
     meta["method"] = "pyp"
-    # thresholds of the mean novelty score over N = 1, 2, ... windows (tactile-torch stream --discover N)
-    meta["novelty_thresholds"] = [float(t) for t in head.novelty_thresholds]
+    if head.novelty_thresholds.shape[0]:  # calibrated: thresholds of the mean novelty over N windows
+        meta["novelty_thresholds"] = [float(t) for t in head.novelty_thresholds]
     k = int(np.asarray(state["means"]).shape[0])
     ks = model.header.get("k_summary")
     meta["k_exported"] = f"K = {k} components: the point estimate of the clustering" + (

@@ -110,10 +110,11 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
     component's training points in each cluster. A point is *novel* (label -1 in :meth:`predict`)
     when the probability of a new component exceeds that of every cluster. ``using="point"``
     computes the same from the point estimate's components alone, as the exported graph does.
-    :meth:`calibrate_novelty` replaces the threshold (log-odds 0) of the point estimate's rule by
-    quantiles of the :meth:`novelty_score` of windows of known surfaces, one per number of
-    consecutive windows averaged (:meth:`novel_after`, ``tactile-torch stream --discover N``), so
-    that the false-alarm rate is set on those windows.
+    :meth:`calibrate_novelty` replaces the point estimate's rule by a threshold on the
+    :meth:`novelty_score` (minus the log density under the point estimate's mixture), one per
+    number of consecutive windows averaged (:meth:`novel_after`, ``tactile-torch stream --discover
+    N``): quantiles of the scores of windows of known surfaces, so that the false-alarm rate is set
+    on those windows rather than hoped for.
 
     Parameters
     ----------
@@ -212,10 +213,10 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
         joins component k, given that it joins an existing one.
     novelty_weight_ : float
         ``(alpha + d K) / (n + alpha)``: the prior probability that a new point opens a new component.
-    novelty_thresholds_ : ndarray of shape (N,)
-        Threshold of the mean :meth:`novelty_score` over N = 1, 2, ... windows: zeros (the model's own
-        rule: a new component more probable than every cluster) until :meth:`calibrate_novelty`
-        sets them from windows of known surfaces.
+    novelty_thresholds_ : ndarray of shape (N,) or None
+        Threshold of the mean :meth:`novelty_score` over N = 1, 2, ... windows, set by
+        :meth:`calibrate_novelty` from windows of known surfaces; None until then (the model's own
+        rule: a new component more probable than every cluster).
     alpha_, discount_ : float
         Posterior means given the point estimate.
     n_clusters_samples_, alpha_samples_, discount_samples_, beta_samples_, log_posterior_samples_ : ndarray
@@ -516,7 +517,7 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
         self.means_, self.covariances_ = c.means, c.covariances
         self.precisions_cholesky_ = c.precisions_cholesky
         self._components = c
-        self.novelty_thresholds_ = np.zeros(1)  # the model's own rule until calibrate_novelty
+        self.novelty_thresholds_ = None  # the model's own rule until calibrate_novelty
 
     def fit_predict(self, X: object, y: object = None) -> np.ndarray:
         """Fit and return ``labels_`` (the point estimate of the training points' partition)."""

@@ -63,35 +63,37 @@ class PredictionMixin:
 
         ``using="samples"``: the posterior predictive averaged over saved partitions (default);
         ``"point"``: the point estimate's components, as in the exported graph. A row is novel when
-        its :meth:`novelty_score` exceeds the threshold: 0 (a new component more probable than
-        every cluster) unless :meth:`calibrate_novelty` set ``novelty_thresholds_``; a row more
-        than 1e100 whitened units from the data is novel by definition.
+        a new component is more probable than every cluster (the model's own rule), or, with
+        ``using="point"`` once :meth:`calibrate_novelty` has run, when its :meth:`novelty_score`
+        exceeds the calibrated threshold. A row more than 1e100 whitened units from the data is
+        novel by definition.
         """
         joint, new = self._cluster_and_new(X, using)
         labels = np.argmax(joint, axis=1)
-        labels[new - joint.max(axis=1) > self._threshold(using, 1)] = -1
+        if using == "point" and self.novelty_thresholds_ is not None:
+            labels[self.novelty_score(X) > self.novelty_thresholds_[0]] = -1
+        else:
+            labels[new > joint.max(axis=1)] = -1
         return labels
 
-    def novelty_score(self, X: object, *, using: str = "point") -> np.ndarray:
-        """Return the log-odds that each row of ``X`` opens a new component rather than joining its most probable cluster, shape (n,).
+    def novelty_score(self, X: object) -> np.ndarray:
+        """Return the novelty score of every row of ``X``: minus its log density under the point estimate's mixture, shape (n,).
 
-        ``log P(new | x) - max_k log P(k | x)``; ``using="point"`` (default) is the exported
-        graph's ``novelty`` output.
+        ``-score_samples(X)``: the exported graph's ``novelty`` output. Finite for every finite row.
         """
-        joint, new = self._cluster_and_new(X, using)
-        return new - joint.max(axis=1)
+        return -self.score_samples(X)
 
     def calibrate_novelty(
         self, X: object, *, false_alarm: float = 0.02, max_windows: int = 10, groups: object = None
     ) -> PredictionMixin:
         """Set ``novelty_thresholds_`` from windows ``X`` of known surfaces (not used in fit); return ``self``.
 
-        For N = 1 … ``max_windows``, the threshold of N is the ``1 - false_alarm`` quantile of the
-        mean :meth:`novelty_score` (point estimate) over every N consecutive rows of ``X`` (rows
-        in time order; ``groups`` (n,), e.g. the recording of each row, keeps runs within one
-        group). The false-alarm rate is then ``false_alarm`` on these windows by construction; on
-        later windows it holds as far as they resemble these. Used by ``predict(using="point")``,
-        :meth:`novel_after` and the exported graph.
+        For N = 1 … ``max_windows``, the threshold of N is the ``1 - false_alarm`` quantile (the
+        sample value just above) of the mean :meth:`novelty_score` over every N consecutive rows
+        of ``X`` (rows in time order; ``groups`` (n,), e.g. the recording of each row, keeps runs
+        within one group). At most ``false_alarm`` of these windows' decisions are then novel by
+        construction; on later windows it holds as far as they resemble these. Used by
+        ``predict(using="point")``, :meth:`novel_after` and the exported graph.
         """
         if not (isinstance(false_alarm, Real) and 0.0 < false_alarm < 1.0):
             raise ValueError(f"false_alarm must be a number in (0, 1), got {false_alarm!r}")
@@ -109,28 +111,25 @@ class PredictionMixin:
         return self
 
     def novel_after(self, X: object, n_windows: int = 1, *, groups: object = None) -> np.ndarray:
-        """Return whether the mean novelty score of the ``n_windows`` rows ending at each row exceeds its threshold, shape (n,) bool.
+        """Return the novelty decision after ``n_windows`` consecutive rows ending at each row, shape (n,) bool.
 
-        Rows in time order (``groups`` (n,): runs stay within a group; the first ``n_windows - 1``
-        rows of a group get False). The decision ``tactile-torch stream --discover N`` makes.
+        Calibrated (:meth:`calibrate_novelty`): the mean :meth:`novelty_score` of the
+        ``n_windows`` rows exceeds the threshold of that N (beyond ``max_windows``, the last
+        threshold). Not calibrated: the ``n_windows`` rows are all novel by the model's own rule
+        (``predict(using="point") == -1``). Rows in time order (``groups`` (n,): runs stay within
+        a group; the first ``n_windows - 1`` rows of a group get False). The decision
+        ``tactile-torch stream --discover N`` makes.
         """
         if isinstance(n_windows, bool) or not isinstance(n_windows, Integral) or n_windows < 1:
             raise ValueError(f"n_windows must be an int >= 1, got {n_windows!r}")
-        thresholds = self._thresholds(int(n_windows))
-        return novel_after(
-            self.novelty_score(X),
-            thresholds,
-            int(n_windows),
-            None if groups is None else np.asarray(groups).ravel(),
-        )
-
-    def _thresholds(self, n: int) -> np.ndarray:
-        """Thresholds of N = 1 … n (beyond the calibrated ones, the last calibrated threshold)."""
+        n = int(n_windows)
+        groups = None if groups is None else np.asarray(groups).ravel()
         t = self.novelty_thresholds_
-        return np.r_[t, np.full(max(0, n - t.size), t[-1])]
-
-    def _threshold(self, using: str, n: int) -> float:
-        return float(self._thresholds(n)[n - 1]) if using == "point" else 0.0
+        if t is None:  # n flags in a row <=> their mean is 1
+            flags = (self.predict(X, using="point") == -1).astype(float)
+            return novel_after(flags, np.full(n, 1.0 - 0.5 / n), n, groups)
+        t = np.r_[t, np.full(max(0, n - t.size), t[-1])]
+        return novel_after(self.novelty_score(X), t, n, groups)
 
     def predict_proba(self, X: object, *, using: str = "samples") -> np.ndarray:
         """Return the probability of each cluster for every row of ``X``, given that it joins one: (n, K), rows sum to 1."""
