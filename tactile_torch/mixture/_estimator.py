@@ -544,14 +544,16 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
         return summary_text(self)
 
     def to_module(self):
-        """Return the point estimate's mixture as a torch module ``features (B, D) -> (labels, log_resp, novel)``.
+        """Return the point estimate's mixture as a torch module ``features (B, D) -> (labels, log_resp, novel, novelty)``.
 
-        Components: ``means_``, ``precisions_cholesky_``, ``log(weights_)``. Novelty: a row is novel
-        when ``log novelty_weight_ + log p_new(x)`` exceeds ``log((1 - novelty_weight_) w_k) + log
-        N(x | k)`` for every k, with ``p_new`` the prior predictive density of a new component
-        approximated by an equal mixture of 64 Gaussians ``N(xi, S^{-1} + R^{-1})`` (``S`` drawn from
-        its prior, hyperparameters from the fixed-partition run): exactly :meth:`predict` with
-        ``using="point"``.
+        Components: ``means_``, ``precisions_cholesky_``, ``log(weights_)``. ``novelty`` is
+        :meth:`novelty_score` (minus the log density). ``novel``: once :meth:`calibrate_novelty` has
+        run, ``novelty > novelty_thresholds_[0]`` (the thresholds travel as a buffer); before, a
+        row is novel when ``log novelty_weight_ + log p_new(x)`` exceeds ``log((1 -
+        novelty_weight_) w_k) + log N(x | k)`` for every k, with ``p_new`` the prior predictive
+        density of a new component approximated by an equal mixture of 64 Gaussians ``N(xi, S^{-1}
+        + R^{-1})`` (``S`` drawn from its prior, hyperparameters from the fixed-partition run).
+        Either way exactly :meth:`predict` with ``using="point"``.
         """
         check_is_fitted(self)
         from ._inference import GaussianMixtureClassifier
