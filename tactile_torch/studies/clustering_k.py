@@ -234,6 +234,37 @@ def coverage_row(source: str, y: np.ndarray, setting: str, model, seconds: float
     }
 
 
+ELBOW_GRID = (30.0, 100.0, 300.0, 1000.0, 3000.0, 10000.0, None)
+"""Values of ``coarsen`` of :func:`coarsening_curve` (None: the exact posterior)."""
+
+
+def coarsening_curve(
+    X: np.ndarray, grid: tuple = ELBOW_GRID, *, random_state: int = 0, **fit: Any
+) -> list[dict[str, Any]]:
+    """Return, per ``coarsen`` value, the posterior mode of K and the mean log density of the data under the point estimate.
+
+    Miller & Dunson (2018) calibrate ``coarsen`` by the elbow of fit against K: the fit stops
+    improving much once the components that matter are there.
+    """
+    from ..mixture import PitmanYorGMM
+
+    rows = []
+    for a in grid:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            model = PitmanYorGMM(coarsen=a, random_state=random_state, progress=False, **fit).fit(X)
+        rows.append(
+            {
+                "coarsen": "none" if a is None else a,
+                "K mode": model.n_clusters_summary_["mode"],
+                "K 95% interval": "[{}, {}]".format(*model.n_clusters_summary_["interval"]),
+                "K point estimate": model.n_clusters_,
+                "mean log density": round(float(model.score_samples(X).mean()), 3),
+            }
+        )
+    return rows
+
+
 def _main(argv: list[str] | None = None) -> None:
     import argparse
 
@@ -245,6 +276,11 @@ def _main(argv: list[str] | None = None) -> None:
         help="print the Bhattacharyya distances of sessions-3x3's groups and stop",
     )
     parser.add_argument("--only", nargs="*", help="sources to run (default: all available)")
+    parser.add_argument(
+        "--elbow",
+        action="store_true",
+        help="print K and fit against coarsen per source (Miller & Dunson's elbow)",
+    )
     parser.add_argument("--settings", nargs="*", help="settings to run (names of SETTINGS)")
     parser.add_argument("--n-iter", default="auto", type=lambda v: v if v == "auto" else int(v))
     parser.add_argument("--burn-in", default=250, type=int)
@@ -256,6 +292,14 @@ def _main(argv: list[str] | None = None) -> None:
     sources = k_sources(args.quick)
     if args.only:
         sources = {k: v for k, v in sources.items() if k in args.only}
+    if args.elbow:
+        for name, (X, y) in sources.items():
+            for r in coarsening_curve(X, n_iter=args.n_iter, burn_in=args.burn_in):
+                print(
+                    f"| {name} | {np.unique(y).size} | " + " | ".join(str(v) for v in r.values()) + " |",
+                    flush=True,
+                )
+        return
     settings = {k: v for k, v in SETTINGS.items() if not args.settings or k in args.settings}
     fit = {"n_iter": 300, "burn_in": 100} if args.quick else {"n_iter": args.n_iter, "burn_in": args.burn_in}
     for i, (name, data) in enumerate(sources.items()):
