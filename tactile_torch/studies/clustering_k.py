@@ -284,6 +284,10 @@ def _main(argv: list[str] | None = None) -> None:
     parser.add_argument("--settings", nargs="*", help="settings to run (names of SETTINGS)")
     parser.add_argument("--n-iter", default="auto", type=lambda v: v if v == "auto" else int(v))
     parser.add_argument("--burn-in", default=250, type=int)
+    parser.add_argument("--n-split-merge", default=5, type=int, help="split-merge moves per sweep")
+    parser.add_argument(
+        "--jobs", default=None, type=int, help="threads (default: one per chain up to the cores)"
+    )
     args = parser.parse_args(argv)
     if args.overlap:
         np.set_printoptions(precision=1, suppress=True, linewidth=150)
@@ -302,6 +306,7 @@ def _main(argv: list[str] | None = None) -> None:
         return
     settings = {k: v for k, v in SETTINGS.items() if not args.settings or k in args.settings}
     fit = {"n_iter": 300, "burn_in": 100} if args.quick else {"n_iter": args.n_iter, "burn_in": args.burn_in}
+    fit |= {"n_split_merge": args.n_split_merge, "n_jobs": args.jobs}
     for i, (name, data) in enumerate(sources.items()):
         rows = k_coverage({name: data}, settings, **fit)
         if i == 0:
