@@ -15,7 +15,6 @@ from sklearn.exceptions import NotFittedError
 from sklearn.utils.estimator_checks import parametrize_with_checks
 
 from tactile_torch._gibbs import conditionals, densities, linalg
-from tactile_torch.discovery import SurfaceDiscovery
 from tactile_torch.metrics import pairwise_accuracy
 from tactile_torch.mixture import (
     GaussianMixtureClassifier,
@@ -31,6 +30,7 @@ from tactile_torch.mixture import (
     rhat,
     variation_of_information,
 )
+from tactile_torch.robot.discovery import SurfaceDiscovery
 from tactile_torch.studies.clustering import have_vibration_features
 
 from .reference_mixture import reference_gibbs
@@ -812,7 +812,7 @@ def test_cli_stream_discover_proposes_a_surface_the_clustering_never_saw(tmp_pat
 
     from tactile_torch.cli import main
     from tactile_torch.data.stylus import SURFACES, make_vibration_recordings
-    from tactile_torch.stream import format_sample
+    from tactile_torch.robot.stream import format_sample
 
     known = [SURFACES[0], SURFACES[5], SURFACES[7]]  # glass, cork, rubber
     rec = make_vibration_recordings(surfaces=known, duration_s=8.0, random_state=0)

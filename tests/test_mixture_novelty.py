@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 import torch
 
-from tactile_torch.discovery import SurfaceDiscovery
 from tactile_torch.mixture import PitmanYorGMM
 from tactile_torch.mixture._novelty import calibrate_thresholds, novel_after, window_means
+from tactile_torch.robot.discovery import SurfaceDiscovery
 
 
 def _three_known_one_new(seed=0, per=60):
@@ -122,14 +122,15 @@ def test_novelty_study_reports_every_rule_on_the_bundled_data():
 
 
 def test_calibrated_thresholds_travel_through_the_model_file_to_the_bundle(fitted, tmp_path):
-    from tactile_torch.discovery import THRESHOLDS_METADATA_KEY
-    from tactile_torch.pipeline import export_pipeline, pipeline_from_model, save_clustering_model
-    from tactile_torch.runtime import OnnxPipeline
+    from tactile_torch.clustering_model import save_clustering_model
+    from tactile_torch.pipeline import export_pipeline, pipeline_from_model
+    from tactile_torch.robot.contract import NOVELTY_THRESHOLDS_KEY
+    from tactile_torch.robot.runtime import OnnxPipeline
 
     model, X, y, first = fitted
     calibration = (y < 3) & ~first
     model.calibrate_novelty(X[calibration], false_alarm=0.05, max_windows=4, groups=y[calibration])
     path = save_clustering_model(tmp_path / "m.npz", model, source={"kind": "features", "n_features": 3})
     bundle = OnnxPipeline(export_pipeline(pipeline_from_model(path), tmp_path / "m.onnx"))
-    got = json.loads(bundle.metadata[THRESHOLDS_METADATA_KEY])
+    got = json.loads(bundle.metadata[NOVELTY_THRESHOLDS_KEY])
     np.testing.assert_allclose(got, model.novelty_thresholds_, rtol=1e-6)

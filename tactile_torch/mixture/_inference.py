@@ -7,7 +7,7 @@ import math
 import numpy as np
 import torch
 
-from ..discovery import NOVEL_OUTPUT, NOVELTY_SCORE_OUTPUT
+from ..robot.contract import LABELS_OUTPUT, NOVEL_OUTPUT, NOVELTY_SCORE_OUTPUT, SCORES_OUTPUT
 
 
 def gaussian_mixture_scores(
@@ -57,7 +57,7 @@ class GaussianMixtureClassifier(torch.nn.Module):
     and thresholds, ``novel`` is all False.
     """
 
-    output_names = ("labels", "scores", NOVEL_OUTPUT, NOVELTY_SCORE_OUTPUT)
+    output_names = (LABELS_OUTPUT, SCORES_OUTPUT, NOVEL_OUTPUT, NOVELTY_SCORE_OUTPUT)
     """Names of the four outputs in an exported graph."""
 
     def __init__(

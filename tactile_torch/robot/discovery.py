@@ -33,12 +33,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TextIO
 
-NOVEL_OUTPUT = "novel"
-"""Name of the novelty-flag output of an exported mixture graph."""
-NOVELTY_SCORE_OUTPUT = "novelty"
-"""Name of the per-window novelty score output (minus the log density under the mixture)."""
-THRESHOLDS_METADATA_KEY = "novelty_thresholds"
-"""Bundle metadata key: JSON list of the thresholds of the mean novelty score over N = 1, 2, ... windows."""
+from .checks import check_count
+from .contract import NOVEL_OUTPUT, NOVELTY_SCORE_OUTPUT, NOVELTY_THRESHOLDS_KEY
 
 
 @dataclass(frozen=True)
@@ -94,9 +90,7 @@ class SurfaceDiscovery:
         known_names: Sequence[str] | None = None,
         thresholds: Sequence[float] | None = None,
     ) -> None:
-        if isinstance(n_consecutive, bool) or not isinstance(n_consecutive, int) or n_consecutive < 1:
-            raise ValueError(f"n_consecutive must be an int >= 1, got {n_consecutive!r}")
-        self.n_consecutive = n_consecutive
+        self.n_consecutive = check_count(n_consecutive, "n_consecutive", 1)
         self.known_names = list(known_names) if known_names is not None else None
         self.threshold = None
         if thresholds is not None:
@@ -157,7 +151,7 @@ class SurfaceDiscovery:
 def stream_consumer(pipeline, n_consecutive: int, out: TextIO = sys.stdout) -> Callable[[object], None]:
     """Return a consumer of ``tactile-torch stream``'s window results that proposes new surfaces.
 
-    ``pipeline`` is the :class:`~tactile_torch.runtime.OnnxPipeline` of an exported clustering; each
+    ``pipeline`` is the :class:`~tactile_torch.robot.runtime.OnnxPipeline` of an exported clustering; each
     result's window is run through it for its ``novel`` output (a second, ~1 ms inference: the
     stream's classifier does not keep that output) and fed to a :class:`SurfaceDiscovery`. Novel
     windows and proposals are printed to ``out``. Raises ``ValueError`` when the bundle has no
@@ -169,8 +163,8 @@ def stream_consumer(pipeline, n_consecutive: int, out: TextIO = sys.stdout) -> C
             f"--discover needs a clustering bundle with a '{NOVEL_OUTPUT}' output (tactile-torch cluster, then "
             f"export), got outputs {outputs}"
         )
-    scored = NOVELTY_SCORE_OUTPUT in outputs and THRESHOLDS_METADATA_KEY in pipeline.metadata
-    thresholds = json.loads(pipeline.metadata[THRESHOLDS_METADATA_KEY]) if scored else None
+    scored = NOVELTY_SCORE_OUTPUT in outputs and NOVELTY_THRESHOLDS_KEY in pipeline.metadata
+    thresholds = json.loads(pipeline.metadata[NOVELTY_THRESHOLDS_KEY]) if scored else None
     discovery = SurfaceDiscovery(n_consecutive, pipeline.class_names, thresholds)
 
     def consume(result) -> None:
@@ -191,11 +185,4 @@ def stream_consumer(pipeline, n_consecutive: int, out: TextIO = sys.stdout) -> C
     return consume
 
 
-__all__ = [
-    "NOVELTY_SCORE_OUTPUT",
-    "NOVEL_OUTPUT",
-    "THRESHOLDS_METADATA_KEY",
-    "SurfaceDiscovery",
-    "WindowVerdict",
-    "stream_consumer",
-]
+__all__ = ["SurfaceDiscovery", "WindowVerdict", "stream_consumer"]
