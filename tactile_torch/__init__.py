@@ -10,9 +10,13 @@ robot where torch is not installed.
 
 from importlib.metadata import PackageNotFoundError, version
 
+from ._exports import lazy_exports
+
 try:
     __version__ = version("tactile-torch")
 except PackageNotFoundError:  # running from a source tree that was not installed
     __version__ = "0.0.0+unknown"
 
-__all__ = ["__version__"]
+# The top level exports only the version: every public name lives in the module or package of its
+# concern (``from tactile_torch.svm import SVC``), so that importing the top level costs nothing.
+__getattr__, __dir__, __all__ = lazy_exports(__name__, {}, defined=("__version__",))

@@ -77,7 +77,7 @@ def check_finite(x: torch.Tensor, name: str) -> torch.Tensor:
     return x
 
 
-RandomState = int | np.random.Generator | torch.Generator | None
+RandomState = int | np.random.Generator | np.random.RandomState | torch.Generator | None
 
 
 def torch_generator(random_state: RandomState) -> torch.Generator:

@@ -31,8 +31,9 @@ from numbers import Integral
 from typing import ClassVar
 
 import numpy as np
+from scipy.sparse import issparse
 from scipy.stats import rankdata
-from sklearn.base import BaseEstimator, ClassifierMixin, MetaEstimatorMixin, clone
+from sklearn.base import BaseEstimator, ClassifierMixin, MetaEstimatorMixin, _fit_context, clone
 from sklearn.model_selection import GridSearchCV, ParameterGrid, StratifiedKFold, check_cv
 from sklearn.pipeline import Pipeline
 from sklearn.utils._param_validation import Interval, Options
@@ -315,6 +316,7 @@ class SVMGridSearchCV(MetaEstimatorMixin, ClassifierMixin, BaseEstimator):
         ``std_test_score``, ``rank_test_score``, as ``GridSearchCV``'s.
     best_index_, best_params_, best_score_
     best_estimator_ : estimator (``refit=True``)
+    n_features_in_ : int
     n_splits_ : int
     search_time_ : float
         Seconds of the search (without the refit); ``refit_time_``: seconds of the refit.
@@ -344,23 +346,29 @@ class SVMGridSearchCV(MetaEstimatorMixin, ClassifierMixin, BaseEstimator):
         self.refit = refit
         self.n_jobs = n_jobs
 
+    # the searched estimator's own parameters are validated by its fits (not skipped as nested)
+    @_fit_context(prefer_skip_nested_validation=False)
     def fit(self, X: object, y: object) -> SVMGridSearchCV:
         """Run the search on ``X`` (n_samples, n_features) and labels ``y``; return ``self``."""
         from .svm.kernels import KernelData
         from .svm.threads import resolve_threads, run_blocks
 
-        self._validate_params()
         if not supports_batched_search(self.estimator):
             raise TypeError(
                 "estimator must be tactile_torch.svm.SVC or HierarchicalSVC, or a Pipeline ending with "
                 f"one, got {type(self.estimator).__name__} (use sklearn's GridSearchCV for others)"
             )
+        if issparse(X):
+            raise TypeError("X must be a dense array or tensor: sparse input is not supported")
+        if y is None:
+            raise ValueError("SVMGridSearchCV requires y to be passed, but the target y is None")
         X = np.asarray(X.detach().cpu() if hasattr(X, "detach") else X)
         y = _labels(y)
         if X.ndim != 2 or X.shape[0] != y.shape[0]:
             raise ValueError(
                 f"X must have shape (n_samples, n_features) with y's {y.shape[0]} samples, got {X.shape}"
             )
+        self.n_features_in_ = X.shape[1]
         start = time.perf_counter()
         splits = list(check_cv(self.cv, y, classifier=True).split(X, y))
         candidates = list(ParameterGrid(self.param_grid))

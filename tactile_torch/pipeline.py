@@ -281,7 +281,7 @@ def pipeline_from_model(
 
 def _classifier_head(settings: dict, arrays: dict[str, np.ndarray], n_classes: int) -> nn.Module:
     """The classifier's inference module from a model file's ``head`` (SVM, linear or nearest neighbours)."""
-    from .baselines import LinearInference, NeighboursInference
+    from .classifier_inference import LinearInference, NeighboursInference
 
     if settings["type"] == "linear":
         return LinearInference(arrays["coef"], arrays["intercept"])

@@ -52,7 +52,7 @@ from typing import Any
 import numpy as np
 import torch
 
-from . import noise
+from . import noise, sensor_limits
 from ._checks import RandomState, check_positive, numpy_rng
 
 KINDS = ("image", "vibration", "features")
@@ -196,7 +196,7 @@ FACTORS: tuple[Degradation, ...] = (
         (100, 50, 30, 20, 10, 5, 3, 2, 1),
         "frames",
         "only the first frames of every exploration (a shorter exploration), retrained",
-        lambda x, level, generator: noise.keep_frames(x, level),
+        lambda x, level, generator: sensor_limits.keep_frames(x, level),
         limit="frames",
         log_x=True,
     ),
@@ -207,7 +207,7 @@ FACTORS: tuple[Degradation, ...] = (
         (1, 2, 3, 4, 6, 8, 12, 16),
         "x coarser",
         "sensels this many times larger per side (block mean, shown at the same size), retrained",
-        lambda x, level, generator: noise.coarsen_grid(x, level),
+        lambda x, level, generator: sensor_limits.coarsen_grid(x, level),
         limit="pixels",
         log_x=True,
     ),
@@ -228,7 +228,7 @@ FACTORS: tuple[Degradation, ...] = (
         (1600, 800, 400, 200, 100, 50, 25, 12),
         "samples",
         "only the first samples of every window (a shorter window), retrained",
-        lambda x, level, generator: noise.crop_windows(x, level),
+        lambda x, level, generator: sensor_limits.crop_windows(x, level),
         limit="samples",
         log_x=True,
     ),
@@ -250,7 +250,7 @@ FACTORS: tuple[Degradation, ...] = (
         (0.0039, 0.01, 0.02, 0.05, 0.1, 0.2, 0.5, 1.0),
         "g",
         "samples rounded to this step (an ADC's resolution), retrained",
-        _float_op(noise.quantize),
+        _float_op(sensor_limits.quantize),
         log_x=True,
     ),
     Degradation(
@@ -260,7 +260,7 @@ FACTORS: tuple[Degradation, ...] = (
         (4.0, 2.0, 1.0, 0.5, 0.2, 0.1, 0.05, 0.02),
         "g",
         "samples clipped to ± this range, retrained",
-        _float_op(noise.saturate),
+        _float_op(sensor_limits.saturate),
         log_x=True,
     ),
     Degradation(
@@ -270,7 +270,9 @@ FACTORS: tuple[Degradation, ...] = (
         (2, 4, 8, 16, 32),
         "x lower",
         "windows resampled to this fraction of the rate (anti-aliased), retrained",
-        lambda x, level, generator: noise.downsample(x if x.is_floating_point() else x.float(), level),
+        lambda x, level, generator: sensor_limits.downsample(
+            x if x.is_floating_point() else x.float(), level
+        ),
         limit="decimation",
         log_x=True,
     ),

@@ -358,7 +358,7 @@ def train_classifier(
 def classifier_head(estimator: object) -> tuple[str, dict, dict[str, np.ndarray]]:
     """Return ``(method, head settings, head arrays)`` of a fitted classifier for its model file.
 
-    The arrays are those of its torch inference module (:func:`tactile_torch.baselines.inference_module`):
+    The arrays are those of its torch inference module (:func:`tactile_torch.classifier_inference.inference_module`):
     an SVM's support vectors, dual coefficients, intercepts (and tree tables); LDA's and the nearest
     class mean's linear scores ``coef`` ``(M, F)``, ``intercept`` ``(M,)``; kNN's training ``samples``
     and ``labels``.
@@ -371,7 +371,7 @@ def classifier_head(estimator: object) -> tuple[str, dict, dict[str, np.ndarray]
     from sklearn.discriminant_analysis import LinearDiscriminantAnalysis
     from sklearn.neighbors import KNeighborsClassifier, NearestCentroid
 
-    from .baselines import inference_module
+    from .classifier_inference import inference_module
     from .svm import SVC, HierarchicalSVC
 
     module = inference_module(estimator)

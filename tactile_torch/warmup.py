@@ -12,7 +12,7 @@ import sys
 import time
 
 COMPILED_MODULES = (
-    "tactile_torch._gibbs",
+    "tactile_torch.mixture._gibbs",
     "tactile_torch.mixture._partition",
     "tactile_torch.svm._smo",
     "tactile_torch.svm.tree",

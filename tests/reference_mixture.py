@@ -4,7 +4,7 @@ The same model and the same updates as :class:`tactile_torch.mixture.PitmanYorGM
 docstring), written the way a careful user would write them without a compiler: Neal's algorithm 8
 one point at a time, every step vectorised over the components with NumPy; component and
 hyperparameter updates with ``numpy.linalg``; slice sampling for beta, alpha and d. Written
-independently of :mod:`tactile_torch._gibbs`, it serves the tests as an independent check of the
+independently of :mod:`tactile_torch.mixture._gibbs`, it serves the tests as an independent check of the
 posterior and the benchmark as the baseline whose per-sweep time is compared.
 """
 

@@ -75,5 +75,8 @@ def test_random_state_conversions_are_reproducible():
     x = numpy_rng(torch.Generator().manual_seed(9)).random()
     y = numpy_rng(torch.Generator().manual_seed(9)).random()
     assert x == y
+    # scikit-learn's legacy generator (its "random_state" constraint allows it): one draw seeds ours.
+    legacy = [numpy_rng(np.random.RandomState(4)).random() for _ in range(2)]
+    assert legacy[0] == legacy[1] != numpy_rng(np.random.RandomState(5)).random()
     with pytest.raises(TypeError, match="random_state must be"):
         numpy_rng("seed")

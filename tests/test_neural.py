@@ -1,9 +1,9 @@
 """Neural candidates, the learned front end, int8 variants and the memory measurement.
 
-The neural classifiers take 3-D to 5-D raw inputs, so scikit-learn's ``parametrize_with_checks``
-(which fits on 2-D matrices) does not apply; the estimator conventions it checks that matter here are
-tested directly: ``clone``/``get_params``, parameter validation at ``fit``, ``NotFittedError``,
-determinism for one seed, probabilities that sum to one.
+The neural classifiers take 3-D to 5-D raw inputs, so the scikit-learn checks that fit on 2-D
+matrices do not apply; those that do (clone, ``get_params``, parameter validation) run in
+``test_estimator_checks.py``, and the conventions that need real inputs are tested here:
+``NotFittedError``, determinism for one seed, probabilities that sum to one.
 """
 
 from __future__ import annotations

@@ -6,7 +6,7 @@ from hypothesis import strategies as st
 from sklearn.metrics import rand_score
 
 from tactile_torch.metrics import pairwise_accuracy
-from tactile_torch.noise import awgn, gaussian_image_noise
+from tactile_torch.noise import awgn, gaussian_image_noise, gaussian_noise
 
 
 @settings(max_examples=60, deadline=None)
@@ -75,3 +75,30 @@ def test_gaussian_image_noise_moments_and_clipping():
         gaussian_image_noise(torch.zeros(2, 3, 8, 8), 0.1, 0.01)
     with pytest.raises(ValueError, match="var must be a finite variance"):
         gaussian_image_noise(frames, 0.1, -0.01)
+
+
+def test_gaussian_noise_moments_determinism_and_zero():
+    x = torch.zeros(50, 3, 2000, dtype=torch.float64)
+    noisy = gaussian_noise(x, 0.02, generator=1)
+    assert noisy.std().item() == pytest.approx(0.02, rel=0.01)
+    assert abs(noisy.mean().item()) < 1e-4
+    assert torch.equal(noisy, gaussian_noise(x, 0.02, generator=1))
+    assert not torch.equal(noisy, gaussian_noise(x, 0.02, generator=2))
+    assert torch.equal(gaussian_noise(x + 1.0, 0.0, generator=0), x + 1.0)
+
+
+@pytest.mark.parametrize(
+    ("call", "err", "match"),
+    [
+        (lambda: gaussian_noise(np.zeros(3), 0.1), TypeError, "x must be a torch.Tensor"),
+        (
+            lambda: gaussian_noise(torch.zeros(3), -0.1),
+            ValueError,
+            "std must be a finite standard deviation >= 0",
+        ),
+        (lambda: gaussian_noise(torch.tensor([float("nan")]), 0.1), ValueError, "x must be finite"),
+    ],
+)
+def test_gaussian_noise_errors(call, err, match):
+    with pytest.raises(err, match=match):
+        call()

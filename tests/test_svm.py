@@ -11,22 +11,20 @@ from sklearn.datasets import make_blobs, make_classification, make_moons
 from sklearn.exceptions import ConvergenceWarning, NotFittedError
 from sklearn.model_selection import GridSearchCV, cross_val_score
 from sklearn.svm import SVC as LibSVC
-from sklearn.utils.estimator_checks import parametrize_with_checks
 
 from tactile_torch._onnx import export_onnx, run_onnx
 from tactile_torch.svm import (
     SVC,
     HierarchicalSVC,
-    KernelData,
     SVMInference,
     kernel_matrix,
     path_scores,
     scale_gamma,
-    solve_dual,
     split_classes,
     tree_descent,
 )
-from tactile_torch.svm.solver import ProblemSet, solve_set
+from tactile_torch.svm.kernels import KernelData
+from tactile_torch.svm.solver import ProblemSet, solve_dual, solve_set
 from tests import reference_svm as ref
 
 
@@ -288,11 +286,6 @@ def test_scikit_learn_conventions_clone_grid_search_cross_val():
     search = GridSearchCV(HierarchicalSVC(random_state=0), {"C": [0.1, 10.0], "gamma": [0.05, "scale"]}, cv=3)
     search.fit(X, y)
     assert search.best_params_["C"] in (0.1, 10.0) and hasattr(search.best_estimator_, "tree_")
-
-
-@parametrize_with_checks([SVC(), HierarchicalSVC(random_state=0)])
-def test_scikit_learn_estimator_checks(estimator, check):
-    check(estimator)
 
 
 _X5, _y5 = make_blobs(200, centers=5, cluster_std=1.5, random_state=3)

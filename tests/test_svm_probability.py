@@ -11,7 +11,6 @@ from scipy.optimize import minimize
 from sklearn.base import clone
 from sklearn.datasets import make_blobs
 from sklearn.svm import SVC as LibSVC
-from sklearn.utils.estimator_checks import parametrize_with_checks
 
 from tactile_torch._onnx import export_onnx, run_onnx
 from tactile_torch.metrics import class_report
@@ -204,25 +203,3 @@ def test_class_report_prints_a_table_without_non_finite_numbers():
     assert lines[0].split() == ["class", "samples", "accuracy", "type", "I", "type", "II"]
     assert lines[3].split() == ["wool", "0", "n/a", "0.0000", "n/a"]  # absent from y_true
     assert lines[-1] == "overall accuracy 0.6667" and "nan" not in text
-
-
-_PROBA_DISAGREES = (
-    "predict_proba's sigmoids come from an internal cross-validation while predict keeps the decision "
-    "values (as in scikit-learn's SVC(probability=True)): the check's argmax(predict_proba) == predict fails "
-    "on a sample near a boundary (1 of 300 here); agreement is tested in "
-    "test_probabilities_are_distributions_close_to_the_decisions"
-)
-
-
-def _expected_failures(estimator) -> dict[str, str]:
-    if isinstance(estimator, HierarchicalSVC):
-        return {"check_classifiers_train": _PROBA_DISAGREES}
-    return {}
-
-
-@parametrize_with_checks(
-    [SVC(probability=True, random_state=0), HierarchicalSVC(probability=True, random_state=0)],
-    expected_failed_checks=_expected_failures,
-)
-def test_scikit_learn_estimator_checks_with_probability(estimator, check):
-    check(estimator)

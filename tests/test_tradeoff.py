@@ -1,4 +1,4 @@
-"""tactile_torch.tradeoff and tactile_torch.baselines: candidates, folds, parsimony rule, ONNX, command."""
+"""tactile_torch.tradeoff and tactile_torch.classifier_inference: candidates, folds, parsimony rule, ONNX, command."""
 
 import json
 
@@ -12,7 +12,7 @@ from sklearn.base import clone
 from sklearn.discriminant_analysis import LinearDiscriminantAnalysis
 from sklearn.neighbors import KNeighborsClassifier, NearestCentroid
 
-from tactile_torch.baselines import inference_module
+from tactile_torch.classifier_inference import inference_module
 from tactile_torch.cli import main
 from tactile_torch.data import make_vibration_recordings
 from tactile_torch.data.images import make_explorations

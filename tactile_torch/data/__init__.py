@@ -20,6 +20,8 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+from .._exports import lazy_exports
+
 SHARED_DATA_ENV = "TACTILE_TORCH_SHARED_DATA"
 
 
@@ -42,26 +44,18 @@ def shared_data_dir(name: str | None = None) -> Path | None:
     return None
 
 
-# Vibration recordings, imported on first use so that this package stays light to import.
-_LAZY = {
-    "VibrationRecordings": "vibration",
-    "VibrationWindows": "vibration",
-    "load_vibration_csv": "vibration",
-    "load_vibration_npz": "vibration",
-    "make_vibration_dataset": "stylus",
-    "make_vibration_recordings": "stylus",
-    "save_vibration_npz": "vibration",
-    "load_borealtc_imu": "recordings",
-    "load_hapmat_imu5": "recordings",
-}
-
-
-def __getattr__(name: str):
-    if name in _LAZY:
-        import importlib
-
-        return getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-__all__ = ["SHARED_DATA_ENV", "shared_data_dir", *_LAZY]
+__getattr__, __dir__, __all__ = lazy_exports(
+    __name__,
+    {
+        "vibration": (
+            "VibrationRecordings",
+            "VibrationWindows",
+            "load_vibration_csv",
+            "load_vibration_npz",
+            "save_vibration_npz",
+        ),
+        "stylus": ("make_vibration_dataset", "make_vibration_recordings"),
+        "recordings": ("load_borealtc_imu", "load_hapmat_imu5"),
+    },
+    defined=("SHARED_DATA_ENV", "shared_data_dir"),
+)

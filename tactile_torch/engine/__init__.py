@@ -24,6 +24,7 @@ parameters chosen per fold, and :meth:`CVResult.final_model` to refit the tuned 
 Examples
 --------
 >>> import numpy as np
+>>> from tactile_torch.engine import Tuning, cross_validate, make_folds
 >>> from sklearn.discriminant_analysis import LinearDiscriminantAnalysis
 >>> from sklearn.neighbors import KNeighborsClassifier
 >>> rng = np.random.default_rng(0)
@@ -40,39 +41,25 @@ Examples
 True
 """
 
-from ._crossval import CVResult, cross_validate
-from ._models import (
-    Folds,
-    Models,
-    inner_splits,
-    last_input,
-    make_folds,
-    needs_fit,
-    seed_of,
-    signature,
-    take,
-    with_params,
-)
-from ._tasks import BACKENDS, Backend, as_backend
-from ._tuning import PROTOCOLS, Tuning, tune
+from .._exports import lazy_exports
 
-__all__ = [
-    "BACKENDS",
-    "PROTOCOLS",
-    "Backend",
-    "CVResult",
-    "Folds",
-    "Models",
-    "Tuning",
-    "as_backend",
-    "cross_validate",
-    "inner_splits",
-    "last_input",
-    "make_folds",
-    "needs_fit",
-    "seed_of",
-    "signature",
-    "take",
-    "tune",
-    "with_params",
-]
+__getattr__, __dir__, __all__ = lazy_exports(
+    __name__,
+    {
+        "_crossval": ("CVResult", "cross_validate"),
+        "_models": (
+            "Folds",
+            "Models",
+            "inner_splits",
+            "last_input",
+            "make_folds",
+            "needs_fit",
+            "seed_of",
+            "signature",
+            "take",
+            "with_params",
+        ),
+        "_tasks": ("BACKENDS", "Backend", "as_backend"),
+        "_tuning": ("PROTOCOLS", "Tuning", "tune"),
+    },
+)

@@ -46,74 +46,50 @@ erosion a soft minimum ``-t * logsumexp(-x / t)`` over the window, the edges
 
 Examples
 --------
+>>> import torch
+>>> from tactile_torch.image import exploration_features
 >>> frames = torch.full((2, 5, 3, 32, 32), 255, dtype=torch.uint8)
 >>> frames[:, :, :, 8:24, 8:24] = 0                      # a pressed square in every frame
 >>> exploration_features(frames, erosion=3).shape
 torch.Size([2, 12])
 """
 
-from __future__ import annotations
+from .._exports import lazy_exports
 
-import torch  # noqa: F401  (the examples above use it)
-
-from ._constants import (
-    CHUNK_PIXELS,
-    DEFAULT_EDGE_THRESHOLD,
-    DEFAULT_EROSION,
-    DEFAULT_THRESHOLD,
-    FEATURE_NAMES,
-    GRAY_WEIGHTS,
-    HISTOGRAM_LEVELS,
-    STATISTICS,
+__getattr__, __dir__, __all__ = lazy_exports(
+    __name__,
+    {
+        "_constants": (
+            "CHUNK_PIXELS",
+            "DEFAULT_EDGE_THRESHOLD",
+            "DEFAULT_EROSION",
+            "DEFAULT_THRESHOLD",
+            "FEATURE_NAMES",
+            "GRAY_WEIGHTS",
+            "HISTOGRAM_LEVELS",
+            "STATISTICS",
+        ),
+        "_functional": (
+            "erode",
+            "exploration_features",
+            "fuse_edges",
+            "gradient",
+            "gradient_statistics",
+            "otsu_threshold",
+            "pressure_mask",
+            "sobel_edges",
+            "to_grayscale",
+        ),
+        "_modules": (
+            "Erode",
+            "ExplorationFeatures",
+            "FuseEdges",
+            "Gradient",
+            "GradientStatistics",
+            "PressureMask",
+            "SobelEdges",
+            "ToGrayscale",
+        ),
+        "_validation": ("Threshold",),
+    },
 )
-from ._functional import (
-    erode,
-    exploration_features,
-    fuse_edges,
-    gradient,
-    gradient_statistics,
-    otsu_threshold,
-    pressure_mask,
-    sobel_edges,
-    to_grayscale,
-)
-from ._modules import (
-    Erode,
-    ExplorationFeatures,
-    FuseEdges,
-    Gradient,
-    GradientStatistics,
-    PressureMask,
-    SobelEdges,
-    ToGrayscale,
-)
-from ._validation import Threshold
-
-__all__ = [
-    "CHUNK_PIXELS",
-    "DEFAULT_EDGE_THRESHOLD",
-    "DEFAULT_EROSION",
-    "DEFAULT_THRESHOLD",
-    "FEATURE_NAMES",
-    "GRAY_WEIGHTS",
-    "HISTOGRAM_LEVELS",
-    "STATISTICS",
-    "Erode",
-    "ExplorationFeatures",
-    "FuseEdges",
-    "Gradient",
-    "GradientStatistics",
-    "PressureMask",
-    "SobelEdges",
-    "Threshold",
-    "ToGrayscale",
-    "erode",
-    "exploration_features",
-    "fuse_edges",
-    "gradient",
-    "gradient_statistics",
-    "otsu_threshold",
-    "pressure_mask",
-    "sobel_edges",
-    "to_grayscale",
-]

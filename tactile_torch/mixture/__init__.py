@@ -3,7 +3,7 @@
 :class:`PitmanYorGMM` is the unsupervised half of method 2: an infinite Gaussian mixture
 (Rasmussen 2000) with a Pitman-Yor prior on the partition, sampled with Neal's (2000) algorithm 8
 plus split-merge moves (Jain & Neal 2007), several chains in parallel. The inner loop is compiled
-with numba (:mod:`tactile_torch._gibbs`): 10,000 sweeps over the study's 1,400 windows take seconds
+with numba (:mod:`tactile_torch.mixture._gibbs`): 10,000 sweeps over the study's 1,400 windows take seconds
 rather than hours.
 
 It reports the posterior of the number of components K (mode, median, interval), a point estimate of
@@ -23,63 +23,21 @@ others: the torch graph alone imports neither scikit-learn nor numba, and the co
 at the first ``fit`` of a process, not at import.
 """
 
-from __future__ import annotations
+from .._exports import lazy_exports
 
-import importlib
-from typing import TYPE_CHECKING
-
-_HOMES = {
-    "PitmanYorGMM": "_estimator",
-    "baseline_clusterings": "_baselines",
-    "ess_bulk": "_diagnostics",
-    "ess_tail": "_diagnostics",
-    "rhat": "_diagnostics",
-    "expected_loss": "_partition",
-    "minimize_expected_loss": "_partition",
-    "pitman_yor_prior_k": "_partition",
-    "posterior_similarity": "_partition",
-    "variation_of_information": "_partition",
-    "GaussianMixtureClassifier": "_inference",
-    "gaussian_mixture_scores": "_inference",
-}
-"""The module of the package that defines each public name."""
-
-if TYPE_CHECKING:
-    from ._baselines import baseline_clusterings
-    from ._diagnostics import ess_bulk, ess_tail, rhat
-    from ._estimator import PitmanYorGMM
-    from ._inference import GaussianMixtureClassifier, gaussian_mixture_scores
-    from ._partition import (
-        expected_loss,
-        minimize_expected_loss,
-        pitman_yor_prior_k,
-        posterior_similarity,
-        variation_of_information,
-    )
-
-
-def __getattr__(name: str):
-    home = _HOMES.get(name)
-    if home is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    return getattr(importlib.import_module(f"{__name__}.{home}"), name)
-
-
-def __dir__() -> list[str]:
-    return sorted({*globals(), *__all__})
-
-
-__all__ = [
-    "GaussianMixtureClassifier",
-    "PitmanYorGMM",
-    "baseline_clusterings",
-    "ess_bulk",
-    "ess_tail",
-    "expected_loss",
-    "gaussian_mixture_scores",
-    "minimize_expected_loss",
-    "pitman_yor_prior_k",
-    "posterior_similarity",
-    "rhat",
-    "variation_of_information",
-]
+__getattr__, __dir__, __all__ = lazy_exports(
+    __name__,
+    {
+        "_estimator": ("PitmanYorGMM",),
+        "_baselines": ("baseline_clusterings",),
+        "_diagnostics": ("ess_bulk", "ess_tail", "rhat"),
+        "_partition": (
+            "expected_loss",
+            "minimize_expected_loss",
+            "pitman_yor_prior_k",
+            "posterior_similarity",
+            "variation_of_information",
+        ),
+        "_inference": ("GaussianMixtureClassifier", "gaussian_mixture_scores"),
+    },
+)

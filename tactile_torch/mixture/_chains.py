@@ -1,6 +1,6 @@
 """The chains of a :class:`PitmanYorGMM` fit: run in parallel threads, with their traces and saved samples.
 
-Importing this module loads the compiled sampler (:mod:`tactile_torch._gibbs`); the estimator
+Importing this module loads the compiled sampler (:mod:`tactile_torch.mixture._gibbs`); the estimator
 imports it at its first fit, so that importing :mod:`tactile_torch.mixture` does not.
 """
 
@@ -11,7 +11,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from .. import _gibbs as g
+from . import _gibbs as g
 from ._diagnostics import RHAT_THRESHOLD, ess_bulk, rhat
 
 # n_iter="auto": first run, snapshot spacing (sweeps), and the targets.

@@ -10,10 +10,11 @@ from numbers import Integral, Real
 from typing import ClassVar
 
 import numpy as np
-from sklearn.base import BaseEstimator, ClusterMixin
-from sklearn.utils._param_validation import HasMethods, Interval, StrOptions
+from sklearn.base import BaseEstimator, ClusterMixin, _fit_context
+from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted, validate_data
 
+from .._constraints import RANDOM_STATE
 from ..robot.checks import numpy_rng
 from ._diagnostics import RHAT_THRESHOLD
 from ._mfm import coarsening_power, log_v
@@ -273,12 +274,7 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
         "thin": [Interval(Integral, 1, None, closed="left"), None],
         "point_estimate": [StrOptions({"vi", "binder", "map"})],
         "prior_only": ["boolean"],
-        "random_state": [
-            None,
-            Integral,
-            np.random.Generator,
-            HasMethods(["manual_seed", "initial_seed"]),
-        ],  # the last: torch.Generator
+        "random_state": RANDOM_STATE,
         "progress": ["boolean"],
     }
 
@@ -330,8 +326,7 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
     # validation
     # ------------------------------------------------------------------------------------------
     def _check_params(self) -> None:
-        """Validate the hyper-parameters from the table, then the two that constrain each other."""
-        self._validate_params()
+        """Validate the two hyper-parameters that constrain each other (the table is checked by ``fit``)."""
         limit, name = (self.max_iter, "max_iter") if self.n_iter == "auto" else (self.n_iter, "n_iter")
         if self.burn_in >= limit:
             raise ValueError(f"burn_in must be < {name}, got burn_in={self.burn_in}, {name}={limit}")
@@ -377,6 +372,7 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
     # ------------------------------------------------------------------------------------------
     # fit
     # ------------------------------------------------------------------------------------------
+    @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X: object, y: object = None) -> PitmanYorGMM:
         """Run the chains on ``X`` of shape (n_samples, n_features); return ``self``.
 
@@ -385,7 +381,7 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
         t_fit = time.perf_counter()
         self._check_params()
         # the compiled kernels load here, at the first fit of a process, not at import
-        from .. import _gibbs as g
+        from . import _gibbs as g
         from ._chains import (
             AUTO_EVERY,
             AUTO_FIRST,

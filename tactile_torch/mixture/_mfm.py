@@ -7,7 +7,7 @@ distribution is ``V_n(t) prod_c gamma^(n_c)`` (``t`` blocks, ``gamma^(m)`` the r
     V_n(t) = sum_{k >= t} k_(t) / (gamma k)^(n) p(k)          (k_(t) the falling factorial)
 
 so that its Gibbs sampler is the Chinese restaurant's with weights ``n_c + gamma`` (existing) and
-``gamma V_n(t + 1) / V_n(t)`` (new): :mod:`tactile_torch._gibbs` runs it with ``d = -gamma``.
+``gamma V_n(t + 1) / V_n(t)`` (new): :mod:`tactile_torch.mixture._gibbs` runs it with ``d = -gamma``.
 Unlike the Pitman-Yor process's, its posterior of the number of components is consistent when the
 model holds. Our prior on ``k`` is geometric on ``{1, 2, ...}`` with mean ``k_mean``.
 

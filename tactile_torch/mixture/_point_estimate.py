@@ -101,7 +101,7 @@ def partition_components(Xw, labels, map_state, cfg, rng, data_mean, data_scale,
     the prior predictive of a new component are drawn along the run. ``data_mean`` and
     ``data_scale`` map the whitened results back to the original coordinates.
     """
-    from .. import _gibbs as g
+    from . import _gibbs as g
 
     n, D = Xw.shape
     K = int(labels.max()) + 1

@@ -13,16 +13,14 @@
 docs/neural.md says what they are for and what they showed.
 """
 
-from .cutoff import LearnedCutoffClassifier
-from .estimators import ExplorationCNNClassifier, TaxelCNNClassifier, WindowCNNClassifier
-from .export import export_classifier
-from .front_end import LearnedFrontEndClassifier
+from .._exports import lazy_exports
 
-__all__ = [
-    "ExplorationCNNClassifier",
-    "LearnedCutoffClassifier",
-    "LearnedFrontEndClassifier",
-    "TaxelCNNClassifier",
-    "WindowCNNClassifier",
-    "export_classifier",
-]
+__getattr__, __dir__, __all__ = lazy_exports(
+    __name__,
+    {
+        "cutoff": ("LearnedCutoffClassifier",),
+        "estimators": ("ExplorationCNNClassifier", "TaxelCNNClassifier", "WindowCNNClassifier"),
+        "export": ("export_classifier",),
+        "front_end": ("LearnedFrontEndClassifier",),
+    },
+)

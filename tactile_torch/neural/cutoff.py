@@ -32,6 +32,7 @@ from sklearn.utils.validation import check_is_fitted
 from torch import nn
 
 from .._checks import numpy_rng, torch_generator
+from .._constraints import RANDOM_STATE
 from .front_end import HardFrontEndGraph, _fit_standardised_head, crammer_singer_loss
 
 HF_COLUMNS = (6, 13, 20)
@@ -109,7 +110,7 @@ class LearnedCutoffClassifier(ClassifierMixin, BaseEstimator):
         "learning_rate": [Interval(Real, 0, None, closed="neither")],
         "alpha": [Interval(Real, 0, None, closed="left")],
         "head_steps": [Interval(Integral, 1, None, closed="left")],
-        "random_state": ["random_state", torch.Generator],
+        "random_state": RANDOM_STATE,
     }
 
     def __init__(

@@ -41,6 +41,7 @@ from sklearn.utils.validation import check_is_fitted
 from torch import nn
 
 from .._checks import numpy_rng, torch_generator
+from .._constraints import RANDOM_STATE
 from .networks import (
     WINDOW_WIDTHS,
     ClassifierGraph,
@@ -64,7 +65,7 @@ class _NeuralClassifier(ClassifierMixin, BaseEstimator):
         "weight_decay": [Interval(Real, 0, None, closed="left")],
         "patience": [Interval(Integral, 1, None, closed="left")],
         "validation_fraction": [Interval(Real, 0, 1, closed="neither")],
-        "random_state": ["random_state", torch.Generator],
+        "random_state": RANDOM_STATE,
         "progress": ["boolean"],
     }
     _input_name = "X"

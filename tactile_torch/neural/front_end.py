@@ -40,6 +40,7 @@ from sklearn.utils.validation import check_is_fitted
 from torch import nn
 
 from .._checks import numpy_rng, torch_generator
+from .._constraints import RANDOM_STATE
 
 INITIAL_TEMPERATURES = (0.02, 0.05, 0.5)
 """Starting temperatures of the soft threshold (gray levels on the 0-1 scale), the soft erosion and the
@@ -203,7 +204,7 @@ class LearnedFrontEndClassifier(ClassifierMixin, BaseEstimator):
         "learning_rate": [Interval(Real, 0, None, closed="neither")],
         "alpha": [Interval(Real, 0, None, closed="left")],
         "head_steps": [Interval(Integral, 1, None, closed="left")],
-        "random_state": ["random_state", torch.Generator],
+        "random_state": RANDOM_STATE,
         "progress": ["boolean"],
     }
 

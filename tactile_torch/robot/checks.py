@@ -64,8 +64,8 @@ def check_positive(value: object, name: str, *, strict: bool = True, integer: bo
 def numpy_rng(random_state: object) -> np.random.Generator:
     """Return a ``numpy.random.Generator`` for an int seed, a numpy or torch generator, or ``None``.
 
-    A torch generator is consumed (one draw) to seed the numpy one, so the result stays a function of
-    the generator's state. ``None`` gives fresh OS entropy. torch is never imported here: a
+    A torch generator or a legacy ``numpy.random.RandomState`` is consumed (one draw) to seed the numpy
+    one, so the result stays a function of the generator's state. ``None`` gives fresh OS entropy. torch is never imported here: a
     ``torch.Generator`` can only come from a caller that already imported it.
     """
     if random_state is None or isinstance(random_state, numbers.Integral):
@@ -76,9 +76,11 @@ def numpy_rng(random_state: object) -> np.random.Generator:
     if torch is not None and isinstance(random_state, torch.Generator):
         seed = int(torch.randint(0, 2**62, (1,), generator=random_state))
         return np.random.default_rng(seed)
+    if isinstance(random_state, np.random.RandomState):  # scikit-learn's "random_state" allows it
+        return np.random.default_rng(int(random_state.randint(0, 2**31 - 1)))
     raise TypeError(
-        "random_state must be None, an int, a numpy.random.Generator or a torch.Generator, "
-        f"got {type(random_state).__name__}"
+        "random_state must be None, an int, a numpy.random.Generator, a numpy.random.RandomState or a "
+        f"torch.Generator, got {type(random_state).__name__}"
     )
 
 

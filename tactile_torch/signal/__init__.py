@@ -64,45 +64,34 @@ Degenerate and extreme windows
 
 Examples
 --------
+>>> import torch
+>>> from tactile_torch.signal import sliding_windows, window_features
 >>> rec = torch.randn(8000, 3)                  # 10 s of a triaxial recording at 800 Hz
 >>> window_features(sliding_windows(rec, 800, 400)).shape
 torch.Size([19, 21])
 """
 
-from __future__ import annotations
+from .._exports import lazy_exports
 
-import torch  # noqa: F401  (the examples above use it)
-
-from ._features import (
-    AXES,
-    AXIS_FEATURES,
-    CLUSTERING_FEATURE_NAMES,
-    FEATURE_NAMES,
-    N_THRESHOLDS,
-    WindowFeatures,
-    sliding_windows,
-    window_features,
+__getattr__, __dir__, __all__ = lazy_exports(
+    __name__,
+    {
+        "_features": (
+            "AXES",
+            "AXIS_FEATURES",
+            "CLUSTERING_FEATURE_NAMES",
+            "FEATURE_NAMES",
+            "N_THRESHOLDS",
+            "WindowFeatures",
+            "sliding_windows",
+            "window_features",
+        ),
+        "_transforms": (
+            "ClusteringProjection",
+            "ClusteringTransform",
+            "FeatureScaler",
+            "ScaleFeatures",
+            "clustering_features",
+        ),
+    },
 )
-from ._transforms import (
-    ClusteringProjection,
-    ClusteringTransform,
-    FeatureScaler,
-    ScaleFeatures,
-    clustering_features,
-)
-
-__all__ = [
-    "AXES",
-    "AXIS_FEATURES",
-    "CLUSTERING_FEATURE_NAMES",
-    "FEATURE_NAMES",
-    "N_THRESHOLDS",
-    "ClusteringProjection",
-    "ClusteringTransform",
-    "FeatureScaler",
-    "ScaleFeatures",
-    "WindowFeatures",
-    "clustering_features",
-    "sliding_windows",
-    "window_features",
-]

@@ -13,8 +13,8 @@ from sklearn.base import (
     ClassNamePrefixFeaturesOutMixin,
     OneToOneFeatureMixin,
     TransformerMixin,
+    _fit_context,
 )
-from sklearn.base import _fit_context as fit_context
 from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted, validate_data
 from torch import nn
@@ -175,7 +175,7 @@ class FeatureScaler(OneToOneFeatureMixin, TransformerMixin, BaseEstimator):
     def __init__(self, center: bool = False) -> None:
         self.center = center
 
-    @fit_context(prefer_skip_nested_validation=True)
+    @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X, y=None) -> FeatureScaler:
         """Fit the scale on ``X`` ``(n, F)``, ``n >= 2`` finite rows (tensor or array); return ``self``."""
         X, _ = _validate_features(self, X, reset=True)
@@ -323,7 +323,7 @@ class ClusteringTransform(ClassNamePrefixFeaturesOutMixin, TransformerMixin, Bas
         self.eps = eps
         self.features = features
 
-    @fit_context(prefer_skip_nested_validation=True)
+    @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X, y=None) -> ClusteringTransform:
         """Fit the standardisation and the PCA on ``X`` ``(n, 21)`` (or ``(n, D)``), ``n >= 2``; return
         ``self``."""

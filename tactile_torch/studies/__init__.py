@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from .._exports import lazy_exports
 from ..report import Report
 
 # Report order. Each entry is a module of this package with TITLE and run(section, ctx).
@@ -80,3 +81,6 @@ def run_report(
         section.text(f"_Section computed in {seconds:.1f} s._")
         log(f"[report] {module.TITLE}: {seconds:.1f} s")
     return report.write()
+
+
+__getattr__, __dir__, __all__ = lazy_exports(__name__, {}, defined=("STUDIES", "RunContext", "run_report"))

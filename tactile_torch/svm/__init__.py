@@ -26,27 +26,21 @@ R.-E. Fan, P.-H. Chen, C.-J. Lin, "Working set selection using second order info
 SVM", JMLR 6, 2005.
 """
 
-from .estimators import SVC, HierarchicalSVC
-from .inference import SVMInference, ovo_decisions, ovo_votes, path_scores, svm_margins, tree_descent
-from .kernels import KERNELS, KernelData, kernel_matrix, scale_gamma
-from .solver import DualSolution, solve_dual
-from .tree import TreeNode, split_classes
+from .._exports import lazy_exports
 
-__all__ = [
-    "KERNELS",
-    "SVC",
-    "DualSolution",
-    "HierarchicalSVC",
-    "KernelData",
-    "SVMInference",
-    "TreeNode",
-    "kernel_matrix",
-    "ovo_decisions",
-    "ovo_votes",
-    "path_scores",
-    "scale_gamma",
-    "solve_dual",
-    "split_classes",
-    "svm_margins",
-    "tree_descent",
-]
+__getattr__, __dir__, __all__ = lazy_exports(
+    __name__,
+    {
+        "estimators": ("SVC", "HierarchicalSVC"),
+        "inference": (
+            "SVMInference",
+            "ovo_decisions",
+            "ovo_votes",
+            "path_scores",
+            "svm_margins",
+            "tree_descent",
+        ),
+        "kernels": ("KERNELS", "kernel_matrix", "scale_gamma"),
+        "tree": ("TreeNode", "split_classes"),
+    },
+)

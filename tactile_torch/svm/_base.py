@@ -11,7 +11,7 @@ from typing import ClassVar
 
 import numpy as np
 import torch
-from sklearn.base import BaseEstimator, ClassifierMixin
+from sklearn.base import BaseEstimator, ClassifierMixin, _fit_context
 from sklearn.exceptions import ConvergenceWarning
 from sklearn.utils._available_if import available_if
 from sklearn.utils._param_validation import Interval, Options, StrOptions
@@ -19,6 +19,7 @@ from sklearn.utils.multiclass import check_classification_targets
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from .._checks import numpy_rng
+from .._constraints import RANDOM_STATE
 from . import _smo
 from .kernels import KERNELS, KernelData, scale_gamma
 from .probability import cross_val_decisions, platt_parameters
@@ -67,12 +68,7 @@ class _KernelMachine(ClassifierMixin, BaseEstimator):
         "max_iter": [Options(Integral, {-1}), Interval(Integral, 1, None, closed="left")],
         "probability": ["boolean"],
         "n_jobs": [None, Options(Integral, {-1}), Interval(Integral, 1, None, closed="left")],
-        "random_state": [
-            None,
-            Interval(Integral, 0, None, closed="left"),
-            np.random.Generator,
-            torch.Generator,
-        ],
+        "random_state": RANDOM_STATE,
     }
 
     # --- training -----------------------------------------------------------------------------
@@ -97,6 +93,7 @@ class _KernelMachine(ClassifierMixin, BaseEstimator):
             )
         return X, y_index.astype(np.int64)
 
+    @_fit_context(prefer_skip_nested_validation=True)
     def fit_path(
         self,
         X: object,
@@ -128,7 +125,18 @@ class _KernelMachine(ClassifierMixin, BaseEstimator):
         -------
         list of fitted estimators (copies of this one with ``C`` set), by increasing C.
         """
-        self._validate_params()
+        return self._fit_path(X, y, Cs, kernel_data=kernel_data, rows=rows)
+
+    def _fit_path(
+        self,
+        X: object,
+        y: object,
+        Cs: Sequence[float],
+        *,
+        kernel_data: KernelData | None = None,
+        rows: np.ndarray | None = None,
+    ) -> list:
+        """:meth:`fit_path` once the hyper-parameters are validated."""
         Cs = sorted(float(c) for c in Cs)
         if not Cs or Cs[0] <= 0:
             raise ValueError(f"Cs must list values of C > 0, got {Cs}")
@@ -185,6 +193,7 @@ class _KernelMachine(ClassifierMixin, BaseEstimator):
             if name.endswith("_") or name.startswith("_fitted"):
                 setattr(self, name, value)
 
+    @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X: object, y: object) -> _KernelMachine:
         """Fit on ``X`` (n_samples, n_features) and labels ``y`` (n_samples,); return ``self``.
 
@@ -193,7 +202,7 @@ class _KernelMachine(ClassifierMixin, BaseEstimator):
         samples and constant features are fine. Warns (``ConvergenceWarning``) if ``max_iter``
         stopped a binary problem early.
         """
-        (model,) = self.fit_path(X, y, [self.C])
+        (model,) = self._fit_path(X, y, [self.C])
         for name in ("probA_", "probB_"):  # from an earlier fit with probability=True
             self.__dict__.pop(name, None)
         self._copy_fitted(model)

@@ -14,35 +14,30 @@ Every candidate is a scikit-learn ``Pipeline`` that takes the raw input, with a 
 
 Examples
 --------
+>>> from tactile_torch.tradeoff import run_tradeoff, write_outputs                  # doctest: +SKIP
 >>> result = run_tradeoff("recordings.npz", quick=True, out_dir="runs/tradeoff")  # doctest: +SKIP
 >>> write_outputs(result, "runs/tradeoff")                                       # doctest: +SKIP
 >>> result.recommended                                                           # doctest: +SKIP
 'LDA | 21 features, W = 800'
 """
 
-from .candidates import CLASSIFIERS, Candidate, FeatureSet, build_candidates, feature_sets, make_classifier
-from .evaluation import CandidateResult
-from .inputs import Samples, TradeoffData, load_tradeoff_data
-from .output import summary_lines, write_outputs
-from .runner import TradeoffResult, run_tradeoff
-from .selection import fold_interval, one_standard_error_choice, pareto_front
+from .._exports import lazy_exports
 
-__all__ = [
-    "CLASSIFIERS",
-    "Candidate",
-    "CandidateResult",
-    "FeatureSet",
-    "Samples",
-    "TradeoffData",
-    "TradeoffResult",
-    "build_candidates",
-    "feature_sets",
-    "fold_interval",
-    "load_tradeoff_data",
-    "make_classifier",
-    "one_standard_error_choice",
-    "pareto_front",
-    "run_tradeoff",
-    "summary_lines",
-    "write_outputs",
-]
+__getattr__, __dir__, __all__ = lazy_exports(
+    __name__,
+    {
+        "candidates": (
+            "CLASSIFIERS",
+            "Candidate",
+            "FeatureRecipe",
+            "build_candidates",
+            "feature_sets",
+            "make_classifier",
+        ),
+        "evaluation": ("CandidateResult",),
+        "inputs": ("Samples", "TradeoffData", "load_tradeoff_data"),
+        "output": ("summary_lines", "write_outputs"),
+        "runner": ("TradeoffResult", "run_tradeoff"),
+        "selection": ("fold_interval", "one_standard_error_choice", "pareto_front"),
+    },
+)

@@ -91,8 +91,10 @@ def candidate_tuning(
 
 
 @dataclass(frozen=True)
-class FeatureSet:
-    """A way from one raw input to features.
+class FeatureRecipe:
+    """How one feature set of the study is made: the raw input it reads and the ``features`` step.
+
+    (Not the features themselves: those of a data file are a :class:`tactile_torch.training.FeatureSet`.)
 
     Attributes
     ----------
@@ -144,7 +146,7 @@ class Candidate:
     tuning: Tuning | None = None
 
 
-def build_pipeline(features: FeatureSet, classifier: str, random_state: int = 0) -> Pipeline:
+def build_pipeline(features: FeatureRecipe, classifier: str, random_state: int = 0) -> Pipeline:
     """Return the unfitted ``Pipeline`` of ``classifier`` (a catalogue key or name) on ``features``."""
     steps = [("features", features.make())]
     if features.select is not None:
@@ -166,7 +168,7 @@ def feature_sets(
     threshold: float | str = "auto",
     erosion: int | str = "relative",
     contact: str = "raises",
-) -> tuple[list[FeatureSet], list[str]]:
+) -> tuple[list[FeatureRecipe], list[str]]:
     """Return the feature sets for an input kind, the reference one first, and notes on what was left out.
 
     Parameters
@@ -187,16 +189,16 @@ def feature_sets(
     """
     top_k = QUICK_TOP_K if quick else TOP_K
     notes: list[str] = []
-    sets: list[FeatureSet] = []
+    sets: list[FeatureRecipe] = []
     if kind == "vibration":
         if not windows:
             raise ValueError("windows must list at least one window size for vibration data")
         ref = windows[0]
         for w in windows:
-            sets.append(FeatureSet(f"21 features, W = {w}", f"windows-{w}", WindowFeatureTransformer, 21))
+            sets.append(FeatureRecipe(f"21 features, W = {w}", f"windows-{w}", WindowFeatureTransformer, 21))
         for k in top_k:
             sets.append(
-                FeatureSet(
+                FeatureRecipe(
                     f"top {k} of 21, W = {ref}", f"windows-{ref}", WindowFeatureTransformer, k, select=k
                 )
             )
@@ -205,11 +207,11 @@ def feature_sets(
     if kind == "features":
         if n_features is None:
             raise ValueError("n_features is needed for a feature file")
-        sets.append(FeatureSet(f"all {n_features} features", "features", FeaturePassthrough, n_features))
+        sets.append(FeatureRecipe(f"all {n_features} features", "features", FeaturePassthrough, n_features))
         for k in top_k:
             if k < n_features:
                 sets.append(
-                    FeatureSet(f"top {k} of {n_features}", "features", FeaturePassthrough, k, select=k)
+                    FeatureRecipe(f"top {k} of {n_features}", "features", FeaturePassthrough, k, select=k)
                 )
         return sets, notes
     if kind not in ("image", "pressure"):
@@ -229,11 +231,11 @@ def feature_sets(
             )
 
     key = "frames" if kind == "image" else "pressure"
-    sets.append(FeatureSet("fused 12", key, image(True), 12))
-    sets.append(FeatureSet(f"per-frame {n_frames * 12}", key, image(False), n_frames * 12))
+    sets.append(FeatureRecipe("fused 12", key, image(True), 12))
+    sets.append(FeatureRecipe(f"per-frame {n_frames * 12}", key, image(False), n_frames * 12))
     taxels = height * width
     if taxels <= MAX_TAXELS and n_frames >= 2:
-        sets.append(FeatureSet(f"per-taxel {taxels * 7}", key, TaxelFeatureTransformer, taxels * 7))
+        sets.append(FeatureRecipe(f"per-taxel {taxels * 7}", key, TaxelFeatureTransformer, taxels * 7))
     else:
         why = f"{height} x {width} = {taxels} > {MAX_TAXELS}" if taxels > MAX_TAXELS else "a single frame"
         notes.append(f"per-taxel time-series features left out ({why})")
@@ -241,7 +243,7 @@ def feature_sets(
 
 
 def build_candidates(
-    sets: Sequence[FeatureSet],
+    sets: Sequence[FeatureRecipe],
     *,
     quick: bool = False,
     classifiers: Sequence[str] | None = None,
@@ -285,7 +287,7 @@ __all__ = [
     "CLASSIFIERS",
     "TOP_K",
     "Candidate",
-    "FeatureSet",
+    "FeatureRecipe",
     "build_candidates",
     "build_pipeline",
     "candidate_tuning",

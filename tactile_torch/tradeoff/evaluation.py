@@ -199,7 +199,7 @@ def _head_modules(model: Pipeline) -> list:
     """The fitted steps after ``features`` as torch modules: selection, standardisation, classifier.
 
     A learned candidate (:mod:`.learned`) has no such head: it is exported whole."""
-    from ..baselines import inference_module
+    from ..classifier_inference import inference_module
     from .export import Standardize, absorb_rbf_gamma, share_tree_depth
     from .transformers import ColumnSelect
 

@@ -27,9 +27,10 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import ClassVar
 
 import numpy as np
-from sklearn.base import BaseEstimator, TransformerMixin
+from sklearn.base import BaseEstimator, TransformerMixin, _fit_context
 from sklearn.pipeline import Pipeline
 
 from .. import catalogue
@@ -45,6 +46,9 @@ RAW_NAMES = {"windows": "raw window", "frames": "raw frames", "pressure": "raw m
 class RawInput(TransformerMixin, BaseEstimator):
     """The raw input unchanged (the ``features`` step of a learned candidate); nothing is learnt."""
 
+    _parameter_constraints: ClassVar[dict] = {}
+
+    @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X: object, y: object = None) -> RawInput:
         self.input_shape_ = tuple(np.shape(X)[1:])
         return self

@@ -32,11 +32,13 @@ their pressed level from the data's own distribution (:class:`PressureImageFeatu
 from __future__ import annotations
 
 import math
-import numbers
+from numbers import Integral, Real
+from typing import ClassVar
 
 import numpy as np
 import torch
-from sklearn.base import BaseEstimator, TransformerMixin
+from sklearn.base import BaseEstimator, TransformerMixin, _fit_context
+from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted
 from torch import nn
 
@@ -85,12 +87,12 @@ def _check_ndim(X: np.ndarray, ndim: int, layout: str, name: str = "X") -> None:
         raise ValueError(f"{name} must have shape {layout} with at least one sample, got {X.shape}")
 
 
+_EROSION = [Interval(Integral, 1, None, closed="left"), StrOptions({"relative"})]
+"""The ``erosion`` entry of the image transformers' constraint tables (pixels, or relative to the frame)."""
+
+
 def _resolve_erosion(erosion: object, height: int, width: int) -> int:
-    if erosion == "relative":
-        return relative_erosion(height, width)
-    if isinstance(erosion, bool) or not isinstance(erosion, numbers.Integral) or erosion < 1:
-        raise ValueError(f"erosion must be 'relative' or an integer >= 1 (pixels), got {erosion!r}")
-    return int(erosion)
+    return relative_erosion(height, width) if erosion == "relative" else int(erosion)
 
 
 class ImageFeatureTransformer(TransformerMixin, BaseEstimator):
@@ -113,6 +115,12 @@ class ImageFeatureTransformer(TransformerMixin, BaseEstimator):
     frame_shape_ : tuple (T, 3, H, W)
     """
 
+    _parameter_constraints: ClassVar[dict] = {
+        "fuse": ["boolean"],
+        "threshold": [Interval(Real, 0, 1, closed="right"), StrOptions({"otsu"})],
+        "erosion": _EROSION,
+    }
+
     def __init__(
         self, fuse: bool = True, threshold: float | str = DEFAULT_THRESHOLD, erosion: int | str = "relative"
     ):
@@ -127,6 +135,7 @@ class ImageFeatureTransformer(TransformerMixin, BaseEstimator):
         tags.requires_fit = self.threshold == "otsu"
         return tags
 
+    @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X: object, y: object = None) -> ImageFeatureTransformer:
         X = _as_array(X)
         _check_ndim(X, 5, "(N, T, 3, H, W)")
@@ -139,10 +148,8 @@ class ImageFeatureTransformer(TransformerMixin, BaseEstimator):
 
             gray = to_grayscale(torch.from_numpy(np.ascontiguousarray(X)))
             self.threshold_ = float(otsu_threshold(gray.reshape(1, -1))[0])
-        elif isinstance(self.threshold, numbers.Real) and 0 < self.threshold <= 1:
-            self.threshold_ = float(self.threshold)
         else:
-            raise ValueError(f"threshold must be a number in (0, 1] or 'otsu', got {self.threshold!r}")
+            self.threshold_ = float(self.threshold)
         return self
 
     def transform(self, X: object) -> np.ndarray:
@@ -262,6 +269,14 @@ class PressureImageFeatures(TransformerMixin, BaseEstimator):
         contact moves them.
     """
 
+    _parameter_constraints: ClassVar[dict] = {
+        "fuse": ["boolean"],
+        "threshold": [StrOptions(set(THRESHOLDS)), Interval(Real, 0, 1, closed="neither")],
+        "erosion": _EROSION,
+        "contact": [StrOptions(set(CONTACT))],
+        "upsample": [Interval(Integral, 1, None, closed="left"), StrOptions({"auto"})],
+    }
+
     def __init__(
         self,
         fuse: bool = True,
@@ -276,28 +291,12 @@ class PressureImageFeatures(TransformerMixin, BaseEstimator):
         self.contact = contact
         self.upsample = upsample
 
+    @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X: object, y: object = None) -> PressureImageFeatures:
         X = _as_array(X)
         _check_ndim(X, 4, "(N, T, H, W)")
-        if self.contact not in CONTACT:
-            raise ValueError(f"contact must be one of {CONTACT}, got {self.contact!r}")
         threshold = self.threshold
-        if threshold not in THRESHOLDS and not (
-            isinstance(threshold, numbers.Real) and not isinstance(threshold, bool) and 0 < threshold < 1
-        ):
-            raise ValueError(
-                f"threshold must be one of {THRESHOLDS} or a number in (0, 1), got {threshold!r}"
-            )
-        if self.upsample == "auto":
-            self.factor_ = display_factor(*X.shape[-2:])
-        elif (
-            isinstance(self.upsample, numbers.Integral)
-            and not isinstance(self.upsample, bool)
-            and self.upsample >= 1
-        ):
-            self.factor_ = int(self.upsample)
-        else:
-            raise ValueError(f"upsample must be 'auto' or an integer >= 1, got {self.upsample!r}")
+        self.factor_ = display_factor(*X.shape[-2:]) if self.upsample == "auto" else int(self.upsample)
         values = X.astype(np.float64).reshape(-1, *X.shape[2:])  # (N * T, H, W)
         dev = values - np.median(values, axis=0)
         spread = dev.std()
@@ -412,6 +411,9 @@ class TaxelFeatureTransformer(TransformerMixin, BaseEstimator):
         tags.requires_fit = False  # fit learns the input's shape only: features once for all folds
         return tags
 
+    _parameter_constraints: ClassVar[dict] = {}
+
+    @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X: object, y: object = None) -> TaxelFeatureTransformer:
         X = _as_array(X)
         if X.ndim not in (4, 5) or X.shape[0] == 0 or X.shape[1] < 2:
@@ -442,6 +444,9 @@ class WindowFeatureTransformer(TransformerMixin, BaseEstimator):
         tags.requires_fit = False  # fit learns the input's shape only: features once for all folds
         return tags
 
+    _parameter_constraints: ClassVar[dict] = {}
+
+    @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X: object, y: object = None) -> WindowFeatureTransformer:
         X = _as_array(X)
         _check_ndim(X, 3, "(N, 3, W)")
@@ -466,6 +471,9 @@ class FeaturePassthrough(TransformerMixin, BaseEstimator):
         tags.requires_fit = False  # fit learns the input's shape only: features once for all folds
         return tags
 
+    _parameter_constraints: ClassVar[dict] = {}
+
+    @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X: object, y: object = None) -> FeaturePassthrough:
         X = _as_array(X)
         _check_ndim(X, 2, "(N, F)")
@@ -534,17 +542,16 @@ class RankedFeatureSelector(TransformerMixin, BaseEstimator):
         The kept columns, best first.
     """
 
+    _parameter_constraints: ClassVar[dict] = {"k": [Interval(Integral, 1, None, closed="left")]}
+
     def __init__(self, k: int = 7):
         self.k = k
 
+    @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X: object, y: object) -> RankedFeatureSelector:
         X = np.asarray(_as_array(X), dtype=np.float64)
         _check_ndim(X, 2, "(N, F)")
-        if (
-            isinstance(self.k, bool)
-            or not isinstance(self.k, numbers.Integral)
-            or not 1 <= self.k <= X.shape[1]
-        ):
+        if self.k > X.shape[1]:  # the table checked that k is an integer >= 1
             raise ValueError(
                 f"k must be an integer in [1, {X.shape[1]}] (the number of features), got {self.k!r}"
             )

@@ -1,7 +1,7 @@
 """Small dense linear algebra on D x D matrices for the Gibbs kernels, and the numba types they share.
 
 D is small (3 in the study): plain loops beat the overhead of a LAPACK call. The entry kernels of the
-package (:func:`tactile_torch._gibbs.chain.run_sweeps`, ``init_components``) are compiled eagerly for
+package (:func:`tactile_torch.mixture._gibbs.chain.run_sweeps`, ``init_components``) are compiled eagerly for
 the exact types below and cached on disk; the helpers here and in the sibling modules carry no
 signature and are compiled into them, so that importing the package loads a handful of cache
 entries instead of one per helper (what made the start-up slow).

@@ -1,6 +1,6 @@
-"""The sensor models of tactile_torch.noise added for the breaking points, against NumPy/SciPy references.
+"""The sensor limits of tactile_torch.sensor_limits (breaking points), against NumPy/SciPy references.
 
-(``awgn`` and ``gaussian_image_noise`` are tested in ``test_noise_metrics.py``.)
+(The random noise of ``tactile_torch.noise`` is tested in ``test_noise_metrics.py``.)
 """
 
 import numpy as np
@@ -10,11 +10,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.signal import resample_poly
 
-from tactile_torch.noise import (
+from tactile_torch.sensor_limits import (
     coarsen_grid,
     crop_windows,
     downsample,
-    gaussian_noise,
     keep_frames,
     quantize,
     saturate,
@@ -53,26 +52,9 @@ def test_quantize_and_saturate_match_numpy():
     assert quantize(t32, 0.1).dtype == torch.float32
 
 
-def test_gaussian_noise_moments_determinism_and_zero():
-    x = torch.zeros(50, 3, 2000, dtype=torch.float64)
-    noisy = gaussian_noise(x, 0.02, generator=1)
-    assert noisy.std().item() == pytest.approx(0.02, rel=0.01)
-    assert abs(noisy.mean().item()) < 1e-4
-    assert torch.equal(noisy, gaussian_noise(x, 0.02, generator=1))
-    assert not torch.equal(noisy, gaussian_noise(x, 0.02, generator=2))
-    assert torch.equal(gaussian_noise(x + 1.0, 0.0, generator=0), x + 1.0)
-
-
 @pytest.mark.parametrize(
     ("call", "err", "match"),
     [
-        (lambda: gaussian_noise(np.zeros(3), 0.1), TypeError, "x must be a torch.Tensor"),
-        (
-            lambda: gaussian_noise(torch.zeros(3), -0.1),
-            ValueError,
-            "std must be a finite standard deviation >= 0",
-        ),
-        (lambda: gaussian_noise(torch.tensor([float("nan")]), 0.1), ValueError, "x must be finite"),
         (lambda: quantize(torch.zeros(3), 0.0), ValueError, "step must be a finite quantisation step > 0"),
         (lambda: quantize(torch.zeros(3, dtype=torch.int64), 1.0), TypeError, "floating dtype"),
         (lambda: saturate(torch.zeros(3), float("inf")), ValueError, "limit must be a finite range > 0"),

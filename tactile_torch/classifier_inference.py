@@ -1,4 +1,4 @@
-"""Inference modules of the scikit-learn baselines (LDA, kNN, nearest class mean), for ONNX export.
+"""Torch inference graphs of fitted classifiers (LDA, kNN, nearest class mean, the SVMs), for ONNX export.
 
 The SVMs of :mod:`tactile_torch.svm` carry their own torch inference path (``to_module()``); the
 baselines the studies compare them with are scikit-learn's estimators, which have none. This module
