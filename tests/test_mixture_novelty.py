@@ -107,7 +107,7 @@ def test_novelty_arguments_are_checked(fitted):
 
 @pytest.mark.slow
 def test_novelty_study_reports_every_rule_on_the_bundled_data():
-    from tactile_torch.studies.clustering import have_vibration_features
+    from tactile_torch.studies.clustering_experiments import have_vibration_features
     from tactile_torch.studies.novelty import RULES, SHIPPED, novelty_rows
 
     if not have_vibration_features():
