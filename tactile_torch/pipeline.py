@@ -58,6 +58,7 @@ from .robot.contract import (
     INPUT_NAME,
     INPUT_SHAPE_KEY,
     LABELS_OUTPUT,
+    NOVELTY_THRESHOLDS_KEY,
     PIPELINE_KEY,
     QUANTILE_KEY,
     RANGE_METADATA_KEY,
@@ -324,6 +325,7 @@ def _clustering_pipeline(model: ModelFile, sensor_range_g: float | None) -> Infe
         novelty_means=state.get("novelty_means"),
         novelty_precisions_cholesky=state.get("novelty_precisions_cholesky"),
         novelty_log_weight=float(state.get("novelty_log_weight", 0.0)),
+        novelty_thresholds=state.get("novelty_thresholds"),
     )
     source = model.source
     modules, shape, layout, meta = _front_end(source, sensor_range_g)
@@ -336,6 +338,8 @@ def _clustering_pipeline(model: ModelFile, sensor_range_g: float | None) -> Infe
             ClusteringProjection(fitted["mean_"], fitted["scale_"], fitted["components_"], eps=spec["eps"])
         )
     meta["method"] = "pyp"
+    if head.novelty_thresholds.shape[0]:  # calibrated: thresholds of the mean novelty over N windows
+        meta[NOVELTY_THRESHOLDS_KEY] = [float(t) for t in head.novelty_thresholds]
     k = int(np.asarray(state["means"]).shape[0])
     ks = model.header.get("k_summary")
     meta["k_exported"] = f"K = {k} components: the point estimate of the clustering" + (

@@ -122,7 +122,10 @@ def test_point_estimate_components_match_scipy_and_the_torch_graph():
     np.testing.assert_allclose(s.numpy(), comps, rtol=1e-10)
     # novelty of the graph (float64) = predict(using="point") == -1
     far = np.concatenate([Xt, [[40.0, -40.0], [60.0, 60.0]]])
-    labels, _, novel = model.to_module().double()(torch.as_tensor(far))
+    labels, _, novel, score = model.to_module().double()(torch.as_tensor(far))
+    np.testing.assert_allclose(
+        score.numpy(), model.novelty_score(far), rtol=1e-6, atol=1e-5
+    )  # float32 buffers
     point = model.predict(far, using="point")
     np.testing.assert_array_equal(novel.numpy(), point == -1)
     np.testing.assert_array_equal(labels.numpy()[point >= 0], point[point >= 0])
@@ -296,8 +299,8 @@ def test_map_component_module_exports_to_onnx(tmp_path):
     x = torch.as_tensor(
         np.concatenate([X[:15], [[50.0, 50.0, 50.0], [-60.0, 0.0, 0.0]]]), dtype=torch.float32
     )
-    labels, log_resp, novel = run_onnx(path, x)  # batch 17, exported with 2
-    want_labels, want_log_resp, want_novel = module(x)
+    labels, log_resp, novel, _ = run_onnx(path, x)  # batch 17, exported with 2
+    want_labels, want_log_resp, want_novel, _ = module(x)
     np.testing.assert_array_equal(labels, want_labels.numpy())
     np.testing.assert_array_equal(novel, want_novel.numpy())
     np.testing.assert_array_equal(labels[:15], model.predict(X[:15], using="point"))

@@ -189,3 +189,57 @@ def run_chains_until(
     finally:
         bar.close()
     return runs, np.concatenate(saved)
+
+
+def chain_attributes(
+    runs: list[dict], snap_sweeps: np.ndarray, burn_in: int, fit_alpha: bool, fit_d: bool
+) -> dict[str, object]:
+    """Return the fitted attributes that summarise the chains: traces, post-burn-in samples, diagnostics, the MAP sample.
+
+    Keys are the estimator's attribute names (``trace_``, ``n_clusters_samples_``, ...,
+    ``convergence_``, ``map_labels_``, ...; ``_burn_in`` and ``_map_state`` for its own use).
+    ``fit_alpha`` / ``fit_d``: whether alpha and d were sampled (their R-hat is then reported).
+    """
+    from ._diagnostics import convergence_table
+
+    out: dict[str, object] = {}
+    trace = np.stack([r["trace"] for r in runs])  # (chains, n_iter, 5)
+    out["trace_"] = traces = {k: trace[:, :, c].copy() for c, k in enumerate(g.TRACE_NAMES)}
+    traces["n_clusters"] = traces["n_clusters"].astype(np.int64)
+    post = {k: v[:, burn_in:] for k, v in traces.items()}
+    out["n_clusters_samples_"] = post["n_clusters"].ravel()
+    out["alpha_samples_"] = post["alpha"].ravel()
+    out["discount_samples_"] = post["discount"].ravel()
+    out["beta_samples_"] = post["beta"].ravel()
+    out["log_posterior_samples_"] = post["log_posterior"].ravel()
+    out["labels_samples_"] = np.stack([r["labels"] for r in runs])
+    out["labels_sweeps_"] = snap_sweeps
+    out["_burn_in"] = burn_in
+    counters = np.sum([r["counters"] for r in runs], axis=0)
+    out["split_merge_stats_"] = {
+        "split_proposed": int(counters[g.SPLIT_PROPOSED]),
+        "split_accepted": int(counters[g.SPLIT_ACCEPTED]),
+        "merge_proposed": int(counters[g.MERGE_PROPOSED]),
+        "merge_accepted": int(counters[g.MERGE_ACCEPTED]),
+    }
+    chains = {"K": post["n_clusters"]}
+    if fit_alpha:
+        chains["alpha"] = post["alpha"]
+    if fit_d:
+        chains["d"] = post["discount"]
+    out["convergence_"] = convergence_table(chains)
+    # the MAP sample over all chains
+    c = int(np.argmax([r["best_val"] for r in runs]))
+    best = runs[c]["best"]
+    K = int(best.ist[0])
+    slots = best.act[:K]
+    order = np.argsort(-best.cnt[slots], kind="stable")
+    relabel = np.full(best.cnt.shape[0], -1, dtype=np.int64)
+    relabel[slots[order]] = np.arange(K)
+    out["map_labels_"] = relabel[best.z]
+    out["map_n_clusters_"] = K
+    out["map_chain_"] = c
+    out["map_sweep_"] = int(burn_in + np.argmax(post["log_posterior"][c]))
+    out["map_log_posterior_"] = float(runs[c]["best_val"])
+    out["_map_state"] = best
+    return out

@@ -16,22 +16,15 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 
 from .._constraints import RANDOM_STATE
 from ..robot.checks import numpy_rng
-from ._diagnostics import RHAT_THRESHOLD, convergence_table
+from ._diagnostics import RHAT_THRESHOLD
 from ._mfm import coarsening_power, log_v
 from ._point_estimate import choose_partition, partition_components
-from ._predictive import normalise, pack_predictive, point_scores, posterior_predictive
+from ._predict_mixin import PredictionMixin, _as_array
+from ._predictive import pack_predictive
 from ._summaries import n_clusters_posterior, n_clusters_summary, summary_text
 
 # Floor on the eigenvalues of the hyperparameter W (whitened units; see the class docstring).
 W_FLOOR = 1e-10
-# Rows further than this from the data mean (whitened units) are novel by definition (prediction).
-_BEYOND = 1e100
-
-
-def _as_array(X: object) -> object:
-    if type(X).__module__.startswith("torch"):
-        return X.detach().cpu().numpy()
-    return X
 
 
 def _whitening(X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -50,7 +43,7 @@ def _whitening(X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return mean, np.linalg.cholesky(cov + 1e-9 * level * np.eye(D))
 
 
-class PitmanYorGMM(ClusterMixin, BaseEstimator):
+class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
     """Pitman-Yor process mixture of Gaussians (infinite GMM) fitted by Gibbs sampling, several chains.
 
     **Model.** Data are first whitened: ``z = A^{-1}(x - m)`` with ``m`` the data mean and
@@ -108,6 +101,11 @@ class PitmanYorGMM(ClusterMixin, BaseEstimator):
     component's training points in each cluster. A point is *novel* (label -1 in :meth:`predict`)
     when the probability of a new component exceeds that of every cluster. ``using="point"``
     computes the same from the point estimate's components alone, as the exported graph does.
+    :meth:`calibrate_novelty` replaces the point estimate's rule by a threshold on the
+    :meth:`novelty_score` (minus the log density under the point estimate's mixture), one per
+    number of consecutive windows averaged (:meth:`novel_after`, ``tactile-torch stream --discover
+    N``): quantiles of the scores of windows of known surfaces, so that the false-alarm rate is set
+    on those windows rather than hoped for.
 
     Parameters
     ----------
@@ -206,6 +204,10 @@ class PitmanYorGMM(ClusterMixin, BaseEstimator):
         joins component k, given that it joins an existing one.
     novelty_weight_ : float
         ``(alpha + d K) / (n + alpha)``: the prior probability that a new point opens a new component.
+    novelty_thresholds_ : ndarray of shape (N,) or None
+        Threshold of the mean :meth:`novelty_score` over N = 1, 2, ... windows, set by
+        :meth:`calibrate_novelty` from windows of known surfaces; None until then (the model's own
+        rule: a new component more probable than every cluster).
     alpha_, discount_ : float
         Posterior means given the point estimate.
     n_clusters_samples_, alpha_samples_, discount_samples_, beta_samples_, log_posterior_samples_ : ndarray
@@ -383,6 +385,7 @@ class PitmanYorGMM(ClusterMixin, BaseEstimator):
         from ._chains import (
             AUTO_EVERY,
             AUTO_FIRST,
+            chain_attributes,
             keep_after_burn_in,
             run_chains,
             run_chains_until,
@@ -452,7 +455,10 @@ class PitmanYorGMM(ClusterMixin, BaseEstimator):
         self.n_features_in_ = D
         self.data_mean_, self.data_scale_ = mean, scale
         self.n_iter_ = n_iter
-        self._store_chains(runs, snap_sweeps, burn_in, n)
+        for name, value in chain_attributes(
+            runs, snap_sweeps, burn_in, self.alpha is None and not mfm, self.discount is None and not mfm
+        ).items():
+            setattr(self, name, value)
         self._store_point_estimate(Xw, runs, cfg, rng)
         self._pred = pack_predictive(
             runs, snap_sweeps, burn_in, n, self.labels_, rng, float(self.k_prior_mean)
@@ -476,49 +482,6 @@ class PitmanYorGMM(ClusterMixin, BaseEstimator):
             )
         return self
 
-    def _store_chains(self, runs: list[dict], snap_sweeps: np.ndarray, burn_in: int, n: int) -> None:
-        from . import _gibbs as g
-
-        trace = np.stack([r["trace"] for r in runs])  # (chains, n_iter, 5)
-        self.trace_ = {k: trace[:, :, c].copy() for c, k in enumerate(g.TRACE_NAMES)}
-        self.trace_["n_clusters"] = self.trace_["n_clusters"].astype(np.int64)
-        post = {k: v[:, burn_in:] for k, v in self.trace_.items()}
-        self.n_clusters_samples_ = post["n_clusters"].ravel()
-        self.alpha_samples_ = post["alpha"].ravel()
-        self.discount_samples_ = post["discount"].ravel()
-        self.beta_samples_ = post["beta"].ravel()
-        self.log_posterior_samples_ = post["log_posterior"].ravel()
-        self.labels_samples_ = np.stack([r["labels"] for r in runs])
-        self.labels_sweeps_ = snap_sweeps
-        self._burn_in = burn_in
-        counters = np.sum([r["counters"] for r in runs], axis=0)
-        self.split_merge_stats_ = {
-            "split_proposed": int(counters[g.SPLIT_PROPOSED]),
-            "split_accepted": int(counters[g.SPLIT_ACCEPTED]),
-            "merge_proposed": int(counters[g.MERGE_PROPOSED]),
-            "merge_accepted": int(counters[g.MERGE_ACCEPTED]),
-        }
-        chains = {"K": post["n_clusters"]}
-        if self.alpha is None and self.model == "pyp":
-            chains["alpha"] = post["alpha"]
-        if self.discount is None and self.model == "pyp":
-            chains["d"] = post["discount"]
-        self.convergence_ = convergence_table(chains)
-        # the MAP sample over all chains
-        c = int(np.argmax([r["best_val"] for r in runs]))
-        best = runs[c]["best"]
-        K = int(best.ist[0])
-        slots = best.act[:K]
-        order = np.argsort(-best.cnt[slots], kind="stable")
-        relabel = np.full(best.cnt.shape[0], -1, dtype=np.int64)
-        relabel[slots[order]] = np.arange(K)
-        self.map_labels_ = relabel[best.z]
-        self.map_n_clusters_ = K
-        self.map_chain_ = c
-        self.map_sweep_ = int(burn_in + np.argmax(post["log_posterior"][c]))
-        self.map_log_posterior_ = float(runs[c]["best_val"])
-        self._map_state = best
-
     def _saved_partitions(self) -> np.ndarray:
         """Post-burn-in saved partitions of every chain, (n_saved_total, n) int64."""
         keep = self.labels_sweeps_ >= self._burn_in
@@ -540,74 +503,7 @@ class PitmanYorGMM(ClusterMixin, BaseEstimator):
         self.means_, self.covariances_ = c.means, c.covariances
         self.precisions_cholesky_ = c.precisions_cholesky
         self._components = c
-
-    # ------------------------------------------------------------------------------------------
-    # prediction
-    # ------------------------------------------------------------------------------------------
-    def _whiten(self, X: object) -> np.ndarray:
-        check_is_fitted(self)
-        X = validate_data(self, _as_array(X), dtype=np.float64, reset=False)
-        return np.linalg.solve(self.data_scale_, (X - self.data_mean_).T).T
-
-    def _cluster_and_new(self, X: object, using: str) -> tuple[np.ndarray, np.ndarray]:
-        """(n, K) log probability of joining each cluster and (n,) of a new component.
-
-        A row more than ``_BEYOND`` whitened units from the data mean (where every Gaussian log
-        density overflows the float range) is novel by definition: log P(new) = 0, the clusters
-        equally likely.
-        """
-        if using not in ("samples", "point"):
-            raise ValueError(f"using must be 'samples' or 'point', got {using!r}")
-        Z = self._whiten(X)
-        beyond = np.abs(Z).max(axis=1) > _BEYOND
-        if using == "samples":
-            log_joint, log_new = posterior_predictive(Z, self._pred, self.n_clusters_)
-        else:
-            log_joint, log_new = normalise(*self._point_scores(X))
-        log_joint[beyond] = -math.log(self.n_clusters_)
-        log_new[beyond] = 0.0
-        return log_joint, log_new
-
-    def _point_scores(self, X: object) -> tuple[np.ndarray, np.ndarray]:
-        check_is_fitted(self)
-        return point_scores(
-            validate_data(self, _as_array(X), dtype=np.float64, reset=False), self._components
-        )
-
-    def predict(self, X: object, *, using: str = "samples") -> np.ndarray:
-        """Return the cluster (0 … K-1) of every row of ``X`` (n, D), or -1 where it is novel; shape (n,).
-
-        ``using="samples"``: the posterior predictive averaged over saved partitions (default);
-        ``"point"``: the point estimate's components, as in the exported graph. A row is novel when
-        the probability of a new component exceeds that of every cluster; a row more than 1e100
-        whitened units from the data is novel by definition.
-        """
-        joint, new = self._cluster_and_new(X, using)
-        labels = np.argmax(joint, axis=1)
-        labels[new > joint.max(axis=1)] = -1
-        return labels
-
-    def predict_proba(self, X: object, *, using: str = "samples") -> np.ndarray:
-        """Return the probability of each cluster for every row of ``X``, given that it joins one: (n, K), rows sum to 1."""
-        from scipy.special import softmax
-
-        log_joint, _ = self._cluster_and_new(X, using)
-        return softmax(log_joint, axis=1)  # log space: finite for every finite row (see LOG_FLOOR)
-
-    def novelty_proba(self, X: object, *, using: str = "samples") -> np.ndarray:
-        """Return the probability that each row of ``X`` opens a new component (a new surface), shape (n,)."""
-        return np.exp(self._cluster_and_new(X, using)[1])
-
-    def score_samples(self, X: object) -> np.ndarray:
-        """Return the log density of every row of ``X`` under the point estimate's mixture (``weights_``), shape (n,).
-
-        Finite for every finite row: a density below ``exp(-1.8e308)`` (a point ~1e154 standard
-        deviations from every component) is reported as ``-1.8e308``.
-        """
-        from ._predictive import LOG_FLOOR
-
-        known, _ = self._point_scores(X)
-        return np.maximum(np.logaddexp.reduce(known - math.log(1 - self.novelty_weight_), axis=1), LOG_FLOOR)
+        self.novelty_thresholds_ = None  # the model's own rule until calibrate_novelty
 
     def fit_predict(self, X: object, y: object = None) -> np.ndarray:
         """Fit and return ``labels_`` (the point estimate of the training points' partition)."""
@@ -634,14 +530,16 @@ class PitmanYorGMM(ClusterMixin, BaseEstimator):
         return summary_text(self)
 
     def to_module(self):
-        """Return the point estimate's mixture as a torch module ``features (B, D) -> (labels, log_resp, novel)``.
+        """Return the point estimate's mixture as a torch module ``features (B, D) -> (labels, log_resp, novel, novelty)``.
 
-        Components: ``means_``, ``precisions_cholesky_``, ``log(weights_)``. Novelty: a row is novel
-        when ``log novelty_weight_ + log p_new(x)`` exceeds ``log((1 - novelty_weight_) w_k) + log
-        N(x | k)`` for every k, with ``p_new`` the prior predictive density of a new component
-        approximated by an equal mixture of 64 Gaussians ``N(xi, S^{-1} + R^{-1})`` (``S`` drawn from
-        its prior, hyperparameters from the fixed-partition run): exactly :meth:`predict` with
-        ``using="point"``.
+        Components: ``means_``, ``precisions_cholesky_``, ``log(weights_)``. ``novelty`` is
+        :meth:`novelty_score` (minus the log density). ``novel``: once :meth:`calibrate_novelty` has
+        run, ``novelty > novelty_thresholds_[0]`` (the thresholds travel as a buffer); before, a
+        row is novel when ``log novelty_weight_ + log p_new(x)`` exceeds ``log((1 -
+        novelty_weight_) w_k) + log N(x | k)`` for every k, with ``p_new`` the prior predictive
+        density of a new component approximated by an equal mixture of 64 Gaussians ``N(xi, S^{-1}
+        + R^{-1})`` (``S`` drawn from its prior, hyperparameters from the fixed-partition run).
+        Either way exactly :meth:`predict` with ``using="point"``.
         """
         check_is_fitted(self)
         from ._inference import GaussianMixtureClassifier
@@ -653,4 +551,5 @@ class PitmanYorGMM(ClusterMixin, BaseEstimator):
             novelty_means=self._components.novelty_means,
             novelty_precisions_cholesky=self._components.novelty_precisions_cholesky,
             novelty_log_weight=math.log(self.novelty_weight_) - math.log(1.0 - self.novelty_weight_),
+            novelty_thresholds=self.novelty_thresholds_,
         )

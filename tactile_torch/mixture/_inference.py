@@ -7,7 +7,7 @@ import math
 import numpy as np
 import torch
 
-from ..robot.contract import LABELS_OUTPUT, NOVEL_OUTPUT, SCORES_OUTPUT
+from ..robot.contract import LABELS_OUTPUT, NOVEL_OUTPUT, NOVELTY_SCORE_OUTPUT, SCORES_OUTPUT
 
 
 def gaussian_mixture_scores(
@@ -39,21 +39,26 @@ def gaussian_mixture_scores(
 
 
 class GaussianMixtureClassifier(torch.nn.Module):
-    """Most likely component, and novelty: ``x (B, D) -> (labels (B,), log_resp (B, K), novel (B,))``.
+    """Most likely component, and novelty: ``x (B, D) -> (labels (B,), log_resp (B, K), novel (B,), novelty (B,))``.
 
     Holds ``means`` (K, D), ``precisions_cholesky`` (K, D, D) and ``log_weights`` (K,) as buffers
     (float32 by default) and calls :func:`gaussian_mixture_scores`; exports to ONNX with a dynamic
     batch. ``log_resp`` are the log responsibilities over the K components (rows log-sum-exp to 0).
 
-    ``novel`` is True where a *new* component explains the row better than every existing one: the
-    score of the new component is ``novelty_log_weight + log mean_m N(x | novelty_means[m],
-    (U_m U_m^T)^{-1})``, a Monte Carlo form of the prior predictive density of a new component (see
+    ``novelty`` is minus the row's log density under the mixture (``-logsumexp`` of the scores).
+    ``novel``: with calibrated thresholds (``novelty_thresholds`` (N,), the thresholds of the mean
+    ``novelty`` over N = 1, 2, ... windows; see
+    :meth:`~tactile_torch.mixture.PitmanYorGMM.calibrate_novelty`), ``novelty >
+    novelty_thresholds[0]``; without (shape (0,)), the model's own rule: True where a *new*
+    component explains the row better than every existing one, the score of the new component
+    being ``novelty_log_weight + log mean_m N(x | novelty_means[m], (U_m U_m^T)^{-1})``, a Monte
+    Carlo form of the prior predictive density of a new component (see
     :meth:`tactile_torch.mixture.PitmanYorGMM.to_module`). Without novelty buffers (``M = 0``)
-    ``novel`` is all False.
+    and thresholds, ``novel`` is all False.
     """
 
-    output_names = (LABELS_OUTPUT, SCORES_OUTPUT, NOVEL_OUTPUT)
-    """Names of the three outputs in an exported graph."""
+    output_names = (LABELS_OUTPUT, SCORES_OUTPUT, NOVEL_OUTPUT, NOVELTY_SCORE_OUTPUT)
+    """Names of the four outputs in an exported graph."""
 
     def __init__(
         self,
@@ -63,6 +68,7 @@ class GaussianMixtureClassifier(torch.nn.Module):
         novelty_means: object | None = None,
         novelty_precisions_cholesky: object | None = None,
         novelty_log_weight: float = 0.0,
+        novelty_thresholds: object | None = None,
         dtype: torch.dtype = torch.float32,
     ) -> None:
         super().__init__()
@@ -78,13 +84,18 @@ class GaussianMixtureClassifier(torch.nn.Module):
         buffer("novelty_means", novelty_means, (0, D))
         buffer("novelty_precisions_cholesky", novelty_precisions_cholesky, (0, D, D))
         self.register_buffer("novelty_log_weight", torch.tensor(float(novelty_log_weight), dtype=dtype))
+        thresholds = np.zeros(0) if novelty_thresholds is None else np.asarray(novelty_thresholds).ravel()
+        self.register_buffer("novelty_thresholds", torch.as_tensor(thresholds, dtype=dtype))
 
-    def forward(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    def forward(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
         scores = gaussian_mixture_scores(x, self.means, self.precisions_cholesky, self.log_weights)
         best = scores.max(dim=-1).values
         log_resp = scores - torch.logsumexp(scores, dim=-1, keepdim=True)
+        novelty = -torch.logsumexp(scores, dim=-1)
         m = self.novelty_means.shape[0]
-        if m:
+        if self.novelty_thresholds.shape[0]:  # calibrated: the threshold of one window
+            novel = novelty > self.novelty_thresholds[0]
+        elif m:  # the model's own rule: a new component more probable than every known one
             new = gaussian_mixture_scores(
                 x,
                 self.novelty_means,
@@ -94,4 +105,4 @@ class GaussianMixtureClassifier(torch.nn.Module):
             novel = torch.logsumexp(new, dim=-1) + self.novelty_log_weight > best
         else:
             novel = torch.zeros_like(best, dtype=torch.bool)
-        return torch.argmax(scores, dim=-1), log_resp, novel
+        return torch.argmax(scores, dim=-1), log_resp, novel, novelty

@@ -52,7 +52,9 @@ SCORES_OUTPUT = "scores"
 OOD_OUTPUT = "ood_distance"
 """Output of classifier bundles: the distance to the training data (:mod:`tactile_torch.ood`)."""
 NOVEL_OUTPUT = "novel"
-"""Output of clustering bundles: whether a new component explains the sample better than every known one."""
+"""Output of clustering bundles: whether the sample is novel (the model's own rule, or the calibrated threshold)."""
+NOVELTY_SCORE_OUTPUT = "novelty"
+"""Output of clustering bundles: the novelty score of each sample, minus its log density under the mixture."""
 
 # ------------------------------------------------------------------------------------ metadata keys
 PIPELINE_KEY = "tactile_torch.pipeline"
@@ -70,6 +72,8 @@ THRESHOLD_KEY = "ood_threshold"
 """Metadata key of the distance beyond which a sample is unknown."""
 QUANTILE_KEY = "ood_quantile"
 """Metadata key of the training quantile the threshold was set at."""
+NOVELTY_THRESHOLDS_KEY = "novelty_thresholds"
+"""Clustering bundles calibrated on known windows: JSON list of the thresholds of the mean novelty over N = 1, 2, ... windows."""
 
 # ------------------------------------------------------------------------------------ input layouts
 WINDOWS_LAYOUT = "B,3,W"
@@ -106,6 +110,8 @@ __all__ = [
     "INPUT_SHAPE_KEY",
     "LABELS_OUTPUT",
     "LAYOUTS",
+    "NOVELTY_SCORE_OUTPUT",
+    "NOVELTY_THRESHOLDS_KEY",
     "NOVEL_OUTPUT",
     "OOD_OUTPUT",
     "PIPELINE_KEY",

@@ -7,7 +7,12 @@ that a *new* component explains better than every known one (output ``novel``, s
 bump, a slip); :class:`SurfaceDiscovery` proposes a new surface only after ``n_consecutive`` novel
 windows in a row, and keeps classifying: the windows of the run are named after the proposed
 surface, the others after their known component. Runs separated by a known window count as
-separate proposals. Importing this module never imports torch (it runs on the robot).
+separate proposals. With the bundle's per-window novelty scores (output ``novelty``, minus the log
+density under the mixture) and the thresholds it carries (metadata ``novelty_thresholds``, calibrated on windows
+of known surfaces by :meth:`~tactile_torch.mixture.PitmanYorGMM.calibrate_novelty`), a window is
+novel when the mean score of the last ``n_consecutive`` windows exceeds the threshold of that N:
+the decision :meth:`~tactile_torch.mixture.PitmanYorGMM.novel_after` makes. Importing this module
+never imports torch (it runs on the robot).
 
 Examples
 --------
@@ -20,13 +25,16 @@ Examples
 
 from __future__ import annotations
 
+import json
+import math
 import sys
+from collections import deque
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TextIO
 
 from .checks import check_count
-from .contract import NOVEL_OUTPUT
+from .contract import NOVEL_OUTPUT, NOVELTY_SCORE_OUTPUT, NOVELTY_THRESHOLDS_KEY
 
 
 @dataclass(frozen=True)
@@ -61,6 +69,11 @@ class SurfaceDiscovery:
         Novel windows in a row needed to propose a new surface (>= 1).
     known_names : sequence of str, optional
         Names of the known components (index = label); default ``"component <label>"``.
+    thresholds : sequence of float, optional
+        Thresholds of the mean novelty score over N = 1, 2, ... windows. When given, :meth:`update`
+        takes each window's score and a window is novel when the mean score of the last
+        ``n_consecutive`` windows exceeds ``thresholds[n_consecutive - 1]`` (the last threshold
+        beyond the list); a proposal is made on the first such window of a run.
 
     Attributes
     ----------
@@ -71,9 +84,23 @@ class SurfaceDiscovery:
         Windows seen.
     """
 
-    def __init__(self, n_consecutive: int = 5, known_names: Sequence[str] | None = None) -> None:
+    def __init__(
+        self,
+        n_consecutive: int = 5,
+        known_names: Sequence[str] | None = None,
+        thresholds: Sequence[float] | None = None,
+    ) -> None:
         self.n_consecutive = check_count(n_consecutive, "n_consecutive", 1)
         self.known_names = list(known_names) if known_names is not None else None
+        self.threshold = None
+        if thresholds is not None:
+            values = [float(t) for t in thresholds]
+            if not values or not all(math.isfinite(t) for t in values):
+                raise ValueError(
+                    f"thresholds must be a non-empty list of finite numbers, got {thresholds!r:.80}"
+                )
+            self.threshold = values[min(n_consecutive, len(values)) - 1]
+        self._scores: deque[float] = deque(maxlen=n_consecutive)
         self.proposals: list[dict] = []
         self.windows = 0
         self._run = 0
@@ -83,26 +110,41 @@ class SurfaceDiscovery:
             return str(self.known_names[label])
         return f"component {label}"
 
-    def update(self, label: int, novel: bool) -> WindowVerdict:
-        """Take the next window's most likely known component and novelty flag; return its verdict."""
+    def update(self, label: int, novel: bool, score: float | None = None) -> WindowVerdict:
+        """Take the next window's most likely known component, novelty flag and score; return its verdict.
+
+        ``score`` (the window's novelty score) is required when ``thresholds`` were given; the flag
+        is then not used.
+        """
+        if self.threshold is not None:
+            if score is None:
+                raise ValueError("SurfaceDiscovery with thresholds needs each window's novelty score")
+            self._scores.append(float(score))
+            full = len(self._scores) == self.n_consecutive
+            novel = full and sum(self._scores) / self.n_consecutive > self.threshold
+            return self._verdict(label, novel, 1, self.n_consecutive)
+        return self._verdict(label, novel, self.n_consecutive, 1)
+
+    def _verdict(self, label: int, novel: bool, needed: int, span: int) -> WindowVerdict:
+        """Verdict of a window given its decision; a proposal after ``needed`` novel decisions in a row, covering ``span`` windows before the run."""
         index = self.windows
         self.windows += 1
         if not novel:
             self._run = 0
             return WindowVerdict(self._known(int(label)), False, False, 0)
         self._run += 1
-        proposed = self._run == self.n_consecutive
+        proposed = self._run == needed
         if proposed:
             self.proposals.append(
                 {
                     "name": f"new surface {len(self.proposals) + 1}",
-                    "first_window": index - self._run + 1,
+                    "first_window": index - self._run - span + 2,
                     "windows": 0,
                 }
             )
-        if self._run >= self.n_consecutive:
-            self.proposals[-1]["windows"] = self._run
-            return WindowVerdict(self.proposals[-1]["name"], True, proposed, self._run)
+        if self._run >= needed:
+            self.proposals[-1]["windows"] = self._run + span - 1
+            return WindowVerdict(self.proposals[-1]["name"], True, proposed, self._run + span - 1)
         return WindowVerdict(self._known(int(label)), True, False, self._run)
 
 
@@ -122,16 +164,19 @@ def stream_consumer(pipeline, n_consecutive: int, out: TextIO = sys.stdout) -> C
             "(tactile-torch cluster, then "
             f"export), got outputs {outputs}"
         )
-    discovery = SurfaceDiscovery(n_consecutive, pipeline.class_names)
+    scored = NOVELTY_SCORE_OUTPUT in outputs and NOVELTY_THRESHOLDS_KEY in pipeline.metadata
+    thresholds = json.loads(pipeline.metadata[NOVELTY_THRESHOLDS_KEY]) if scored else None
+    discovery = SurfaceDiscovery(n_consecutive, pipeline.class_names, thresholds)
 
     def consume(result) -> None:
         if result.label is None:  # non-finite scores: nothing to say
             return
-        novel = bool(pipeline.run(result.window.data)[NOVEL_OUTPUT][0])
-        verdict = discovery.update(result.label, novel)
+        outputs = pipeline.run(result.window.data)
+        score = float(outputs[NOVELTY_SCORE_OUTPUT][0]) if scored else None
+        verdict = discovery.update(result.label, bool(outputs[NOVEL_OUTPUT][0]), score)
         if verdict.proposed:
             print(
-                f"new surface proposed: {verdict.name} ({verdict.run} novel windows in a row)",
+                f"new surface proposed: {verdict.name} (over the last {verdict.run} windows)",
                 file=out,
                 flush=True,
             )

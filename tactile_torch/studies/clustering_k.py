@@ -8,6 +8,12 @@ Five data sources, each with a known number of surfaces (:func:`k_sources`):
   PCA-3 features; several surfaces are near-duplicates);
 - ``sessions-3x3``: 3 bundled surfaces recorded in 3 sessions, each session's signal scaled by its own
   gain (0.8, 1.0, 1.25: a re-mounted sensor), as CSV logs of a user would be;
+- ``sessions-3x3, per-session standardised``: the same with every feature standardised within each
+  session (the remedy when sessions are known; the real sets have one surface per recording, so it
+  does not apply to them);
+- ``hapmat-3-sessions`` (with and without per-session standardisation): HapMat's recordings cut into
+  thirds, third k scaled by ``SESSION_GAINS[k]`` (:func:`real_sessions`): real surfaces, simulated
+  re-mounting;
 - ``hapmat``, ``borealtc``: the real 5-material / 5-terrain IMU sets when present (2 s windows, up to
   60 per class, PCA-3).
 
@@ -64,8 +70,12 @@ def bundled_28(seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
     return _pca_features(ds.windows), ds.labels.numpy()
 
 
-def sessions_3x3(seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    """Return PCA-3 features and labels of 3 surfaces x 3 sessions with the gains ``SESSION_GAINS``."""
+def sessions_3x3(seed: int = 0, *, per_session: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """Return PCA-3 features and labels of 3 surfaces x 3 sessions with the gains ``SESSION_GAINS``.
+
+    ``per_session``: standardise the features within each session
+    (:func:`tactile_torch.signal.sessions.standardise_per_session`), the remedy when sessions are known.
+    """
     from ..data import make_vibration_recordings
     from ..data.vibration import VibrationRecordings
 
@@ -77,7 +87,47 @@ def sessions_3x3(seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
     ]
     shifted = VibrationRecordings(signals, rec.labels, rec.class_names, rec.rate_hz, rec.session)
     ds = shifted.windows(800)
-    return _pca_features(ds.windows), ds.labels.numpy()
+    X = _pca_features(ds.windows)
+    if per_session:
+        from ..signal.sessions import standardise_per_session
+
+        X = standardise_per_session(X, session[ds.recording.numpy()])
+    return X, ds.labels.numpy()
+
+
+def real_sessions(name: str = "hapmat_imu5", *, per_session: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """Return PCA-3 features and labels of a real set cut into 3 sessions with the gains ``SESSION_GAINS``.
+
+    Each recording is cut into thirds in time; third k is session k, its signal scaled by
+    ``SESSION_GAINS[k]`` (every session then holds every surface, as CSV logs of a re-mounted sensor
+    would). 2 s windows, 1 s apart. ``per_session``: standardise within each session.
+    """
+    from ..data.recordings import load_borealtc_imu, load_hapmat_imu5
+    from ..data.vibration import VibrationRecordings
+
+    rec = {"hapmat_imu5": load_hapmat_imu5, "borealtc_imu": load_borealtc_imu}[name]()
+    signals, labels, sessions = [], [], []
+    for sig, label in zip(rec.signals, rec.labels, strict=True):
+        sig = np.asarray(sig)
+        cuts = np.linspace(0, sig.shape[0], 4).astype(int)  # (n, 3): time first
+        for k in range(3):
+            signals.append((sig[cuts[k] : cuts[k + 1]] * np.float32(SESSION_GAINS[k])).astype(np.float32))
+            labels.append(int(label))
+            sessions.append(k)
+    shifted = VibrationRecordings(
+        signals,
+        np.asarray(labels),
+        rec.class_names,
+        rec.rate_hz,
+        [f"{i}/{k}" for i, k in enumerate(sessions)],
+    )
+    ds = shifted.windows(int(2 * rec.rate_hz), int(rec.rate_hz))
+    X = _pca_features(ds.windows)
+    if per_session:
+        from ..signal.sessions import standardise_per_session
+
+        X = standardise_per_session(X, np.asarray(sessions)[ds.recording.numpy()])
+    return X, ds.labels.numpy()
 
 
 def session_overlap(seed: int = 0) -> np.ndarray:
@@ -126,11 +176,15 @@ def k_sources(quick: bool = False) -> dict[str, tuple[np.ndarray, np.ndarray]]:
 
     if have_vibration_features():
         out["sessions-3x3"] = sessions_3x3()
+        out["sessions-3x3, per-session standardised"] = sessions_3x3(per_session=True)
         if not quick:
             out["bundled-28"] = bundled_28()
         for name, key in (("hapmat_imu5", "hapmat"), ("borealtc_imu", "borealtc")):
             if shared_data_dir(name) is not None:
                 out[key] = real_set(name, 30 if quick else 60)
+        if shared_data_dir("hapmat_imu5") is not None:
+            out["hapmat-3-sessions"] = real_sessions()
+            out["hapmat-3-sessions, per-session standardised"] = real_sessions(per_session=True)
     return out
 
 
@@ -180,6 +234,37 @@ def coverage_row(source: str, y: np.ndarray, setting: str, model, seconds: float
     }
 
 
+ELBOW_GRID = (30.0, 100.0, 300.0, 1000.0, 3000.0, 10000.0, None)
+"""Values of ``coarsen`` of :func:`coarsening_curve` (None: the exact posterior)."""
+
+
+def coarsening_curve(
+    X: np.ndarray, grid: tuple = ELBOW_GRID, *, random_state: int = 0, **fit: Any
+) -> list[dict[str, Any]]:
+    """Return, per ``coarsen`` value, the posterior mode of K and the mean log density of the data under the point estimate.
+
+    Miller & Dunson (2018) calibrate ``coarsen`` by the elbow of fit against K: the fit stops
+    improving much once the components that matter are there.
+    """
+    from ..mixture import PitmanYorGMM
+
+    rows = []
+    for a in grid:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            model = PitmanYorGMM(coarsen=a, random_state=random_state, progress=False, **fit).fit(X)
+        rows.append(
+            {
+                "coarsen": "none" if a is None else a,
+                "K mode": model.n_clusters_summary_["mode"],
+                "K 95% interval": "[{}, {}]".format(*model.n_clusters_summary_["interval"]),
+                "K point estimate": model.n_clusters_,
+                "mean log density": round(float(model.score_samples(X).mean()), 3),
+            }
+        )
+    return rows
+
+
 def _main(argv: list[str] | None = None) -> None:
     import argparse
 
@@ -191,9 +276,18 @@ def _main(argv: list[str] | None = None) -> None:
         help="print the Bhattacharyya distances of sessions-3x3's groups and stop",
     )
     parser.add_argument("--only", nargs="*", help="sources to run (default: all available)")
+    parser.add_argument(
+        "--elbow",
+        action="store_true",
+        help="print K and fit against coarsen per source (Miller & Dunson's elbow)",
+    )
     parser.add_argument("--settings", nargs="*", help="settings to run (names of SETTINGS)")
     parser.add_argument("--n-iter", default="auto", type=lambda v: v if v == "auto" else int(v))
     parser.add_argument("--burn-in", default=250, type=int)
+    parser.add_argument("--n-split-merge", default=5, type=int, help="split-merge moves per sweep")
+    parser.add_argument(
+        "--jobs", default=None, type=int, help="threads (default: one per chain up to the cores)"
+    )
     args = parser.parse_args(argv)
     if args.overlap:
         np.set_printoptions(precision=1, suppress=True, linewidth=150)
@@ -202,8 +296,17 @@ def _main(argv: list[str] | None = None) -> None:
     sources = k_sources(args.quick)
     if args.only:
         sources = {k: v for k, v in sources.items() if k in args.only}
+    if args.elbow:
+        for name, (X, y) in sources.items():
+            for r in coarsening_curve(X, n_iter=args.n_iter, burn_in=args.burn_in):
+                print(
+                    f"| {name} | {np.unique(y).size} | " + " | ".join(str(v) for v in r.values()) + " |",
+                    flush=True,
+                )
+        return
     settings = {k: v for k, v in SETTINGS.items() if not args.settings or k in args.settings}
     fit = {"n_iter": 300, "burn_in": 100} if args.quick else {"n_iter": args.n_iter, "burn_in": args.burn_in}
+    fit |= {"n_split_merge": args.n_split_merge, "n_jobs": args.jobs}
     for i, (name, data) in enumerate(sources.items()):
         rows = k_coverage({name: data}, settings, **fit)
         if i == 0:
