@@ -22,6 +22,8 @@ import re
 import sys
 import warnings
 
+from .._exports import lazy_exports
+
 BAD_INPUT_EXIT = 2
 """Exit status for bad input (a missing or malformed file, a wrong option), after one line on stderr."""
 INTERNAL_ERROR_EXIT = 1
@@ -288,21 +290,25 @@ def _run(args: argparse.Namespace, prefix: str, debug: bool, flags: dict[str, st
             os.environ[MAX_READ_ENV] = limit_before
 
 
-__all__ = [
-    "ARGUMENT_FLAGS",
-    "BAD_INPUT_EXIT",
-    "EXIT_STATUSES",
-    "INTERNAL_ERROR_EXIT",
-    "INTERRUPTED_EXIT",
-    "NOT_BUILT_EXIT",
-    "NOT_EXPORTED_EXIT",
-    "NO_RECOMMENDATION_EXIT",
-    "STREAM_DISCONNECTED_EXIT",
-    "STREAM_NO_DATA_EXIT",
-    "STREAM_STOPPED_EXIT",
-    "TRAIN_MODULES",
-    "build_parser",
-    "is_user_error",
-    "main",
-    "with_flags",
-]
+__getattr__, __dir__, __all__ = lazy_exports(
+    __name__,
+    {},  # the commands' modules are not API: main and the exit statuses are
+    defined=(
+        "ARGUMENT_FLAGS",
+        "BAD_INPUT_EXIT",
+        "EXIT_STATUSES",
+        "INTERNAL_ERROR_EXIT",
+        "INTERRUPTED_EXIT",
+        "NOT_BUILT_EXIT",
+        "NOT_EXPORTED_EXIT",
+        "NO_RECOMMENDATION_EXIT",
+        "STREAM_DISCONNECTED_EXIT",
+        "STREAM_NO_DATA_EXIT",
+        "STREAM_STOPPED_EXIT",
+        "TRAIN_MODULES",
+        "build_parser",
+        "is_user_error",
+        "main",
+        "with_flags",
+    ),
+)
