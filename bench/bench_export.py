@@ -1,11 +1,11 @@
 """Benchmark of the exported pipelines: onnxruntime against the eager torch pipeline.
 
-The three default pipelines (:func:`tactile_torch.pipeline.build_default_bundles`: vibration window
+The three default pipelines (:func:`tactile_torch.default_bundles.build_default_bundles`: vibration window
 → HM-SVM, vibration window → Pitman-Yor component, exploration of 100 frames of 96 x 96 → HM-SVM) are
 trained on the bundled synthetic data and exported. For each:
 
 - latency of one sample (batch 1): median and p99 over many calls, onnxruntime with one intra-op
-  thread (:class:`tactile_torch.runtime.OnnxPipeline`, input validation included) against the eager
+  thread (:class:`tactile_torch.robot.runtime.OnnxPipeline`, input validation included) against the eager
   torch pipeline at one thread; the targets are a W = 800 window under 1 ms and an
   exploration under 20 ms (median), both faster than eager torch;
 - throughput (samples per second) on a batch, at one thread and at the default thread count;
@@ -19,8 +19,9 @@ import tempfile
 import torch
 
 from bench.common import threads, time_call
-from tactile_torch.pipeline import build_default_bundles, compare_with_runtime
-from tactile_torch.runtime import OnnxPipeline
+from tactile_torch.default_bundles import build_default_bundles
+from tactile_torch.pipeline import compare_with_runtime
+from tactile_torch.robot.runtime import OnnxPipeline
 
 TITLE = "Exported pipelines: onnxruntime vs eager torch (latency at batch 1, throughput)"
 
@@ -76,7 +77,7 @@ def run(quick: bool) -> dict:
         "OnnxPipeline.predict_scores (input validation and dtype conversion included), torch: the eager "
         "InferencePipeline under no_grad. Targets: vibration-hmsvm (W = 800) < 1 ms and image-hmsvm "
         "(100 x 96 x 96 frames) < 20 ms median, both faster than eager torch.",
-        "Models: trained by tactile_torch.pipeline.build_default_bundles on the seeded synthetic data "
+        "Models: trained by tactile_torch.default_bundles.build_default_bundles on the seeded synthetic data "
         "(28 surfaces, 60 s each; 20 explorations per class), exported with the dynamo exporter.",
         "labels agree / max score diff: onnxruntime against torch on every held-out sample "
         "(a batch size different from the export's); the difference is relative to max(|score|, 1), "

@@ -45,7 +45,7 @@ def run(quick: bool = False) -> dict:
         WindowCNNClassifier,
         export_classifier,
     )
-    from tactile_torch.runtime import OnnxPipeline
+    from tactile_torch.robot.runtime import OnnxPipeline
     from tactile_torch.tradeoff.int8 import quantise_bundle
     from tactile_torch.tradeoff.memory import peak_memory_mib
 

@@ -34,10 +34,10 @@ import numpy as np
 import serial
 
 from tactile_torch.data import make_vibration_recordings
-from tactile_torch.pipeline import build_default_bundles
-from tactile_torch.runtime import OnnxPipeline
-from tactile_torch.stream import WindowReader, format_sample, pseudo_terminal, simulate_sensor
-from tactile_torch.stream_output import classify_windows
+from tactile_torch.default_bundles import build_default_bundles
+from tactile_torch.robot.runtime import OnnxPipeline
+from tactile_torch.robot.stream import WindowReader, format_sample, pseudo_terminal, simulate_sensor
+from tactile_torch.robot.stream_output import classify_windows
 from tests.conftest import _NO_TORCH  # the robot: importing torch fails
 
 TITLE = "Live stream: 10 minutes of an 800 Hz sensor through a pty (loss, memory, latency)"

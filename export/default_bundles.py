@@ -1,6 +1,6 @@
 """Train the three default pipelines on the bundled synthetic data and export each to one ONNX file.
 
-Thin program over :func:`tactile_torch.pipeline.build_default_bundles`: writes ``<name>.npz`` and
+Thin program over :func:`tactile_torch.default_bundles.build_default_bundles`: writes ``<name>.npz`` and
 ``<name>.onnx`` for ``vibration-hmsvm``, ``vibration-pyp`` and ``image-hmsvm`` and prints, per bundle,
 the held-out accuracy and the agreement of onnxruntime with torch.
 
@@ -15,8 +15,9 @@ from __future__ import annotations
 import argparse
 import sys
 
-from tactile_torch.pipeline import build_default_bundles, compare_with_runtime
-from tactile_torch.runtime import OnnxPipeline
+from tactile_torch.default_bundles import build_default_bundles
+from tactile_torch.pipeline import compare_with_runtime
+from tactile_torch.robot.runtime import OnnxPipeline
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -14,8 +14,9 @@ from __future__ import annotations
 import argparse
 import sys
 
-from tactile_torch.pipeline import compare_with_runtime, export_pipeline, load_model_file, pipeline_from_model
-from tactile_torch.runtime import OnnxPipeline
+from tactile_torch.pipeline import compare_with_runtime, export_pipeline, pipeline_from_model
+from tactile_torch.robot.model_file import load_model_file
+from tactile_torch.robot.runtime import OnnxPipeline
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -21,9 +21,10 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from tactile_torch.formats import read_csv_recordings, window_recordings
 from tactile_torch.pipeline import export_pipeline, pipeline_from_model
-from tactile_torch.runtime import OnnxPipeline
+from tactile_torch.robot.formats import read_csv_recordings
+from tactile_torch.robot.runtime import OnnxPipeline
+from tactile_torch.robot.windows import window_recordings
 from tactile_torch.signal import window_features
 from tactile_torch.training import FeatureSet, save_model, train_classifier
 

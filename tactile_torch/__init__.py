@@ -4,7 +4,7 @@ Two published methods as batched torch ops: tactile-image fusion with a hierarch
 (:mod:`tactile_torch.image`, :mod:`tactile_torch.svm`) and vibration features with an SVM and a
 Pitman-Yor process mixture (:mod:`tactile_torch.signal`, :mod:`tactile_torch.mixture`).
 
-This top-level module imports nothing heavy on purpose: :mod:`tactile_torch.runtime` must load on a
+This top-level module imports nothing heavy on purpose: :mod:`tactile_torch.robot.runtime` must load on a
 robot where torch is not installed.
 """
 

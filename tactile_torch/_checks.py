@@ -2,16 +2,18 @@
 
 Public functions validate once, at the entry, with these helpers (in the spirit of kornia's
 ``KORNIA_CHECK_SHAPE``); internal functions trust their callers. Every error names the argument, what
-was expected and what was given.
+was expected and what was given. The checks that need no torch (numbers, counts, random states) are
+defined in :mod:`tactile_torch.robot.checks`, which the robot side uses, and imported here.
 """
 
 from __future__ import annotations
 
-import numbers
 from collections.abc import Sequence
 
 import numpy as np
 import torch
+
+from .robot.checks import check_count, check_number, check_positive, numpy_rng
 
 ShapeSpec = Sequence[str | int]
 
@@ -75,37 +77,7 @@ def check_finite(x: torch.Tensor, name: str) -> torch.Tensor:
     return x
 
 
-def check_positive(value: object, name: str, *, strict: bool = True, integer: bool = False) -> None:
-    """Raise unless ``value`` is a (strictly) positive real (or integer) number."""
-    kind = numbers.Integral if integer else numbers.Real
-    if isinstance(value, bool) or not isinstance(value, kind):
-        raise TypeError(f"{name} must be {'an integer' if integer else 'a real number'}, got {value!r}")
-    if not np.isfinite(value) or (value <= 0 if strict else value < 0):
-        raise ValueError(f"{name} must be {'> 0' if strict else '>= 0'}, got {value!r}")
-
-
 RandomState = int | np.random.Generator | np.random.RandomState | torch.Generator | None
-
-
-def numpy_rng(random_state: RandomState) -> np.random.Generator:
-    """Return a ``numpy.random.Generator`` for an int seed, a numpy or torch generator, or ``None``.
-
-    A torch generator or a legacy ``numpy.random.RandomState`` is consumed (one draw) to seed the numpy
-    one, so the result stays a function of the generator's state. ``None`` gives fresh OS entropy.
-    """
-    if random_state is None or isinstance(random_state, numbers.Integral):
-        return np.random.default_rng(None if random_state is None else int(random_state))
-    if isinstance(random_state, np.random.Generator):
-        return random_state
-    if isinstance(random_state, torch.Generator):
-        seed = int(torch.randint(0, 2**62, (1,), generator=random_state))
-        return np.random.default_rng(seed)
-    if isinstance(random_state, np.random.RandomState):  # scikit-learn's "random_state" allows it
-        return np.random.default_rng(int(random_state.randint(0, 2**31 - 1)))
-    raise TypeError(
-        "random_state must be None, an int, a numpy.random.Generator, a numpy.random.RandomState or a "
-        f"torch.Generator, got {type(random_state).__name__}"
-    )
 
 
 def torch_generator(random_state: RandomState) -> torch.Generator:
@@ -143,3 +115,19 @@ def as_feature_matrix(X: object, name: str = "X", n_features: int | None = None)
             f"{name} must be finite, got {int(bad.sum())} NaN/inf value(s) (first at index {first})"
         )
     return np.ascontiguousarray(arr)
+
+
+__all__ = [
+    "RandomState",
+    "ShapeSpec",
+    "as_feature_matrix",
+    "check_count",
+    "check_finite",
+    "check_floating",
+    "check_number",
+    "check_positive",
+    "check_shape",
+    "check_tensor",
+    "numpy_rng",
+    "torch_generator",
+]

@@ -41,7 +41,7 @@ def export_onnx(
     """
     import onnx
 
-    from .safe_write import check_output_path
+    from .robot.safe_write import check_output_path
 
     path = check_output_path(path, inputs=inputs)  # refuse before the (slow) export, not after
     example_inputs = tuple(example_inputs)
@@ -86,9 +86,9 @@ def save_onnx(model: object, path: str | Path, *, inputs: Sequence[str | Path] =
     """Write an ``onnx.ModelProto`` to ``path`` atomically, refusing unsafe targets; return ``path``.
 
     A directory, a device, a symbolic link or one of ``inputs`` at ``path`` is refused in one line
-    (:func:`tactile_torch.safe_write.write_atomic`); the file appears under its name only complete.
+    (:func:`tactile_torch.robot.safe_write.write_atomic`); the file appears under its name only complete.
     """
-    from .safe_write import write_atomic
+    from .robot.safe_write import write_atomic
 
     data = model.SerializeToString()
     return write_atomic(path, lambda f: f.write(data), inputs=inputs)

@@ -24,7 +24,7 @@ BAD_INPUT_EXIT = 2
 """Exit status for bad input (a missing or malformed file, a wrong option), after one line on stderr."""
 INTERNAL_ERROR_EXIT = 1
 MAX_READ_ENV = "TACTILE_TORCH_MAX_READ_MB"
-"""Where ``--max-read-mb`` puts the read bound (:func:`tactile_torch.formats.max_read_bytes` reads it)."""
+"""Where ``--max-read-mb`` puts the read bound (:func:`tactile_torch.robot.npz.max_read_bytes` reads it)."""
 """Exit status for an unexpected error (a bug): one line on stderr, the traceback with ``--debug``."""
 NO_RECOMMENDATION_EXIT = 3
 """Exit status of ``tradeoff`` when no candidate is adequate (none reaches ``--target``, or none is
@@ -54,7 +54,7 @@ class UsageError(ValueError):
 
 
 def _data_name(paths: str | Path | list) -> str:
-    from .formats import data_name
+    from .robot.formats import data_name
 
     return data_name(paths)
 
@@ -162,9 +162,9 @@ def _n_iter(text: str) -> int | str:
 def _cluster(args: argparse.Namespace) -> int:
     import numpy as np
 
+    from .clustering_model import save_clustering_model
     from .metrics import pairwise_accuracy
     from .mixture import PitmanYorGMM
-    from .pipeline import save_clustering_model
     from .training import load_features
 
     data = read_data_arg(args)
@@ -285,7 +285,8 @@ def _stage(label: str, *, delay: float = 1.0) -> Iterator[None]:
 
 
 def _export(args: argparse.Namespace) -> int:
-    from .pipeline import export_pipeline, load_model_file, pipeline_from_model
+    from .pipeline import export_pipeline, pipeline_from_model
+    from .robot.model_file import load_model_file
 
     sensor_range = _range_g(args.sensor_range, "--sensor-range", off=False)
     with _stage("export: building the pipeline"):
@@ -307,13 +308,14 @@ def _predict(args: argparse.Namespace) -> int:
     import numpy as np
 
     from .metrics import class_report
-    from .runtime import UNKNOWN, OnnxPipeline
+    from .robot.contract import UNKNOWN, WINDOWS_LAYOUT
+    from .robot.runtime import OnnxPipeline
 
     if args.batch < 1:
         raise UsageError(f"--batch must be an int >= 1, got {args.batch}")
     pipe = OnnxPipeline(args.model, intra_op_threads=args.threads)
     range_g = _range_g(args.range, "--range", off=True)
-    windows = pipe.input_layout == "B,3,W"
+    windows = pipe.input_layout == WINDOWS_LAYOUT
     if range_g is not None and not windows:
         raise UsageError(f"--range: {args.model} takes no vibration windows ({pipe.pipeline} bundle)")
     data = pipe.read_npz(args.data, allow_pickle=args.allow_pickle, options=data_options(args))
@@ -348,7 +350,7 @@ def _predict(args: argparse.Namespace) -> int:
         )
     print(f"{pipe!r}: {len(labels)} samples of {where}")
     if args.out:
-        from .formats import write_npz
+        from .robot.npz import write_npz
 
         names = np.array(
             [
@@ -455,9 +457,9 @@ def _stream_until_stopped(args: argparse.Namespace) -> int:
     import numpy as np
     import serial
 
-    from .runtime import OnnxPipeline
-    from .stream import StreamDisconnected, StreamTimeout, WindowReader, sensor_range_g
-    from .stream_output import WindowVote, classify_windows, result_json, result_text
+    from .robot.runtime import OnnxPipeline
+    from .robot.stream import StreamDisconnected, StreamTimeout, WindowReader, sensor_range_g
+    from .robot.stream_output import WindowVote, classify_windows, result_json, result_text
 
     range_g = _range_g(args.range, "--range", off=True)
     pipe = OnnxPipeline(args.model, intra_op_threads=args.threads)
@@ -518,8 +520,8 @@ def _stream_until_stopped(args: argparse.Namespace) -> int:
         print(write(result), flush=True)
 
     consumers = [show]
-    if args.discover:  # new surfaces: N novel windows in a row (tactile_torch.discovery)
-        from .discovery import stream_consumer
+    if args.discover:  # new surfaces: N novel windows in a row (tactile_torch.robot.discovery)
+        from .robot.discovery import stream_consumer
 
         consumers.append(stream_consumer(pipe, args.discover, info))
     status = 0
@@ -575,13 +577,13 @@ def _simulate_sensor(args: argparse.Namespace) -> int:
 
     import serial
 
-    from .stream import pseudo_terminal, simulate_sensor
+    from .robot.stream import pseudo_terminal, simulate_sensor
 
     if bool(args.port) == args.pty:
         print("tactile-torch simulate-sensor: give either --port PORT or --pty", file=sys.stderr)
         return 2
     if args.data:  # any layout of docs/formats.md, incl. recordings of different lengths
-        from .formats import read_recordings
+        from .robot.formats import read_recordings
 
         data = read_recordings(args.data, allow_pickle=args.allow_pickle, default_rate_hz=args.rate)
         if not 0 <= args.recording < len(data):
@@ -1144,7 +1146,7 @@ WRITES_OUT_FILE = ("train", "predict", "export")
 
 def _check_out(args: argparse.Namespace) -> None:
     """Refuse an ``--out`` that is an input, a directory, a device or a symbolic link (one line, status 2)."""
-    from .safe_write import check_output_path
+    from .robot.safe_write import check_output_path
 
     out = getattr(args, "out", "")
     if args.command not in WRITES_OUT_FILE or not out:
@@ -1237,7 +1239,7 @@ def _run(args: argparse.Namespace, prefix: str, debug: bool) -> int:
             return BAD_INPUT_EXIT
     stdout = _guard_stdout()
     limit_before = os.environ.get(MAX_READ_ENV)
-    if getattr(args, "max_read_mb", None) is not None:  # read by every reader (formats.max_read_bytes)
+    if getattr(args, "max_read_mb", None) is not None:  # read by every reader (robot.npz.max_read_bytes)
         os.environ[MAX_READ_ENV] = repr(float(args.max_read_mb))
     try:
         _check_out(args)

@@ -1,8 +1,8 @@
 """The data options of the command line (``--data`` and how to read it), shared by train, cluster and tradeoff.
 
 :func:`add_data_options` declares them on a subcommand; :func:`data_options` turns the parsed
-arguments into a :class:`tactile_torch.data.sources.DataOptions`; :func:`read_data_arg` reads
-``--data`` with them (:func:`tactile_torch.data.sources.read_source`).
+arguments into a :class:`tactile_torch.robot.data_sources.DataOptions`; :func:`read_data_arg` reads
+``--data`` with them (:func:`tactile_torch.robot.data_sources.read_source`).
 """
 
 from __future__ import annotations
@@ -108,8 +108,9 @@ def add_data_options(
 
 
 def data_options(args: argparse.Namespace):
-    """Return the :class:`~tactile_torch.data.sources.DataOptions` the parsed arguments declare."""
-    from .data.sources import DEFAULT_RANGE_G, MAX_BAG_MESSAGES, DataOptions
+    """Return the :class:`~tactile_torch.robot.data_sources.DataOptions` the parsed arguments declare."""
+    from .robot.contract import DEFAULT_RANGE_G
+    from .robot.data_sources import MAX_BAG_MESSAGES, DataOptions
 
     return DataOptions(
         columns=args.columns,
@@ -163,7 +164,7 @@ def data_option_words(args: argparse.Namespace) -> list[str]:
 
 def read_data_arg(args: argparse.Namespace):
     """Read ``--data`` with the declared options; return the arrays (``.kind`` says which)."""
-    from .data.sources import read_source
+    from .robot.data_sources import read_source
 
     return read_source(args.data, data_options(args))
 

@@ -14,7 +14,7 @@ covariance), and every exported graph computes it as a third output, ``ood_dista
    feature that never varied in training cannot make ``S`` singular).
 3. The threshold is the :data:`DEFAULT_QUANTILE` (99.5 %) quantile of ``d`` over the training
    windows, each measured against statistics fitted without it (5 folds: in-sample distances are
-   too short when the training set is small). :class:`tactile_torch.runtime.OnnxPipeline` labels a sample beyond it ``-1``
+   too short when the training set is small). :class:`tactile_torch.robot.runtime.OnnxPipeline` labels a sample beyond it ``-1``
    ("unknown"), with the reason.
 
 Measured (``tests/test_pipeline.py``, ``docs/export.md``): at most 1 % of held-in windows unknown;
@@ -34,7 +34,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from .runtime import OOD_OUTPUT, THRESHOLD_KEY
+from .robot.contract import LABELS_OUTPUT, OOD_OUTPUT, SCORES_OUTPUT
 
 DEFAULT_QUANTILE = 0.995
 """Share of the training windows whose distance lies within the threshold."""
@@ -42,9 +42,6 @@ RIDGE = 1e-3
 """Ridge added to the pooled covariance, relative to its mean variance."""
 FOLDS = 5
 """The threshold is calibrated on out-of-fold distances of this many folds."""
-"""Ridge added to the pooled covariance, relative to its mean variance."""
-QUANTILE_KEY = "ood_quantile"
-"""Bundle metadata key of the training quantile the threshold was set at."""
 
 
 def signed_log(z: np.ndarray) -> np.ndarray:
@@ -150,7 +147,7 @@ class WithDistance(nn.Module):
     ``forward(features) → (labels, scores, ood_distance)``.
     """
 
-    output_names = ("labels", "scores", OOD_OUTPUT)
+    output_names = (LABELS_OUTPUT, SCORES_OUTPUT, OOD_OUTPUT)
 
     def __init__(self, head: nn.Module, distance: MahalanobisDistance) -> None:
         super().__init__()
@@ -164,9 +161,6 @@ class WithDistance(nn.Module):
 
 __all__ = [
     "DEFAULT_QUANTILE",
-    "OOD_OUTPUT",
-    "QUANTILE_KEY",
-    "THRESHOLD_KEY",
     "MahalanobisDistance",
     "WithDistance",
     "fit_ood",

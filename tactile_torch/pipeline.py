@@ -1,5 +1,10 @@
 """Whole inference pipelines (raw input → label and scores) as torch modules, and their ONNX export.
 
+This module builds graphs only: the default bundles are trained in :mod:`tactile_torch.default_bundles`,
+model files are written by their owners (:mod:`tactile_torch.training`,
+:mod:`tactile_torch.clustering_model`) through :mod:`tactile_torch.robot.model_file`, and the names the
+graph and its metadata carry are :mod:`tactile_torch.robot.contract`'s.
+
 Three pipelines, each one :class:`InferencePipeline` = a front end (features, scaling) and a head that
 returns ``(labels, scores)``:
 
@@ -17,10 +22,11 @@ pipeline                  raw input                   graph
 
 Build them from the model files the command line writes: :func:`pipeline_from_model` reads a
 classifier written by ``tactile-torch train --out model.npz`` (:func:`tactile_torch.training.save_model`)
-or a clustering written by ``tactile-torch cluster`` (:func:`save_clustering_model`); model files
-are read and validated by :mod:`tactile_torch.model_file` (no pickle). :func:`export_pipeline`
+or a clustering written by ``tactile-torch cluster``
+(:func:`tactile_torch.clustering_model.save_clustering_model`); model files
+are read and validated by :mod:`tactile_torch.robot.model_file` (no pickle). :func:`export_pipeline`
 writes the pipeline to one ``.onnx`` file with a dynamic batch size and the metadata that
-:class:`tactile_torch.runtime.OnnxPipeline` reads (class names, input shape, window size, sample
+:class:`tactile_torch.robot.runtime.OnnxPipeline` reads (class names, input shape, window size, sample
 rate, sensor range, thresholds, feature scale, library version).
 
 Labels index :attr:`InferencePipeline.class_names`; scores are the SVM's per-class scores
@@ -35,21 +41,36 @@ Examples
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import torch
 from torch import nn
 
-from .model_file import FORMAT, ModelFile, load_model_file
-from .runtime import DEFAULT_RANGE_G, LABELS_OUTPUT, RANGE_METADATA_KEY, SCORES_OUTPUT
-
-CLUSTERING_FORMAT = FORMAT
-"""``format`` of model files (:data:`tactile_torch.model_file.FORMAT`); kept for old imports."""
+from .robot.contract import (
+    CLASS_NAMES_KEY,
+    DEFAULT_RANGE_G,
+    FEATURES_LAYOUT,
+    FRAMES_LAYOUT,
+    INPUT_LAYOUT_KEY,
+    INPUT_NAME,
+    INPUT_SHAPE_KEY,
+    LABELS_OUTPUT,
+    PIPELINE_KEY,
+    QUANTILE_KEY,
+    RANGE_METADATA_KEY,
+    SAMPLE_RATE_KEY,
+    SCORES_OUTPUT,
+    STEP_KEY,
+    THRESHOLD_KEY,
+    VERSION_KEY,
+    WINDOW_SIZE_KEY,
+    WINDOWS_LAYOUT,
+    metadata_strings,
+)
+from .robot.model_file import ModelFile, load_model_file
 
 
 class InferencePipeline(nn.Module):
@@ -102,7 +123,7 @@ class InferencePipeline(nn.Module):
     @property
     def input_dtype(self) -> torch.dtype:
         """dtype of the raw input the graph takes: uint8 for image frames, float32 otherwise."""
-        return torch.uint8 if self.input_layout == "B,T,3,H,W" else torch.float32
+        return torch.uint8 if self.input_layout == FRAMES_LAYOUT else torch.float32
 
     def example_input(self, batch: int = 2, *, random_state: int = 0) -> torch.Tensor:
         """Return a random input of the pipeline's shape and dtype with ``batch`` rows (for export)."""
@@ -116,16 +137,16 @@ class InferencePipeline(nn.Module):
         """Return the ONNX metadata properties of this pipeline (string values; JSON where structured)."""
         from . import __version__
 
-        meta = {
-            "tactile_torch.pipeline": self.name,
-            "tactile_torch.version": __version__,
-            "input_shape": json.dumps(self.input_shape),
-            "input_layout": self.input_layout,
-            "class_names": json.dumps(self.class_names),
-        }
-        for key, value in self.extra_metadata.items():
-            meta[key] = value if isinstance(value, str) else json.dumps(value)
-        return meta
+        return metadata_strings(
+            {
+                PIPELINE_KEY: self.name,
+                VERSION_KEY: __version__,
+                INPUT_SHAPE_KEY: self.input_shape,
+                INPUT_LAYOUT_KEY: self.input_layout,
+                CLASS_NAMES_KEY: self.class_names,
+                **self.extra_metadata,
+            }
+        )
 
     def extra_repr(self) -> str:
         return f"name={self.name!r}, input=({self.input_layout})={self.input_shape}, classes={len(self.class_names)}"
@@ -156,15 +177,15 @@ def _front_end(
 
         window = int(source["window"])
         meta = {
-            "window_size": window,
-            "step": int(source.get("step") or window),
-            "sample_rate_hz": float(source["rate_hz"]),
+            WINDOW_SIZE_KEY: window,
+            STEP_KEY: int(source.get("step") or window),
+            SAMPLE_RATE_KEY: float(source["rate_hz"]),
             # the range given at export, else the one declared at training (source), else the ADXL345's
             RANGE_METADATA_KEY: float(source.get("sensor_range_g", DEFAULT_RANGE_G))
             if sensor_range_g is None
             else sensor_range_g,
         }
-        return [WindowFeatures(window)], [None, 3, window], "B,3,W", meta
+        return [WindowFeatures(window)], [None, 3, window], WINDOWS_LAYOUT, meta
     if kind == "image":
         from .image import DEFAULT_EDGE_THRESHOLD, DEFAULT_EROSION, DEFAULT_THRESHOLD, ExplorationFeatures
 
@@ -182,24 +203,24 @@ def _front_end(
         erosion = int(source.get("erosion", DEFAULT_EROSION))
         meta.update(threshold=threshold, erosion=erosion)
         front = ExplorationFeatures(fuse=fuse, threshold=threshold, erosion=erosion)
-        return [front], [None, t, c, h, w], "B,T,3,H,W", meta
+        return [front], [None, t, c, h, w], FRAMES_LAYOUT, meta
     if kind == "features":
         n = int(source["n_features"])
-        return [], [None, n], "B,F", {}
+        return [], [None, n], FEATURES_LAYOUT, {}
     raise ValueError(f"the model's source kind must be 'vibration', 'image' or 'features', got {kind!r}")
 
 
 def pipeline_from_model(
     model: ModelFile | str | Path, *, sensor_range_g: float | None = None
 ) -> InferencePipeline:
-    """Build the inference pipeline of a model file (a :class:`~tactile_torch.model_file.ModelFile`,
+    """Build the inference pipeline of a model file (a :class:`~tactile_torch.robot.model_file.ModelFile`,
     or its path) written by ``tactile-torch train --out`` or ``tactile-torch cluster``.
 
     The torch modules are rebuilt from the file's arrays: the front end from ``source`` (window
     features, or exploration features), then the feature scale and the SVM's inference path, or the
     clustering transform and the MAP mixture.
 
-    ``sensor_range_g`` (vibration models only; default :data:`~tactile_torch.runtime.DEFAULT_RANGE_G`,
+    ``sensor_range_g`` (vibration models only; default :data:`~tactile_torch.robot.runtime.DEFAULT_RANGE_G`,
     5 g, the ADXL345 of the study) is the sensor's range, kept in the metadata (``sensor_range_g``):
     ``tactile-torch predict`` does not classify windows holding a sample beyond it and ``stream``
     rejects such samples. It must be finite and > 0.
@@ -208,7 +229,7 @@ def pipeline_from_model(
         model = load_model_file(model)
     if not isinstance(model, ModelFile):
         raise TypeError(
-            f"model must be a ModelFile (tactile_torch.model_file.load_model_file(path)) or a path, "
+            f"model must be a ModelFile (tactile_torch.robot.model_file.load_model_file(path)) or a path, "
             f"got {type(model).__name__}"
         )
     if sensor_range_g is not None:
@@ -238,7 +259,7 @@ def pipeline_from_model(
     classifier = _classifier_head(head, model.part("head"), len(model.class_names))
     ood = model.header.get("ood")
     if ood is not None:  # "unknown" as an answer: the graph also gives the distance to training
-        from .ood import QUANTILE_KEY, THRESHOLD_KEY, MahalanobisDistance, WithDistance
+        from .ood import MahalanobisDistance, WithDistance
 
         state = model.part("ood")
         classifier = WithDistance(
@@ -289,61 +310,6 @@ def _svm_head(settings: dict, arrays: dict[str, np.ndarray]) -> nn.Module:
         tree=tensors or None,
         depth=settings["depth"],
     )
-
-
-def save_clustering_model(
-    path: str | Path,
-    mixture: object,
-    *,
-    source: dict,
-    transform: nn.Module | None = None,
-) -> Path:
-    """Write a fitted :class:`~tactile_torch.mixture.PitmanYorGMM` (and the transform before it) to a model file.
-
-    The file (:mod:`tactile_torch.model_file`, no pickle) holds the MAP mixture's arrays, the
-    fitted transform's, ``source`` and the posterior summary.
-
-    Parameters
-    ----------
-    path : str or Path
-    mixture : PitmanYorGMM
-        Fitted; its point estimate's components (and novelty flag) are what the exported pipeline
-        classifies with (:meth:`~tactile_torch.mixture.PitmanYorGMM.to_module`).
-    source : dict
-        How the mixture's input is made: ``{"kind": "vibration", "window", "step", "rate_hz"}`` (raw
-        windows → :class:`~tactile_torch.signal.WindowFeatures` → ``transform``) or
-        ``{"kind": "features", "n_features"}``.
-    transform : ClusteringTransform, optional
-        Required for ``kind="vibration"``.
-    """
-    from .model_file import save_model_file
-
-    if source.get("kind") == "vibration" and transform is None:
-        raise ValueError("a vibration clustering needs the fitted ClusteringTransform (transform=)")
-    module = mixture.to_module()
-    k = int(module.means.shape[0])
-    header = {
-        "kind": "clustering",
-        "method": "pyp",
-        "class_names": [f"component {i}" for i in range(k)],
-        "source": dict(source),
-        "head": {"type": "gaussian-mixture"},
-        "summary": mixture.summary(),
-        "k_summary": {
-            k: (list(v) if isinstance(v, tuple) else v) for k, v in mixture.n_clusters_summary_.items()
-        },
-    }
-    arrays = {f"head.{name}": buf.numpy() for name, buf in module.named_buffers()}
-    if transform is not None:
-        header["transform"] = {
-            "type": "clustering",
-            "n_components": int(transform.n_components),
-            "standardize": bool(transform.standardize),
-            "eps": float(transform.eps),
-        }
-        fitted = ("mean_", "scale_", "components_", "explained_variance_", "explained_variance_ratio_")
-        arrays.update({f"transform.{name}": getattr(transform, name) for name in fitted})
-    return save_model_file(path, header, arrays)
 
 
 def _clustering_pipeline(model: ModelFile, sensor_range_g: float | None) -> InferencePipeline:
@@ -399,7 +365,7 @@ def export_pipeline(
     """Export ``pipeline`` to one ONNX file at ``path`` (dynamo exporter, dynamic batch, metadata); return it.
 
     The outputs are named ``labels`` and ``scores`` and the input ``raw``, as
-    :class:`tactile_torch.runtime.OnnxPipeline` expects; ``onnx.checker`` validates the file. The
+    :class:`tactile_torch.robot.runtime.OnnxPipeline` expects; ``onnx.checker`` validates the file. The
     file is written atomically and never onto a directory, a device, a symbolic link or one of
     ``inputs`` (e.g. the model file it was built from): ``ValueError`` in one line.
     """
@@ -415,7 +381,7 @@ def export_pipeline(
         pipeline.eval(),
         (example,),
         path,
-        input_names=["raw"],
+        input_names=[INPUT_NAME],
         output_names=[LABELS_OUTPUT, SCORES_OUTPUT, *extra],
         metadata=pipeline.metadata(),
         inputs=inputs,
@@ -439,109 +405,9 @@ def compare_with_runtime(pipeline: InferencePipeline, bundle: object, raw: np.nd
     return agreement, difference
 
 
-@dataclass
-class Bundle:
-    """One exported default pipeline (see :func:`build_default_bundles`).
-
-    Attributes
-    ----------
-    pipeline : InferencePipeline
-        The torch pipeline that was exported.
-    path : Path
-        Its ``.onnx`` file.
-    raw : ndarray
-        Held-out raw input of the pipeline's shape (uint8 frames, float32 windows).
-    labels : ndarray of shape (N,) int64
-        True class of each row of ``raw`` (index into the data set's classes).
-    """
-
-    pipeline: InferencePipeline
-    path: Path
-    raw: np.ndarray
-    labels: np.ndarray
-
-
-def build_default_bundles(
-    out_dir: str | Path,
-    *,
-    quick: bool = False,
-    random_state: int = 0,
-    kinds: tuple[str, ...] = ("vibration-hmsvm", "vibration-pyp", "image-hmsvm"),
-    log=print,
-) -> dict[str, Bundle]:
-    """Train the three default pipelines on the bundled synthetic data, export them, return them by name.
-
-    ``vibration-hmsvm``: 28 synthetic surfaces, 60 s each at 800 Hz (``quick``: 10 s), W = 800
-    windows, odd windows held out, HM-SVM with C = 16 and gamma ``"scale"`` on unit-std features.
-    ``vibration-pyp``: the same windows → unsupervised transform (3 components) → Pitman-Yor mixture
-    (300 sweeps, ``quick``: 40). ``image-hmsvm``: 20 synthetic explorations per class (``quick``: 8)
-    of 100 frames of 96 x 96, half held out. Writes ``<name>.npz`` (the model file) and
-    ``<name>.onnx`` to ``out_dir``.
-    """
-    from .training import FeatureSet, save_model, train_classifier
-
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    built: dict[str, Bundle] = {}
-    if any(k.startswith("vibration") for k in kinds):
-        from .data.stylus import make_vibration_recordings
-        from .model_selection import odd_even_split
-        from .signal import window_features
-
-        rec = make_vibration_recordings(28, duration_s=10 if quick else 60, random_state=random_state)
-        ds = rec.windows(800)
-        X = window_features(ds.windows).double().numpy()
-        fit_on, held_out = odd_even_split(ds.position)  # the study's split: even-numbered windows held out
-        source = {"kind": "vibration", "window": 800, "step": 800, "rate_hz": rec.rate_hz}
-        raw, labels = ds.windows[held_out].numpy(), ds.labels[held_out].numpy()
-        if "vibration-hmsvm" in kinds:
-            train = FeatureSet(X[fit_on], ds.labels.numpy()[fit_on], ds.class_names, source)
-            model = train_classifier(train, "hmsvm", n_folds=2, random_state=random_state)
-            path = save_model(out / "vibration-hmsvm.npz", model, train)
-            built["vibration-hmsvm"] = Bundle(pipeline_from_model(load_model_file(path)), path, raw, labels)
-        if "vibration-pyp" in kinds:
-            from .mixture import PitmanYorGMM
-            from .signal import ClusteringTransform
-
-            transform = ClusteringTransform(3).fit(X[fit_on])
-            pcs = transform.transform(X[fit_on])
-            sweeps = 40 if quick else 300
-            mixture = PitmanYorGMM(
-                n_iter=sweeps, burn_in=sweeps // 4, random_state=random_state, progress=False
-            )
-            path = save_clustering_model(
-                out / "vibration-pyp.npz", mixture.fit(pcs), source=source, transform=transform
-            )
-            built["vibration-pyp"] = Bundle(pipeline_from_model(load_model_file(path)), path, raw, labels)
-    if "image-hmsvm" in kinds:
-        from .data.images import make_explorations
-        from .image import exploration_features
-
-        data = make_explorations(8 if quick else 20, random_state=random_state)
-        X = exploration_features(data.frames).double().numpy()
-        held_out = np.arange(len(X)) % 2 == 1
-        source = {"kind": "image", "fuse": True, "frame_shape": list(data.frames.shape[1:])}
-        train = FeatureSet(X[~held_out], data.labels.numpy()[~held_out], data.class_names, source)
-        model = train_classifier(train, "hmsvm", n_folds=2, random_state=random_state)
-        path = save_model(out / "image-hmsvm.npz", model, train)
-        raw = data.frames[held_out].numpy()
-        built["image-hmsvm"] = Bundle(
-            pipeline_from_model(load_model_file(path)), path, raw, data.labels[held_out].numpy()
-        )
-    for name, bundle in built.items():
-        bundle.path = export_pipeline(bundle.pipeline, out / f"{name}.onnx")
-        log(f"[bundles] {name}: {bundle.path} ({bundle.path.stat().st_size / 1024:.0f} KiB)")
-    return built
-
-
 __all__ = [
-    "CLUSTERING_FORMAT",
-    "Bundle",
     "InferencePipeline",
-    "build_default_bundles",
     "compare_with_runtime",
     "export_pipeline",
-    "load_model_file",
     "pipeline_from_model",
-    "save_clustering_model",
 ]

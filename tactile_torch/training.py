@@ -1,6 +1,6 @@
 """Train a classifier on a data file and save it: what ``tactile-torch train`` runs.
 
-:func:`load_features` reads a data file of ``docs/formats.md`` through :mod:`tactile_torch.formats`
+:func:`load_features` reads a data file of ``docs/formats.md`` through :mod:`tactile_torch.robot.formats`
 (image explorations: ``frames``; vibration recordings: ``signals`` or CSV logs; a ready ``features``
 matrix) and computes its features (:func:`tactile_torch.image.exploration_features`, or windows and
 :func:`tactile_torch.signal.window_features`). :func:`train_classifier` reports the accuracy of a
@@ -9,7 +9,7 @@ with k = 3, city-block distance and inverse-distance weights, or nearest class m
 recording, session or time block (the trade-off's folds, :func:`held_out_folds`), then fits it on
 every sample, each feature scaled to unit standard deviation (as in the study; the scale is kept
 with the model); ``select`` keeps the best-ranked features only. :func:`save_model` writes the model
-file (:mod:`tactile_torch.model_file`: plain arrays and a JSON header, no pickle) with everything the
+file (:mod:`tactile_torch.robot.model_file`: plain arrays and a JSON header, no pickle) with everything the
 export needs: the scale, the class names, how the features were made and the arrays of the SVM's
 inference module (:func:`classifier_head`).
 """
@@ -29,7 +29,7 @@ METHODS = tuple(catalogue.choices())
 """Accepted ``method`` names: the catalogue's keys (:data:`tactile_torch.catalogue.CLASSIFIERS`) and
 ``"svm"``, an alias of ``"svc"`` (the one-vs-one SVM)."""
 MODEL_FORMAT = "tactile-torch/model"
-"""``format`` of model files (:data:`tactile_torch.model_file.FORMAT`; kept for old imports)."""
+"""``format`` of model files (:data:`tactile_torch.robot.model_file.FORMAT`; kept for old imports)."""
 
 
 @dataclass
@@ -72,7 +72,7 @@ def load_features(
     options=None,
     name: str | None = None,
 ) -> FeatureSet:
-    """Read a data file (:func:`tactile_torch.data.sources.read_source`) and return its features.
+    """Read a data file (:func:`tactile_torch.robot.data_sources.read_source`) and return its features.
 
     Parameters
     ----------
@@ -81,7 +81,7 @@ def load_features(
         (``features``) in one ``.npz``, each with ``labels`` (and ``class_names``); CSV logs
         (one recording each); ROS 2 bags. Class and session of logs and bags come from the naming
         rule (``felt_3.csv``: class ``felt``, session ``3``) or an index. See ``docs/formats.md``.
-        Or what :func:`~tactile_torch.data.sources.read_source` returned.
+        Or what :func:`~tactile_torch.robot.data_sources.read_source` returned.
     window, step : int
         Vibration windows: length and hop in samples (default hop: ``window``, no overlap).
     fuse : bool
@@ -90,7 +90,7 @@ def load_features(
         Only for vibration files written by tactile-torch 0.1 with recordings of different lengths
         (a pickled object array): allow it only for files you trust.
     options : DataOptions, optional
-        Columns, units, time unit, topic ... (:class:`tactile_torch.data.sources.DataOptions`).
+        Columns, units, time unit, topic ... (:class:`tactile_torch.robot.data_sources.DataOptions`).
     name : str, optional
         How messages name the data (default: the file, or ``"data"`` for arrays already read).
 
@@ -102,15 +102,15 @@ def load_features(
     Raises
     ------
     FileNotFoundError, ValueError
-        One line naming the file and the field (see :mod:`tactile_torch.formats`), or the
+        One line naming the file and the field (see :mod:`tactile_torch.robot.formats`), or the
         recording and sample that the declared units make implausible; labels are required here.
     """
-    from .formats import data_name
+    from .robot.formats import data_name
 
     if hasattr(path, "kind"):
         data, where = path, name or "data"
     else:
-        from .data.sources import DataOptions, read_source
+        from .robot.data_sources import DataOptions, read_source
 
         data = read_source(path, options or DataOptions(allow_pickle=allow_pickle))
         where = name or data_name(path)
@@ -129,7 +129,7 @@ def load_features(
         return FeatureSet(X, data.labels, data.class_names, source, groups=data.groups)
     import torch
 
-    from .formats import window_recordings
+    from .robot.windows import window_recordings
     from .signal import window_features
 
     try:
@@ -422,11 +422,11 @@ def write_classifier_file(
     """Write a fitted classifier and its feature preprocessing to a model file (no pickle); return ``path``.
 
     ``class_names`` name the estimator's ``classes_`` in order; ``source`` says how raw input becomes
-    features (:mod:`tactile_torch.model_file`); the head takes ``(features[:, select] - center) / scale``.
+    features (:mod:`tactile_torch.robot.model_file`); the head takes ``(features[:, select] - center) / scale``.
     ``ood``: a fitted out-of-distribution state (:func:`tactile_torch.ood.fit_ood` on those scaled
     features, classes in the head's order, with its ``quantile``), written as the file's ``ood`` part.
     """
-    from .model_file import save_model_file
+    from .robot.model_file import save_model_file
 
     method, head, head_arrays = classifier_head(estimator)
     params = {
@@ -463,7 +463,7 @@ def write_classifier_file(
 def save_model(path: str | Path, model: TrainedModel, features: FeatureSet) -> Path:
     """Write a trained classifier (any of :data:`METHODS`) to a model file; return ``path``.
 
-    The file (:mod:`tactile_torch.model_file`, no pickle) holds the feature ``scale`` (and ``select``,
+    The file (:mod:`tactile_torch.robot.model_file`, no pickle) holds the feature ``scale`` (and ``select``,
     the kept columns), the class names in the order of the classifier's labels, how features are made
     (``source``), the hyper-parameters, the held-out accuracy and the arrays of the classifier's
     inference module (:func:`classifier_head`), which is what ``tactile-torch export`` turns into ONNX.
@@ -490,11 +490,11 @@ def save_model(path: str | Path, model: TrainedModel, features: FeatureSet) -> P
 
 
 def load_model(path: str | Path):
-    """Read and validate a classifier's model file (see :func:`tactile_torch.model_file.load_model_file`).
+    """Read and validate a classifier's model file (see :func:`tactile_torch.robot.model_file.load_model_file`).
 
-    Returns a :class:`tactile_torch.model_file.ModelFile`; nothing in it is unpickled.
+    Returns a :class:`tactile_torch.robot.model_file.ModelFile`; nothing in it is unpickled.
     """
-    from .model_file import load_model_file
+    from .robot.model_file import load_model_file
 
     return load_model_file(path, kind="classifier")
 

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tactile_torch.stream import format_sample
+from tactile_torch.robot.stream import format_sample
 
 
 class PtySensor:

@@ -13,7 +13,7 @@ import torch
 from tactile_torch import cli
 from tactile_torch.cli import BAD_INPUT_EXIT, TRAIN_MODULES, main
 from tactile_torch.data import make_vibration_recordings
-from tactile_torch.runtime import OnnxPipeline, sensor_range_g
+from tactile_torch.robot.runtime import OnnxPipeline, sensor_range_g
 
 from .conftest import run_without_torch
 
@@ -372,8 +372,8 @@ def test_simulate_sensor_plays_any_layout(tmp_path, monkeypatch, capsys):
 
     import serial
 
-    from tactile_torch.formats import RecordingArrays, write_recordings
-    from tactile_torch.stream import parse_sample
+    from tactile_torch.robot.formats import RecordingArrays, write_recordings
+    from tactile_torch.robot.stream import parse_sample
 
     rng = np.random.default_rng(0)
     signals = [rng.normal(0, 0.1, (n, 3)).astype(np.float32) for n in (300, 450)]
@@ -483,7 +483,7 @@ def test_a_header_only_csv_is_one_line_without_a_numpy_warning(tmp_path):
             "-W",
             "default",
             "-c",
-            f"from tactile_torch.formats import read_data; read_data({[str(path)]!r})",
+            f"from tactile_torch.robot.formats import read_data; read_data({[str(path)]!r})",
         ],
         capture_output=True,
         text=True,
@@ -578,7 +578,7 @@ def test_out_onto_a_device_directory_symlink_or_fifo_is_refused(files, tmp_path,
 
 
 def test_write_atomic_leaves_no_partial_file(tmp_path):
-    from tactile_torch.safe_write import write_atomic
+    from tactile_torch.robot.safe_write import write_atomic
 
     path = tmp_path / "out.bin"
     path.write_bytes(b"old")

@@ -9,8 +9,8 @@ import pytest
 
 from tactile_torch.cli import BAD_INPUT_EXIT, main
 from tactile_torch.data import make_vibration_recordings
-from tactile_torch.data.bags import read_bag
-from tactile_torch.data.sources import DataOptions, read_source
+from tactile_torch.robot.data_sources import DataOptions, read_source
+from tactile_torch.robot.ros_bags import read_bag
 
 pytest.importorskip(
     "rosbags", reason="the optional extra 'ros' (rosbags) is not installed: pip install -e '.[ros]'"

@@ -75,6 +75,18 @@ def test_render_pressure_white_background_and_jet_colours():
     assert bool((below == 255).all())
 
 
+def test_render_pressure_equals_jet_of_the_upsampled_maps():
+    """The in-place renderer gives the bytes of the plain formula: white below the floor, else jet."""
+    g = torch.Generator().manual_seed(5)
+    pressure = (torch.rand(3, 7, 6, 6, generator=g) * 320.0 - 10.0).clamp(min=0.0)
+    up = torch.nn.functional.interpolate(
+        pressure.reshape(21, 1, 6, 6) / 255.0, size=(10, 12), mode="bilinear", align_corners=False
+    ).reshape(3, 7, 10, 12)
+    expected = torch.where((up < DISPLAY_FLOOR / 255.0).unsqueeze(2), 1.0, jet(up).movedim(-1, 2))
+    expected = torch.round(expected * 255.0).to(torch.uint8)
+    assert torch.equal(render_pressure(pressure, (10, 12)), expected)
+
+
 def test_npz_round_trip(tmp_path, small):
     path = save_explorations(tmp_path / "set.npz", small)
     with np.load(path) as npz:

@@ -11,9 +11,9 @@ import pytest
 
 from tactile_torch.cli import BAD_INPUT_EXIT, main
 from tactile_torch.data import load_hapmat_imu5, load_vibration_csv, make_vibration_recordings
-from tactile_torch.data.bags import MissingExtraError, read_bag
-from tactile_torch.data.logs import class_and_session, read_csv_log
-from tactile_torch.data.sources import DataOptions, check_recordings, read_source
+from tactile_torch.robot.csv_logs import class_and_session, read_csv_log
+from tactile_torch.robot.data_sources import DataOptions, check_recordings, read_source
+from tactile_torch.robot.ros_bags import MissingExtraError, read_bag
 from tactile_torch.training import held_out_folds, load_features, train_classifier
 
 G = 9.80665
@@ -198,7 +198,7 @@ def test_cli_reads_m_s2_logs_in_ms_with_options(tmp_path, rec, capsys):
     assert main([*argv, "--time-unit", "ms", "--units", "m/s2", "--out", str(out)]) == 0
     text = capsys.readouterr().out
     assert "grouped by session" in text and "overall accuracy" in text
-    from tactile_torch.model_file import load_model_file
+    from tactile_torch.robot.model_file import load_model_file
 
     assert load_model_file(out).header["source"]["rate_hz"] == 800.0
 
@@ -241,8 +241,8 @@ def test_bags_without_rosbags_get_one_line_naming_the_extra(tmp_path, monkeypatc
 
 
 def test_declared_sensor_range_reaches_the_exported_bundle(tmp_path, rec, capsys):
-    from tactile_torch.model_file import load_model_file
     from tactile_torch.pipeline import pipeline_from_model
+    from tactile_torch.robot.model_file import load_model_file
 
     paths = _logs(tmp_path, rec)
     table = np.loadtxt(paths[0], delimiter=",", skiprows=1)

@@ -1,4 +1,4 @@
-"""The data formats (tactile_torch.formats): round trips, no pickle, one error per documented bad input."""
+"""The data formats (tactile_torch.robot.formats): round trips, no pickle, one error per documented bad input."""
 
 import numpy as np
 import pytest
@@ -8,24 +8,21 @@ from hypothesis import strategies as st
 
 from tactile_torch.data import load_borealtc_imu, load_vibration_npz
 from tactile_torch.data.images import load_drimus_grasps, load_explorations, save_explorations
-from tactile_torch.formats import (
+from tactile_torch.robot.csv_logs import csv_class_name, read_csv_recording, write_csv_recording
+from tactile_torch.robot.formats import (
     ExplorationArrays,
     FeatureArrays,
     RecordingArrays,
-    csv_class_name,
-    read_csv_recording,
     read_data,
     read_explorations,
     read_features,
-    read_npz,
     read_recordings,
-    window_recordings,
-    write_csv_recording,
     write_explorations,
     write_features,
-    write_npz,
     write_recordings,
 )
+from tactile_torch.robot.npz import read_npz, write_npz
+from tactile_torch.robot.windows import window_recordings
 from tactile_torch.signal import sliding_windows
 
 from .conftest import require_shared_data, run_without_torch
@@ -273,7 +270,8 @@ def test_formats_import_without_torch(tmp_path):
     path = write_recordings(tmp_path / "rec.npz", _recordings())
     out = run_without_torch(
         f"""
-        from tactile_torch.formats import read_data, window_recordings
+        from tactile_torch.robot.formats import read_data
+        from tactile_torch.robot.windows import window_recordings
 
         data = read_data({str(path)!r})
         print(window_recordings(data.signals, 400, 200).windows.shape)

@@ -13,7 +13,6 @@ from scipy.special import gammaln, multigammaln
 from sklearn.base import clone
 from sklearn.exceptions import NotFittedError
 
-from tactile_torch.discovery import SurfaceDiscovery
 from tactile_torch.metrics import pairwise_accuracy
 from tactile_torch.mixture import (
     GaussianMixtureClassifier,
@@ -30,6 +29,7 @@ from tactile_torch.mixture import (
     variation_of_information,
 )
 from tactile_torch.mixture._gibbs import conditionals, densities, linalg
+from tactile_torch.robot.discovery import SurfaceDiscovery
 from tactile_torch.studies.clustering import have_vibration_features
 
 from .reference_mixture import reference_gibbs
@@ -796,7 +796,7 @@ def test_cli_stream_discover_proposes_a_surface_the_clustering_never_saw(tmp_pat
 
     from tactile_torch.cli import main
     from tactile_torch.data.stylus import SURFACES, make_vibration_recordings
-    from tactile_torch.stream import format_sample
+    from tactile_torch.robot.stream import format_sample
 
     known = [SURFACES[0], SURFACES[5], SURFACES[7]]  # glass, cork, rubber
     rec = make_vibration_recordings(surfaces=known, duration_s=8.0, random_state=0)

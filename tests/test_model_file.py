@@ -1,4 +1,4 @@
-"""Model files (tactile_torch.model_file): nothing in them runs, everything in them is validated."""
+"""Model files (tactile_torch.robot.model_file): nothing in them runs, everything in them is validated."""
 
 import json
 
@@ -8,7 +8,13 @@ import torch
 
 from tactile_torch import __version__
 from tactile_torch.cli import main
-from tactile_torch.model_file import FORMAT, FORMAT_VERSION, load_model_file, save_model_file, validate_model
+from tactile_torch.robot.model_file import (
+    FORMAT,
+    FORMAT_VERSION,
+    load_model_file,
+    save_model_file,
+    validate_model,
+)
 
 from .conftest import run_without_torch
 
@@ -236,7 +242,7 @@ def test_model_files_load_without_torch(tmp_path):
     path = save_model_file(tmp_path / "model.npz", *_svm_model())
     out = run_without_torch(
         f"""
-        from tactile_torch.model_file import load_model_file
+        from tactile_torch.robot.model_file import load_model_file
 
         print(load_model_file({str(path)!r}).header["source"])
         """

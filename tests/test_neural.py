@@ -23,7 +23,7 @@ from tactile_torch.neural import (
 from tactile_torch.neural.front_end import LearnedFrontEndClassifier, SoftFrontEnd, crammer_singer_loss
 from tactile_torch.neural.networks import WINDOW_WIDTHS, WindowCNN, build, count_parameters
 from tactile_torch.neural.training import inner_split
-from tactile_torch.runtime import OnnxPipeline
+from tactile_torch.robot.runtime import OnnxPipeline
 from tactile_torch.tradeoff.int8 import quantise_bundle
 from tactile_torch.tradeoff.memory import peak_memory_mib
 

@@ -18,10 +18,10 @@ from tactile_torch.pipeline import (
     InferencePipeline,
     compare_with_runtime,
     export_pipeline,
-    load_model_file,
     pipeline_from_model,
 )
-from tactile_torch.runtime import OnnxPipeline
+from tactile_torch.robot.model_file import load_model_file
+from tactile_torch.robot.runtime import OnnxPipeline
 from tactile_torch.training import load_features, save_model, train_classifier
 
 from .conftest import require_shared_data, run_without_torch
@@ -191,7 +191,7 @@ def test_predict_refuses_data_of_the_wrong_kind(tmp_path, vibration_npz):
 
 
 def test_cli_stream_classifies_a_simulated_sensor(tmp_path, vibration_npz, capsys, monkeypatch):
-    from tactile_torch.stream import format_sample, parse_sample, simulate_sensor
+    from tactile_torch.robot.stream import format_sample, parse_sample, simulate_sensor
 
     _, _, model_path = _trained(tmp_path, vibration_npz, "svm", window=400)
     onnx_path = tmp_path / "svm.onnx"
@@ -245,7 +245,7 @@ def _out_of_distribution(n, window, rate, rng):
 
 def _unknown_rates(tmp_path, signals, labels, names, rate, window):
     """Train on even windows, export; return the unknown share on odd (held-in) windows and on OOD signals."""
-    from tactile_torch.formats import window_recordings
+    from tactile_torch.robot.windows import window_recordings
     from tactile_torch.signal import window_features
     from tactile_torch.training import FeatureSet
 
@@ -315,7 +315,7 @@ def test_a_header_is_checked_against_its_graph(tmp_path, vibration_npz):
     """A crafted header (window = 5) must not export a graph that labels 5-sample windows."""
     import json as json_
 
-    from tactile_torch.model_file import HEADER
+    from tactile_torch.robot.model_file import HEADER
 
     _, _, path = _trained(tmp_path, vibration_npz, "svm", window=400)
     arrays = dict(np.load(path))
@@ -333,7 +333,7 @@ def test_a_header_is_checked_against_its_graph(tmp_path, vibration_npz):
 @pytest.mark.slow  # trains and exports its own bundle (about 40 s); the API and predict have faster tests above
 def test_out_of_distribution_windows_are_unknown_in_predict_and_stream(tmp_path, vibration_npz, capsys):
     """A pure tone through `predict` and through `stream` over a pty: "unknown" with the reason."""
-    from tactile_torch.stream import format_sample
+    from tactile_torch.robot.stream import format_sample
 
     from .stream_helpers import PtySensor
 

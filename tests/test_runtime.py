@@ -7,7 +7,7 @@ Runs on the robot install (no torch, no onnx): the bundle is the hand-encoded en
 import numpy as np
 import pytest
 
-from tactile_torch.runtime import OnnxPipeline
+from tactile_torch.robot.runtime import OnnxPipeline
 
 from .conftest import run_without_torch
 from .stream_helpers import energy_bundle
@@ -64,7 +64,7 @@ def test_runtime_runs_where_torch_cannot_be_imported(bundle):
     out = run_without_torch(
         f"""
         import numpy as np
-        from tactile_torch.runtime import OnnxPipeline
+        from tactile_torch.robot.runtime import OnnxPipeline
 
         pipe = OnnxPipeline({str(bundle)!r})
         print(pipe.predict(np.ones((1, 3, 16), np.float32) * np.arange(16) / 16).tolist(), "torch" in sys.modules)
@@ -78,7 +78,7 @@ def test_runtime_runs_where_torch_cannot_be_imported(bundle):
 def test_no_label_is_returned_with_a_non_finite_score(bundle):
     import math
 
-    from tactile_torch.runtime import NonFiniteScoresError
+    from tactile_torch.robot.runtime import NonFiniteScoresError
 
     pipe = OnnxPipeline(bundle)
     raw = np.ones((4, 3, 16), np.float32) * np.linspace(-1, 1, 16, dtype=np.float32)
@@ -120,7 +120,7 @@ def test_a_constant_window_is_unknown(bundle):
 
 
 def test_beyond_range_flags_the_windows_holding_a_value_past_the_range():
-    from tactile_torch.runtime import beyond_range
+    from tactile_torch.robot.runtime import beyond_range
 
     raw = np.zeros((6, 3, 16), np.float32)
     raw[0, 2, 3] = 5.0  # the bounds are in range

@@ -12,7 +12,7 @@ import pytest
 import serial
 from numpy.lib.stride_tricks import sliding_window_view
 
-from tactile_torch.stream import (
+from tactile_torch.robot.stream import (
     StreamDisconnected,
     StreamTimeout,
     WindowReader,

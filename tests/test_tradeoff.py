@@ -342,7 +342,7 @@ def test_tradeoff_command_on_vibration_recordings(tmp_path, capsys):
     for chart in ("accuracy-vs-latency.png", "accuracy-vs-size.png", "accuracy-vs-decision.png"):
         assert (out / "figures" / chart).read_bytes()[:4] == b"\x89PNG"
     assert "runner-up" in (out / "tradeoff.md").read_text()
-    from tactile_torch.runtime import OnnxPipeline
+    from tactile_torch.robot.runtime import OnnxPipeline
 
     pipe = OnnxPipeline(out / "recommended.onnx")  # refitted on all the data
     windows = rec.windows(pipe.input_shape[-1]).windows.numpy()
@@ -556,7 +556,7 @@ def test_baseline_and_the_choice_with_and_without_a_target():
 
 
 def test_csv_sessions_come_from_the_trailing_number(tmp_path):
-    from tactile_torch.formats import write_csv_recording
+    from tactile_torch.robot.csv_logs import write_csv_recording
 
     rng = np.random.default_rng(0)
     paths = [
@@ -597,7 +597,7 @@ def test_units_of_explorations_and_time_blocks(recordings):
     [np.float32, pytest.param(np.float64, marks=pytest.mark.slow)],  # same path; keeps the suite short
 )
 def test_tradeoff_on_a_feature_file_exports_and_recommends(tmp_path, capsys, dtype):
-    from tactile_torch.runtime import OnnxPipeline
+    from tactile_torch.robot.runtime import OnnxPipeline
 
     X, y = _blobs(90, 5, 3, seed=1)
     path = tmp_path / "feat.npz"
@@ -707,7 +707,7 @@ def test_no_adequate_candidate_recommends_nothing(tmp_path, capsys):
 # --------------------------------------------------------------------------- train every method
 @pytest.mark.parametrize("method", ["lda", "knn", "ncm", "svc", "hmsvm"])
 def test_train_writes_every_catalogue_method_and_export_reproduces_it(tmp_path, capsys, method):
-    from tactile_torch.runtime import OnnxPipeline
+    from tactile_torch.robot.runtime import OnnxPipeline
     from tactile_torch.training import load_features, load_model, train_classifier
 
     X, y = _blobs(60, 6, 3, seed=5)

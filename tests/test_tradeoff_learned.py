@@ -7,7 +7,7 @@ import pytest
 
 from tactile_torch import catalogue
 from tactile_torch.data.stylus import make_vibration_recordings
-from tactile_torch.runtime import OnnxPipeline
+from tactile_torch.robot.runtime import OnnxPipeline
 from tactile_torch.tradeoff import run_tradeoff
 from tactile_torch.tradeoff.learned import RawInput, is_learned, learned_candidates
 

@@ -23,8 +23,8 @@ import sys
 
 import numpy as np
 
-from tactile_torch.formats import read_features
 from tactile_torch.report import Report
+from tactile_torch.robot.formats import read_features
 from tactile_torch.studies.clustering import cluster_and_compare, learning_curve, synthetic_clusters
 
 

@@ -69,7 +69,8 @@ DATASETS = (
 
 
 def _write(rec, keep: np.ndarray, where: Path, csv: bool) -> list[Path]:
-    from tactile_torch.formats import RecordingArrays, write_csv_recording, write_recordings
+    from tactile_torch.robot.csv_logs import write_csv_recording
+    from tactile_torch.robot.formats import RecordingArrays, write_recordings
 
     where.mkdir(parents=True, exist_ok=True)
     session = np.array([s.rsplit("/", 1)[1] for s in rec.session])
@@ -92,7 +93,7 @@ def _write(rec, keep: np.ndarray, where: Path, csv: bool) -> list[Path]:
 
 
 def main() -> None:
-    from tactile_torch.runtime import OnnxPipeline
+    from tactile_torch.robot.runtime import OnnxPipeline
     from tactile_torch.tradeoff import run_tradeoff
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])

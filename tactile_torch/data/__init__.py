@@ -5,10 +5,11 @@ Submodules (imported on demand, so that this package stays free of torch):
 ``vibration`` - triaxial recordings and windows (``.npz``/CSV loaders and savers);
 ``stylus`` - the seeded simulator of the study's stylus recordings;
 ``recordings`` - loaders of the shared real IMU data sets;
-``logs`` - CSV logs with declared columns, units and time unit, and the naming rule of classes and
-sessions (NumPy only);
-``bags`` - ROS 2 bags (IMU and pressure-array topics) through the optional ``rosbags``;
-``sources`` - one entry for a ``--data`` argument (``.npz``, CSV logs or bags), recordings checked.
+
+What a ``--data`` argument names (``.npz``, CSV logs with declared columns, units and time unit,
+ROS 2 bags) is read by the robot side, which reads it too (``tactile-torch predict``):
+:mod:`tactile_torch.robot.data_sources`, :mod:`tactile_torch.robot.csv_logs`,
+:mod:`tactile_torch.robot.ros_bags` and :mod:`tactile_torch.robot.formats`.
 
 Real data sets live outside the repository, in ``../shared/data/<name>/`` (each with a
 ``PROVENANCE.md``); :func:`shared_data_dir` finds them.

@@ -4,7 +4,7 @@
 ``labels``, ``class_names``, ``rate_hz``, optional ``session``); :meth:`~VibrationRecordings.windows`
 cuts them into the ``(N, 3, W)`` windows of :func:`tactile_torch.signal.window_features`. The
 seeded stylus simulator lives in :mod:`tactile_torch.data.stylus` (its names stay importable from
-here too). Files are read and written by :mod:`tactile_torch.formats` (NumPy only; ``docs/formats.md``);
+here too). Files are read and written by :mod:`tactile_torch.robot.formats` (NumPy only; ``docs/formats.md``);
 the functions here turn them into :class:`VibrationRecordings`.
 
 Examples
@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .._checks import check_positive
-from ..formats import read_csv_recording
+from ..robot.csv_logs import read_csv_recording
 
 if TYPE_CHECKING:
     import torch
@@ -136,7 +136,7 @@ class VibrationRecordings:
         """
         import torch
 
-        from ..formats import window_recordings
+        from ..robot.windows import window_recordings
 
         check_positive(size, "size", integer=True)
         cut = window_recordings(self.signals, size, step, max_per_recording=max_per_recording)
@@ -205,9 +205,9 @@ def save_vibration_npz(path: str | Path, recordings: VibrationRecordings) -> Pat
 
     Equal-length recordings are stored as one float32 array ``signals`` ``(R, n, 3)``; recordings of
     different lengths as their samples concatenated ``(sum n_i, 3)`` plus ``lengths`` ``(R,)``: no
-    pickle either way (:func:`tactile_torch.formats.write_recordings`, ``docs/formats.md``).
+    pickle either way (:func:`tactile_torch.robot.formats.write_recordings`, ``docs/formats.md``).
     """
-    from ..formats import RecordingArrays, write_recordings
+    from ..robot.formats import RecordingArrays, write_recordings
 
     arrays = RecordingArrays(
         recordings.signals, recordings.labels, recordings.class_names, recordings.rate_hz, recordings.session
@@ -228,9 +228,9 @@ def load_vibration_npz(path: str | Path, *, allow_pickle: bool = False) -> Vibra
     ValueError
         One line naming the file and the field: a missing key, a wrong shape or dtype (integer
         counts where g are expected), NaN/inf, or a pickled array read without ``allow_pickle``
-        (:func:`tactile_torch.formats.read_recordings`).
+        (:func:`tactile_torch.robot.formats.read_recordings`).
     """
-    from ..formats import read_recordings
+    from ..robot.formats import read_recordings
 
     data = read_recordings(path, allow_pickle=allow_pickle)
     return VibrationRecordings(data.signals, data.labels, data.class_names, data.rate_hz, data.session)
@@ -256,7 +256,7 @@ def load_vibration_csv(
     class_names, sessions : sequence of str, optional
         Class and session of each file (same length as ``paths``); default from ``index``, else
         the naming rule: ``felt_3.csv`` → class ``felt``, session ``3``; ``glass.csv`` → class and
-        session ``glass`` (:func:`tactile_torch.data.logs.class_and_session`, the rule of the
+        session ``glass`` (:func:`tactile_torch.robot.csv_logs.class_and_session`, the rule of the
         command line). Labels index the sorted distinct classes.
     index : path, optional
         A CSV with columns ``file,class[,session]`` (files relative to it).
@@ -274,7 +274,7 @@ def load_vibration_csv(
     Raises
     ------
     ValueError
-        One line naming the file (:func:`tactile_torch.data.logs.read_csv_log`).
+        One line naming the file (:func:`tactile_torch.robot.csv_logs.read_csv_log`).
 
     Examples
     --------
@@ -282,7 +282,7 @@ def load_vibration_csv(
     >>> rec.class_names, rec.session  # doctest: +SKIP
     (('felt',), array(['1', '2'], dtype='<U1'))
     """
-    from .logs import names_for, read_csv_log
+    from ..robot.csv_logs import names_for, read_csv_log
 
     paths = [paths] if isinstance(paths, str | Path) else list(paths)
     if not paths:

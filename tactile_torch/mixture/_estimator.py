@@ -15,6 +15,7 @@ from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from .._constraints import RANDOM_STATE
+from ..robot.checks import numpy_rng
 from ._diagnostics import RHAT_THRESHOLD, convergence_table
 from ._mfm import coarsening_power, log_v
 from ._point_estimate import choose_partition, partition_components
@@ -25,17 +26,6 @@ from ._summaries import n_clusters_posterior, n_clusters_summary, summary_text
 W_FLOOR = 1e-10
 # Rows further than this from the data mean (whitened units) are novel by definition (prediction).
 _BEYOND = 1e100
-
-
-def _numpy_rng(random_state: object) -> np.random.Generator:
-    # torch is imported only when the caller already uses it (a torch.Generator): fit stays light.
-    if random_state is None or isinstance(random_state, Integral):
-        return np.random.default_rng(None if random_state is None else int(random_state))
-    if isinstance(random_state, np.random.Generator):
-        return random_state
-    from .._checks import numpy_rng
-
-    return numpy_rng(random_state)
 
 
 def _as_array(X: object) -> object:
@@ -400,7 +390,7 @@ class PitmanYorGMM(ClusterMixin, BaseEstimator):
         )
 
         X = validate_data(self, _as_array(X), dtype=np.float64)
-        rng = _numpy_rng(self.random_state)
+        rng = numpy_rng(self.random_state)
         n, D = X.shape
         mean, scale = _whitening(X)
         Xw = np.ascontiguousarray(np.linalg.solve(scale, (X - mean).T).T)

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import torch
 
-from ..discovery import NOVEL_OUTPUT
+from ..robot.contract import LABELS_OUTPUT, NOVEL_OUTPUT, SCORES_OUTPUT
 
 
 def gaussian_mixture_scores(
@@ -52,7 +52,7 @@ class GaussianMixtureClassifier(torch.nn.Module):
     ``novel`` is all False.
     """
 
-    output_names = ("labels", "scores", NOVEL_OUTPUT)
+    output_names = (LABELS_OUTPUT, SCORES_OUTPUT, NOVEL_OUTPUT)
     """Names of the three outputs in an exported graph."""
 
     def __init__(

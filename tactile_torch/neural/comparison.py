@@ -11,7 +11,7 @@ cost?" (:mod:`tactile_torch.studies.learned_models`). For every :class:`ModelSpe
 * **ONNX**: the first fold's model is exported (:func:`export_model`); ``onnx_agreement`` is the share of
   equal labels between the file (onnxruntime) and the model on that fold's held-out samples, run at a
   batch size other than the export's; ``latency_ms`` the median time of
-  :meth:`~tactile_torch.runtime.OnnxPipeline.predict` on one sample (batch 1, one thread; input
+  :meth:`~tactile_torch.robot.runtime.OnnxPipeline.predict` on one sample (batch 1, one thread; input
   validation included: :func:`tactile_torch.metrics.time_per_sample`), ``size_bytes`` the file's size,
   ``memory_mib`` the peak resident memory the session adds (:func:`tactile_torch.tradeoff.memory.peak_memory_mib`);
 * **int8** (``spec.int8``): every fold's model is exported and quantised both ways
@@ -124,7 +124,7 @@ def rebind(template: Path, model: object, raw: np.ndarray, path: str | Path) -> 
     import torch
     from onnx import numpy_helper
 
-    from ..runtime import OnnxPipeline
+    from ..robot.runtime import OnnxPipeline
 
     graph = graph_of(model)
     state = {k: v.detach().cpu().numpy() for k, v in graph.state_dict().items()}
@@ -169,7 +169,7 @@ def _group_interval(correct: np.ndarray, groups: np.ndarray | None, folds: list)
 
 def _measure(path: Path, raw: np.ndarray) -> dict[str, float]:
     from ..metrics import time_per_sample
-    from ..runtime import OnnxPipeline
+    from ..robot.runtime import OnnxPipeline
     from ..tradeoff.memory import peak_memory_mib
 
     pipe = OnnxPipeline(path)
@@ -202,7 +202,7 @@ def compare_models(
 
     Files go to ``out_dir`` (``<slug>.onnx``, ``<slug>-int8.onnx``).
     """
-    from ..runtime import OnnxPipeline
+    from ..robot.runtime import OnnxPipeline
     from ..tradeoff.evaluation import _slug
     from ..tradeoff.int8 import MODES, quantise_bundle
 

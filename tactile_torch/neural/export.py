@@ -2,7 +2,7 @@
 
 The graph is the estimator's :meth:`to_module` (raw input → ``labels``, ``scores``), exported with the
 project's exporter (:func:`tactile_torch._onnx.export_onnx`: ``torch.onnx.export(..., dynamo=True)``,
-dynamic batch, ``onnx.checker``) with the metadata :class:`tactile_torch.runtime.OnnxPipeline` reads.
+dynamic batch, ``onnx.checker``) with the metadata :class:`tactile_torch.robot.runtime.OnnxPipeline` reads.
 Labels index the estimator's ``classes_`` (metadata ``class_names``).
 """
 
@@ -15,8 +15,22 @@ import numpy as np
 import torch
 
 from .._onnx import export_onnx
+from ..robot.contract import (
+    CLASS_NAMES_KEY,
+    FRAMES_LAYOUT,
+    INPUT_LAYOUT_KEY,
+    INPUT_NAME,
+    INPUT_SHAPE_KEY,
+    LABELS_OUTPUT,
+    PIPELINE_KEY,
+    PRESSURE_LAYOUT,
+    SCORES_OUTPUT,
+    VERSION_KEY,
+    WINDOWS_LAYOUT,
+    metadata_strings,
+)
 
-LAYOUTS = {3: "B,3,W", 4: "B,T,H,W", 5: "B,T,3,H,W"}
+LAYOUTS = {3: WINDOWS_LAYOUT, 4: PRESSURE_LAYOUT, 5: FRAMES_LAYOUT}
 """Input layout by the raw input's number of dimensions."""
 
 
@@ -43,30 +57,29 @@ def export_classifier(
     metadata : dict, optional
         Further metadata (window size, sample rate ...); JSON for non-strings.
     """
-    import json
-
     from .. import __version__
 
     example = np.ascontiguousarray(example)
     if example.ndim not in LAYOUTS:
         raise ValueError(f"example must have 3, 4 or 5 dimensions (B, ...), got shape {example.shape}")
     names = list(class_names) if class_names is not None else [str(c) for c in estimator.classes_]
-    meta = {
-        "tactile_torch.pipeline": f"neural: {type(estimator).__name__}",
-        "tactile_torch.version": __version__,
-        "input_shape": json.dumps([None, *estimator.input_shape_]),
-        "input_layout": LAYOUTS[example.ndim],
-        "class_names": json.dumps(names),
-        "n_parameters": str(getattr(estimator, "n_parameters_", "")),
-    }
-    for key, value in (metadata or {}).items():
-        meta[key] = value if isinstance(value, str) else json.dumps(value)
+    meta = metadata_strings(
+        {
+            PIPELINE_KEY: f"neural: {type(estimator).__name__}",
+            VERSION_KEY: __version__,
+            INPUT_SHAPE_KEY: [None, *estimator.input_shape_],
+            INPUT_LAYOUT_KEY: LAYOUTS[example.ndim],
+            CLASS_NAMES_KEY: names,
+            "n_parameters": str(getattr(estimator, "n_parameters_", "")),
+            **(metadata or {}),
+        }
+    )
     return export_onnx(
         estimator.to_module(),
         (torch.from_numpy(example),),
         path,
-        input_names=["raw"],
-        output_names=["labels", "scores"],
+        input_names=[INPUT_NAME],
+        output_names=[LABELS_OUTPUT, SCORES_OUTPUT],
         metadata=meta,
     )
 

@@ -17,7 +17,7 @@ Three networks, one per raw input of the trade-off study (shapes as in docs/form
   pooling and a linear layer. The order of the frames (the motion) is not seen.
 
 :class:`ClassifierGraph` wraps any of them into the exported form: raw input → ``(labels, scores)``
-with scores the softmax probabilities (float32), the outputs :class:`tactile_torch.runtime.OnnxPipeline`
+with scores the softmax probabilities (float32), the outputs :class:`tactile_torch.robot.runtime.OnnxPipeline`
 reads.
 
 Every network is built by :func:`build` and initialised from an explicit ``torch.Generator`` (uniform

@@ -9,7 +9,7 @@ of its raw input and writes
 * ``<name>.onnx``: raw input → labels and scores, with the metadata ``tactile-torch predict`` and
   ``stream`` read (one file, onnxruntime only); its labels are checked against the refitted
   pipeline's on up to :data:`CHECK_SAMPLES` samples;
-* ``<name>.npz``: the same model as a model file (:mod:`tactile_torch.model_file`, no pickle), which
+* ``<name>.npz``: the same model as a model file (:mod:`tactile_torch.robot.model_file`, no pickle), which
   ``tactile-torch export`` turns into the same graph, for the feature sets a model file describes
   (vibration windows, RGB explorations, feature matrices, with or without a best-ranked subset);
   raw pressure maps and per-taxel features have no model-file form yet, said in one note.
@@ -23,6 +23,18 @@ from pathlib import Path
 
 import numpy as np
 from sklearn.base import clone
+
+from ..robot.contract import (
+    CLASS_NAMES_KEY,
+    DEFAULT_RANGE_G,
+    INPUT_LAYOUT_KEY,
+    INPUT_SHAPE_KEY,
+    PIPELINE_KEY,
+    RANGE_METADATA_KEY,
+    SAMPLE_RATE_KEY,
+    STEP_KEY,
+    WINDOW_SIZE_KEY,
+)
 
 CHECK_SAMPLES = 64
 """Samples on which the deployed ONNX file's labels are compared with the refitted pipeline's."""
@@ -118,7 +130,7 @@ def deploy_candidate(
         ``name``, ``onnx`` (path), ``model_file`` (path or ``None``), ``samples`` (fitted on),
         ``agreement`` (share of checked samples whose ONNX label equals the pipeline's), ``notes``.
     """
-    from ..runtime import DEFAULT_RANGE_G, RANGE_METADATA_KEY, OnnxPipeline
+    from ..robot.runtime import OnnxPipeline
     from .evaluation import _head_modules, _stateless, features_key
     from .export import bind_head, export_fixed_head, export_front, export_head, head_key, join
 
@@ -166,13 +178,13 @@ def deploy_candidate(
         classifier = pool.result(plain)
     classes = model.named_steps["classifier"].classes_
     meta = {
-        "tactile_torch.pipeline": f"tradeoff: {name}, fitted on all {len(s.y)} samples",
-        "input_shape": [None, *s.X.shape[1:]],
-        "input_layout": s.layout,
-        "class_names": [data.class_names[int(c)] for c in classes],
+        PIPELINE_KEY: f"tradeoff: {name}, fitted on all {len(s.y)} samples",
+        INPUT_SHAPE_KEY: [None, *s.X.shape[1:]],
+        INPUT_LAYOUT_KEY: s.layout,
+        CLASS_NAMES_KEY: [data.class_names[int(c)] for c in classes],
     }
     if s.window is not None:
-        meta.update(window_size=s.window, step=s.window, sample_rate_hz=data.rate_hz)
+        meta.update({WINDOW_SIZE_KEY: s.window, STEP_KEY: s.window, SAMPLE_RATE_KEY: data.rate_hz})
         meta[RANGE_METADATA_KEY] = DEFAULT_RANGE_G
     path = join(pool.result(front), classifier, out / f"{stem}.onnx", meta)
     agreement = float(np.mean(classes[OnnxPipeline(path).predict(check)] == model.predict(check)))
@@ -203,14 +215,14 @@ def deploy_candidate(
 def _deploy_learned(result, name: str, model, check: np.ndarray, path: Path, samples: int) -> dict:
     """Export a learned candidate fitted on all the data (its int8 variant quantised as in the study)."""
     from ..neural import export_classifier
-    from ..runtime import OnnxPipeline
+    from ..robot.runtime import OnnxPipeline
     from .int8 import quantise_bundle
 
     clf = model.steps[-1][1]
     s = result.inputs[result.result(name).candidate.input]
-    meta = {"tactile_torch.pipeline": f"tradeoff: {name}, fitted on all {samples} samples"}
+    meta = {PIPELINE_KEY: f"tradeoff: {name}, fitted on all {samples} samples"}
     if s.window is not None:
-        meta.update(window_size=s.window, step=s.window, sample_rate_hz=result.data.rate_hz)
+        meta.update({WINDOW_SIZE_KEY: s.window, STEP_KEY: s.window, SAMPLE_RATE_KEY: result.data.rate_hz})
     names = [result.data.class_names[int(c)] for c in clf.classes_]
     path = export_classifier(clf, path, check[:2], class_names=names, metadata=meta)
     variant = result.result(name)

@@ -30,6 +30,14 @@ from sklearn.pipeline import Pipeline
 
 from ..engine import Backend, CVResult, needs_fit, signature
 from ..engine import cross_validate as engine_cross_validate
+from ..robot.contract import (
+    CLASS_NAMES_KEY,
+    INPUT_LAYOUT_KEY,
+    INPUT_SHAPE_KEY,
+    PIPELINE_KEY,
+    STEP_KEY,
+    WINDOW_SIZE_KEY,
+)
 from .candidates import Candidate
 from .inputs import Samples
 
@@ -244,7 +252,7 @@ def export_and_time(
     ``onnx_agreement`` and ``onnx_file`` of every result. ``pool`` is an :class:`.export.ExportPool`.
     Returns the number of distinct exported parts the files join."""
     from ..metrics import time_per_sample
-    from ..runtime import OnnxPipeline
+    from ..robot.runtime import OnnxPipeline
     from .export import bind_head, export_fixed_head, export_front, export_head, head_key, join
     from .learned import export_learned, is_learned, n_parameters
 
@@ -283,14 +291,14 @@ def export_and_time(
         s = samples[cand.input]
         classes = model.named_steps["classifier"].classes_
         meta = {
-            "tactile_torch.pipeline": f"tradeoff: {cand.name}",
-            "input_shape": [None, *s.X.shape[1:]],
-            "input_layout": s.layout,
-            "class_names": [class_names[int(c)] for c in classes],
+            PIPELINE_KEY: f"tradeoff: {cand.name}",
+            INPUT_SHAPE_KEY: [None, *s.X.shape[1:]],
+            INPUT_LAYOUT_KEY: s.layout,
+            CLASS_NAMES_KEY: [class_names[int(c)] for c in classes],
             **(metadata or {}),
         }
         if s.window is not None:
-            meta.update(window_size=s.window, step=s.window)
+            meta.update({WINDOW_SIZE_KEY: s.window, STEP_KEY: s.window})
         try:
             try:
                 classifier = bind_head(pool.result(head), modules)
@@ -346,10 +354,10 @@ def classical_fold_file(
         pool.submit(head, export_head, modules, n_features, background=False)
         classes = model.named_steps["classifier"].classes_
         meta = {
-            "tactile_torch.pipeline": f"tradeoff: {candidate.name}",
-            "input_shape": [None, *samples.X.shape[1:]],
-            "input_layout": samples.layout,
-            "class_names": [class_names[int(c)] for c in classes],
+            PIPELINE_KEY: f"tradeoff: {candidate.name}",
+            INPUT_SHAPE_KEY: [None, *samples.X.shape[1:]],
+            INPUT_LAYOUT_KEY: samples.layout,
+            CLASS_NAMES_KEY: [class_names[int(c)] for c in classes],
             **metadata,
         }
         front = pool.result(("front", *features_key(candidate)))

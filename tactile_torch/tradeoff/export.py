@@ -14,7 +14,7 @@ a study has dozens of candidates that share a handful of feature graphs. So (:cl
   standardisation (``exp(-g ||x - s||^2) = exp(-||sqrt(g) x - sqrt(g) s||^2)``), so that SVMs that
   differ only in ``gamma`` share one too;
 * :func:`join` merges front and head (:func:`onnx.compose.merge_models`) into the candidate's file,
-  with the metadata :class:`~tactile_torch.runtime.OnnxPipeline` reads; ``onnx.checker`` validates it;
+  with the metadata :class:`~tactile_torch.robot.runtime.OnnxPipeline` reads; ``onnx.checker`` validates it;
 * the exports run at most once per key, the feature graphs in a background process while the study
   cross-validates.
 
@@ -25,7 +25,6 @@ candidate's file against the pipeline's on held-out samples).
 from __future__ import annotations
 
 import contextlib
-import json
 import math
 from pathlib import Path
 
@@ -34,6 +33,7 @@ import torch
 from torch import nn
 
 from .._onnx import drop_unused_initializers, export_onnx, save_onnx
+from ..robot.contract import FEATURES_NAME, INPUT_NAME, LABELS_OUTPUT, SCORES_OUTPUT, metadata_strings
 
 
 class Standardize(nn.Module):
@@ -112,14 +112,16 @@ def export_front(step: object, example: np.ndarray, path: str | Path) -> Path:
     itself (:class:`~tactile_torch.image.ExplorationFeatures` prepares its export when constructed).
     """
     example = np.ascontiguousarray(example[:2])
-    if example.dtype == np.float64:  # onnxruntime pipelines take float32 (tactile_torch.runtime casts to it)
+    if (
+        example.dtype == np.float64
+    ):  # onnxruntime pipelines take float32 (tactile_torch.robot.runtime casts to it)
         example = example.astype(np.float32)
     return export_onnx(
         step.to_module().eval(),
         (torch.from_numpy(example),),
         path,
-        input_names=["raw"],
-        output_names=["features"],
+        input_names=[INPUT_NAME],
+        output_names=[FEATURES_NAME],
     )
 
 
@@ -146,8 +148,8 @@ def export_head(modules: list[nn.Module], n_inputs: int, path: str | Path) -> Pa
         lifted,
         (example, *values),
         path,
-        input_names=["features", *lifted.names],
-        output_names=["labels", "scores"],
+        input_names=[FEATURES_NAME, *lifted.names],
+        output_names=[LABELS_OUTPUT, SCORES_OUTPUT],
         dynamic_shapes=(dims[0], tuple(dims[1:])),
     )
 
@@ -159,8 +161,8 @@ def export_fixed_head(modules: list[nn.Module], n_inputs: int, path: str | Path)
         nn.Sequential(*modules).eval(),
         (torch.zeros(2, n_inputs, dtype=torch.float32),),
         path,
-        input_names=["features"],
-        output_names=["labels", "scores"],
+        input_names=[FEATURES_NAME],
+        output_names=[LABELS_OUTPUT, SCORES_OUTPUT],
     )
 
 
@@ -190,10 +192,10 @@ def join(front: object, head: object, path: str | Path, metadata: dict[str, obje
     from onnx import compose
 
     head = compose.add_prefix(head, "head.", rename_outputs=False)
-    model = compose.merge_models(front, head, io_map=[("features", "head.features")])
-    for key, value in metadata.items():
+    model = compose.merge_models(front, head, io_map=[(FEATURES_NAME, f"head.{FEATURES_NAME}")])
+    for key, value in metadata_strings(metadata).items():
         entry = model.metadata_props.add()
-        entry.key, entry.value = str(key), value if isinstance(value, str) else json.dumps(value)
+        entry.key, entry.value = key, value
     onnx.checker.check_model(model)  # the parts were fully checked (shapes inferred) when exported
     return save_onnx(model, path)  # atomic; never onto a directory, a device or a symbolic link
 

@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from .._checks import RandomState, numpy_rng
+from ..robot.contract import FEATURES_LAYOUT, FRAMES_LAYOUT, PRESSURE_LAYOUT, WINDOWS_LAYOUT
 
 WINDOW_SIZES = (200, 400, 800, 1600)
 """Window sizes the study tries (those the recordings allow), in samples."""
@@ -135,7 +136,7 @@ def load_tradeoff_data(
     name: str | None = None,
 ) -> TradeoffData:
     """Read a data file (or CSV logs, ROS 2 bags) for :func:`~tactile_torch.tradeoff.run_tradeoff`, with
-    :func:`tactile_torch.data.sources.read_source` (docs/formats.md).
+    :func:`tactile_torch.robot.data_sources.read_source` (docs/formats.md).
 
     Parameters
     ----------
@@ -153,7 +154,7 @@ def load_tradeoff_data(
         (``felt_3.csv`` and ``cork_3.csv`` are session ``3``), or the file itself when a name has
         none; ``"file"``: every file is its own session (recording).
     options : DataOptions, optional
-        Columns, units, time unit, topic ... (:class:`tactile_torch.data.sources.DataOptions`).
+        Columns, units, time unit, topic ... (:class:`tactile_torch.robot.data_sources.DataOptions`).
     name : str, optional
         How the description names the data (default: the file).
 
@@ -164,7 +165,7 @@ def load_tradeoff_data(
     FileNotFoundError
         If a path does not exist.
     """
-    from ..formats import data_name
+    from ..robot.formats import data_name
 
     if frame_rate_hz is not None and (
         isinstance(frame_rate_hz, bool)
@@ -180,14 +181,14 @@ def load_tradeoff_data(
     if hasattr(paths, "kind"):
         data, where = paths, name or "data"
     else:
-        from ..data.sources import DataOptions, read_source
+        from ..robot.data_sources import DataOptions, read_source
 
         data = read_source(paths, options or DataOptions(allow_pickle=allow_pickle))
         where = name or data_name(paths)
     name = Path(where).name
     if data.kind == "vibration":
         if csv_session == "file" and not hasattr(paths, "kind") and _all_csv(paths):
-            # the naming rule (data.logs) gave each log the trailing number of its name as session
+            # the naming rule (robot.csv_logs) gave each log the trailing number of its name as session
             files = [paths] if isinstance(paths, str | Path) else list(paths)
             data.session = np.array([Path(p).stem for p in files])
         return vibration_data(data, name)
@@ -351,7 +352,7 @@ def vibration_samples(
                 f"{longest} samples = {longest / recordings.rate_hz:g} s at {recordings.rate_hz:g} Hz); "
                 "choose a shorter --window"
             )
-    from ..formats import window_recordings
+    from ..robot.windows import window_recordings
 
     ds = window_recordings(recordings.signals, window)
     X, recording, position = ds.windows, ds.recording, ds.position
@@ -387,7 +388,7 @@ def vibration_samples(
         X,
         y,
         folds,
-        "B,3,W",
+        WINDOWS_LAYOUT,
         window / rate,
         split,
         window,
@@ -528,7 +529,7 @@ def exploration_samples(
     folds, split = sample_folds(
         y, groups, n_folds=n_folds, names=data.class_names, what=what, random_state=random_state
     )
-    layout = {"image": "B,T,3,H,W", "pressure": "B,T,H,W", "features": "B,F"}[data.kind]
+    layout = {"image": FRAMES_LAYOUT, "pressure": PRESSURE_LAYOUT, "features": FEATURES_LAYOUT}[data.kind]
     key = {"image": "frames", "pressure": "pressure", "features": "features"}[data.kind]
     acquisition = 0.0 if data.kind == "features" else X.shape[1] / float(data.rate_hz)
     grouped = groups is not None and "grouped" in split

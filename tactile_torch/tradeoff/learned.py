@@ -34,6 +34,7 @@ from sklearn.base import BaseEstimator, TransformerMixin, _fit_context
 from sklearn.pipeline import Pipeline
 
 from .. import catalogue
+from ..robot.contract import CLASS_NAMES_KEY, PIPELINE_KEY, STEP_KEY, WINDOW_SIZE_KEY
 
 QUICK_EPOCHS = 30
 """Epochs of the networks under ``quick`` (early stopping may end them sooner)."""
@@ -159,9 +160,9 @@ def export_learned(res: object, samples: object, class_names: tuple, path: Path,
     s = samples
     raw = np.ascontiguousarray(s.X[s.folds[0][0][:2]])
     names = [class_names[int(c)] for c in clf.classes_]
-    meta = {"tactile_torch.pipeline": f"tradeoff: {res.candidate.name}", **metadata}
+    meta = {PIPELINE_KEY: f"tradeoff: {res.candidate.name}", **metadata}
     if s.window is not None:
-        meta.update(window_size=s.window, step=s.window)
+        meta.update({WINDOW_SIZE_KEY: s.window, STEP_KEY: s.window})
     return export_classifier(clf, path, raw, class_names=names, metadata=meta)
 
 
@@ -184,7 +185,7 @@ def _fold_file(res: object, k: int, first: Path, samples: object, parts: Path, f
         meta = {p.key: p.value for p in onnx.load(str(first)).metadata_props}
         from ..neural import export_classifier
 
-        names = __import__("json").loads(meta["class_names"])
+        names = __import__("json").loads(meta[CLASS_NAMES_KEY])
         return export_classifier(clf, path, np.ascontiguousarray(samples.X[test[:2]]), class_names=names)
     return fold_file(res.candidate, model, path)
 
@@ -205,7 +206,7 @@ def add_int8_and_memory(
     """
     import dataclasses
 
-    from ..runtime import OnnxPipeline
+    from ..robot.runtime import OnnxPipeline
     from .evaluation import CandidateResult, _progress
     from .int8 import quantise_bundle
 
@@ -279,7 +280,7 @@ def measure_memory(
     results: list, samples: dict, out_dir: str | Path, *, only: set[str] | None, progress: bool
 ) -> None:
     """Fill ``memory_mib`` of the results with a file (only those named in ``only`` when given)."""
-    from ..runtime import OnnxPipeline
+    from ..robot.runtime import OnnxPipeline
     from .evaluation import _progress
     from .memory import peak_memory_mib
 

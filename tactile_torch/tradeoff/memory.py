@@ -3,7 +3,7 @@
 Definition (:func:`peak_memory_mib`): a child Python process imports numpy and onnxruntime, reads the
 peak resident set size so far (``VmHWM`` of ``/proc/self/status``; ``resource.getrusage`` ``ru_maxrss``
 where ``/proc`` is absent), then creates the session (one intra-op and one inter-op thread, as
-:class:`~tactile_torch.runtime.OnnxPipeline` does) and runs one sample ``repeat`` times. The result is the
+:class:`~tactile_torch.robot.runtime.OnnxPipeline` does) and runs one sample ``repeat`` times. The result is the
 increase of the peak: the memory the model costs on top of an interpreter that already has onnxruntime
 loaded (weights, the session's arenas and the activations of one inference). It is a process-level
 figure: allocator granularity makes differences below about 1 MiB noise. The raw sample travels in a

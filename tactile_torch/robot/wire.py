@@ -2,7 +2,7 @@
 
 One ASCII line per sample, ``x,y,z`` in g, or ``t,x,y,z`` with ``t`` a number (seconds unless the
 reader is told otherwise), terminated by ``\\n`` (``\\r\\n`` accepted). numpy only: this module runs on
-the robot (through :mod:`tactile_torch.stream`, which re-exports these names) and on the bench
+the robot (through :mod:`tactile_torch.robot.stream`, which re-exports these names) and on the bench
 (``tactile-torch simulate-sensor``).
 """
 

@@ -2,7 +2,10 @@
 
 One home for the data formats (``docs/formats.md``); the loaders of :mod:`tactile_torch.data`, the
 training (:func:`tactile_torch.training.load_features`), the command line and the runtime
-(:meth:`tactile_torch.runtime.OnnxPipeline.read_npz`) all go through it.
+(:meth:`tactile_torch.robot.runtime.OnnxPipeline.read_npz`) all go through it. The archives are read
+within the read bound by :mod:`tactile_torch.robot.npz`, CSV logs by
+:mod:`tactile_torch.robot.csv_logs`, and recordings are cut into windows by
+:mod:`tactile_torch.robot.windows`.
 
 =========================  =====================================================================
 format                     contents
@@ -33,25 +36,21 @@ Examples
 >>> back = read_recordings(path)          # ragged: concatenated samples + lengths, no pickle
 >>> [s.shape for s in back.signals]
 [(900, 3), (500, 3)]
->>> window_recordings(back.signals, 400, 200).windows.shape
-(4, 3, 400)
 """
 
 from __future__ import annotations
 
-import io
 import os
-import zipfile
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-PathLike = str | os.PathLike
-NPZ_MAGIC = b"PK"
-NPY_MAGIC = b"\x93NUMPY"
-KINDS = ("image", "vibration", "features")
+from .csv_logs import integer_counts_message, names_for, read_csv_recording
+from .npz import PathLike, read_npz, write_npz
+
+DATA_KINDS = ("image", "vibration", "features")
 """The kinds of data file, by the array that marks them: ``frames``, ``signals``, ``features``."""
 _MARKER = {"frames": "image", "signals": "vibration", "features": "features"}
 
@@ -123,192 +122,6 @@ class FeatureArrays:
 
     def __len__(self) -> int:
         return len(self.features)
-
-
-@dataclass
-class Windows:
-    """Windows cut from recordings by :func:`window_recordings`.
-
-    Attributes
-    ----------
-    windows : ndarray (N, 3, W) float32, C-contiguous (a copy)
-    recording : ndarray (N,) int64, index of the source recording
-    position : ndarray (N,) int64, index of the window within its recording (time order)
-    """
-
-    windows: np.ndarray
-    recording: np.ndarray
-    position: np.ndarray
-
-
-# ------------------------------------------------------------------------------------ npz files
-def _check_exists(path: Path) -> None:
-    if not path.exists():
-        raise FileNotFoundError(f"{path}: no such file")
-    if path.is_dir():
-        raise ValueError(f"{path}: is a directory, expected a file")
-
-
-# ------------------------------------------------------------------------------------ read limits
-DEFAULT_MAX_READ_MB = 1024
-"""Default bound (MiB) on what one data, model or bundle file may make the reader allocate."""
-MAX_READ_ENV = "TACTILE_TORCH_MAX_READ_MB"
-"""Environment variable that replaces :data:`DEFAULT_MAX_READ_MB` (``--max-read-mb`` sets it)."""
-_MIB = 1 << 20
-_CSV_EXPANSION = 4  # bytes of parsed table per byte of CSV text, at most ("0,0,0,0\n": 8 bytes, 4 float64)
-
-
-def max_read_bytes(max_bytes: int | None = None) -> int:
-    """Return the read bound in bytes: ``max_bytes`` if given, else ``$TACTILE_TORCH_MAX_READ_MB`` MiB, else 1 GiB.
-
-    Every reader of this module checks what a file declares (the sizes in a zip's member headers,
-    the shape and dtype in each ``.npy`` header, a CSV's size) against this bound before reading, so
-    a crafted file (a zip bomb, a header declaring 10^12 samples) is refused in one line instead of
-    exhausting the memory of a robot's computer.
-    """
-    if max_bytes is None:
-        text = os.environ.get(MAX_READ_ENV, "")
-        try:
-            mib = float(text) if text else float(DEFAULT_MAX_READ_MB)
-        except ValueError:
-            mib = float("nan")
-        if not (mib > 0 and np.isfinite(mib)):
-            raise ValueError(f"{MAX_READ_ENV} must be a number of MiB > 0, got {text!r}")
-        return int(mib * _MIB)
-    if isinstance(max_bytes, bool) or not isinstance(max_bytes, int | np.integer) or max_bytes < 1:
-        raise ValueError(f"max_bytes must be an int >= 1, got {max_bytes!r}")
-    return int(max_bytes)
-
-
-def _too_large(path: Path, what: str, size: int, limit: int) -> ValueError:
-    return ValueError(
-        f"{path}: {what} needs {size / _MIB:,.1f} MiB, more than the read limit of {limit / _MIB:,.0f} MiB "
-        f"(raise it with --max-read-mb or {MAX_READ_ENV} if the file is trusted)"
-    )
-
-
-def _npy_header(member, version: tuple[int, int]) -> tuple[tuple[int, ...], bool, np.dtype]:
-    if version == (1, 0):
-        return np.lib.format.read_array_header_1_0(member)
-    if version == (2, 0):
-        return np.lib.format.read_array_header_2_0(member)
-    raise ValueError(f"unsupported .npy format version {version}")
-
-
-def check_npz_size(path: PathLike, *, max_bytes: int | None = None, what: str = ".npz archive") -> int:
-    """Check a ``.npz`` against the read bound without decompressing it; return the bytes its arrays need.
-
-    Reads the zip's central directory (the declared uncompressed size of each member: ``zipfile``
-    never inflates a member beyond it) and the header of each ``.npy`` member (shape and dtype,
-    computed with Python integers: no overflow), and raises ``ValueError`` in one line when either
-    total exceeds :func:`max_read_bytes`, or a member's shape needs more bytes than it holds.
-    """
-    path = Path(path)
-    limit = max_read_bytes(max_bytes)
-    try:
-        with zipfile.ZipFile(path) as archive:
-            members = archive.infolist()
-            declared = sum(info.file_size for info in members)
-            if declared > limit:
-                raise _too_large(path, f"decompressing the {what}", declared, limit)
-            needed = 0
-            for info in members:
-                with archive.open(info) as member:
-                    try:
-                        version = np.lib.format.read_magic(member)
-                        shape, _, dtype = _npy_header(member, version)
-                    except ValueError:
-                        continue  # not a .npy member: read_npz names it
-                if dtype.hasobject:
-                    continue  # pickled: refused by read_npz unless allow_pickle
-                size = dtype.itemsize
-                for n in shape:
-                    size *= int(n)
-                if size > info.file_size:
-                    raise ValueError(
-                        f"{path}: {info.filename} declares shape {tuple(shape)} {dtype} ({size:,} bytes) but "
-                        f"holds {info.file_size:,} bytes: a crafted or truncated {what}"
-                    )
-                needed += size
-    except (zipfile.BadZipFile, EOFError, OSError) as err:
-        raise ValueError(f"{path}: truncated or corrupt {what} ({err})") from None
-    if needed > limit:
-        raise _too_large(path, f"the {what}'s arrays", needed, limit)
-    return needed
-
-
-def read_npz(
-    path: PathLike,
-    *,
-    allow_pickle: bool = False,
-    what: str = ".npz archive",
-    max_bytes: int | None = None,
-) -> dict[str, np.ndarray]:
-    """Return every array of a ``.npz`` file by name, or raise one ``ValueError`` naming the file.
-
-    Empty, truncated or corrupt archives, files of another kind (a ``.npy``, an ONNX model, text) and
-    pickled object arrays (unless ``allow_pickle``) are refused with a one-line reason; ``what``
-    names the expected content in the messages (e.g. ``"tactile-torch model file"``). Before any
-    array is read, the declared sizes are checked against ``max_bytes`` (default
-    :func:`max_read_bytes`: 1 GiB, ``--max-read-mb``) by :func:`check_npz_size`.
-    """
-    path = Path(path)
-    _check_exists(path)
-    with path.open("rb") as f:
-        head = f.read(8)
-    if not head:
-        raise ValueError(f"{path}: empty file (0 bytes), expected a {what}")
-    if not head.startswith(NPZ_MAGIC):
-        found = "a single .npy array" if head.startswith(NPY_MAGIC) else "not a zip archive"
-        raise ValueError(f"{path}: expected a {what} (.npz), found {found}")
-    check_npz_size(path, max_bytes=max_bytes, what=what)
-    arrays: dict[str, np.ndarray] = {}
-    try:
-        with np.load(path, allow_pickle=allow_pickle) as npz:
-            for key in npz.files:
-                try:
-                    value = npz[key]
-                except ValueError as err:
-                    if "allow_pickle" not in str(err):
-                        raise
-                    raise ValueError(
-                        f"{path}: {key} is a pickled object array, which tactile-torch does not load by "
-                        "default (unpickling can run code); re-save it as plain arrays (docs/formats.md), or "
-                        "pass allow_pickle=True (--allow-pickle) if you trust the file"
-                    ) from None
-                if not isinstance(value, np.ndarray):  # a zip member that is not a .npy array
-                    raise ValueError(f"{path}: expected a {what} (.npz), found a zip archive holding {key!r}")
-                arrays[key] = value
-    except (zipfile.BadZipFile, EOFError, OSError) as err:
-        raise ValueError(f"{path}: truncated or corrupt {what} ({err})") from None
-    except ValueError as err:
-        if str(err).startswith(str(path)):
-            raise
-        raise ValueError(f"{path}: unreadable {what} ({err})") from None
-    return arrays
-
-
-def write_npz(
-    path: PathLike,
-    arrays: dict[str, np.ndarray],
-    *,
-    compress: bool = True,
-    inputs: Sequence[PathLike] = (),
-) -> Path:
-    """Write ``arrays`` to ``path`` exactly (no ``.npz`` appended), atomically; return the path.
-
-    The archive is written to a temporary file next to ``path`` and renamed over it, so a crash or a
-    full disk never leaves a truncated file under the final name; a directory, a device, a symbolic
-    link or one of ``inputs`` (the files the caller read) at ``path`` is refused in one line
-    (:func:`tactile_torch.safe_write.write_atomic`). Object arrays are refused.
-    """
-    from .safe_write import write_atomic
-
-    for key, value in arrays.items():
-        if np.asarray(value).dtype == object:
-            raise TypeError(f"{key} must be a plain (non-object) array to be written without pickle")
-    save = np.savez_compressed if compress else np.savez
-    return write_atomic(path, lambda f: save(f, **arrays), inputs=inputs)
 
 
 def _data_path(path: PathLike) -> Path:
@@ -402,8 +215,6 @@ def _check_finite(value: np.ndarray, path: Path, name: str) -> None:
 
 def _float_signals(value: np.ndarray, path: Path) -> None:
     if np.issubdtype(value.dtype, np.integer):
-        from .data.logs import integer_counts_message
-
         raise ValueError(integer_counts_message(f"{path}: signals", f"{value.dtype}"))
     if not np.issubdtype(value.dtype, np.floating):
         raise ValueError(f"{path}: signals must be float accelerations in g, got dtype {value.dtype}")
@@ -493,7 +304,7 @@ def recordings_from_arrays(arrays: dict[str, np.ndarray], path: PathLike) -> Rec
     """Validate the arrays of a vibration ``.npz`` (as :func:`read_npz` returns them); return the recordings.
 
     For readers that convert ``signals`` first (declared units or a scale for integer counts,
-    :func:`tactile_torch.data.sources.read_source`); the checks are :func:`read_recordings`'s.
+    :func:`tactile_torch.robot.data_sources.read_source`); the checks are :func:`read_recordings`'s.
     """
     return _recordings(arrays, Path(path))
 
@@ -579,64 +390,6 @@ def write_recordings(path: PathLike, data: RecordingArrays) -> Path:
     return write_npz(path, arrays)
 
 
-def read_csv_recording(
-    path: PathLike,
-    *,
-    columns: str | Sequence[str | int] | None = None,
-    scale: float | None = None,
-    units: str = "g",
-    time_unit: str = "auto",
-) -> tuple[np.ndarray, float]:
-    """Read one CSV log of time and three accelerations; return ``(signal (n, 3) float32 in g, rate_hz)``.
-
-    ``columns`` (names or indices of t, x, y, z), ``units`` (``"g"``, ``"m/s2"``), ``scale`` (units
-    per count, required for integer counts) and ``time_unit`` (``"s"``, ``"ms"``, ``"us"``,
-    ``"auto"``) are those of :func:`tactile_torch.data.logs.read_csv_log`, which reads the file
-    (NumPy only). The rate is ``1 / median(dt)``.
-
-    Raises
-    ------
-    ValueError
-        If a column is missing, a value is not a finite number, there are fewer than 2 rows, the
-        time stamps do not strictly increase, the rate is implausible for the time unit, or the
-        accelerations are integer counts without a ``scale``.
-    """
-    from .data.logs import read_csv_log
-
-    return read_csv_log(path, columns=columns, units=units, scale=scale, time_unit=time_unit)
-
-
-def write_csv_recording(path: PathLike, signal: np.ndarray, rate_hz: float) -> Path:
-    """Write one recording ``(n, 3)`` in g as a CSV log with the header ``t,x,y,z``; return the path.
-
-    Times are ``i / rate_hz`` seconds; values keep float32 precision (9 significant digits), so
-    :func:`read_csv_recording` gives the same samples and rate back.
-    """
-    signal = np.asarray(signal)
-    if signal.ndim != 2 or signal.shape[1] != 3:
-        raise ValueError(f"signal must have shape (n, 3), got {signal.shape}")
-    if not rate_hz > 0:
-        raise ValueError(f"rate_hz must be > 0, got {rate_hz!r}")
-    table = np.column_stack([np.arange(len(signal)) / float(rate_hz), signal.astype(np.float64)])
-    buffer = io.StringIO()
-    np.savetxt(buffer, table, delimiter=",", fmt="%.9g", header="t,x,y,z", comments="")
-    from .safe_write import write_atomic
-
-    text = buffer.getvalue().encode("ascii")
-    return write_atomic(path, lambda f: f.write(text))
-
-
-def csv_class_name(path: PathLike) -> str:
-    """Return the class a CSV log is named after (:func:`tactile_torch.data.logs.class_and_session`).
-
-    >>> csv_class_name("logs/cork_12.csv"), csv_class_name("glass.csv")
-    ('cork', 'glass')
-    """
-    from .data.logs import class_and_session
-
-    return class_and_session(path)[0]
-
-
 def read_csv_recordings(
     paths: Sequence[PathLike],
     *,
@@ -652,13 +405,11 @@ def read_csv_recordings(
 
     Each file's class and session come from ``class_names``/``sessions``, else an ``index`` CSV
     (``file,class[,session]``), else the naming rule (``felt_3.csv`` → class ``felt``, session
-    ``3``; :func:`tactile_torch.data.logs.class_and_session`). Labels index the sorted distinct
+    ``3``; :func:`tactile_torch.robot.csv_logs.class_and_session`). Labels index the sorted distinct
     classes. ``columns``, ``scale``, ``units``, ``time_unit``: see :func:`read_csv_recording`. The
     files must share one sample rate within 0.1 %
     (:meth:`tactile_torch.data.VibrationRecordings.resample` converts).
     """
-    from .data.logs import names_for
-
     paths = [Path(p) for p in paths]
     if not paths:
         raise ValueError("paths must name at least one CSV file, got none")
@@ -777,73 +528,14 @@ def read_data(
     return _features(arrays, path)
 
 
-# ------------------------------------------------------------------------------------ windowing
-def window_recordings(
-    signals: Sequence[np.ndarray],
-    size: int,
-    step: int | None = None,
-    *,
-    max_per_recording: int | None = None,
-) -> Windows:
-    """Cut every recording ``(n_i, 3)`` into windows of ``size`` samples every ``step``.
-
-    Window ``j`` of a recording holds its samples ``j * step ... j * step + size - 1``, transposed to
-    ``(3, size)``; trailing samples that do not fill a window are dropped and recordings shorter
-    than ``size`` give none. The same windows as :func:`tactile_torch.signal.sliding_windows`, as
-    NumPy.
-
-    Returns
-    -------
-    Windows
-        ``windows`` ``(N, 3, size)`` float32, with the recording and position of each.
-
-    Raises
-    ------
-    ValueError
-        If ``size < 2``, ``step < 1``, or no recording holds ``size`` samples.
-    """
-    step = size if step is None else step
-    for name, value in (("size", size), ("step", step)):
-        if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
-            raise ValueError(f"{name} must be an int >= 1, got {value!r}")
-    if size < 2:
-        raise ValueError(f"size must be >= 2 samples, got {size}")
-    parts, recording, position = [], [], []
-    for i, rec in enumerate(signals):
-        rec = np.asarray(rec)
-        if rec.ndim != 2 or rec.shape[1] != 3:
-            raise ValueError(f"signals[{i}] must have shape (n, 3), got {rec.shape}")
-        if len(rec) < size:
-            continue
-        view = np.lib.stride_tricks.sliding_window_view(rec, int(size), axis=0)[:: int(step)]  # (n_w, 3, W)
-        if max_per_recording is not None:
-            view = view[:max_per_recording]
-        parts.append(view.astype(np.float32, copy=False))
-        recording.append(np.full(len(view), i, dtype=np.int64))
-        position.append(np.arange(len(view), dtype=np.int64))
-    if not parts:
-        longest = max((len(s) for s in signals), default=0)
-        raise ValueError(f"no recording holds a window of {size} samples (longest: {longest} samples)")
-    return Windows(
-        np.ascontiguousarray(np.concatenate(parts)), np.concatenate(recording), np.concatenate(position)
-    )
-
-
 __all__ = [
-    "DEFAULT_MAX_READ_MB",
-    "KINDS",
-    "MAX_READ_ENV",
+    "DATA_KINDS",
     "ExplorationArrays",
     "FeatureArrays",
     "RecordingArrays",
-    "Windows",
     "check_class_names",
-    "check_npz_size",
-    "csv_class_name",
     "data_kind",
     "data_name",
-    "max_read_bytes",
-    "read_csv_recording",
     "read_csv_recordings",
     "read_data",
     "read_explorations",
@@ -851,10 +543,7 @@ __all__ = [
     "read_npz",
     "read_recordings",
     "recordings_from_arrays",
-    "window_recordings",
-    "write_csv_recording",
     "write_explorations",
     "write_features",
-    "write_npz",
     "write_recordings",
 ]

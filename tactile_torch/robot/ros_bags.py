@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .logs import STANDARD_GRAVITY
+from .csv_logs import STANDARD_GRAVITY
 
 PathLike = str | os.PathLike
 

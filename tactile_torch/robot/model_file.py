@@ -41,8 +41,10 @@ Layout (format version 1, ``docs/formats.md``):
 :func:`load_model_file` validates all of it against :data:`HEADS` and :data:`TRANSFORMS` (field
 types, shapes that agree with each other, finite values, indices in range) and refuses anything else
 with one line naming the file and the field. What the arrays mean is the business of
-:mod:`tactile_torch.training` (classifiers) and :mod:`tactile_torch.pipeline` (clusterings, and
-building the torch pipeline from any model file).
+:mod:`tactile_torch.training` (classifiers) and :mod:`tactile_torch.clustering_model` (clusterings),
+which build their kind's header and arrays and write them through :func:`save_model_file`, the one
+writer; :func:`load_model_file` is the one reader, used by every command. Building the torch pipeline
+from any model file is :mod:`tactile_torch.pipeline`'s.
 """
 
 from __future__ import annotations
@@ -56,13 +58,14 @@ from pathlib import Path
 
 import numpy as np
 
-from .formats import PathLike, check_class_names, read_npz, write_npz
+from .formats import check_class_names
+from .npz import PathLike, read_npz, write_npz
 
 FORMAT = "tactile-torch/model"
 FORMAT_VERSION = 2
 """Newest layout read and written here (2: ``center``, ``select``, ``linear`` and ``neighbours`` heads;
 files without them are written as version 1); files of a newer version are refused with a clear message."""
-KINDS = ("classifier", "clustering")
+MODEL_KINDS = ("classifier", "clustering")
 HEADER = "header"
 
 # Shapes name dimensions (the same name must have the same size everywhere in one file: F is the
@@ -197,7 +200,7 @@ def save_model_file(path: PathLike, header: Mapping, arrays: Mapping[str, np.nda
     ``header`` gets ``format``, ``format_version`` and ``library_version`` filled in; it must be
     JSON-serialisable. Returns ``path`` (written as given, whatever its extension).
     """
-    from . import __version__
+    from .. import __version__
 
     arrays_given = {k: np.asarray(v) for k, v in arrays.items()}
     head_type = (header.get("head") or {}).get("type") if isinstance(header.get("head"), dict) else None
@@ -371,8 +374,8 @@ def validate_model(header: object, arrays: Mapping[str, np.ndarray], *, where: s
             f"{version}); this one ({FORMAT_VERSION}) cannot read it: upgrade tactile-torch",
         )
     kind = header.get("kind")
-    if kind not in KINDS:
-        _fail(where, f"kind must be one of {KINDS}, got {kind!r}")
+    if kind not in MODEL_KINDS:
+        _fail(where, f"kind must be one of {MODEL_KINDS}, got {kind!r}")
     if header.get("method") not in METHODS[kind]:
         _fail(where, f"method of a {kind} must be one of {METHODS[kind]}, got {header.get('method')!r}")
     names = header.get("class_names")
@@ -475,7 +478,7 @@ __all__ = [
     "FORMAT",
     "FORMAT_VERSION",
     "HEADS",
-    "KINDS",
+    "MODEL_KINDS",
     "TRANSFORMS",
     "ModelFile",
     "load_model_file",

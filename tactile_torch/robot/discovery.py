@@ -25,8 +25,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TextIO
 
-NOVEL_OUTPUT = "novel"
-"""Name of the novelty-flag output of an exported mixture graph."""
+from .checks import check_count
+from .contract import NOVEL_OUTPUT
 
 
 @dataclass(frozen=True)
@@ -72,9 +72,7 @@ class SurfaceDiscovery:
     """
 
     def __init__(self, n_consecutive: int = 5, known_names: Sequence[str] | None = None) -> None:
-        if isinstance(n_consecutive, bool) or not isinstance(n_consecutive, int) or n_consecutive < 1:
-            raise ValueError(f"n_consecutive must be an int >= 1, got {n_consecutive!r}")
-        self.n_consecutive = n_consecutive
+        self.n_consecutive = check_count(n_consecutive, "n_consecutive", 1)
         self.known_names = list(known_names) if known_names is not None else None
         self.proposals: list[dict] = []
         self.windows = 0
@@ -111,7 +109,7 @@ class SurfaceDiscovery:
 def stream_consumer(pipeline, n_consecutive: int, out: TextIO = sys.stdout) -> Callable[[object], None]:
     """Return a consumer of ``tactile-torch stream``'s window results that proposes new surfaces.
 
-    ``pipeline`` is the :class:`~tactile_torch.runtime.OnnxPipeline` of an exported clustering; each
+    ``pipeline`` is the :class:`~tactile_torch.robot.runtime.OnnxPipeline` of an exported clustering; each
     result's window is run through it for its ``novel`` output (a second, ~1 ms inference: the
     stream's classifier does not keep that output) and fed to a :class:`SurfaceDiscovery`. Novel
     windows and proposals are printed to ``out``. Raises ``ValueError`` when the bundle has no
@@ -142,4 +140,4 @@ def stream_consumer(pipeline, n_consecutive: int, out: TextIO = sys.stdout) -> C
     return consume
 
 
-__all__ = ["NOVEL_OUTPUT", "SurfaceDiscovery", "WindowVerdict", "stream_consumer"]
+__all__ = ["SurfaceDiscovery", "WindowVerdict", "stream_consumer"]

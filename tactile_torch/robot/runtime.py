@@ -5,32 +5,15 @@ raw vibration windows in, ``labels`` and ``scores`` out) and its metadata in the
 ``metadata_props``. This module needs only numpy and onnxruntime, so it runs on a robot's computer
 where torch is not installed; importing it never imports torch.
 
-Metadata keys read here (all values are strings; JSON where structured):
-
-``tactile_torch.pipeline``
-    what the graph does, e.g. ``"vibration-svm"``.
-``tactile_torch.version``
-    the library version that exported it.
-``input_shape``
-    JSON list, one entry per input dimension: an int fixes the size, ``null`` is free (the batch).
-``input_layout``
-    the dimension names, e.g. ``"B,3,W"``, used in error messages.
-``uint8_scale``
-    optional; when present, uint8 input is accepted and multiplied by this factor (``1/255`` maps
-    8-bit frames to [0, 1]).
-``class_names``
-    JSON list of the class (or component) names indexed by label.
-``sensor_range_g``
-    vibration bundles: the sensor's range in g (``tactile-torch export --sensor-range``, 5 by
-    default); windows holding a sample beyond it are "unknown" (label -1) in :meth:`OnnxPipeline.classify`,
-    ``predict`` and ``tactile-torch predict``, and such samples are rejected by ``stream``
-    (:func:`sensor_range_g`, :func:`beyond_range`).
-``ood_threshold``, ``ood_quantile``
-    classifier bundles: samples whose ``ood_distance`` output (the distance of their features to the
-    training data, :mod:`tactile_torch.ood`) exceeds the threshold are "unknown" (label -1).
-
-Other keys (window size, sample rate, thresholds, feature scale ...) are kept in
-:attr:`OnnxPipeline.metadata` for the caller.
+The names of the input, the outputs and the metadata keys are those of
+:mod:`tactile_torch.robot.contract` (the one place that spells them). What the runtime does with the
+metadata: ``input_shape``, ``input_layout`` and ``uint8_scale`` validate the input; vibration bundles'
+``sensor_range_g`` (``tactile-torch export --sensor-range``, 5 g by default) makes windows holding a
+sample beyond it "unknown" (label -1) in :meth:`OnnxPipeline.classify`, ``predict`` and
+``tactile-torch predict``, and such samples are rejected by ``stream`` (:func:`sensor_range_g`,
+:func:`beyond_range`); classifier bundles' ``ood_threshold`` makes samples whose ``ood_distance``
+output (the distance of their features to the training data, :mod:`tactile_torch.ood`) exceeds it
+"unknown". Other keys are kept in :attr:`OnnxPipeline.metadata` for the caller.
 
 Examples
 --------
@@ -49,16 +32,31 @@ from pathlib import Path
 
 import numpy as np
 
+from .checks import check_count
+from .contract import (
+    CLASS_NAMES_KEY,
+    DEFAULT_RANGE_G,
+    FEATURES_LAYOUT,
+    FRAMES_LAYOUT,
+    INPUT_LAYOUT_KEY,
+    INPUT_SHAPE_KEY,
+    LABELS_OUTPUT,
+    OOD_OUTPUT,
+    PIPELINE_KEY,
+    RANGE_METADATA_KEY,
+    SAMPLE_RATE_KEY,
+    SCORES_OUTPUT,
+    STEP_KEY,
+    THRESHOLD_KEY,
+    UINT8_SCALE_KEY,
+    UNKNOWN,
+    UNKNOWN_NAME,
+    WINDOW_SIZE_KEY,
+    WINDOWS_LAYOUT,
+)
+
 _KIND_KEYS = {"image": "frames", "vibration": "signals", "features": "features"}
 _ONNX_DTYPES = {"tensor(uint8)": "uint8", "tensor(float)": "float32", "tensor(double)": "float64"}
-LABELS_OUTPUT = "labels"
-SCORES_OUTPUT = "scores"
-
-DEFAULT_RANGE_G = 5.0
-"""Range of the ADXL345 as configured in the vibration study (method 2), in g."""
-
-RANGE_METADATA_KEY = "sensor_range_g"
-"""Bundle metadata key that, when present, gives the sensor's range in g (see :func:`sensor_range_g`)."""
 
 
 def sensor_range_g(metadata: Mapping[str, str], default: float = DEFAULT_RANGE_G) -> float:
@@ -83,15 +81,6 @@ def beyond_range(raw: np.ndarray, range_g: float) -> np.ndarray:
     values = np.asarray(raw).reshape(len(raw), -1)
     # reductions, not np.abs: no temporary as large as the batch
     return ~((values.max(axis=1) <= range_g) & (values.min(axis=1) >= -range_g))
-
-
-UNKNOWN = -1
-"""Label of a sample the bundle does not classify (beyond the sensor's range, or out of distribution)."""
-UNKNOWN_NAME = "unknown"
-OOD_OUTPUT = "ood_distance"
-"""Output of the distance to the training data (:mod:`tactile_torch.ood`, which needs torch)."""
-THRESHOLD_KEY = "ood_threshold"
-"""Metadata key of the distance beyond which a sample is unknown."""
 
 
 @dataclass
@@ -209,7 +198,7 @@ class OnnxPipeline:
             raise FileNotFoundError(
                 f"path must name an exported .onnx bundle, got {str(path)!r} (no such file)"
             )
-        from .formats import max_read_bytes
+        from .npz import max_read_bytes
 
         limit = max_read_bytes()
         if path.stat().st_size > limit:  # onnxruntime holds the whole file (and its weights) in memory
@@ -217,9 +206,8 @@ class OnnxPipeline:
                 f"{path}: the bundle is {path.stat().st_size / 2**20:,.1f} MiB, more than the read limit of "
                 f"{limit / 2**20:,.0f} MiB (raise it with --max-read-mb if the file is trusted)"
             )
-        for name, value in (("intra_op_threads", intra_op_threads), ("inter_op_threads", inter_op_threads)):
-            if isinstance(value, bool) or not isinstance(value, int) or value < 0:
-                raise ValueError(f"{name} must be an int >= 0, got {value!r}")
+        intra_op_threads = check_count(intra_op_threads, "intra_op_threads", 0)
+        inter_op_threads = check_count(inter_op_threads, "inter_op_threads", 0)
         options = ort.SessionOptions()
         options.intra_op_num_threads = intra_op_threads
         options.inter_op_num_threads = inter_op_threads
@@ -236,22 +224,23 @@ class OnnxPipeline:
         missing = {LABELS_OUTPUT, SCORES_OUTPUT} - set(self._outputs)
         if missing:
             raise ValueError(
-                f"{path} is not a tactile-torch bundle: outputs must include 'labels' and 'scores', "
+                f"{path} is not a tactile-torch bundle: outputs must include '{LABELS_OUTPUT}' and "
+                f"'{SCORES_OUTPUT}', "
                 f"got {self._outputs}"
             )
         self.input_shape = self._declared_shape()
-        self.input_layout = self.metadata.get("input_layout", ",".join("?" * len(self.input_shape)))
-        names = self.metadata.get("class_names")
+        self.input_layout = self.metadata.get(INPUT_LAYOUT_KEY, ",".join("?" * len(self.input_shape)))
+        names = self.metadata.get(CLASS_NAMES_KEY)
         self.class_names: list[str] = json.loads(names) if names else []
-        scale = self.metadata.get("uint8_scale")
+        scale = self.metadata.get(UINT8_SCALE_KEY)
         self._uint8_scale = float(scale) if scale else None
         self.input_dtype = np.dtype(_ONNX_DTYPES.get(self._input.type, "float32"))
         self._check_header()
 
     def _declared_shape(self) -> tuple[int | None, ...]:
-        if "input_shape" in self.metadata:
+        if INPUT_SHAPE_KEY in self.metadata:
             try:
-                shape = json.loads(self.metadata["input_shape"])
+                shape = json.loads(self.metadata[INPUT_SHAPE_KEY])
             except json.JSONDecodeError:
                 shape = None
             if not isinstance(shape, list) or not all(
@@ -259,7 +248,7 @@ class OnnxPipeline:
             ):
                 raise ValueError(
                     f"{self.path}: metadata input_shape must be a JSON list of sizes >= 1 or null, "
-                    f"got {self.metadata['input_shape']!r:.80}"
+                    f"got {self.metadata[INPUT_SHAPE_KEY]!r:.80}"
                 )
             return tuple(shape)
         return tuple(d if isinstance(d, int) else None for d in self._input.shape)
@@ -277,16 +266,16 @@ class OnnxPipeline:
             raise ValueError(
                 f"{where}: input_layout {self.input_layout!r}, input_shape {list(self.input_shape)}"
             )
-        if self.input_layout == "B,3,W":
+        if self.input_layout == WINDOWS_LAYOUT:
             if self.input_shape[1] != 3:
                 raise ValueError(
                     f"{where}: windows of 3 channels (x, y, z), input_shape {list(self.input_shape)}"
                 )
             meta = self.metadata
             for key, check in (
-                ("window_size", lambda v: int(v) == self.input_shape[2]),
-                ("step", lambda v: int(v) >= 1),
-                ("sample_rate_hz", lambda v: math.isfinite(float(v)) and float(v) > 0),
+                (WINDOW_SIZE_KEY, lambda v: int(v) == self.input_shape[2]),
+                (STEP_KEY, lambda v: int(v) >= 1),
+                (SAMPLE_RATE_KEY, lambda v: math.isfinite(float(v)) and float(v) > 0),
             ):
                 if key in meta:
                     try:
@@ -308,7 +297,7 @@ class OnnxPipeline:
     @property
     def pipeline(self) -> str:
         """What the graph does (``tactile_torch.pipeline`` metadata), or ``"unknown"``."""
-        return self.metadata.get("tactile_torch.pipeline", "unknown")
+        return self.metadata.get(PIPELINE_KEY, "unknown")
 
     def validate(self, raw: object) -> np.ndarray:
         """Return ``raw`` in the graph's input dtype and shape, or raise a clear error.
@@ -377,7 +366,7 @@ class OnnxPipeline:
     @property
     def range_g(self) -> float:
         """The sensor range (g) samples are checked against: the bundle's, else 5; ``inf`` for other input."""
-        return sensor_range_g(self.metadata) if self.input_layout == "B,3,W" else math.inf
+        return sensor_range_g(self.metadata) if self.input_layout == WINDOWS_LAYOUT else math.inf
 
     @property
     def ood_threshold(self) -> float | None:
@@ -407,7 +396,7 @@ class OnnxPipeline:
         for i in np.flatnonzero(beyond):
             peak = float(np.abs(x[i]).max())
             reasons[i] = f"a sample of {peak:.3g} g, beyond the sensor's range ±{limit:g} g"
-        if self.input_layout == "B,3,W":
+        if self.input_layout == WINDOWS_LAYOUT:
             # A window constant on every axis carries no vibration: its features are conventions
             # (zero variance, no crossings), not measurements, so it is not classified.
             flat = ~beyond & (x.max(axis=2) == x.min(axis=2)).all(axis=1)
@@ -481,7 +470,7 @@ class OnnxPipeline:
     def read_npz(
         self, path: str | Path | Sequence[str | Path], *, allow_pickle: bool = False, options=None
     ) -> LabelledInput:
-        """Read a data file into this bundle's raw input (:func:`tactile_torch.formats.read_data`).
+        """Read a data file into this bundle's raw input (:func:`tactile_torch.robot.formats.read_data`).
 
         Image explorations (``frames`` uint8 ``(N, T, H, W, 3)``) become ``(N, T, 3, H, W)``; vibration
         recordings (a ``.npz`` or CSV logs) are cut into windows of the bundle's ``window_size``
@@ -492,20 +481,21 @@ class OnnxPipeline:
 
         Raises ``ValueError`` naming the file when it does not fit the bundle (e.g. recordings for
         an image bundle, recordings shorter than one window) or breaks the format (see
-        ``docs/formats.md``). ``options`` (:class:`tactile_torch.data.sources.DataOptions`, NumPy
+        ``docs/formats.md``). ``options`` (:class:`tactile_torch.robot.data_sources.DataOptions`, NumPy
         only) declares how CSV logs and ROS 2 bags are read (columns, units, time unit, topic).
         """
-        from .formats import data_name, read_data, window_recordings
+        from .formats import data_name, read_data
+        from .windows import window_recordings
 
         if options is None:
             data = read_data(path, allow_pickle=allow_pickle)
         else:
-            from .data.sources import read_source
+            from .data_sources import read_source
 
             data = read_source(path, options)
         where = data_name(path)
         layout, rate = self.input_layout, None
-        if data.kind == "image" and layout == "B,T,3,H,W":
+        if data.kind == "image" and layout == FRAMES_LAYOUT:
             if data.frames is None:
                 raise ValueError(
                     f"{where}: frames must be uint8 RGB (N, T, H, W, 3) for this {self.pipeline} bundle, "
@@ -513,16 +503,16 @@ class OnnxPipeline:
                     "(tactile_torch.data.images.render_pressure)"
                 )
             raw, labels = np.ascontiguousarray(data.frames.transpose(0, 1, 4, 2, 3)), data.labels
-        elif data.kind == "vibration" and layout == "B,3,W":
-            if "window_size" not in self.metadata:
-                raise ValueError(f"{self.path}: no window_size in the bundle's metadata")
-            size = int(self.metadata["window_size"])
+        elif data.kind == "vibration" and layout == WINDOWS_LAYOUT:
+            if WINDOW_SIZE_KEY not in self.metadata:
+                raise ValueError(f"{self.path}: no {WINDOW_SIZE_KEY} in the bundle's metadata")
+            size = int(self.metadata[WINDOW_SIZE_KEY])
             try:
-                cut = window_recordings(data.signals, size, int(self.metadata.get("step", size)))
+                cut = window_recordings(data.signals, size, int(self.metadata.get(STEP_KEY, size)))
             except ValueError as err:
                 raise ValueError(f"{where}: {err}, the window of this {self.pipeline} bundle") from None
             raw, labels, rate = cut.windows, data.labels[cut.recording], data.rate_hz
-        elif data.kind == "features" and layout == "B,F":
+        elif data.kind == "features" and layout == FEATURES_LAYOUT:
             raw, labels = data.features.astype(np.float32), data.labels
         else:
             raise ValueError(
@@ -544,13 +534,13 @@ class OnnxPipeline:
         at another rate span another duration and frequency band than the model was trained on, so
         its predictions may be meaningless; resample the data (``VibrationRecordings.resample``).
         """
-        want = self.metadata.get("sample_rate_hz")
+        want = self.metadata.get(SAMPLE_RATE_KEY)
         if rate_hz is None or want is None:
             return None
         want = float(want)
         if abs(rate_hz / want - 1.0) <= 0.01:
             return None
-        size = int(self.metadata.get("window_size", 0))
+        size = int(self.metadata.get(WINDOW_SIZE_KEY, 0))
         return (
             f"the data are sampled at {rate_hz:g} Hz but this {self.pipeline} bundle was trained at "
             f"{want:g} Hz (a window of {size} samples lasts {size / rate_hz:g} s here, {size / want:g} s "
@@ -565,14 +555,6 @@ class OnnxPipeline:
 
 
 __all__ = [
-    "DEFAULT_RANGE_G",
-    "LABELS_OUTPUT",
-    "OOD_OUTPUT",
-    "RANGE_METADATA_KEY",
-    "SCORES_OUTPUT",
-    "THRESHOLD_KEY",
-    "UNKNOWN",
-    "UNKNOWN_NAME",
     "LabelledInput",
     "NonFiniteScoresError",
     "OnnxPipeline",

@@ -1,13 +1,13 @@
 """Classify a stream's windows and give each result in a form a robot program can use.
 
-:func:`classify_windows` turns the :class:`~tactile_torch.stream.Window` objects of a
-:class:`~tactile_torch.stream.WindowReader` into :class:`WindowResult` objects (label, name, scores,
+:func:`classify_windows` turns the :class:`~tactile_torch.robot.stream.Window` objects of a
+:class:`~tactile_torch.robot.stream.WindowReader` into :class:`WindowResult` objects (label, name, scores,
 latency, flags, and optionally a vote over the last windows); :func:`result_json` and
 :func:`result_text` give one line per result. numpy and an exported bundle only: importing this
 module never imports torch.
 
 A window the bundle does not classify (a sample beyond the sensor's range, no vibration at all, or
-features far from the training data: :meth:`~tactile_torch.runtime.OnnxPipeline.classify`) is
+features far from the training data: :meth:`~tactile_torch.robot.runtime.OnnxPipeline.classify`) is
 "unknown": ``label`` -1, ``name`` ``"unknown"``, the flag ``"unknown"`` and a one-line ``reason``.
 A window whose scores are not all finite (its samples overflow the features) gets no label:
 ``label``, ``name`` and ``scores`` are ``None`` and its flags hold ``"non_finite_scores"``.
@@ -32,7 +32,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .runtime import UNKNOWN, OnnxPipeline
+from .checks import check_count
+from .contract import UNKNOWN
+from .runtime import OnnxPipeline
 from .stream import Window
 
 VOTE_METHODS = ("majority", "mean")
@@ -123,8 +125,7 @@ class WindowVote:
     """
 
     def __init__(self, n: int, method: str = "majority", class_names: Sequence[str] = ()) -> None:
-        if isinstance(n, bool) or not isinstance(n, int | np.integer) or n < 1:
-            raise ValueError(f"n must be an int >= 1, got {n!r}")
+        n = check_count(n, "n", 1)
         if method not in VOTE_METHODS:
             raise ValueError(f"method must be one of {VOTE_METHODS}, got {method!r}")
         self.n = int(n)
@@ -168,7 +169,7 @@ def classify_windows(
     Parameters
     ----------
     windows : iterable of Window
-        Typically a :class:`~tactile_torch.stream.WindowReader`.
+        Typically a :class:`~tactile_torch.robot.stream.WindowReader`.
     pipeline : OnnxPipeline
         A bundle taking ``(B, 3, W)`` windows.
     vote : WindowVote, optional
@@ -180,7 +181,7 @@ def classify_windows(
         the reader's ``range_g`` when it was set otherwise, ``math.inf`` for none).
 
     A window the bundle does not classify (beyond the range, constant, or out of distribution:
-    :meth:`~tactile_torch.runtime.OnnxPipeline.classify`) gets label ``-1``, name ``"unknown"``, the
+    :meth:`~tactile_torch.robot.runtime.OnnxPipeline.classify`) gets label ``-1``, name ``"unknown"``, the
     flag ``"unknown"`` and its ``reason``; it does not vote.
     """
     for window in windows:

@@ -1,7 +1,7 @@
 """Read a triaxial accelerometer from a serial line and cut it into windows, through the line's faults.
 
 Runs on the robot's computer with numpy and pyserial only: importing this module never imports torch
-(the classification of the windows is in :mod:`tactile_torch.stream_output`).
+(the classification of the windows is in :mod:`tactile_torch.robot.stream_output`).
 
 Wire protocol (what :func:`simulate_sensor` writes and :class:`WindowReader` reads): one ASCII line
 per sample, ``x,y,z`` in g, or ``t,x,y,z`` with ``t`` a number (seconds by default; milliseconds,
@@ -40,15 +40,16 @@ Examples
 
 from __future__ import annotations
 
-import math
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
-from typing import Protocol
 
 import numpy as np
 
-from .runtime import DEFAULT_RANGE_G, RANGE_METADATA_KEY, sensor_range_g
+from .checks import check_count, check_number
+from .contract import DEFAULT_RANGE_G
+from .port_lines import PortLines, ReadablePort, StreamDisconnected, StreamEvent, StreamTimeout
+from .runtime import sensor_range_g
 from .wire import format_sample, parse_line, parse_sample, pseudo_terminal, simulate_sensor
 
 TIME_UNITS = ("s", "ms", "us", "samples")
@@ -62,41 +63,6 @@ RATE_TOLERANCE = 0.05
 
 _RATE_RUN = 16  # consecutive equal off-period steps of t after which the stream's own rate is adopted
 _FORMAT_RUN = 16  # consecutive lines of the other format (x,y,z / t,x,y,z) after which it is followed
-_EVENT_INTERVAL_S = (
-    1.0  # gap/range events beyond _EVENTS_PER_INTERVAL in this interval are counted, not shown
-)
-_EVENTS_PER_INTERVAL = 5
-
-
-class _ReadablePort(Protocol):
-    def read(self, size: int = ...) -> bytes: ...
-
-
-class StreamTimeout(TimeoutError):
-    """No sample arrived for longer than the reader's idle timeout (or start timeout)."""
-
-
-class StreamDisconnected(ConnectionError):
-    """The port failed (writer closed it, adapter unplugged) and reconnection is off or gave up."""
-
-
-@dataclass(frozen=True)
-class StreamEvent:
-    """Something a user should hear about while the stream runs (not a window).
-
-    Attributes
-    ----------
-    kind : str
-        ``"waiting"`` (no data yet), ``"first"`` (first sample), ``"silence"``, ``"resumed"``, ``"gap"``,
-        ``"range"`` (a sample out of range), ``"rate"`` (``t`` runs at another rate than expected),
-        ``"format"`` (the lines switched between ``x,y,z`` and ``t,x,y,z``), ``"disconnected"``,
-        ``"reconnected"``.
-    message : str
-        One line for a person.
-    """
-
-    kind: str
-    message: str
 
 
 @dataclass(frozen=True)
@@ -139,26 +105,7 @@ class Window:
     flags: tuple[str, ...] = ()
 
 
-def _giving_up(limit: float) -> str:
-    return "no time limit" if math.isinf(limit) else f"giving up after {limit:g} s"
-
-
-def _check_number(value: object, name: str, *, minimum: float = 0.0, strict: bool = True) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
-        raise TypeError(f"{name} must be a number, got {type(value).__name__}")
-    value = float(value)
-    if math.isnan(value) or value < minimum or (strict and value == minimum):
-        raise ValueError(f"{name} must be {'>' if strict else '>='} {minimum:g}, got {value:g}")
-    return value
-
-
-def _check_count(value: object, name: str, minimum: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < minimum:
-        raise ValueError(f"{name} must be an int >= {minimum}, got {value!r}")
-    return int(value)
-
-
-class WindowReader:
+class WindowReader(PortLines):
     """Iterate over :class:`Window` objects cut from a serial line stream, through its faults.
 
     The first window of a segment (the stream since its start or its last gap) is yielded once
@@ -233,7 +180,7 @@ class WindowReader:
 
     def __init__(
         self,
-        source: _ReadablePort | Callable[[], _ReadablePort],
+        source: ReadablePort | Callable[[], ReadablePort],
         *,
         window_size: int,
         step: int | None = None,
@@ -253,219 +200,33 @@ class WindowReader:
         clock: Callable[[], float] = time.monotonic,
         sleep: Callable[[float], None] = time.sleep,
     ) -> None:
-        opens = callable(source) and not hasattr(source, "read")
-        if not opens and not hasattr(source, "read"):
-            raise TypeError(
-                "source must have a read(size) method (e.g. serial.Serial) or be a callable that "
-                f"opens one, got {type(source).__name__}"
-            )
-        if reconnect and not opens:
-            raise ValueError("reconnect=True needs source to be a callable that opens the port")
-        window_size = _check_count(window_size, "window_size", 2)
-        self.step = window_size if step is None else _check_count(step, "step", 1)
-        self.max_windows = None if max_windows is None else _check_count(max_windows, "max_windows", 1)
+        window_size = check_count(window_size, "window_size", 2)
+        self.step = window_size if step is None else check_count(step, "step", 1)
+        self.max_windows = None if max_windows is None else check_count(max_windows, "max_windows", 1)
         if time_unit not in TIME_UNITS:
             raise ValueError(f"time_unit must be one of {TIME_UNITS}, got {time_unit!r}")
         if time_unit == "samples" and rate_hz is None:
             raise ValueError("time_unit='samples' (a sample counter) needs rate_hz")
-        self.rate_hz = None if rate_hz is None else _check_number(rate_hz, "rate_hz")
-        self.range_g = _check_number(range_g, "range_g")
-        self.silence_s = _check_number(silence_s, "silence_s")
-        self.idle_timeout_s = (
-            None if idle_timeout_s is None else _check_number(idle_timeout_s, "idle_timeout_s")
+        self.rate_hz = None if rate_hz is None else check_number(rate_hz, "rate_hz")
+        self.range_g = check_number(range_g, "range_g")
+        super().__init__(
+            source,
+            silence_s=silence_s,
+            idle_timeout_s=idle_timeout_s,
+            start_timeout_s=start_timeout_s,
+            reconnect=reconnect,
+            backoff_s=backoff_s,
+            on_event=on_event,
+            on_open=on_open,
+            max_line_bytes=max_line_bytes,
+            name=name,
+            clock=clock,
+            sleep=sleep,
         )
-        start = idle_timeout_s if start_timeout_s is None else start_timeout_s
-        self.start_timeout_s = None if start is None else _check_number(start, "start_timeout_s")
-        if len(backoff_s) != 2:
-            raise ValueError(f"backoff_s must be (first, longest) seconds, got {backoff_s!r}")
-        first, longest = (_check_number(b, "backoff_s") for b in backoff_s)
-        self.backoff_s = (first, max(first, longest))
-        self.max_line_bytes = _check_count(max_line_bytes, "max_line_bytes", 16)
         self.window_size = window_size
         self.time_unit = time_unit
-        self.reconnect = bool(reconnect)
-        self.on_event = on_event
-        self.on_open = on_open
-        self._source = source
-        self._opens = opens
-        self._name = name
-        self._clock = clock
-        self._sleep = sleep
-        self.samples = self.skipped = self.rejected = self.gaps = self.lost = 0
-        self.windows = self.reconnects = self.format_switches = 0
-        self._event_window: dict[str, tuple[float, int]] = {}
-        self._held_events: dict[str, int] = {}
-
-    # -- events ---------------------------------------------------------------------------------
-
-    def _emit(self, kind: str, message: str, *, repeated: bool = False) -> None:
-        if self.on_event is None:
-            return
-        if repeated:  # gaps and rejections can come in floods: a few lines per interval, then a count
-            now = self._clock()
-            start, shown = self._event_window.get(kind, (-math.inf, 0))
-            if now - start >= _EVENT_INTERVAL_S:
-                start, shown = now, 0
-            if shown >= _EVENTS_PER_INTERVAL:
-                self._held_events[kind] = self._held_events.get(kind, 0) + 1
-                return
-            self._event_window[kind] = (start, shown + 1)
-            held = self._held_events.pop(kind, 0)
-            if held:
-                message += f" (and {held} more not shown before it)"
-        self.on_event(StreamEvent(kind, message))
-
-    def _port_name(self, port: object) -> str:
-        if self._name:
-            return self._name
-        name = getattr(port, "port", None) or getattr(port, "name", None)
-        return str(name) if name else type(port).__name__
-
-    # -- the port -------------------------------------------------------------------------------
-
-    def _open(self) -> _ReadablePort:
-        port = self._source() if self._opens else self._source
-        if not hasattr(port, "read"):
-            raise TypeError(f"source() must return a port with read(size), got {type(port).__name__}")
-        return port
-
-    def _close(self, port: object) -> None:
-        if self._opens and port is not None:
-            try:
-                port.close()
-            except OSError:
-                pass
-
-    @staticmethod
-    def _reader_of(port: _ReadablePort) -> Callable[[], bytes]:
-        # Read what has arrived, without waiting for more: a serial port says how much is waiting
-        # (read(1) then blocks up to the port's timeout); raw files and pipes return what they have.
-        if hasattr(type(port), "in_waiting"):  # on the class: the property itself fails on a dead port
-            return lambda: port.read(port.in_waiting or 1)
-        read = getattr(port, "read1", None) or port.read
-        return lambda: read(65536)
-
-    def _reopen(self, error: Exception | None) -> _ReadablePort:
-        """Open the port: at the start (``error`` None) or after ``error``, with exponential backoff.
-
-        Without ``reconnect`` only one attempt is made. The wait doubles after each failure and is
-        reset only when a sample arrives, so a port that opens but fails at once is not retried in a
-        tight loop. Gives up with :class:`StreamDisconnected` once the idle (or start) timeout has
-        passed without a sample.
-        """
-        name = self._name or "the port"
-        reopening = error is not None
-        if reopening:
-            self._emit("disconnected", f"{name} disconnected ({error}); reconnecting")
-        started, attempts = self._clock(), 0
-        while True:
-            if error is not None:
-                limit = self.idle_timeout_s if self.samples else self.start_timeout_s
-                waited = self._clock() - self._last_sample_at
-                if limit is not None and waited >= limit:
-                    raise StreamDisconnected(
-                        f"{name}: gave up reconnecting after {attempts} attempt(s), {waited:.1f} s without a "
-                        f"sample (idle timeout {limit:g} s): {error}"
-                    )
-                # the last wait is cut short so that one attempt is made at the timeout itself
-                self._sleep(self._delay if limit is None else min(self._delay, limit - waited))
-                self._delay = min(2 * self._delay, self.backoff_s[1])
-            attempts += 1
-            try:
-                port = self._open()
-            except OSError as err:
-                if not self.reconnect:
-                    raise StreamDisconnected(f"could not open {name}: {err}") from err
-                error = err
-                continue
-            if reopening or attempts > 1:
-                self.reconnects += reopening
-                self._emit(
-                    "reconnected",
-                    f"{self._port_name(port)} open after {self._clock() - started:.1f} s ({attempts} attempt(s))",
-                )
-            return port
-
-    # -- iteration ------------------------------------------------------------------------------
-
-    def _lines(self) -> Iterator[tuple[bytes | None, float]]:
-        """Yield ``(line, read time)`` from the port; ``(None, time)`` marks a break (silence, reconnection).
-
-        Owns the port: reads what has arrived, keeps the partial line, reports silence, raises
-        :class:`StreamTimeout` and :class:`StreamDisconnected`, and reconnects.
-        """
-        clock = self._clock
-        port = None
-        partial = b""
-        try:
-            port = self._reopen(None) if self._opens else self._open()
-            name = self._port_name(port)
-            read = self._reader_of(port)
-            # the clocks start once the port is open (opening may take a while, and flushes it)
-            self._last_sample_at = clock()
-            if self.on_open is not None:
-                self.on_open(name)
-            while True:
-                before = clock()
-                try:
-                    chunk = read()
-                except OSError as err:
-                    if not self.reconnect:
-                        raise StreamDisconnected(
-                            f"{name} disconnected after {self.samples} samples: {err}"
-                        ) from err
-                    self._close(port)
-                    port = self._reopen(err)
-                    read = self._reader_of(port)
-                    partial = b""
-                    yield None, clock()
-                    continue
-                now = clock()
-                if chunk:
-                    lines = (partial + chunk).split(b"\n")
-                    partial = lines.pop()
-                    if len(partial) > self.max_line_bytes:  # noise without newlines: drop it
-                        self.skipped += 1
-                        partial = b""
-                    for line in lines:
-                        yield line, now
-                    if self.idle_timeout_s is None:
-                        continue
-                    now = clock()
-                elif self.idle_timeout_s is None:  # end of input; the last line may lack its newline
-                    if partial:
-                        yield partial, now
-                    return
-                elif now - before < 1e-3:  # a port without a read timeout, or a file at its end: do not spin
-                    self._sleep(0.01)
-                    now = clock()
-                # Time counts since the last VALID sample: bytes that never parse (garbage, a sensor at
-                # the wrong baud rate, a line format the stream refuses) do not keep the stream alive.
-                waited = now - self._last_sample_at
-                limit = self.idle_timeout_s if self.samples else self.start_timeout_s
-                what = "no valid sample" if self.skipped else "no data" if not self.samples else "no sample"
-                skipped = f", {self.skipped} lines skipped" if self.skipped else ""
-                if waited >= limit:
-                    raise StreamTimeout(
-                        f"{name}: {what} for {waited:.1f} s (timeout {limit:g} s); {self.samples} samples "
-                        f"read, {self.skipped} lines skipped"
-                    )
-                if waited >= self.silence_s and not self._silent:
-                    self._silent = True
-                    if self.samples:
-                        self._emit(
-                            "silence",
-                            f"{what} for {waited:.1f} s after {self.samples} samples{skipped}; waiting "
-                            f"({_giving_up(limit)})",
-                        )
-                        yield None, now
-                    else:
-                        self._emit(
-                            "waiting",
-                            f"{what} yet on {name} after {waited:.1f} s{skipped} ({_giving_up(limit)})",
-                        )
-        finally:
-            self._close(port)
+        self.rejected = self.gaps = self.lost = 0
+        self.windows = self.format_switches = 0
 
     def _time_gap(self, t: float) -> bool:
         """Check the step from the previous ``t`` (seconds); return whether it is a gap."""
@@ -626,8 +387,6 @@ class WindowReader:
 
 
 __all__ = [
-    "DEFAULT_RANGE_G",
-    "RANGE_METADATA_KEY",
     "StreamDisconnected",
     "StreamEvent",
     "StreamTimeout",

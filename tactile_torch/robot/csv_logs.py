@@ -29,11 +29,15 @@ Examples
 from __future__ import annotations
 
 import csv
+import io
 import os
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
+
+from .npz import _too_large, max_read_bytes
+from .safe_write import write_atomic
 
 PathLike = str | os.PathLike
 
@@ -46,6 +50,7 @@ PLAUSIBLE_RATE_HZ = (10.0, 100_000.0)
 """Sample rates an accelerometer log is taken to have under ``time_unit="auto"``."""
 INDEX_COLUMNS = ("file", "class")
 """Columns an index CSV must have (``session`` is optional)."""
+_CSV_EXPANSION = 4  # bytes of parsed table per byte of CSV text, at most ("0,0,0,0\n": 8 bytes, 4 float64)
 
 
 # ------------------------------------------------------------------------------------ naming rule
@@ -247,7 +252,7 @@ def read_csv_log(
         One line naming the file: a missing column, a value that is not a finite number, fewer than
         2 rows, time stamps that do not strictly increase, an implausible rate under
         ``time_unit="auto"``, integer counts without ``scale``, an unknown unit, or a file whose parsing
-        would exceed the read bound (:func:`tactile_torch.formats.max_read_bytes`, ``--max-read-mb``).
+        would exceed the read bound (:func:`tactile_torch.robot.npz.max_read_bytes`, ``--max-read-mb``).
     """
     import warnings
 
@@ -260,8 +265,6 @@ def read_csv_log(
         raise FileNotFoundError(f"{path}: no such file")
     if path.is_dir():
         raise ValueError(f"{path}: is a directory, expected a CSV log")
-    from ..formats import _CSV_EXPANSION, _too_large, max_read_bytes
-
     limit = max_read_bytes()  # the readers' one bound (--max-read-mb, TACTILE_TORCH_MAX_READ_MB)
     if path.stat().st_size * _CSV_EXPANSION > limit:  # parsing takes up to ~4 bytes per byte of text
         raise _too_large(path, "parsing the CSV log", path.stat().st_size * _CSV_EXPANSION, limit)
@@ -322,14 +325,69 @@ def read_csv_log(
     return (values[:, 1:] * factor).astype(np.float32), rate
 
 
+def read_csv_recording(
+    path: PathLike,
+    *,
+    columns: str | Sequence[str | int] | None = None,
+    scale: float | None = None,
+    units: str = "g",
+    time_unit: str = "auto",
+) -> tuple[np.ndarray, float]:
+    """Read one CSV log of time and three accelerations; return ``(signal (n, 3) float32 in g, rate_hz)``.
+
+    ``columns`` (names or indices of t, x, y, z), ``units`` (``"g"``, ``"m/s2"``), ``scale`` (units
+    per count, required for integer counts) and ``time_unit`` (``"s"``, ``"ms"``, ``"us"``,
+    ``"auto"``) are those of :func:`read_csv_log`, which reads the file
+    (NumPy only). The rate is ``1 / median(dt)``.
+
+    Raises
+    ------
+    ValueError
+        If a column is missing, a value is not a finite number, there are fewer than 2 rows, the
+        time stamps do not strictly increase, the rate is implausible for the time unit, or the
+        accelerations are integer counts without a ``scale``.
+    """
+    return read_csv_log(path, columns=columns, units=units, scale=scale, time_unit=time_unit)
+
+
+def write_csv_recording(path: PathLike, signal: np.ndarray, rate_hz: float) -> Path:
+    """Write one recording ``(n, 3)`` in g as a CSV log with the header ``t,x,y,z``; return the path.
+
+    Times are ``i / rate_hz`` seconds; values keep float32 precision (9 significant digits), so
+    :func:`read_csv_recording` gives the same samples and rate back.
+    """
+    signal = np.asarray(signal)
+    if signal.ndim != 2 or signal.shape[1] != 3:
+        raise ValueError(f"signal must have shape (n, 3), got {signal.shape}")
+    if not rate_hz > 0:
+        raise ValueError(f"rate_hz must be > 0, got {rate_hz!r}")
+    table = np.column_stack([np.arange(len(signal)) / float(rate_hz), signal.astype(np.float64)])
+    buffer = io.StringIO()
+    np.savetxt(buffer, table, delimiter=",", fmt="%.9g", header="t,x,y,z", comments="")
+    text = buffer.getvalue().encode("ascii")
+    return write_atomic(path, lambda f: f.write(text))
+
+
+def csv_class_name(path: PathLike) -> str:
+    """Return the class a CSV log is named after (:func:`class_and_session`).
+
+    >>> csv_class_name("logs/cork_12.csv"), csv_class_name("glass.csv")
+    ('cork', 'glass')
+    """
+    return class_and_session(path)[0]
+
+
 __all__ = [
     "INDEX_COLUMNS",
     "PLAUSIBLE_RATE_HZ",
     "TIME_UNITS",
     "UNITS",
     "class_and_session",
+    "csv_class_name",
     "integer_counts_message",
     "names_for",
     "read_csv_log",
+    "read_csv_recording",
     "read_index",
+    "write_csv_recording",
 ]

@@ -2,7 +2,7 @@
 
 :func:`read_source` is what ``tactile-torch train``, ``cluster`` and ``tradeoff`` (and
 :func:`tactile_torch.training.load_features`, :func:`tactile_torch.tradeoff.load_tradeoff_data`)
-call on their ``--data``: it returns the arrays of :mod:`tactile_torch.formats`
+call on their ``--data``: it returns the arrays of :mod:`tactile_torch.robot.formats`
 (``ExplorationArrays``, ``RecordingArrays`` or ``FeatureArrays``), and refuses, in one line naming
 the file and the sample, vibration recordings that the declared units make implausible
 (:func:`check_recordings`).
@@ -17,13 +17,12 @@ from pathlib import Path
 
 import numpy as np
 
-from .bags import MAX_BAG_MESSAGES, PRESSURE_TYPE, is_bag, read_bag
-from .logs import STANDARD_GRAVITY, UNITS, names_for
+from .contract import DEFAULT_RANGE_G
+from .csv_logs import STANDARD_GRAVITY, UNITS, names_for
+from .ros_bags import MAX_BAG_MESSAGES, PRESSURE_TYPE, is_bag, read_bag
 
 PathLike = str | os.PathLike
 
-DEFAULT_RANGE_G = 5.0
-"""Sensor range assumed when none is declared: the ±5 g of the study's ADXL345 (as ``export``)."""
 GRAVITY_BAND_G = (7.0, 12.0)
 """A recording whose mean acceleration has a norm in this band, read as g, is gravity in m/s^2."""
 
@@ -35,7 +34,7 @@ class DataOptions:
     Attributes
     ----------
     columns : str or sequence, optional
-        CSV logs: the t, x, y, z columns by name or 0-based index (:mod:`tactile_torch.data.logs`).
+        CSV logs: the t, x, y, z columns by name or 0-based index (:mod:`tactile_torch.robot.csv_logs`).
     units : {"g", "m/s2"}, optional
         Accelerations of CSV logs and ``.npz`` recordings (default: g, as docs/formats.md says).
         IMU topics are m/s^2 by definition and converted whatever this says.
@@ -88,17 +87,18 @@ def read_source(paths: PathLike | Sequence[PathLike], options: DataOptions | Non
     Returns
     -------
     ExplorationArrays, RecordingArrays or FeatureArrays
-        As :func:`tactile_torch.formats.read_data` (``.kind`` says which). Vibration recordings are
+        As :func:`tactile_torch.robot.formats.read_data` (``.kind`` says which). Vibration recordings are
         in g and have passed :func:`check_recordings`; ``RecordingArrays.session`` is set from the
         naming rule or the index.
 
     Raises
     ------
     ValueError
-        One line naming the file: anything :mod:`tactile_torch.formats`, :mod:`.logs` or
+        One line naming the file: anything :mod:`tactile_torch.robot.formats`, :mod:`tactile_torch.robot.csv_logs` or
         :mod:`.bags` refuse, files of different kinds together, or implausible samples.
     """
-    from ..formats import data_kind, read_csv_recordings, read_npz, recordings_from_arrays
+    from .formats import data_kind, read_csv_recordings, recordings_from_arrays
+    from .npz import read_npz
 
     options = options or DataOptions()
     paths = [Path(paths)] if isinstance(paths, str | os.PathLike) else [Path(p) for p in paths]
@@ -129,7 +129,7 @@ def read_source(paths: PathLike | Sequence[PathLike], options: DataOptions | Non
         path = paths[0]
         arrays = read_npz(path, allow_pickle=options.allow_pickle, what="data file (.npz of docs/formats.md)")
         if data_kind(arrays, path) != "vibration":
-            from ..formats import read_data
+            from .formats import read_data
 
             return read_data(path, allow_pickle=options.allow_pickle)
         signals = arrays["signals"]
@@ -141,7 +141,7 @@ def read_source(paths: PathLike | Sequence[PathLike], options: DataOptions | Non
             )
         if signals.dtype != object and (factor != 1.0 or options.scale is not None):
             if np.issubdtype(signals.dtype, np.integer) and options.scale is None:
-                from .logs import integer_counts_message
+                from .csv_logs import integer_counts_message
 
                 raise ValueError(integer_counts_message(f"{path}: signals", f"{signals.dtype}"))
             if np.issubdtype(signals.dtype, np.number):
@@ -157,7 +157,7 @@ def read_source(paths: PathLike | Sequence[PathLike], options: DataOptions | Non
 
 
 def _read_bags(paths: list[Path], options: DataOptions):
-    from ..formats import RecordingArrays
+    from .formats import RecordingArrays
 
     classes, sessions = names_for(paths, index=options.index)
     topics = [
@@ -188,7 +188,7 @@ def _read_bags(paths: list[Path], options: DataOptions):
 
 def _explorations(topics, labels: np.ndarray, names: tuple[str, ...], frames: int | None):
     """Cut each bag's pressure maps into explorations of ``frames`` maps; groups = the bag."""
-    from ..formats import ExplorationArrays
+    from .formats import ExplorationArrays
 
     shapes = {t.values.shape[1:] for t in topics}
     if len(shapes) > 1:
@@ -260,4 +260,4 @@ def check_recordings(
             )
 
 
-__all__ = ["DEFAULT_RANGE_G", "GRAVITY_BAND_G", "DataOptions", "check_recordings", "read_source"]
+__all__ = ["GRAVITY_BAND_G", "DataOptions", "check_recordings", "read_source"]
