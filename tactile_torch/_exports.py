@@ -33,7 +33,6 @@ def lazy_exports(
     exports: Mapping[str, Iterable[str]],
     *,
     defined: Iterable[str] = (),
-    submodules: Iterable[str] = (),
 ) -> tuple[Callable[[str], object], Callable[[], list[str]], list[str]]:
     """Return a package's ``__getattr__``, ``__dir__`` and ``__all__`` for the public names it declares.
 
@@ -46,9 +45,6 @@ def lazy_exports(
         names it defines.
     defined : iterable of str
         Public names defined in the ``__init__`` itself (listed in ``__all__``, never imported).
-    submodules : iterable of str
-        Public submodules (a package whose API is its modules, such as :mod:`tactile_torch.robot`):
-        ``package.name`` imports the submodule on first use.
 
     Returns
     -------
@@ -75,11 +71,6 @@ def lazy_exports(
     homes: dict[str, str] = {}
     for name in defined:
         homes[name] = ""
-    modules = set(submodules)
-    for name in modules:
-        if name in homes:
-            raise ValueError(f"{package}: public name {name!r} declared twice (the __init__ and {name})")
-        homes[name] = name
     for module, names in exports.items():
         for name in names:
             if name in homes:
@@ -92,8 +83,7 @@ def lazy_exports(
         home = homes.get(name)
         if not home:  # unknown, or a `defined` name that the __init__ failed to define
             raise AttributeError(f"module {package!r} has no attribute {name!r}")
-        module = importlib.import_module(f"{package}.{home}")
-        value = module if name in modules else getattr(module, name)
+        value = getattr(importlib.import_module(f"{package}.{home}"), name)
         setattr(sys.modules[package], name, value)
         return value
 

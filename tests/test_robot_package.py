@@ -55,9 +55,10 @@ def _robot_modules() -> list[str]:
 
 def test_every_robot_module_is_discovered():
     modules = _robot_modules()
-    # the package's own list of submodules is the list of its files (nothing unlisted, nothing stale)
-    assert sorted(f"tactile_torch.robot.{name}" for name in tactile_torch.robot.__all__) == modules
     assert "tactile_torch.robot.runtime" in modules and "tactile_torch.robot.stream" in modules
+    # every public name of the package resolves, without torch (the subprocess test below imports them)
+    for name in tactile_torch.robot.__all__:
+        assert getattr(tactile_torch.robot, name) is not None
 
 
 def test_robot_modules_import_without_training_dependencies():
@@ -75,7 +76,7 @@ def test_robot_modules_import_without_training_dependencies():
     assert out["result"]["loaded"] == []
     assert set(modules) <= set(out["result"]["imported"])
     # the robot side is the bottom floor: importing it loads nothing else of the library but the
-    # standard-library helper of every package's __init__ (tactile_torch._exports, tests/test_package_api.py)
+    # standard-library helper of every package's __init__ (tactile_torch._exports)
     others = [
         m
         for m in out["result"]["imported"]

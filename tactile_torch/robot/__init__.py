@@ -4,30 +4,22 @@ Every module of this package imports only the standard library, numpy, and (insi
 need them) onnxruntime and pyserial: the runtime install (``pip install tactile-torch``) runs it, and
 ``tests/test_robot_package.py`` fails if any of its modules imports torch, scikit-learn, scipy or numba.
 The training side (:mod:`tactile_torch.training`, the exporters) imports from here, never the other way.
+
+The package's API is declared the project's one way (:func:`tactile_torch._exports.lazy_exports`, standard
+library only); the file-level names (contract constants, readers' option types) are imported from their module.
 """
 
 from .._exports import lazy_exports
 
-# The robot side's public API is its modules (``from tactile_torch.robot.runtime import OnnxPipeline``).
 __getattr__, __dir__, __all__ = lazy_exports(
     __name__,
-    {},
-    submodules=(
-        "checks",
-        "contract",
-        "csv_logs",
-        "data_sources",
-        "discovery",
-        "formats",
-        "model_file",
-        "npz",
-        "port_lines",
-        "ros_bags",
-        "runtime",
-        "safe_write",
-        "stream",
-        "stream_output",
-        "windows",
-        "wire",
-    ),
+    {
+        "runtime": ("NonFiniteScoresError", "OnnxPipeline", "Prediction", "beyond_range", "sensor_range_g"),
+        "stream": ("Window", "WindowReader"),
+        "stream_output": ("classify_windows", "result_json", "result_text"),
+        "discovery": ("SurfaceDiscovery", "stream_consumer"),
+        "model_file": ("ModelFile", "load_model_file", "save_model_file"),
+        "formats": ("read_data", "read_explorations", "read_features", "read_recordings"),
+        "data_sources": ("DataOptions", "read_source"),
+    },
 )
