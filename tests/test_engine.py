@@ -280,7 +280,7 @@ def test_backend_errors_name_the_argument(monkeypatch):
 
 
 def test_breaking_point_sweeps_run_on_the_engine_backends():
-    from tactile_torch.robustness import sweep
+    from tactile_torch.robustness.sweeps import sweep
 
     X, y, groups = _data(n_groups=12)
     models = {"lda": _pipe(LinearDiscriminantAnalysis()), "ncm": _pipe(NearestCentroid())}

@@ -14,21 +14,12 @@ from sklearn.neighbors import KNeighborsClassifier, NearestCentroid
 from sklearn.pipeline import Pipeline
 from sklearn.preprocessing import FunctionTransformer, StandardScaler
 
-from tactile_torch import _sweep, engine
-from tactile_torch.robustness import (
-    FACTORS,
-    Degradation,
-    breaking_points,
-    breaking_table,
-    factor,
-    factors_for,
-    infer_kind,
-    plot_factor,
-    plot_factors,
-    plot_grid,
-    recording_blocks,
-    sweep,
-)
+from tactile_torch import engine
+from tactile_torch.robustness import _evaluation
+from tactile_torch.robustness.charts import plot_factor, plot_factors, plot_grid
+from tactile_torch.robustness.degradations import FACTORS, Degradation, factor, factors_for
+from tactile_torch.robustness.output import breaking_table
+from tactile_torch.robustness.sweeps import breaking_points, infer_kind, recording_blocks, sweep
 
 # Degraded tiny inputs give constant features; NearestCentroid warns about them (expected here).
 pytestmark = pytest.mark.filterwarnings(
@@ -66,32 +57,32 @@ def _pipe(func=_mean_features, classifier=None):
 
 def test_crossing_interpolates_the_first_fall_below_halfway():
     acc = np.array([[1.0, 0.9, 0.6, 0.2, 0.1], [1.0, 0.9, 0.8, 0.7, 0.6], [0.2, 0.1, 0.1, 0.1, 0.1]]).T
-    pos = _sweep.crossing(acc, chance=0.0)
+    pos = _evaluation.crossing(acc, chance=0.0)
     assert pos[0] == pytest.approx(2 + (0.6 - 0.5) / (0.6 - 0.2))
     assert math.isinf(pos[1])
-    assert _sweep.crossing(acc[:, 2:], chance=0.25)[0] == 0.0  # clean at chance: nothing to break
-    exact = _sweep.crossing(np.array([[0.8], [0.5], [0.1]]), chance=0.2)  # threshold 0.5 hit exactly
+    assert _evaluation.crossing(acc[:, 2:], chance=0.25)[0] == 0.0  # clean at chance: nothing to break
+    exact = _evaluation.crossing(np.array([[0.8], [0.5], [0.1]]), chance=0.2)  # threshold 0.5 hit exactly
     assert exact[0] == pytest.approx(1.0)
 
 
 def test_level_text_in_value_log_and_label_space():
     snr = factor("feature SNR")
-    assert _sweep.level_text(snr, [30, 20, 10], 2.5) == ("15 dB", 15.0)
-    assert _sweep.level_text(snr, [30, 20, 10], 0.5)[0] == "before 30 dB"
-    assert _sweep.level_text(snr, [30, 20, 10], math.inf)[0] == "beyond 10 dB"
+    assert _evaluation.level_text(snr, [30, 20, 10], 2.5) == ("15 dB", 15.0)
+    assert _evaluation.level_text(snr, [30, 20, 10], 0.5)[0] == "before 30 dB"
+    assert _evaluation.level_text(snr, [30, 20, 10], math.inf)[0] == "beyond 10 dB"
     noise = factor("sensor noise")  # log axis: geometric interpolation
-    assert _sweep.level_text(noise, [0.01, 0.1], 1.5)[1] == pytest.approx(math.sqrt(0.01 * 0.1))
+    assert _evaluation.level_text(noise, [0.01, 0.1], 1.5)[1] == pytest.approx(math.sqrt(0.01 * 0.1))
     grid = factor("image noise")
-    text, value = _sweep.level_text(grid, [(0.1, 0.01), (0.2, 0.03)], 1.5)
+    text, value = _evaluation.level_text(grid, [(0.1, 0.01), (0.2, 0.03)], 1.5)
     assert text == "between (0.1, 0.01) and (0.2, 0.03)" and value is None
 
 
 def test_bootstrap_of_constant_rows_and_reproducibility():
     hits = np.array([[3.0, 2.0, 4.0], [1.0, 1.0, 2.0]])
     count = np.array([[3.0, 2.0, 4.0], [3.0, 2.0, 4.0]])
-    boot = _sweep.bootstrap(hits, count, 200, seed=1)
+    boot = _evaluation.bootstrap(hits, count, 200, seed=1)
     assert boot.shape == (2, 200) and np.allclose(boot[0], 1.0)
-    assert np.array_equal(boot, _sweep.bootstrap(hits, count, 200, seed=1))
+    assert np.array_equal(boot, _evaluation.bootstrap(hits, count, 200, seed=1))
     assert boot[1].min() >= 1 / 3 - 1e-12 and boot[1].max() <= 1 / 2 + 1e-12  # between the groups' rates
 
 
@@ -122,7 +113,7 @@ def test_factors_are_declared_for_their_kinds():
     }
     assert {f.name for f in factors_for("vibration")} >= {"window", "sensor noise", "quantisation", "drift"}
     assert len(factor("image noise").levels) == 25 and len(factor("image noise").path) == 5
-    from tactile_torch.robustness import QUICK_LEVELS
+    from tactile_torch.robustness.degradations import QUICK_LEVELS
 
     for name, levels in QUICK_LEVELS.items():  # quick lists are sublists of the records', mildest first
         full = factor(name).levels
@@ -251,7 +242,8 @@ def _overlapping_tick_labels(fig) -> list[str]:
 
 def test_axis_titles_say_the_unit_once():
     """The ticks are bare numbers; the title holds the unit (the drift panel's "0.51 of the recording" ticks overlapped)."""
-    from tactile_torch.robustness import FACTORS, axis_title
+    from tactile_torch.robustness.charts import axis_title
+    from tactile_torch.robustness.degradations import FACTORS
 
     for f in FACTORS:
         words = re.findall(r"[\w±]+", axis_title(f))
@@ -445,7 +437,7 @@ def test_docs_list_every_factor():
 def test_write_breaking_points(tmp_path):
     import json
 
-    from tactile_torch.robustness import breaking_summary, write_breaking_points
+    from tactile_torch.robustness.output import breaking_summary, write_breaking_points
 
     X, y = _blobs()
     result = sweep(

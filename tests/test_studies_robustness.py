@@ -8,7 +8,7 @@ from sklearn.neighbors import NearestCentroid
 
 from tactile_torch.data.vibration import VibrationRecordings
 from tactile_torch.report import Report
-from tactile_torch.robustness import sweep
+from tactile_torch.robustness.sweeps import sweep
 from tactile_torch.studies import breaking_points, claims, run_report
 
 

@@ -568,7 +568,7 @@ def test_csv_sessions_come_from_the_trailing_number(tmp_path):
     assert sorted(data.recordings.session.tolist()) == ["1", "1", "2", "2", "3", "3"]
     s = vibration_samples(data.recordings, 100, n_folds=5)
     assert s.unit == "session" and sorted(set(s.units.tolist())) == [0, 1, 2]
-    from tactile_torch.tradeoff.runner import _unit_warnings
+    from tactile_torch.tradeoff.summary import _unit_warnings
 
     (line,) = _unit_warnings({s.key: s})  # three sessions: one line, the range instead of an interval
     assert line.startswith("warning: only 3 sessions in the data: accuracies are given as the range")

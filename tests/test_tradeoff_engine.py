@@ -9,7 +9,8 @@ from tactile_torch.cli import main
 from tactile_torch.data.stylus import make_vibration_recordings
 from tactile_torch.tradeoff import run_tradeoff
 from tactile_torch.tradeoff.evaluation import cross_validate
-from tactile_torch.tradeoff.runner import plan_tradeoff, summarise
+from tactile_torch.tradeoff.runner import plan_tradeoff
+from tactile_torch.tradeoff.summary import summarise
 
 
 @pytest.fixture(scope="module")

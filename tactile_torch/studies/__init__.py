@@ -9,6 +9,7 @@ writes ``report.md`` with its tables and charts. Studies share generated data th
 from __future__ import annotations
 
 import importlib
+import numbers
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -17,6 +18,8 @@ from typing import Any
 
 from .._exports import lazy_exports
 from ..report import Report
+from ._reproduce import report_command
+from ._seeds import study_seed
 
 # Report order. Each entry is a module of this package with TITLE and run(section, ctx).
 STUDIES: list[str] = [
@@ -49,6 +52,16 @@ class RunContext:
             self.cache[key] = make()
         return self.cache[key]
 
+    def seed(self, study: str, purpose: str) -> int:
+        """Return the seed of the draw ``purpose`` of ``study`` under this run's seed (:func:`._seeds.study_seed`)."""
+        return study_seed(self.random_state, study, purpose)
+
+    def command(self, *only: str) -> str:
+        """Return the command that reruns the studies ``only`` with this run's options (:func:`._reproduce.report_command`)."""
+        return report_command(
+            out_dir=self.out_dir, random_state=self.random_state, quick=self.quick, full=self.full, only=only
+        )
+
 
 def run_report(
     out_dir: str | Path,
@@ -59,15 +72,20 @@ def run_report(
     only: list[str] | None = None,
     log: Callable[[str], None] = print,
 ) -> Path:
-    """Run the studies (all, or those named in ``only``) and write the report; return its path."""
+    """Run the studies (all, or those named in ``only``) and write the report; return its path.
+
+    ``random_state`` is the root seed (``--seed``, a non-negative int): every random draw of every study
+    takes its own seed from it through :meth:`RunContext.seed`, so one root seed gives one report.
+    """
+    if isinstance(random_state, bool) or not isinstance(random_state, numbers.Integral) or random_state < 0:
+        raise ValueError(f"random_state must be a non-negative int, got {random_state!r}")
     unknown = sorted(set(only or []) - set(STUDIES))
     if unknown:
         raise ValueError(f"only must name studies among {STUDIES}, got unknown {unknown}")
     out_dir = Path(out_dir)
-    ctx = RunContext(random_state=random_state, quick=quick, full=full, out_dir=out_dir)
+    ctx = RunContext(random_state=int(random_state), quick=quick, full=full, out_dir=out_dir)
     report = Report(out_dir)
-    cmd = f"tactile-torch report --out {out_dir} --seed {random_state}" + (" --quick" if quick else "")
-    cmd += " --full" if full else ""
+    cmd = ctx.command(*(only or ()))
     report.preamble.append(f"Written by `{cmd}` (`make run` runs it with the defaults).")
     for name in STUDIES:
         if only and name not in only:

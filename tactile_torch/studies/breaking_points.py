@@ -1,7 +1,7 @@
 """Report section: where each model breaks (``tactile_torch.robustness``).
 
 For the study's models and the other candidates of both methods, every degradation of
-:data:`tactile_torch.robustness.FACTORS` is swept until accuracy falls halfway from its clean value to
+:data:`tactile_torch.robustness.degradations.FACTORS` is swept until accuracy falls halfway from its clean value to
 chance; the section reports that breaking point with its 95 % interval (cluster bootstrap), a table
 per method and one chart per factor with every candidate's curve, the study's Table 4 (image noise
 on the 5 x 5 grid of mean x variance, ``--full``) and its Fig. 4 (the first three preprocessing steps
@@ -65,14 +65,9 @@ def _mode(ctx) -> str:
     return "quick" if ctx.quick else "full" if ctx.full else "default"
 
 
-def _command(ctx, only: str = "breaking_points") -> str:
-    flag = {"quick": " --quick", "full": " --full", "default": ""}[_mode(ctx)]
-    return f"tactile-torch report --only {only} --seed {ctx.random_state} --out {ctx.out_dir}{flag}"
-
-
 def _factors(kind: str, ctx):
     """The factors of ``kind`` at this run's levels (the full run: every level of the records)."""
-    from ..robustness import QUICK_LEVELS, factors_for
+    from ..robustness.degradations import QUICK_LEVELS, factors_for
 
     chosen = []
     for f in factors_for(kind):
@@ -108,7 +103,7 @@ def vibration_data(ctx):
     (``vibration_features`` section) cut into W = 800 windows, with time-block groups and positions."""
     from dataclasses import replace
 
-    from ..robustness import recording_blocks
+    from ..robustness.sweeps import recording_blocks
     from .vibration_features import bundled_recordings
 
     rec = bundled_recordings(ctx)
@@ -123,12 +118,12 @@ def vibration_data(ctx):
 
 def image_sweep(ctx, progress: bool = True):
     """Sweep the method-1 candidates over the image factors; returns (result, frames, labels)."""
-    from ..robustness import sweep
+    from ..robustness.sweeps import sweep
     from ._models import image_candidates
 
     size = SIZES[_mode(ctx)]
     frames, labels, _, pitch_px, _ = image_data(ctx)
-    models = image_candidates(ctx.random_state, names=size["image_models"])
+    models = image_candidates(ctx.seed("breaking_points", "image estimators"), names=size["image_models"])
     result = sweep(
         models,
         frames,
@@ -138,7 +133,7 @@ def image_sweep(ctx, progress: bool = True):
         context={"pitch_px": pitch_px},
         n_splits=size["folds"],
         n_trials=size["trials"],
-        random_state=ctx.random_state,
+        random_state=ctx.seed("breaking_points", "image sweep"),
         progress=progress,
     )
     return result, frames, labels, pitch_px
@@ -146,12 +141,14 @@ def image_sweep(ctx, progress: bool = True):
 
 def vibration_sweep(ctx, progress: bool = True):
     """Sweep the method-2 candidates over the vibration factors; returns (result, windows)."""
-    from ..robustness import sweep
+    from ..robustness.sweeps import sweep
     from ._models import vibration_candidates
 
     size = SIZES[_mode(ctx)]
     windows, labels, groups, context, _ = vibration_data(ctx)
-    models = vibration_candidates(ctx.random_state, names=size["vibration_models"])
+    models = vibration_candidates(
+        ctx.seed("breaking_points", "vibration estimators"), names=size["vibration_models"]
+    )
     result = sweep(
         models,
         windows,
@@ -161,7 +158,7 @@ def vibration_sweep(ctx, progress: bool = True):
         context=context,
         n_splits=size["folds"],
         n_trials=size["trials"],
-        random_state=ctx.random_state,
+        random_state=ctx.seed("breaking_points", "vibration sweep"),
         progress=progress,
     )
     return result, windows
@@ -169,7 +166,8 @@ def vibration_sweep(ctx, progress: bool = True):
 
 def add_results(section, result, *, name: str, study_model: str) -> None:
     """Add a sweep's breaking table, a chart per factor (panels of one figure) and the skipped factors."""
-    from ..robustness import breaking_table, plot_factors
+    from ..robustness.charts import plot_factors
+    from ..robustness.output import breaking_table
 
     section.table(
         breaking_table(result.curves),
@@ -190,14 +188,15 @@ def add_results(section, result, *, name: str, study_model: str) -> None:
 
 
 def _grid(section, result, ctx) -> None:
-    from ..robustness import IMAGE_NOISE_MEANS, IMAGE_NOISE_VARIANCES, plot_grid
+    from ..robustness.charts import plot_grid
+    from ..robustness.degradations import IMAGE_NOISE_MEANS, IMAGE_NOISE_VARIANCES
 
     grid = [c for c in result.curves if c.factor.name == "image noise" and c.factor.path is not None]
     if not grid:
         section.text(
             "Image noise on the study's 5 x 5 grid of Table 4 and the sensel grid run under `--full` (every level "
             "rewrites every pixel of every frame): "
-            f"`{_command(dataclasses.replace(ctx, quick=False, full=True))}`; the `image_classification` "
+            f"`{dataclasses.replace(ctx, quick=False, full=True).command('breaking_points')}`; the `image_classification` "
             "section shows image noise on Table 4's diagonal in every run."
         )
         return
@@ -236,7 +235,9 @@ def _fig4(section, frames, ctx) -> None:
     fig, axes = plt.subplots(len(FIG4_NOISE), 3, figsize=(6.6, 2.2 * len(FIG4_NOISE)))
     for row, (mean, var) in enumerate(FIG4_NOISE):
         noisy = (
-            gaussian_image_noise(frame, mean, var, generator=ctx.random_state) if var else frame.float() / 255
+            gaussian_image_noise(frame, mean, var, generator=ctx.seed("breaking_points", "figure 4 noise"))
+            if var
+            else frame.float() / 255
         )
         g = image.to_grayscale(noisy)
         mask = image.pressure_mask(g)
@@ -283,7 +284,7 @@ def _run(section, ctx) -> None:
         "recording and tests on later segments. A curve that stops early could not be fitted there. "
         "Definitions and API: `docs/robustness.md` (`tactile_torch.robustness`)."
     )
-    section.command(_command(ctx))
+    section.command(ctx.command("breaking_points"))
     progress = not ctx.quick
 
     result, frames, _, pitch_px = image_sweep(ctx, progress)
@@ -325,7 +326,7 @@ def _real_sets(section, ctx, progress: bool) -> None:
     breaking points a property of the method or of the bundled generator? HapMat (100 Hz IMU, 5
     materials) for method 2, the Drimus pressure-array grasps (5 objects) for method 1."""
     from ..data import shared_data_dir
-    from ..robustness import recording_blocks, sweep
+    from ..robustness.sweeps import recording_blocks, sweep
     from ._models import erosion_for, image_candidates, vibration_candidates
 
     size = SIZES[_mode(ctx)]
@@ -333,7 +334,7 @@ def _real_sets(section, ctx, progress: bool) -> None:
     if not ctx.full:
         section.text(
             "The same sweeps on real data (`hapmat_imu5` for method 2, `drimus_sdh_tactile` for method 1) run "
-            f"under `--full`: `{_command(dataclasses.replace(ctx, quick=False, full=True))}`."
+            f"under `--full`: `{dataclasses.replace(ctx, quick=False, full=True).command('breaking_points')}`."
         )
         return
     if shared_data_dir("hapmat_imu5") is not None:
@@ -343,7 +344,9 @@ def _real_sets(section, ctx, progress: bool) -> None:
         ds = rec.windows(round(rec.rate_hz))  # 1 s windows, as W = 800 at 800 Hz
         recording, position = ds.recording.numpy(), ds.position.numpy()
         result = sweep(
-            vibration_candidates(ctx.random_state, names=size["vibration_models"]),
+            vibration_candidates(
+                ctx.seed("breaking_points", "hapmat estimators"), names=size["vibration_models"]
+            ),
             ds.windows,
             ds.labels.numpy(),
             recording_blocks(recording, position, n_blocks=5),
@@ -354,7 +357,7 @@ def _real_sets(section, ctx, progress: bool) -> None:
             },
             n_splits=size["folds"],
             n_trials=size["trials"],
-            random_state=ctx.random_state,
+            random_state=ctx.seed("breaking_points", "hapmat sweep"),
             progress=progress,
         )
         section.text(
@@ -371,7 +374,9 @@ def _real_sets(section, ctx, progress: bool) -> None:
         data = load_drimus_grasps()
         erosion = erosion_for(data.frames)
         models = image_candidates(
-            ctx.random_state, erosion=erosion, names=("fused + LDA", "concatenated + LDA")
+            ctx.seed("breaking_points", "drimus estimators"),
+            erosion=erosion,
+            names=("fused + LDA", "concatenated + LDA"),
         )
         result = sweep(
             models,
@@ -381,7 +386,7 @@ def _real_sets(section, ctx, progress: bool) -> None:
             factors=_factors("image", ctx),
             n_splits=size["folds"],
             n_trials=size["trials"],
-            random_state=ctx.random_state,
+            random_state=ctx.seed("breaking_points", "drimus sweep"),
             progress=progress,
         )
         section.text(

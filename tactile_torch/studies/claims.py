@@ -21,6 +21,8 @@ source is reported as data-dependent. Checked here:
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 TITLE = "Claims checked beyond one generator"
@@ -76,11 +78,6 @@ def _mode(ctx) -> str:
     return "quick" if ctx.quick else "full" if ctx.full else "default"
 
 
-def _command(ctx) -> str:
-    flag = {"quick": " --quick", "full": " --full", "default": ""}[_mode(ctx)]
-    return f"tactile-torch report --only claims --seed {ctx.random_state} --out {ctx.out_dir}{flag}"
-
-
 # ------------------------------------------------------------------------------------ image sources
 def image_sources(ctx) -> list[dict]:
     """The method-1 data sources: name, frames, labels, groups (objects, or None), erosion."""
@@ -96,7 +93,10 @@ def image_sources(ctx) -> list[dict]:
         {"name": "bundled generator (default knobs)", "data": bundled, "groups": bundled.groups.numpy()}
     )
     hard = make_explorations(
-        size["per_class"], n_frames=size["frames"], random_state=ctx.random_state + 1, **HARD_IMAGES
+        size["per_class"],
+        n_frames=size["frames"],
+        random_state=ctx.seed("claims", "hard image set"),
+        **HARD_IMAGES,
     )
     sources.append({"name": "bundled generator (hard knobs)", "data": hard, "groups": hard.groups.numpy()})
     if shared_data_dir("drimus_sdh_tactile") is not None:
@@ -119,9 +119,9 @@ def image_sources(ctx) -> list[dict]:
     return sources
 
 
-def _predictions(fused, concat, y, groups, folds: int, random_state: int, quick: bool) -> tuple[dict, int]:
+def _predictions(fused, concat, y, groups, folds: int, ctx) -> tuple[dict, int]:
     """Cross-validated predictions ``{(scheme, classifier, features): labels}``: stratified folds, and
-    folds grouped by ``groups`` (unseen objects) when given."""
+    folds grouped by ``groups`` (unseen objects) when given; seeded from ``ctx``."""
     from sklearn.model_selection import GroupKFold, StratifiedKFold, cross_val_predict
     from sklearn.pipeline import make_pipeline
     from sklearn.preprocessing import StandardScaler
@@ -129,13 +129,15 @@ def _predictions(fused, concat, y, groups, folds: int, random_state: int, quick:
     from ._models import IMAGE_SVM_C, classifiers
 
     n = int(min(folds, np.bincount(y)[np.unique(y)].min()))
-    schemes = {"stratified": (StratifiedKFold(n, shuffle=True, random_state=random_state), None)}
+    schemes = {
+        "stratified": (StratifiedKFold(n, shuffle=True, random_state=ctx.seed("claims", "cv folds")), None)
+    }
     if groups is not None and len(np.unique(groups)) >= n:
         schemes["unseen objects"] = (GroupKFold(n), groups)
     preds = {}
     for scheme, (cv, grp) in schemes.items():
-        for clf_name, clf in classifiers(random_state, svm_c=IMAGE_SVM_C).items():
-            if quick and clf_name == "HM-SVM":
+        for clf_name, clf in classifiers(ctx.seed("claims", "image estimators"), svm_c=IMAGE_SVM_C).items():
+            if ctx.quick and clf_name == "HM-SVM":
                 continue  # the quick sets have too few explorations per class to train it
             for feats, X in (("fused", fused), ("concatenated", concat)):
                 model = make_pipeline(StandardScaler(), clf)
@@ -227,7 +229,7 @@ def fusion_map(ctx, sources: list[dict]) -> tuple[list[dict], list[dict]]:
         else:
             fused, concat = _features(s["data"], s["erosion"])
         y = s["data"].labels.numpy()
-        preds, n = _predictions(fused, concat, y, s["groups"], size["folds"], ctx.random_state, ctx.quick)
+        preds, n = _predictions(fused, concat, y, s["groups"], size["folds"], ctx)
         rows += _fusion_rows(s["name"], preds, y, n)
         unseen += _unseen_rows(s["name"], preds, y)
     return rows, unseen
@@ -244,10 +246,12 @@ def knob_map(ctx) -> list[dict]:
     settings = [(knob, value) for knob, values in KNOBS.items() for value in values]
     for knob, value in tqdm(settings, desc="claims: generator knobs", disable=ctx.quick, leave=False):
         kwargs = {"n_frames": size["knob_frames"]} | {knob: value}
-        data = make_explorations(size["knob_per_class"], random_state=ctx.random_state + 2, **kwargs)
+        data = make_explorations(
+            size["knob_per_class"], random_state=ctx.seed("claims", "knob map image sets"), **kwargs
+        )
         fused, concat = _features(data, 10)
         y = data.labels.numpy()
-        preds, n = _predictions(fused, concat, y, None, size["folds"], ctx.random_state, ctx.quick)
+        preds, n = _predictions(fused, concat, y, None, size["folds"], ctx)
         for row in _fusion_rows(f"{knob} = {value}", preds, y, n):
             rows.append({"knob": knob, "value": str(value), **row})
     return rows
@@ -297,7 +301,7 @@ def vibration_sources(ctx) -> list[dict]:
         }
     ]
     hard = make_vibration_recordings(
-        28, duration_s=size["stylus_s"], random_state=ctx.random_state + 1, **HARD_STYLUS
+        28, duration_s=size["stylus_s"], random_state=ctx.seed("claims", "hard stylus set"), **HARD_STYLUS
     )
     sources.append({"name": "bundled stylus (hard knobs)", "rec": hard})
     for name, loader in (("hapmat_imu5", "load_hapmat_imu5"), ("borealtc_imu", "load_borealtc_imu")):
@@ -317,14 +321,22 @@ def _time_split(rec, size: int):
     return vibration_features(ds.windows), ds.labels.numpy(), train
 
 
-def _svm_accuracy(X, y, train, C: float, gamma: float, model: str = "libsvm") -> tuple[float, np.ndarray]:
+def _svm_accuracy(
+    X, y, train, C: float, gamma: float, model: str = "libsvm", random_state: int | None = None
+) -> tuple[float, np.ndarray]:
+    """Test accuracy and predictions of libsvm's SVC or our HM-SVM (seeded by ``random_state``; libsvm's
+    SVC draws nothing) trained on ``train``."""
     from sklearn.pipeline import make_pipeline
     from sklearn.preprocessing import StandardScaler
     from sklearn.svm import SVC
 
     from ..svm import HierarchicalSVC
 
-    clf = SVC(C=C, gamma=gamma) if model == "libsvm" else HierarchicalSVC(C=C, gamma=gamma, random_state=0)
+    clf = (
+        SVC(C=C, gamma=gamma)
+        if model == "libsvm"
+        else HierarchicalSVC(C=C, gamma=gamma, random_state=random_state)
+    )
     pipe = make_pipeline(StandardScaler(with_mean=False), clf).fit(X[train], y[train])
     pred = pipe.predict(X[~train])
     return float(np.mean(pred == y[~train])), pred
@@ -360,8 +372,8 @@ def window_rows(sources: list[dict], seconds: tuple[float, ...] = WINDOW_SECONDS
     return rows
 
 
-def svm_rows(sources: list[dict], full: bool) -> list[dict]:
-    """Claim 4: HM-SVM against libsvm one-vs-one, same C and gamma, W = 1 s."""
+def svm_rows(sources: list[dict], full: bool, *, random_state: int) -> list[dict]:
+    """Claim 4: HM-SVM against libsvm one-vs-one, same C and gamma, W = 1 s (``random_state``: the HM-SVM's)."""
     from ..metrics import mcnemar
 
     rows = []
@@ -372,7 +384,7 @@ def svm_rows(sources: list[dict], full: bool) -> list[dict]:
         size = round(rec.rate_hz)
         X, y, train = _time_split(rec, size)
         gamma = 1.0 / X.shape[1]
-        ours, pred_ours = _svm_accuracy(X, y, train, 16.0, gamma, model="hmsvm")
+        ours, pred_ours = _svm_accuracy(X, y, train, 16.0, gamma, model="hmsvm", random_state=random_state)
         lib, pred_lib = _svm_accuracy(X, y, train, 16.0, gamma)
         test = mcnemar(y[~train], pred_ours, pred_lib)
         rows.append(
@@ -406,7 +418,7 @@ def _run(section, ctx) -> None:
         f"(images: `{HARD_IMAGES}`; stylus: `{HARD_STYLUS}`), and the real sets when present. A conclusion "
         "that fails on some source is data-dependent, and the docs say so."
     )
-    section.command(_command(ctx))
+    section.command(ctx.command("claims"))
     size = SIZES[_mode(ctx)]
 
     sources = image_sources(ctx)
@@ -452,7 +464,7 @@ def _run(section, ctx) -> None:
         section.text(
             "The map along every generator knob (sensel pitch, contact size, texture scale, look-alike objects, "
             "noise, frames) runs under `--full`: "
-            f"`tactile-torch report --only claims --seed {ctx.random_state} --out {ctx.out_dir} --full`."
+            f"`{dataclasses.replace(ctx, quick=False, full=True).command('claims')}`."
         )
     fig, ax = plt.subplots(figsize=(6.4, 0.5 + 0.35 * len(summary)))
     ax.barh([s["source"] for s in summary], [s["mean gain"] for s in summary], color="C0")
@@ -478,7 +490,7 @@ def _run(section, ctx) -> None:
         caption="Claim 3: accuracy of the RBF SVM (C = 1000, gamma = 0.0186) against window length "
         "(verdict: the longest against the shortest window, 95 % normal interval)",
     )
-    svm = svm_rows(vib, ctx.full)
+    svm = svm_rows(vib, ctx.full, random_state=ctx.seed("claims", "hm-svm"))
     if svm:
         section.table(
             svm,

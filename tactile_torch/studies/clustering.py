@@ -23,7 +23,6 @@ seeded Gaussian clusters in 3-D stand in.
 
 from __future__ import annotations
 
-import importlib.util
 import warnings
 from dataclasses import replace
 from typing import Any
@@ -31,123 +30,22 @@ from typing import Any
 import numpy as np
 
 from ..metrics import pairwise_accuracy
-from ..mixture import PitmanYorGMM, baseline_clusterings
+from ..mixture import PitmanYorGMM
+from .clustering_experiments import (
+    STUDY,
+    WITHHELD,
+    cluster_and_compare,
+    cluster_to_label,
+    have_vibration_features,
+    k_row,
+    learning_curve,
+    max_rhat,
+    novelty_test,
+    real_windows,
+    synthetic_clusters,
+)
 
 TITLE = "Clustering: how many surfaces (Pitman-Yor mixture, mixture of finite mixtures)"
-STUDY = {"model": "pyp", "coarsen": None}
-"""The study's Pitman-Yor mixture (``PitmanYorGMM``'s defaults are the mixture of finite mixtures)."""
-CMD = "tactile-torch report --only clustering --out runs/latest"
-WITHHELD = (3, 10, 17, 24)
-"""Surfaces kept out of training in the novelty test (every seventh, from different families)."""
-
-
-def synthetic_clusters(
-    n_clusters: int,
-    per_cluster: int,
-    *,
-    dim: int = 3,
-    spread: float = 0.3,
-    min_gap: float = 3.0,
-    seed: int = 0,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Return (X (n, dim), labels (n,)): seeded Gaussian clusters whose centres are at least ``min_gap`` apart."""
-    rng = np.random.default_rng(seed)
-    box = 20.0 * (n_clusters / 28) ** (1 / dim)
-    centers = rng.uniform(-box, box, size=(n_clusters, dim))
-    for _ in range(10_000):
-        gaps = np.linalg.norm(centers[:, None] - centers[None], axis=-1)
-        np.fill_diagonal(gaps, np.inf)
-        if gaps.min() >= min_gap:
-            break
-        centers[np.argmin(gaps.min(1))] = rng.uniform(-box, box, size=dim)
-    X = np.concatenate([rng.normal(c, spread, size=(per_cluster, dim)) for c in centers])
-    return X, np.repeat(np.arange(n_clusters), per_cluster)
-
-
-def k_row(model: PitmanYorGMM) -> dict[str, Any]:
-    """The honest K of a fitted mixture: posterior mode, median, 95 % interval, point estimate, MAP sample."""
-    ks = model.n_clusters_summary_
-    return {
-        "K posterior mode": ks["mode"],
-        "K median": ks["median"],
-        "K 95% interval": f"[{ks['interval'][0]}, {ks['interval'][1]}]",
-        "K point estimate": ks["point_estimate"],
-        "K MAP sample": ks["map"],
-    }
-
-
-def max_rhat(model: PitmanYorGMM) -> float:
-    """The largest rank-normalised split R-hat of K, alpha and d of a fitted mixture (NaN with one chain)."""
-    values = [r["R-hat"] for r in model.convergence_ if np.isfinite(r["R-hat"])]
-    return round(max(values), 3) if values else float("nan")
-
-
-def cluster_and_compare(
-    X: np.ndarray,
-    y: np.ndarray,
-    *,
-    n_iter: int,
-    burn_in: int,
-    random_state: int,
-    max_components: int | None = None,
-    n_chains: int = 4,
-    n_init: int = 5,
-    min_components: int | None = None,
-) -> dict[str, Any]:
-    """Fit the Pitman-Yor mixture and the scikit-learn baselines; return the model and Table 2's rows."""
-    model = PitmanYorGMM(
-        n_iter=n_iter, burn_in=burn_in, n_chains=n_chains, random_state=random_state, progress=False, **STUDY
-    ).fit(X)
-    n_true = int(np.unique(y).size)
-    ks = model.n_clusters_summary_
-    rows = [
-        {
-            "method": "Pitman-Yor mixture: point estimate (min. expected VI)",
-            "K given": "no",
-            "K found": ks["point_estimate"],
-            "posterior of K": f"mode {ks['mode']}, median {ks['median']:g}, 95% [{ks['interval'][0]}, {ks['interval'][1]}]",
-            "pairwise accuracy": pairwise_accuracy(y, model.labels_),
-            "seconds": model.fit_seconds_,
-        },
-        {
-            "method": "Pitman-Yor mixture: MAP sample",
-            "K given": "no",
-            "K found": ks["map"],
-            "posterior of K": "",
-            "pairwise accuracy": pairwise_accuracy(y, model.map_labels_),
-            "seconds": "",
-        },
-    ]
-    names = {
-        "kmeans": ("k-means", "yes"),
-        "em": ("EM (full covariances)", "yes"),
-        "em_bic": ("EM, K by BIC/MDL", "no"),
-        "variational_dp": ("variational DP mixture (scikit-learn)", "no"),
-    }
-    for key, res in baseline_clusterings(
-        X,
-        n_true,
-        max_components=max_components,
-        min_components=min_components,
-        n_init=n_init,
-        random_state=random_state,
-    ).items():
-        rows.append(
-            {
-                "method": names[key][0],
-                "K given": names[key][1],
-                "K found": res["n_clusters"],
-                "posterior of K": "",
-                "pairwise accuracy": pairwise_accuracy(y, res["labels"]),
-                "seconds": res["seconds"],
-            }
-        )
-    return {"model": model, "rows": rows}
-
-
-def have_vibration_features() -> bool:
-    """Whether :mod:`tactile_torch.signal` (the vibration features) is available in this installation."""
-    return importlib.util.find_spec("tactile_torch.signal") is not None
 
 
 # ----------------------------------------------------------------------------------------------
@@ -204,8 +102,11 @@ def study_windows(ctx) -> dict[str, Any]:
             for s in surface_table(sz["surfaces"])
         ]
         seconds = (sz["train"] + 1) * sz["W"] / 800.0
-        rec2 = make_vibration_recordings(
-            surfaces=worn, duration_s=seconds, n_sessions=2, random_state=ctx.random_state
+        rec2 = make_vibration_recordings(  # the bundled recordings' seed: the same surfaces' jitter
+            surfaces=worn,
+            duration_s=seconds,
+            n_sessions=2,
+            random_state=ctx.seed("vibration_features", "bundled recordings"),
         )
         later = rec2.windows(sz["W"])
         second = np.char.endswith(np.asarray(rec2.session, dtype=str)[later.recording.numpy()], "/1")
@@ -224,7 +125,7 @@ def study_windows(ctx) -> dict[str, Any]:
 
 def _synthetic_study(ctx) -> dict[str, Any]:
     n, per = (6, 12) if ctx.quick else (28, 20)
-    X, y = synthetic_clusters(n, per + 50, seed=ctx.random_state)
+    X, y = synthetic_clusters(n, per + 50, seed=ctx.seed("clustering", "synthetic clusters"))
     first = np.tile(np.arange(per + 50), n) < per
     rest = ~first
     tests = [(X[rest][b::5], y[rest][b::5]) for b in range(5)]
@@ -285,14 +186,14 @@ def _run(section, ctx) -> None:
             else " `--full` runs the study's size (W = 1600, longer chains, every window size)."
         )
     )
-    section.command(CMD + (" --quick" if ctx.quick else "") + (" --full" if ctx.full else ""))
+    section.command(ctx.command("clustering"))
     out = cluster_and_compare(
         X,
         y,
         n_iter=sz["n_iter"],
         burn_in=sz["burn_in"],
         n_chains=sz["chains"],
-        random_state=ctx.random_state,
+        random_state=ctx.seed("clustering", "study mixture and baselines"),
         max_components=n_surf + (2 if ctx.quick else 6 if ctx.full else 4),
         min_components=None if ctx.full else max(1, n_surf - 6),
         n_init=5 if ctx.full else 2,
@@ -320,13 +221,20 @@ def _robust_k(section, X: np.ndarray, y: np.ndarray, study: PitmanYorGMM, sz: di
     from .clustering_k import SETTINGS, coverage_row, gaussian_three, k_coverage
 
     fit = dict(
-        random_state=ctx.random_state, n_iter=sz["n_iter"], burn_in=sz["burn_in"], n_chains=sz["chains"]
+        random_state=ctx.seed("clustering", "posterior of K"),
+        n_iter=sz["n_iter"],
+        burn_in=sz["burn_in"],
+        n_chains=sz["chains"],
     )
     rows = [coverage_row("this section's data", y, "pyp (study)", study, study.fit_seconds_)]
     rows += k_coverage({"this section's data": (X, y)}, {"mfm": SETTINGS["mfm"]}, **fit)
     if ctx.full:  # the default run keeps its time; docs/mixture.md has every source (clustering_k)
         rows += k_coverage(
-            {"3 Gaussian clusters (sd 1, 5 apart)": gaussian_three()},
+            {
+                "3 Gaussian clusters (sd 1, 5 apart)": gaussian_three(
+                    ctx.seed("clustering", "three gaussian clusters")
+                )
+            },
             {k: SETTINGS[k] for k in ("pyp (study)", "mfm")},
             **fit,
         )
@@ -413,13 +321,6 @@ def _posterior_figures(section, model: PitmanYorGMM, y: np.ndarray) -> None:
     )
 
 
-def cluster_to_label(labels: np.ndarray, y: np.ndarray, n_clusters: int) -> np.ndarray:
-    """Map each cluster to the most frequent true label of its training points (-1 stays -1)."""
-    table = np.zeros((n_clusters, int(y.max()) + 1))
-    np.add.at(table, (labels, y), 1)
-    return np.r_[table.argmax(axis=1), -1]  # index -1 (novel) maps to -1
-
-
 def _prediction(section, model: PitmanYorGMM, data: dict, ctx) -> None:
     """Table 1 (five later test sets), Fig. 11 (confusion matrix) and the worn second session."""
     import matplotlib.pyplot as plt
@@ -471,50 +372,6 @@ def _prediction(section, model: PitmanYorGMM, data: dict, ctx) -> None:
     )
 
 
-def learning_curve(
-    X: np.ndarray,
-    y: np.ndarray,
-    per_class: list[int],
-    *,
-    n_iter: int,
-    burn_in: int,
-    random_state: int,
-    n_chains: int = 2,
-    discounts: tuple[float | None, ...] = (0.0, None),
-) -> list[dict[str, Any]]:
-    """Expected K, the point estimate's K and pairwise accuracy with the first ``m`` windows of every class.
-
-    One row per ``m`` in ``per_class`` and per prior (``discount=0``: Dirichlet process, ``None``:
-    Pitman-Yor with d sampled).
-    """
-    rows = []
-    classes = np.unique(y)
-    for m in per_class:
-        keep = np.concatenate([np.flatnonzero(y == c)[:m] for c in classes])
-        for discount in discounts:
-            model = PitmanYorGMM(
-                **STUDY,
-                discount=discount,
-                n_iter=n_iter,
-                burn_in=burn_in,
-                n_chains=n_chains,
-                random_state=random_state,
-            )
-            model.set_params(progress=False).fit(X[keep])
-            rows.append(
-                {
-                    "per class": m,
-                    "points": keep.size,
-                    "prior": "DP" if discount == 0.0 else "PYP",
-                    "expected K": float(model.n_clusters_samples_.mean()),
-                    **k_row(model),
-                    "pairwise accuracy": pairwise_accuracy(y[keep], model.labels_),
-                    "max R-hat": max_rhat(model),
-                }
-            )
-    return rows
-
-
 def _learning_curve(section, data: dict, sz: dict, ctx) -> None:
     import matplotlib.pyplot as plt
 
@@ -526,7 +383,7 @@ def _learning_curve(section, data: dict, sz: dict, ctx) -> None:
         per,
         n_iter=max(150, sz["n_iter"] // 3),
         burn_in=max(50, sz["burn_in"] // 3),
-        random_state=ctx.random_state,
+        random_state=ctx.seed("clustering", "learning curve"),
     )
     section.table(
         rows,
@@ -555,55 +412,6 @@ def _learning_curve(section, data: dict, sz: dict, ctx) -> None:
     )
 
 
-def novelty_test(
-    X: np.ndarray,
-    y: np.ndarray,
-    tests: list[tuple[np.ndarray, np.ndarray]],
-    withheld: tuple[int, ...],
-    n_consecutive: int = 3,
-    **fit: Any,
-) -> dict[str, Any]:
-    """Fit without the ``withheld`` classes; return novelty recall on them and false alarms on the others.
-
-    Recall: share of the withheld classes' test windows labelled -1 by :meth:`PitmanYorGMM.predict`;
-    false-alarm rate: share of the known classes' test windows labelled -1.
-    """
-    known = ~np.isin(y, withheld)
-    model = PitmanYorGMM(progress=False, **(STUDY | fit)).fit(X[known])
-    Xt = np.concatenate([t[0] for t in tests])
-    yt = np.concatenate([t[1] for t in tests])
-    new = np.isin(yt, withheld)
-    row = {
-        "withheld classes": len(withheld),
-        "test windows (new / known)": f"{int(new.sum())} / {int((~new).sum())}",
-    }
-    for using in ("samples", "point"):
-        novel = model.predict(Xt, using=using) == -1
-        row[f"recall ({using})"] = float(novel[new].mean()) if new.any() else float("nan")
-        row[f"false alarms ({using})"] = float(novel[~new].mean())
-    # decided after n consecutive novel windows of one surface (tactile-torch stream --discover n)
-    novel = model.predict(Xt, using="point") == -1
-    run = consecutive_flags(novel, yt, n_consecutive)
-    row[f"recall after {n_consecutive} in a row (point)"] = (
-        float(run[new].mean()) if new.any() else float("nan")
-    )
-    row[f"false alarms after {n_consecutive} in a row (point)"] = float(run[~new].mean())
-    row["max R-hat"] = max_rhat(model)
-    return row
-
-
-def consecutive_flags(novel: np.ndarray, labels: np.ndarray, n: int) -> np.ndarray:
-    """Return, per window, whether it ends a run of ``n`` novel windows of its own class (windows in time order per class)."""
-    out = np.zeros(novel.shape, dtype=bool)
-    for c in np.unique(labels):
-        idx = np.flatnonzero(labels == c)
-        run = 0
-        for i in idx:
-            run = run + 1 if novel[i] else 0
-            out[i] = run >= n
-    return out
-
-
 def _novelty(section, data: dict, sz: dict, ctx) -> None:
     withheld = tuple(c for c in WITHHELD if c < sz["surfaces"]) or (0,)
     rows = []
@@ -618,7 +426,7 @@ def _novelty(section, data: dict, sz: dict, ctx) -> None:
             n_iter=sz["n_iter"] // 2,
             burn_in=sz["burn_in"] // 2,
             n_chains=2,
-            random_state=ctx.random_state,
+            random_state=ctx.seed("clustering", "novelty"),
         )
         rows.append({"data": "bundled stylus recordings", "model": prior, **row})
     section.text(
@@ -650,7 +458,7 @@ def _window_sizes(section, ctx, sz: dict) -> None:
             **STUDY,
             n_iter=sz["n_iter"] // 2,
             burn_in=sz["burn_in"] // 2,
-            random_state=ctx.random_state,
+            random_state=ctx.seed("clustering", "window sizes"),
             progress=False,
         ).fit(X)
         rows.append(
@@ -662,30 +470,6 @@ def _window_sizes(section, ctx, sz: dict) -> None:
             }
         )
     section.table(rows, caption="Window size: K found on the bundled recordings (50 windows per surface)")
-
-
-def real_windows(name: str, per: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
-    """Features (PCA-3) of up to ``per`` 2 s windows per class of a shared real set, their labels and time order.
-
-    Returns (X, labels, position of each window in its recording, number of classes).
-    """
-    import torch
-
-    from ..data.recordings import load_borealtc_imu, load_hapmat_imu5
-    from ..signal import ClusteringTransform, window_features
-
-    rec = {"hapmat_imu5": load_hapmat_imu5, "borealtc_imu": load_borealtc_imu}[name]()
-    ds = rec.windows(int(2 * rec.rate_hz))  # 2 s windows at the native rate
-    labels = ds.labels.numpy()
-    keep = np.concatenate(
-        [
-            idx[np.linspace(0, idx.size - 1, min(per, idx.size)).astype(int)]
-            for idx in map(np.flatnonzero, (labels == c for c in np.unique(labels)))
-        ]
-    )
-    feats = window_features(ds.windows[torch.as_tensor(keep)].to(torch.float64))
-    X = np.asarray(ClusteringTransform(n_components=3).fit_transform(feats))
-    return X, labels[keep], ds.position.numpy()[keep], len(rec.class_names)
 
 
 def real_data(section, ctx, *, n_iter: int, burn_in: int) -> None:
@@ -702,13 +486,12 @@ def real_data(section, ctx, *, n_iter: int, burn_in: int) -> None:
     rows, nov = [], []
     for name in present:
         X, y, pos, n_classes = real_windows(name, per)
-        model = PitmanYorGMM(
-            n_iter=n_iter, burn_in=burn_in, random_state=ctx.random_state, progress=False, **STUDY
-        ).fit(X)
-        robust = PitmanYorGMM(
-            n_iter=n_iter, burn_in=burn_in, random_state=ctx.random_state, progress=False
-        ).fit(X)
-        km_labels = KMeans(n_classes, n_init=10, random_state=ctx.random_state).fit_predict(X)
+        seed = ctx.seed("clustering", f"real data {name}")
+        model = PitmanYorGMM(n_iter=n_iter, burn_in=burn_in, random_state=seed, progress=False, **STUDY).fit(
+            X
+        )
+        robust = PitmanYorGMM(n_iter=n_iter, burn_in=burn_in, random_state=seed, progress=False).fit(X)
+        km_labels = KMeans(n_classes, n_init=10, random_state=seed).fit_predict(X)
         rows.append(
             {
                 "data set": name,
@@ -732,7 +515,7 @@ def real_data(section, ctx, *, n_iter: int, burn_in: int) -> None:
         for prior in ("pyp", "mfm"):
             row = novelty_test(
                 X[first], y[first], [(X[~first], y[~first])], withheld, model=prior, coarsen=None,
-                n_iter=n_iter, burn_in=burn_in, n_chains=2, random_state=ctx.random_state,
+                n_iter=n_iter, burn_in=burn_in, n_chains=2, random_state=seed,
             )  # fmt: skip
             nov.append({"data": name, "model": prior, **row})
     section.text(

@@ -111,7 +111,7 @@ def session_overlap(seed: int = 0) -> np.ndarray:
 
 def real_set(name: str, per: int = 60) -> tuple[np.ndarray, np.ndarray]:
     """Return PCA-3 features and labels of up to ``per`` 2 s windows per class of a real set."""
-    from .clustering import real_windows
+    from .clustering_experiments import real_windows
 
     X, y, _, _ = real_windows(name, per)
     return X, y
@@ -122,7 +122,7 @@ def k_sources(quick: bool = False) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     from ..data import shared_data_dir
 
     out = {"gaussian-3": gaussian_three()}
-    from .clustering import have_vibration_features
+    from .clustering_experiments import have_vibration_features
 
     if have_vibration_features():
         out["sessions-3x3"] = sessions_3x3()

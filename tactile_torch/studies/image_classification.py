@@ -24,13 +24,6 @@ SNR_DB = (30, 25, 20, 15, 10, 8, 5, 3, 1)
 IMAGE_NOISE = ((0.1, 0.01), (0.2, 0.03), (0.3, 0.05), (0.4, 0.07), (0.5, 0.09))  # (mean, variance)
 
 
-def _command(ctx) -> str:
-    return (
-        f"tactile-torch report --only image_features,image_classification --seed {ctx.random_state} --out {ctx.out_dir}"
-        + (" --quick" if ctx.quick else "")
-    )
-
-
 def classifiers(random_state: int) -> dict:
     """The three classifiers of the study (the catalogue's, :mod:`tactile_torch.catalogue`), each behind a
     standard scaler fitted on training data."""
@@ -65,7 +58,13 @@ def _data(ctx):
         from ..data.images import make_explorations
         from ..image import exploration_features
 
-        data = make_explorations(5, n_frames=10, frame_size=48, sensels=24, random_state=ctx.random_state)
+        data = make_explorations(
+            5,
+            n_frames=10,
+            frame_size=48,
+            sensels=24,
+            random_state=ctx.seed("image_classification", "small explorations"),
+        )
         small = {
             "fused": exploration_features(data.frames).double().numpy(),
             "unfused": exploration_features(data.frames, fuse=False).double().numpy(),
@@ -96,12 +95,14 @@ def run(section, ctx) -> None:
         "the 5th (20 %); every exploration is tested exactly once. Features standardised on the training "
         "folds. LDA and kNN (k = 3, city-block, inverse-distance weights) are scikit-learn's."
     )
-    section.command(_command(ctx))
-    splits = rotating_splits(y, n_folds=n_folds, random_state=ctx.random_state)
+    section.command(ctx.command("image_features", "image_classification"))
+    splits = rotating_splits(
+        y, n_folds=n_folds, random_state=ctx.seed("image_classification", "rotating folds")
+    )
     results, rows, chosen_rows = {}, [], []
     for feature_set in ("fused", "unfused"):
         X = feats[feature_set]
-        for name, model in classifiers(ctx.random_state).items():
+        for name, model in classifiers(ctx.seed("image_classification", "classifiers")).items():
             grid = svm_grid(X.shape[1], ctx.quick) if name == "HM-SVM" else None
             res = run_holdout_protocol(model, X, y, splits, grid)
             results[(name, feature_set)] = res
@@ -167,7 +168,7 @@ def run(section, ctx) -> None:
     split = splits[0]
     X = feats["fused"]
     fitted = {}
-    for name, model in classifiers(ctx.random_state).items():
+    for name, model in classifiers(ctx.seed("image_classification", "classifiers")).items():
         params = results[(name, "fused")].chosen[0]
         fitted[name] = clone(model).set_params(**params).fit(X[split.train], y[split.train])
     timing = [
@@ -199,7 +200,7 @@ def _feature_noise(section, ctx, fitted, X_test, y_test) -> None:
 
     trials = 3 if ctx.quick else 10
     snrs = SNR_DB[::4] if ctx.quick else SNR_DB
-    rng = np.random.default_rng(ctx.random_state)
+    rng = np.random.default_rng(ctx.seed("image_classification", "feature noise"))
     rows = []
     # The noise goes on the standardised features, the classifiers' input: the raw 12 features span
     # orders of magnitude, so a per-sample SNR on them would be set by the largest alone.
@@ -253,7 +254,7 @@ def _image_noise(section, ctx, model, frames, y_test) -> None:
 
     levels = IMAGE_NOISE[::2] if ctx.quick else IMAGE_NOISE
     rows = []
-    rng = np.random.default_rng(ctx.random_state + 1)
+    rng = np.random.default_rng(ctx.seed("image_classification", "image noise"))
     for mean, var in levels:
         seed = int(rng.integers(2**31))
         parts = []

@@ -36,7 +36,7 @@ def dataset(ctx):
             n_frames=size["n_frames"],
             frame_size=size["frame_size"],
             sensels=min(24, size["frame_size"] // 2),
-            random_state=ctx.random_state,
+            random_state=ctx.seed("image_features", "bundled explorations"),
         ),
     )
 
@@ -63,7 +63,7 @@ def features(ctx):
     return ctx.cached("image_features", make)
 
 
-def _accuracies(feats: dict, random_state: int) -> list[dict]:
+def _accuracies(feats: dict, cv_seed: int) -> list[dict]:
     """5-fold CV accuracy (stratified, and grouped by object) of LDA and an RBF SVC on each feature set."""
     from sklearn.discriminant_analysis import LinearDiscriminantAnalysis
     from sklearn.model_selection import GroupKFold, StratifiedKFold, cross_val_score
@@ -74,9 +74,7 @@ def _accuracies(feats: dict, random_state: int) -> list[dict]:
     y, groups = feats["labels"], feats["groups"]
     n_splits = int(min(5, np.bincount(y).min(), len(np.unique(groups))))
     splits = {
-        "stratified 5-fold": list(
-            StratifiedKFold(n_splits, shuffle=True, random_state=random_state).split(y, y)
-        ),
+        "stratified 5-fold": list(StratifiedKFold(n_splits, shuffle=True, random_state=cv_seed).split(y, y)),
         "5-fold, unseen objects": list(GroupKFold(n_splits).split(y, y, groups)),
     }
     classifiers = {
@@ -163,15 +161,14 @@ def _fused_figure(data):
 def run(section, ctx) -> None:
     from ..image import FEATURE_NAMES
 
-    cmd = f"tactile-torch report --only image_features --seed {ctx.random_state}" + (
-        " --quick" if ctx.quick else ""
-    )
+    cmd = ctx.command("image_features")
     data = dataset(ctx)
     feats = features(ctx)
     n, t = data.frames.shape[:2]
     size = tuple(data.frames.shape[-2:])
     section.text(
-        f"Synthetic set (`tactile_torch.data.images.make_explorations`, seed {ctx.random_state}): "
+        "Synthetic set (`tactile_torch.data.images.make_explorations`, seed "
+        f"{ctx.seed('image_features', 'bundled explorations')}, derived from `--seed {ctx.random_state}`): "
         f"{n} explorations of {t} frames ({t / 10:.0f} s at 10 frames/s), {size[0]}x{size[1]} px, "
         f"{len(data.class_names)} classes ({', '.join(data.class_names)}), "
         f"{len(np.unique(feats['groups']))} objects. Features of the whole set in "
@@ -221,7 +218,7 @@ def run(section, ctx) -> None:
         )
     section.table(rows, caption="Fused features per class (mean ± standard deviation over explorations)")
     section.table(
-        _accuracies(feats, ctx.random_state),
+        _accuracies(feats, ctx.seed("image_features", "cv folds")),
         caption="Accuracy (mean ± std over folds) of simple classifiers on the fused vs unfused features; "
         "chance is 0.25",
     )

@@ -42,11 +42,6 @@ def _mode(ctx) -> str:
     return "full" if ctx.full else "quick" if ctx.quick else "default"
 
 
-def _command(ctx) -> str:
-    flag = {"full": " --full", "quick": " --quick", "default": ""}[_mode(ctx)]
-    return f"tactile-torch report --only learned_models --seed {ctx.random_state} --out {ctx.out_dir}{flag}"
-
-
 def _classical(features: object, classifier: object):
     from sklearn.pipeline import Pipeline
     from sklearn.preprocessing import StandardScaler
@@ -63,7 +58,7 @@ def _vibration_specs(ctx, full: bool) -> list:
     from ..neural.comparison import ModelSpec
     from ..tradeoff.transformers import WindowFeatureTransformer
 
-    seed = ctx.random_state
+    seed = ctx.seed("learned_models", "estimators")
     lda = _classical(WindowFeatureTransformer(), LinearDiscriminantAnalysis())
     small = WindowCNNClassifier("small", max_epochs=60 if full else 40, learning_rate=1e-2, random_state=seed)
     specs = [
@@ -94,7 +89,7 @@ def _image_specs(ctx, erosion: int) -> list:
     from ..neural.front_end import LearnedFrontEndClassifier
     from ..tradeoff.transformers import ImageFeatureTransformer
 
-    seed = ctx.random_state
+    seed = ctx.seed("learned_models", "estimators")
     return [
         ModelSpec(
             "LDA | fused 12",
@@ -129,7 +124,7 @@ def _taxel_specs(ctx) -> list:
     from ..neural.comparison import ModelSpec
     from ..tradeoff.transformers import TaxelFeatureTransformer
 
-    seed = ctx.random_state
+    seed = ctx.seed("learned_models", "estimators")
     return [
         ModelSpec(
             "LDA | per-taxel features",
@@ -157,7 +152,11 @@ def _bundled_vibration(ctx) -> list[dict]:
     per_class, folds = _size(ctx)
     rec = bundled_recordings(ctx)
     samples = vibration_samples(
-        rec, 800, n_folds=folds, max_per_class=per_class, random_state=ctx.random_state
+        rec,
+        800,
+        n_folds=folds,
+        max_per_class=per_class,
+        random_state=ctx.seed("learned_models", "bundled vibration folds"),
     )
     specs = _vibration_specs(ctx, _mode(ctx) == "full")
     return [
@@ -183,7 +182,10 @@ def _bundled_images(ctx) -> list[dict]:
     )
     h, w = images.frames.shape[-2:]
     samples = exploration_samples(
-        data, n_folds=folds, max_per_class=min(per_class, 12), random_state=ctx.random_state
+        data,
+        n_folds=folds,
+        max_per_class=min(per_class, 12),
+        random_state=ctx.seed("learned_models", "bundled image folds"),
     )
     specs = _image_specs(ctx, relative_erosion(h, w))
     return [
@@ -201,7 +203,9 @@ def _hapmat(ctx) -> list[dict]:
 
     hap = load_hapmat_imu5()
     _, folds = _size(ctx)
-    samples = vibration_samples(hap, 100, n_folds=folds, max_per_class=60, random_state=ctx.random_state)
+    samples = vibration_samples(
+        hap, 100, n_folds=folds, max_per_class=60, random_state=ctx.seed("learned_models", "hapmat folds")
+    )
     specs = _vibration_specs(ctx, True)
     return [
         {"name": "hapmat_imu5 (real)", "samples": samples, "classes": list(hap.class_names), "specs": specs}
@@ -226,7 +230,7 @@ def _drimus(ctx) -> list[dict]:
     pressure = TradeoffData("pressure", names, "drimus", raw=maps, labels=labels, rate_hz=15.0)
     rendered = TradeoffData("image", names, "drimus", raw=grasps.frames.numpy(), labels=labels, rate_hz=15.0)
     h, w = grasps.frames.shape[-2:]
-    seed = ctx.random_state
+    seed = ctx.seed("learned_models", "drimus folds")
     return [
         {
             "name": "drimus_sdh_tactile pressure maps (real)",
@@ -328,7 +332,7 @@ def run(section, ctx) -> None:
             "`--full` adds the image explorations, the large CNN, the hand-set and learned front ends "
             "and the real data sets when present (`tradeoff` gives int8 variants of the classical models too)."
         )
-    section.command(_command(ctx))
+    section.command(ctx.command("learned_models"))
     out = ctx.out_dir / "learned_models"
     for source in _sources(ctx):
         samples = source["samples"]

@@ -36,12 +36,6 @@ def _mode(ctx) -> str:
     return "full" if ctx.full else "quick" if ctx.quick else "default"
 
 
-def _command(ctx) -> str:
-    mode = _mode(ctx)
-    flag = {"full": " --full", "quick": " --quick", "default": ""}[mode]
-    return f"tactile-torch report --only tradeoff --seed {ctx.random_state} --out {ctx.out_dir}{flag}"
-
-
 def _vibration_data(ctx):
     from ..tradeoff.inputs import vibration_data
     from .vibration_features import bundled_recordings
@@ -136,7 +130,7 @@ def run(section, ctx) -> None:
             else "Full candidate set."
         )
     )
-    section.command(_command(ctx))
+    section.command(ctx.command("tradeoff"))
     cap, windows = VIBRATION[mode]
     image_cap, image_features = IMAGES[mode]
     runs = [
@@ -158,7 +152,12 @@ def run(section, ctx) -> None:
             title,
             name,
             plan_tradeoff(
-                data, quick=quick, random_state=ctx.random_state, log=lambda s: None, learned=False, **options
+                data,
+                quick=quick,
+                random_state=ctx.seed("tradeoff", name),
+                log=lambda s: None,
+                learned=False,
+                **options,
             ),
         )
         for title, name, data, options in runs
@@ -171,5 +170,5 @@ def run(section, ctx) -> None:
         for title, name, plan in plans:
             out = ctx.out_dir / "tradeoff" / name
             result = execute_plan(plan, pool, out_dir=out, progress=False, log=lambda s: None)
-            paths = write_outputs(result, out, command=_command(ctx))
+            paths = write_outputs(result, out, command=ctx.command("tradeoff"))
             _show(section, ctx, title, result, out, paths)

@@ -31,13 +31,6 @@ WINDOW = 800
 STUDY_C, STUDY_GAMMA = 16.0, 0.0186
 
 
-def _command(ctx) -> str:
-    return (
-        f"tactile-torch report --only vibration_features,vibration_classification --seed {ctx.random_state} "
-        f"--out {ctx.out_dir}" + (" --quick" if ctx.quick else "")
-    )
-
-
 def scaled_features(windows, train: np.ndarray) -> np.ndarray:
     """The 21 features of ``windows`` scaled to unit standard deviation on the ``train`` rows."""
     import torch
@@ -71,7 +64,7 @@ def run(section, ctx) -> None:
         f"deviation on the {len(train)} odd-numbered (training) windows; the {len(test)} even-numbered "
         "windows test."
     )
-    section.command(_command(ctx))
+    section.command(ctx.command("vibration_features", "vibration_classification"))
 
     grid = (
         {"C": [STUDY_C], "gamma": [STUDY_GAMMA, 0.1]}
@@ -81,12 +74,12 @@ def run(section, ctx) -> None:
     n_folds = 3 if ctx.quick else 10
     start = time.perf_counter()
     search = stratified_grid_search(
-        HierarchicalSVC(random_state=ctx.random_state),
+        HierarchicalSVC(random_state=ctx.seed("vibration_classification", "hierarchical svc")),
         grid,
         X[train],
         y[train],
         n_folds=n_folds,
-        random_state=ctx.random_state,
+        random_state=ctx.seed("vibration_classification", "cv folds"),
     )
     cv_rows = [
         {"C": p["C"], "gamma": p["gamma"], f"{n_folds}-fold CV accuracy": float(m), "std": float(s)}
@@ -105,9 +98,9 @@ def run(section, ctx) -> None:
     )
     best = search.best_params_
     model = search.best_estimator_
-    study = HierarchicalSVC(C=STUDY_C, gamma=STUDY_GAMMA, random_state=ctx.random_state).fit(
-        X[train], y[train]
-    )
+    study = HierarchicalSVC(
+        C=STUDY_C, gamma=STUDY_GAMMA, random_state=ctx.seed("vibration_classification", "hierarchical svc")
+    ).fit(X[train], y[train])
     libsvm = LibSVC(C=best["C"], gamma=best["gamma"]).fit(X[train], y[train])
     ovo = SVC(C=best["C"], gamma=best["gamma"]).fit(X[train], y[train])
     acc_rows = [
@@ -136,7 +129,7 @@ def run(section, ctx) -> None:
     worst = [*sorted(rows[:-1], key=lambda r: r["accuracy"])[:8], rows[-1]]
     section.table(worst, caption="Class report of the chosen model: the 8 hardest surfaces and the means")
 
-    ranker = HierarchicalSVC(**best, random_state=ctx.random_state)
+    ranker = HierarchicalSVC(**best, random_state=ctx.seed("vibration_classification", "hierarchical svc"))
     per_feature = {name: [FEATURE_NAMES.index(f"{axis}_{name}") for axis in AXES] for name in AXIS_FEATURES}
     rows = rank_feature_groups(ranker, X, y, per_feature, train, test)
     section.table(rows, caption="Features ranked by the test accuracy each reaches alone (its 3 axes)")
@@ -192,7 +185,9 @@ def _agreement(section, ctx, X_train, y_train, X_test) -> None:
         gamma = scale_gamma(Xtr)
         for C in (1.0, STUDY_C):
             for cls, _, target, _ in _binary_tasks(Xtr, ytr, Xte, labels, limit):
-                ours = SVC(C=C, gamma=gamma, random_state=ctx.random_state).fit(Xtr, target)
+                ours = SVC(C=C, gamma=gamma, random_state=ctx.seed("vibration_classification", "svc")).fit(
+                    Xtr, target
+                )
                 lib = LibSVC(C=C, gamma=gamma).fit(Xtr, target)
                 rows.append(_compare(set_name, f"{cls} vs rest", C, gamma, ours, lib, Xtr, Xte))
     section.table(

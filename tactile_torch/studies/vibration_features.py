@@ -33,13 +33,9 @@ def bundled_recordings(ctx):
     duration = 6.0 if ctx.quick else 120.0
     return ctx.cached(
         RECORDINGS_KEY,
-        lambda: make_vibration_recordings(28, duration_s=duration, random_state=ctx.random_state),
-    )
-
-
-def _command(ctx) -> str:
-    return f"tactile-torch report --only vibration_features --seed {ctx.random_state} --out {ctx.out_dir}" + (
-        " --quick" if ctx.quick else ""
+        lambda: make_vibration_recordings(
+            28, duration_s=duration, random_state=ctx.seed("vibration_features", "bundled recordings")
+        ),
     )
 
 
@@ -51,12 +47,13 @@ def run(section, ctx) -> None:
     rec = bundled_recordings(ctx)
     section.text(
         f"Data: `make_vibration_recordings(28, duration_s={rec.durations_s[0]:g}, "
-        f"random_state={ctx.random_state})`, a simulated ADXL345 stylus (800 Hz, 3.9 mg, ±5 g, "
+        f"random_state={ctx.seed('vibration_features', 'bundled recordings')})` (the seed derived from "
+        f"`--seed {ctx.random_state}`), a simulated ADXL345 stylus (800 Hz, 3.9 mg, ±5 g, "
         "58.9 cm/s) on 28 synthetic surfaces, one recording each. Parameters are invented, not fitted "
         "to measurements; "
         "see `docs/vibration.md` for the model. Alike pairs share their random jitter."
     )
-    section.command(_command(ctx))
+    section.command(ctx.command("vibration_features"))
     section.table(
         [
             {

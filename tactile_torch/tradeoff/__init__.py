@@ -37,7 +37,8 @@ __getattr__, __dir__, __all__ = lazy_exports(
         "evaluation": ("CandidateResult",),
         "inputs": ("Samples", "TradeoffData", "load_tradeoff_data"),
         "output": ("summary_lines", "write_outputs"),
-        "runner": ("TradeoffResult", "run_tradeoff"),
+        "runner": ("run_tradeoff",),
         "selection": ("fold_interval", "one_standard_error_choice", "pareto_front"),
+        "summary": ("TradeoffResult",),
     },
 )

@@ -2,7 +2,7 @@
 
 :func:`add_breaking_points` sweeps :mod:`tactile_torch.robustness`'s factors over the two models on
 the raw input they were evaluated on (the same samples and groups), writes one chart per factor under
-``DIR/breaking/`` and fills :attr:`~.runner.TradeoffResult.breaking_points`, which
+``DIR/breaking/`` and fills :attr:`~.summary.TradeoffResult.breaking_points`, which
 :func:`~.output.write_outputs` puts in ``tradeoff.json`` and ``tradeoff.md``.
 """
 
@@ -21,13 +21,15 @@ def add_breaking_points(
 ) -> dict | None:
     """Sweep the recommended and the study's model; set and return ``result.breaking_points``.
 
-    ``quick`` sweeps the shorter level lists of :data:`tactile_torch.robustness.QUICK_LEVELS` with one
+    ``quick`` sweeps the shorter level lists of :data:`tactile_torch.robustness.degradations.QUICK_LEVELS` with one
     draw per random level and 2 folds; otherwise every level, the study's 10 draws per SNR and 5 folds.
     The samples, labels and groups are those the candidates were cross-validated on
-    (:attr:`~.runner.TradeoffResult.inputs`). Returns ``None`` (and sets nothing) when neither model
+    (:attr:`~.summary.TradeoffResult.inputs`). Returns ``None`` (and sets nothing) when neither model
     could be fitted.
     """
-    from ..robustness import QUICK_LEVELS, breaking_summary, factors_for, infer_kind, sweep
+    from ..robustness.degradations import QUICK_LEVELS, factors_for
+    from ..robustness.output import breaking_summary
+    from ..robustness.sweeps import infer_kind, sweep
 
     roles = {}
     for role, name in (("recommended", result.recommended), ("study's model", result.study_model)):

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .runner import TradeoffResult
+from .summary import TradeoffResult
 
 COST = (
     "decision_s: seconds of sensor data one decision needs (W / rate for vibration, the exploration's length "

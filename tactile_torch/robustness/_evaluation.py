@@ -1,10 +1,10 @@
-"""The degradations, curves and bootstrap behind :func:`tactile_torch.robustness.sweep` (internal).
+"""The degradations, curves and bootstrap behind :func:`tactile_torch.robustness.sweeps.sweep` (internal).
 
 Built on the evaluation engine (:mod:`tactile_torch.engine`): models are split into shared ``features``
 steps and per-model rests, so that models with the same features step share its fits and transforms, and
 a step that needs no fit is applied to the whole set once per data variant. Every evaluation pools one
 prediction per test sample; correct predictions are summed per group for the cluster bootstrap of the
-intervals. This module never imports :mod:`tactile_torch.robustness` (which sits above it).
+intervals. This module imports nothing else of :mod:`tactile_torch.robustness` (whose sweeps sit above it).
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 import torch
 
-from .engine import Folds, Models, cross_validate, last_input, seed_of, take
+from ..engine import Folds, Models, cross_validate, last_input, seed_of, take
 
 
 def apply_raw(apply: Any, X: Any, level: Any, seed: int) -> Any:
@@ -211,8 +211,8 @@ def level_text(f, levels: list, position: float) -> tuple[str, float | None]:
 def build_curve(
     f, model: str, levels: tuple, rows: list, groups: np.ndarray, chance: float, n_bootstrap: int, seed: int
 ):
-    """The fields of one model's :class:`~tactile_torch.robustness.Curve` from its per-sample rows
-    (``breaking``: the fields of its :class:`~tactile_torch.robustness.BreakingPoint` in order)."""
+    """The fields of one model's :class:`~tactile_torch.robustness.results.Curve` from its per-sample rows
+    (``breaking``: the fields of its :class:`~tactile_torch.robustness.results.BreakingPoint` in order)."""
     note, failed = "", None
     if isinstance(rows[-1], str):
         if len(rows) == 1:
