@@ -234,7 +234,7 @@ def test_image_explorations_container():
 
 
 def test_load_drimus_grasps(shared_data, tmp_path):
-    from tactile_torch.data.images import DRIMUS, load_drimus_grasps
+    from tactile_torch.data.grasps import DRIMUS, load_drimus_grasps
 
     data = load_drimus_grasps(shared_data(DRIMUS), n_frames=10, scale=2)
     assert data.frames.shape == (51, 10, 3, 28, 12) and len(data.class_names) == 5

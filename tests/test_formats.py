@@ -7,7 +7,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from tactile_torch.data import load_borealtc_imu, load_vibration_npz
-from tactile_torch.data.images import load_drimus_grasps, load_explorations, save_explorations
+from tactile_torch.data.grasps import load_drimus_grasps
+from tactile_torch.data.images import load_explorations, save_explorations
 from tactile_torch.robot.csv_logs import csv_class_name, read_csv_recording, write_csv_recording
 from tactile_torch.robot.formats import (
     ExplorationArrays,

@@ -428,7 +428,7 @@ def test_onnx_export_of_the_inference_path_matches_onnxruntime(tmp_path, realist
 
 def test_exploration_features_match_reference_on_real_grasps(shared_data):
     # real pressure-array recordings (the synthetic-data tests above cover the same code)
-    from tactile_torch.data.images import DRIMUS, load_drimus_grasps
+    from tactile_torch.data.grasps import DRIMUS, load_drimus_grasps
 
     data = load_drimus_grasps(shared_data(DRIMUS), n_frames=20)
     frames = data.frames[torch.arange(0, len(data), 10)]  # one grasp of each object

@@ -156,18 +156,19 @@ def _stream_until_stopped(args: argparse.Namespace) -> int:
     import numpy as np
     import serial
 
+    from ..robot.contract import SAMPLE_RATE_KEY, WINDOW_SIZE_KEY
     from ..robot.runtime import OnnxPipeline
     from ..robot.stream import StreamDisconnected, StreamTimeout, WindowReader, sensor_range_g
     from ..robot.stream_output import WindowVote, classify_windows, result_json, result_text
 
     range_g = parse_range_g(args.range, "--range", off=True)
     pipe = OnnxPipeline(args.model, intra_op_threads=args.threads)
-    if "window_size" not in pipe.metadata:
+    if WINDOW_SIZE_KEY not in pipe.metadata:
         print(f"tactile-torch stream: {args.model} does not take vibration windows", file=sys.stderr)
         return 2
-    size = int(pipe.metadata["window_size"])
+    size = int(pipe.metadata[WINDOW_SIZE_KEY])
     step = args.step if args.step is not None else max(size // 2, 1)
-    rate = float(pipe.metadata["sample_rate_hz"]) if "sample_rate_hz" in pipe.metadata else None
+    rate = float(pipe.metadata[SAMPLE_RATE_KEY]) if SAMPLE_RATE_KEY in pipe.metadata else None
     if args.time_unit == "samples" and rate is None:
         print(
             f"tactile-torch stream: --time-unit samples needs the sample rate, which {args.model} lacks",

@@ -1,8 +1,8 @@
 """Real taxel-array grasps from the shared data sets, as image explorations.
 
 :func:`load_icub_grasps` reads ``icub_grasp`` (Soh, Su & Demiris 2012: an iCub hand's 5 fingertips of
-12 capacitive taxels grasping 10 objects); the other real pressure-array set, ``drimus_sdh_tactile``,
-is read by :func:`tactile_torch.data.images.load_drimus_grasps`. Both hold objects rather than
+12 capacitive taxels grasping 10 objects); :func:`load_drimus_grasps` reads the other real
+pressure-array set, ``drimus_sdh_tactile`` (a Schunk hand). Both hold objects rather than
 textures: they test whether conclusions drawn on the synthetic textures carry over to real tactile
 sequences (``tactile_torch.studies.claims``). Each set's ``PROVENANCE.md`` gives its licence and caveats.
 """
@@ -103,4 +103,70 @@ def load_icub_grasps(
     )
 
 
-__all__ = ["ICUB", "load_icub_grasps"]
+DRIMUS = "drimus_sdh_tactile"
+"""Name of the shared real data set of pressure-array grasps (Drimus et al. 2012, see its PROVENANCE.md)."""
+
+
+def load_drimus_grasps(
+    path: str | Path | None = None,
+    *,
+    sensor: str = "ts1_f1_proximal",
+    n_frames: int = 100,
+    scale: int = 4,
+) -> ImageExplorations:
+    """Return real pressure-array grasps as explorations: one sensor's last ``n_frames`` frames per grasp.
+
+    The shared data set ``drimus_sdh_tactile`` (a Schunk hand's 14 x 6 / 13 x 6 piezoresistive arrays
+    grasping 5 objects; raw 8-bit readings, about 15 frames/s) holds objects rather than textures, but
+    it is a real pressure-array image sequence for testing the pipeline on realistic input. Each taxel's
+    resting level (its minimum over the grasp) is subtracted, so that no contact reads 0, and the maps
+    are rendered by :func:`render_pressure` at ``scale`` pixels per taxel.
+
+    Parameters
+    ----------
+    path : path, optional
+        The data set's directory; default ``shared_data_dir("drimus_sdh_tactile")``.
+    sensor : str
+        Array name in the grasp files (``ts1_f1_proximal`` ... ``ts6_f3_distal``).
+    n_frames : int
+        Frames kept per grasp, the last ones (the object held); every grasp has at least 324.
+    scale : int
+        Display pixels per taxel.
+
+    Returns
+    -------
+    ImageExplorations
+        ``frames`` (51, n_frames, 3, scale * R, scale * C) uint8, ``labels`` by object, ``pressure``
+        the baseline-subtracted readings.
+    """
+    from . import shared_data_dir
+
+    check_positive(n_frames, "n_frames", integer=True)
+    check_positive(scale, "scale", integer=True)
+    root = Path(path) if path is not None else shared_data_dir(DRIMUS)
+    if root is None or not (root / "grasps_npz").is_dir():
+        raise FileNotFoundError(f"the {DRIMUS} data set (grasps_npz/) was not found at {root}")
+    maps, labels, names = [], [], {}
+    for file in sorted((root / "grasps_npz").glob("*.npz")):
+        with np.load(file, allow_pickle=False) as grasp:
+            if sensor not in grasp.files:
+                raise ValueError(f"sensor must be one of the arrays in {file.name}, got {sensor!r}")
+            readings = grasp[sensor].astype(np.float32)
+            if readings.shape[0] < n_frames:
+                raise ValueError(
+                    f"n_frames must be <= {readings.shape[0]} (frames of {file.name}), got {n_frames}"
+                )
+            maps.append(readings[-n_frames:] - readings.min(axis=0))
+            labels.append(int(grasp["label"]))
+            names[int(grasp["label"])] = str(grasp["class_name"])
+    pressure = torch.from_numpy(np.stack(maps))
+    height, width = pressure.shape[-2:]
+    return ImageExplorations(
+        frames=render_pressure(pressure, (scale * height, scale * width), saturation=SATURATION),
+        labels=torch.tensor(labels, dtype=torch.int64),
+        class_names=tuple(names[k] for k in sorted(names)),
+        pressure=pressure,
+    )
+
+
+__all__ = ["DRIMUS", "ICUB", "load_drimus_grasps", "load_icub_grasps"]

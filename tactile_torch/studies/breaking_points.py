@@ -369,7 +369,7 @@ def _real_sets(section, ctx, progress: bool) -> None:
         add_results(section, result, name="method 2, hapmat_imu5", study_model="21 features + RBF SVM")
         done.append("hapmat_imu5")
     if shared_data_dir("drimus_sdh_tactile") is not None:
-        from ..data.images import load_drimus_grasps
+        from ..data.grasps import load_drimus_grasps
 
         data = load_drimus_grasps()
         erosion = erosion_for(data.frames)

@@ -100,7 +100,7 @@ def image_sources(ctx) -> list[dict]:
     )
     sources.append({"name": "bundled generator (hard knobs)", "data": hard, "groups": hard.groups.numpy()})
     if shared_data_dir("drimus_sdh_tactile") is not None:
-        from ..data.images import load_drimus_grasps
+        from ..data.grasps import load_drimus_grasps
 
         for sensor in ("ts1_f1_proximal", "ts2_f1_distal") if _mode(ctx) == "full" else ("ts1_f1_proximal",):
             sources.append(

@@ -221,7 +221,7 @@ def _drimus(ctx) -> list[dict]:
 
     if shared_data_dir("drimus_sdh_tactile") is None:
         return []
-    from ..data.images import load_drimus_grasps
+    from ..data.grasps import load_drimus_grasps
 
     _, folds = _size(ctx)
     grasps = load_drimus_grasps()

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..robot.contract import SAMPLE_RATE_KEY
 from .candidates import build_candidates, feature_sets
 from .evaluation import cross_validate, export_and_time, submit_fronts
 from .export import ExportPool
@@ -365,7 +366,7 @@ def execute_plan(
         "(timing files)"
     )
     stage = time.perf_counter()
-    meta = {"sample_rate_hz": data.rate_hz} if data.kind == "vibration" else {}
+    meta = {SAMPLE_RATE_KEY: data.rate_hz} if data.kind == "vibration" else {}
     parts = export_and_time(
         results, inputs, data.class_names, Path(out_dir) / "timing", pool, metadata=meta, progress=progress
     )
