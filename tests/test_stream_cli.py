@@ -433,6 +433,14 @@ def test_garbage_at_the_wrong_baud_rate_times_out_like_silence(model, sensor_pty
     assert re.search(r"no valid sample yet on \S+ after 0\.\d s, \d+ lines skipped", "\n".join(err))
 
 
+def _default_sigint() -> None:
+    """In the child: SIGINT to its default. A test run started in the background of a non-interactive shell
+    inherits SIGINT ignored, and Python then keeps ignoring it (no KeyboardInterrupt), as the shell meant."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def _start_stream(model, port, *args):
     """``tactile-torch stream`` in its own process (as systemd runs it); returns it once it says "reading"."""
     proc = subprocess.Popen(
@@ -440,6 +448,7 @@ def _start_stream(model, port, *args):
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
+        preexec_fn=_default_sigint,  # the test process may run with SIGINT ignored
     )
     header = proc.stdout.readline()
     assert "reading" in header, (header, proc.stderr.read() if proc.poll() is not None else "")
