@@ -2,7 +2,8 @@
 
 Trains an HM-SVM on the even windows of a data source, exports it, and prints the share of unknown
 (label -1) among the odd (held-in) windows and among 200 windows each of zeros, constants, white noise,
-pure tones and square waves (the numbers of ``docs/export.md``, "Unknown as an answer").
+pure tones and square waves (:func:`tactile_torch.ood.out_of_distribution_signals`; the numbers of
+``docs/export.md``, "Unknown as an answer").
 
 Examples
 --------
@@ -21,32 +22,13 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from tactile_torch.ood import out_of_distribution_signals
 from tactile_torch.pipeline import export_pipeline, pipeline_from_model
 from tactile_torch.robot.formats import read_csv_recordings
 from tactile_torch.robot.runtime import OnnxPipeline
 from tactile_torch.robot.windows import window_recordings
 from tactile_torch.signal import window_features
 from tactile_torch.training import FeatureSet, save_model, train_classifier
-
-
-def out_of_distribution(n: int, window: int, rate: float, rng: np.random.Generator) -> dict[str, np.ndarray]:
-    """Return ``(n, 3, window)`` windows of each signal no surface gives, by name."""
-    t = np.arange(window) / rate
-    freq = rng.uniform(5, rate / 2.2, (n, 1, 1))
-    phase = rng.uniform(0, 2 * np.pi, (n, 3, 1))
-    amp = rng.uniform(0.05, 4, (n, 1, 1))
-    signals = {
-        "zeros": np.zeros((n, 3, window)),
-        "constant": np.zeros((n, 3, window)) + rng.uniform(-4, 4, (n, 3, 1)),
-        "constant 1 g": np.zeros((n, 3, window)) + np.array([0.0, 0.0, 1.0])[:, None],
-        "white noise 4.9 g": rng.uniform(-4.9, 4.9, (n, 3, window)),
-        "white noise sd 0.01 g": rng.normal(0, 0.01, (n, 3, window)),
-        "white noise sd 0.1 g": rng.normal(0, 0.1, (n, 3, window)),
-        "white noise sd 1 g": rng.normal(0, 1.0, (n, 3, window)).clip(-5, 5),
-        "pure tone": amp * np.sin(2 * np.pi * freq * t + phase),
-        "square wave": amp * np.sign(np.sin(2 * np.pi * freq * t + phase)),
-    }
-    return {name: x.astype(np.float32) for name, x in signals.items()}
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -88,7 +70,7 @@ def main(argv: list[str] | None = None) -> int:
             f"(threshold {bundle.ood_threshold:.3g} at the {float(bundle.metadata['ood_quantile']):.1%} quantile)"
         )
         rng = np.random.default_rng(args.seed + 1)
-        for name, raw in out_of_distribution(200, args.window, rate, rng).items():
+        for name, raw in out_of_distribution_signals(200, args.window, rate, rng).items():
             print(f"  {name:<24} {np.mean(bundle.predict(raw) == -1):7.1%} unknown")
     return 0
 

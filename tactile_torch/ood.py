@@ -17,7 +17,8 @@ covariance), and every exported graph computes it as a third output, ``ood_dista
    too short when the training set is small). :class:`tactile_torch.robot.runtime.OnnxPipeline` labels a sample beyond it ``-1``
    ("unknown"), with the reason.
 
-Measured (``tests/test_pipeline.py``, ``docs/export.md``): at most 1 % of held-in windows unknown;
+Measured (``tests/test_pipeline.py``, ``docs/export.md``) on the windows of
+:func:`out_of_distribution_signals`, the one generator of signals no surface gives: at most 1 % of held-in windows unknown;
 zeros, constants, white noise, pure tones and square waves unknown in at least 99 % of windows on
 the synthetic surfaces; on real IMU recordings the square waves and low-amplitude noise are
 data-dependent (terrain vibration looks like noise).
@@ -30,10 +31,13 @@ samples and adversarial attacks," NeurIPS 2018.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 import torch
 from torch import nn
 
+from .robot.checks import check_count, check_positive, numpy_rng
 from .robot.contract import LABELS_OUTPUT, OOD_OUTPUT, SCORES_OUTPUT
 
 DEFAULT_QUANTILE = 0.995
@@ -42,6 +46,86 @@ RIDGE = 1e-3
 """Ridge added to the pooled covariance, relative to its mean variance."""
 FOLDS = 5
 """The threshold is calibrated on out-of-fold distances of this many folds."""
+OUT_OF_DISTRIBUTION_KINDS = (
+    "zeros",
+    "constant",
+    "constant 1 g",
+    "white noise 4.9 g",
+    "white noise sd 0.01 g",
+    "white noise sd 0.1 g",
+    "white noise sd 1 g",
+    "pure tone",
+    "square wave",
+)
+"""Signals of :func:`out_of_distribution_signals`, in the order they are drawn."""
+
+
+def out_of_distribution_signals(
+    n: int,
+    window: int,
+    rate_hz: float,
+    random_state: object = None,
+    *,
+    kinds: Sequence[str] | None = None,
+) -> dict[str, np.ndarray]:
+    """Return ``n`` vibration windows ``(n, 3, window)`` float32 of each signal no surface gives, by kind.
+
+    The kinds (:data:`OUT_OF_DISTRIBUTION_KINDS`): ``"zeros"``; ``"constant"`` (each axis constant,
+    uniform in [-4, 4] g) and ``"constant 1 g"`` (0, 0, 1 g: a sensor at rest), as a stuck sensor
+    gives; white noise uniform in ±4.9 g, and Gaussian of sd 0.01, 0.1 and 1 g (the last clipped to
+    ±5 g); a ``"pure tone"`` and a ``"square wave"`` of one frequency per window, uniform in
+    [5, rate_hz / 2.2] Hz, an amplitude uniform in [0.05, 4] g and a phase per axis. The tones'
+    frequencies, phases and amplitudes are drawn first, then each selected kind in the order above;
+    a kind left out draws nothing, so a kind's windows depend only on the seed and the kinds before it.
+
+    Parameters
+    ----------
+    n : int
+        Windows of each kind (>= 1).
+    window : int
+        Samples per window (>= 1).
+    rate_hz : float
+        Sample rate in Hz (> 0): sets the tones' time axis and top frequency.
+    random_state : int, numpy or torch generator, or None
+        Source of randomness; a ``numpy.random.Generator`` is drawn from as is.
+    kinds : sequence of str, optional
+        The kinds to return, in the order given (default: all of :data:`OUT_OF_DISTRIBUTION_KINDS`).
+
+    Examples
+    --------
+    >>> signals = out_of_distribution_signals(2, 8, 100.0, random_state=0, kinds=["zeros", "pure tone"])
+    >>> {kind: x.shape for kind, x in signals.items()}
+    {'zeros': (2, 3, 8), 'pure tone': (2, 3, 8)}
+    """
+    n = check_count(n, "n", 1)
+    window = check_count(window, "window", 1)
+    check_positive(rate_hz, "rate_hz")
+    selected = OUT_OF_DISTRIBUTION_KINDS if kinds is None else tuple(kinds)
+    unknown = [kind for kind in selected if kind not in OUT_OF_DISTRIBUTION_KINDS]
+    if unknown or not selected:
+        raise ValueError(
+            f"kinds must be a non-empty list of {list(OUT_OF_DISTRIBUTION_KINDS)}, got {kinds!r}"
+        )
+    rng = numpy_rng(random_state)
+    t = np.arange(window) / rate_hz
+    freq = rng.uniform(5, rate_hz / 2.2, (n, 1, 1))
+    phase = rng.uniform(0, 2 * np.pi, (n, 3, 1))
+    amp = rng.uniform(0.05, 4, (n, 1, 1))
+    shape = (n, 3, window)
+    draw = {
+        "zeros": lambda: np.zeros(shape),
+        "constant": lambda: np.zeros(shape) + rng.uniform(-4, 4, (n, 3, 1)),
+        "constant 1 g": lambda: np.zeros(shape) + np.array([0.0, 0.0, 1.0])[:, None],
+        "white noise 4.9 g": lambda: rng.uniform(-4.9, 4.9, shape),
+        "white noise sd 0.01 g": lambda: rng.normal(0, 0.01, shape),
+        "white noise sd 0.1 g": lambda: rng.normal(0, 0.1, shape),
+        "white noise sd 1 g": lambda: rng.normal(0, 1.0, shape).clip(-5, 5),
+        "pure tone": lambda: amp * np.sin(2 * np.pi * freq * t + phase),
+        "square wave": lambda: amp * np.sign(np.sin(2 * np.pi * freq * t + phase)),
+    }
+    wanted = set(selected)
+    signals = {kind: draw[kind]().astype(np.float32) for kind in OUT_OF_DISTRIBUTION_KINDS if kind in wanted}
+    return {kind: signals[kind] for kind in selected}
 
 
 def signed_log(z: np.ndarray) -> np.ndarray:
@@ -161,9 +245,11 @@ class WithDistance(nn.Module):
 
 __all__ = [
     "DEFAULT_QUANTILE",
+    "OUT_OF_DISTRIBUTION_KINDS",
     "MahalanobisDistance",
     "WithDistance",
     "fit_ood",
     "ood_distance",
+    "out_of_distribution_signals",
     "signed_log",
 ]

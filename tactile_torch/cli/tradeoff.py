@@ -12,7 +12,8 @@ from __future__ import annotations
 import argparse
 import sys
 
-from . import NO_RECOMMENDATION_EXIT, NOT_EXPORTED_EXIT
+from . import ARGUMENT_FLAGS, NO_RECOMMENDATION_EXIT, NOT_EXPORTED_EXIT
+from . import with_flags as _with_flags
 from ._options import (
     UsageError,
     add_allow_pickle,
@@ -209,6 +210,23 @@ def reproduce_line(args: argparse.Namespace, options) -> str:
     return "tactile-torch tradeoff " + " ".join(words)
 
 
+def with_flags(text: str) -> str:
+    """Return a line of the trade-off library with the arguments it names shown as this command's options.
+
+    The library's notes name the Python argument (``features=``, ``with target=ACC``); printed by
+    ``tactile-torch tradeoff`` they read ``--features``, ``with --target ACC``
+    (:func:`tactile_torch.cli.with_flags`, with the :data:`~tactile_torch.cli.ARGUMENT_FLAGS` of the
+    options this command has).
+
+    >>> with_flags("frame rate not given: 30 frames/s assumed (frame_rate_hz= to set it)")
+    'frame rate not given: 30 frames/s assumed (--frame-rate to set it)'
+    """
+    sub = argparse.ArgumentParser().add_subparsers()
+    register(sub)
+    options = sub.choices["tradeoff"]._option_string_actions
+    return _with_flags(text, {name: flag for name, flag in ARGUMENT_FLAGS.items() if flag in options})
+
+
 def run_tradeoff_command(args: argparse.Namespace) -> int:
     """Run the study, print its summary and what was written; return the exit status."""
     from ..tradeoff import load_tradeoff_data, summary_lines
@@ -237,7 +255,9 @@ def run_tradeoff_command(args: argparse.Namespace) -> int:
         log=log,
     )
     for line in summary_lines(result):
-        print(line)
+        print(with_flags(line))
+    for note in result.notes:
+        print(f"note:        {with_flags(note)}")
     print(f"written: {', '.join(str(p) for p in paths.values())} ({result.seconds:.0f} s)")
     if result.status == "none exported":
         return NOT_EXPORTED_EXIT

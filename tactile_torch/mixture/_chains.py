@@ -7,7 +7,9 @@ imports it at its first fit, so that importing :mod:`tactile_torch.mixture` does
 from __future__ import annotations
 
 import time
+from collections.abc import Iterator
 from concurrent.futures import ThreadPoolExecutor
+from contextlib import contextmanager
 
 import numpy as np
 
@@ -50,33 +52,38 @@ def keep_after_burn_in(runs: list[dict], sweeps: np.ndarray, sample_from: int, b
     return sweeps[pick]
 
 
+@contextmanager
+def progress_pool(n_chains: int, total: int, workers: int, progress: bool) -> Iterator[tuple]:
+    """Yield ``(pool, bar)``: a pool of ``min(workers, n_chains)`` threads and a tqdm bar of ``total`` sweeps.
+
+    The bar shows when ``progress`` is set and the run lasts more than a second; the chains advance it
+    (``bar.update``) and a caller that runs longer raises ``bar.total``. The pool is shut down, then
+    the bar closed, on exit (an exception included).
+    """
+    from tqdm.auto import tqdm
+
+    bar = tqdm(total=total, disable=not progress, delay=1.0, unit="sweep", desc="PitmanYorGMM", leave=False)
+    try:
+        with ThreadPoolExecutor(max_workers=min(workers, n_chains)) as pool:
+            yield pool, bar
+    finally:
+        bar.close()
+
+
 def run_chains(Xw, states, cfg, rngs, n_iter, snap_sweeps, workers, progress) -> list[dict]:
     """Run every chain (``states[c]`` with ``rngs[c]``) in ``workers`` threads; return :func:`run_chain`'s results.
 
     The compiled sweeps release the GIL, so chains run in parallel; a tqdm bar shows progress when
     ``progress`` is set and the run lasts more than a second.
     """
-    from tqdm.auto import tqdm
-
     n_chains = len(states)
-    bar = tqdm(
-        total=n_chains * n_iter,
-        disable=not progress,
-        delay=1.0,
-        unit="sweep",
-        desc="PitmanYorGMM",
-        leave=False,
-    )
-    try:
-        with ThreadPoolExecutor(max_workers=min(workers, n_chains)) as pool:
-            return list(
-                pool.map(
-                    lambda c: run_chain(Xw, states[c], cfg, rngs[c], n_iter, snap_sweeps, bar),
-                    range(n_chains),
-                )
+    with progress_pool(n_chains, n_chains * n_iter, workers, progress) as (pool, bar):
+        return list(
+            pool.map(
+                lambda c: run_chain(Xw, states[c], cfg, rngs[c], n_iter, snap_sweeps, bar),
+                range(n_chains),
             )
-    finally:
-        bar.close()
+        )
 
 
 def run_chain(Xw, st, cfg, rng, n_iter, snap_sweeps, bar, previous: dict | None = None) -> dict:
@@ -149,45 +156,32 @@ def run_chains_until(
     the saved sweeps). ``done`` sees the results after each round; a run with the same seed stops at
     the same sweep whatever the machine (the budget counts sweeps, not seconds).
     """
-    from tqdm.auto import tqdm
-
     n_chains = len(states)
     runs: list[dict | None] = [None] * n_chains
     saved = []
     total = 0
     target = min(first, max_iter)
-    bar = tqdm(
-        total=n_chains * target,
-        disable=not progress,
-        delay=1.0,
-        unit="sweep",
-        desc="PitmanYorGMM",
-        leave=False,
-    )
-    try:
-        with ThreadPoolExecutor(max_workers=min(workers, n_chains)) as pool:
-            while True:
-                snaps = np.arange(total, target)
-                snaps = snaps[(snaps + 1) % every == 0]
-                if snaps.size == 0 or snaps[-1] != target - 1:
-                    snaps = np.r_[snaps, target - 1]
-                runs = list(
-                    pool.map(
-                        lambda c, t=target, sn=snaps, prev=runs: run_chain(
-                            Xw, states[c], cfg, rngs[c], t, sn, bar, prev[c]
-                        ),
-                        range(n_chains),
-                    )
+    with progress_pool(n_chains, n_chains * target, workers, progress) as (pool, bar):
+        while True:
+            snaps = np.arange(total, target)
+            snaps = snaps[(snaps + 1) % every == 0]
+            if snaps.size == 0 or snaps[-1] != target - 1:
+                snaps = np.r_[snaps, target - 1]
+            runs = list(
+                pool.map(
+                    lambda c, t=target, sn=snaps, prev=runs: run_chain(
+                        Xw, states[c], cfg, rngs[c], t, sn, bar, prev[c]
+                    ),
+                    range(n_chains),
                 )
-                saved.append(snaps)
-                total = target
-                if total >= max_iter or done(runs):
-                    break
-                target = min(2 * total, max_iter)
-                bar.total = n_chains * target
-                bar.refresh()
-    finally:
-        bar.close()
+            )
+            saved.append(snaps)
+            total = target
+            if total >= max_iter or done(runs):
+                break
+            target = min(2 * total, max_iter)
+            bar.total = n_chains * target
+            bar.refresh()
     return runs, np.concatenate(saved)
 
 

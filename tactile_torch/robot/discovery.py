@@ -34,7 +34,7 @@ from dataclasses import dataclass
 from typing import TextIO
 
 from .checks import check_count
-from .contract import NOVEL_OUTPUT, NOVELTY_SCORE_OUTPUT, NOVELTY_THRESHOLDS_KEY
+from .contract import NOVEL_OUTPUT, NOVELTY_SCORE_OUTPUT, NOVELTY_THRESHOLDS_KEY, UNKNOWN
 
 
 @dataclass(frozen=True)
@@ -153,9 +153,12 @@ def stream_consumer(pipeline, n_consecutive: int, out: TextIO = sys.stdout) -> C
 
     ``pipeline`` is the :class:`~tactile_torch.robot.runtime.OnnxPipeline` of an exported clustering; each
     result's window is run through it for its ``novel`` output (a second, ~1 ms inference: the
-    stream's classifier does not keep that output) and fed to a :class:`SurfaceDiscovery`. Novel
-    windows and proposals are printed to ``out``. Raises ``ValueError`` when the bundle has no
-    ``novel`` output.
+    stream's classifier does not keep that output) and fed to a :class:`SurfaceDiscovery`. Windows
+    the stream leaves without a known label are skipped (neither counted nor breaking a run): those
+    with non-finite scores (label ``None``) and the unknown ones (label ``-1``: beyond the sensor's
+    range, constant on every axis as from a stuck or saturated sensor, or out of distribution), whose
+    novelty says nothing about a surface. Novel windows and proposals are printed to ``out``. Raises
+    ``ValueError`` when the bundle has no ``novel`` output.
     """
     outputs = [o.name for o in pipeline.session.get_outputs()]
     if NOVEL_OUTPUT not in outputs:
@@ -169,7 +172,7 @@ def stream_consumer(pipeline, n_consecutive: int, out: TextIO = sys.stdout) -> C
     discovery = SurfaceDiscovery(n_consecutive, pipeline.class_names, thresholds)
 
     def consume(result) -> None:
-        if result.label is None:  # non-finite scores: nothing to say
+        if result.label is None or result.label == UNKNOWN:  # not a surface's window: nothing to say
             return
         outputs = pipeline.run(result.window.data)
         score = float(outputs[NOVELTY_SCORE_OUTPUT][0]) if scored else None

@@ -1,5 +1,10 @@
 """Kernels: the torch kernel matrix of the inference graph, ``gamma="scale"``, and the arrays the
-compiled solver and prediction read (:class:`KernelData`)."""
+compiled solver and prediction read (:class:`KernelData`).
+
+The compiled kernels (:mod:`~tactile_torch.svm._smo`, numba) are imported by the methods of
+:class:`KernelData` that call them, so that the inference graph (:mod:`~tactile_torch.svm.inference`,
+which needs :func:`kernel_matrix` only) does not load numba.
+"""
 
 from __future__ import annotations
 
@@ -8,13 +13,10 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from . import _smo
 from .threads import run_blocks
 
 KERNELS = ("rbf", "linear")
 """The kernels the solver and the inference graph implement."""
-
-_KIND = {"rbf": _smo.RBF, "linear": _smo.LINEAR}
 
 # Rows of a precomputed kernel computed per task (a few MiB of float32 per task).
 _BLOCK_ROWS = 256
@@ -90,10 +92,11 @@ class KernelData:
     @classmethod
     def of(cls, X: np.ndarray, kernel: str, gamma: float) -> KernelData:
         """Kernel rows computed from ``X`` (float64, shape (n, F)) when the solver needs them."""
+        from . import _smo
+
+        kind = {"rbf": _smo.RBF, "linear": _smo.LINEAR}[kernel]
         X = np.ascontiguousarray(X, dtype=np.float64)
-        return cls(
-            np.ascontiguousarray(X.T), np.einsum("ij,ij->i", X, X), _EMPTY_K, _KIND[kernel], float(gamma)
-        )
+        return cls(np.ascontiguousarray(X.T), np.einsum("ij,ij->i", X, X), _EMPTY_K, kind, float(gamma))
 
     @classmethod
     def precomputed(cls, X: np.ndarray, kernel: str, gamma: float, threads: int) -> KernelData:
@@ -102,6 +105,8 @@ class KernelData:
         Its values equal, bit for bit, the rows the solver computes from the features, so a
         problem solved on either takes the same steps.
         """
+        from . import _smo
+
         rows = cls.of(X, kernel, gamma)
         n = rows.n_samples
         K = np.empty((n, n), dtype=np.float32)

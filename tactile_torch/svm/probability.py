@@ -40,12 +40,15 @@ coupling", JMLR 5, 2004.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 import torch
 
 from .kernels import KernelData, kernel_matrix
-from .solver import ProblemSet, solve_set
+
+if TYPE_CHECKING:  # the solver (numba) is imported where it runs: the inference graph does without
+    from .solver import ProblemSet
 
 N_FOLDS = 5
 """Folds of the internal cross-validation (libsvm's and scikit-learn's)."""
@@ -158,6 +161,8 @@ def cross_val_decisions(
     -------
     list of arrays of shape (n_stored,), aligned with ``problems.rows``.
     """
+    from .solver import ProblemSet, solve_set
+
     sides, held = [], []
     for p in range(len(problems)):
         start, stop = problems.offsets[p], problems.offsets[p + 1]

@@ -195,7 +195,7 @@ def load_tradeoff_data(
         if frame_rate_hz is None:
             frame_rate_hz = DEFAULT_FRAME_RATE_HZ
             notes.append(
-                f"frame rate not given: {frame_rate_hz:g} frames/s assumed (set frame_rate_hz, or --frame-rate on the command line)"
+                f"frame rate not given: {frame_rate_hz:g} frames/s assumed (frame_rate_hz= to set it)"
             )
         kind = "pressure" if data.frames is None else "image"
         raw = (

@@ -19,7 +19,7 @@ COST = (
     "for images, 0 for features) plus the median latency of the exported ONNX pipeline at batch 1; ties by size"
 )
 RULE = (
-    "with --target ACC: the cheapest candidate (by decision_s) whose interval's lower end reaches ACC; without: "
+    "with target=ACC: the cheapest candidate (by decision_s) whose interval's lower end reaches ACC; without: "
     "the cheapest candidate on the Pareto front of accuracy against decision_s whose mean accuracy over units is "
     "within one standard error of the best, among those significantly above the trivial baseline (majority "
     "class); none: no recommendation"

@@ -39,7 +39,7 @@ import numpy as np
 import torch
 from sklearn.base import BaseEstimator, TransformerMixin, _fit_context
 from sklearn.utils._param_validation import Interval, StrOptions
-from sklearn.utils.validation import check_is_fitted
+from sklearn.utils.validation import check_is_fitted, validate_data
 from torch import nn
 
 from ..image import (
@@ -76,10 +76,13 @@ def relative_erosion(height: int, width: int) -> int:
     return max(1, math.floor(EROSION_FRACTION * min(height, width) + 0.5))
 
 
+def _from_torch(X: object) -> object:
+    """``X`` as a numpy array if it is a tensor, else unchanged (scikit-learn's validation reads the rest)."""
+    return X.detach().cpu().numpy() if isinstance(X, torch.Tensor) else X
+
+
 def _as_array(X: object, name: str = "X") -> np.ndarray:
-    if isinstance(X, torch.Tensor):
-        X = X.detach().cpu().numpy()
-    return np.asarray(X)
+    return np.asarray(_from_torch(X))
 
 
 def _check_ndim(X: np.ndarray, ndim: int, layout: str, name: str = "X") -> None:
@@ -475,14 +478,12 @@ class FeaturePassthrough(TransformerMixin, BaseEstimator):
 
     @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X: object, y: object = None) -> FeaturePassthrough:
-        X = _as_array(X)
-        _check_ndim(X, 2, "(N, F)")
-        self.n_features_in_ = int(X.shape[1])
+        validate_data(self, _from_torch(X), dtype=np.float64)  # 2-D, finite, real: sets n_features_in_
         return self
 
     def transform(self, X: object) -> np.ndarray:
-        check_is_fitted(self, "n_features_in_")
-        return np.asarray(_as_array(X), dtype=np.float64)
+        """Return ``X`` as float64 ``(N, F)``; once fitted, ``F`` must be the width seen by ``fit``."""
+        return validate_data(self, _from_torch(X), dtype=np.float64, reset=False)
 
     def to_module(self) -> nn.Module:
         """Return the graph's front end: the features cast to float32, the dtype every head is exported for
@@ -549,20 +550,18 @@ class RankedFeatureSelector(TransformerMixin, BaseEstimator):
 
     @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X: object, y: object) -> RankedFeatureSelector:
-        X = np.asarray(_as_array(X), dtype=np.float64)
-        _check_ndim(X, 2, "(N, F)")
+        X, y = validate_data(self, _from_torch(X), y, dtype=np.float64)  # sets n_features_in_
         if self.k > X.shape[1]:  # the table checked that k is an integer >= 1
             raise ValueError(
                 f"k must be an integer in [1, {X.shape[1]}] (the number of features), got {self.k!r}"
             )
         self.scores_ = single_feature_accuracy(X, np.asarray(y))
         self.columns_ = np.argsort(-self.scores_, kind="stable")[: self.k]
-        self.n_features_in_ = X.shape[1]
         return self
 
     def transform(self, X: object) -> np.ndarray:
         check_is_fitted(self, "columns_")
-        return np.asarray(_as_array(X), dtype=np.float64)[:, self.columns_]
+        return validate_data(self, _from_torch(X), dtype=np.float64, reset=False)[:, self.columns_]
 
     def to_module(self) -> nn.Module:
         check_is_fitted(self, "columns_")

@@ -375,3 +375,22 @@ def test_pitman_yor_option_reproduces_the_study_sampler():
     assert np.ptp(model.alpha_samples_) > 0 and np.ptp(model.discount_samples_) > 0
     with pytest.raises(ValueError, match="coarsen needs model='mfm'"):
         PitmanYorGMM(model="pyp", coarsen=50.0, n_iter=5, burn_in=1, progress=False).fit(X)
+
+
+def test_progress_pool_runs_chains_on_its_threads_and_closes_the_bar():
+    """The one pool and progress bar of the chains (mixture._chains.progress_pool), on success and on error."""
+    import threading
+
+    from tactile_torch.mixture._chains import progress_pool
+
+    with progress_pool(3, 30, workers=2, progress=True) as (pool, bar):
+        names = set(pool.map(lambda _: (bar.update(10), threading.current_thread().name)[1], range(3)))
+        assert bar.n == 30 and bar.total == 30 and not bar.disable and pool._max_workers == 2
+    assert 1 <= len(names) <= 2 and threading.current_thread().name not in names
+    assert pool._shutdown and bar.disable  # tqdm marks a closed bar disabled
+    with pytest.raises(RuntimeError, match="a chain failed"), progress_pool(1, 5, 4, True) as (pool, bar):
+        assert pool._max_workers == 1  # min(workers, chains)
+        raise RuntimeError("a chain failed")
+    assert pool._shutdown and bar.disable
+    with progress_pool(2, 5, 2, progress=False) as (pool, bar):
+        assert bar.disable

@@ -68,25 +68,6 @@ MATRIX_ESTIMATORS = {
 }
 """Every estimator and transformer of the library that takes a feature matrix."""
 
-_VALIDATED_AT_THE_ENTRY = (
-    "an internal step of the trade-off's pipelines: its input was validated once, at the entry "
-    "(tactile_torch.tradeoff.inputs reads and checks the data file), and the step trusts its caller "
-    "(the house rule: validate once, at the public entry)"
-)
-_STEP = dict.fromkeys(
-    (
-        "check_complex_data",
-        "check_dtype_object",
-        "check_estimators_empty_data_messages",
-        "check_estimators_nan_inf",
-        "check_estimator_sparse_tag",
-        "check_estimator_sparse_array",
-        "check_estimator_sparse_matrix",
-        "check_fit2d_predict1d",
-        "check_n_features_in_after_fitting",
-    ),
-    _VALIDATED_AT_THE_ENTRY,
-)
 _NOT_WINDOW_FEATURES = (
     "fits on generated matrices of arbitrary width; features='window' requires the 21 window features "
     "(the same check passes with features='passthrough', which shares every line of the estimator but "
@@ -136,18 +117,6 @@ MATRIX_SKIPS: dict[str, dict[str, str]] = {
             "the check's 10 samples leave a class with one sample; the search refuses a class it cannot "
             "both learn and validate (a documented error)"
         ),
-    },
-    "FeaturePassthrough": {
-        **_STEP,
-        "check_transformers_unfitted_stateless": (
-            "transform checks the width learnt by fit; its requires_fit=False tag tells the engine that "
-            "fitting on all samples equals fitting per fold (computed once), not that fit may be skipped"
-        ),
-    },
-    "RankedFeatureSelector": {
-        **_STEP,
-        "check_transformer_general": _VALIDATED_AT_THE_ENTRY
-        + " (a different width in transform is not checked)",
     },
 }
 """Checks a feature-matrix estimator cannot pass, with the reason."""

@@ -60,6 +60,9 @@ def test_solver_internals_are_not_public():
         ("import tactile_torch.mixture", ("torch", "sklearn", "numba")),
         ("from tactile_torch.mixture import GaussianMixtureClassifier", ("sklearn", "numba")),
         ("import tactile_torch.svm, tactile_torch.image, tactile_torch.signal", ("torch",)),
+        # the SVMs' inference graph (export, predict) needs torch only, not the compiled solver
+        ("from tactile_torch.svm import SVMInference", ("numba", "sklearn")),
+        ("from tactile_torch.svm.inference import svm_margins", ("numba", "sklearn")),
     ],
 )
 def test_importing_a_package_loads_only_what_the_asked_names_need(statement, absent):

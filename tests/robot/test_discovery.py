@@ -25,15 +25,13 @@ def test_surface_discovery_proposes_after_n_consecutive_novel_windows():
         SurfaceDiscovery(n_consecutive=0)
 
 
-def test_cli_stream_discover_proposes_a_surface_the_clustering_never_saw(tmp_path, monkeypatch, capsys):
-    import io
-
-    import serial
-
+@pytest.fixture(scope="module")
+def clustering_bundle(tmp_path_factory):
+    """An exported clustering of three stylus surfaces (glass, cork, rubber), and their recordings."""
     from tactile_torch.cli import main
     from tactile_torch.data.stylus import SURFACES, make_vibration_recordings
-    from tactile_torch.robot.stream import format_sample
 
+    tmp_path = tmp_path_factory.mktemp("discovery")
     known = [SURFACES[0], SURFACES[5], SURFACES[7]]  # glass, cork, rubber
     rec = make_vibration_recordings(surfaces=known, duration_s=8.0, random_state=0)
     np.savez(
@@ -47,27 +45,52 @@ def test_cli_stream_discover_proposes_a_surface_the_clustering_never_saw(tmp_pat
     common = ["--window", "400", "--n-iter", "60", "--burn-in", "20", "--chains", "2", "--quiet"]
     assert main(["cluster", "--data", str(tmp_path / "rec.npz"), "--out", str(out), *common]) == 0
     assert main(["export", "--model", str(out / "model.npz"), "--out", str(tmp_path / "cl.onnx")]) == 0
-    # the stream: a known surface, then one the clustering never saw (the coarsest sandpaper)
-    unseen = make_vibration_recordings(surfaces=[SURFACES[27]], duration_s=4.0, random_state=1).signals[0]
-    stream = np.concatenate([rec.signals[0][:2000], unseen])
+    return tmp_path / "cl.onnx", rec
+
+
+def _stream_discover(bundle, stream, n_windows, monkeypatch, capsys):
+    """Run ``tactile-torch stream --discover 3`` on ``stream`` (samples, 3) over a fake port; return its stdout."""
+    import io
+
+    import serial
+
+    from tactile_torch.cli import main
+    from tactile_torch.robot.stream import format_sample
+
     lines = b"".join(format_sample(s) for s in stream)
     monkeypatch.setattr(serial, "serial_for_url", lambda *a, **k: io.BytesIO(lines))
     capsys.readouterr()
-    args = [
-        "stream",
-        "--model",
-        str(tmp_path / "cl.onnx"),
-        "--port",
-        "test://",
-        "--step",
-        "400",
-        "--max-windows",
-        "13",
-    ]
-    assert main([*args, "--discover", "3"]) == 0
-    printed = capsys.readouterr().out
+    args = ["stream", "--model", str(bundle), "--port", "test://", "--step", "400"]
+    assert main([*args, "--max-windows", str(n_windows), "--discover", "3"]) == 0
+    return capsys.readouterr().out
+
+
+def test_cli_stream_discover_proposes_a_surface_the_clustering_never_saw(
+    clustering_bundle, monkeypatch, capsys
+):
+    from tactile_torch.data.stylus import SURFACES, make_vibration_recordings
+
+    bundle, rec = clustering_bundle
+    # the stream: a known surface, then one the clustering never saw (the coarsest sandpaper)
+    unseen = make_vibration_recordings(surfaces=[SURFACES[27]], duration_s=4.0, random_state=1).signals[0]
+    stream = np.concatenate([rec.signals[0][:2000], unseen])
+    printed = _stream_discover(bundle, stream, 13, monkeypatch, capsys)
     assert "new surface proposed: new surface 1" in printed
     lines = printed.splitlines()
     novel = [i for i, line in enumerate(lines) if line.startswith("  novel window")]
     assert len(novel) >= 3 and lines[novel[-1]] == "  novel window -> new surface 1"
     assert novel[0] > 5  # the first windows (a known surface) are not novel
+
+
+def test_cli_stream_discover_skips_a_stuck_sensor(clustering_bundle, monkeypatch, capsys):
+    """A stuck sensor (constant on every axis) gives unknown windows (label -1): never a new surface."""
+    bundle, rec = clustering_bundle
+    stuck = np.tile(np.array([[0.02, -0.01, 1.0]], dtype=np.float32), (3200, 1))
+    # a stuck stretch between two stretches of a known surface, then stuck to the end
+    stream = np.concatenate([rec.signals[0][:1200], stuck, rec.signals[0][1200:2400], stuck])
+    printed = _stream_discover(bundle, stream, 22, monkeypatch, capsys)
+    lines = printed.splitlines()
+    unknown = [line for line in lines if "no vibration: every axis is constant" in line]
+    assert len(unknown) == 16  # the runtime marks the stuck windows unknown ...
+    assert "new surface proposed" not in printed  # ... and discovery skips them
+    assert not [line for line in lines if line.startswith("  novel window")]

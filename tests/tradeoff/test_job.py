@@ -52,3 +52,50 @@ def test_the_command_line_gives_options_and_the_reproduce_line_keeps_what_change
     assert (
         reproduce_line(plain, TradeoffOptions()) == "tactile-torch tradeoff --data x.npz --out runs/tradeoff"
     )
+
+
+def test_the_library_notes_name_arguments_and_the_command_prints_options(tmp_path, monkeypatch, capsys):
+    """Library side: no option in a note or in the rule; command side: the notes as options (with_flags)."""
+    from types import SimpleNamespace
+
+    import tactile_torch.tradeoff
+    import tactile_torch.tradeoff.job
+    from tactile_torch.cli import main
+    from tactile_torch.cli.tradeoff import with_flags
+    from tactile_torch.data.images import make_explorations, save_explorations
+    from tactile_torch.tradeoff import load_tradeoff_data
+    from tactile_torch.tradeoff.inputs import DEFAULT_FRAME_RATE_HZ as RATE
+    from tactile_torch.tradeoff.output import COST, INTERVAL, RULE
+
+    path = save_explorations(
+        tmp_path / "ex.npz", make_explorations(2, n_frames=3, frame_size=12, sensels=4, random_state=0)
+    )
+    notes = load_tradeoff_data(path).notes
+    assert notes == [f"frame rate not given: {RATE:g} frames/s assumed (frame_rate_hz= to set it)"]
+    for text in (*notes, RULE, COST, INTERVAL):
+        assert "--" not in text, text
+    assert with_flags(notes[0]) == f"frame rate not given: {RATE:g} frames/s assumed (--frame-rate to set it)"
+    assert with_flags(RULE).startswith("with --target ACC: the cheapest candidate")
+    assert (
+        with_flags("feature set 'top 7' left out (features=)") == "feature set 'top 7' left out (--features)"
+    )
+    assert (
+        with_flags("n_consecutive= is not an option of tradeoff")
+        == "n_consecutive= is not an option of tradeoff"
+    )
+
+    # the command prints the summary and the notes of the run through with_flags
+    result = SimpleNamespace(
+        notes=[*notes, "threshold: from each training fold's histogram (Otsu) (threshold= to set one)"],
+        status="recommended",
+        seconds=1.0,
+    )
+    monkeypatch.setattr(tactile_torch.tradeoff, "load_tradeoff_data", lambda *a, **k: None)
+    monkeypatch.setattr(tactile_torch.tradeoff.job, "run_tradeoff_job", lambda *a, **k: (result, {}))
+    monkeypatch.setattr(tactile_torch.tradeoff, "summary_lines", lambda r: [f"recommended: x ({RULE[:20]})"])
+    assert main(["tradeoff", "--data", str(path), "--out", str(tmp_path / "o"), "--quiet"]) == 0
+    assert capsys.readouterr().out.splitlines()[:3] == [
+        "recommended: x (with --target ACC: the)",
+        f"note:        frame rate not given: {RATE:g} frames/s assumed (--frame-rate to set it)",
+        "note:        --threshold: from each training fold's histogram (Otsu) (--threshold to set one)",
+    ]
