@@ -102,6 +102,8 @@ ARGUMENT_FLAGS = {
     "index": "--index",
     "allow_pickle": "--allow-pickle",
     "n_consecutive": "--discover",
+    "max_iter": "--max-iter",
+    "max_seconds": "--max-seconds",
     MAX_READ_ENV: "--max-read-mb",
 }
 """The library's argument names and the options that set them: the one place where an error message
