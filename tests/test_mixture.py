@@ -260,7 +260,10 @@ def test_convergence_diagnostics_are_reported_and_warned():
         stuck.set_params(n_chains=3).fit(Y)
     assert "WARNING: R-hat > 1.01" in stuck.summary()
     # n_iter="auto": the warning only when the budget ran out, and it names the budget
-    with pytest.warns(RuntimeWarning, match=r"after 40 sweeps per chain.*raise max_iter \(now 40\)"):
+    with pytest.warns(
+        RuntimeWarning,
+        match=r"after 40 sweeps per chain, when the budget max_iter ran out \(now 40\).*max_iter=80",
+    ):
         stuck.set_params(n_iter="auto", max_iter=40, burn_in=10).fit(Y)
     assert stuck.budget_exhausted_ and stuck.n_iter_ == 40 and stuck.stopped_by_ == "max_iter"
 

@@ -163,7 +163,7 @@ def main(argv: list[str] | None = None) -> int:
     flags = {name: flag for name, flag in ARGUMENT_FLAGS.items() if flag in options}
     with warnings.catch_warnings():  # restores the caller's warning display when the command ends
         if not debug:
-            warnings.showwarning = warning_line(prefix)
+            warnings.showwarning = warning_line(prefix, flags)
         return _run(args, prefix, debug, flags)
 
 

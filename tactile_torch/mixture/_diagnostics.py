@@ -178,11 +178,11 @@ def budget_warning(model, auto: bool) -> str | None:
         ess = next(float(r["ESS bulk"]) for r in model.convergence_ if r["quantity"] == "K")
         what = f"R-hat {', '.join(missed) or 'below ' + str(RHAT_THRESHOLD)}, bulk ESS of K {ess:.0f}"
         budget = model.stopped_by_
-        limit = model.max_iter if budget == "max_iter" else f"{model.max_seconds:g} s"
+        limit = model.max_iter if budget == "max_iter" else model.max_seconds
         return (
             f"PitmanYorGMM: R-hat > {RHAT_THRESHOLD} or ESS of K < {ESS_TARGET:.0f} ({what}) after {n_iter} "
-            f"sweeps per chain, when the budget {budget} ran out: raise {budget} (now {limit}) for the "
-            f"convergence targets (R-hat < {RHAT_THRESHOLD}, ESS >= {ESS_TARGET:.0f})"
+            f"sweeps per chain, when the budget {budget} ran out (now {limit:g}); for the convergence "
+            f"targets (R-hat < {RHAT_THRESHOLD}, ESS >= {ESS_TARGET:.0f}) raise it, e.g. {budget}={2 * limit:g}"
         )
     bad = [f"{r['quantity']} {r['R-hat']:.3f}" for r in rows if not r["converged"]]
     if not bad:
