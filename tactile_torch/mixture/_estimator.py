@@ -92,7 +92,8 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
       short Gibbs run with the partition held fixed (the sampler's own component and
       hyperparameter updates; no label switching can occur);
     - *convergence*: rank-normalised split R-hat and bulk/tail ESS of K, alpha and d across chains
-      (Vehtari et al. 2021, ArviZ's numbers), with a warning when an R-hat exceeds 1.01.
+      (Vehtari et al. 2021, ArviZ's numbers); a warning when a budget of ``n_iter="auto"`` ran
+      out before the targets (with a fixed ``n_iter``: when an R-hat exceeds 1.01).
 
     **Prediction and novelty.** :meth:`predict_proba` averages the posterior predictive over saved
     partitions: for each, the probability that a new point joins each of its components or a new
