@@ -102,6 +102,8 @@ ARGUMENT_FLAGS = {
     "index": "--index",
     "allow_pickle": "--allow-pickle",
     "n_consecutive": "--discover",
+    "max_iter": "--max-iter",
+    "max_seconds": "--max-seconds",
     MAX_READ_ENV: "--max-read-mb",
 }
 """The library's argument names and the options that set them: the one place where an error message
@@ -161,7 +163,7 @@ def main(argv: list[str] | None = None) -> int:
     flags = {name: flag for name, flag in ARGUMENT_FLAGS.items() if flag in options}
     with warnings.catch_warnings():  # restores the caller's warning display when the command ends
         if not debug:
-            warnings.showwarning = warning_line(prefix)
+            warnings.showwarning = warning_line(prefix, flags)
         return _run(args, prefix, debug, flags)
 
 

@@ -47,12 +47,17 @@ def stage(label: str, *, delay: float = 1.0) -> Iterator[None]:
         bar.close()
 
 
-def warning_line(prefix: str):
+def warning_line(prefix: str, flags: dict[str, str] | None = None):
     """A ``warnings.showwarning`` that prints one line, ``<prefix>: warning: <message>``, on stderr:
-    no file name, line number or source line (``--debug`` keeps Python's own format)."""
+    no file name, line number or source line (``--debug`` keeps Python's own format). ``flags``:
+    argument names shown as the command's options (:func:`tactile_torch.cli.with_flags`)."""
 
     def show(message, category, filename, lineno, file=None, line=None) -> None:
         text = " ".join(str(message).split())
+        if flags:
+            from . import with_flags
+
+            text = with_flags(text, flags)
         print(f"{prefix}: warning: {text}", file=sys.stderr if file is None else file)
 
     return show

@@ -58,7 +58,13 @@ def register(sub) -> None:
         "(default: auto)",
     )
     p.add_argument(
-        "--max-iter", type=int, default=16000, help="--n-iter auto: most sweeps per chain (default: 16000)"
+        "--max-iter", type=int, default=40000, help="--n-iter auto: most sweeps per chain (default: 40000)"
+    )
+    p.add_argument(
+        "--max-seconds",
+        type=float,
+        default=300.0,
+        help="--n-iter auto: wall-clock budget of the chains in seconds (default: 300)",
     )
     p.add_argument(
         "--burn-in", type=int, default=250, help="sweeps discarded per chain, at least (default: 250)"
@@ -104,6 +110,7 @@ def run_cluster(args: argparse.Namespace) -> int:
         discount=args.discount,
         n_iter=args.n_iter,
         max_iter=args.max_iter,
+        max_seconds=args.max_seconds,
         burn_in=args.burn_in,
         n_chains=args.chains,
         init=int(args.init) if args.init.isdigit() else args.init,

@@ -6,6 +6,7 @@ imports it at its first fit, so that importing :mod:`tactile_torch.mixture` does
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Iterator
 from concurrent.futures import ThreadPoolExecutor
@@ -14,30 +15,76 @@ from contextlib import contextmanager
 import numpy as np
 
 from . import _gibbs as g
+from ._diagnostics import ESS_TARGET as _ESS_TARGET
 from ._diagnostics import RHAT_THRESHOLD, ess_bulk, rhat
 
 # n_iter="auto": first run, snapshot spacing (sweeps), and the targets.
 AUTO_FIRST, AUTO_EVERY = 1000, 10
-_ESS_TARGET = 400.0
+# n_iter="auto": each round multiplies the run by 1.2 x 400 / ESS of K, clamped to [1.25, 2], rounded up
+# to a multiple of AUTO_ROUND sweeps; the burn-in is the first 1 / AUTO_BURN_IN_SHARE of every chain.
+AUTO_MARGIN, AUTO_GROWTH, AUTO_ROUND, AUTO_BURN_IN_SHARE = 1.2, (1.25, 2.0), 500, 8
 # At most this many saved partitions per chain are kept (the point estimate uses 200 in all).
 _KEEP_PER_CHAIN = 200
+# Nearest neighbours of a point among which the near split-merge pairs are drawn.
+N_NEIGHBOURS = 5
+
+
+def neighbours(Xw: np.ndarray, k: int = N_NEIGHBOURS) -> np.ndarray:
+    """Return the ``k`` nearest neighbours (n, min(k, n - 1)) int64 of every row of ``Xw`` (itself excluded)."""
+    from scipy.spatial import cKDTree
+
+    n = Xw.shape[0]
+    k = min(k, n - 1)
+    if k < 1:
+        return np.zeros((n, 0), dtype=np.int64)
+    _, idx = cKDTree(Xw).query(Xw, k=k + 1)
+    out = np.empty((n, k), dtype=np.int64)
+    for i in range(n):  # drop the point itself (not always first when points coincide)
+        row = idx[i][idx[i] != i]
+        out[i] = row[:k]
+    return out
+
+
+def auto_burn_in(n_iter: int, burn_in: int) -> int:
+    """Burn-in of an ``n_iter="auto"`` run of ``n_iter`` sweeps: its first eighth, at least ``burn_in``."""
+    return max(int(burn_in), int(n_iter) // AUTO_BURN_IN_SHARE)
+
+
+def next_length(current: int, ess: float, max_iter: int) -> int:
+    """Sweeps per chain of the next ``n_iter="auto"`` round, from the bulk ESS of K after ``current`` sweeps.
+
+    ESS grows about linearly with the run, so ``current x 400 / ESS`` would just reach the target;
+    the margin 1.2 covers the noise of the estimate, the clamp keeps a round from being too short to
+    matter (x 1.25) or overshooting a poor early estimate (x 2). Rounded up to a multiple of 500
+    sweeps, at most ``max_iter``.
+    """
+    lo, hi = AUTO_GROWTH
+    factor = AUTO_MARGIN * _ESS_TARGET / ess if np.isfinite(ess) and ess > 0 else hi
+    target = current * min(hi, max(lo, factor))
+    return int(min(max_iter, AUTO_ROUND * math.ceil(target / AUTO_ROUND)))
+
+
+def diagnostics(runs: list[dict], burn_in: int, quantities: tuple[str, ...]) -> dict[str, float]:
+    """Bulk ESS of K and R-hat of each of ``quantities`` after ``burn_in`` sweeps (R-hat NaN with one chain)."""
+    trace = np.stack([r["trace"][burn_in:] for r in runs])
+    k = trace[:, :, g.TRACE_NAMES.index("n_clusters")]
+    if np.ptp(k) == 0:  # every chain on the same K throughout: nothing left to mix
+        out = {"ess": float(k.size)}
+    else:
+        out = {"ess": float(ess_bulk(k))}
+    for name in quantities:
+        out[name] = float(rhat(trace[:, :, g.TRACE_NAMES.index(name)])) if len(runs) > 1 else 1.0
+    return out
 
 
 def targets_met(runs: list[dict], burn_in: int, quantities: tuple[str, ...]) -> bool:
     """Whether R-hat < 1.01 for every quantity and bulk ESS of K >= 400 after ``burn_in`` sweeps."""
-    trace = np.stack([r["trace"][burn_in:] for r in runs])
-    k = trace[:, :, g.TRACE_NAMES.index("n_clusters")]
-    if np.ptp(k) == 0 and k.size >= _ESS_TARGET:
-        k_ok = True  # every chain on the same K throughout: nothing left to mix
-    else:
-        k_ok = ess_bulk(k) >= _ESS_TARGET
-    if len(runs) < 2:
-        return bool(k_ok)
-    for name in quantities:
-        r = rhat(trace[:, :, g.TRACE_NAMES.index(name)])
-        if not (np.isfinite(r) and r < RHAT_THRESHOLD):
-            return False
-    return bool(k_ok)
+    return _met(diagnostics(runs, burn_in, quantities), quantities)
+
+
+def _met(diag: dict[str, float], quantities: tuple[str, ...]) -> bool:
+    k_ok = np.isfinite(diag["ess"]) and diag["ess"] >= _ESS_TARGET
+    return bool(k_ok) and all(np.isfinite(diag[q]) and diag[q] < RHAT_THRESHOLD for q in quantities)
 
 
 def keep_after_burn_in(runs: list[dict], sweeps: np.ndarray, sample_from: int, burn_in: int) -> np.ndarray:
@@ -70,7 +117,7 @@ def progress_pool(n_chains: int, total: int, workers: int, progress: bool) -> It
         bar.close()
 
 
-def run_chains(Xw, states, cfg, rngs, n_iter, snap_sweeps, workers, progress) -> list[dict]:
+def run_chains(Xw, states, cfg, rngs, n_iter, snap_sweeps, workers, progress, nbr) -> list[dict]:
     """Run every chain (``states[c]`` with ``rngs[c]``) in ``workers`` threads; return :func:`run_chain`'s results.
 
     The compiled sweeps release the GIL, so chains run in parallel; a tqdm bar shows progress when
@@ -80,13 +127,13 @@ def run_chains(Xw, states, cfg, rngs, n_iter, snap_sweeps, workers, progress) ->
     with progress_pool(n_chains, n_chains * n_iter, workers, progress) as (pool, bar):
         return list(
             pool.map(
-                lambda c: run_chain(Xw, states[c], cfg, rngs[c], n_iter, snap_sweeps, bar),
+                lambda c: run_chain(Xw, states[c], cfg, rngs[c], n_iter, snap_sweeps, bar, nbr),
                 range(n_chains),
             )
         )
 
 
-def run_chain(Xw, st, cfg, rng, n_iter, snap_sweeps, bar, previous: dict | None = None) -> dict:
+def run_chain(Xw, st, cfg, rng, n_iter, snap_sweeps, bar, nbr, previous: dict | None = None) -> dict:
     """Run one chain (in a worker thread); return its trace, MAP state and saved samples.
 
     The partition is saved at the sweeps ``snap_sweeps`` (components too from ``cfg.burn_in`` on).
@@ -109,7 +156,7 @@ def run_chain(Xw, st, cfg, rng, n_iter, snap_sweeps, bar, previous: dict | None 
     seconds = 0.0
     for k, s in enumerate(snap_sweeps):
         t0 = time.perf_counter()
-        g.run_sweeps(Xw, st, cfg, rng, start, s + 1 - start, trace, counters, best, best_val)
+        g.run_sweeps(Xw, st, cfg, rng, start, s + 1 - start, trace, counters, best, best_val, nbr)
         seconds += time.perf_counter() - t0
         bar.update(s + 1 - start)
         start = s + 1
@@ -148,14 +195,19 @@ def run_chain(Xw, st, cfg, rng, n_iter, snap_sweeps, bar, previous: dict | None 
 
 
 def run_chains_until(
-    Xw, states, cfg, rngs, first, max_iter, every, workers, progress, done
-) -> tuple[list[dict], np.ndarray]:
-    """Run every chain ``first`` sweeps, then keep doubling the run until ``done(runs)`` or ``max_iter``.
+    Xw, states, cfg, rngs, first, max_iter, every, workers, progress, quantities, burn_in, max_seconds, nbr
+) -> tuple[list[dict], np.ndarray, str, dict[str, float]]:
+    """Run every chain ``first`` sweeps, then longer rounds (:func:`next_length`) until the targets hold.
 
-    The partition is saved every ``every`` sweeps. Returns (the chains' results as :func:`run_chain`'s,
-    the saved sweeps). ``done`` sees the results after each round; a run with the same seed stops at
-    the same sweep whatever the machine (the budget counts sweeps, not seconds).
+    After each round the diagnostics (:func:`diagnostics`, burn-in :func:`auto_burn_in`) are
+    computed; the run stops when the targets hold (``"converged"``), at ``max_iter`` sweeps
+    (``"max_iter"``) or once ``max_seconds`` of wall time have passed (``"max_seconds"``; a round is
+    shortened to what the remaining time affords at the sweep rate measured so far). The partition
+    is saved every ``every`` sweeps. Returns (the chains' results as :func:`run_chain`'s, the saved
+    sweeps, why the run stopped, the last diagnostics). Unless the time budget stops it, a run with
+    the same seed stops at the same sweep whatever the machine.
     """
+    t0 = time.perf_counter()
     n_chains = len(states)
     runs: list[dict | None] = [None] * n_chains
     saved = []
@@ -170,19 +222,31 @@ def run_chains_until(
             runs = list(
                 pool.map(
                     lambda c, t=target, sn=snaps, prev=runs: run_chain(
-                        Xw, states[c], cfg, rngs[c], t, sn, bar, prev[c]
+                        Xw, states[c], cfg, rngs[c], t, sn, bar, nbr, prev[c]
                     ),
                     range(n_chains),
                 )
             )
             saved.append(snaps)
             total = target
-            if total >= max_iter or done(runs):
+            diag = diagnostics(runs, auto_burn_in(total, burn_in), quantities)
+            if _met(diag, quantities):
+                stopped = "converged"
                 break
-            target = min(2 * total, max_iter)
+            if total >= max_iter:
+                stopped = "max_iter"
+                break
+            target = next_length(total, diag["ess"], max_iter)
+            if max_seconds is not None:
+                elapsed = time.perf_counter() - t0
+                affordable = int((max_seconds - elapsed) / (elapsed / total))
+                if affordable < AUTO_ROUND // 5:
+                    stopped = "max_seconds"
+                    break
+                target = min(target, total + affordable)
             bar.total = n_chains * target
             bar.refresh()
-    return runs, np.concatenate(saved)
+    return runs, np.concatenate(saved), stopped, diag
 
 
 def chain_attributes(

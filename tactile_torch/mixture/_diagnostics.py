@@ -156,3 +156,38 @@ def convergence_table(chains: dict[str, np.ndarray]) -> list[dict[str, object]]:
             }
         )
     return rows
+
+
+ESS_TARGET = 400.0
+"""Bulk ESS of K that ``n_iter="auto"`` runs to (with R-hat below :data:`RHAT_THRESHOLD`)."""
+
+
+def budget_warning(model, auto: bool) -> str | None:
+    """Return the warning of a fitted :class:`~tactile_torch.mixture.PitmanYorGMM`, or None when there is none.
+
+    ``n_iter="auto"``: only when a budget ran out before the targets held; it gives the diagnostics
+    that missed their target and names the budget to raise. A fixed ``n_iter``: when an R-hat is
+    above the threshold (the chains disagree); it suggests ``n_iter="auto"``.
+    """
+    n_iter = model.n_iter_
+    rows = [r for r in model.convergence_ if np.isfinite(r["R-hat"])]
+    if auto:
+        if model.stopped_by_ == "converged":
+            return None
+        missed = [f"{r['quantity']} {r['R-hat']:.3f}" for r in rows if not r["converged"]]
+        ess = next(float(r["ESS bulk"]) for r in model.convergence_ if r["quantity"] == "K")
+        what = f"R-hat {', '.join(missed) or 'below ' + str(RHAT_THRESHOLD)}, bulk ESS of K {ess:.0f}"
+        budget = model.stopped_by_
+        limit = model.max_iter if budget == "max_iter" else model.max_seconds
+        return (
+            f"PitmanYorGMM: R-hat > {RHAT_THRESHOLD} or ESS of K < {ESS_TARGET:.0f} ({what}) after {n_iter} "
+            f"sweeps per chain, when the budget {budget} ran out (now {limit:g}); for the convergence "
+            f"targets (R-hat < {RHAT_THRESHOLD}, ESS >= {ESS_TARGET:.0f}) raise it, e.g. {budget}={2 * limit:g}"
+        )
+    bad = [f"{r['quantity']} {r['R-hat']:.3f}" for r in rows if not r["converged"]]
+    if not bad:
+        return None
+    return (
+        f"PitmanYorGMM: R-hat > {RHAT_THRESHOLD} ({', '.join(bad)}) after {n_iter} sweeps per chain: the "
+        "chains disagree; pass n_iter='auto' (runs until converged) or more sweeps than n_iter"
+    )

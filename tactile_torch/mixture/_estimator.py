@@ -16,7 +16,7 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 
 from .._constraints import RANDOM_STATE
 from ..robot.checks import numpy_rng
-from ._diagnostics import RHAT_THRESHOLD
+from ._diagnostics import budget_warning
 from ._mfm import coarsening_power, log_v
 from ._point_estimate import choose_partition, partition_components
 from ._predict_mixin import PredictionMixin, _as_array
@@ -92,7 +92,8 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
       short Gibbs run with the partition held fixed (the sampler's own component and
       hyperparameter updates; no label switching can occur);
     - *convergence*: rank-normalised split R-hat and bulk/tail ESS of K, alpha and d across chains
-      (Vehtari et al. 2021, ArviZ's numbers), with a warning when an R-hat exceeds 1.01.
+      (Vehtari et al. 2021, ArviZ's numbers); a warning when a budget of ``n_iter="auto"`` ran
+      out before the targets (with a fixed ``n_iter``: when an R-hat exceeds 1.01).
 
     **Prediction and novelty.** :meth:`predict_proba` averages the posterior predictive over saved
     partitions: for each, the probability that a new point joins each of its components or a new
@@ -138,13 +139,18 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
         Dirichlet process.
     n_iter : int or "auto", default "auto"
         Sweeps per chain, burn-in included (4 chains x 1000 sweeps on 2 cores take the wall time of
-        one chain of 2000). ``"auto"``: run 1000 sweeps, then keep doubling the run until the
-        convergence targets hold (rank-normalised R-hat of K, and of alpha and d when sampled,
-        below 1.01 across chains; bulk ESS of K at least 400) or ``max_iter`` sweeps; the first
-        quarter of every chain (at least ``burn_in``) is discarded. The budget counts sweeps, not
-        seconds, so that a seed gives the same result on any machine.
-    max_iter : int, default 16000
+        one chain of 2000). ``"auto"``: run 1000 sweeps, then longer rounds until the convergence
+        targets hold (rank-normalised R-hat of K, and of alpha and d when sampled, below 1.01 across
+        chains; bulk ESS of K at least 400), ``max_iter`` sweeps or ``max_seconds``. Each round is
+        sized from the diagnostics: the run so far times ``1.2 x 400 / ESS``, clamped to [1.25, 2]
+        and rounded up to a multiple of 500 sweeps. The first eighth of every chain (at least
+        ``burn_in``) is discarded. ``stopped_by_`` says what ended the run.
+    max_iter : int, default 40000
         Budget of ``n_iter="auto"``: most sweeps per chain. A warning says when it ran out.
+    max_seconds : float or None, default 300
+        Wall-clock budget of ``n_iter="auto"`` in seconds (None: none); a round is shortened to what
+        the remaining time affords. A warning says when it ran out. Only this budget depends on the
+        machine: a run that stops on convergence or ``max_iter`` is the same for a seed everywhere.
     burn_in : int, default 250
         Sweeps of each chain discarded from the posterior (``0 <= burn_in < n_iter``); with
         ``n_iter="auto"`` the minimum burn-in.
@@ -163,6 +169,12 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
         Split-merge moves per sweep (0 disables them, leaving plain algorithm 8).
     n_launch : int, default 3
         Intermediate restricted Gibbs scans of the split-merge launch states.
+    near_pairs : float or None, default None
+        Share of the split-merge moves whose second point is drawn among the 5 nearest neighbours
+        (whitened space) of the first, the rest uniformly. Near pairs propose merges of adjacent
+        components, the moves the posterior needs; the pair's probability depends on the data
+        only, so the move stays exact. ``None``: 0.9 with ``model="mfm"``, 0 (uniform pairs, the
+        study's sampler) with ``model="pyp"``.
     thin : int or None, default None
         Save the partition (and, after burn-in, the components) of every ``thin``-th sweep, counted
         back from the last one. ``None``: about 200 per chain. Scalar traces are kept for every sweep.
@@ -223,6 +235,11 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
         Proposed and accepted split and merge moves, all chains.
     data_mean_, data_scale_ : ndarray of shape (D,), (D, D)
         Whitening ``z = data_scale_^{-1} (x - data_mean_)`` (``data_scale_`` lower triangular).
+    stopped_by_ : str
+        What ended the run: ``"converged"`` (the targets of ``n_iter="auto"`` hold), ``"max_iter"``
+        or ``"max_seconds"`` (a budget of ``n_iter="auto"`` ran out), ``"n_iter"`` (a fixed run).
+    budget_exhausted_ : bool
+        Whether the convergence targets were missed when the run stopped.
     n_features_in_, n_iter_ : int
     fit_seconds_, sweep_seconds_ : float
         Wall time of ``fit``; mean time of one sweep of one chain.
@@ -264,6 +281,7 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
         "discount": [Interval(Real, 0, 1, closed="left"), None],
         "n_iter": [Interval(Integral, 1, None, closed="left"), StrOptions({"auto"})],
         "max_iter": [Interval(Integral, 1, None, closed="left")],
+        "max_seconds": [Interval(Real, 0, None, closed="neither"), None],
         "burn_in": [Interval(Integral, 0, None, closed="left")],
         "n_chains": [Interval(Integral, 1, None, closed="left")],
         "n_jobs": [Interval(Integral, 1, None, closed="left"), None],
@@ -271,6 +289,7 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
         "init": [StrOptions({"kmeans", "one"}), Interval(Integral, 1, None, closed="left"), "array-like"],
         "n_split_merge": [Interval(Integral, 0, None, closed="left")],
         "n_launch": [Interval(Integral, 0, None, closed="left")],
+        "near_pairs": [Interval(Real, 0, 1, closed="both"), None],
         "thin": [Interval(Integral, 1, None, closed="left"), None],
         "point_estimate": [StrOptions({"vi", "binder", "map"})],
         "prior_only": ["boolean"],
@@ -287,7 +306,8 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
         alpha: float | None = None,
         discount: float | None = None,
         n_iter: int | str = "auto",
-        max_iter: int = 16000,
+        max_iter: int = 40000,
+        max_seconds: float | None = 300.0,
         burn_in: int = 250,
         n_chains: int = 4,
         n_jobs: int | None = None,
@@ -295,6 +315,7 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
         init: str | int | np.ndarray = "kmeans",
         n_split_merge: int = 5,
         n_launch: int = 3,
+        near_pairs: float | None = None,
         thin: int | None = None,
         point_estimate: str = "vi",
         prior_only: bool = False,
@@ -309,6 +330,7 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
         self.discount = discount
         self.n_iter = n_iter
         self.max_iter = max_iter
+        self.max_seconds = max_seconds
         self.burn_in = burn_in
         self.n_chains = n_chains
         self.n_jobs = n_jobs
@@ -316,6 +338,7 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
         self.init = init
         self.n_split_merge = n_split_merge
         self.n_launch = n_launch
+        self.near_pairs = near_pairs
         self.thin = thin
         self.point_estimate = point_estimate
         self.prior_only = prior_only
@@ -385,8 +408,10 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
         from ._chains import (
             AUTO_EVERY,
             AUTO_FIRST,
+            auto_burn_in,
             chain_attributes,
             keep_after_burn_in,
+            neighbours,
             run_chains,
             run_chains_until,
             targets_met,
@@ -426,7 +451,9 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
             d_low=float(d_low),
             w_min=W_FLOOR,
             burn_in=burn_in,
+            near=float(self.near_pairs if self.near_pairs is not None else (0.9 if mfm else 0.0)),
         )
+        nbr = neighbours(Xw) if cfg.near > 0 and cfg.n_split_merge > 0 else np.zeros((n, 0), dtype=np.int64)
         chain_rngs = rng.spawn(n_chains)
         chains = []
         for c in range(n_chains):
@@ -437,21 +464,20 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
             n_chains,
             len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1),
         )
+        quantities = ("n_clusters",) + ("alpha",) * fit_alpha + ("discount",) * fit_d
         if auto:
-            quantities = ("n_clusters",) + ("alpha",) * fit_alpha + ("discount",) * fit_d
-            runs, snap_sweeps = run_chains_until(
+            runs, snap_sweeps, self.stopped_by_, _ = run_chains_until(
                 Xw, chains, cfg, chain_rngs, AUTO_FIRST, n_iter, AUTO_EVERY, workers, self.progress,
-                lambda runs: targets_met(runs, max(burn_in, runs[0]["trace"].shape[0] // 4), quantities),
+                quantities, burn_in, self.max_seconds, nbr,
             )  # fmt: skip
             n_iter = runs[0]["trace"].shape[0]
-            burn_in = max(burn_in, n_iter // 4)
+            burn_in = auto_burn_in(n_iter, burn_in)
             snap_sweeps = keep_after_burn_in(runs, snap_sweeps, cfg.burn_in, burn_in)
-            self.budget_exhausted_ = not targets_met(runs, burn_in, quantities)
+            self.budget_exhausted_ = self.stopped_by_ != "converged"
         else:
-            runs = run_chains(Xw, chains, cfg, chain_rngs, n_iter, snap_sweeps, workers, self.progress)
-            self.budget_exhausted_ = not targets_met(
-                runs, burn_in, ("n_clusters",) + ("alpha",) * fit_alpha + ("discount",) * fit_d
-            )
+            runs = run_chains(Xw, chains, cfg, chain_rngs, n_iter, snap_sweeps, workers, self.progress, nbr)
+            self.stopped_by_ = "n_iter"
+            self.budget_exhausted_ = not targets_met(runs, burn_in, quantities)
         self.n_features_in_ = D
         self.data_mean_, self.data_scale_ = mean, scale
         self.n_iter_ = n_iter
@@ -465,21 +491,9 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
         )
         self.sweep_seconds_ = float(np.mean([r["seconds"] for r in runs]) / n_iter)
         self.fit_seconds_ = time.perf_counter() - t_fit
-        if any(not row["converged"] for row in self.convergence_ if np.isfinite(row["R-hat"])):
-            bad = ", ".join(
-                f"{r['quantity']} {r['R-hat']:.3f}" for r in self.convergence_ if not r["converged"]
-            )
-            change = (
-                f"raise max_iter (now {self.max_iter})"
-                if auto
-                else "pass n_iter='auto' (runs until converged) or more sweeps than n_iter"
-            )
-            warnings.warn(
-                f"PitmanYorGMM: R-hat > {RHAT_THRESHOLD} ({bad}) after {n_iter} sweeps per chain: the "
-                f"chains disagree; {change}",
-                RuntimeWarning,
-                stacklevel=2,
-            )
+        warning = budget_warning(self, auto)
+        if warning:
+            warnings.warn(warning, RuntimeWarning, stacklevel=2)
         return self
 
     def _saved_partitions(self) -> np.ndarray:

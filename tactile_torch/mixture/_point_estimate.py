@@ -105,6 +105,7 @@ def partition_components(Xw, labels, map_state, cfg, rng, data_mean, data_scale,
 
     n, D = Xw.shape
     K = int(labels.max()) + 1
+    NO_NEIGHBOURS = np.zeros((n, 0), dtype=np.int64)  # no split-merge moves: the partition is fixed
     st = g.new_state(labels, D, float(map_state.sc[0]), float(map_state.sc[1]))
     for name in ("sc", "xi", "R", "GR", "W", "GW"):  # lv is not used: the partition is fixed
         np.copyto(getattr(st, name), getattr(map_state, name))
@@ -115,7 +116,9 @@ def partition_components(Xw, labels, map_state, cfg, rng, data_mean, data_scale,
     mus, covs, scs, novelty = np.zeros((K, D)), np.zeros((K, D, D)), np.zeros(st.sc.size), []
     unused = g.ChainState(*(a.copy() for a in st))
     for s in range(_FIXED_SWEEPS):
-        g.run_sweeps(Xw, st, fixed, rng, s, 1, trace, np.zeros(4, dtype=np.int64), unused, np.array([np.inf]))
+        g.run_sweeps(
+            Xw, st, fixed, rng, s, 1, trace, np.zeros(4, dtype=np.int64), unused, np.array([np.inf]), NO_NEIGHBOURS
+        )  # fmt: skip
         if s < _FIXED_SWEEPS - kept:
             continue
         Linv = np.linalg.inv(st.L[:K])  # S^{-1} = L^{-T} L^{-1}

@@ -43,6 +43,13 @@ def _versus_mode(k: int, ks: dict) -> str:
     return f"{side} the posterior mode {ks['mode']}, {where} the 95% interval"
 
 
+_STOPPED = {
+    "converged": "; stopped: convergence targets met",
+    "max_iter": "; stopped: the sweep budget max_iter ran out",
+    "max_seconds": "; stopped: the time budget max_seconds ran out",
+}
+
+
 def summary_text(model) -> str:
     """Return the summary of the fitted ``model``: the posterior of K first, then the point estimate, the MAP sample, convergence."""
     ks = model.n_clusters_summary_
@@ -51,7 +58,8 @@ def summary_text(model) -> str:
     loss = "expected VI" if model.point_estimate != "binder" else "expected Binder loss"
     lines = [
         f"PitmanYorGMM: {chains} chain(s) x {n_iter} sweeps ({model.n_clusters_samples_.size // chains} "
-        f"per chain after burn-in), {model.sweep_seconds_ * 1e3:.2f} ms/sweep, {model.fit_seconds_:.1f} s",
+        f"per chain after burn-in), {model.sweep_seconds_ * 1e3:.2f} ms/sweep, {model.fit_seconds_:.1f} s"
+        + _STOPPED.get(getattr(model, "stopped_by_", ""), ""),
         f"K, posterior: mode {ks['mode']} (p = {ks['mode_probability']:.3f}), median {ks['median']:g}, "
         f"95% interval [{ks['interval'][0]}, {ks['interval'][1]}]",
         f"point estimate ({_POINT_ESTIMATE_NAMES[model.point_estimate]}; {loss} {model.expected_loss_:.4f}): "

@@ -234,6 +234,38 @@ def coverage_row(source: str, y: np.ndarray, setting: str, model, seconds: float
     }
 
 
+MIXING_SOURCES = ("gaussian-3", "bundled-28", "sessions-3x3", "hapmat", "borealtc")
+"""Sources of :func:`mixing_rows` (issue 22: converged at the defaults on each)."""
+
+
+def mixing_rows(
+    sources: dict[str, tuple[np.ndarray, np.ndarray]], *, random_state: int = 0, **fit: Any
+) -> list[dict[str, Any]]:
+    """Return one row per source of a fit at the defaults (plus ``fit``): R-hat, bulk ESS, K, run length, stop reason."""
+    from ..mixture import PitmanYorGMM
+
+    rows = []
+    for source, (X, y) in sources.items():
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            m = PitmanYorGMM(random_state=random_state, progress=False, **fit).fit(X)
+        ks = m.n_clusters_summary_
+        rows.append(
+            {"source": source, "n": len(y), "true K": int(np.unique(y).size)}
+            | {f"R-hat {r['quantity']}": round(float(r["R-hat"]), 3) for r in m.convergence_}
+            | {
+                "ESS K": round(float(m.convergence_[0]["ESS bulk"])),
+                "K mode": ks["mode"],
+                "K 95% interval": "[{}, {}]".format(*ks["interval"]),
+                "sweeps": m.n_iter_,
+                "stopped by": m.stopped_by_,
+                "ms/sweep": round(1e3 * m.sweep_seconds_, 2),
+                "seconds": round(m.fit_seconds_, 1),
+            }
+        )
+    return rows
+
+
 ELBOW_GRID = (30.0, 100.0, 300.0, 1000.0, 3000.0, 10000.0, None)
 """Values of ``coarsen`` of :func:`coarsening_curve` (None: the exact posterior)."""
 
@@ -282,6 +314,13 @@ def _main(argv: list[str] | None = None) -> None:
         help="print K and fit against coarsen per source (Miller & Dunson's elbow)",
     )
     parser.add_argument("--settings", nargs="*", help="settings to run (names of SETTINGS)")
+    parser.add_argument(
+        "--mixing",
+        action="store_true",
+        help="print R-hat, ESS and K at the estimator's defaults per source (default sources: MIXING_SOURCES)",
+    )
+    parser.add_argument("--near", type=float, default=None, help="near_pairs of the split-merge move")
+    parser.add_argument("--max-seconds", type=float, default=300.0, help="wall-clock budget of n_iter='auto'")
     parser.add_argument("--n-iter", default="auto", type=lambda v: v if v == "auto" else int(v))
     parser.add_argument("--burn-in", default=250, type=int)
     parser.add_argument("--n-split-merge", default=5, type=int, help="split-merge moves per sweep")
@@ -294,8 +333,16 @@ def _main(argv: list[str] | None = None) -> None:
         print(session_overlap())
         return
     sources = k_sources(args.quick)
-    if args.only:
-        sources = {k: v for k, v in sources.items() if k in args.only}
+    if args.only or args.mixing:
+        sources = {k: v for k, v in sources.items() if k in (args.only or MIXING_SOURCES)}
+    if args.mixing:
+        kw = {"near_pairs": args.near, "max_seconds": args.max_seconds, "n_jobs": args.jobs}
+        for i, (name, data) in enumerate(sources.items()):
+            rows = mixing_rows({name: data}, **kw, **({"n_iter": 300, "burn_in": 100} if args.quick else {}))
+            if i == 0:
+                print("| " + " | ".join(rows[0]) + " |\n|" + " --- |" * len(rows[0]))
+            print("| " + " | ".join(str(v) for v in rows[0].values()) + " |", flush=True)
+        return
     if args.elbow:
         for name, (X, y) in sources.items():
             for r in coarsening_curve(X, n_iter=args.n_iter, burn_in=args.burn_in):

@@ -60,3 +60,19 @@ def test_cli_cluster_says_in_one_line_what_a_recordings_file_lacks(tmp_path, cap
         assert main(["cluster", "--data", str(tmp_path / name), *common]) == BAD_INPUT_EXIT
         err = capsys.readouterr().err.strip()
         assert len(err.splitlines()) == 1 and f"missing {missing}" in err, err
+
+
+def test_cli_cluster_budgets_default_to_the_estimators():
+    from tactile_torch.cli import ARGUMENT_FLAGS, build_parser, with_flags
+    from tactile_torch.mixture import PitmanYorGMM
+
+    args = build_parser().parse_args(["cluster", "--data", "x.npz"])
+    defaults = PitmanYorGMM()
+    assert (args.max_iter, args.max_seconds) == (defaults.max_iter, defaults.max_seconds)
+    args = build_parser().parse_args(
+        ["cluster", "--data", "x.npz", "--max-seconds", "60", "--max-iter", "900"]
+    )
+    assert (args.max_iter, args.max_seconds) == (900, 60.0)
+    # the budget warning names the argument; the command line shows the option
+    flags = {k: v for k, v in ARGUMENT_FLAGS.items() if k in ("max_iter", "max_seconds")}
+    assert with_flags("raise it, e.g. max_seconds=600", flags) == "raise it, e.g. --max-seconds 600"

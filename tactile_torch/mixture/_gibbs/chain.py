@@ -15,7 +15,7 @@ from numba import njit, types
 from .allocation import _component_stats, allocate, update_components
 from .conditionals import component_step
 from .hyper import update_hyper
-from .linalg import A1, A2, I1, RNG, b1, f8, i8, void
+from .linalg import A1, A2, I1, I2, RNG, b1, f8, i8, void
 from .split_merge import split_merge_moves
 from .state import STATE, copy_state, log_joint
 
@@ -41,9 +41,11 @@ class Settings(NamedTuple):
     """Floor on the eigenvalues of W."""
     burn_in: int
     """Sweeps before which the MAP sample is not tracked."""
+    near: float
+    """Share of split-merge pairs drawn among a point's nearest neighbours (0: uniform pairs)."""
 
 
-SETTINGS = types.NamedTuple((i8, i8, i8, b1, b1, b1, b1, f8, f8, i8), Settings)
+SETTINGS = types.NamedTuple((i8, i8, i8, b1, b1, b1, b1, f8, f8, i8, f8), Settings)
 """numba type of :class:`Settings`."""
 
 TRACE_NAMES = ("n_clusters", "alpha", "discount", "beta", "log_posterior")
@@ -88,9 +90,12 @@ def init_components(X, st, use_lik, rng):
             )[1]
 
 
-@njit(void(A2, STATE, SETTINGS, RNG, i8, i8, A2, I1, STATE, A1), cache=True, nogil=True)
-def run_sweeps(X, st, cfg, rng, start, count, trace, counters, best, best_val):
+@njit(void(A2, STATE, SETTINGS, RNG, i8, i8, A2, I1, STATE, A1, I2), cache=True, nogil=True)
+def run_sweeps(X, st, cfg, rng, start, count, trace, counters, best, best_val, nbr):
     """Run sweeps ``start .. start + count - 1`` on ``st``; write their rows of ``trace`` (see TRACE_NAMES).
+
+    ``nbr`` (n, k): each point's k nearest neighbours, from which a share ``cfg.near`` of the
+    split-merge pairs is drawn (:func:`~tactile_torch.mixture._gibbs.split_merge.split_merge_moves`).
 
     ``counters`` accumulates the split-merge statistics; from sweep ``cfg.burn_in`` on, a state whose
     log joint density exceeds ``best_val[0]`` is copied into ``best`` (the MAP sample).
@@ -99,7 +104,9 @@ def run_sweeps(X, st, cfg, rng, start, count, trace, counters, best, best_val):
     for s in range(start, start + count):
         if cfg.allocate:
             if cfg.n_split_merge > 0:
-                split_merge_moves(cfg.n_split_merge, X, st, cfg.n_launch, cfg.use_lik, rng, counters)
+                split_merge_moves(
+                    cfg.n_split_merge, X, st, cfg.n_launch, cfg.use_lik, rng, counters, nbr, cfg.near
+                )
             allocate(X, st, cfg.n_aux, cfg.use_lik, rng)
         update_components(X, st, cfg.use_lik, rng)
         update_hyper(st, n, cfg.fit_alpha, cfg.fit_d, cfg.d_low, cfg.w_min, rng)

@@ -1,7 +1,13 @@
 """Split-merge moves of Jain & Neal (2007) for non-conjugate mixtures (restricted Gibbs sampling).
 
-Two points ``i != j`` are drawn uniformly; if they share a component a split is proposed, otherwise a
-merge of their two components. See :class:`tactile_torch.mixture.PitmanYorGMM` for the launch states
+Two points ``i != j`` are drawn (``i`` uniformly; ``j`` with probability ``near`` uniformly among the
+k nearest neighbours of ``i``, otherwise uniformly among the other points); if they share a component
+a split is proposed, otherwise a merge of their two components. The probability ``q(i, j)`` of the
+pair enters the Metropolis-Hastings ratio as ``q(i, j) / q(i, j) = 1``: the reverse of a split
+proposed from ``(i, j)`` is the merge proposed from the same ordered pair, and ``q`` depends on the
+data only (never on the partition), so the move stays exact with near pairs as with uniform ones.
+Near pairs make merges of adjacent components (the ones the posterior hesitates over) frequent,
+where uniform pairs mostly propose merges of far-apart components that are always rejected. See :class:`tactile_torch.mixture.PitmanYorGMM` for the launch states
 and the acceptance ratio.
 """
 
@@ -185,8 +191,11 @@ def _merge_launch(X, i, j, idx, ns, lab, mu0, n_launch, sc, R, Rxi, W, use_lik, 
 
 
 @njit(cache=True)
-def split_merge_moves(n_moves, X, st, n_launch, use_lik, rng, counters):
-    """Run ``n_moves`` split-merge Metropolis-Hastings moves (Jain & Neal 2007, non-conjugate version)."""
+def split_merge_moves(n_moves, X, st, n_launch, use_lik, rng, counters, nbr, near):
+    """Run ``n_moves`` split-merge Metropolis-Hastings moves (Jain & Neal 2007, non-conjugate version).
+
+    ``nbr`` (n, k): nearest neighbours of each point; ``near``: share of pairs drawn among them.
+    """
     z, cnt, mu, L, ldet, sc, xi, R, GR, W, GW = (
         st.z, st.cnt, st.mu, st.L, st.ldet, st.sc, st.xi, st.R, st.GR, st.W, st.GW
     )  # fmt: skip
@@ -195,9 +204,12 @@ def split_merge_moves(n_moves, X, st, n_launch, use_lik, rng, counters):
         return
     for _move in range(n_moves):
         i = min(int(rng.random() * n), n - 1)
-        j = min(int(rng.random() * (n - 1)), n - 2)
-        if j >= i:
-            j += 1
+        if near > 0.0 and nbr.shape[1] > 0 and rng.random() < near:
+            j = nbr[i, min(int(rng.random() * nbr.shape[1]), nbr.shape[1] - 1)]
+        else:
+            j = min(int(rng.random() * (n - 1)), n - 2)
+            if j >= i:
+                j += 1
         ci = z[i]
         cj = z[j]
         idx = np.empty(n, dtype=np.int64)
