@@ -102,6 +102,9 @@ ARGUMENT_FLAGS = {
     "index": "--index",
     "allow_pickle": "--allow-pickle",
     "n_consecutive": "--discover",
+    "calibrate": "--calibrate",
+    "false_alarm": "--false-alarm",
+    "sessions": "--sessions",
     MAX_READ_ENV: "--max-read-mb",
 }
 """The library's argument names and the options that set them: the one place where an error message

@@ -26,7 +26,8 @@ recording:
   that the min over N calibration windows is above it ``false_alarm`` of the time.
 
 Sources: ``bundled`` (28 synthetic stylus surfaces, 60 s, W = 800; surfaces 3, 10, 17, 24 withheld,
-then 0, 7, 14, 21), ``hapmat`` and ``borealtc`` (the real IMU sets when present, 2 s windows 1 s apart; each
+then 0, 7, 14, 21), ``bundled-new-session`` (the same in two sessions: the test windows are the
+second session's), ``hapmat`` and ``borealtc`` (the real IMU sets when present, 2 s windows 1 s apart; each
 class withheld in turn). ``python -m tactile_torch.studies.novelty`` prints recall and false alarms
 per window and after N windows for every rule.
 """
@@ -43,8 +44,12 @@ from ..mixture._novelty import window_means
 SHIPPED = "calibrated mean log density (PitmanYorGMM.calibrate_novelty, novel_after)"
 """The rule the estimator, the exported graph and ``stream --discover`` use."""
 
+PER_COMPONENT = "calibrated mean log density, per component"
+"""The shipped score with one threshold per component (of the run's last window), measured against the global one."""
+
 RULES = (
     SHIPPED,
+    PER_COMPONENT,
     "new component",
     "new-component log-odds, calibrated",
     "log density, calibrated on training windows",
@@ -90,31 +95,49 @@ def window_runs(score: np.ndarray, recording: np.ndarray, position: np.ndarray, 
 
 
 def source_windows(name: str, seed: int = 0) -> dict[str, Any]:
-    """Return the 21 window features (torch, float64), labels, recording ids and positions of a source."""
+    """Return the 21 window features (torch, float64), labels, recording ids, positions and sessions of a source.
+
+    ``session`` is the recording's session (0 for a source of one session).
+    """
     import torch
 
     from ..signal import window_features
 
-    if name == "bundled":
+    session = None
+    if name in ("bundled", "bundled-new-session"):
         from ..data import make_vibration_recordings
 
-        ds = make_vibration_recordings(28, duration_s=60, random_state=seed).windows(800)
+        n_sessions = 2 if name == "bundled-new-session" else 1
+        rec = make_vibration_recordings(28, duration_s=60, n_sessions=n_sessions, random_state=seed)
+        ds = rec.windows(800)
+        session = np.array([int(str(s).rsplit("/", 1)[1]) for s in rec.session])[ds.recording.numpy()]
     else:
         from ..data.recordings import load_borealtc_imu, load_hapmat_imu5
 
         rec = {"hapmat": load_hapmat_imu5, "borealtc": load_borealtc_imu}[name]()
         ds = rec.windows(int(2 * rec.rate_hz), int(rec.rate_hz))  # 2 s windows, 1 s apart
+    recording = ds.recording.numpy()
     return {
         "features": window_features(ds.windows.to(torch.float64)),
         "labels": ds.labels.numpy(),
-        "recording": ds.recording.numpy(),
+        "recording": recording,
         "position": ds.position.numpy(),
+        "session": np.zeros(recording.shape, dtype=int) if session is None else session,
     }
+
+
+def new_session_split(
+    recording: np.ndarray, position: np.ndarray, session: np.ndarray, calibrate: float
+) -> np.ndarray:
+    """Return 0 (train), 1 (calibration) or 2 (test) per window: session 0 split in time order, later sessions test."""
+    part = time_split(recording, position, (1.0 - calibrate, calibrate))
+    part[session > 0] = 2
+    return part
 
 
 def withheld_sets(name: str, labels: np.ndarray) -> list[tuple[int, ...]]:
     """Return the withheld surfaces of each experiment on a source."""
-    if name == "bundled":
+    if name.startswith("bundled"):
         return [(3, 10, 17, 24), (0, 7, 14, 21)]
     return [(int(c),) for c in np.unique(labels)]
 
@@ -131,6 +154,37 @@ def scores(model, X: np.ndarray) -> dict[str, np.ndarray]:
         "log density, oracle threshold": dens,
         "log density, N in a row": dens,
     }
+
+
+def per_component_decisions(
+    score: np.ndarray,
+    component: np.ndarray,
+    recording: np.ndarray,
+    position: np.ndarray,
+    calibration: np.ndarray,
+    test: np.ndarray,
+    n: int,
+    false_alarm: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Return (mean score of each test run (m,), its threshold (m,), its last window (m,)): one threshold per component of the run's last window.
+
+    A component with fewer than ``1 / false_alarm`` calibration runs takes the global threshold.
+    """
+    agg_c, last_c = window_runs(np.where(calibration, score, np.nan), recording, position, n, "mean")
+    keep = np.isfinite(agg_c)
+    agg_c, last_c = agg_c[keep], last_c[keep]
+    agg, last = window_runs(np.where(test, score, np.nan), recording, position, n, "mean")
+    keep = np.isfinite(agg)
+    agg, last = agg[keep], last[keep]
+    if agg_c.size == 0:
+        return agg, np.full(agg.shape, np.inf), last
+    glob = np.quantile(agg_c, 1.0 - false_alarm, method="higher")
+    threshold = np.full(agg.shape, glob)
+    for k in np.unique(component):
+        mine = agg_c[component[last_c] == k]
+        if mine.size >= 1.0 / false_alarm:
+            threshold[component[last] == k] = np.quantile(mine, 1.0 - false_alarm, method="higher")
+    return agg, threshold, last
 
 
 def evaluate(
@@ -173,10 +227,15 @@ def novelty_rows(
     false_alarm: float = 0.02,
     seed: int = 0,
     n_components: int = 3,
+    split: tuple[float, float] = SPLIT,
     **fit: Any,
 ) -> list[dict[str, Any]]:
     """Return one row per (rule, N): recall and false alarms pooled over the source's withheld sets.
 
+    ``split``: shares of each recording's windows for training and calibration (the rest is test).
+    Source ``bundled-new-session``: the bundled surfaces recorded in two sessions; session 0 is
+    split into training and calibration windows (``split``'s ratio), every window of session 1 is
+    a test window (known surfaces in a session the model has not seen).
     ``fit``: keyword arguments of :class:`~tactile_torch.mixture.PitmanYorGMM` (``n_iter``, ...).
     """
     from ..mixture import PitmanYorGMM
@@ -184,7 +243,10 @@ def novelty_rows(
 
     data = source_windows(name, seed)
     y, rec, pos = data["labels"], data["recording"], data["position"]
-    part = time_split(rec, pos)
+    if name == "bundled-new-session":
+        part = new_session_split(rec, pos, data["session"], split[1] / (split[0] + split[1]))
+    else:
+        part = time_split(rec, pos, split)
     pooled: dict[tuple[str, int], list] = {}
     for withheld in withheld_sets(name, y):
         new = np.isin(y, withheld)
@@ -208,6 +270,13 @@ def novelty_rows(
             decided = model.novel_after(X[test], n, groups=rec[test])
             keep = np.isfinite(window_means(np.zeros(int(test.sum())), n, rec[test]))  # runs of n
             pooled.setdefault((SHIPPED, n), []).append((decided[keep], new[test][keep]))
+        score = model.novelty_score(X)
+        component = np.argmax(model._point_scores(X)[0], axis=1)  # most likely known component
+        for n in windows:
+            agg, threshold, last = per_component_decisions(
+                score, component, rec, pos, calibration, test, n, false_alarm
+            )
+            pooled.setdefault((PER_COMPONENT, n), []).append((agg > threshold, new[last]))
         for rule, score in scores(model, X).items():
             for n in windows:
                 decided, is_new = evaluate(
@@ -237,7 +306,17 @@ def _main(argv: list[str] | None = None) -> None:
     import argparse
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--only", nargs="*", default=["bundled", "hapmat", "borealtc"])
+    parser.add_argument(
+        "--only", nargs="*", default=["bundled", "hapmat", "borealtc"], help="also: bundled-new-session"
+    )
+    parser.add_argument(
+        "--split",
+        nargs=2,
+        type=float,
+        default=list(SPLIT),
+        help="shares of each recording for training and calibration (default: 0.4 0.2; "
+        "0.48 0.12 is tactile-torch cluster's 80/20 hold-out)",
+    )
     parser.add_argument("--windows", nargs="*", type=int, default=[1, 3, 5, 10])
     parser.add_argument("--false-alarm", type=float, default=0.02)
     parser.add_argument("--n-iter", type=int, default=1000)
@@ -256,6 +335,7 @@ def _main(argv: list[str] | None = None) -> None:
             burn_in=args.burn_in,
             n_chains=args.chains,
             n_components=args.components,
+            split=tuple(args.split),
         )
         if first:
             print("| " + " | ".join(rows[0]) + " |")
