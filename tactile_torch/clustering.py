@@ -218,8 +218,10 @@ def fit_clustering(
 
 def _holdout(n_rows, share, recording, position, random_state, name) -> tuple[np.ndarray, np.ndarray]:
     """(fitted rows, held-out rows): every row fitted when ``share`` is None or 0."""
-    if share is None or share == 0:
+    if share is None or (share == 0 and not isinstance(share, bool)):
         return np.arange(n_rows), np.zeros(0, dtype=np.int64)
+    if isinstance(share, bool) or not (isinstance(share, int | float) and 0 < share < 1):
+        raise ValueError(f"calibrate must be 0 (no hold-out) or a share in (0, 1), got {share!r}")
     fitted, held = holdout_rows(
         n_rows, share, recording=recording, position=position, random_state=random_state
     )
