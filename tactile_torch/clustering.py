@@ -94,12 +94,12 @@ def holdout_rows(
     position: np.ndarray | None = None,
     random_state: object = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Return (fitted rows, held-out rows) as sorted int arrays: the last ``share`` of each recording, or a random share.
+    """Return (fitted rows (sorted), held-out rows) as int arrays: the last ``share`` of each recording, or a random share.
 
     With ``recording`` and ``position`` (windows of recordings), the held-out rows are the last
     ``round(share * n)`` windows of each recording of ``n`` windows (later in time than every fitted
     window of it), ordered by recording then position. Without, ``round(share * n_rows)`` rows drawn
-    at random (``random_state``).
+    at random (``random_state``), sorted.
     """
     from .robot.checks import numpy_rng
 
