@@ -26,7 +26,7 @@ def register(sub) -> None:
         "the unsupervised transform -> principal components) or to a 'features' array (n, D); write the point "
         "estimate of the clustering (and the MAP sample, the posterior samples of K) to OUT/clustering.npz, a "
         "summary (posterior of K first) to OUT/summary.txt and the model to OUT/model.npz (for tactile-torch "
-        "export). Recordings: the last 20 %% of each recording's windows are held out of the fit and set the "
+        "export). Recordings: the last 20 % of each recording's windows are held out of the fit and set the "
         "novelty threshold (--calibrate, --false-alarm) that the exported graph, predict and stream --discover use.",
     )
     add_data_options(
