@@ -168,7 +168,8 @@ def per_component_decisions(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Return (mean score of each test run (m,), its threshold (m,), its last window (m,)): one threshold per component of the run's last window.
 
-    A component with fewer than ``1 / false_alarm`` calibration runs takes the global threshold.
+    A component with fewer than ``1 / false_alarm`` calibration runs (at most ``false_alarm`` of
+    them above its quantile needs that many) takes the global threshold.
     """
     agg_c, last_c = window_runs(np.where(calibration, score, np.nan), recording, position, n, "mean")
     keep = np.isfinite(agg_c)
@@ -176,8 +177,8 @@ def per_component_decisions(
     agg, last = window_runs(np.where(test, score, np.nan), recording, position, n, "mean")
     keep = np.isfinite(agg)
     agg, last = agg[keep], last[keep]
-    if agg_c.size == 0:
-        return agg, np.full(agg.shape, np.inf), last
+    if agg_c.size == 0:  # no run of n calibration windows: no decision (as in evaluate)
+        return agg[:0], agg[:0], last[:0]
     glob = np.quantile(agg_c, 1.0 - false_alarm, method="higher")
     threshold = np.full(agg.shape, glob)
     for k in np.unique(component):
