@@ -47,6 +47,9 @@ SHIPPED = "calibrated mean log density (PitmanYorGMM.calibrate_novelty, novel_af
 PER_COMPONENT = "calibrated mean log density, per component"
 """The shipped score with one threshold per component (of the run's last window), measured against the global one."""
 
+ROBUST = "robust model refit to the test windows: a component of under 5 % training windows"
+"""The robust model's own answer (``novelty_rows(agreement=True)``): is the window in a new component once refitted?"""
+
 RULES = (
     SHIPPED,
     PER_COMPONENT,
@@ -229,6 +232,7 @@ def novelty_rows(
     seed: int = 0,
     n_components: int = 3,
     split: tuple[float, float] = SPLIT,
+    agreement: bool = False,
     **fit: Any,
 ) -> list[dict[str, Any]]:
     """Return one row per (rule, N): recall and false alarms pooled over the source's withheld sets.
@@ -237,6 +241,10 @@ def novelty_rows(
     Source ``bundled-new-session``: the bundled surfaces recorded in two sessions; session 0 is
     split into training and calibration windows (``split``'s ratio), every window of session 1 is
     a test window (known surfaces in a session the model has not seen).
+    ``agreement``: also refit the mixture to the training and test windows together (what the robot
+    would fit after meeting the withheld surfaces) and add the row :data:`ROBUST`: a test window is
+    new when its component of the refit holds under 5 % training windows; its decisions column
+    gives the share of test windows on which it agrees with the shipped rule (N = 1).
     ``fit``: keyword arguments of :class:`~tactile_torch.mixture.PitmanYorGMM` (``n_iter``, ...).
     """
     from ..mixture import PitmanYorGMM
@@ -271,6 +279,15 @@ def novelty_rows(
             decided = model.novel_after(X[test], n, groups=rec[test])
             keep = np.isfinite(window_means(np.zeros(int(test.sum())), n, rec[test]))  # runs of n
             pooled.setdefault((SHIPPED, n), []).append((decided[keep], new[test][keep]))
+        if agreement:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)
+                refit = PitmanYorGMM(random_state=seed, progress=False, **fit).fit(X[train | test])
+            labels, in_train = refit.labels_, train[train | test]
+            share = np.bincount(labels, weights=in_train) / np.bincount(labels)
+            robust = (share < 0.05)[labels][~in_train]  # the test windows, in order
+            shipped = model.novel_after(X[test], 1, groups=rec[test])
+            pooled.setdefault((ROBUST, 1), []).append((robust, new[test], robust == shipped))
         score = model.novelty_score(X)
         component = np.argmax(model._point_scores(X)[0], axis=1)  # most likely known component
         for n in windows:
@@ -290,6 +307,11 @@ def novelty_rows(
         is_new = np.concatenate([p[1] for p in parts])
         if not is_new.any() or is_new.all():
             continue
+        agree = (
+            f"; agrees with the shipped rule on {np.concatenate([p[2] for p in parts]).mean():.3f}"
+            if rule == ROBUST
+            else ""
+        )
         rows.append(
             {
                 "source": name,
@@ -297,7 +319,7 @@ def novelty_rows(
                 "N": n,
                 "recall": round(float(decided[is_new].mean()), 3),
                 "false alarms": round(float(decided[~is_new].mean()), 4),
-                "decisions (new / known)": f"{int(is_new.sum())} / {int((~is_new).sum())}",
+                "decisions (new / known)": f"{int(is_new.sum())} / {int((~is_new).sum())}{agree}",
             }
         )
     return rows
@@ -324,7 +346,12 @@ def _main(argv: list[str] | None = None) -> None:
     parser.add_argument("--burn-in", type=int, default=250)
     parser.add_argument("--chains", type=int, default=2)
     parser.add_argument("--components", type=int, default=3, help="principal components of the features")
-    parser.add_argument("--rules", nargs="*", default=list(RULES), help="rules to report (names of RULES)")
+    parser.add_argument(
+        "--rules", nargs="*", default=[*RULES, ROBUST], help="rules to report (names of RULES, ROBUST)"
+    )
+    parser.add_argument(
+        "--agreement", action="store_true", help="also refit to the test windows: the robust model's answer"
+    )
     args = parser.parse_args(argv)
     first = True
     for name in args.only:
@@ -337,6 +364,7 @@ def _main(argv: list[str] | None = None) -> None:
             n_chains=args.chains,
             n_components=args.components,
             split=tuple(args.split),
+            agreement=args.agreement,
         )
         if first:
             print("| " + " | ".join(rows[0]) + " |")
