@@ -1,7 +1,7 @@
 """NumPy/SciPy reference of method 1 (tactile-image features), written the way a researcher would.
 
 One exploration at a time, one frame at a time, with ``scipy.ndimage`` (erosion, Sobel),
-``scipy.stats`` (moments) and ``numpy.percentile``. Used by ``tests/test_image.py`` for equivalence
+``scipy.stats`` (moments) and ``numpy.percentile``. Used by ``tests/image/test_image.py`` for equivalence
 and by ``bench/bench_image.py`` as the baseline. Conventions (see ``tactile_torch.image``): erosion with
 ``border_value=1`` (MATLAB ``imerode``), scipy's origin for even squares; Sobel in scipy's default
 'reflect' mode, unnormalised; edges where the Sobel magnitude exceeds 0.5; ``A = atan2(gy, gx)`` with

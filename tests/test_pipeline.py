@@ -23,8 +23,7 @@ from tactile_torch.pipeline import (
 from tactile_torch.robot.model_file import load_model_file
 from tactile_torch.robot.runtime import OnnxPipeline
 from tactile_torch.training import load_features, save_model, train_classifier
-
-from .conftest import require_shared_data, run_without_torch
+from tests.conftest import require_shared_data, run_without_torch
 
 
 def _assert_parity(
@@ -334,8 +333,7 @@ def test_a_header_is_checked_against_its_graph(tmp_path, vibration_npz):
 def test_out_of_distribution_windows_are_unknown_in_predict_and_stream(tmp_path, vibration_npz, capsys):
     """A pure tone through `predict` and through `stream` over a pty: "unknown" with the reason."""
     from tactile_torch.robot.stream import format_sample
-
-    from .stream_helpers import PtySensor
+    from tests.stream_helpers import PtySensor
 
     _, _, model_path = _trained(tmp_path, vibration_npz, "svm", window=400)
     onnx_path = tmp_path / "svm.onnx"

@@ -39,7 +39,7 @@ def float32(value: float) -> float:
 
 def gray_float32(colours: np.ndarray) -> np.ndarray:
     """The float32 gray of uint8 colours ``(n, 3)``, with :func:`._kernels._gray`'s operations in its
-    order (``tests/test_image.py`` checks that both agree on all 2^24 colours)."""
+    order (``tests/image/test_image.py`` checks that both agree on all 2^24 colours)."""
     x = colours.astype(np.float32) / np.float32(255.0)
     gray = x[:, 0] * np.float32(GRAY_WEIGHTS[0])
     gray += x[:, 1] * np.float32(GRAY_WEIGHTS[1])

@@ -4,7 +4,7 @@ Vehtari, Gelman, Simpson, Carpenter & Bürkner (2021), "Rank-normalization, fold
 localization: an improved R-hat for assessing convergence of MCMC", Bayesian Analysis 16(2). The
 computations follow ArviZ's (``arviz_stats`` 0.8, ``rhat(method="rank")``, ``ess(method="bulk")``,
 ``ess(method="tail", prob=(0.05, 0.95))``) step by step, so that the numbers are the ones ArviZ
-users know; ``tests/test_mixture.py`` checks them against values computed with ArviZ. Ties (the
+users know; ``tests/mixture/test_mixture.py`` checks them against values computed with ArviZ. Ties (the
 number of clusters K is an integer) get average ranks, as in ArviZ.
 """
 

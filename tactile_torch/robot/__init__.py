@@ -2,7 +2,7 @@
 
 Every module of this package imports only the standard library, numpy, and (inside the functions that
 need them) onnxruntime and pyserial: the runtime install (``pip install tactile-torch``) runs it, and
-``tests/test_robot_package.py`` fails if any of its modules imports torch, scikit-learn, scipy or numba.
+``tests/robot/test_package.py`` fails if any of its modules imports torch, scikit-learn, scipy or numba.
 The training side (:mod:`tactile_torch.training`, the exporters) imports from here, never the other way.
 
 The package's API is declared the project's one way (:func:`tactile_torch._exports.lazy_exports`, standard

@@ -1,5 +1,5 @@
 """The serial stream reader: windows, and every fault of a real line (docs/stream.md), over files,
-pyserial's loop:// and a pseudo-terminal. The CLI over a pty is in test_stream_cli.py."""
+pyserial's loop:// and a pseudo-terminal. The CLI over a pty is in tests/cli/test_stream.py."""
 
 import io
 import math
@@ -22,8 +22,7 @@ from tactile_torch.robot.stream import (
     sensor_range_g,
     simulate_sensor,
 )
-
-from .stream_helpers import PtySensor
+from tests.stream_helpers import PtySensor
 
 
 def _recording(n, seed=0):

@@ -15,8 +15,7 @@ from tactile_torch.cli import BAD_INPUT_EXIT, TRAIN_MODULES, main
 from tactile_torch.cli import train as train_command
 from tactile_torch.data import make_vibration_recordings
 from tactile_torch.robot.runtime import OnnxPipeline, sensor_range_g
-
-from .conftest import run_without_torch
+from tests.conftest import run_without_torch
 
 
 @pytest.fixture(scope="module")
@@ -352,7 +351,7 @@ def test_commands_that_need_the_training_extra_say_so(files):
 
 
 def test_train_modules_match_the_train_extra():
-    pyproject = tomllib.loads((Path(__file__).resolve().parents[1] / "pyproject.toml").read_text())
+    pyproject = tomllib.loads((Path(__file__).resolve().parents[2] / "pyproject.toml").read_text())
     project = pyproject["project"]
     module_of = {"scikit-learn": "sklearn"}
 
@@ -728,7 +727,7 @@ def test_library_error_messages_name_no_command_line_option():
     def texts(node):
         return [n.value for n in ast.walk(node) if isinstance(n, ast.Constant) and isinstance(n.value, str)]
 
-    root = Path(__file__).resolve().parents[1] / "tactile_torch"
+    root = Path(__file__).resolve().parents[2] / "tactile_torch"
     found = []
     for path in root.rglob("*.py"):
         if "cli" in path.relative_to(root).parts or path.parent.name == "studies":

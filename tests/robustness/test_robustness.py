@@ -429,7 +429,7 @@ def test_drift_positions_outside_the_recording_are_an_error():
 def test_docs_list_every_factor():
     from pathlib import Path
 
-    text = (Path(__file__).resolve().parents[1] / "docs" / "robustness.md").read_text()
+    text = (Path(__file__).resolve().parents[2] / "docs" / "robustness.md").read_text()
     for f in FACTORS:
         assert f"| {f.name} |" in text, f.name
 

@@ -11,8 +11,7 @@ import pytest
 from tactile_torch.robot.runtime import OnnxPipeline
 from tactile_torch.robot.stream import Window, WindowReader, format_sample
 from tactile_torch.robot.stream_output import WindowVote, classify_windows, result_json, result_text
-
-from .stream_helpers import axis_recording, energy_bundle, expected_axis
+from tests.stream_helpers import axis_recording, energy_bundle, expected_axis
 
 
 @pytest.fixture(scope="module")

@@ -36,8 +36,7 @@ from tactile_torch.tradeoff.transformers import (
     relative_erosion,
     taxel_features,
 )
-
-from .conftest import require_shared_data
+from tests.conftest import require_shared_data
 
 
 @pytest.fixture(scope="module")
@@ -358,7 +357,7 @@ def test_tradeoff_command_on_vibration_recordings(tmp_path, capsys):
     np.testing.assert_array_equal(again.predict(windows), pipe.predict(windows))
 
 
-@pytest.mark.slow  # ~27 s: the sweeps themselves are tested in test_robustness.py; keeps make test near 10 min
+@pytest.mark.slow  # ~27 s: the sweeps themselves are tested in tests/robustness/test_robustness.py; keeps make test near 10 min
 def test_tradeoff_command_writes_the_breaking_points(tmp_path, capsys):
     """The recommended and the study's model swept by tactile_torch.robustness: table and charts in DIR."""
     rec = make_vibration_recordings(3, duration_s=6, n_sessions=2, random_state=5)

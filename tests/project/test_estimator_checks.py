@@ -9,7 +9,7 @@ they run the API checks that need no fit on such data (clone, ``get_params``/``s
 nothing set in ``__init__``, tags, repr, and ``check_param_validation``, which needs only that the
 constraint table is checked before the data), and every other check is reported as skipped with
 that reason. Their behaviour on real inputs (fit, determinism, ``NotFittedError``) is tested in
-their own modules' tests (``test_neural.py``, ``test_tradeoff*.py``).
+their own modules' tests (``tests/neural/``, ``tests/tradeoff/``).
 
 Small settings keep this file fast (few iterations, one epoch): the checks test conventions, not
 accuracy.
@@ -48,7 +48,7 @@ from tactile_torch.tradeoff.transformers import (
 _PROBA_DISAGREES = (
     "predict_proba's sigmoids come from an internal cross-validation while predict keeps the decision "
     "values (as in scikit-learn's SVC(probability=True)): the check's argmax(predict_proba) == predict fails "
-    "on a sample near a boundary (1 of 300 here); agreement is tested in test_svm_probability.py's "
+    "on a sample near a boundary (1 of 300 here); agreement is tested in tests/svm/test_probability.py's "
     "test_probabilities_are_distributions_close_to_the_decisions"
 )
 
@@ -90,7 +90,7 @@ _STEP = dict.fromkeys(
 _NOT_WINDOW_FEATURES = (
     "fits on generated matrices of arbitrary width; features='window' requires the 21 window features "
     "(the same check passes with features='passthrough', which shares every line of the estimator but "
-    "that feature map; the window mode's own behaviour is tested in tests/test_signal.py)"
+    "that feature map; the window mode's own behaviour is tested in tests/signal/test_signal.py)"
 )
 MATRIX_XFAILS: dict[str, dict[str, str]] = {
     "ClusteringTransform-window": dict.fromkeys(

@@ -17,9 +17,8 @@ from tactile_torch.mixture import (
     pitman_yor_prior_k,
 )
 from tactile_torch.mixture._gibbs import conditionals, densities, linalg
-
-from .mixture_data import PYP, blobs
-from .reference_mixture import reference_gibbs
+from tests.mixture_data import PYP, blobs
+from tests.reference_mixture import reference_gibbs
 
 # Short chains in these tests: their R-hat warnings are expected, not failures.
 pytestmark = pytest.mark.filterwarnings("ignore:PitmanYorGMM. R-hat:RuntimeWarning")

@@ -25,8 +25,7 @@ from tactile_torch.robot.formats import (
 from tactile_torch.robot.npz import read_npz, write_npz
 from tactile_torch.robot.windows import window_recordings
 from tactile_torch.signal import sliding_windows
-
-from .conftest import require_shared_data, run_without_torch
+from tests.conftest import require_shared_data, run_without_torch
 
 
 def _recordings(lengths=(500, 800), seed=0):

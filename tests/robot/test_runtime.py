@@ -8,9 +8,8 @@ import numpy as np
 import pytest
 
 from tactile_torch.robot.runtime import OnnxPipeline
-
-from .conftest import run_without_torch
-from .stream_helpers import energy_bundle
+from tests.conftest import run_without_torch
+from tests.stream_helpers import energy_bundle
 
 
 @pytest.fixture(scope="module")

@@ -51,7 +51,7 @@ def test_bench_writes_under_out_and_not_into_the_checkout(monkeypatch, tmp_path,
 
 
 def test_bench_runner_takes_out(tmp_path):
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
     try:
         from bench import run
     finally:

@@ -15,8 +15,7 @@ from tactile_torch.robot.model_file import (
     save_model_file,
     validate_model,
 )
-
-from .conftest import run_without_torch
+from tests.conftest import run_without_torch
 
 
 class _RunsCode:

@@ -17,8 +17,7 @@ from tactile_torch import image
 from tactile_torch._onnx import export_onnx, run_onnx
 from tactile_torch.data.images import make_explorations
 from tactile_torch.image import _integer_cut, _kernels, _scheduler
-
-from . import reference_image as ref
+from tests import reference_image as ref
 
 # The project's tolerances: float64 1e-10; float32 1e-5 relative (plus 1e-5 absolute for features near 0,
 # e.g. a direction mean of 0.004 that sums thousands of values up to pi in float32).

@@ -17,12 +17,11 @@ import serial
 
 from tactile_torch.cli import STREAM_DISCONNECTED_EXIT, STREAM_NO_DATA_EXIT, main
 from tactile_torch.robot.stream import format_sample, parse_line
-
-from .conftest import _NO_TORCH
-from .stream_helpers import PtySensor, axis_recording, energy_bundle, expected_axis
+from tests.conftest import _NO_TORCH
+from tests.stream_helpers import PtySensor, axis_recording, energy_bundle, expected_axis
 
 W, RATE = 16, 800.0
-DOCS = Path(__file__).resolve().parents[1] / "docs" / "stream.md"
+DOCS = Path(__file__).resolve().parents[2] / "docs" / "stream.md"
 
 
 @pytest.fixture(scope="module")

@@ -1,8 +1,8 @@
 """Tests of tactile_torch.mixture's estimator (PitmanYorGMM): degenerate data, reproducibility, point
 estimates, posterior predictive, diagnostics against ArviZ, scikit-learn conventions and errors.
 
-The compiled Gibbs sampler is tested in test_mixture_sampler.py, the clustering report section in
-test_studies_clustering.py, the cluster command in test_cli_cluster.py, novelty discovery in test_discovery.py."""
+The compiled Gibbs sampler is tested in tests/mixture/test_sampler.py, the clustering report section in
+tests/studies/test_clustering.py, the cluster command in tests/cli/test_cluster.py, novelty discovery in tests/robot/test_discovery.py."""
 
 from __future__ import annotations
 
@@ -31,8 +31,7 @@ from tactile_torch.mixture import (
     rhat,
     variation_of_information,
 )
-
-from .mixture_data import PYP, blobs
+from tests.mixture_data import PYP, blobs
 
 # Short chains in these tests: their R-hat warnings are expected, not failures.
 pytestmark = pytest.mark.filterwarnings("ignore:PitmanYorGMM. R-hat:RuntimeWarning")

@@ -6,8 +6,7 @@ import numpy as np
 import pytest
 
 from tactile_torch.metrics import pairwise_accuracy
-
-from .mixture_data import blobs
+from tests.mixture_data import blobs
 
 # Short chains in these tests: their R-hat warnings are expected, not failures.
 pytestmark = pytest.mark.filterwarnings("ignore:PitmanYorGMM. R-hat:RuntimeWarning")
