@@ -6,6 +6,18 @@ report is :mod:`tactile_torch.studies.clustering`). :func:`fit_clustering` turns
 windows, their features (:func:`tactile_torch.training.load_features`), then the fitted
 :class:`~tactile_torch.signal.ClusteringTransform` and its principal components; a ``features``
 array as it is) and fits :class:`~tactile_torch.mixture.PitmanYorGMM` to it.
+
+**Calibration of the novelty rule.** Recordings: the last ``calibrate`` share (default 20 %) of
+each recording's windows is held out of the fit (and of the transform), and the mixture's novelty
+thresholds are set on them (:meth:`~tactile_torch.mixture.PitmanYorGMM.calibrate_novelty`: the
+``1 - false_alarm`` quantile of the novelty score, minus the log density, per number of
+consecutive windows N = 1 … 10), so that the exported graph's ``novel`` output and ``tactile-torch
+stream --discover N`` decide at a false-alarm rate set on windows the fit did not see. A feature
+matrix is calibrated only when ``calibrate`` is given (a random hold-out: its rows have no time
+order). **Per-session standardisation** (``sessions=True``) standardises the components within
+each recording session (:func:`tactile_torch.signal.sessions.standardise_per_session`); such a
+model cannot be exported (the robot cannot standardise a session it has not seen).
+
 :func:`write_clustering` writes the results into a directory: ``clustering.npz`` (the point estimate,
 the MAP sample, the posterior samples of K and of the prior's parameters), ``model.npz`` (the model
 file :func:`tactile_torch.clustering_model.save_clustering_model` writes, for ``tactile-torch export``) and
@@ -15,7 +27,7 @@ file :func:`tactile_torch.clustering_model.save_clustering_model` writes, for ``
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -44,6 +56,13 @@ class Clustering:
         How a row is made from raw input (the model file's ``source``).
     transform : ClusteringTransform or None
         Vibration windows: the fitted features-to-components transform.
+    fitted_rows, calibration_rows : ndarray of int
+        Rows of ``X`` the mixture (and the transform) were fitted to, and the held-out rows its
+        novelty thresholds were calibrated on (empty: not calibrated), in time order per recording.
+    per_session : bool
+        ``X`` was standardised within each recording session.
+    false_alarm : float or None
+        The false-alarm rate the thresholds were calibrated for (None: not calibrated).
     """
 
     mixture: object
@@ -51,6 +70,52 @@ class Clustering:
     truth: np.ndarray | None
     source: dict
     transform: object | None = None
+    fitted_rows: np.ndarray | None = None
+    calibration_rows: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    per_session: bool = False
+    false_alarm: float | None = None
+
+    def __post_init__(self) -> None:
+        if self.fitted_rows is None:
+            self.fitted_rows = np.arange(len(self.X))
+
+
+DEFAULT_CALIBRATE = 0.2
+"""Share of each recording's windows held out of the fit to calibrate the novelty thresholds."""
+MAX_WINDOWS = 10
+"""Thresholds are calibrated for decisions after N = 1 … ``MAX_WINDOWS`` consecutive windows."""
+
+
+def holdout_rows(
+    n_rows: int,
+    share: float,
+    *,
+    recording: np.ndarray | None = None,
+    position: np.ndarray | None = None,
+    random_state: object = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Return (fitted rows (sorted), held-out rows) as int arrays: the last ``share`` of each recording, or a random share.
+
+    With ``recording`` and ``position`` (windows of recordings), the held-out rows are the last
+    ``round(share * n)`` windows of each recording of ``n`` windows (later in time than every fitted
+    window of it), ordered by recording then position. Without, ``round(share * n_rows)`` rows drawn
+    at random (``random_state``), sorted.
+    """
+    from .robot.checks import numpy_rng
+
+    if not (isinstance(share, int | float) and not isinstance(share, bool) and 0.0 < share < 1.0):
+        raise ValueError(f"calibrate must be a share in (0, 1), got {share!r}")
+    held = np.zeros(n_rows, dtype=bool)
+    if recording is None:
+        pick = numpy_rng(random_state).choice(n_rows, size=round(share * n_rows), replace=False)
+        held[pick] = True
+        return np.flatnonzero(~held), np.flatnonzero(held)
+    order = np.lexsort((position, recording))
+    for r in np.unique(recording):
+        idx = order[recording[order] == r]
+        held[idx[idx.size - round(share * idx.size) :]] = True
+    held_rows = order[held[order]]  # recording-major, in time order
+    return np.flatnonzero(~held), held_rows
 
 
 def fit_clustering(
@@ -62,6 +127,9 @@ def fit_clustering(
     sensor_range_g: float | None = None,
     name: str = "data",
     log: Callable[[str], None] | None = None,
+    calibrate: float | None = None,
+    false_alarm: float = 0.02,
+    sessions: bool = False,
     **mixture_params,
 ) -> Clustering:
     """Return the clustering of ``data``: its rows, and the mixture fitted to them.
@@ -82,6 +150,16 @@ def fit_clustering(
         How messages name the data.
     log : callable, optional
         Called with one line once the rows are ready, before the (long) fit.
+    calibrate : float, optional
+        Share of the rows held out of the fit to calibrate the novelty thresholds on: the last
+        ``calibrate`` of each recording's windows (default for recordings: 0.2,
+        :data:`DEFAULT_CALIBRATE`), or for a feature matrix a random share (default: none, no
+        calibration; the draw uses ``random_state``). ``0``: no hold-out, the model's own rule.
+    false_alarm : float
+        Target share of novel decisions on windows of known surfaces: the thresholds are the
+        ``1 - false_alarm`` quantiles on the held-out rows.
+    sessions : bool
+        Vibration recordings with sessions: standardise the components within each session.
     **mixture_params
         Passed to :class:`~tactile_torch.mixture.PitmanYorGMM` (``model``, ``coarsen``, ``alpha``,
         ``n_iter``, ``random_state``, ``progress``, ...), which validates them at ``fit``.
@@ -89,14 +167,23 @@ def fit_clustering(
     Raises
     ------
     ValueError
-        ``data`` of another kind (images), or data and parameters the readers or the mixture refuse.
+        ``data`` of another kind (images), ``sessions`` without recordings in several sessions, a
+        hold-out that leaves no row to fit or to calibrate, or data and parameters the readers or
+        the mixture refuse.
     """
     from .mixture import PitmanYorGMM
 
+    if isinstance(false_alarm, bool) or not (isinstance(false_alarm, int | float) and 0 < false_alarm < 1):
+        raise ValueError(f"false_alarm must be a number in (0, 1), got {false_alarm!r}")
     transform = None
     if data.kind == "features":  # labels optional: clustering does not need them
+        if sessions:
+            raise ValueError(
+                f"{name}: sessions needs vibration recordings with sessions, got a feature matrix"
+            )
         X, truth = data.features, data.labels
         source = {"kind": "features", "n_features": int(X.shape[1])}
+        rows = _holdout(len(X), calibrate, None, None, mixture_params.get("random_state"), name)
     elif data.kind == "vibration":
         from .signal import ClusteringTransform
         from .training import load_features
@@ -105,17 +192,64 @@ def fit_clustering(
         truth, source = features.y, dict(features.source)
         if sensor_range_g is not None and sensor_range_g != float("inf"):
             source["sensor_range_g"] = float(sensor_range_g)
-        transform = ClusteringTransform(components).fit(features.X)
-        X = transform.transform(features.X)
+        share = DEFAULT_CALIBRATE if calibrate is None else calibrate
+        rows = _holdout(len(features.X), share, features.recording, features.position, None, name)
+        transform = ClusteringTransform(components).fit(features.X[rows[0]])
+        X = np.asarray(transform.transform(features.X))
+        if sessions:
+            X = _standardise_sessions(X, data, features.recording, name)
         if log is not None:
-            log(f"{name}: {len(X)} windows of {window} samples -> {X.shape[1]} principal components")
+            held = f", {rows[1].size} held out to calibrate the novelty rule" if rows[1].size else ""
+            log(f"{name}: {len(X)} windows of {window} samples -> {X.shape[1]} principal components{held}")
     else:
         raise ValueError(
             f"{name}: data must hold vibration recordings ('signals') or a 'features' array (n, D) to "
             f"cluster, got {data.kind} data"
         )
-    mixture = PitmanYorGMM(**mixture_params).fit(X)
-    return Clustering(mixture, X, truth, source, transform)
+    fitted, held = rows
+    mixture = PitmanYorGMM(**mixture_params).fit(X[fitted])
+    rate = None
+    if held.size:
+        groups = None if data.kind == "features" else features.recording[held]
+        mixture.calibrate_novelty(X[held], false_alarm=false_alarm, max_windows=MAX_WINDOWS, groups=groups)
+        rate = float(false_alarm)
+    return Clustering(mixture, X, truth, source, transform, fitted, held, bool(sessions), rate)
+
+
+def _holdout(n_rows, share, recording, position, random_state, name) -> tuple[np.ndarray, np.ndarray]:
+    """(fitted rows, held-out rows): every row fitted when ``share`` is None or 0."""
+    if share is None or (share == 0 and not isinstance(share, bool)):
+        return np.arange(n_rows), np.zeros(0, dtype=np.int64)
+    if isinstance(share, bool) or not (isinstance(share, int | float) and 0 < share < 1):
+        raise ValueError(f"calibrate must be 0 (no hold-out) or a share in (0, 1), got {share!r}")
+    fitted, held = holdout_rows(
+        n_rows, share, recording=recording, position=position, random_state=random_state
+    )
+    if fitted.size < 2 or held.size < 1:
+        raise ValueError(
+            f"{name}: holding out {share:g} of the {n_rows} rows to calibrate the novelty rule leaves "
+            f"{fitted.size} to fit and {held.size} to calibrate; pass another share (calibrate=) or 0"
+        )
+    return fitted, held
+
+
+def _standardise_sessions(X: np.ndarray, data, recording: np.ndarray, name: str) -> np.ndarray:
+    """``X`` standardised within each recording session; refuse data without several sessions of several recordings."""
+    from .signal.sessions import standardise_per_session
+
+    session = None if data.session is None else np.asarray(data.session)
+    if session is None or np.unique(session).size < 2:
+        raise ValueError(
+            f"{name}: sessions needs recordings of at least two sessions (a 'session' array, or CSV "
+            "logs named <class>_<session>.csv), got "
+            + ("none" if session is None else f"one ({session[0]!r})")
+        )
+    if all(np.count_nonzero(session == s) == 1 for s in np.unique(session)):
+        raise ValueError(
+            f"{name}: every session holds one recording; standardising within it would remove what "
+            "tells its surface from the others (sessions must each hold the same mix of surfaces)"
+        )
+    return standardise_per_session(X, session[recording])
 
 
 def clustering_summary(clustering: Clustering) -> str:
@@ -124,7 +258,11 @@ def clustering_summary(clustering: Clustering) -> str:
 
     model, truth = clustering.mixture, clustering.truth
     summary = model.summary()
+    line = novelty_line(clustering)
+    if line:
+        summary += "\n" + line
     if truth is not None:
+        truth = np.asarray(truth)[clustering.fitted_rows]
         summary += (
             f"\npairwise accuracy: point estimate {pairwise_accuracy(truth, model.labels_):.4f}, "
             f"MAP sample {pairwise_accuracy(truth, model.map_labels_):.4f}"
@@ -132,12 +270,27 @@ def clustering_summary(clustering: Clustering) -> str:
     return summary
 
 
+def novelty_line(clustering: Clustering) -> str:
+    """Return one line on the calibrated novelty thresholds ("" when not calibrated)."""
+    t = clustering.mixture.novelty_thresholds_
+    if t is None or clustering.false_alarm is None:
+        return ""
+    after = ", ".join(f"{n} windows {t[n - 1]:.4g}" for n in (3, 5, 10) if n <= t.size)
+    return (
+        f"novelty: a window is novel when its score (minus its log density) exceeds {t[0]:.4g}, set for "
+        f"{clustering.false_alarm:.1%} false alarms on the {clustering.calibration_rows.size} held-out "
+        f"windows; the mean over N windows (stream --discover N): {after}"
+    )
+
+
 def write_clustering(out_dir: str | Path, clustering: Clustering) -> dict[str, Path]:
     """Write the results of ``clustering`` into ``out_dir`` (made if missing); return the paths by role.
 
-    The roles are ``"results"`` (``clustering.npz``: ``labels``, ``map_labels``, ``means``,
-    ``covariances``, ``precisions_cholesky``, ``weights``, ``n_clusters_samples``,
-    ``n_clusters_interval``, ``alpha_samples``, ``discount_samples``), ``"summary"``
+    The roles are ``"results"`` (``clustering.npz``: ``labels``, ``map_labels`` (of the fitted
+    rows), ``means``, ``covariances``, ``precisions_cholesky``, ``weights``, ``n_clusters_samples``,
+    ``n_clusters_interval``, ``alpha_samples``, ``discount_samples``, ``fitted_rows`` and
+    ``calibration_rows`` (indices of the data's rows), ``novelty_thresholds`` (``(N,)``, empty when
+    not calibrated), ``per_session``), ``"summary"``
     (``summary.txt``) and ``"model"`` (``model.npz``, for ``tactile-torch export``).
     """
     from .clustering_model import save_clustering_model
@@ -146,6 +299,7 @@ def write_clustering(out_dir: str | Path, clustering: Clustering) -> dict[str, P
     out.mkdir(parents=True, exist_ok=True)
     model = clustering.mixture
     ks = model.n_clusters_summary_
+    thresholds = model.novelty_thresholds_
     np.savez(
         out / RESULTS_FILE,
         labels=model.labels_,
@@ -158,7 +312,23 @@ def write_clustering(out_dir: str | Path, clustering: Clustering) -> dict[str, P
         n_clusters_interval=np.array(ks["interval"]),
         alpha_samples=model.alpha_samples_,
         discount_samples=model.discount_samples_,
+        fitted_rows=clustering.fitted_rows,
+        calibration_rows=clustering.calibration_rows,
+        novelty_thresholds=np.zeros(0) if thresholds is None else thresholds,
+        per_session=np.array(clustering.per_session),
     )
-    save_clustering_model(out / MODEL_FILE, model, source=clustering.source, transform=clustering.transform)
+    save_clustering_model(
+        out / MODEL_FILE,
+        model,
+        source=clustering.source,
+        transform=clustering.transform,
+        per_session=clustering.per_session,
+        novelty={
+            "false_alarm": clustering.false_alarm,
+            "calibration_rows": int(clustering.calibration_rows.size),
+        }
+        if clustering.false_alarm is not None
+        else None,
+    )
     (out / SUMMARY_FILE).write_text(clustering_summary(clustering) + "\n")
     return {"results": out / RESULTS_FILE, "summary": out / SUMMARY_FILE, "model": out / MODEL_FILE}

@@ -22,6 +22,8 @@ def save_clustering_model(
     *,
     source: dict,
     transform: nn.Module | None = None,
+    per_session: bool = False,
+    novelty: dict | None = None,
 ) -> Path:
     """Write a fitted :class:`~tactile_torch.mixture.PitmanYorGMM` (and the transform before it) to a model file.
 
@@ -40,6 +42,12 @@ def save_clustering_model(
         ``{"kind": "features", "n_features"}``.
     transform : ClusteringTransform, optional
         Required for ``kind="vibration"``.
+    per_session : bool
+        The mixture was fitted to features standardised within each session (recorded as the
+        header's ``per_session``; such a model cannot be exported).
+    novelty : dict, optional
+        How the novelty thresholds were calibrated (``false_alarm``, ``calibration_rows``), kept
+        in the header's ``novelty``; the thresholds themselves are the head's ``novelty_thresholds``.
     """
     if source.get("kind") == "vibration" and transform is None:
         raise ValueError("a vibration clustering needs the fitted ClusteringTransform (transform=)")
@@ -56,6 +64,10 @@ def save_clustering_model(
             k: (list(v) if isinstance(v, tuple) else v) for k, v in mixture.n_clusters_summary_.items()
         },
     }
+    if per_session:
+        header["per_session"] = True
+    if novelty is not None:
+        header["novelty"] = dict(novelty)
     arrays = {f"head.{name}": buf.numpy() for name, buf in module.named_buffers()}
     if transform is not None:
         header["transform"] = {

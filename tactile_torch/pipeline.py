@@ -226,6 +226,9 @@ def pipeline_from_model(
     5 g, the ADXL345 of the study) is the sensor's range, kept in the metadata (``sensor_range_g``):
     ``tactile-torch predict`` does not classify windows holding a sample beyond it and ``stream``
     rejects such samples. It must be finite and > 0.
+
+    A clustering fitted to features standardised per session (header ``per_session``) is refused
+    with ``ValueError``: the robot cannot standardise a session it has not seen.
     """
     if isinstance(model, str | Path):
         model = load_model_file(model)
@@ -317,6 +320,11 @@ def _svm_head(settings: dict, arrays: dict[str, np.ndarray]) -> nn.Module:
 def _clustering_pipeline(model: ModelFile, sensor_range_g: float | None) -> InferencePipeline:
     from .mixture import GaussianMixtureClassifier
 
+    if model.header.get("per_session"):
+        raise ValueError(
+            f"{model.path or 'model'}: fitted to features standardised per session, which a robot cannot "
+            "do for a session it has not seen; cluster without per-session standardisation to export"
+        )
     state = model.part("head")
     head = GaussianMixtureClassifier(
         state["means"],
@@ -340,12 +348,27 @@ def _clustering_pipeline(model: ModelFile, sensor_range_g: float | None) -> Infe
     meta["method"] = "pyp"
     if head.novelty_thresholds.shape[0]:  # calibrated: thresholds of the mean novelty over N windows
         meta[NOVELTY_THRESHOLDS_KEY] = [float(t) for t in head.novelty_thresholds]
+        how = model.header.get("novelty") or {}
+        calibrated = (
+            f", set for {how['false_alarm']:.1%} false alarms on {how['calibration_rows']} held-out windows"
+            if how
+            else ""
+        )
+        meta["novelty_rule"] = (
+            f"output 'novel' flags windows whose 'novelty' (minus the log density) exceeds "
+            f"{float(head.novelty_thresholds[0]):.4g}{calibrated}; stream --discover N compares the mean "
+            f"of the last N with threshold N of {NOVELTY_THRESHOLDS_KEY}"
+        )
+    else:
+        meta["novelty_rule"] = (
+            "output 'novel' flags windows that a new component explains better than every known one "
+            "(not calibrated)"
+        )
     k = int(np.asarray(state["means"]).shape[0])
     ks = model.header.get("k_summary")
     meta["k_exported"] = f"K = {k} components: the point estimate of the clustering" + (
         f" (posterior of K: mode {ks['mode']}, median {ks['median']:g}, 95% interval "
-        f"[{ks['interval'][0]:g}, {ks['interval'][1]:g}]; MAP sample K = {ks['map']}); output 'novel' flags "
-        "windows that a new component explains better"
+        f"[{ks['interval'][0]:g}, {ks['interval'][1]:g}]; MAP sample K = {ks['map']})"
         if ks
         else " of an older model file (its MAP sample)"
     )

@@ -58,7 +58,10 @@ def test_recordings_go_through_windows_features_and_components(tmp_path):
     n = len(clustering.X)
     assert clustering.X.shape == (n, 2) and clustering.truth.shape == (n,)
     assert clustering.source["kind"] == "vibration" and clustering.source["sensor_range_g"] == 8.0
-    assert lines == [f"rec.npz: {n} windows of 400 samples -> 2 principal components"]
+    assert lines == [
+        f"rec.npz: {n} windows of 400 samples -> 2 principal components, 3 held out to calibrate the "
+        "novelty rule"
+    ]
 
 
 def test_images_cannot_be_clustered(tmp_path):
@@ -66,3 +69,93 @@ def test_images_cannot_be_clustered(tmp_path):
     np.savez(tmp_path / "i.npz", frames=frames, labels=np.array([0, 1]), class_names=np.array(["a", "b"]))
     with pytest.raises(ValueError, match=r"i\.npz: data must hold vibration recordings"):
         fit_clustering(read_source([tmp_path / "i.npz"]), name="i.npz", **FAST)
+
+
+# ------------------------------------------------------------------------------------------------
+# the novelty rule's calibration (held-out windows) and per-session standardisation
+# ------------------------------------------------------------------------------------------------
+def test_holdout_rows_are_the_last_share_of_each_recording_or_a_random_share():
+    from tactile_torch.clustering import holdout_rows
+
+    recording = np.array([1, 0, 0, 1, 0, 1, 0, 0, 0, 0])
+    position = np.array([2, 4, 0, 0, 1, 1, 2, 3, 5, 6])
+    fitted, held = holdout_rows(10, 0.3, recording=recording, position=position)
+    # recording 0 (7 windows): its last 2 (positions 5, 6); recording 1 (3 windows): its last one
+    assert held.tolist() == [8, 9, 0] and fitted.tolist() == [1, 2, 3, 4, 5, 6, 7]
+    fitted, held = holdout_rows(10, 0.2, random_state=0)
+    assert held.size == 2 and np.union1d(fitted, held).tolist() == list(range(10))
+    np.testing.assert_array_equal(holdout_rows(10, 0.2, random_state=0)[1], held)
+    for bad in (0.0, 1.0, True, "0.2"):
+        with pytest.raises(ValueError, match="calibrate must be a share in"):
+            holdout_rows(10, bad)
+
+
+def test_recordings_are_calibrated_on_their_last_windows_features_only_on_request(tmp_path):
+    from tactile_torch.data.stylus import make_vibration_recordings
+    from tactile_torch.robot.model_file import load_model_file
+
+    rec = make_vibration_recordings(3, duration_s=8.0, random_state=0)
+    data = read_source([rec.save(tmp_path / "rec.npz")])
+    clustering = fit_clustering(data, window=400, components=2, **FAST)
+    n = len(clustering.X)  # 3 recordings x 16 windows: the last 3 of each held out
+    assert clustering.calibration_rows.size == 9 and clustering.fitted_rows.size == n - 9
+    assert clustering.mixture.labels_.shape == (n - 9,) and clustering.false_alarm == 0.02
+    t = clustering.mixture.novelty_thresholds_
+    assert t.shape == (10,) and np.isfinite(t).all()
+    # at most 2 % of the held-out windows are novel: with 9 windows, none (the threshold is their max)
+    assert not clustering.mixture.novel_after(clustering.X[clustering.calibration_rows], 1).any()
+    assert "novelty: a window is novel when its score (minus its log density) exceeds" in clustering_summary(
+        clustering
+    )
+    paths = write_clustering(tmp_path / "out", clustering)
+    res = np.load(paths["results"])
+    np.testing.assert_array_equal(res["calibration_rows"], clustering.calibration_rows)
+    np.testing.assert_array_equal(res["fitted_rows"], clustering.fitted_rows)
+    np.testing.assert_allclose(res["novelty_thresholds"], t)
+    assert not res["per_session"]
+    model = load_model_file(paths["model"])
+    assert model.header["novelty"] == {"false_alarm": 0.02, "calibration_rows": 9}
+    np.testing.assert_allclose(model.arrays["head.novelty_thresholds"], t, rtol=1e-6)
+    assert fit_clustering(data, window=400, components=2, calibrate=0, **FAST).calibration_rows.size == 0
+    features, _ = _features(tmp_path)
+    assert fit_clustering(features, **FAST).mixture.novelty_thresholds_ is None
+    held = fit_clustering(features, calibrate=0.2, **FAST)
+    assert held.calibration_rows.size == 9 and held.mixture.novelty_thresholds_ is not None
+    with pytest.raises(ValueError, match="leaves 45 to fit and 0 to calibrate"):
+        fit_clustering(read_source([tmp_path / "f.npz"]), calibrate=0.001, **FAST)
+    with pytest.raises(ValueError, match="false_alarm must be a number in"):
+        fit_clustering(features, false_alarm=2.0, **FAST)
+
+
+def test_per_session_models_are_recorded_and_not_exported(tmp_path, capsys):
+    from tactile_torch.cli import BAD_INPUT_EXIT, main
+    from tactile_torch.data.stylus import make_vibration_recordings
+    from tactile_torch.pipeline import pipeline_from_model
+    from tactile_torch.robot.model_file import load_model_file
+
+    rec = make_vibration_recordings(2, duration_s=4.0, n_sessions=2, random_state=0)
+    arrays = dict(signals=np.stack(rec.signals), rate_hz=rec.rate_hz, labels=rec.labels)
+    arrays["class_names"] = np.array(rec.class_names)
+    np.savez(tmp_path / "one.npz", **arrays, session=np.array(rec.session))  # "glass/0": one recording each
+    with pytest.raises(ValueError, match="every session holds one recording"):
+        fit_clustering(read_source([tmp_path / "one.npz"]), window=400, sessions=True, **FAST)
+    np.savez(tmp_path / "none.npz", **arrays)
+    with pytest.raises(ValueError, match="sessions needs recordings of at least two sessions"):
+        fit_clustering(read_source([tmp_path / "none.npz"]), window=400, sessions=True, **FAST)
+    with pytest.raises(ValueError, match="sessions needs vibration recordings"):
+        fit_clustering(_features(tmp_path)[0], sessions=True, **FAST)
+    session = np.array([s.rsplit("/", 1)[1] for s in rec.session])  # "0", "1": both surfaces in each
+    np.savez(tmp_path / "two.npz", **arrays, session=session)
+    clustering = fit_clustering(read_source([tmp_path / "two.npz"]), window=400, sessions=True, **FAST)
+    for s in ("0", "1"):  # standardised within each session
+        rows = session[np.repeat(np.arange(4), len(clustering.X) // 4)] == s
+        np.testing.assert_allclose(clustering.X[rows].mean(axis=0), 0.0, atol=1e-9)
+    model = load_model_file(write_clustering(tmp_path / "out", clustering)["model"])
+    assert model.header["per_session"] is True
+    with pytest.raises(ValueError, match="standardised per session, which a robot cannot do"):
+        pipeline_from_model(model)
+    capsys.readouterr()
+    args = ["export", "--model", str(tmp_path / "out" / "model.npz"), "--out", str(tmp_path / "m.onnx")]
+    assert main(args) == BAD_INPUT_EXIT
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "standardised per session" in err

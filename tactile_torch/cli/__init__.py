@@ -104,6 +104,9 @@ ARGUMENT_FLAGS = {
     "n_consecutive": "--discover",
     "max_iter": "--max-iter",
     "max_seconds": "--max-seconds",
+    "calibrate": "--calibrate",
+    "false_alarm": "--false-alarm",
+    "sessions": "--sessions",
     MAX_READ_ENV: "--max-read-mb",
 }
 """The library's argument names and the options that set them: the one place where an error message

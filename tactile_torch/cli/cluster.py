@@ -26,7 +26,8 @@ def register(sub) -> None:
         "the unsupervised transform -> principal components) or to a 'features' array (n, D); write the point "
         "estimate of the clustering (and the MAP sample, the posterior samples of K) to OUT/clustering.npz, a "
         "summary (posterior of K first) to OUT/summary.txt and the model to OUT/model.npz (for tactile-torch "
-        "export).",
+        "export). Recordings: the last 20 % of each recording's windows are held out of the fit and set the "
+        "novelty threshold (--calibrate, --false-alarm) that the exported graph, predict and stream --discover use.",
     )
     add_data_options(
         p,
@@ -75,6 +76,28 @@ def register(sub) -> None:
     p.add_argument(
         "--init", default="kmeans", help="'kmeans' (default), 'one', or a number of k-means clusters"
     )
+    p.add_argument(
+        "--calibrate",
+        type=float,
+        metavar="SHARE",
+        default=None,
+        help="share of the rows held out of the fit to calibrate the novelty rule on: the last SHARE of each "
+        "recording's windows (recordings: default 0.2), a random SHARE of a 'features' array (default: "
+        "none); 0: no hold-out, the model's own rule",
+    )
+    p.add_argument(
+        "--false-alarm",
+        type=float,
+        metavar="RATE",
+        default=0.02,
+        help="novelty thresholds: at most RATE of the held-out windows' decisions are novel (default: 0.02)",
+    )
+    p.add_argument(
+        "--sessions",
+        action="store_true",
+        help="standardise the components within each recording session (removes a session's gain shift; "
+        "such a model cannot be exported)",
+    )
     p.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(handler=run_cluster)
@@ -104,6 +127,9 @@ def run_cluster(args: argparse.Namespace) -> int:
         sensor_range_g=getattr(args, "data_sensor_range", None),
         name=data_name(args.data),
         log=print,
+        calibrate=args.calibrate,
+        false_alarm=args.false_alarm,
+        sessions=args.sessions,
         model=args.model,
         coarsen=args.coarsen,
         alpha=args.alpha,
@@ -121,6 +147,7 @@ def run_cluster(args: argparse.Namespace) -> int:
     print(clustering_summary(clustering))
     print(
         f"written: {paths['results']}, {paths['summary']}, {paths['model']} (tactile-torch export: "
-        f"the point estimate's {clustering.mixture.n_clusters_} components)"
+        f"the point estimate's {clustering.mixture.n_clusters_} components"
+        + (", per-session standardised: not exportable)" if clustering.per_session else ")")
     )
     return 0

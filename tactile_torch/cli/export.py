@@ -45,4 +45,5 @@ def run_export(args: argparse.Namespace) -> int:
     )
     if "k_exported" in pipeline.extra_metadata:  # a clustering: say which K, and why
         print(pipeline.extra_metadata["k_exported"])
+        print(pipeline.extra_metadata["novelty_rule"])
     return 0

@@ -63,6 +63,7 @@ def run_predict(args: argparse.Namespace) -> int:
     ]
     labels = np.concatenate([p.labels for p in parts])
     reasons = [r for p in parts for r in p.reasons]
+    novel = None if parts[0].novel is None else np.concatenate([p.novel for p in parts])
     beyond = f"beyond ±{range_g:g} g"
     n_range = sum(r is not None and r.endswith(f"range ±{range_g:g} g") for r in reasons)
     n_ood = sum(r is not None and r.startswith("out of distribution") for r in reasons)
@@ -89,7 +90,8 @@ def run_predict(args: argparse.Namespace) -> int:
                 for v, r in zip(labels, reasons, strict=True)
             ]
         )
-        write_npz(args.out, {"labels": labels, "names": names}, inputs=[*args.data, args.model])
+        arrays = {"labels": labels, "names": names, **({} if novel is None else {"novel": novel})}
+        write_npz(args.out, arrays, inputs=[*args.data, args.model])
         print(f"labels written to {args.out}")
     if n_range:
         print(f"{n_range} windows with samples {beyond} were not classified and are left out")
@@ -102,6 +104,8 @@ def run_predict(args: argparse.Namespace) -> int:
         )
     if n_nan:
         print(f"{n_nan} samples gave non-finite scores and are left out")
+    if novel is not None:
+        _print_novel(novel & classified, pipe, data)
     if data.labels is not None and pipe.pipeline.endswith("-pyp"):
         from ..metrics import pairwise_accuracy
 
@@ -127,3 +131,28 @@ def run_predict(args: argparse.Namespace) -> int:
         class_report(data.labels[known], labels[known], labels=np.arange(n), names=pipe.class_names)
     )
     return 0
+
+
+def _print_novel(novel, pipe, data) -> None:
+    """Say how many windows the clustering bundle flags as novel (a surface it did not see), per file class."""
+    import json
+
+    import numpy as np
+
+    from ..robot.contract import NOVELTY_THRESHOLDS_KEY
+
+    rule = (
+        f"novelty above {json.loads(pipe.metadata[NOVELTY_THRESHOLDS_KEY])[0]:.4g}, the bundle's calibrated "
+        "threshold"
+        if NOVELTY_THRESHOLDS_KEY in pipe.metadata
+        else "a new component more probable than every known one; not calibrated"
+    )
+    print(f"{int(novel.sum())} of {len(novel)} samples are novel ({rule})")
+    if data.file_labels is None or not novel.any():
+        return
+    file_labels = np.asarray(data.file_labels)
+    names = list(data.file_class_names or [])
+    for c in np.unique(file_labels):
+        mine = file_labels == c
+        name = names[c] if 0 <= c < len(names) else f"class {c}"
+        print(f"  {name:<22} {int(novel[mine].sum()):>6} of {int(mine.sum())} novel")

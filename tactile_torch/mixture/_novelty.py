@@ -1,12 +1,12 @@
-"""Novelty of windows under a fitted mixture: the log-odds of a new component, over one or N windows.
+"""Novelty of windows under a fitted mixture: a calibrated threshold on a score, over one or N windows.
 
-The score of a window is the log-odds that it opens a new component rather than joining its most
-probable known cluster, ``log P(new | x) - max_k log P(k | x)`` (point estimate, as the exported
-graph computes it): a new surface is a new component of the model. A decision after ``N``
-consecutive windows of one recording averages the N scores. The model's own rule is the threshold
-0 (a new component more probable than every cluster); :func:`calibrate_thresholds` sets the
-threshold of each N instead as the ``1 - false_alarm`` quantile of the N-window means of windows of
-known surfaces, so that the false-alarm rate is set on those windows rather than hoped for.
+The functions here take any per-window score (larger = more novel). The estimator's score
+(:meth:`~tactile_torch.mixture.PitmanYorGMM.novelty_score`, the exported graph's ``novelty``) is
+minus the window's log density under the point estimate's mixture: a window no known component
+explains. A decision after ``N`` consecutive windows of one recording averages the N scores;
+:func:`calibrate_thresholds` sets the threshold of each N as the ``1 - false_alarm`` quantile of
+the N-window means of windows of known surfaces that the fit did not see, so that the false-alarm
+rate is set on those windows rather than hoped for.
 """
 
 from __future__ import annotations
@@ -48,7 +48,7 @@ def calibrate_thresholds(
     The quantile is the sample value just above (``method="higher"``): at most ``false_alarm`` of
     the given N-window means exceed it.
 
-    ``score``: the log-odds of windows of known surfaces, in time order within each group. Where no
+    ``score``: the novelty scores of windows of known surfaces, in time order within each group. Where no
     group has N windows, the threshold of N is that of the largest N that has some.
     """
     out = np.zeros(max_windows)

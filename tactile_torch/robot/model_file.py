@@ -18,7 +18,9 @@ Layout (format version 1, ``docs/formats.md``):
     ``erosion`` (pixels, default 10); ``"features"`` with ``n_features``), ``head`` (its ``type``
     and settings), optional ``transform``, ``params`` (hyper-parameters), ``test_accuracy``,
     ``summary``; classifiers: ``ood`` (``type`` ``"mahalanobis"``, ``quantile``, ``threshold``: the
-    out-of-distribution distance of :mod:`tactile_torch.ood`).
+    out-of-distribution distance of :mod:`tactile_torch.ood`); clusterings: ``per_session`` (bool,
+    optional: fitted to features standardised per session; not exportable), ``novelty``
+    (optional: ``false_alarm``, ``calibration_rows``: how ``head.novelty_thresholds`` were set).
 ``scale`` ``(F,)``
     classifiers: the training standard deviation each feature is divided by.
 ``center`` ``(F,)`` (optional)
@@ -31,7 +33,9 @@ Layout (format version 1, ``docs/formats.md``):
     ``intercept`` ``(M,)`` (and the tree tables of a hierarchical SVM); a linear head's (LDA, nearest
     class mean) ``coef`` ``(M, F)``, ``intercept`` ``(M,)``; a nearest-neighbour head's training
     ``samples`` ``(T, F)`` and ``labels`` ``(T,)``; a mixture's ``means``
-    ``(K, D)``, ``precisions_cholesky`` ``(K, D, D)``, ``log_weights`` ``(K,)``.
+    ``(K, D)``, ``precisions_cholesky`` ``(K, D, D)``, ``log_weights`` ``(K,)`` and optionally
+    ``novelty_thresholds`` ``(W,)`` (the calibrated threshold of the mean novelty score over
+    N = 1 … W windows; empty: not calibrated) and the new-component density (``novelty_means``, ...).
 ``ood.means`` ``(C, F)``, ``ood.precision_cholesky`` ``(F, F)``
     classifiers: the statistics of the out-of-distribution distance (older files lack them).
 ``transform.<name>``
@@ -143,6 +147,7 @@ DIMENSIONS = {
     "G": "clustering features",
     "T": "training samples of a nearest-neighbour head",
     "R": "features the front end makes (before 'select')",
+    "W": "numbers of consecutive windows with a novelty threshold",
 }
 """What each named dimension of :data:`HEADS` and :data:`TRANSFORMS` counts (for error messages)."""
 METHODS = {"classifier": ("hmsvm", "svm", "lda", "knn", "ncm"), "clustering": ("pyp",)}
@@ -436,6 +441,8 @@ def validate_model(header: object, arrays: Mapping[str, np.ndarray], *, where: s
             _fail(where, f"head.labels must lie in 0..{dims['C'] - 1}, got {labels.min()}..{labels.max()}")
     if kind == "classifier" and header.get("ood") is not None:
         _check_ood(where, header["ood"], arrays, dims)
+    if kind == "clustering":
+        _check_novelty(where, header, arrays)
     if head["type"] == "svm" and head["mode"] == "tree":
         _check_tree(where, arrays, dims, head["depth"])
     if head["type"] == "svm" and head["mode"] == "ovo":
@@ -459,6 +466,22 @@ def _check_ood(where: str, ood: object, arrays: Mapping[str, np.ndarray], dims: 
         _fail(where, f"ood must have 0 < quantile <= 1 and threshold > 0, got {ood}")
     spec = {"means": (("C", "F"), "f"), "precision_cholesky": (("F", "F"), "f")}
     _check_arrays(where, "ood", spec, arrays, dims)
+
+
+def _check_novelty(where: str, header: Mapping, arrays: Mapping[str, np.ndarray]) -> None:
+    # a clustering's calibrated novelty thresholds, how they were set, and per-session standardisation
+    if "per_session" in header:
+        _check_type(where, "per_session", header["per_session"], bool)
+    novelty = header.get("novelty")
+    if novelty is not None:
+        if not isinstance(novelty, dict):
+            _fail(where, f"novelty must be an object, got {novelty!r:.80}")
+        _check_type(where, "novelty.false_alarm", novelty.get("false_alarm"), float)
+        _check_type(where, "novelty.calibration_rows", novelty.get("calibration_rows"), int)
+        if not (0 < novelty["false_alarm"] < 1 and novelty["calibration_rows"] >= 1):
+            _fail(where, f"novelty must have 0 < false_alarm < 1 and calibration_rows >= 1, got {novelty}")
+    if "head.novelty_thresholds" in arrays:
+        _check_arrays(where, "head", {"novelty_thresholds": (("W",), "f")}, arrays, {})
 
 
 def _check_tree(where: str, arrays: Mapping[str, np.ndarray], dims: dict[str, int], depth: int) -> None:

@@ -41,6 +41,7 @@ from .contract import (
     INPUT_LAYOUT_KEY,
     INPUT_SHAPE_KEY,
     LABELS_OUTPUT,
+    NOVEL_OUTPUT,
     OOD_OUTPUT,
     PIPELINE_KEY,
     RANGE_METADATA_KEY,
@@ -99,12 +100,16 @@ class Prediction:
         has none or the sample was not run.
     reasons : list of (str or None)
         Why each unknown sample is unknown (one line), ``None`` for classified samples.
+    novel : ndarray of shape (B,) bool or None
+        Clustering bundles: the graph's ``novel`` output (a window of a surface the clustering
+        did not see); False for samples not run; ``None`` when the bundle has no such output.
     """
 
     labels: np.ndarray
     scores: np.ndarray
     distance: np.ndarray
     reasons: list[str | None]
+    novel: np.ndarray | None = None
 
 
 class NonFiniteScoresError(ValueError):
@@ -393,6 +398,7 @@ class OnnxPipeline:
         scores = np.full((n, max(len(self.class_names), 1)), np.nan, dtype=np.float32)
         distance = np.full(n, np.nan, dtype=np.float32)
         reasons: list[str | None] = [None] * n
+        novel = np.zeros(n, dtype=bool) if NOVEL_OUTPUT in self._outputs else None
         beyond = beyond_range(x, limit) if math.isfinite(limit) else np.zeros(n, dtype=bool)
         for i in np.flatnonzero(beyond):
             peak = float(np.abs(x[i]).max())
@@ -415,6 +421,8 @@ class OnnxPipeline:
                 scores = np.full((n, got.shape[1]), np.nan, dtype=np.float32)
             scores[run] = got
             labels[run] = np.asarray(out[LABELS_OUTPUT], dtype=np.int64)
+            if novel is not None:
+                novel[run] = np.asarray(out[NOVEL_OUTPUT], dtype=bool)
             finite = np.isfinite(got).all(axis=1)
             threshold = self.ood_threshold
             if threshold is not None:
@@ -430,7 +438,7 @@ class OnnxPipeline:
                     reasons[i] = (
                         f"out of distribution: distance {distance[i]:.3g} to the training data > {threshold:.3g}"
                     )
-        return Prediction(labels, scores, distance, reasons)
+        return Prediction(labels, scores, distance, reasons, novel)
 
     def _raise_non_finite(self, prediction: Prediction) -> None:
         bad = np.array([r is not None and r.startswith("scores not finite") for r in prediction.reasons])

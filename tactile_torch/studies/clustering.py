@@ -434,7 +434,11 @@ def _novelty(section, data: dict, sz: dict, ctx) -> None:
         "are then labelled. A window is novel (label -1) when the prior predictive of a new component, weighted "
         "by the prior's new-component weight (Pitman-Yor: alpha + d K; MFM: gamma V_n(K+1)/V_n(K)), beats every "
         "existing component: a new surface is a new component of the model. `tactile-torch stream --discover N` "
-        "proposes a new surface after N novel windows in a row; the columns 'after 3 in a row' decide so (N = 3)."
+        "proposes a new surface after N novel windows in a row; the columns 'after 3 in a row' decide so (N = 3). "
+        "The 'calibrated' columns are the rule of `tactile-torch cluster` bundles: a window is novel when minus "
+        "its log density exceeds the 98 % quantile of the same on windows of known surfaces the fit did not see "
+        "(here the first half of each known surface's test windows; decided on the second halves), or, for "
+        "'mean of 3', when the mean of 3 consecutive windows exceeds the quantile of such means (docs/mixture.md)."
     )
     section.table(
         rows, caption="Novelty: recall on withheld surfaces, false alarms on known ones (per window)"

@@ -16,6 +16,7 @@ import numpy as np
 
 from ..metrics import pairwise_accuracy
 from ..mixture import PitmanYorGMM, baseline_clusterings
+from ..mixture._novelty import window_means
 
 STUDY = {"model": "pyp", "coarsen": None}
 """The study's Pitman-Yor mixture (``PitmanYorGMM``'s defaults are the mixture of finite mixtures)."""
@@ -194,7 +195,11 @@ def novelty_test(
     """Fit without the ``withheld`` classes; return novelty recall on them and false alarms on the others.
 
     Recall: share of the withheld classes' test windows labelled -1 by :meth:`PitmanYorGMM.predict`;
-    false-alarm rate: share of the known classes' test windows labelled -1.
+    false-alarm rate: share of the known classes' test windows labelled -1. The calibrated rule
+    (``tactile-torch cluster``'s): the first half (in time) of each known class's test windows sets
+    the thresholds (:meth:`PitmanYorGMM.calibrate_novelty`, 2 % false alarms), the second half of
+    every class's test windows is decided (:meth:`PitmanYorGMM.novel_after`, after 1 and
+    ``n_consecutive`` windows).
     """
     known = ~np.isin(y, withheld)
     model = PitmanYorGMM(progress=False, **(STUDY | fit)).fit(X[known])
@@ -216,6 +221,22 @@ def novelty_test(
         float(run[new].mean()) if new.any() else float("nan")
     )
     row[f"false alarms after {n_consecutive} in a row (point)"] = float(run[~new].mean())
+    # calibrated: first half of each known class's test windows calibrates, the second halves are decided
+    rank = np.zeros(len(yt))
+    for c in np.unique(yt):
+        idx = np.flatnonzero(yt == c)
+        rank[idx] = np.arange(idx.size) / idx.size
+    calibration, decided = ~new & (rank < 0.5), rank >= 0.5
+    if calibration.any() and new[decided].any():
+        model.calibrate_novelty(
+            Xt[calibration], false_alarm=0.02, max_windows=n_consecutive, groups=yt[calibration]
+        )
+        for n, label in ((1, "calibrated 2 %"), (n_consecutive, f"calibrated, mean of {n_consecutive}")):
+            flags = model.novel_after(Xt[decided], n, groups=yt[decided])
+            ran = np.isfinite(window_means(np.zeros(int(decided.sum())), n, yt[decided]))
+            is_new = new[decided][ran]
+            row[f"recall ({label})"] = float(flags[ran][is_new].mean())
+            row[f"false alarms ({label})"] = float(flags[ran][~is_new].mean())
     row["max R-hat"] = max_rhat(model)
     return row
 

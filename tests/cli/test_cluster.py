@@ -76,3 +76,65 @@ def test_cli_cluster_budgets_default_to_the_estimators():
     # the budget warning names the argument; the command line shows the option
     flags = {k: v for k, v in ARGUMENT_FLAGS.items() if k in ("max_iter", "max_seconds")}
     assert with_flags("raise it, e.g. max_seconds=600", flags) == "raise it, e.g. --max-seconds 600"
+
+
+@pytest.mark.slow
+def test_cluster_export_predict_and_stream_share_the_calibrated_novelty_rule(tmp_path, capsys):
+    # ~20 s: cluster (held-out windows calibrate the thresholds) -> export -> predict; ONNX at batch 7 and 9
+    import json
+
+    import torch
+
+    from tactile_torch.cli import main
+    from tactile_torch.data.stylus import SURFACES, make_vibration_recordings
+    from tactile_torch.pipeline import pipeline_from_model
+    from tactile_torch.robot.contract import NOVELTY_THRESHOLDS_KEY
+    from tactile_torch.robot.discovery import SurfaceDiscovery
+    from tactile_torch.robot.runtime import OnnxPipeline
+
+    rec = make_vibration_recordings(
+        surfaces=[SURFACES[0], SURFACES[5], SURFACES[7]], duration_s=10.0, random_state=0
+    )
+    rec.save(tmp_path / "rec.npz")
+    out, onnx = tmp_path / "cl", tmp_path / "cl.onnx"
+    common = ["--window", "400", "--n-iter", "100", "--burn-in", "30", "--chains", "2", "--quiet"]
+    assert main(["cluster", "--data", str(tmp_path / "rec.npz"), "--out", str(out), *common]) == 0
+    assert "novelty: a window is novel when its score" in capsys.readouterr().out
+    assert main(["export", "--model", str(out / "model.npz"), "--out", str(onnx)]) == 0
+    res = np.load(out / "clustering.npz")
+    thresholds = res["novelty_thresholds"]
+    assert (
+        f"exceeds {thresholds[0]:.4g}, set for 2.0% false alarms on 12 held-out windows"
+        in capsys.readouterr().out
+    )
+    bundle = OnnxPipeline(onnx)
+    np.testing.assert_allclose(json.loads(bundle.metadata[NOVELTY_THRESHOLDS_KEY]), thresholds, rtol=1e-6)
+    raw = bundle.read_npz([tmp_path / "rec.npz"]).raw
+    assert len(raw) == res["fitted_rows"].size + res["calibration_rows"].size == 60
+    pipeline = pipeline_from_model(out / "model.npz")
+    with torch.no_grad():
+        _, _, t_novel, t_novelty = pipeline(torch.from_numpy(raw))
+    for batch in (7, 9):  # the export traced a batch of 2
+        got = [bundle.run(raw[i : i + batch]) for i in range(0, len(raw), batch)]
+        novelty = np.concatenate([g["novelty"] for g in got])
+        novel = np.concatenate([g["novel"] for g in got])
+        np.testing.assert_allclose(novelty, t_novelty.numpy(), rtol=1e-4, atol=1e-3)
+        np.testing.assert_array_equal(novel, t_novel.numpy())
+    np.testing.assert_array_equal(novel, novelty > np.float32(thresholds[0]))
+    # the held-out windows decide as calibrated: at most 2 % of them novel (of 12: none)
+    assert not novel[res["calibration_rows"]].any()
+    # predict reports the graph's novel windows; a new surface is flagged
+    unseen = make_vibration_recordings(surfaces=[SURFACES[27]], duration_s=4.0, random_state=1)
+    unseen.save(tmp_path / "new.npz")
+    capsys.readouterr()
+    assert main(["predict", "--model", str(onnx), "--data", str(tmp_path / "new.npz"), "--batch", "7"]) == 0
+    printed = capsys.readouterr().out
+    new_novel = bundle.run(bundle.read_npz([tmp_path / "new.npz"]).raw)["novel"]
+    assert (
+        f"{int(new_novel.sum())} of {len(new_novel)} samples are novel" in printed and new_novel.mean() > 0.5
+    )
+    # the stream's decision after 3 windows: the mean of the last 3 scores against threshold 3
+    d = SurfaceDiscovery(3, thresholds=json.loads(bundle.metadata[NOVELTY_THRESHOLDS_KEY]))
+    flags = [d.update(0, False, float(s)).novel for s in novelty]
+    means = np.convolve(novelty, np.ones(3) / 3, mode="valid")
+    np.testing.assert_array_equal(flags[2:], means > thresholds[2])

@@ -134,3 +134,25 @@ def test_calibrated_thresholds_travel_through_the_model_file_to_the_bundle(fitte
     bundle = OnnxPipeline(export_pipeline(pipeline_from_model(path), tmp_path / "m.onnx"))
     got = json.loads(bundle.metadata[NOVELTY_THRESHOLDS_KEY])
     np.testing.assert_allclose(got, model.novelty_thresholds_, rtol=1e-6)
+
+
+def test_per_component_thresholds_need_enough_calibration_runs():
+    from tactile_torch.studies.novelty import per_component_decisions
+
+    # one recording: 120 calibration windows (component 0: scores 0..99, component 1: 20 windows at 50),
+    # then 4 test windows
+    score = np.r_[np.arange(100.0), np.full(20, 50.0), [97.5, 97.5, 99.5, 99.5]]
+    component = np.r_[np.zeros(100, int), np.ones(20, int), [0, 1, 0, 1]]
+    recording, position = np.zeros(124, int), np.arange(124)
+    calibration, test = position < 120, position >= 120
+    agg, threshold, last = per_component_decisions(
+        score, component, recording, position, calibration, test, 1, 0.02
+    )
+    # component 0 has 100 >= 1 / 0.02 runs: its own 98 % quantile (98); component 1 has 20: the global one (97)
+    assert last.tolist() == [120, 121, 122, 123] and threshold.tolist() == [98.0, 97.0, 98.0, 97.0]
+    assert (agg > threshold).tolist() == [False, True, True, True]
+    agg, threshold, last = per_component_decisions(
+        score, component, recording, position, calibration, test, 1, 0.2
+    )
+    # at 20 %: component 0 its own quantile (80), component 1 its own (50; 20 >= 1 / 0.2 runs)
+    assert threshold.tolist() == [80.0, 50.0, 80.0, 50.0]

@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from tactile_torch.studies.clustering_experiments import have_vibration_features
@@ -35,6 +36,11 @@ def test_clustering_study_quick_mode_writes_its_section(tmp_path):
     # a smoke run on 6 windows of 6 surfaces (two pairs deliberately alike): a plausible K and accuracy
     assert pyp["method"].startswith("Pitman-Yor") and 2 <= pyp["K found"] <= 2 * kmeans["K found"]
     assert pyp["pairwise accuracy"] > 0.7
+    novelty = next(t for t in tables if t["caption"].startswith("Novelty"))["rows"]
+    for row in novelty:  # the calibrated rule beside the model's own
+        assert 0.0 <= row["recall (calibrated 2 %)"] <= 1.0
+        after = row["false alarms (calibrated, mean of 3)"]  # NaN: no run of 3 (6 windows per surface)
+        assert np.isnan(after) or 0.0 <= after <= 1.0
 
 
 def test_learning_curve_rows():
@@ -70,3 +76,4 @@ def test_real_accelerometer_sets_go_through_the_clustering_study(shared_data, tm
     assert lo <= row["K posterior mode"] <= hi
     nov = next(r for r in novelty_rows if r["data"] == "hapmat_imu5")
     assert 0.0 <= nov["recall (samples)"] <= 1.0 and 0.0 <= nov["false alarms (samples)"] <= 1.0
+    assert 0.0 <= nov["recall (calibrated 2 %)"] <= 1.0
