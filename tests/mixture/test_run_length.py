@@ -11,7 +11,7 @@ import pytest
 
 from tactile_torch.mixture import PitmanYorGMM
 from tactile_torch.mixture._chains import auto_burn_in, diagnostics, neighbours, next_length
-from tests.mixture_data import PYP
+from tests.mixture_data import PYP, assert_samples_prior_of_k, batch_se, exact_mfm_prior_k
 
 
 def _ar1(rng, n_chains, n, phi):
@@ -99,35 +99,6 @@ def test_neighbours_exclude_the_point_itself():
     assert neighbours(X[:1], 5).shape == (1, 0)
 
 
-def _batch_se(x: np.ndarray, batches: int = 30) -> float:
-    m = np.array([b.mean() for b in np.array_split(np.asarray(x, float), batches)])
-    return float(m.std(ddof=1) / math.sqrt(batches))
-
-
-def _mfm_prior_k(n: int, gamma: float, mean: float) -> np.ndarray:
-    """Exact prior of the number of blocks of the MFM partition prior, by enumerating set partitions."""
-    from scipy.special import gammaln
-
-    from tactile_torch.mixture._mfm import log_v
-
-    lv = log_v(n, gamma, mean)
-    p = np.zeros(n + 1)
-
-    def walk(i, counts):
-        if i == n:
-            c = np.array(counts, float)
-            p[len(counts)] += math.exp(lv[len(counts)] + (gammaln(c + gamma) - gammaln(gamma)).sum())
-            return
-        for b in range(len(counts)):
-            counts[b] += 1
-            walk(i + 1, counts)
-            counts[b] -= 1
-        walk(i + 1, [*counts, 1])
-
-    walk(0, [])
-    return p / p.sum()
-
-
 def test_near_pairs_split_merge_samples_the_mfm_prior():
     # every pair a near pair (near_pairs=1), likelihood off: the chain must still sample the prior of K
     n = 8
@@ -136,15 +107,7 @@ def test_near_pairs_split_merge_samples_the_mfm_prior():
         k_prior_mean=3.0, near_pairs=1.0, n_iter=6000, burn_in=200, n_chains=1, prior_only=True,
         random_state=3, progress=False,
     ).fit(X)  # fmt: skip
-    ks = model.n_clusters_samples_
-    exact = _mfm_prior_k(n, 1.0, 3.0)
-    assert abs(ks.mean() - (np.arange(n + 1) * exact).sum()) < 4 * _batch_se(ks)
-    for k in range(1, n + 1):
-        ind = (ks == k).astype(float)
-        se = max(_batch_se(ind), math.sqrt(exact[k] * (1 - exact[k]) / len(ks)), 1e-3)
-        assert abs(ind.mean() - exact[k]) < 4.5 * se, (k, ind.mean(), exact[k])
-    st = model.split_merge_stats_
-    assert st["split_accepted"] > 100 and st["merge_accepted"] > 100
+    assert_samples_prior_of_k(model, exact_mfm_prior_k(n, 1.0, 3.0))
 
 
 def test_near_pairs_split_merge_leaves_the_posterior_unchanged():
@@ -156,8 +119,8 @@ def test_near_pairs_split_merge_leaves_the_posterior_unchanged():
     without = PitmanYorGMM(n_split_merge=0, random_state=2, **common).fit(X).n_clusters_samples_
     a_all = with_moves.n_clusters_samples_
     assert with_moves.split_merge_stats_["merge_accepted"] > 100
-    se = math.hypot(_batch_se(a_all), _batch_se(without))
+    se = math.hypot(batch_se(a_all), batch_se(without))
     assert abs(a_all.mean() - without.mean()) < 4 * se
     for k in (1, 2, 3):
         a, b = (a_all == k).astype(float), (without == k).astype(float)
-        assert abs(a.mean() - b.mean()) < 4 * math.hypot(_batch_se(a), _batch_se(b)) + 0.01
+        assert abs(a.mean() - b.mean()) < 4 * math.hypot(batch_se(a), batch_se(b)) + 0.01

@@ -17,7 +17,7 @@ from tactile_torch.mixture import (
     pitman_yor_prior_k,
 )
 from tactile_torch.mixture._gibbs import conditionals, densities, linalg
-from tests.mixture_data import PYP, blobs
+from tests.mixture_data import PYP, assert_samples_prior_of_k, batch_se, blobs, exact_mfm_prior_k
 from tests.reference_mixture import reference_gibbs
 
 # Short chains in these tests: their R-hat warnings are expected, not failures.
@@ -143,11 +143,6 @@ def test_component_step_density_is_the_product_of_its_conditionals(zeta):
 # ------------------------------------------------------------------------------------------------
 # the sampler against the known prior (likelihood switched off)
 # ------------------------------------------------------------------------------------------------
-def _batch_se(x, n_batches=40):
-    b = np.asarray(x, dtype=np.float64)[: len(x) // n_batches * n_batches].reshape(n_batches, -1).mean(1)
-    return b.std(ddof=1) / math.sqrt(n_batches)
-
-
 @pytest.mark.parametrize(("alpha", "discount"), [(1.5, 0.3), (2.0, 0.0)])
 def test_prior_only_chain_samples_the_pitman_yor_prior_of_k(alpha, discount):
     n = 12
@@ -163,18 +158,7 @@ def test_prior_only_chain_samples_the_pitman_yor_prior_of_k(alpha, discount):
         random_state=1,
         progress=False,
     ).fit(X)
-    ks = model.n_clusters_samples_
-    exact = pitman_yor_prior_k(n, alpha, discount)
-    # mean of K within 4 batch-means standard errors (autocorrelation accounted for)
-    mean_k = (np.arange(n + 1) * exact).sum()
-    assert abs(ks.mean() - mean_k) < 4 * _batch_se(ks)
-    # every frequency within 4.5 batch-means standard errors (+ a floor for values rarely seen)
-    for k in range(1, n + 1):
-        ind = (ks == k).astype(float)
-        se = max(_batch_se(ind), math.sqrt(exact[k] * (1 - exact[k]) / len(ks)), 1e-3)
-        assert abs(ind.mean() - exact[k]) < 4.5 * se, (k, ind.mean(), exact[k])
-    st = model.split_merge_stats_
-    assert st["split_accepted"] > 100 and st["merge_accepted"] > 100  # the moves were exercised
+    assert_samples_prior_of_k(model, pitman_yor_prior_k(n, alpha, discount))
 
 
 def test_prior_only_chain_samples_the_hyperpriors():
@@ -197,7 +181,7 @@ def test_prior_only_chain_samples_the_hyperpriors():
     draws = [pitman_yor_prior_k(n, 1 / rng.gamma(0.5, 2.0), rng.uniform()) for _ in range(3000)]
     mean_k = (np.arange(n + 1) * np.mean(draws, axis=0)).sum()
     ks = model.n_clusters_samples_
-    assert abs(ks.mean() - mean_k) < 4 * _batch_se(ks) + 0.02
+    assert abs(ks.mean() - mean_k) < 4 * batch_se(ks) + 0.02
 
 
 # ------------------------------------------------------------------------------------------------
@@ -235,11 +219,11 @@ def test_split_merge_moves_leave_the_posterior_unchanged():
     common = dict(**PYP, alpha=1.0, discount=0.2, n_iter=8000, burn_in=500, n_chains=1, progress=False)
     with_moves = PitmanYorGMM(n_split_merge=3, random_state=1, **common).fit(X).n_clusters_samples_
     without = PitmanYorGMM(n_split_merge=0, random_state=2, **common).fit(X).n_clusters_samples_
-    se = math.hypot(_batch_se(with_moves), _batch_se(without))
+    se = math.hypot(batch_se(with_moves), batch_se(without))
     assert abs(with_moves.mean() - without.mean()) < 4 * se
     for k in (1, 2, 3):
         a, b = (with_moves == k).astype(float), (without == k).astype(float)
-        assert abs(a.mean() - b.mean()) < 4 * math.hypot(_batch_se(a), _batch_se(b)) + 0.01
+        assert abs(a.mean() - b.mean()) < 4 * math.hypot(batch_se(a), batch_se(b)) + 0.01
 
 
 def test_posterior_of_k_agrees_with_the_independent_numpy_reference():
@@ -258,9 +242,9 @@ def test_posterior_of_k_agrees_with_the_independent_numpy_reference():
     ks = ours.fit(X).n_clusters_samples_
     ref = reference_gibbs(X, n_iter=1000, discount=0.0, random_state=4)
     ks_ref = ref["n_clusters"][200:]
-    assert abs(ks.mean() - ks_ref.mean()) < 4 * math.hypot(_batch_se(ks), _batch_se(ks_ref, 20))
+    assert abs(ks.mean() - ks_ref.mean()) < 4 * math.hypot(batch_se(ks), batch_se(ks_ref, 20))
     al, al_ref = np.log(ours.alpha_samples_), np.log(ref["alpha"][200:])
-    assert abs(al.mean() - al_ref.mean()) < 4 * math.hypot(_batch_se(al), _batch_se(al_ref, 20))
+    assert abs(al.mean() - al_ref.mean()) < 4 * math.hypot(batch_se(al), batch_se(al_ref, 20))
 
 
 def test_overlapping_clusters_give_a_sensible_answer():
@@ -278,34 +262,6 @@ def test_overlapping_clusters_give_a_sensible_answer():
 # ------------------------------------------------------------------------------------------------
 # the mixture of finite mixtures and the coarsened posterior (issue 22)
 # ------------------------------------------------------------------------------------------------
-def _set_partitions(n):
-    """Every set partition of n items as a restricted growth string (labels 0 .. K-1)."""
-    z = [0] * n
-
-    def rec(i, k):
-        if i == n:
-            yield list(z)
-            return
-        for c in range(k + 1):
-            z[i] = c
-            yield from rec(i + 1, max(k, c + 1))
-
-    yield from rec(1, 1) if n > 1 else iter([[0]])
-
-
-def _exact_prior_k(n, gamma, k_mean):
-    """P(K) of the MFM partition prior by enumerating every set partition of n items."""
-    from tactile_torch.mixture._mfm import log_v
-
-    lv = log_v(n, gamma, k_mean)
-    p = np.zeros(n + 1)
-    for z in _set_partitions(n):
-        counts = np.bincount(z)
-        t = counts.size
-        p[t] += math.exp(lv[t] + (gammaln(counts + gamma) - gammaln(gamma)).sum())
-    return p / p.sum()
-
-
 def test_mfm_log_v_matches_the_lah_numbers_for_gamma_one():
     # gamma = 1: sum over partitions with t blocks of prod n_c! is the Lah number C(n-1, t-1) n!/t!,
     # so V_n(t) L(n, t) must be a distribution over t
@@ -316,7 +272,7 @@ def test_mfm_log_v_matches_the_lah_numbers_for_gamma_one():
     lah = [math.comb(n - 1, t - 1) * math.factorial(n) / math.factorial(t) for t in range(1, n + 1)]
     p = np.exp(lv[1 : n + 1]) * lah
     np.testing.assert_allclose(p.sum(), 1.0, rtol=1e-10)
-    np.testing.assert_allclose(p, _exact_prior_k(n, 1.0, 4.0)[1:], rtol=1e-9)
+    np.testing.assert_allclose(p, exact_mfm_prior_k(n, 1.0, 4.0)[1:], rtol=1e-9)
 
 
 @pytest.mark.parametrize(("gamma", "coarsen"), [(1.0, None), (0.6, 8.0)])
@@ -337,15 +293,7 @@ def test_prior_only_chain_samples_the_mfm_partition_prior(gamma, coarsen):
         random_state=1,
         progress=False,
     ).fit(X)
-    ks = model.n_clusters_samples_
-    exact = _exact_prior_k(n, gamma, 3.0)
-    assert abs(ks.mean() - (np.arange(n + 1) * exact).sum()) < 4 * _batch_se(ks)
-    for k in range(1, n + 1):
-        ind = (ks == k).astype(float)
-        se = max(_batch_se(ind), math.sqrt(exact[k] * (1 - exact[k]) / len(ks)), 1e-3)
-        assert abs(ind.mean() - exact[k]) < 4.5 * se, (k, ind.mean(), exact[k])
-    st = model.split_merge_stats_
-    assert st["split_accepted"] > 100 and st["merge_accepted"] > 100
+    assert_samples_prior_of_k(model, exact_mfm_prior_k(n, gamma, 3.0))
 
 
 def test_coarsened_split_merge_moves_leave_the_posterior_unchanged():
@@ -355,11 +303,11 @@ def test_coarsened_split_merge_moves_leave_the_posterior_unchanged():
     common = dict(model="mfm", coarsen=20.0, n_iter=8000, burn_in=500, n_chains=1, progress=False)
     with_moves = PitmanYorGMM(n_split_merge=3, random_state=1, **common).fit(X).n_clusters_samples_
     without = PitmanYorGMM(n_split_merge=0, random_state=2, **common).fit(X).n_clusters_samples_
-    se = math.hypot(_batch_se(with_moves), _batch_se(without))
+    se = math.hypot(batch_se(with_moves), batch_se(without))
     assert abs(with_moves.mean() - without.mean()) < 4 * se
     for k in (1, 2, 3):
         a, b = (with_moves == k).astype(float), (without == k).astype(float)
-        assert abs(a.mean() - b.mean()) < 4 * math.hypot(_batch_se(a), _batch_se(b)) + 0.01
+        assert abs(a.mean() - b.mean()) < 4 * math.hypot(batch_se(a), batch_se(b)) + 0.01
 
 
 def test_pitman_yor_option_reproduces_the_study_sampler():
