@@ -46,7 +46,6 @@ KNOWN_GAPS = {
     "tactile_torch.studies.learned_models": "no test of its own; its models are tests/neural/'s",
     "tactile_torch.tradeoff.breaking": "tradeoff --breaking-points, in tests/tradeoff/test_tradeoff.py (slow)",
     "tactile_torch.tradeoff.deploy": "tradeoff --deploy, in tests/tradeoff/test_tradeoff.py",
-    "tactile_torch.warmup": "make install's numba warm-up; no test of its own",
 }
 
 
