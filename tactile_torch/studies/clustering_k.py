@@ -167,6 +167,19 @@ def real_set(name: str, per: int = 60) -> tuple[np.ndarray, np.ndarray]:
     return X, y
 
 
+SOURCE_NAMES = (
+    "gaussian-3",
+    "sessions-3x3",
+    "sessions-3x3, per-session standardised",
+    "bundled-28",
+    "hapmat",
+    "borealtc",
+    "hapmat-3-sessions",
+    "hapmat-3-sessions, per-session standardised",
+)
+"""Every source :func:`k_sources` can return (the real sets' only where their data are present)."""
+
+
 def k_sources(quick: bool = False) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """Return {source name: (X, labels)} for the sources available here (the real sets when present)."""
     from ..data import shared_data_dir
@@ -328,6 +341,15 @@ def _main(argv: list[str] | None = None) -> None:
         "--jobs", default=None, type=int, help="threads (default: one per chain up to the cores)"
     )
     args = parser.parse_args(argv)
+    for option, given, known in (
+        ("--only", args.only, SOURCE_NAMES),
+        ("--settings", args.settings, SETTINGS),
+    ):
+        unknown = [name for name in given or () if name not in known]
+        if unknown:
+            parser.error(
+                f"{option}: unknown {', '.join(map(repr, unknown))}; expected some of {', '.join(known)}"
+            )
     if args.overlap:
         np.set_printoptions(precision=1, suppress=True, linewidth=150)
         print(session_overlap())

@@ -42,7 +42,6 @@ COMMAND_PACKAGES = {"tactile_torch.cli", "tactile_torch.studies"}
 KNOWN_GAPS = {
     "tactile_torch.default_bundles": "no test of its own (minutes); its steps are tests/test_pipeline.py's",
     "tactile_torch.robustness.results": "the sweep results, read in tests/robustness/test_robustness.py",
-    "tactile_torch.studies.clustering_k": "its Gaussian-3 row runs in the clustering study's tests",
     "tactile_torch.studies.learned_models": "no test of its own; its models are tests/neural/'s",
     "tactile_torch.tradeoff.breaking": "tradeoff --breaking-points, in tests/tradeoff/test_tradeoff.py (slow)",
     "tactile_torch.tradeoff.deploy": "tradeoff --deploy, in tests/tradeoff/test_tradeoff.py",
