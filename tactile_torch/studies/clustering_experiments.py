@@ -253,8 +253,8 @@ def consecutive_flags(novel: np.ndarray, labels: np.ndarray, n: int) -> np.ndarr
     return out
 
 
-def real_windows(name: str, per: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
-    """Features (PCA-3) of up to ``per`` 2 s windows per class of a shared real set, their labels and time order.
+def real_windows(name: str, per: int, components: int = 3) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """Features (PCA-3, or ``components``) of up to ``per`` 2 s windows per class of a shared real set, their labels and time order.
 
     Returns (X, labels, position of each window in its recording, number of classes).
     """
@@ -273,5 +273,5 @@ def real_windows(name: str, per: int) -> tuple[np.ndarray, np.ndarray, np.ndarra
         ]
     )
     feats = window_features(ds.windows[torch.as_tensor(keep)].to(torch.float64))
-    X = np.asarray(ClusteringTransform(n_components=3).fit_transform(feats))
+    X = np.asarray(ClusteringTransform(n_components=components).fit_transform(feats))
     return X, labels[keep], ds.position.numpy()[keep], len(rec.class_names)

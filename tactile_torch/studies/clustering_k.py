@@ -53,24 +53,26 @@ def gaussian_three(seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
     return X, np.repeat(np.arange(3), 50)
 
 
-def _pca_features(windows) -> np.ndarray:
+def _pca_features(windows, components: int = 3) -> np.ndarray:
     import torch
 
     from ..signal import ClusteringTransform, window_features
 
     feats = window_features(windows.to(torch.float64))
-    return np.asarray(ClusteringTransform(n_components=3).fit_transform(feats))
+    return np.asarray(ClusteringTransform(n_components=components).fit_transform(feats))
 
 
-def bundled_28(seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    """Return the README example's PCA-3 features (28 surfaces, 60 s, W = 800) and labels."""
+def bundled_28(seed: int = 0, components: int = 3) -> tuple[np.ndarray, np.ndarray]:
+    """Return the README example's PCA-3 features (28 surfaces, 60 s, W = 800; or ``components``) and labels."""
     from ..data import make_vibration_recordings
 
     ds = make_vibration_recordings(28, duration_s=60, random_state=seed).windows(800)
-    return _pca_features(ds.windows), ds.labels.numpy()
+    return _pca_features(ds.windows, components), ds.labels.numpy()
 
 
-def sessions_3x3(seed: int = 0, *, per_session: bool = False) -> tuple[np.ndarray, np.ndarray]:
+def sessions_3x3(
+    seed: int = 0, *, per_session: bool = False, components: int = 3
+) -> tuple[np.ndarray, np.ndarray]:
     """Return PCA-3 features and labels of 3 surfaces x 3 sessions with the gains ``SESSION_GAINS``.
 
     ``per_session``: standardise the features within each session
@@ -87,7 +89,7 @@ def sessions_3x3(seed: int = 0, *, per_session: bool = False) -> tuple[np.ndarra
     ]
     shifted = VibrationRecordings(signals, rec.labels, rec.class_names, rec.rate_hz, rec.session)
     ds = shifted.windows(800)
-    X = _pca_features(ds.windows)
+    X = _pca_features(ds.windows, components)
     if per_session:
         from ..signal.sessions import standardise_per_session
 
@@ -95,7 +97,9 @@ def sessions_3x3(seed: int = 0, *, per_session: bool = False) -> tuple[np.ndarra
     return X, ds.labels.numpy()
 
 
-def real_sessions(name: str = "hapmat_imu5", *, per_session: bool = False) -> tuple[np.ndarray, np.ndarray]:
+def real_sessions(
+    name: str = "hapmat_imu5", *, per_session: bool = False, components: int = 3
+) -> tuple[np.ndarray, np.ndarray]:
     """Return PCA-3 features and labels of a real set cut into 3 sessions with the gains ``SESSION_GAINS``.
 
     Each recording is cut into thirds in time; third k is session k, its signal scaled by
@@ -122,7 +126,7 @@ def real_sessions(name: str = "hapmat_imu5", *, per_session: bool = False) -> tu
         [f"{i}/{k}" for i, k in enumerate(sessions)],
     )
     ds = shifted.windows(int(2 * rec.rate_hz), int(rec.rate_hz))
-    X = _pca_features(ds.windows)
+    X = _pca_features(ds.windows, components)
     if per_session:
         from ..signal.sessions import standardise_per_session
 
@@ -159,11 +163,11 @@ def session_overlap(seed: int = 0) -> np.ndarray:
     return out
 
 
-def real_set(name: str, per: int = 60) -> tuple[np.ndarray, np.ndarray]:
-    """Return PCA-3 features and labels of up to ``per`` 2 s windows per class of a real set."""
+def real_set(name: str, per: int = 60, components: int = 3) -> tuple[np.ndarray, np.ndarray]:
+    """Return PCA-3 features (or ``components``) and labels of up to ``per`` 2 s windows per class of a real set."""
     from .clustering_experiments import real_windows
 
-    X, y, _, _ = real_windows(name, per)
+    X, y, _, _ = real_windows(name, per, components)
     return X, y
 
 
@@ -180,24 +184,30 @@ SOURCE_NAMES = (
 """Every source :func:`k_sources` can return (the real sets' only where their data are present)."""
 
 
-def k_sources(quick: bool = False) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-    """Return {source name: (X, labels)} for the sources available here (the real sets when present)."""
+def k_sources(quick: bool = False, components: int = 3) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Return {source name: (X, labels)} for the sources available here (the real sets when present).
+
+    ``components``: principal components of the vibration sources (the study's 3; the Gaussian
+    clusters stay in 3 dimensions).
+    """
     from ..data import shared_data_dir
 
     out = {"gaussian-3": gaussian_three()}
     from .clustering_experiments import have_vibration_features
 
     if have_vibration_features():
-        out["sessions-3x3"] = sessions_3x3()
-        out["sessions-3x3, per-session standardised"] = sessions_3x3(per_session=True)
+        out["sessions-3x3"] = sessions_3x3(components=components)
+        out["sessions-3x3, per-session standardised"] = sessions_3x3(per_session=True, components=components)
         if not quick:
-            out["bundled-28"] = bundled_28()
+            out["bundled-28"] = bundled_28(components=components)
         for name, key in (("hapmat_imu5", "hapmat"), ("borealtc_imu", "borealtc")):
             if shared_data_dir(name) is not None:
-                out[key] = real_set(name, 30 if quick else 60)
+                out[key] = real_set(name, 30 if quick else 60, components)
         if shared_data_dir("hapmat_imu5") is not None:
-            out["hapmat-3-sessions"] = real_sessions()
-            out["hapmat-3-sessions, per-session standardised"] = real_sessions(per_session=True)
+            out["hapmat-3-sessions"] = real_sessions(components=components)
+            out["hapmat-3-sessions, per-session standardised"] = real_sessions(
+                per_session=True, components=components
+            )
     return out
 
 
@@ -332,6 +342,9 @@ def _main(argv: list[str] | None = None) -> None:
         action="store_true",
         help="print R-hat, ESS and K at the estimator's defaults per source (default sources: MIXING_SOURCES)",
     )
+    parser.add_argument(
+        "--components", type=int, default=3, help="principal components of the vibration sources (default: 3)"
+    )
     parser.add_argument("--near", type=float, default=None, help="near_pairs of the split-merge move")
     parser.add_argument("--max-seconds", type=float, default=300.0, help="wall-clock budget of n_iter='auto'")
     parser.add_argument("--n-iter", default="auto", type=lambda v: v if v == "auto" else int(v))
@@ -354,7 +367,7 @@ def _main(argv: list[str] | None = None) -> None:
         np.set_printoptions(precision=1, suppress=True, linewidth=150)
         print(session_overlap())
         return
-    sources = k_sources(args.quick)
+    sources = k_sources(args.quick, args.components)
     if args.only or args.mixing:
         sources = {k: v for k, v in sources.items() if k in (args.only or MIXING_SOURCES)}
     if args.mixing:

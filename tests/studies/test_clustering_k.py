@@ -41,6 +41,7 @@ def test_sessions_3x3_shifts_the_gain_per_session_and_standardising_removes_it()
     # without standardisation the sessions sit apart: the gain moves every surface of a session
     centres = np.stack([X[session == k].mean(0) for k in range(3)])
     assert np.linalg.norm(centres[0] - centres[2]) > 0.5
+    assert ck.sessions_3x3(0, components=5)[0].shape == (270, 5)  # --components reaches the transform
 
 
 def test_session_overlap_is_a_distance_table_of_the_nine_groups():
