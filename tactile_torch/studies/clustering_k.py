@@ -25,6 +25,7 @@ truth, R-hat, ESS and time. ``python -m tactile_torch.studies.clustering_k`` pri
 
 from __future__ import annotations
 
+import sys
 import time
 import warnings
 from typing import Any
@@ -363,6 +364,10 @@ def _main(argv: list[str] | None = None) -> None:
             parser.error(
                 f"{option}: unknown {', '.join(map(repr, unknown))}; expected some of {', '.join(known)}"
             )
+    if args.components < 1:
+        parser.error(
+            f"--components: expected a positive number of principal components, got {args.components}"
+        )
     if args.overlap:
         np.set_printoptions(precision=1, suppress=True, linewidth=150)
         print(session_overlap())
@@ -370,6 +375,8 @@ def _main(argv: list[str] | None = None) -> None:
     sources = k_sources(args.quick, args.components)
     if args.only or args.mixing:
         sources = {k: v for k, v in sources.items() if k in (args.only or MIXING_SOURCES)}
+    for name in sorted(set(args.only or ()) - set(sources)):
+        print(f"clustering_k: {name}: skipped, its data set is not found here", file=sys.stderr)
     if args.mixing:
         kw = {"near_pairs": args.near, "max_seconds": args.max_seconds, "n_jobs": args.jobs}
         for i, (name, data) in enumerate(sources.items()):

@@ -90,5 +90,23 @@ def test_the_command_refuses_an_unknown_source_or_setting_in_one_line(argv, name
     assert f"{argv[0]}: unknown {named}; expected some of " in err
 
 
+def test_the_command_refuses_no_components(capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        ck._main(["--components", "0", "--overlap"])
+    assert exit_info.value.code == 2
+    assert (
+        "--components: expected a positive number of principal components, got 0" in capsys.readouterr().err
+    )
+
+
+def test_a_source_without_its_data_is_said_to_be_skipped(monkeypatch, capsys):
+    monkeypatch.setattr(ck, "k_sources", lambda quick, components: {"gaussian-3": ck.gaussian_three()})
+    ck._main(["--only", "hapmat", "--quick"])
+    out = capsys.readouterr()
+    assert (
+        out.err.strip() == "clustering_k: hapmat: skipped, its data set is not found here" and out.out == ""
+    )
+
+
 def test_every_source_returned_is_a_listed_name():
     assert set(ck.k_sources(quick=True)) <= set(ck.SOURCE_NAMES)
