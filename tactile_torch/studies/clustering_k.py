@@ -324,6 +324,8 @@ def coarsening_curve(
 def _main(argv: list[str] | None = None) -> None:
     import argparse
 
+    from ._cli import refuse_unknown
+
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="short chains, fewer windows")
     parser.add_argument(
@@ -355,15 +357,8 @@ def _main(argv: list[str] | None = None) -> None:
         "--jobs", default=None, type=int, help="threads (default: one per chain up to the cores)"
     )
     args = parser.parse_args(argv)
-    for option, given, known in (
-        ("--only", args.only, SOURCE_NAMES),
-        ("--settings", args.settings, SETTINGS),
-    ):
-        unknown = [name for name in given or () if name not in known]
-        if unknown:
-            parser.error(
-                f"{option}: unknown {', '.join(map(repr, unknown))}; expected some of {', '.join(known)}"
-            )
+    refuse_unknown(parser, "--only", args.only, SOURCE_NAMES)
+    refuse_unknown(parser, "--settings", args.settings, SETTINGS)
     if args.components < 1:
         parser.error(
             f"--components: expected a positive number of principal components, got {args.components}"

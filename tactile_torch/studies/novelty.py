@@ -97,6 +97,10 @@ def window_runs(score: np.ndarray, recording: np.ndarray, position: np.ndarray, 
     return np.concatenate(agg), np.concatenate(last)
 
 
+SOURCES = ("bundled", "bundled-new-session", "hapmat", "borealtc")
+"""The sources of :func:`source_windows` (the real sets' only where their data are present)."""
+
+
 def source_windows(name: str, seed: int = 0) -> dict[str, Any]:
     """Return the 21 window features (torch, float64), labels, recording ids, positions and sessions of a source.
 
@@ -328,6 +332,8 @@ def novelty_rows(
 def _main(argv: list[str] | None = None) -> None:
     import argparse
 
+    from ._cli import refuse_unknown
+
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument(
         "--only", nargs="*", default=["bundled", "hapmat", "borealtc"], help="also: bundled-new-session"
@@ -353,6 +359,8 @@ def _main(argv: list[str] | None = None) -> None:
         "--agreement", action="store_true", help="also refit to the test windows: the robust model's answer"
     )
     args = parser.parse_args(argv)
+    refuse_unknown(parser, "--only", args.only, SOURCES)
+    refuse_unknown(parser, "--rules", args.rules, (*RULES, ROBUST))
     first = True
     for name in args.only:
         rows = novelty_rows(
