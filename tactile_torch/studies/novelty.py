@@ -172,7 +172,7 @@ def per_component_decisions(
     test: np.ndarray,
     n: int,
     false_alarm: float,
-) -> tuple[np.ndarray, np.ndarray]:
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Return (mean score of each test run (m,), its threshold (m,), its last window (m,)): one threshold per component of the run's last window.
 
     A component with fewer than ``1 / false_alarm`` calibration runs (at most ``false_alarm`` of
