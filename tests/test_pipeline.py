@@ -216,7 +216,7 @@ def test_cli_stream_classifies_a_simulated_sensor(tmp_path, vibration_npz, capsy
     assert opened == [("/dev/robot-imu", {"baudrate": 230400, "timeout": 0.1})]
     assert status == 0
     out = capsys.readouterr().out
-    printed = [line.split()[2] for line in out.splitlines()[1:5]]
+    printed = [line.split()[2] for line in out.splitlines()]  # stdout: the decisions only
     # windows of 400 every 200 samples of what went over the wire, as the bundle classifies them offline
     sent = np.array([parse_sample(format_sample(s)) for s in recording[:1000]], dtype=np.float32)
     windows = np.stack([sent[s : s + 400].T for s in (0, 200, 400, 600)])

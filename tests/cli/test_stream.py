@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 import serial
 
-from tactile_torch.cli import STREAM_DISCONNECTED_EXIT, STREAM_NO_DATA_EXIT, main
+from tactile_torch.cli import STREAM_DISCONNECTED_EXIT, STREAM_NO_DATA_EXIT, STREAM_OUTPUT_CLOSED_EXIT, main
 from tactile_torch.robot.stream import format_sample, parse_line
 from tests.conftest import _NO_TORCH
 from tests.stream_helpers import PtySensor, axis_recording, energy_bundle, expected_axis
@@ -240,11 +240,11 @@ def test_an_out_of_range_sample_without_the_range_check_gets_no_label(model, sen
     writer = _Writer(lambda: (opened(1), sensor_pty.write(b"".join(lines))))
     status = _stream(model, sensor_pty, "--range", "inf", "--max-windows", "3", json_lines=False)
     writer.finish()
-    out = capsys.readouterr().out.splitlines()
-    assert status == 0
-    assert out[1].split()[:3] == ["0", "16", "-"] and "no label: scores not finite" in out[1]
-    assert out[1].endswith("[non_finite_scores]") and "nan" not in out[1] and "inf" not in out[1]
-    assert out[2].split()[2] == "x" and out[3].split()[2] == "x"  # windows 8-23, 16-31 are clean
+    out = capsys.readouterr().out.splitlines()  # the decisions only: the status lines are on stderr
+    assert status == 0 and len(out) == 3
+    assert out[0].split()[:3] == ["0", "16", "-"] and "no label: scores not finite" in out[0]
+    assert out[0].endswith("[non_finite_scores]") and "nan" not in out[0] and "inf" not in out[0]
+    assert out[1].split()[2] == "x" and out[2].split()[2] == "x"  # windows 8-23, 16-31 are clean
 
 
 def test_garbage_is_reported_with_each_window_not_only_at_the_end(model, sensor_pty, opened, capsys):
@@ -257,10 +257,10 @@ def test_garbage_is_reported_with_each_window_not_only_at_the_end(model, sensor_
     status = _stream(model, sensor_pty, "--step", "16", "--max-windows", "3", json_lines=False)
     writer.finish()
     out = capsys.readouterr().out.splitlines()
-    assert status == 0
+    assert status == 0 and len(out) == 3
+    assert out[0].rstrip().endswith("1 skipped  [skipped]")
     assert out[1].rstrip().endswith("1 skipped  [skipped]")
-    assert out[2].rstrip().endswith("1 skipped  [skipped]")
-    assert "skipped" not in out[3]
+    assert "skipped" not in out[2]
 
 
 def test_json_and_vote_lines_are_read_by_another_process(model, tmp_path):
@@ -449,8 +449,8 @@ def _start_stream(model, port, *args):
         text=True,
         preexec_fn=_default_sigint,  # the test process may run with SIGINT ignored
     )
-    header = proc.stdout.readline()
-    assert "reading" in header, (header, proc.stderr.read() if proc.poll() is not None else "")
+    header = proc.stderr.readline()  # status lines go to stderr, in text mode as in --json
+    assert "reading" in header, (header, proc.stdout.read() if proc.poll() is not None else "")
     return proc
 
 
@@ -462,8 +462,9 @@ def test_samples_sent_right_after_reading_are_all_counted(model, sensor_pty):
     out, err = proc.communicate(timeout=60)
     lines = out.splitlines()
     assert proc.returncode == 0, err
-    assert [line.split()[1] for line in lines[:10]] == [str(16 * (i + 1)) for i in range(10)], out
-    assert "160 samples read, 10 windows, 0 lines skipped" in lines[-1]
+    # stdout holds the decisions only (one line per window); the summary is the last line of stderr
+    assert [line.split()[1] for line in lines] == [str(16 * (i + 1)) for i in range(10)], out
+    assert "160 samples read, 10 windows, 0 lines skipped" in err.splitlines()[-1]
 
 
 @pytest.mark.parametrize("how", ["SIGTERM", "SIGINT"])
@@ -481,8 +482,42 @@ def test_sigterm_and_sigint_end_with_the_summary_and_status_0(model, sensor_pty,
     proc.send_signal(getattr(signal, how))
     out, err = proc.communicate(timeout=30)
     assert proc.returncode == 0, err
-    assert out.splitlines()[-1].startswith("64 samples read, 4 windows, 0 lines skipped"), out
+    assert len(seen + out.splitlines()) == 4, out  # stdout: the 4 windows, nothing else
+    assert err.splitlines()[-1].startswith("64 samples read, 4 windows, 0 lines skipped"), err
     assert f"stopped by {how}" in err and "Traceback" not in err
+
+
+@pytest.mark.parametrize("mode", [[], ["--json"]], ids=["text", "json"])
+def test_a_closed_stdout_ends_the_stream_at_once(model, sensor_pty, mode):
+    """The consumer of the decisions dies while the sensor goes on: the stream stops at its next window."""
+    rec, _ = axis_recording("xy", 8)
+    stop = threading.Event()
+
+    def sensor():  # a sensor that never stops (100 windows a second)
+        i = 0
+        while not stop.is_set():
+            sensor_pty.write_samples(rec, _t(i, 16))
+            i += 16
+            time.sleep(0.01)
+
+    proc = _start_stream(model, sensor_pty.path, "--step", "16", "--idle-timeout", "30", *mode)
+    writer = _Writer(sensor)
+    try:
+        assert proc.stdout.readline()  # a first decision, then the reader goes away
+        proc.stdout.close()
+        status = proc.wait(timeout=20)  # before: it classified into nothing until the sensor stopped
+    finally:
+        stop.set()
+        proc.kill()
+        writer.finish()
+    err = proc.stderr.read().splitlines()
+    assert status == STREAM_OUTPUT_CLOSED_EXIT, err
+    assert re.fullmatch(
+        r"tactile-torch stream: stdout closed \(its reader went away\) after \d+ windows; stopping", err[-2]
+    )
+    assert re.match(
+        r"\d+ samples read, \d+ windows, 0 lines skipped", err[-1]
+    ) and "Traceback" not in "".join(err)
 
 
 @pytest.mark.slow
