@@ -93,6 +93,19 @@ def register(sub) -> None:
         "ADXL345)",
     )
     p.add_argument(
+        "--units",
+        default="g",
+        choices=["g", "m/s2"],
+        help="units of the x,y,z values, as train's --units (default: g)",
+    )
+    p.add_argument(
+        "--scale",
+        type=in_range(0, 1e6),
+        default=None,
+        help="units per count for a sensor that sends integer counts, e.g. 0.0039 (ADXL345 at full "
+        "resolution), as train's --scale",
+    )
+    p.add_argument(
         "--time-unit",
         default="s",
         choices=["s", "ms", "us", "samples"],
@@ -184,8 +197,13 @@ def _stream_until_stopped(args: argparse.Namespace) -> int:
     # stdout holds the decisions (one line per window, text or JSON), stderr everything else
     info = sys.stderr
 
+    from . import ARGUMENT_FLAGS, with_flags
+
+    # the reader names its arguments (pass units='m/s2'): show the options that set them
+    flags = {**{k: ARGUMENT_FLAGS[k] for k in ("units", "scale", "time_unit")}, "range_g": "--range"}
+
     def say(message: str) -> None:
-        print(f"tactile-torch stream: {message}", file=sys.stderr, flush=True)
+        print(f"tactile-torch stream: {with_flags(message, flags)}", file=sys.stderr, flush=True)
 
     def open_port():
         return serial.serial_for_url(args.port, baudrate=args.baud, timeout=min(0.1, args.silence / 2))
@@ -208,6 +226,8 @@ def _stream_until_stopped(args: argparse.Namespace) -> int:
         max_windows=args.max_windows or None,
         rate_hz=rate,
         time_unit=args.time_unit,
+        units=args.units,
+        scale=args.scale,
         range_g=range_g or sensor_range_g(pipe.metadata),
         silence_s=args.silence,
         idle_timeout_s=args.idle_timeout or math.inf,

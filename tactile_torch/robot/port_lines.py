@@ -44,9 +44,9 @@ class StreamEvent:
     ----------
     kind : str
         ``"waiting"`` (no data yet), ``"first"`` (first sample), ``"silence"``, ``"resumed"``, ``"gap"``,
-        ``"range"`` (a sample out of range), ``"rate"`` (``t`` runs at another rate than expected),
-        ``"format"`` (the lines switched between ``x,y,z`` and ``t,x,y,z``), ``"disconnected"``,
-        ``"reconnected"``.
+        ``"range"`` (a sample out of range), ``"units"`` (the samples look like other units than
+        declared, once), ``"rate"`` (``t`` runs at another rate than expected), ``"format"`` (the lines
+        switched between ``x,y,z`` and ``t,x,y,z``), ``"disconnected"``, ``"reconnected"``.
     message : str
         One line for a person.
     """
@@ -67,9 +67,10 @@ class PortLines:
     :class:`StreamTimeout` after the idle or start timeout, raises :class:`StreamDisconnected` when the
     port fails, or reopens it with exponential backoff (``reconnect``). Every parameter is
     :class:`~tactile_torch.robot.stream.WindowReader`'s of the same name. The subclass parses the
-    lines, counts accepted ``samples`` and ``skipped`` lines, and keeps ``_last_sample_at`` (the
-    clock at the last valid sample), ``_silent`` and ``_delay`` (the next reconnection wait) up to
-    date, which the timeouts and the backoff here read.
+    lines, counts accepted ``samples``, ``skipped`` lines and ``rejected`` samples, and keeps
+    ``_last_sample_at`` (the clock at the last valid sample), ``_silent``, ``_delay`` (the next
+    reconnection wait) and ``_units_hint`` (what the samples look like, when not the declared units)
+    up to date, which the timeouts and the backoff here read.
 
     Attributes
     ----------
@@ -77,6 +78,8 @@ class PortLines:
         Samples accepted (counted by the subclass).
     skipped : int
         Lines skipped (did not parse, or partial lines longer than ``max_line_bytes``).
+    rejected : int
+        Samples rejected (counted by the subclass).
     reconnects : int
         Successful reconnections.
     """
@@ -124,7 +127,8 @@ class PortLines:
         self._name = name
         self._clock = clock
         self._sleep = sleep
-        self.samples = self.skipped = self.reconnects = 0
+        self.samples = self.skipped = self.rejected = self.reconnects = 0
+        self._units_hint: str | None = None
         self._event_window: dict[str, tuple[float, int]] = {}
         self._held_events: dict[str, int] = {}
         self._last_sample_at, self._silent = clock(), False
@@ -277,12 +281,19 @@ class PortLines:
                 # the wrong baud rate, a line format the stream refuses) do not keep the stream alive.
                 waited = now - self._last_sample_at
                 limit = self.idle_timeout_s if self.samples else self.start_timeout_s
-                what = "no valid sample" if self.skipped else "no data" if not self.samples else "no sample"
-                skipped = f", {self.skipped} lines skipped" if self.skipped else ""
+                invalid = self.skipped or self.rejected  # lines arrive, none is a valid sample
+                what = "no valid sample" if invalid else "no data" if not self.samples else "no sample"
+                skipped = ", ".join(
+                    [f"{self.skipped} lines skipped"] * bool(self.skipped)
+                    + [f"{self.rejected} samples out of range"] * bool(self.rejected)
+                )
+                skipped = f", {skipped}" if skipped else ""
                 if waited >= limit:
                     raise StreamTimeout(
                         f"{name}: {what} for {waited:.1f} s (timeout {limit:g} s); {self.samples} samples "
                         f"read, {self.skipped} lines skipped"
+                        + (f", {self.rejected} samples out of range" if self.rejected else "")
+                        + (f"; {self._units_hint}" if self._units_hint else "")
                     )
                 if waited >= self.silence_s and not self._silent:
                     self._silent = True

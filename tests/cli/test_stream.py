@@ -432,6 +432,28 @@ def test_garbage_at_the_wrong_baud_rate_times_out_like_silence(model, sensor_pty
     assert re.search(r"no valid sample yet on \S+ after 0\.\d s, \d+ lines skipped", "\n".join(err))
 
 
+def test_m_s2_lines_are_named_and_read_with_units(model, sensor_pty, opened, capsys):
+    """Issue 34: m/s^2 lines were rejected sample by sample with no hint, and "no data yet" was printed."""
+    rec, _ = axis_recording("xz", 32)
+    still = rec * 0.05 + [0.0, 0.0, 1.0]  # a sensor at rest: gravity on z
+    lines = b"".join(format_sample(s) for s in np.concatenate([still, rec]) * 9.80665)  # in m/s^2
+    writer = _Writer(lambda: (opened(1), sensor_pty.write(lines)))
+    assert _stream(model, sensor_pty, "--start-timeout", "1", "--idle-timeout", "1") == STREAM_NO_DATA_EXIT
+    writer.finish()
+    out, err = capsys.readouterr()
+    hints = [line for line in err.splitlines() if "gravity reads 1 g" in line]
+    assert len(hints) == 1 and hints[0].endswith("pass --units m/s2 (9.80665 m/s^2 = 1 g)"), err
+    assert "no data" not in err and err.splitlines()[-2].endswith("these look like m/s^2: pass --units m/s2")
+    writer = _Writer(lambda: (opened(2), sensor_pty.write(lines)))
+    status = _stream(model, sensor_pty, "--units", "m/s2", "--step", "16", "--max-windows", "8")
+    writer.finish()
+    out, err = capsys.readouterr()
+    assert status == 0 and "m/s^2" not in err and "0 samples out of range" in err.splitlines()[-1]
+    records = _records(out)
+    # windows of the recording after the still part, in g, labelled as the bundle labels g windows
+    assert [r["name"] for r in records[4:]] == [expected_axis(rec[i : i + W].T) for i in range(0, 64, 16)]
+
+
 def _default_sigint() -> None:
     """In the child: SIGINT to its default. A test run started in the background of a non-interactive shell
     inherits SIGINT ignored, and Python then keeps ignoring it (no KeyboardInterrupt), as the shell meant."""
