@@ -176,7 +176,13 @@ def _stream_until_stopped(args: argparse.Namespace) -> int:
 
     from ..robot.contract import SAMPLE_RATE_KEY, WINDOW_SIZE_KEY
     from ..robot.runtime import OnnxPipeline
-    from ..robot.stream import StreamDisconnected, StreamTimeout, WindowReader, sensor_range_g
+    from ..robot.stream import (
+        StreamDisconnected,
+        StreamTimeout,
+        WindowReader,
+        open_serial_port,
+        sensor_range_g,
+    )
     from ..robot.stream_output import WindowVote, classify_windows, result_json, result_text
     from ._output import stdout_closed
 
@@ -205,8 +211,19 @@ def _stream_until_stopped(args: argparse.Namespace) -> int:
     def say(message: str) -> None:
         print(f"tactile-torch stream: {with_flags(message, flags)}", file=sys.stderr, flush=True)
 
+    ports_opened = []
+
     def open_port():
-        return serial.serial_for_url(args.port, baudrate=args.baud, timeout=min(0.1, args.silence / 2))
+        # The first open discards what the port held from before the stream; a reopen keeps what the
+        # sensor sent during the wait (pyserial's open would flush it: issue 34).
+        options = {"baudrate": args.baud, "timeout": min(0.1, args.silence / 2)}
+        port = (
+            open_serial_port(args.port, **options, keep_input=True)
+            if ports_opened
+            else serial.serial_for_url(args.port, **options)
+        )
+        ports_opened.append(args.port)
+        return port
 
     reading = []  # printed once the port is open (and the model warm): a sensor may start then
 

@@ -55,6 +55,33 @@ class StreamEvent:
     message: str
 
 
+def open_serial_port(
+    url: str, *, baudrate: int = 230400, timeout: float = 0.1, keep_input: bool = False
+) -> ReadablePort:
+    """Return the serial port ``url`` opened with pyserial (``serial.serial_for_url``).
+
+    pyserial's ``open()`` discards what the OS had buffered for the port (``tcflush`` on POSIX). That is
+    what a stream wants when it first opens the port (stale bytes from before it started), not when
+    it reopens one after a failure: the sensor may already have sent samples during the wait.
+    ``keep_input=True`` opens without that flush where pyserial has one (its POSIX ports), so that
+    nothing is lost silently.
+    """
+    import serial
+
+    if not keep_input:
+        return serial.serial_for_url(url, baudrate=baudrate, timeout=timeout)
+    port = serial.serial_for_url(url, baudrate=baudrate, timeout=timeout, do_not_open=True)
+    flushes = hasattr(port, "_reset_input_buffer")  # called by serialposix.Serial.open (pyserial 3.x)
+    if flushes:
+        port._reset_input_buffer = lambda: None  # this instance only, during open()
+    try:
+        port.open()
+    finally:
+        if flushes:
+            del port._reset_input_buffer
+    return port
+
+
 def _giving_up(limit: float) -> str:
     return "no time limit" if math.isinf(limit) else f"giving up after {limit:g} s"
 
@@ -133,6 +160,7 @@ class PortLines:
         self._held_events: dict[str, int] = {}
         self._last_sample_at, self._silent = clock(), False
         self._delay = self.backoff_s[0]
+        self._reconnected = False  # set with the break that a reconnection yields, cleared by the subclass
 
     # -- events ---------------------------------------------------------------------------------
 
@@ -240,7 +268,7 @@ class PortLines:
             name = self._port_name(port)
             read = self._reader_of(port)
             # the clocks start once the port is open (opening may take a while, and flushes it)
-            self._last_sample_at = clock()
+            self._last_sample_at = opened_at = clock()
             if self.on_open is not None:
                 self.on_open(name)
             while True:
@@ -256,7 +284,13 @@ class PortLines:
                     port = self._reopen(err)
                     read = self._reader_of(port)
                     partial = b""
-                    yield None, clock()
+                    # A port reopened late (at the idle timeout itself) gets the idle timeout anew for its
+                    # first sample: its first read may well be empty. _reopen still gives up once the
+                    # timeout has passed since the last sample, so a port that fails at once is not
+                    # retried for ever.
+                    opened_at = clock()
+                    self._reconnected = True
+                    yield None, opened_at
                     continue
                 now = clock()
                 if chunk:
@@ -279,7 +313,7 @@ class PortLines:
                     now = clock()
                 # Time counts since the last VALID sample: bytes that never parse (garbage, a sensor at
                 # the wrong baud rate, a line format the stream refuses) do not keep the stream alive.
-                waited = now - self._last_sample_at
+                waited = now - max(self._last_sample_at, opened_at)
                 limit = self.idle_timeout_s if self.samples else self.start_timeout_s
                 invalid = self.skipped or self.rejected  # lines arrive, none is a valid sample
                 what = "no valid sample" if invalid else "no data" if not self.samples else "no sample"
@@ -313,4 +347,11 @@ class PortLines:
             self._close(port)
 
 
-__all__ = ["PortLines", "ReadablePort", "StreamDisconnected", "StreamEvent", "StreamTimeout"]
+__all__ = [
+    "PortLines",
+    "ReadablePort",
+    "StreamDisconnected",
+    "StreamEvent",
+    "StreamTimeout",
+    "open_serial_port",
+]

@@ -51,7 +51,14 @@ from .checks import check_count, check_number
 from .contract import DEFAULT_RANGE_G
 from .csv_logs import STANDARD_GRAVITY, UNITS
 from .data_sources import GRAVITY_BAND_G
-from .port_lines import PortLines, ReadablePort, StreamDisconnected, StreamEvent, StreamTimeout
+from .port_lines import (
+    PortLines,
+    ReadablePort,
+    StreamDisconnected,
+    StreamEvent,
+    StreamTimeout,
+    open_serial_port,
+)
 from .runtime import sensor_range_g
 from .wire import format_sample, parse_line, parse_sample, pseudo_terminal, simulate_sensor
 
@@ -156,6 +163,10 @@ class WindowReader(PortLines):
     reconnect : bool, default False
         Reopen a failed port (``source`` must be a callable) with exponential backoff, until
         ``idle_timeout_s`` has passed without a sample; otherwise raise :class:`StreamDisconnected`.
+        A reopened port gets ``idle_timeout_s`` anew for its first sample. With ``t``, the samples
+        lost while the port was away are counted (:attr:`lost`) from the step of ``t`` across the
+        reconnection; a ``source`` that reopens with :func:`open_serial_port` ``(keep_input=True)``
+        keeps what the sensor sent during the wait (pyserial's ``open`` flushes it).
     backoff_s : tuple of float, default (0.5, 8.0)
         First and longest wait between reconnection attempts; the wait doubles after each failure.
     on_event : callable, optional
@@ -245,8 +256,12 @@ class WindowReader(PortLines):
         self.rejected = self.gaps = self.lost = 0
         self.windows = self.format_switches = 0
 
-    def _time_gap(self, t: float) -> bool:
-        """Check the step from the previous ``t`` (seconds); return whether it is a gap."""
+    def _time_gap(self, t: float, in_segment: bool = True) -> bool:
+        """Check the step from the previous ``t`` (seconds); return whether it is a gap.
+
+        ``in_segment`` False: no segment is open (the first sample after a reconnection, whose step
+        from the last ``t`` before it counts the samples lost meanwhile): the gap breaks nothing new.
+        """
         prev, self._prev_t = self._prev_t, t
         if prev is None:
             return False
@@ -263,10 +278,10 @@ class WindowReader(PortLines):
                 return False
             missing = max(1, round(ratio) - 1)
             self.lost += missing
-            what = f"{missing} sample(s) missing"
+            what = f"{missing} sample(s) missing" + ("" if in_segment else " across the reconnection")
         else:
             what = "t went back (a spliced recording or a sensor reset)"
-        self.gaps += 1
+        self.gaps += in_segment
         self._emit("gap", f"gap in t from {prev:.6g} to {t:.6g} s: {what}", repeated=True)
         return True
 
@@ -343,7 +358,10 @@ class WindowReader(PortLines):
         for line, now in self._lines():
             if line is None:  # silence or reconnection: a gap (if a segment was open), the format may change
                 self.gaps += count > 0
-                count, timed, self._prev_t, other_run = 0, None, None, 0
+                count, timed, other_run = 0, None, 0
+                if not self._reconnected:  # a silence: the sensor may have paused, t may jump
+                    self._prev_t = None
+                self._reconnected = False  # a reconnection: t's next step counts what was lost meanwhile
                 continue
             parsed = parse_line(line)
             if parsed is None:
@@ -402,7 +420,7 @@ class WindowReader(PortLines):
                 timed = t is not None
             if t is not None:
                 t *= unit
-                if self._time_gap(t):
+                if self._time_gap(t, count > 0):
                     count = 0
             if not count:  # a segment starts: the connection works, so the next failure waits little
                 self._delay = self.backoff_s[0]
@@ -453,6 +471,7 @@ __all__ = [
     "Window",
     "WindowReader",
     "format_sample",
+    "open_serial_port",
     "parse_line",
     "parse_sample",
     "pseudo_terminal",

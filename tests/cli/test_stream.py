@@ -186,6 +186,30 @@ def test_reconnect_reopens_the_port_with_backoff(model, tmp_path, opened, capsys
     assert "1 reconnections" in err
 
 
+def test_a_reopened_port_keeps_what_arrived_before_the_open(model, tmp_path, opened, capsys):
+    """Issue 34: every reconnection lost what the sensor sent during the backoff wait (opening the port
+    flushed it), uncounted. Now a reopen keeps it, and what was lost while unplugged is counted from t."""
+    sensor = PtySensor(link=tmp_path / "imu")
+    rec, _ = axis_recording("xz", 24)
+
+    def script():
+        opened(1)
+        sensor.write_samples(rec[:24], _t(0, 24))
+        sensor.drain()
+        sensor.replug()  # plugged in again: the sensor sends at once, while the stream waits to reopen
+        sensor.write_samples(rec[29:], _t(29, 19))  # samples 24-28 were sent while it was unplugged
+
+    writer = _Writer(script)
+    status = _stream(model, sensor, "--reconnect", "--max-windows", "3", "--idle-timeout", "5")
+    writer.finish()
+    sensor.close()
+    out, err = capsys.readouterr()
+    assert status == 0, err
+    assert [(r["sample"], round(r["t_start"] * RATE)) for r in _records(out)] == [(16, 0), (24, 8), (40, 29)]
+    assert "gap in t from 0.02875 to 0.03625 s: 5 sample(s) missing across the reconnection" in err
+    assert "40 samples read, 3 windows" in err.splitlines()[-1] and "(5 samples known lost)" in err
+
+
 def test_data_faults_never_reach_a_window(model, sensor_pty, opened, capsys):
     # one session through the data rows of the table: a 1e30 sample, a burst of 30 dropped samples,
     # a spliced recording (t starts again), garbage of every kind, ERR lines and a line without t

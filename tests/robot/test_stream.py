@@ -632,3 +632,63 @@ def test_samples_in_g_raise_no_units_line():
         io.BytesIO(b"".join(format_sample(s) for s in rec)), window_size=8, on_event=events.append
     )
     assert len(list(reader)) == 50 and events == []
+
+
+def test_a_port_reopened_at_the_idle_timeout_gets_time_to_send():
+    """Issue 34: a reopen that landed on the idle timeout was followed by exit 3 when its first read was
+    empty (the idle clock still ran from the last sample before the failure)."""
+    clock = _Clock()
+    rec = _recording(24)
+    lines = [format_sample(s) for s in rec]
+
+    def opener():
+        if not clock.slept:
+            return _ScriptedPort([b"".join(lines[:8]), OSError(5, "Input/output error")], clock)
+        if sum(clock.slept) < 10.0:
+            raise OSError(2, "No such file")
+        return _ScriptedPort([0.05, b"".join(lines[8:])], clock)  # the sensor's first line comes 50 ms later
+
+    reader = WindowReader(
+        opener,
+        window_size=8,
+        reconnect=True,
+        idle_timeout_s=10.0,
+        clock=clock,
+        sleep=clock.sleep,
+        name="/dev/imu",
+    )
+    windows = []
+    with pytest.raises(StreamTimeout, match=r"; 24 samples read"):
+        for window in reader:
+            windows.append(window)
+    assert clock.slept[:5] == [0.5, 1.0, 2.0, 4.0, 2.5] and reader.reconnects == 1
+    assert [w.end_sample for w in windows] == [8, 16, 24]
+
+
+def test_samples_lost_across_a_reconnection_are_counted_from_t():
+    clock = _Clock()
+    rec = _recording(40)
+    t = np.arange(40) / 800.0
+    ports = [
+        _ScriptedPort([_timed_lines(rec[:16], t[:16]), OSError(5, "Input/output error")], clock),
+        _ScriptedPort([_timed_lines(rec[21:], t[21:])], clock),  # samples 16-20 sent while unplugged
+    ]
+    events = []
+    reader = WindowReader(
+        lambda: ports.pop(0),
+        window_size=8,
+        rate_hz=800.0,
+        reconnect=True,
+        idle_timeout_s=1.0,
+        clock=clock,
+        sleep=clock.sleep,
+        on_event=events.append,
+        name="/dev/imu",
+    )
+    with pytest.raises(StreamTimeout):
+        list(reader)
+    # gaps: the reconnection and the silence at the end (the step of t across the reconnection is the
+    # same gap, counted once)
+    assert reader.lost == 5 and reader.gaps == 2 and reader.samples == 35
+    gap = next(e.message for e in events if e.kind == "gap")
+    assert gap == "gap in t from 0.01875 to 0.02625 s: 5 sample(s) missing across the reconnection"
