@@ -26,7 +26,7 @@ def register(sub) -> None:
     p = sub.add_parser(
         "stream",
         help="classify a live serial accelerometer stream with an exported vibration bundle",
-        description="Read 'x,y,z' or 't,x,y,z' lines (g) from a serial port (any pyserial URL, e.g. "
+        description="Read 'x,y,z' or 't,x,y,z' lines (g, or --units, --scale) from a serial port (any pyserial URL, e.g. "
         "/dev/ttyUSB0, socket://host:port, loop://), cut them into the bundle's windows and print each "
         "window's class on stdout. Status lines (silence, disconnection, gaps in t, samples out of range, "
         "garbage lines, the summary) go to stderr; no window spans a gap. Exit status: 0 done, 3 no data "
@@ -184,6 +184,7 @@ def _stream_until_stopped(args: argparse.Namespace) -> int:
         sensor_range_g,
     )
     from ..robot.stream_output import WindowVote, classify_windows, result_json, result_text
+    from . import ARGUMENT_FLAGS, with_flags
     from ._output import stdout_closed
 
     range_g = parse_range_g(args.range, "--range", off=True)
@@ -202,9 +203,6 @@ def _stream_until_stopped(args: argparse.Namespace) -> int:
         return 2
     # stdout holds the decisions (one line per window, text or JSON), stderr everything else
     info = sys.stderr
-
-    from . import ARGUMENT_FLAGS, with_flags
-
     # the reader names its arguments (pass units='m/s2'): show the options that set them
     flags = {**{k: ARGUMENT_FLAGS[k] for k in ("units", "scale", "time_unit")}, "range_g": "--range"}
 
