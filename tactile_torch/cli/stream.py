@@ -10,7 +10,7 @@ import argparse
 import sys
 
 from . import STREAM_DISCONNECTED_EXIT, STREAM_NO_DATA_EXIT, STREAM_STOPPED_EXIT
-from ._options import UsageError, add_allow_pickle, at_least, in_range, parse_range_g
+from ._options import SEED, Number, UsageError, add_allow_pickle, at_least, in_range, parse_range_g
 
 MAX_SIMULATED_S = 600
 """Longest synthetic recording ``simulate-sensor`` generates (28 surfaces are generated: 160 MB)."""
@@ -29,7 +29,7 @@ def register(sub) -> None:
     )
     p.add_argument("--model", required=True, help="the .onnx vibration bundle")
     p.add_argument("--port", required=True, help="serial port or pyserial URL")
-    p.add_argument("--baud", type=int, default=230400, help="baud rate (default: 230400)")
+    p.add_argument("--baud", type=Number(int, low=1), default=230400, help="baud rate (default: 230400)")
     p.add_argument(
         "--step",
         type=at_least(1, int),
@@ -84,6 +84,7 @@ def register(sub) -> None:
     )
     p.add_argument(
         "--range",
+        type=Number(low=0, open_low=True, allow_inf=True, unit="g"),
         help="reject samples beyond +-RANGE g; inf: off (default: the bundle's sensor_range_g, else 5 for the "
         "ADXL345)",
     )
@@ -95,7 +96,7 @@ def register(sub) -> None:
     )
     p.add_argument(
         "--discover",
-        type=int,
+        type=Number(int, low=0),
         default=0,
         metavar="N",
         help="clustering bundles: propose a new surface after N consecutive novel windows (default: off)",
@@ -115,7 +116,9 @@ def register(sub) -> None:
         help="instead of --port, open a pseudo-terminal and print the port to read",
     )
     p.add_argument("--data", default="", help="vibration .npz to play (default: a synthetic surface)")
-    p.add_argument("--recording", type=int, default=0, help="index of the recording to play (default: 0)")
+    p.add_argument(
+        "--recording", type=Number(int, low=0), default=0, help="index of the recording to play (default: 0)"
+    )
     p.add_argument(
         "--seconds",
         type=in_range(0, MAX_SIMULATED_S),
@@ -128,10 +131,10 @@ def register(sub) -> None:
         default=800.0,
         help="sample rate (Hz) when the file has none, > 0 (default: 800)",
     )
-    p.add_argument("--baud", type=int, default=230400, help="baud rate (default: 230400)")
+    p.add_argument("--baud", type=Number(int, low=1), default=230400, help="baud rate (default: 230400)")
     p.add_argument("--fast", action="store_true", help="write as fast as possible instead of in real time")
     p.add_argument("--timestamps", action="store_true", help="write 't,x,y,z' lines (t in seconds)")
-    p.add_argument("--seed", type=int, default=0, help="synthetic: random seed (default: 0)")
+    p.add_argument("--seed", type=SEED, default=0, help="synthetic: random seed (default: 0)")
     add_allow_pickle(p)
     p.set_defaults(handler=run_simulate_sensor)
 
