@@ -265,7 +265,7 @@ def check_sessions(data, name: str = "data") -> None:
         return
     single = [s for s in np.unique(session) if np.unique(labels[session == s]).size == 1]
     if single:
-        s = single[0]
+        s = str(single[0])
         surface = data.class_names[int(labels[session == s][0])]
         raise ValueError(
             f"{name}: {len(single)} of {np.unique(session).size} sessions hold a single surface (session {s!r}: "

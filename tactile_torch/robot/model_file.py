@@ -63,7 +63,7 @@ from pathlib import Path
 import numpy as np
 
 from .formats import check_class_names
-from .npz import PathLike, max_read_bytes, read_npz, write_npz
+from .npz import MAX_READ_ENV, PathLike, max_read_bytes, read_npz, write_npz
 from .windows import MAX_WINDOW, MIN_WINDOW
 
 FORMAT = "tactile-torch/model"
@@ -369,7 +369,7 @@ def _check_source(where: str, source: object) -> int | None:
             _fail(
                 where,
                 f"source.frame_shape {shape} makes one exploration of {4 * math.prod(shape):,} bytes, more than the "
-                f"read limit of {max_read_bytes():,} bytes (--max-read-mb)",
+                f"read limit of {max_read_bytes():,} bytes (raise it with {MAX_READ_ENV}=MB if the file is trusted)",
             )
         return IMAGE_FEATURES if source["fuse"] else IMAGE_FEATURES * shape[0]
     if kind == "features":

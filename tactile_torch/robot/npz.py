@@ -97,6 +97,7 @@ def check_npz_size(path: PathLike, *, max_bytes: int | None = None, what: str = 
     """
     path = Path(path)
     limit = max_read_bytes(max_bytes)
+    name = ""
     try:
         with zipfile.ZipFile(path) as archive:
             members = archive.infolist()
@@ -105,6 +106,7 @@ def check_npz_size(path: PathLike, *, max_bytes: int | None = None, what: str = 
                 raise _too_large(path, f"decompressing the {what}", declared, limit)
             needed = 0
             for info in members:
+                name = info.filename
                 with archive.open(info) as member:
                     try:
                         version = np.lib.format.read_magic(member)
@@ -122,8 +124,8 @@ def check_npz_size(path: PathLike, *, max_bytes: int | None = None, what: str = 
                         f"holds {info.file_size:,} bytes: a crafted or truncated {what}"
                     )
                 needed += size
-    except (zipfile.BadZipFile, EOFError, OSError) as err:
-        raise ValueError(f"{path}: truncated or corrupt {what} ({err})") from None
+    except (zipfile.BadZipFile, zlib.error, EOFError, OSError) as err:
+        raise _corrupt(path, name, what, err) from None
     if needed > limit:
         raise _too_large(path, f"the {what}'s arrays", needed, limit)
     return needed
@@ -167,13 +169,18 @@ def read_npz(
                         raise ValueError(f"{path}: {member} holds more bytes than its header declares")
                 arrays[key] = value
     except (zipfile.BadZipFile, zlib.error, EOFError, OSError) as err:
-        if not member:
-            raise ValueError(f"{path}: truncated or corrupt {what} ({err})") from None
-        raise ValueError(
-            f"{path}: {member} is corrupt ({err}): the {what} was damaged (a flipped bit, a cut copy); "
-            "copy or write it again"
-        ) from None
+        raise _corrupt(path, member, what, err) from None
     return arrays
+
+
+def _corrupt(path: Path, member: str, what: str, err: Exception) -> ValueError:
+    """The one line for a damaged archive: the member whose data do not decompress or check, if known."""
+    if not member:
+        return ValueError(f"{path}: truncated or corrupt {what} ({err})")
+    return ValueError(
+        f"{path}: {member} is corrupt ({err}): the {what} was damaged (a flipped bit, a cut copy); "
+        "copy or write it again"
+    )
 
 
 def _read_member(stream, path: Path, key: str, what: str, allow_pickle: bool) -> np.ndarray:

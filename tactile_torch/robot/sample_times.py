@@ -182,7 +182,7 @@ def describe_timing(found: Sequence[tuple[str, TimeBase, float]], *, what: str =
         total = sum(int(b.gaps.size) for _, b, _ in gappy)
         lines.append(
             f"{total} gap(s) in the time stamps of {len(gappy)} of {len(found)} {what}(s) (steps longer than "
-            f"{1 + GAP_TOLERANCE:g} sample periods; the longest {base.longest_gap * seconds:.4g} s, in {name}): "
+            f"{1 + GAP_TOLERANCE:g} sample periods; the longest, {base.longest_gap * seconds:.4g} s, in {name}): "
             "no window spans a gap"
         )
     odd = [(name, base) for name, base, _ in found if base.irregular > IRREGULAR_TOLERANCE]
