@@ -136,7 +136,8 @@ def register(sub) -> None:
         "--csv-session",
         default=None,
         choices=["number", "file"],
-        help="CSV logs: session from the file name's trailing number (felt_3.csv -> 3, default) or one per file",
+        help="CSV logs: session from the file name's trailing number (felt_3.csv -> 3), else the folder when the "
+        "files lie in several (day2/felt.csv -> day2; default: number), or one per file",
     )
     p.add_argument("--seed", type=SEED, default=None, help="random seed (default: 0)")
     p.add_argument("--quiet", action="store_true", help="no progress bars")

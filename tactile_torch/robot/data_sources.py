@@ -170,7 +170,12 @@ def read_source(paths: PathLike | Sequence[PathLike], options: DataOptions | Non
         sources = [f"{path}: recording {i} (session {s})" for i, s in enumerate(session)]
     if options.check:
         check_recordings(
-            data.signals, sources, data.rate_hz, sensor_range_g=options.sensor_range_g, units=units
+            data.signals,
+            sources,
+            data.rate_hz,
+            sensor_range_g=options.sensor_range_g,
+            units=units,
+            gaps=data.gaps,
         )
     data.sources = sources
     return data
@@ -221,11 +226,11 @@ def _read_bags(paths: list[Path], options: DataOptions):
     sources = [t.name for t in topics]
     for line in describe_timing([(t.name, t.timing, 1e-9) for t in topics], what="bag"):
         warnings.warn(line, stacklevel=3)
+    gaps = [t.timing.gaps for t in topics]
     if options.check:
         check_recordings(
-            signals, sources, float(rates[0]), sensor_range_g=options.sensor_range_g, units="m/s2"
+            signals, sources, float(rates[0]), sensor_range_g=options.sensor_range_g, units="m/s2", gaps=gaps
         )
-    gaps = [t.timing.gaps for t in topics]
     return RecordingArrays(
         signals,
         labels,
@@ -270,8 +275,12 @@ def check_recordings(
     *,
     sensor_range_g: float = DEFAULT_RANGE_G,
     units: str = "g",
+    gaps: Sequence[np.ndarray] | None = None,
 ) -> None:
     """Refuse recordings whose samples the declared units make implausible; return ``None`` if all pass.
+
+    ``gaps`` (per recording, the samples after a gap in its time stamps): a sample after a gap is
+    named without a time, which ``index / rate_hz`` no longer gives.
 
     Checked per recording ``(n, 3)`` in g, in this order: the mean acceleration's norm lies in
     :data:`GRAVITY_BAND_G` (gravity of m/s^2 data read as g; only when ``units`` is ``"g"``); a
@@ -283,7 +292,7 @@ def check_recordings(
     ValueError
         One line naming the recording (``sources[i]``), the sample (index and time) and the value.
     """
-    for signal, where in zip(signals, sources, strict=True):
+    for i, (signal, where) in enumerate(zip(signals, sources, strict=True)):
         s = np.asarray(signal, dtype=np.float64)
         if not len(s):
             continue
@@ -303,8 +312,10 @@ def check_recordings(
                 if abs(value) < FLOAT32_MAX
                 else f"{'-' if value < 0 else ''}{FLOAT32_MAX:.3g} g or more (beyond float32)"
             )
+            after_gap = gaps is not None and len(gaps[i]) and row >= int(gaps[i][0])
+            when = "after a gap in t" if after_gap else f"t = {row / rate_hz:.4g} s"
             raise ValueError(
-                f"{where}: sample {row} (t = {row / rate_hz:.4g} s) reads {reads} on {'xyz'[axis]}, "
+                f"{where}: sample {row} ({when}) reads {reads} on {'xyz'[axis]}, "
                 f"beyond the sensor's ±{sensor_range_g:g} g ({int(beyond.any(axis=1).sum())} samples beyond); "
                 "declare the range with sensor_range_g=G, or the units with units= / scale="
             )
