@@ -131,16 +131,9 @@ def window_list(text: str) -> tuple[int, ...]:
         ) from None
 
 
-def add_data_options(
-    p: argparse.ArgumentParser, *, data_help: str = DATA_HELP, sensor_range: bool = True
-) -> None:
-    """Add ``--data`` and the options saying how to read it to the subcommand parser ``p``.
-
-    ``sensor_range``: add ``--sensor-range`` (recordings beyond it are refused); without it, no range
-    check (``predict`` leaves such windows out with its own ``--range``).
-    """
-    p.add_argument("--data", required=True, nargs="+", help=data_help)
-    g = p.add_argument_group("reading the data (docs/formats.md)")
+def add_csv_options(g) -> None:
+    """Add the options saying how to read CSV logs (``--columns``, ``--units``, ``--scale``, ``--time-unit``)
+    to the parser or argument group ``g`` (:func:`add_data_options` adds them with the others)."""
     g.add_argument(
         "--columns",
         default=None,
@@ -166,6 +159,19 @@ def add_data_options(
         help="CSV logs: unit of the time column (default: auto, seconds unless the rate is implausible; a "
         "declared unit that makes it implausible is refused too)",
     )
+
+
+def add_data_options(
+    p: argparse.ArgumentParser, *, data_help: str = DATA_HELP, sensor_range: bool = True
+) -> None:
+    """Add ``--data`` and the options saying how to read it to the subcommand parser ``p``.
+
+    ``sensor_range``: add ``--sensor-range`` (recordings beyond it are refused); without it, no range
+    check (``predict`` leaves such windows out with its own ``--range``).
+    """
+    p.add_argument("--data", required=True, nargs="+", help=data_help)
+    g = p.add_argument_group("reading the data (docs/formats.md)")
+    add_csv_options(g)
     g.add_argument(
         "--rate",
         dest="sample_rate_hz",
@@ -346,6 +352,7 @@ __all__ = [
     "Number",
     "UsageError",
     "add_allow_pickle",
+    "add_csv_options",
     "add_data_options",
     "at_least",
     "check_out",

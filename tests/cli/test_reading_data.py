@@ -336,3 +336,36 @@ def test_a_time_block_split_says_why_in_words_the_data_bear_out():
     _, _, split = held_out_folds(features, 5, random_state=0)
     assert "(2 of 2 classes have a single session (the 2 recordings of 'a' are one session))" in split
     assert "a class has a single recording" not in split
+
+
+def test_simulate_sensor_plays_the_users_csv_at_its_rate(user, monkeypatch, capsys):
+    import io
+
+    import serial
+
+    from tactile_torch.robot.stream import parse_sample
+
+    _, paths, rec = user
+    wire = io.BytesIO()
+    wire.close = lambda: None
+    monkeypatch.setattr(serial, "serial_for_url", lambda url, **kw: wire)
+    argv = [
+        "simulate-sensor",
+        "--data",
+        paths[0],
+        *USER_COLUMNS,
+        "--time-unit",
+        "ms",
+        "--port",
+        "x",
+        "--fast",
+    ]
+    status, out, err = _run(argv, capsys)
+    assert status == 0 and err == "" and f"writing {len(rec.signals[0])} samples at 800 Hz to x\n" in out
+    sent = np.array([parse_sample(line) for line in wire.getvalue().splitlines()])
+    np.testing.assert_allclose(sent, rec.signals[0], atol=2e-5)  # m/s^2 with 6 decimals, 5 on the wire
+    status, out, err = _run([*argv, "--rate", "1000"], capsys)
+    assert status == BAD_INPUT_EXIT and err == (
+        f"tactile-torch simulate-sensor: {paths[0]}: the time stamps give 800 Hz (t in milliseconds), but --rate "
+        "1000 was stated; check the time column (--columns), its unit (--time-unit) and the rate\n"
+    )
