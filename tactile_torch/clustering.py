@@ -271,7 +271,7 @@ def check_sessions(data, name: str = "data") -> None:
             f"{name}: {len(single)} of {np.unique(session).size} sessions hold a single surface (session {s!r}: "
             f"{np.count_nonzero(session == s)} recording(s), all {surface!r}); standardising within such a session "
             "would remove its surface (sessions must each hold the same mix of surfaces: one folder per "
-            "session, or --index)"
+            "session, or an index CSV, index=)"
         )
 
 

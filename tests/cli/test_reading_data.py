@@ -312,8 +312,8 @@ def test_cluster_refuses_sessions_of_one_surface_before_any_work(tmp_path, capsy
     assert status == BAD_INPUT_EXIT and err == (
         f"tactile-torch cluster: {tmp_path / 's.npz'}: 2 of 2 sessions hold a single surface (session "
         f"'{min(rec.class_names)}': 2 recording(s), all '{min(rec.class_names)}'); standardising within such a session "
-        "would remove its surface (sessions must each hold the same mix of surfaces: one folder per session, or "
-        "--index)\n"
+        "would remove its surface (sessions must each hold the same mix of surfaces: one folder per session, or an "
+        "index CSV, --index)\n"
     )
 
 
