@@ -305,7 +305,8 @@ def test_ood_distance_in_the_graph_matches_numpy(tmp_path, vibration_npz):
 
 
 def test_a_header_is_checked_against_its_graph(tmp_path, vibration_npz):
-    """A crafted header (window = 5) must not export a graph that labels 5-sample windows."""
+    """A crafted header (window = 5, or 24 TB of window) is refused in one line naming the file and
+    the field, before any graph is built or any array allocated (issue 34)."""
     import json as json_
 
     from tactile_torch.robot.model_file import HEADER
@@ -313,14 +314,15 @@ def test_a_header_is_checked_against_its_graph(tmp_path, vibration_npz):
     _, _, path = _trained(tmp_path, vibration_npz, "svm", window=400)
     arrays = dict(np.load(path))
     header = json_.loads(str(arrays.pop(HEADER)))
-    header["source"]["window"] = 5
-    crafted = tmp_path / "crafted.npz"
-    np.savez(crafted, **{HEADER: np.array(json_.dumps(header))}, **arrays)
-    bundle = OnnxPipeline(export_pipeline(pipeline_from_model(crafted), tmp_path / "c.onnx"))
-    # the graph takes what its header says; the OOD statistics were fitted on 400-sample windows, so
-    # 5-sample windows are unknown rather than labelled
-    raw = np.random.default_rng(0).normal(0, 0.3, (20, 3, 5)).astype(np.float32)
-    assert (bundle.predict(raw) == -1).mean() >= 0.9
+    for window in (5, 2 * 10**12):
+        header["source"]["window"] = window
+        crafted = tmp_path / "crafted.npz"
+        np.savez(crafted, **{HEADER: np.array(json_.dumps(header))}, **arrays)
+        with pytest.raises(
+            ValueError,
+            match=rf"crafted\.npz: source\.window must be a number of samples in 16 \.\. 1,048,576 .*got {window}$",
+        ):
+            pipeline_from_model(crafted)
 
 
 @pytest.mark.slow  # trains and exports its own bundle (about 40 s); the API and predict have faster tests above

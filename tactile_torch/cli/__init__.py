@@ -98,6 +98,7 @@ ARGUMENT_FLAGS = {
     "units": "--units",
     "scale": "--scale",
     "time_unit": "--time-unit",
+    "sample_rate_hz": "--rate",
     "sensor_range_g": "--sensor-range",
     "topic": "--topic",
     "shape": "--shape",

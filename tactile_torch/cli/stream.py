@@ -15,7 +15,16 @@ from . import (
     STREAM_OUTPUT_CLOSED_EXIT,
     STREAM_STOPPED_EXIT,
 )
-from ._options import UsageError, add_allow_pickle, at_least, in_range, parse_range_g
+from ._options import (
+    SEED,
+    Number,
+    UsageError,
+    add_allow_pickle,
+    add_csv_options,
+    at_least,
+    in_range,
+    parse_range_g,
+)
 
 MAX_SIMULATED_S = 600
 """Longest synthetic recording ``simulate-sensor`` generates (28 surfaces are generated: 160 MB)."""
@@ -34,7 +43,7 @@ def register(sub) -> None:
     )
     p.add_argument("--model", required=True, help="the .onnx vibration bundle")
     p.add_argument("--port", required=True, help="serial port or pyserial URL")
-    p.add_argument("--baud", type=int, default=230400, help="baud rate (default: 230400)")
+    p.add_argument("--baud", type=Number(int, low=1), default=230400, help="baud rate (default: 230400)")
     p.add_argument(
         "--step",
         type=at_least(1, int),
@@ -89,6 +98,7 @@ def register(sub) -> None:
     )
     p.add_argument(
         "--range",
+        type=Number(low=0, open_low=True, allow_inf=True, unit="g"),
         help="reject samples beyond +-RANGE g; inf: off (default: the bundle's sensor_range_g, else 5 for the "
         "ADXL345)",
     )
@@ -113,7 +123,7 @@ def register(sub) -> None:
     )
     p.add_argument(
         "--discover",
-        type=int,
+        type=Number(int, low=0),
         default=0,
         metavar="N",
         help="clustering bundles: propose a new surface after N consecutive novel windows (default: off)",
@@ -132,8 +142,13 @@ def register(sub) -> None:
         action="store_true",
         help="instead of --port, open a pseudo-terminal and print the port to read",
     )
-    p.add_argument("--data", default="", help="vibration .npz to play (default: a synthetic surface)")
-    p.add_argument("--recording", type=int, default=0, help="index of the recording to play (default: 0)")
+    p.add_argument(
+        "--data", default="", help="vibration .npz or CSV log to play (default: a synthetic surface)"
+    )
+    add_csv_options(p.add_argument_group("reading a CSV log (docs/formats.md)"))
+    p.add_argument(
+        "--recording", type=Number(int, low=0), default=0, help="index of the recording to play (default: 0)"
+    )
     p.add_argument(
         "--seconds",
         type=in_range(0, MAX_SIMULATED_S),
@@ -143,13 +158,14 @@ def register(sub) -> None:
     p.add_argument(
         "--rate",
         type=in_range(0, 1e6),
-        default=800.0,
-        help="sample rate (Hz) when the file has none, > 0 (default: 800)",
+        default=None,
+        help="sample rate (Hz): of a .npz without rate_hz (default: 800), or stated for a CSV log (its time "
+        "stamps must agree within 5%%; default: their rate)",
     )
-    p.add_argument("--baud", type=int, default=230400, help="baud rate (default: 230400)")
+    p.add_argument("--baud", type=Number(int, low=1), default=230400, help="baud rate (default: 230400)")
     p.add_argument("--fast", action="store_true", help="write as fast as possible instead of in real time")
     p.add_argument("--timestamps", action="store_true", help="write 't,x,y,z' lines (t in seconds)")
-    p.add_argument("--seed", type=int, default=0, help="synthetic: random seed (default: 0)")
+    p.add_argument("--seed", type=SEED, default=0, help="synthetic: random seed (default: 0)")
     add_allow_pickle(p)
     p.set_defaults(handler=run_simulate_sensor)
 
@@ -337,10 +353,26 @@ def run_simulate_sensor(args: argparse.Namespace) -> int:
     if bool(args.port) == args.pty:
         print("tactile-torch simulate-sensor: give either --port PORT or --pty", file=sys.stderr)
         return 2
-    if args.data:  # any layout of docs/formats.md, incl. recordings of different lengths
+    if args.data.lower().endswith(".csv"):  # a logger's CSV, read as train reads it
+        from ..robot.data_sources import DataOptions, read_source
+
+        declared = {
+            "columns": args.columns,
+            "units": args.units,
+            "scale": args.scale,
+            "time_unit": args.time_unit,
+        }
+        data = read_source([args.data], DataOptions(**declared, sample_rate_hz=args.rate, check=False))
+    elif args.data:  # any layout of docs/formats.md, incl. recordings of different lengths
         from ..robot.formats import read_recordings
 
-        data = read_recordings(args.data, allow_pickle=args.allow_pickle, default_rate_hz=args.rate)
+        csv_only = [
+            o for o, v in (("--columns", args.columns), ("--units", args.units), ("--scale", args.scale)) if v
+        ]
+        if csv_only or args.time_unit != "auto":
+            raise UsageError(f"{', '.join(csv_only) or '--time-unit'} applies to a CSV log, got {args.data}")
+        data = read_recordings(args.data, allow_pickle=args.allow_pickle, default_rate_hz=args.rate or 800.0)
+    if args.data:
         if not 0 <= args.recording < len(data):
             raise UsageError(f"--recording must be in 0..{len(data) - 1} ({args.data}), got {args.recording}")
         recording, rate = data.signals[args.recording], data.rate_hz

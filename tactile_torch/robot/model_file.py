@@ -63,7 +63,8 @@ from pathlib import Path
 import numpy as np
 
 from .formats import check_class_names
-from .npz import PathLike, read_npz, write_npz
+from .npz import MAX_READ_ENV, PathLike, max_read_bytes, read_npz, write_npz
+from .windows import MAX_WINDOW, MIN_WINDOW
 
 FORMAT = "tactile-torch/model"
 FORMAT_VERSION = 2
@@ -333,8 +334,18 @@ def _check_source(where: str, source: object) -> int | None:
     if kind == "vibration":
         for name, want in (("window", int), ("step", int), ("rate_hz", float)):
             _check_type(where, f"source.{name}", source.get(name), want)
-        if source["window"] < 2 or source["step"] < 1 or source["rate_hz"] <= 0:
-            _fail(where, f"source must have window >= 2, step >= 1 and rate_hz > 0, got {source}")
+        if (
+            not MIN_WINDOW <= source["window"] <= MAX_WINDOW
+        ):  # what train makes; checked before any allocation
+            _fail(
+                where,
+                f"source.window must be a number of samples in {MIN_WINDOW} .. {MAX_WINDOW:,} (what train makes), "
+                f"got {source['window']}",
+            )
+        if not 1 <= source["step"] <= MAX_WINDOW or not 0 < source["rate_hz"] < float("inf"):
+            _fail(
+                where, f"source must have step in 1 .. {MAX_WINDOW:,} and a finite rate_hz > 0, got {source}"
+            )
         return VIBRATION_FEATURES
     if kind == "image":
         _check_type(where, "source.fuse", source.get("fuse"), bool)
@@ -354,6 +365,12 @@ def _check_source(where: str, source: object) -> int | None:
             and shape[1] == 3
         ):
             _fail(where, f"source.frame_shape must be [T, 3, H, W], got {shape!r:.80}")
+        if 4 * math.prod(shape) > max_read_bytes():  # one float32 exploration: checked before any allocation
+            _fail(
+                where,
+                f"source.frame_shape {shape} makes one exploration of {4 * math.prod(shape):,} bytes, more than the "
+                f"read limit of {max_read_bytes():,} bytes (raise it with {MAX_READ_ENV}=MB if the file is trusted)",
+            )
         return IMAGE_FEATURES if source["fuse"] else IMAGE_FEATURES * shape[0]
     if kind == "features":
         _check_type(where, "source.n_features", source.get("n_features"), int)

@@ -541,7 +541,8 @@ class OnnxPipeline:
                 raise ValueError(f"{self.path}: no {WINDOW_SIZE_KEY} in the bundle's metadata")
             size = int(self.metadata[WINDOW_SIZE_KEY])
             try:
-                cut = window_recordings(data.signals, size, int(self.metadata.get(STEP_KEY, size)))
+                step = int(self.metadata.get(STEP_KEY, size))
+                cut = window_recordings(data.signals, size, step, gaps=getattr(data, "gaps", None))
             except ValueError as err:
                 raise ValueError(f"{where}: {err}, the window of this {self.pipeline} bundle") from None
             raw, labels, rate = cut.windows, data.labels[cut.recording], data.rate_hz

@@ -60,16 +60,11 @@ from .port_lines import (
     open_serial_port,
 )
 from .runtime import sensor_range_g
+from .sample_times import GAP_TOLERANCE, RATE_TOLERANCE
 from .wire import format_sample, parse_line, parse_sample, pseudo_terminal, simulate_sensor
 
 TIME_UNITS = ("s", "ms", "us", "samples")
 """Units the ``t`` field may be in; ``"samples"`` is a sample counter (one per sample)."""
-
-GAP_TOLERANCE = 0.5
-"""A step of ``t`` longer than ``(1 + GAP_TOLERANCE)`` sample periods is a gap (at least one sample lost)."""
-
-RATE_TOLERANCE = 0.05
-"""A window whose ``t`` span gives a rate off the expected one by more than this share is flagged ``"rate"``."""
 
 _RATE_RUN = 16  # consecutive equal off-period steps of t after which the stream's own rate is adopted
 _FORMAT_RUN = 16  # consecutive lines of the other format (x,y,z / t,x,y,z) after which it is followed

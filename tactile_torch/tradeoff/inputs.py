@@ -354,7 +354,7 @@ def vibration_samples(
             )
     from ..robot.windows import window_recordings
 
-    ds = window_recordings(recordings.signals, window)
+    ds = window_recordings(recordings.signals, window, gaps=getattr(recordings, "gaps", None))
     X, recording, position = ds.windows, ds.recording, ds.position
     y = np.asarray(recordings.labels)[recording]
     rate = float(recordings.rate_hz)
@@ -376,8 +376,16 @@ def vibration_samples(
         unit = "session" if recordings.session is not None else "recording"
         units = group[keep]
     else:  # one recording for some class: consecutive time blocks of every recording, a guard between
+        unit = "session" if recordings.session is not None else "recording"
         group, keep, folds, split = _time_blocks(
-            recording, position, y, window, n_folds, max_per_class, names
+            recording,
+            position,
+            y,
+            window,
+            n_folds,
+            max_per_class,
+            names,
+            why=single_group(group, recording, y, names, unit),
         )
     split = f"{len(keep)} windows; {split}"
     X, y, group = X[keep], y[keep], group[keep]
@@ -457,7 +465,26 @@ def window_folds(
         )
         return group, keep, folds, split
     # one recording (or session) for some class: consecutive time blocks of every recording
-    return _time_blocks(recording, position, y, window, n_folds, max_per_class, names, guard)
+    why = single_group(group, recording, y, names, group_label)
+    return _time_blocks(recording, position, y, window, n_folds, max_per_class, names, guard, why=why)
+
+
+def single_group(
+    group: np.ndarray, recording: np.ndarray, y: np.ndarray, names: Sequence[str], label: str
+) -> str:
+    """Why windows are not grouped, in words the data bear out: the classes with a single ``label``."""
+    classes = np.unique(y)
+    single = [c for c in classes if len(np.unique(group[y == c])) < 2]
+    c = single[0]
+    n_recordings = len(np.unique(recording[y == c]))
+    which = (
+        f"class {_class_name(names, c)!r} has"
+        if len(single) == 1
+        else f"{len(single)} of {len(classes)} classes have"
+    )
+    if label == "session" and n_recordings > 1:
+        return f"{which} a single session (the {n_recordings} recordings of {_class_name(names, c)!r} are one session)"
+    return f"{which} a single {label}"
 
 
 def _time_blocks(
@@ -469,8 +496,11 @@ def _time_blocks(
     max_per_class: int | None,
     names: Sequence[str],
     guard: int = 1,
+    *,
+    why: str = "a class has a single recording",
 ) -> tuple[np.ndarray, np.ndarray, list[Fold], str]:
-    """Time-block folds: ``(block of each window, windows kept, folds over the kept ones, description)``."""
+    """Time-block folds: ``(block of each window, windows kept, folds over the kept ones, description)``;
+    ``why`` says why the windows are not grouped (:func:`single_group`)."""
     present = np.unique(recording)
     n_windows = np.bincount(recording)[present]
     blocks = min(
@@ -497,7 +527,7 @@ def _time_blocks(
         else f"the first {guard} windows of each later block are"
     )
     split = (
-        f"{blocks} folds of consecutive time blocks of every recording (a class has a single recording); "
+        f"{blocks} folds of consecutive time blocks of every recording ({why}); "
         f"{dropped} dropped so that no neighbouring windows are split"
     )
     return recording * blocks + block, keep, folds, split

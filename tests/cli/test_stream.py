@@ -346,11 +346,14 @@ def test_simulate_sensor_plays_a_recording_on_a_pty(tmp_path):
 @pytest.mark.parametrize(
     ("args", "match"),
     [
-        (["--vote", "0"], "argument --vote: expected a number >= 1, got '0'"),
-        (["--silence", "-1"], "argument --silence: expected a number >= 0.01, got '-1'"),
-        (["--idle-timeout", "soon"], "argument --idle-timeout/--timeout: expected a number, got 'soon'"),
-        (["--step", "1.5"], "argument --step: expected an integer, got '1.5'"),
-        (["--step", "0"], "argument --step: expected a number >= 1, got '0'"),
+        (["--vote", "0"], "argument --vote: expected a whole number >= 1, got '0'"),
+        (["--silence", "-1"], "argument --silence: expected a finite number >= 0.01, got '-1'"),
+        (
+            ["--idle-timeout", "soon"],
+            "argument --idle-timeout/--timeout: expected a finite number >= 0, got 'soon'",
+        ),
+        (["--step", "1.5"], "argument --step: expected a whole number >= 1, got '1.5'"),
+        (["--step", "0"], "argument --step: expected a whole number >= 1, got '0'"),
     ],
 )
 def test_stream_bad_options_are_one_usage_error(model, args, match, capsys):

@@ -65,7 +65,7 @@ def test_cli_reads_m_s2_logs_in_ms_with_options(tmp_path, rec, capsys):
     argv = ["train", "--data", *map(str, paths), "--window", "200", "--columns", "time_ms,ax,ay,az"]
     assert main(argv) == BAD_INPUT_EXIT
     assert (
-        "t looks like milliseconds: median step 1.25 s would be 0.8 Hz; pass --time-unit ms"
+        "t looks like milliseconds: a step of 1.25 s would be 0.8 Hz; pass --time-unit ms"
         in capsys.readouterr().err
     )
     assert main([*argv, "--time-unit", "ms"]) == BAD_INPUT_EXIT

@@ -82,7 +82,7 @@ def test_csv_in_m_s2_with_headers_and_t_in_ms(tmp_path, rec):
     ms = _log(tmp_path / "ms.csv", signal, 800.0, t_factor=1e3)
     with pytest.raises(
         ValueError,
-        match=r"t looks like milliseconds: median step 1\.25 s would be 0\.8 Hz; pass time_unit='ms'",
+        match=r"t looks like milliseconds: a step of 1\.25 s would be 0\.8 Hz; pass time_unit='ms'",
     ):
         read_csv_log(ms)
     assert read_csv_log(ms, time_unit="ms")[1] == 800.0
@@ -90,7 +90,14 @@ def test_csv_in_m_s2_with_headers_and_t_in_ms(tmp_path, rec):
     with pytest.raises(ValueError, match="t looks like microseconds"):
         read_csv_log(us)
     assert read_csv_log(us, time_unit="us")[1] == 800.0
-    assert read_csv_log(ms, time_unit="s")[1] == 0.8  # declared: taken as said
+    # a declared unit is checked as "auto" is (issue 34): 0.8 Hz and 800 kHz are refused, naming the fix
+    with pytest.raises(
+        ValueError, match=r"t in seconds \(time_unit='s'\) gives 0\.8 Hz, .*pass time_unit='ms'"
+    ):
+        read_csv_log(ms, time_unit="s")
+    with pytest.raises(ValueError, match=r"t in microseconds \(time_unit='us'\) gives 8e\+05 Hz"):
+        read_csv_log(ms, time_unit="us")
+    assert read_csv_log(ms, time_unit="s", sample_rate_hz=0.8)[1] == 0.8  # a stated rate: taken as said
 
 
 def test_integer_counts_csv_and_npz_alike(tmp_path, rec):
