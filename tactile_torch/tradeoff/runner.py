@@ -114,6 +114,10 @@ class TradeoffPlan:
         Features already known (see :attr:`TradeoffData.precomputed`), by features key.
     seconds : float
         Time spent planning.
+    quick : bool
+    references : dict of str to FeatureRecipe
+        Per raw input, its reference feature set (all features: the 21 at the window, fused 12, all
+        columns), on which a learned model's "unknown" rule is measured (:mod:`.deploy`).
     """
 
     data: TradeoffData
@@ -123,6 +127,7 @@ class TradeoffPlan:
     precomputed: dict = field(default_factory=dict)
     seconds: float = 0.0
     quick: bool = False
+    references: dict = field(default_factory=dict)
 
 
 def plan_tradeoff(
@@ -145,6 +150,7 @@ def plan_tradeoff(
     csv_session: str = "number",
     exact_folds: bool = False,
     tune: bool = True,
+    progress: bool = True,
     log: Callable[[str], None] = print,
 ) -> TradeoffPlan:
     """Read the data, cut the raw inputs, make the folds and the candidates.
@@ -190,6 +196,9 @@ def plan_tradeoff(
     tune : bool
         Tune every candidate inside each training fold (nested, :mod:`.candidates`); ``False`` runs them
         at the catalogue's defaults (for comparison; ``--no-tune``).
+    progress : bool
+        The learned models' progress bars over their epochs (the study's own bars are
+        :func:`execute_plan`'s).
     log : callable
         Receives one line per stage.
 
@@ -202,7 +211,7 @@ def plan_tradeoff(
     ValueError
         One line naming the argument: ``n_folds`` below 2 or above what the data allow (a class with
         fewer samples, groups or time blocks), ``max_per_class`` below 2, ``frame_rate_hz`` not
-        positive and finite, ``window`` not a positive integer.
+        positive and finite, ``window`` not a positive integer; data of a single class.
     """
     from .._checks import check_positive
     from ..engine import needs_fit
@@ -233,6 +242,8 @@ def plan_tradeoff(
         data = load_tradeoff_data(
             data, frame_rate_hz=frame_rate_hz, allow_pickle=allow_pickle, csv_session=csv_session
         )
+    _check_two_classes(data)
+    _check_finite(data)
     cap = MAX_PER_CLASS["quick" if quick else "full"] if max_per_class == "auto" else max_per_class
     notes = list(data.notes)
     log(f"[tradeoff] {data.description}")
@@ -262,6 +273,10 @@ def plan_tradeoff(
             contact=contact,
         )
     notes.extend(more)
+    references: dict = {}  # per raw input, its reference feature set (all features; the first listed)
+    for fs in sets:
+        if fs.select is None:
+            references.setdefault(fs.input, fs)
     if features is not None:
         kept = [fs for fs in sets if any(fs.name.startswith(prefix) for prefix in features)]
         if not kept:
@@ -293,6 +308,7 @@ def plan_tradeoff(
             random_state=random_state,
             threshold=resolved if data.kind == "image" else "auto",
             window=inputs[reference].window,
+            progress=progress,
         )
     if not candidates:
         raise ValueError(f"classifiers {list(classifiers)} leave no candidate in this mode (quick={quick})")
@@ -304,7 +320,50 @@ def plan_tradeoff(
             index = inputs[cand.input].index
             F, seconds = known
             precomputed[features_key(cand)] = (F[index], seconds * len(index) / len(F))
-    return TradeoffPlan(data, inputs, candidates, notes, precomputed, time.perf_counter() - start, quick)
+    return TradeoffPlan(
+        data, inputs, candidates, notes, precomputed, time.perf_counter() - start, quick, references
+    )
+
+
+def _check_two_classes(data: TradeoffData) -> None:
+    """One class: nothing to choose between (one line naming the class, before any work)."""
+    labels = data.recordings.labels if data.kind == "vibration" else data.labels
+    present = np.unique(np.asarray(labels))
+    if len(present) < 2:
+        which = ", ".join(repr(data.class_names[int(c)]) for c in present) or "none"
+        where = data.description.partition(":")[0]
+        raise ValueError(
+            f"data: {where} holds a single class ({which}); comparing classifiers needs recordings of at "
+            "least two classes (surfaces): add the other classes' files"
+        )
+
+
+def _check_finite(data: TradeoffData) -> None:
+    """A sample that is not a finite number (NaN, or an overflow such as 1e308 read as float32) would make
+    every candidate fail after minutes: one line naming where, before any work."""
+    where = data.description.partition(":")[0]
+    if data.kind == "vibration":
+        rec = data.recordings
+        for r, signal in enumerate(rec.signals):
+            bad = ~np.isfinite(np.asarray(signal))
+            if bad.any():
+                row, axis = np.argwhere(bad)[0]
+                session = "" if rec.session is None else f", session {rec.session[r]}"
+                raise ValueError(
+                    f"data: {where}: the recording of {rec.class_names[int(rec.labels[r])]!r}{session} holds "
+                    f"{int(bad.sum())} value(s) that are not finite numbers (first: sample {row}, axis "
+                    f"{'xyz'[axis]}: NaN, or beyond float32's range such as 1e308); every window must be "
+                    "finite: fix or drop them (a finite sensor range, sensor_range_g=, refuses such values)"
+                )
+    elif (
+        data.raw is not None
+        and np.issubdtype(data.raw.dtype, np.floating)
+        and not np.isfinite(data.raw).all()
+    ):
+        first = np.argwhere(~np.isfinite(data.raw))[0]
+        raise ValueError(
+            f"data: {where}: sample {first[0]} holds values that are not finite numbers; every sample must be finite"
+        )
 
 
 def _check_folds_fit(n_folds: int, inputs: dict[str, Samples]) -> None:
@@ -408,6 +467,7 @@ def execute_plan(
         chance=1.0 / len(data.class_names),
         baselines=baselines,
         warnings=_unit_warnings(inputs),
+        references=plan.references,
     )
 
 
@@ -486,7 +546,7 @@ def run_tradeoff(
     runner = Backend(backend, n_jobs, scheduler)  # checked before any work
     target = options.pop("target", None)
     check_target(target)
-    plan = plan_tradeoff(data, log=log, **options)
+    plan = plan_tradeoff(data, log=log, progress=progress, **options)
     seed = int(options.get("random_state", 0))
     wanted = [deploy] if isinstance(deploy, str) else list(deploy or ())
     known = [c.name for c in plan.candidates]
@@ -495,23 +555,31 @@ def run_tradeoff(
         raise ValueError(
             f"deploy must name a candidate of this study, got {unknown[0]!r}; candidates: {known}"
         )
+    from ..robot.errors import internal_stage
+
+    # The input is accepted from here on: an error below is a bug (status 1), whatever its class.
     with ExportPool(Path(out_dir) / "timing" / "parts", background=background) as pool, runner:
-        result = execute_plan(
-            plan,
-            pool,
-            out_dir=out_dir,
-            target=target,
-            progress=progress,
-            log=log,
-            backend=runner,
-            random_state=seed,
-        )
+        with internal_stage("cross-validation, export and timing"):
+            result = execute_plan(
+                plan,
+                pool,
+                out_dir=out_dir,
+                target=target,
+                progress=progress,
+                log=log,
+                backend=runner,
+                random_state=seed,
+            )
         names = [result.recommended if d == "recommended" else d for d in wanted]
         for name in dict.fromkeys(n for n in names if n is not None):
             from .deploy import deploy_candidate
 
             stage = time.perf_counter()
-            result.deployed.append(deploy_candidate(result, name, out_dir, pool, random_state=seed))
+            try:
+                result.deployed.append(deploy_candidate(result, name, out_dir, pool, random_state=seed))
+            except Exception as err:  # a late stage: the measured candidates are written all the same
+                result.mark_incomplete(f"deployment of {name}", err)
+                continue
             result.seconds += time.perf_counter() - stage
             log(
                 f"[tradeoff] {name} refitted (tuned) on all the data and exported: "

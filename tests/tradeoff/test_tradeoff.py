@@ -233,6 +233,27 @@ def test_bad_input_gets_one_clear_line(tmp_path, recordings, capsys):
     assert main(["tradeoff", "--data", str(tmp_path / "other.npz"), "--out", str(tmp_path / "o")]) == 2
     errors = capsys.readouterr().err.strip().splitlines()
     assert len(errors) == 1 and errors[0].startswith("tactile-torch tradeoff: ")  # no traceback
+    # data the study cannot compare models on, named before any work: one class, values that are not finite
+    from tactile_torch.data.vibration import VibrationRecordings
+    from tactile_torch.tradeoff.runner import plan_tradeoff
+
+    one = VibrationRecordings(
+        recordings.signals[:1] * 2, np.array([0, 0]), ("glass",), 800.0, np.array(["1", "2"])
+    )
+    with pytest.raises(
+        ValueError, match=r"holds a single class \('glass'\); comparing classifiers needs .* two"
+    ):
+        plan_tradeoff(one.save(tmp_path / "one.npz"), log=lambda s: None)
+    from tactile_torch.robot.formats import RecordingArrays
+    from tactile_torch.tradeoff.inputs import vibration_data
+
+    signals = [np.array(s, copy=True) for s in recordings.signals]
+    signals[1][7, 2] = np.inf  # 1e308 in a CSV read with --sensor-range inf, as float32
+    overflow = RecordingArrays(signals, recordings.labels, recordings.class_names, 800.0)
+    with pytest.raises(
+        ValueError, match=r"'aluminium' holds 1 value\(s\) that are not finite .* sample 7, axis z"
+    ):
+        plan_tradeoff(vibration_data(overflow, "logs"), log=lambda s: None)
 
 
 # ---------------------------------------------------------------------------------------- transformers
