@@ -482,7 +482,7 @@ def distance_graph(front: object, head: DistanceHead, n_features: int) -> object
 
     from onnx import compose
 
-    from ._onnx import export_onnx
+    from ._onnx import export_onnx, unsealed
     from .robot.contract import FEATURES_NAME
 
     with tempfile.TemporaryDirectory(prefix="tactile-torch-ood-") as scratch:
@@ -495,8 +495,9 @@ def distance_graph(front: object, head: DistanceHead, n_features: int) -> object
             input_names=[FEATURES_NAME],
             output_names=[OOD_OUTPUT],
         )
-        tail = compose.add_prefix(onnx.load(str(path)), "head.", rename_outputs=False)
-    return compose.merge_models(front, tail, io_map=[(FEATURES_NAME, f"head.{FEATURES_NAME}")])
+        tail = compose.add_prefix(unsealed(onnx.load(str(path))), "head.", rename_outputs=False)
+    # the parts were written sealed, each with its own digest: merge_models refuses two values of one key
+    return compose.merge_models(unsealed(front), tail, io_map=[(FEATURES_NAME, f"head.{FEATURES_NAME}")])
 
 
 def add_distance(bundle: str | Path, graph: object, rule: dict, *, out: str | Path | None = None) -> Path:
@@ -520,10 +521,10 @@ def add_distance(bundle: str | Path, graph: object, rule: dict, *, out: str | Pa
     import onnx
     from onnx import compose
 
-    from ._onnx import save_onnx
+    from ._onnx import save_onnx, unsealed
     from .robot.contract import QUANTILE_KEY, THRESHOLD_KEY, metadata_strings
 
-    main = onnx.load(str(bundle))
+    main = unsealed(onnx.load(str(bundle)))  # sealed again, with the branch, when saved
     side = compose.add_prefix(graph, "ood.", rename_inputs=False, rename_outputs=False)
     versions = {entry.domain: entry.version for entry in main.opset_import}
     for entry in side.opset_import:
@@ -545,7 +546,7 @@ def add_distance(bundle: str | Path, graph: object, rule: dict, *, out: str | Pa
         entry = main.metadata_props.add()
         entry.key, entry.value = key, value
     onnx.checker.check_model(main)
-    return save_onnx(main, bundle if out is None else out)
+    return save_onnx(main, bundle if out is None else out)  # sealed: the digest covers the branch too
 
 
 __all__ = [
