@@ -208,8 +208,11 @@ def add_int8_and_memory(
     fold_file,
     quick: bool,
     progress: bool = True,
+    notes: list | None = None,
 ) -> list:
     """Append the int8 variants to ``results`` and fill ``memory_mib`` (module notes); return ``results``.
+
+    ``notes`` receives one line naming the candidates that get no variant (nothing to quantise).
 
     ``fold_file(candidate, model, path)`` writes a classical fold model's file (the trade-off's export pool) and
     returns its path, or ``None`` when it cannot (features fitted per fold).
@@ -222,7 +225,7 @@ def add_int8_and_memory(
 
     out_dir = Path(out_dir)
     parts = out_dir / "parts-int8"
-    added = []
+    added, unchanged = [], []
     chosen = [r for r in results if r.onnx_file and (not quick or is_learned(r.model))]
     for res in _progress(chosen, "int8", progress):
         s = samples[res.candidate.input]
@@ -261,10 +264,7 @@ def add_int8_and_memory(
                     q_first = q_path
                     agreement = float(np.mean(labels == OnnxPipeline(path).predict(s.X[test])))
         except _NothingToQuantise:
-            res.notes.append(
-                "int8: no variant: its classifier has no operator onnxruntime quantises, and its feature "
-                "graph stays in float (an int8 file would be this one)"
-            )
+            unchanged.append(res.candidate.name)
             continue
         except Exception as err:
             lines = [line for line in str(err).splitlines() if line.strip()]
@@ -295,6 +295,12 @@ def add_int8_and_memory(
         variant.variant_of = res.candidate.name
         added.append(variant)
     results.extend(added)
+    if unchanged and notes is not None:
+        notes.append(
+            f"int8: no variant of {len(unchanged)} classical candidate(s) ({', '.join(unchanged[:3])}"
+            f"{', ...' if len(unchanged) > 3 else ''}): a classical file quantises its classifier only (its "
+            "feature graph stays in float), and theirs holds no operator onnxruntime quantises"
+        )
     import shutil
 
     shutil.rmtree(parts, ignore_errors=True)

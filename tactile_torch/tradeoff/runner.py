@@ -23,6 +23,7 @@ from .inputs import (
     vibration_samples,
 )
 from .summary import TradeoffResult, _unit_warnings, baseline_rows, summarise
+from .validation import check_finite, check_folds_fit, check_target, check_two_classes
 
 STUDY_WINDOW = 800
 """The vibration study's reference window (samples)."""
@@ -242,8 +243,8 @@ def plan_tradeoff(
         data = load_tradeoff_data(
             data, frame_rate_hz=frame_rate_hz, allow_pickle=allow_pickle, csv_session=csv_session
         )
-    _check_two_classes(data)
-    _check_finite(data)
+    check_two_classes(data)
+    check_finite(data)
     cap = MAX_PER_CLASS["quick" if quick else "full"] if max_per_class == "auto" else max_per_class
     notes = list(data.notes)
     log(f"[tradeoff] {data.description}")
@@ -285,7 +286,7 @@ def plan_tradeoff(
             )
         notes.extend(f"feature set {fs.name!r} left out (features=)" for fs in sets if fs not in kept)
         sets = kept
-    _check_folds_fit(n_folds, inputs)
+    check_folds_fit(n_folds, inputs)
     if exact_folds:
         fewest = min(inputs.values(), key=lambda s: len(s.folds))
         if len(fewest.folds) < n_folds:
@@ -323,64 +324,6 @@ def plan_tradeoff(
     return TradeoffPlan(
         data, inputs, candidates, notes, precomputed, time.perf_counter() - start, quick, references
     )
-
-
-def _check_two_classes(data: TradeoffData) -> None:
-    """One class: nothing to choose between (one line naming the class, before any work)."""
-    labels = data.recordings.labels if data.kind == "vibration" else data.labels
-    present = np.unique(np.asarray(labels))
-    if len(present) < 2:
-        which = ", ".join(repr(data.class_names[int(c)]) for c in present) or "none"
-        where = data.description.partition(":")[0]
-        raise ValueError(
-            f"data: {where} holds a single class ({which}); comparing classifiers needs recordings of at "
-            "least two classes (surfaces): add the other classes' files"
-        )
-
-
-def _check_finite(data: TradeoffData) -> None:
-    """A sample that is not a finite number (NaN, or an overflow such as 1e308 read as float32) would make
-    every candidate fail after minutes: one line naming where, before any work."""
-    where = data.description.partition(":")[0]
-    if data.kind == "vibration":
-        rec = data.recordings
-        for r, signal in enumerate(rec.signals):
-            bad = ~np.isfinite(np.asarray(signal))
-            if bad.any():
-                row, axis = np.argwhere(bad)[0]
-                session = "" if rec.session is None else f", session {rec.session[r]}"
-                raise ValueError(
-                    f"data: {where}: the recording of {rec.class_names[int(rec.labels[r])]!r}{session} holds "
-                    f"{int(bad.sum())} value(s) that are not finite numbers (first: sample {row}, axis "
-                    f"{'xyz'[axis]}: NaN, or beyond float32's range such as 1e308); every window must be "
-                    "finite: fix or drop them (a finite sensor range, sensor_range_g=, refuses such values)"
-                )
-    elif (
-        data.raw is not None
-        and np.issubdtype(data.raw.dtype, np.floating)
-        and not np.isfinite(data.raw).all()
-    ):
-        first = np.argwhere(~np.isfinite(data.raw))[0]
-        raise ValueError(
-            f"data: {where}: sample {first[0]} holds values that are not finite numbers; every sample must be finite"
-        )
-
-
-def _check_folds_fit(n_folds: int, inputs: dict[str, Samples]) -> None:
-    """``n_folds`` asked for more folds than the data allow: one line, rather than silently fewer.
-
-    The default (5) may drop to what small data allow (the folds' description says how many); a number
-    the user gave above every input's count of samples (or groups) per class is a mistake."""
-    for s in inputs.values():
-        counts = np.bincount(s.y)
-        most = int(counts[counts > 0].min())
-        if s.groups is not None:
-            most = min(len(np.unique(s.groups[s.y == c])) for c in np.unique(s.y))
-        if n_folds > max(most, 5):
-            raise ValueError(
-                f"n_folds must be at most {max(most, 5)} here (the rarest class of {s.key} has {most} "
-                f"{'groups' if s.groups is not None else 'samples'}), got {n_folds}"
-            )
 
 
 def execute_plan(
@@ -438,7 +381,15 @@ def execute_plan(
         return classical_fold_file(pool, cand, inputs[cand.input], data.class_names, meta)(model, path)
 
     models_dir = Path(out_dir) / "timing"
-    add_int8_and_memory(results, inputs, models_dir, fold_file=fold_file, quick=plan.quick, progress=progress)
+    add_int8_and_memory(
+        results,
+        inputs,
+        models_dir,
+        fold_file=fold_file,
+        quick=plan.quick,
+        progress=progress,
+        notes=plan.notes,
+    )
     rows, recommended, runner_up = summarise(results, inputs, target=target)
     only = None
     if plan.quick:  # a child process per file: the front, the learned and the int8 ones
@@ -469,14 +420,6 @@ def execute_plan(
         warnings=_unit_warnings(inputs),
         references=plan.references,
     )
-
-
-def check_target(target: float | None) -> None:
-    """Raise ``ValueError`` unless ``target`` is ``None`` or an accuracy in (0, 1]."""
-    if target is None:
-        return
-    if isinstance(target, bool) or not isinstance(target, int | float | np.number) or not 0 < target <= 1:
-        raise ValueError(f"target must be an accuracy in (0, 1], got {target!r}")
 
 
 def _study_model(plan: TradeoffPlan) -> str | None:

@@ -121,3 +121,27 @@ def test_a_cnn_recommended_is_swept_and_a_late_failure_keeps_the_outputs(tmp_pat
         assert np.mean(bundle.predict(x) == -1) >= 0.95, kind
     held_in = sawtooth_recordings(1.0, sessions=1, random_state=9).windows(200).windows.numpy()
     assert np.mean(bundle.predict(held_in) == -1) <= 0.1
+
+
+@pytest.mark.slow  # the whole default study (every candidate, every factor at every level): minutes
+def test_the_default_tradeoff_end_to_end_where_the_cnn_wins(tmp_path, capsys):
+    """Issue 34's run: the default (full) trade-off, the CNN recommended, breaking points of every factor,
+    status 0, and a deployed network that answers "unknown" to a still sensor."""
+    from tactile_torch.cli import main
+    from tactile_torch.ood import out_of_distribution_signals
+    from tactile_torch.robot.runtime import OnnxPipeline
+
+    path = sawtooth_recordings(3.0).save(tmp_path / "saw.npz")
+    out = tmp_path / "study"
+    assert main(["tradeoff", "--data", str(path), "--out", str(out), "--quiet"]) == 0, capsys.readouterr().err
+    doc = json.loads((out / "tradeoff.json").read_text())
+    assert doc["complete"] is True and doc["recommended"].startswith(("1-D CNN", "learned cut-off"))
+    points = doc["breaking_points"]
+    assert not points["failed"] and any(
+        doc["recommended"].split(" (int8)")[0] in r["model"] for r in points["rows"]
+    )
+    assert any("feature SNR for recommended" in name for name, _ in points["skipped"])
+    still = out_of_distribution_signals(
+        20, OnnxPipeline(out / "recommended.onnx").input_shape[-1], 800.0, 0, kinds=["still sensor"]
+    )
+    assert np.mean(OnnxPipeline(out / "recommended.onnx").predict(still["still sensor"]) == -1) >= 0.95
