@@ -4,7 +4,8 @@ model file.
 The cross-validation measures a *procedure* (features, selection, scaling, classifier, and any tuning
 inside it) on folds; what a robot runs is that procedure fitted once on all the data.
 :func:`deploy_candidate` takes every sample of the candidate's raw input (the study's cap of samples per
-class does not apply: at most :data:`DEPLOY_MAX_PER_CLASS`, evenly spaced, said when it cuts), tunes
+class does not apply: at most :data:`DEPLOY_MAX_PER_CLASS` per class and about :data:`DEPLOY_MAX_SAMPLES`
+in all, evenly spaced, said when it cuts), tunes
 the candidate as the folds did (its grid on inner folds of those samples,
 :meth:`tactile_torch.engine.CVResult.final_model`), fits it with the chosen parameters and writes
 
@@ -50,6 +51,9 @@ CHECK_SAMPLES = 64
 DEPLOY_MAX_PER_CLASS = 1000
 """At most this many samples per class train the deployed model (evenly spaced; the study itself keeps
 at most 60 with ``--quick``, 300 without): more data for the model the robot runs, at a bounded cost."""
+DEPLOY_MAX_SAMPLES = 8000
+"""And at most about this many in all (an SVM's kernel grows with the square): the full study's own size
+on the bundled 28 surfaces (300 per class). The study's cap per class, when larger, is kept."""
 
 
 def _slug(name: str) -> str:
@@ -128,7 +132,8 @@ def _json_params(params: dict) -> dict:
 def deployment_samples(result: object, key: str) -> tuple[object, int]:
     """Return the samples of raw input ``key`` the deployed model is fitted on, and how many the data hold.
 
-    Every sample (window, exploration, row) of the data, at most :data:`DEPLOY_MAX_PER_CLASS` per class,
+    Every sample (window, exploration, row) of the data, at most :data:`DEPLOY_MAX_PER_CLASS` per class
+    and about :data:`DEPLOY_MAX_SAMPLES` in all (never fewer per class than the study had), evenly spaced,
     grouped as the study's folds are (sessions, recordings, time blocks, the file's groups) for the
     tuning's inner folds."""
     from .inputs import exploration_samples, vibration_samples
@@ -136,13 +141,15 @@ def deployment_samples(result: object, key: str) -> tuple[object, int]:
     s = result.inputs[key]
     data = result.data
     n_folds = len(s.folds)
+    studied = int(np.bincount(s.y).max())
+    cap = max(studied, min(DEPLOY_MAX_PER_CLASS, DEPLOY_MAX_SAMPLES // len(data.class_names)))
     if data.kind == "vibration":
         full = vibration_samples(
-            data.recordings, s.window, n_folds=n_folds, max_per_class=DEPLOY_MAX_PER_CLASS, random_state=0
+            data.recordings, s.window, n_folds=n_folds, max_per_class=cap, random_state=0
         )
         total = int(sum(len(signal) // s.window for signal in data.recordings.signals))
     else:
-        full = exploration_samples(data, n_folds=n_folds, max_per_class=DEPLOY_MAX_PER_CLASS, random_state=0)
+        full = exploration_samples(data, n_folds=n_folds, max_per_class=cap, random_state=0)
         total = len(data.labels)
     return full, total
 
@@ -197,7 +204,7 @@ def deploy_candidate(
     samples = (
         f"all {len(s.y)}"
         if len(s.y) == available
-        else f"{len(s.y)} of {available} (at most {DEPLOY_MAX_PER_CLASS} per class, evenly spaced)"
+        else f"{len(s.y)} of {available} (evenly spaced: at most {DEPLOY_MAX_PER_CLASS} per class, about {DEPLOY_MAX_SAMPLES} in all)"
     )
     meta = {PIPELINE_KEY: f"tradeoff: {name}, fitted on {samples} samples"}
     if s.window is not None:
@@ -344,6 +351,7 @@ def _export_learned(result, model, check: np.ndarray, path: Path, meta: dict) ->
 __all__ = [
     "CHECK_SAMPLES",
     "DEPLOY_MAX_PER_CLASS",
+    "DEPLOY_MAX_SAMPLES",
     "deploy_candidate",
     "deployment_samples",
     "unknown_rule",

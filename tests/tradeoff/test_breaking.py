@@ -145,3 +145,18 @@ def test_the_default_tradeoff_end_to_end_where_the_cnn_wins(tmp_path, capsys):
         20, OnnxPipeline(out / "recommended.onnx").input_shape[-1], 800.0, 0, kinds=["still sensor"]
     )
     assert np.mean(OnnxPipeline(out / "recommended.onnx").predict(still["still sensor"]) == -1) >= 0.95
+
+
+def test_the_deployed_model_is_fitted_on_every_sample_not_the_studys_share():
+    """--quick studies 60 windows per class; the deployed model trains on all of them (issue 34: 360 of 960)."""
+    from types import SimpleNamespace
+
+    from tactile_torch.tradeoff.deploy import deployment_samples
+    from tactile_torch.tradeoff.inputs import vibration_data, vibration_samples
+
+    rec = sawtooth_recordings(16.0)  # 2 classes x 4 sessions x 64 windows of 200
+    studied = vibration_samples(rec, 200, n_folds=4, max_per_class=60)
+    result = SimpleNamespace(inputs={studied.key: studied}, data=vibration_data(rec, "saw"))
+    full, available = deployment_samples(result, studied.key)
+    assert len(studied.y) == 120 and len(full.y) == available == 512
+    assert np.array_equal(np.bincount(full.y), [256, 256]) and len(np.unique(full.groups)) == 4
