@@ -38,9 +38,9 @@ the head, :class:`WithDistance`); any other bundle gets it as a float branch bes
 
 Measured (``tests/test_pipeline.py``, ``docs/export.md``) on the windows of
 :func:`out_of_distribution_signals`, the one generator of signals no surface gives: at most 1 % of held-in windows unknown;
-zeros, constants, white noise, pure tones and square waves unknown in at least 99 % of windows on
-the synthetic surfaces; on real IMU recordings the square waves and low-amplitude noise are
-data-dependent (terrain vibration looks like noise).
+zeros, constants, white noise, pure tones, square waves and a still sensor unknown in at least 99 % of
+windows on the synthetic surfaces; on real IMU recordings quiet input (a still sensor, low-amplitude
+noise) and some tones are data-dependent (terrain vibration looks like noise, robots stand still).
 
 References
 ----------
