@@ -479,8 +479,8 @@ def write_classifier_file(
 
     ``class_names`` name the estimator's ``classes_`` in order; ``source`` says how raw input becomes
     features (:mod:`tactile_torch.robot.model_file`); the head takes ``(features[:, select] - center) / scale``.
-    ``ood``: a fitted out-of-distribution state (:func:`tactile_torch.ood.fit_ood` on those scaled
-    features, classes in the head's order, with its ``quantile``), written as the file's ``ood`` part.
+    ``ood``: the fitted "unknown" rule (:func:`tactile_torch.ood.fit_rule` on those features, classes in
+    the head's order), written as the file's ``ood`` part.
     """
     from .robot.model_file import save_model_file
 
@@ -512,7 +512,9 @@ def write_classifier_file(
             "quantile": ood["quantile"],
             "threshold": float(ood["threshold"]),
         }
-        arrays.update({"ood.means": ood["means"], "ood.precision_cholesky": ood["precision_cholesky"]})
+        from .ood import OOD_ARRAYS
+
+        arrays.update({f"ood.{k}": np.asarray(ood[k], dtype=np.float64) for k in OOD_ARRAYS if k in ood})
     return save_model_file(path, header, arrays)
 
 
@@ -524,15 +526,15 @@ def save_model(path: str | Path, model: TrainedModel, features: FeatureSet) -> P
     (``source``), the hyper-parameters, the held-out accuracy and the arrays of the classifier's
     inference module (:func:`classifier_head`), which is what ``tactile-torch export`` turns into ONNX.
     """
-    from .ood import DEFAULT_QUANTILE, fit_ood
+    from .ood import fit_rule
 
     names = [str(features.class_names[int(c)]) for c in model.estimator.classes_]
     # "unknown" as an answer: the distance of a sample's features to the training classes
-    # (tactile_torch.ood), fitted on every row of the data, classes in the order of the head's labels
+    # (tactile_torch.ood, the rule every deployed graph carries), fitted on every row of the data
     classes = np.asarray(model.estimator.classes_)
     known = np.isin(features.y, classes)
     X = features.X[known] if model.select is None else features.X[known][:, model.select]
-    ood = fit_ood(X / model.scale, np.searchsorted(classes, features.y[known]), quantile=DEFAULT_QUANTILE)
+    ood = fit_rule(X, features.y[known], scale=model.scale)
     return write_classifier_file(
         path,
         model.estimator,
@@ -541,7 +543,7 @@ def save_model(path: str | Path, model: TrainedModel, features: FeatureSet) -> P
         scale=model.scale,
         select=model.select,
         test_accuracy=float(model.report.overall_accuracy),
-        ood={**ood, "quantile": DEFAULT_QUANTILE},
+        ood=ood,
     )
 
 

@@ -291,15 +291,15 @@ def test_unknown_on_real_recordings(tmp_path):
 
 
 def test_ood_distance_in_the_graph_matches_numpy(tmp_path, vibration_npz):
-    from tactile_torch.ood import ood_distance
+    from tactile_torch.ood import OOD_ARRAYS, ood_distance
 
     features, _, path = _trained(tmp_path, vibration_npz, "svm", window=400)
     mf = load_model_file(path)
     bundle = OnnxPipeline(export_pipeline(pipeline_from_model(mf), tmp_path / "d.onnx"))
     raw = bundle.read_npz(vibration_npz).raw[:7]
-    want = ood_distance(
-        features.X[:7] / mf.arrays["scale"], mf.arrays["ood.means"], mf.arrays["ood.precision_cholesky"]
-    )
+    state = mf.part("ood")
+    assert set(state) == set(OOD_ARRAYS)  # both views and the offset
+    want = ood_distance(features.X[:7] / mf.arrays["scale"], **state)
     np.testing.assert_allclose(bundle.classify(raw).distance, want, rtol=1e-4)
     assert mf.header["ood"]["threshold"] == pytest.approx(bundle.ood_threshold)
 

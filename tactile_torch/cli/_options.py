@@ -331,13 +331,21 @@ def declare_range(source: dict, args: argparse.Namespace) -> None:
 
 WRITES_OUT_FILE = ("train", "predict", "export")
 """Commands whose ``--out`` is one file: it is checked against their inputs before any work."""
+WRITES_OUT_DIR = {"tradeoff": True, "cluster": False, "report": False}
+"""Commands whose ``--out`` is a directory, and whether it is replaced as a whole (written next to it,
+then moved into place) rather than written into: checked before any work."""
 
 
 def check_out(args: argparse.Namespace) -> None:
-    """Refuse an ``--out`` that is an input, a directory, a device or a symbolic link (one line, status 2)."""
-    from ..robot.safe_write import check_output_path
+    """Refuse an ``--out`` where nothing can be written (a read-only place), or one that is an input, a
+    directory (a device, a symbolic link) where a file is expected: one line naming ``--out``, status 2,
+    before any work."""
+    from ..robot.safe_write import check_output_dir, check_output_path
 
     out = getattr(args, "out", "")
+    if args.command in WRITES_OUT_DIR and out:
+        check_output_dir(out, what="--out", replace=WRITES_OUT_DIR[args.command])
+        return
     if args.command not in WRITES_OUT_FILE or not out:
         return
     inputs = list(getattr(args, "data", None) or [])

@@ -12,7 +12,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from . import ARGUMENT_FLAGS, NO_RECOMMENDATION_EXIT, NOT_EXPORTED_EXIT
+from . import ARGUMENT_FLAGS, INTERNAL_ERROR_EXIT, NO_RECOMMENDATION_EXIT, NOT_EXPORTED_EXIT
 from . import with_flags as _with_flags
 from ._options import (
     SEED,
@@ -244,6 +244,7 @@ def run_tradeoff_command(args: argparse.Namespace) -> int:
     """Run the study, print its summary and what was written; return the exit status."""
     from ..tradeoff import load_tradeoff_data, summary_lines
     from ..tradeoff.job import run_tradeoff_job
+    from ..tradeoff.output import incomplete_lines
 
     options = tradeoff_options(args)
     command = reproduce_line(args, options)
@@ -272,6 +273,10 @@ def run_tradeoff_command(args: argparse.Namespace) -> int:
     for note in result.notes:
         print(f"note:        {with_flags(note)}")
     print(f"written: {', '.join(str(p) for p in paths.values())} ({result.seconds:.0f} s)")
+    if result.incomplete:  # a late stage failed: a bug, reported as one, after what was complete is written
+        for line in incomplete_lines(result):
+            print(f"tactile-torch tradeoff: {line}", file=sys.stderr)
+        return INTERNAL_ERROR_EXIT
     if result.status == "none exported":
         return NOT_EXPORTED_EXIT
     return 0 if result.status == "recommended" else NO_RECOMMENDATION_EXIT

@@ -36,8 +36,9 @@ Layout (format version 1, ``docs/formats.md``):
     ``(K, D)``, ``precisions_cholesky`` ``(K, D, D)``, ``log_weights`` ``(K,)`` and optionally
     ``novelty_thresholds`` ``(W,)`` (the calibrated threshold of the mean novelty score over
     N = 1 … W windows; empty: not calibrated) and the new-component density (``novelty_means``, ...).
-``ood.means`` ``(C, F)``, ``ood.precision_cholesky`` ``(F, F)``
-    classifiers: the statistics of the out-of-distribution distance (older files lack them).
+``ood.means`` ``(C, F)``, ``ood.precision_cholesky`` ``(F, F)``, ``ood.offset`` ``(F,)``, and the second view ``ood.floor`` ``(F,)``, ``ood.log_means``, ``ood.log_precision_cholesky``, ``ood.norm`` ``(2,)``
+    classifiers: the statistics of the out-of-distribution distance (:mod:`tactile_torch.ood`; older
+    files lack them, or the offset and the second view).
 ``transform.<name>``
     clusterings of vibration windows: the fitted attributes of the
     :class:`~tactile_torch.signal.ClusteringTransform` (``mean_``, ``scale_``, ``components_``, ...).
@@ -149,6 +150,7 @@ DIMENSIONS = {
     "T": "training samples of a nearest-neighbour head",
     "R": "features the front end makes (before 'select')",
     "W": "numbers of consecutive windows with a novelty threshold",
+    "V": "views of the out-of-distribution distance (2)",
 }
 """What each named dimension of :data:`HEADS` and :data:`TRANSFORMS` counts (for error messages)."""
 METHODS = {"classifier": ("hmsvm", "svm", "lda", "knn", "ncm"), "clustering": ("pyp",)}
@@ -482,7 +484,19 @@ def _check_ood(where: str, ood: object, arrays: Mapping[str, np.ndarray], dims: 
     if not (0 < ood["quantile"] <= 1 and ood["threshold"] > 0):
         _fail(where, f"ood must have 0 < quantile <= 1 and threshold > 0, got {ood}")
     spec = {"means": (("C", "F"), "f"), "precision_cholesky": (("F", "F"), "f")}
-    _check_arrays(where, "ood", spec, arrays, dims)
+    if "ood.offset" in arrays:  # the offset back from centred features (older files: none)
+        spec["offset"] = (("F",), "f")
+    second = ("floor", "log_means", "log_precision_cholesky", "norm")
+    if any(f"ood.{name}" in arrays for name in second):  # the second view, all or nothing (older files: none)
+        spec.update(
+            floor=(("F",), "f"),
+            log_means=(("C", "F"), "f"),
+            log_precision_cholesky=(("F", "F"), "f"),
+            norm=(("V",), "f"),
+        )
+    _check_arrays(where, "ood", spec, arrays, {**dims, "V": 2})
+    if "floor" in spec and ((arrays["ood.floor"] <= 0).any() or (arrays["ood.norm"] <= 0).any()):
+        _fail(where, "ood.floor and ood.norm must be > 0 (scales)")
 
 
 def _check_novelty(where: str, header: Mapping, arrays: Mapping[str, np.ndarray]) -> None:

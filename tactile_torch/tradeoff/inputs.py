@@ -67,6 +67,9 @@ class Samples:
         (no groups at all).
     unit : str
         What a unit is, in words (``"session"``, ``"recording"``, ``"group"``, ``"time block"``, ``"fold"``).
+    unit_names : tuple of str or None
+        The name of each unit id, as the data name it (``"day1"``: a session of the file; ``"time block
+        2"``, ``"fold 3"`` otherwise); see :meth:`unit_name`.
     """
 
     key: str
@@ -81,6 +84,18 @@ class Samples:
     groups: np.ndarray | None = None
     units: np.ndarray | None = None
     unit: str = "fold"
+    unit_names: tuple[str, ...] | None = None
+
+    def unit_name(self, unit: int) -> str:
+        """Return the name of unit id ``unit`` (the data's own name of a session or group, if it has one)."""
+        if self.unit_names is not None and 0 <= int(unit) < len(self.unit_names):
+            return self.unit_names[int(unit)]
+        return f"{self.unit} {int(unit) + 1}"
+
+
+def _names_of(values: np.ndarray) -> tuple[str, ...]:
+    """The names of the ids :func:`_group_ids` gives ``values``, in id order."""
+    return tuple(str(v) for v in np.unique(np.asarray(values).astype(str)))
 
 
 def fold_units(folds: list[Fold], n: int) -> np.ndarray:
@@ -375,6 +390,7 @@ def vibration_samples(
         )
         unit = "session" if recordings.session is not None else "recording"
         units = group[keep]
+        unit_names = _names_of(session)
     else:  # one recording for some class: consecutive time blocks of every recording, a guard between
         unit = "session" if recordings.session is not None else "recording"
         group, keep, folds, split = _time_blocks(
@@ -390,7 +406,7 @@ def vibration_samples(
     split = f"{len(keep)} windows; {split}"
     X, y, group = X[keep], y[keep], group[keep]
     if units is None:  # time blocks: block b of every recording is one unit (it is fold b's test set)
-        unit, units = "time block", fold_units(folds, len(y))
+        unit, units, unit_names = "time block", fold_units(folds, len(y)), None
     return Samples(
         f"windows-{window}",
         X,
@@ -403,6 +419,7 @@ def vibration_samples(
         groups=group,
         units=units,
         unit=unit,
+        unit_names=unit_names,
     )
 
 
@@ -577,6 +594,7 @@ def exploration_samples(
         groups=groups,
         units=units,
         unit="group" if grouped else "fold",
+        unit_names=_names_of(groups) if grouped else None,
     )
 
 
