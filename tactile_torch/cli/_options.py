@@ -116,6 +116,19 @@ def add_data_options(
         help="ROS 2 bags: taxels of Float32MultiArray pressure maps (default: the message layout)",
     )
     g.add_argument(
+        "--field",
+        default=None,
+        help="ROS 2 bags: the dotted path of the field that holds the numbers, for any message type "
+        "(e.g. taxels.values; default: the standard types' own field)",
+    )
+    g.add_argument(
+        "--sensor",
+        default=None,
+        metavar="NAME",
+        help="ROS 2 bags of tactile_msgs/TactileState: the sensor (channel) to read (default: the only one)",
+    )
+    add_msg_def(g)
+    g.add_argument(
         "--frames",
         type=_count,
         default=None,
@@ -130,6 +143,26 @@ def add_data_options(
     g.add_argument("--index", default=None, help="CSV file,class[,session] giving each data file's class")
 
 
+def add_msg_def(g) -> None:
+    """Add ``--msg-def FILE`` (repeatable: a robot's own ROS 2 message definitions) to the parser or group ``g``."""
+    g.add_argument(
+        "--msg-def",
+        dest="msg_defs",
+        action="append",
+        default=[],
+        metavar="FILE",
+        help="ROS 2: the .msg text of a message type of your robot, as pkg/msg/Name.msg or pkg/msg/Name=FILE "
+        "(a lone FILE defines the topic's type); repeat for the types it uses",
+    )
+
+
+def message_definitions(args: argparse.Namespace) -> tuple:
+    """Return the :class:`~tactile_torch.robot.ros_messages.MessageDefinition` of every ``--msg-def``."""
+    from ..robot.ros_messages import read_message_definition
+
+    return tuple(read_message_definition(path) for path in getattr(args, "msg_defs", []))
+
+
 def data_options(args: argparse.Namespace):
     """Return the :class:`~tactile_torch.robot.data_sources.DataOptions` the parsed arguments declare."""
     from ..robot.contract import DEFAULT_RANGE_G
@@ -142,6 +175,9 @@ def data_options(args: argparse.Namespace):
         time_unit=args.time_unit,
         topic=args.topic,
         shape=args.shape,
+        field=args.field,
+        sensor=args.sensor,
+        msg_defs=message_definitions(args),
         frames=args.frames,
         index=args.index,
         sensor_range_g=(args.data_sensor_range or DEFAULT_RANGE_G)
@@ -161,6 +197,8 @@ _OPTION_NAMES = {
     "data_sensor_range": "--sensor-range",
     "topic": "--topic",
     "shape": "--shape",
+    "field": "--field",
+    "sensor": "--sensor",
     "frames": "--frames",
     "max_messages": "--max-messages",
     "index": "--index",
@@ -182,6 +220,7 @@ def data_option_words(args: argparse.Namespace) -> list[str]:
             else str(value)
         )
         words.append(f"{option} {text}")
+    words += [f"--msg-def {path}" for path in getattr(args, "msg_defs", None) or []]
     return words
 
 

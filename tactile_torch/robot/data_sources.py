@@ -19,7 +19,7 @@ import numpy as np
 
 from .contract import DEFAULT_RANGE_G
 from .csv_logs import STANDARD_GRAVITY, UNITS, names_for
-from .ros_bags import MAX_BAG_MESSAGES, PRESSURE_TYPE, is_bag, read_bag
+from .ros_bags import MAX_BAG_MESSAGES, is_bag, read_bag
 
 PathLike = str | os.PathLike
 
@@ -46,6 +46,12 @@ class DataOptions:
         Bags: the topic to read (default: the only IMU or pressure-array topic).
     shape : (H, W), optional
         Bags: the taxel grid of pressure-array messages.
+    field : str, optional
+        Bags: the dotted path of the field holding the numbers, for any message type.
+    sensor : str, optional
+        Bags of ``tactile_msgs/msg/TactileState``: the sensor (channel) to read.
+    msg_defs : sequence of MessageDefinition
+        Bags: definitions (``.msg`` text) of message types neither standard nor stored in the bag.
     frames : int, optional
         Bags of pressure maps: frames per exploration (default: the shortest recording's length).
     index : path, optional
@@ -67,6 +73,9 @@ class DataOptions:
     time_unit: str = "auto"
     topic: str | None = None
     shape: tuple[int, int] | None = None
+    field: str | None = None
+    sensor: str | None = None
+    msg_defs: tuple = ()
     frames: int | None = None
     index: PathLike | None = None
     sensor_range_g: float = DEFAULT_RANGE_G
@@ -161,11 +170,22 @@ def _read_bags(paths: list[Path], options: DataOptions):
 
     classes, sessions = names_for(paths, index=options.index)
     topics = [
-        read_bag(p, options.topic, shape=options.shape, max_messages=options.max_messages) for p in paths
+        read_bag(
+            p,
+            options.topic,
+            shape=options.shape,
+            field=options.field,
+            sensor=options.sensor,
+            msg_defs=options.msg_defs,
+            max_messages=options.max_messages,
+        )
+        for p in paths
     ]
-    kinds = {t.msgtype for t in topics}
+    kinds = {t.kind for t in topics}
     if len(kinds) > 1:
-        raise ValueError(f"the bags' topics hold different types ({sorted(kinds)}); read one kind at a time")
+        raise ValueError(
+            f"the bags' topics hold IMU samples and frames ({sorted({t.msgtype for t in topics})}); read one kind at a time"
+        )
     rates = np.array([t.rate_hz for t in topics])
     if np.abs(rates / rates[0] - 1).max() > 1e-2:
         odd = int(np.argmax(np.abs(rates / rates[0] - 1)))
@@ -175,7 +195,7 @@ def _read_bags(paths: list[Path], options: DataOptions):
         )
     names = tuple(sorted(set(classes)))
     labels = np.array([names.index(c) for c in classes], dtype=np.int64)
-    if kinds == {PRESSURE_TYPE}:
+    if kinds == {"frame"}:
         return _explorations(topics, labels, names, options.frames)
     signals = [t.values for t in topics]
     sources = [t.name for t in topics]
