@@ -100,6 +100,7 @@ ARGUMENT_FLAGS = {
     "field": "--field",
     "sensor": "--sensor",
     "msg_defs": "--msg-def",
+    "domain_id": "--domain-id",
     "frames": "--frames",
     "max_messages": "--max-messages",
     "index": "--index",

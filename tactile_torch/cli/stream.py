@@ -11,6 +11,7 @@ import sys
 
 from . import STREAM_DISCONNECTED_EXIT, STREAM_NO_DATA_EXIT, STREAM_STOPPED_EXIT
 from ._options import UsageError, add_allow_pickle, at_least, in_range, parse_range_g
+from ._ros2 import add_dds_options, add_publisher_options
 
 MAX_SIMULATED_S = 600
 """Longest synthetic recording ``simulate-sensor`` generates (28 surfaces are generated: 160 MB)."""
@@ -133,6 +134,7 @@ def register(sub) -> None:
     p.add_argument("--timestamps", action="store_true", help="write 't,x,y,z' lines (t in seconds)")
     p.add_argument("--seed", type=int, default=0, help="synthetic: random seed (default: 0)")
     add_allow_pickle(p)
+    add_publisher_options(add_dds_options(p, reader=False))
     p.set_defaults(handler=run_simulate_sensor)
 
 
@@ -280,9 +282,24 @@ def run_simulate_sensor(args: argparse.Namespace) -> int:
 
     from ..robot.stream import pseudo_terminal, simulate_sensor
 
-    if bool(args.port) == args.pty:
-        print("tactile-torch simulate-sensor: give either --port PORT or --pty", file=sys.stderr)
+    if bool(args.port) + args.pty + bool(args.ros2_topic) != 1:
+        print(
+            "tactile-torch simulate-sensor: give one of --port PORT, --pty or --ros2-topic TOPIC",
+            file=sys.stderr,
+        )
         return 2
+    if args.data and args.ros2_topic:  # recordings as IMU messages, explorations' frames as frame messages
+        from ..robot.formats import read_data
+        from ._ros2 import run_simulate_ros2
+
+        data = read_data(args.data, allow_pickle=args.allow_pickle)
+        if not 0 <= args.recording < len(data):
+            raise UsageError(f"--recording must be in 0..{len(data) - 1} ({args.data}), got {args.recording}")
+        if data.kind == "vibration":
+            return run_simulate_ros2(args, data.signals[args.recording], data.rate_hz, "sample")
+        if data.kind != "image" or data.pressure is None:
+            raise UsageError(f"--data: {args.data} holds no vibration recordings or pressure maps to publish")
+        return run_simulate_ros2(args, data.pressure[args.recording], args.rate, "frame")
     if args.data:  # any layout of docs/formats.md, incl. recordings of different lengths
         from ..robot.formats import read_recordings
 
@@ -295,6 +312,10 @@ def run_simulate_sensor(args: argparse.Namespace) -> int:
 
         rec = make_vibration_recordings(28, duration_s=args.seconds, random_state=args.seed)
         recording, rate = rec.signals[args.recording % 28], rec.rate_hz
+    if args.ros2_topic:
+        from ._ros2 import run_simulate_ros2
+
+        return run_simulate_ros2(args, recording, rate, "sample")
     with contextlib.ExitStack() as stack:
         if args.pty:
             port, name = stack.enter_context(pseudo_terminal())

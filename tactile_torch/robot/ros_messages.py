@@ -262,7 +262,7 @@ class TopicFields:
         return what
 
 
-class Reading(NamedTuple):
+class MessageValues(NamedTuple):
     """The values of one message.
 
     Attributes
@@ -281,7 +281,7 @@ class Reading(NamedTuple):
 
 
 class MessageDecoder:
-    """Turn a topic's messages (CDR bytes or decoded) into :class:`Reading` tuples.
+    """Turn a topic's messages (CDR bytes or decoded) into :class:`MessageValues` tuples.
 
     Parameters
     ----------
@@ -317,8 +317,8 @@ class MessageDecoder:
         self._path = fields.field.split(".") if fields.field else None
         self._stamped = _has_header(store, fields.msgtype)
 
-    def decode(self, cdr: bytes | memoryview) -> Reading:
-        """Return the :class:`Reading` of one message's CDR bytes (with their 4-byte header)."""
+    def decode(self, cdr: bytes | memoryview) -> MessageValues:
+        """Return the :class:`MessageValues` of one message's CDR bytes (with their 4-byte header)."""
         try:
             message = self.store.deserialize_cdr(cdr, self.fields.msgtype)
         except Exception as err:  # rosbags raises assorted errors on bytes that do not decode
@@ -327,8 +327,8 @@ class MessageDecoder:
             ) from None
         return self.values(message)
 
-    def values(self, message) -> Reading:
-        """Return the :class:`Reading` of one decoded message."""
+    def values(self, message) -> MessageValues:
+        """Return the :class:`MessageValues` of one decoded message."""
         msgtype, shape = self.fields.msgtype, None
         if self._path is not None:
             values = _numbers(_follow(message, self._path), self.fields.field)
@@ -351,7 +351,7 @@ class MessageDecoder:
         if self._stamped:
             s = message.header.stamp
             stamp = int(s.sec) * 1_000_000_000 + int(s.nanosec)
-        return Reading(stamp, values, shape)
+        return MessageValues(stamp, values, shape)
 
 
 class MessageEncoder:
@@ -590,8 +590,8 @@ __all__ = [
     "MessageDefinition",
     "MessageEncoder",
     "MessageError",
+    "MessageValues",
     "MissingExtraError",
-    "Reading",
     "TopicFields",
     "default_message",
     "has_type",

@@ -1,0 +1,221 @@
+"""ROS 2 over Cyclone DDS (tactile_torch.robot.ros2_dds, ros2_publish): the DDS types are ROS 2's on the
+wire, byte for byte; a real publisher process (``simulate-sensor --ros2-topic``) reaches a subscriber
+on the loopback only (every RTPS message either participant sent went to 127.0.0.1, read from Cyclone
+DDS's own trace); the configuration, names and errors. Needs the optional extra ``ros2``."""
+
+from __future__ import annotations
+
+import subprocess
+import time
+
+import numpy as np
+import pytest
+
+from tactile_torch.cli import BAD_INPUT_EXIT, main
+from tactile_torch.robot.ros2_dds import (
+    DdsNode,
+    DdsOptions,
+    DdsTypes,
+    TopicReader,
+    check_domain_id,
+    dds_topic_name,
+    dds_type_name,
+    default_domain_id,
+    loopback_config,
+    resolve_config,
+    ros_type_of,
+)
+from tactile_torch.robot.ros_messages import (
+    FLOAT_ARRAY_TYPE,
+    IMAGE_TYPE,
+    IMU_TYPE,
+    STRING_TYPE,
+    TACTILE_STATE_TYPE,
+    MessageDecoder,
+    MessageEncoder,
+    TopicFields,
+    message_types,
+)
+from tests.ros2_helpers import cli, free_domain_id, ros2_env, selected_interfaces, sent_to, traced_loopback
+
+pytest.importorskip(
+    "cyclonedds", reason="the optional extra 'ros2' (cyclonedds) is not installed: pip install -e '.[ros2]'"
+)
+
+
+def _recordings(path, n=200, rate_hz=800.0):
+    """Write two synthetic triaxial recordings in g (numpy only: the robot's CI job runs these tests)."""
+    rng = np.random.default_rng(0)
+    signals = (rng.normal(0, 0.3, (2, n, 3)) + np.array([0.0, 0.0, 1.0])).astype(np.float32)
+    np.savez(
+        path,
+        signals=signals,
+        labels=np.array([0, 1]),
+        class_names=np.array(["cork", "felt"]),
+        rate_hz=rate_hz,
+    )
+    return signals, rate_hz
+
+
+def _as_idl(struct, message, types: DdsTypes):
+    """The Cyclone IDL struct instance holding the same values as a rosbags message (test-only converter)."""
+    values = {}
+    for name, _ in types.store.fielddefs[message.__msgtype__][1]:
+        value = getattr(message, name)
+        if hasattr(value, "__msgtype__"):
+            value = _as_idl(types.struct(value.__msgtype__), value, types)
+        elif isinstance(value, list) and value and hasattr(value[0], "__msgtype__"):
+            value = [_as_idl(types.struct(v.__msgtype__), v, types) for v in value]
+        elif isinstance(value, np.ndarray):
+            value = value.tolist()
+        values[name] = value
+    return struct(**values)
+
+
+@pytest.mark.parametrize(
+    ("fields", "frame", "kwargs"),
+    [
+        (TopicFields(IMU_TYPE), np.array([0.5, -1.0, 1.0]), {}),
+        (TopicFields(FLOAT_ARRAY_TYPE), np.arange(6.0).reshape(2, 3), {}),
+        (TopicFields(IMAGE_TYPE), np.arange(6.0).reshape(2, 3) * 1000, {"encoding": "mono16"}),
+        (TopicFields(TACTILE_STATE_TYPE, sensor="tip"), np.arange(12.0), {}),
+    ],
+    ids=["imu", "float32multiarray", "image", "tactilestate"],
+)
+def test_dds_types_serialize_as_ros2_messages_byte_for_byte(fields, frame, kwargs):
+    # The DDS type built from the definition, serialized by Cyclone DDS itself, gives the bytes rosbags
+    # gives for the same message (what rosbag2 stores and a ROS 2 node sends): the types are ROS 2's.
+    store = message_types()
+    types = DdsTypes(store)
+    cdr = MessageEncoder(fields, store, **kwargs).encode(frame, 1_700_000_000_123_456_789)
+    struct = types.struct(fields.msgtype)
+    idl = _as_idl(struct, store.deserialize_cdr(cdr, fields.msgtype), types)
+    assert idl.serialize() == cdr
+    assert struct.__idl_typename__.replace(".", "::") == dds_type_name(fields.msgtype)
+
+
+def test_the_decision_string_is_what_a_ros2_talker_sends():
+    # A ROS 2 talker's std_msgs/String "Hello World: 1" on rt/chatter, as a DDS router recorded it:
+    # 00 01 00 00 | length 15 | the text and its NUL | padding (eProsima DDS Router docs, Echo Participant)
+    talker = bytes.fromhex("000100000f00000048656c6c6f20576f726c643a20310000")
+    store = message_types()
+    message = store.types[STRING_TYPE](data="Hello World: 1")
+    cdr = store.serialize_cdr(message, STRING_TYPE)
+    assert bytes(cdr) == talker[: len(cdr)] and talker[len(cdr) :] == b"\x00"  # Cyclone pads to 4 bytes
+    assert DdsTypes(store).topic_type(STRING_TYPE).__idl_typename__ == "std_msgs.msg.dds_.String_"
+    assert (
+        dds_topic_name("/chatter") == "rt/chatter"
+        and ros_type_of("std_msgs::msg::dds_::String_") == STRING_TYPE
+    )
+
+
+def test_a_publisher_process_reaches_a_subscriber_on_the_loopback_only(tmp_path):
+    # simulate-sensor publishes a recording as sensor_msgs/Imu; this process subscribes (type found from
+    # the publisher) and decodes every message back to the recording in g. Both participants trace every
+    # RTPS message they send: all went to 127.0.0.1, over the loopback interface alone.
+    signals, rate_hz = _recordings(tmp_path / "rec.npz")
+    domain = free_domain_id()
+    pub_config = traced_loopback(tmp_path / "pub.xml")
+    sub_config = traced_loopback(tmp_path / "sub.xml")
+    publisher = subprocess.Popen(
+        cli(
+            "simulate-sensor", "--ros2-topic", "/imu", "--data", str(tmp_path / "rec.npz"), "--recording", "1",
+            "--domain-id", str(domain), "--dds-config", str(pub_config), "--wait-subscriber", "30",
+        ),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=ros2_env(),
+    )  # fmt: skip
+    store = message_types()
+    values = []
+    try:
+        with DdsNode(DdsOptions(domain_id=domain, config=str(sub_config))) as node:
+            from tactile_torch.robot.ros2_dds import discover_type
+
+            msgtype = discover_type(node, "/imu", timeout_s=30)
+            assert msgtype == IMU_TYPE
+            reader = TopicReader(node, "/imu", msgtype, DdsTypes(store))
+            decoder = MessageDecoder(TopicFields(msgtype), store)
+            stamps, deadline = [], time.monotonic() + 30
+            while len(values) < len(signals[1]) and time.monotonic() < deadline:
+                for received in reader.take(0.1):
+                    reading = decoder.decode(received.cdr)
+                    values.append(reading.values)
+                    stamps.append(reading.stamp_ns)
+        out, err = publisher.communicate(timeout=30)
+    finally:
+        publisher.kill()
+    assert publisher.returncode == 0, err
+    assert f"{len(signals[1])} messages published" in out
+    np.testing.assert_allclose(np.array(values), signals[1], rtol=1e-6, atol=1e-7)
+    np.testing.assert_allclose(np.diff(stamps), 1e9 / rate_hz, atol=1)  # header stamps at the rate
+    for config in (pub_config, sub_config):
+        trace = config.with_suffix(".log")
+        destinations = sent_to(trace)
+        assert len(destinations) > 10 and set(destinations) == {"127.0.0.1"}, trace.read_text()[-2000:]
+        assert selected_interfaces(trace).split()[0] == "lo" and "eth" not in selected_interfaces(trace)
+        assert "Domain/General/AllowMulticast/#text: false" in trace.read_text()
+
+
+def test_configuration_names_and_errors(tmp_path, monkeypatch, capsys):
+    # the trace check above sees any destination (a line as Cyclone DDS writes it, another address)
+    fake = tmp_path / "fake.log"
+    fake.write_text("1.0 [7]  tev: ddsi_xpack_send 96: 0x1:20 0x2:76 [ udp/192.0.2.9:7410@1 ]\n")
+    assert sent_to(fake) == ["192.0.2.9"]
+    xml = loopback_config()
+    for part in (
+        '<NetworkInterface name="lo"/>',
+        "<AllowMulticast>false</AllowMulticast>",
+        '<Peer address="127.0.0.1"/>',
+    ):
+        assert part in xml
+    monkeypatch.delenv("CYCLONEDDS_URI", raising=False)
+    assert resolve_config(None) == (xml, "loopback only (127.0.0.1, multicast off)")
+    assert resolve_config(None, environ={"CYCLONEDDS_URI": "file:///etc/robot.xml"}) == (
+        "file:///etc/robot.xml",
+        "CYCLONEDDS_URI",
+    )
+    (tmp_path / "robot.xml").write_text(xml)
+    assert resolve_config(str(tmp_path / "robot.xml")) == (xml, str(tmp_path / "robot.xml"))
+    with pytest.raises(FileNotFoundError, match=r"nope\.xml: no such Cyclone DDS configuration file"):
+        resolve_config(str(tmp_path / "nope.xml"))
+    assert default_domain_id({"ROS_DOMAIN_ID": "42"}) == 42 and default_domain_id({}) == 0
+    with pytest.raises(ValueError, match=r"ROS_DOMAIN_ID must be a domain id in 0\.\.232, got 'x'"):
+        default_domain_id({"ROS_DOMAIN_ID": "x"})
+    with pytest.raises(ValueError, match=r"domain_id must be an int in 0\.\.232, got 233"):
+        check_domain_id(233)
+    with pytest.raises(
+        ValueError, match=r"topic must be an absolute ROS 2 topic name such as /hand/tactile, got 'imu'"
+    ):
+        dds_topic_name("imu")
+    assert ros_type_of("Imu") is None
+    # the command line: one line, status 2
+    assert main(["simulate-sensor", "--ros2-topic", "/imu", "--domain-id", "300"]) == BAD_INPUT_EXIT
+    assert "--domain-id must be an int in 0..232, got 300" in capsys.readouterr().err
+    assert main(["simulate-sensor", "--ros2-topic", "/imu", "--pty"]) == BAD_INPUT_EXIT
+    assert "give one of --port PORT, --pty or --ros2-topic TOPIC" in capsys.readouterr().err
+    _recordings(tmp_path / "rec.npz")
+    argv = [
+        "simulate-sensor",
+        "--ros2-topic",
+        "/x",
+        "--data",
+        str(tmp_path / "rec.npz"),
+        "--ros2-type",
+        IMAGE_TYPE,
+    ]
+    assert main(argv) == BAD_INPUT_EXIT
+    assert (
+        "--ros2-type sensor_msgs/msg/Image cannot carry the accelerometer samples of --data"
+        in capsys.readouterr().err
+    )
+
+
+def test_without_cyclonedds_dds_commands_say_which_extra(monkeypatch, capsys):
+    import sys
+
+    monkeypatch.setitem(sys.modules, "cyclonedds", None)  # as without the extra
+    assert main(["simulate-sensor", "--ros2-topic", "/imu", "--seconds", "0.1"]) == BAD_INPUT_EXIT
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "need the optional extra 'ros2'" in err and "tactile-torch[ros2]" in err
