@@ -193,3 +193,63 @@ def energy_bundle(
     )
     Path(path).write_bytes(model)
     return path
+
+
+def _initializer(name: str, array: np.ndarray) -> bytes:
+    """One TensorProto (dims, data_type, name, raw_data) of a float32 or int64 array."""
+    array = np.ascontiguousarray(array)
+    data_type = {np.dtype(np.float32): 1, np.dtype(np.int64): 7}[array.dtype]
+    dims = b"".join(_field(1, int(d)) for d in array.shape)
+    return (
+        dims
+        + _field(2, data_type)
+        + _field(8, name)
+        + _field(9, array.astype(array.dtype.newbyteorder("<")).tobytes())
+    )
+
+
+def frame_bundle(
+    path: Path,
+    weights: np.ndarray,
+    *,
+    n_frames: int = 4,
+    class_names: list[str] | None = None,
+    metadata: dict[str, object] | None = None,
+) -> Path:
+    """Write a pressure-map bundle ``(B, T, H, W)``: scores = the mean frame times ``weights`` ``(H, W, C)``.
+
+    A linear classifier of the mean frame over the ``T`` frames (``weights`` may be class-mean
+    templates fitted with numpy: a real, if simple, trained model), label = the argmax of the scores.
+    ``metadata`` adds keys (``frame_rate_hz``, ``touch_levels`` ... JSON-encoded when not strings).
+    Encoded by hand, like :func:`energy_bundle`, so that the robot tests need no ``onnx`` package.
+    """
+    h, w, c = weights.shape
+    float_, int64 = 1, 7
+    graph = (
+        _field(1, _node("ReduceMean", ["raw"], ["mean"], axes=[1], keepdims=0))
+        + _field(1, _node("Flatten", ["mean"], ["flat"], axis=1))
+        + _field(1, _node("MatMul", ["flat", "weights"], ["scores"]))
+        + _field(1, _node("ArgMax", ["scores"], ["labels"], axis=1, keepdims=0))
+        + _field(2, "mean-frame")
+        + _field(5, _initializer("weights", weights.reshape(h * w, c).astype(np.float32)))
+        + _field(11, _tensor_info("raw", float_, ["B", n_frames, h, w]))
+        + _field(12, _tensor_info("labels", int64, ["B"]))
+        + _field(12, _tensor_info("scores", float_, ["B", c]))
+    )
+    meta = {
+        "tactile_torch.pipeline": "pressure-mean-frame",
+        "tactile_torch.version": "test",
+        "input_shape": json.dumps([None, n_frames, h, w]),
+        "input_layout": "B,T,H,W",
+        "class_names": json.dumps(class_names or [f"class {i}" for i in range(c)]),
+        **{k: v if isinstance(v, str) else json.dumps(v) for k, v in (metadata or {}).items()},
+    }
+    model = (
+        _field(1, 8)
+        + _field(2, "tactile-torch tests")
+        + _field(7, graph)
+        + _field(8, _field(1, "") + _field(2, 13))
+        + b"".join(_field(14, _field(1, k) + _field(2, v)) for k, v in meta.items())
+    )
+    Path(path).write_bytes(model)
+    return path

@@ -125,6 +125,7 @@ class PortLines:
         self._clock = clock
         self._sleep = sleep
         self.samples = self.skipped = self.reconnects = 0
+        self.item = "sample"  # what an item is called in messages ("frame" for a frame stream)
         self._event_window: dict[str, tuple[float, int]] = {}
         self._held_events: dict[str, int] = {}
         self._last_sample_at, self._silent = clock(), False
@@ -199,7 +200,7 @@ class PortLines:
                 if limit is not None and waited >= limit:
                     raise StreamDisconnected(
                         f"{name}: gave up reconnecting after {attempts} attempt(s), {waited:.1f} s without a "
-                        f"sample (idle timeout {limit:g} s): {error}"
+                        f"{self.item} (idle timeout {limit:g} s): {error}"
                     )
                 # the last wait is cut short so that one attempt is made at the timeout itself
                 self._sleep(self._delay if limit is None else min(self._delay, limit - waited))
@@ -246,7 +247,7 @@ class PortLines:
                 except OSError as err:
                     if not self.reconnect:
                         raise StreamDisconnected(
-                            f"{name} disconnected after {self.samples} samples: {err}"
+                            f"{name} disconnected after {self.samples} {self.item}s: {err}"
                         ) from err
                     self._close(port)
                     port = self._reopen(err)
@@ -277,11 +278,12 @@ class PortLines:
                 # the wrong baud rate, a line format the stream refuses) do not keep the stream alive.
                 waited = now - self._last_sample_at
                 limit = self.idle_timeout_s if self.samples else self.start_timeout_s
-                what = "no valid sample" if self.skipped else "no data" if not self.samples else "no sample"
+                item = self.item
+                what = f"no valid {item}" if self.skipped else "no data" if not self.samples else f"no {item}"
                 skipped = f", {self.skipped} lines skipped" if self.skipped else ""
                 if waited >= limit:
                     raise StreamTimeout(
-                        f"{name}: {what} for {waited:.1f} s (timeout {limit:g} s); {self.samples} samples "
+                        f"{name}: {what} for {waited:.1f} s (timeout {limit:g} s); {self.samples} {item}s "
                         f"read, {self.skipped} lines skipped"
                     )
                 if waited >= self.silence_s and not self._silent:
@@ -289,7 +291,7 @@ class PortLines:
                     if self.samples:
                         self._emit(
                             "silence",
-                            f"{what} for {waited:.1f} s after {self.samples} samples{skipped}; waiting "
+                            f"{what} for {waited:.1f} s after {self.samples} {item}s{skipped}; waiting "
                             f"({_giving_up(limit)})",
                         )
                         yield None, now
