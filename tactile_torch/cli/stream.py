@@ -11,7 +11,7 @@ import sys
 
 from . import STREAM_DISCONNECTED_EXIT, STREAM_NO_DATA_EXIT, STREAM_STOPPED_EXIT
 from ._options import UsageError, add_allow_pickle, at_least, in_range, parse_range_g
-from ._ros2 import add_dds_options, add_publisher_options
+from ._ros2 import add_dds_options, add_publisher_options, add_subscriber_options
 
 MAX_SIMULATED_S = 600
 """Longest synthetic recording ``simulate-sensor`` generates (28 surfaces are generated: 160 MB)."""
@@ -29,7 +29,7 @@ def register(sub) -> None:
         "4 port failed (see docs/stream.md).",
     )
     p.add_argument("--model", required=True, help="the .onnx vibration bundle")
-    p.add_argument("--port", required=True, help="serial port or pyserial URL")
+    p.add_argument("--port", default=None, help="serial port or pyserial URL (or --ros2-topic)")
     p.add_argument("--baud", type=int, default=230400, help="baud rate (default: 230400)")
     p.add_argument(
         "--step",
@@ -101,6 +101,7 @@ def register(sub) -> None:
         metavar="N",
         help="clustering bundles: propose a new surface after N consecutive novel windows (default: off)",
     )
+    add_subscriber_options(add_dds_options(p, reader=True))
     p.set_defaults(handler=run_stream)
 
     p = sub.add_parser(
@@ -154,6 +155,13 @@ def run_stream(args: argparse.Namespace) -> int:
 
 def _stream_until_stopped(args: argparse.Namespace) -> int:
     import math
+
+    if bool(args.port) == bool(args.ros2_topic):
+        raise UsageError("give either --port PORT (a serial sensor) or --ros2-topic TOPIC (a ROS 2 topic)")
+    if args.ros2_topic:
+        from ._ros2 import run_stream_ros2
+
+        return run_stream_ros2(args, _Stopped)
 
     import numpy as np
     import serial

@@ -289,13 +289,14 @@ def qos(profile: str = "sensor", depth: int = DEFAULT_DEPTH):
     reader keeps more, which changes nothing on the wire).
     """
     from cyclonedds.core import Policy, Qos
+    from cyclonedds.util import duration
 
     if profile not in QOS_PROFILES:
         raise ValueError(f"qos must be one of {QOS_PROFILES}, got {profile!r}")
     reliability = (
         Policy.Reliability.BestEffort
         if profile == "sensor"
-        else Policy.Reliability.Reliable(max_blocking_time=0.1)
+        else Policy.Reliability.Reliable(max_blocking_time=duration(milliseconds=100))
     )
     return Qos(reliability, Policy.History.KeepLast(int(depth)), Policy.Durability.Volatile)
 
@@ -439,16 +440,22 @@ class TopicReader:
     msgtype : str
         Its message type (:func:`discover_type` finds it from a publisher).
     types : DdsTypes
+    profile : {"sensor", "reliable"}, optional
+        The reader's QoS (default: the node's).
     """
 
-    def __init__(self, node: DdsNode, topic: str, msgtype: str, types: DdsTypes) -> None:
+    def __init__(
+        self, node: DdsNode, topic: str, msgtype: str, types: DdsTypes, *, profile: str | None = None
+    ) -> None:
         from cyclonedds.core import InstanceState, ReadCondition, SampleState, ViewState, WaitSet
         from cyclonedds.sub import DataReader
 
         self.topic = topic
         self.msgtype = msgtype
         self.reader = DataReader(
-            node.participant, node.topic(topic, msgtype, types), qos=qos(node.options.qos, node.options.depth)
+            node.participant,
+            node.topic(topic, msgtype, types),
+            qos=qos(profile or node.options.qos, node.options.depth),
         )
         self._waitset = WaitSet(node.participant)
         self._condition = ReadCondition(self.reader, SampleState.Any | ViewState.Any | InstanceState.Any)

@@ -97,6 +97,24 @@ def wait_for_subscriber(
     return True
 
 
+def linger(
+    writer, profile: str, *, timeout_s: float = 5.0, sleep: Callable[[float], None] = time.sleep
+) -> None:
+    """Let the last messages reach the subscribers before ``writer`` (or its participant) is deleted.
+
+    A subscriber that learns that a writer left before its last messages arrived drops them (they
+    travel on another socket than the discovery notice): a reliable writer waits until its
+    subscribers acknowledged everything (up to ``timeout_s``), a best-effort one waits
+    :data:`SETTLE_S`.
+    """
+    if profile == "reliable":
+        from cyclonedds.util import duration
+
+        writer.wait_for_acks(duration(seconds=timeout_s))
+    else:
+        sleep(SETTLE_S)
+
+
 def publish_recording(
     writer,
     types: DdsTypes,
@@ -151,6 +169,7 @@ __all__ = [
     "SETTLE_S",
     "DecisionPublisher",
     "decision_topic",
+    "linger",
     "publish_recording",
     "wait_for_subscriber",
 ]

@@ -148,7 +148,12 @@ def test_a_publisher_process_reaches_a_subscriber_on_the_loopback_only(tmp_path)
         publisher.kill()
     assert publisher.returncode == 0, err
     assert f"{len(signals[1])} messages published" in out
-    np.testing.assert_allclose(np.array(values), signals[1], rtol=1e-6, atol=1e-7)
+    got = np.array(values)
+    found = [int(np.argmin(np.abs(signals[1] - v).sum(1))) for v in got[:3]] + [
+        int(np.argmin(np.abs(signals[1] - v).sum(1))) for v in got[-3:]
+    ]
+    assert len(got) == len(signals[1]), found
+    np.testing.assert_allclose(got, signals[1], rtol=1e-6, atol=1e-7)
     np.testing.assert_allclose(np.diff(stamps), 1e9 / rate_hz, atol=1)  # header stamps at the rate
     for config in (pub_config, sub_config):
         trace = config.with_suffix(".log")
@@ -156,6 +161,23 @@ def test_a_publisher_process_reaches_a_subscriber_on_the_loopback_only(tmp_path)
         assert len(destinations) > 10 and set(destinations) == {"127.0.0.1"}, trace.read_text()[-2000:]
         assert selected_interfaces(trace).split()[0] == "lo" and "eth" not in selected_interfaces(trace)
         assert "Domain/General/AllowMulticast/#text: false" in trace.read_text()
+
+
+def test_a_reliable_reader_names_a_best_effort_publisher_it_cannot_match():
+    # ROS 2's sensor-data publishers are best effort: a reliable reader never matches them, and says so
+    types = DdsTypes(message_types())
+    with DdsNode(DdsOptions(domain_id=free_domain_id(), config="loopback", qos="reliable")) as node:
+        reliable = TopicReader(node, "/tactile", FLOAT_ARRAY_TYPE, types)
+        best_effort = TopicReader(node, "/tactile", FLOAT_ARRAY_TYPE, types, profile="sensor")
+        # (a writer is deleted when dropped: keep it)
+        writer = node.writer("/tactile", FLOAT_ARRAY_TYPE, types, profile="sensor")
+        deadline = time.monotonic() + 10
+        while not (refused := reliable.incompatible_qos()) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert refused and reliable.publishers() == 0 and not reliable.incompatible_qos()  # said once
+        while not best_effort.publishers() and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert best_effort.publishers() == 1 and not best_effort.incompatible_qos() and writer is not None
 
 
 def test_configuration_names_and_errors(tmp_path, monkeypatch, capsys):

@@ -1,0 +1,353 @@
+"""``tactile-torch stream --ros2-topic``: a live ROS 2 topic over Cyclone DDS, end to end.
+
+Every test starts real processes: a publisher (``tests/ros2_publisher.py``, a DDS participant of its
+own) and the stream command, on a DDS domain of their own (``tests.ros2_helpers.free_domain_id``) and
+the loopback-only configuration. They check what the robot gets: the touches and decisions equal the
+same stages run offline on the same frames (:class:`~tactile_torch.robot.stream_source.ArraySource`,
+what ``predict`` runs), every decision is printed and published on the decision topic, nothing is
+lost or repeated, on synthetic frames and on real grasps (iCub fingertips, the Schunk hand's arrays)
+replayed at their recorded rate; a publisher that starts late, pauses, leaves and comes back is
+handled like a serial port that does the same. Torch-free (the bundles are numpy templates written
+by ``tests.stream_helpers.frame_bundle``). Needs the optional extra ``ros2``."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from tactile_torch.robot.early_decision import EarlyRule
+from tactile_torch.robot.live import LiveStream, item_spec
+from tactile_torch.robot.port_lines import StreamDisconnected, StreamTimeout
+from tactile_torch.robot.ros2_dds import DdsOptions
+from tactile_torch.robot.ros2_source import Ros2Source
+from tactile_torch.robot.ros_messages import TopicFields
+from tactile_torch.robot.runtime import OnnxPipeline
+from tactile_torch.robot.stream_output import result_record
+from tactile_torch.robot.stream_source import ArraySource
+from tactile_torch.robot.touches import TouchLevels, touch_levels
+from tests.ros2_helpers import DecisionListener, cli, free_domain_id, ros2_env
+from tests.stream_helpers import energy_bundle, frame_bundle
+
+pytest.importorskip(
+    "cyclonedds", reason="the optional extra 'ros2' (cyclonedds) is not installed: pip install -e '.[ros2]'"
+)
+pytest.importorskip("rosbags", reason="the optional extra 'ros2' (rosbags) is not installed")
+
+TOUCH_KEYS = ("touch", "start", "frames", "frames_used", "label", "name", "ended_by", "flags")
+
+
+# -- the data: synthetic touches, and real grasps ---------------------------------------------------
+
+
+def _synthetic():
+    """Frames of a 4 x 4 array at 100 Hz: three touches (top, bottom, top) between resting frames."""
+    rng = np.random.default_rng(0)
+    parts = []
+    for rows, length in ((slice(0, 2), 7), (slice(2, 4), 6), (slice(0, 2), 4)):
+        parts.append(rng.uniform(0, 0.1, (5, 4, 4)))
+        touch = rng.uniform(0, 0.1, (length, 4, 4))
+        touch[:, rows] += np.linspace(2, 8, length)[:, None, None]
+        parts.append(touch)
+    parts.append(rng.uniform(0, 0.1, (5, 4, 4)))
+    frames = np.round(np.concatenate(parts), 3).astype(np.float32)
+    weights = np.zeros((4, 4, 2), np.float32)
+    weights[:2, :, 0] = weights[2:, :, 1] = 1.0
+    levels = TouchLevels(onset=4.0, release=2.0, min_frames=2, source="test")
+    return frames, 100.0, weights, ["top", "bottom"], levels, 4
+
+
+def _drimus(root):
+    """Two grasps (two objects) on the Schunk hand's third distal array (13 x 6), at their ~15 Hz.
+
+    The array the objects touch in every grasp; each grasp is replayed from 3 frames before its
+    contact to 9 frames into it, followed by 3 of its first (resting) frames (1.6 s of frames). The model: templates of
+    the held frames above rest (numpy); the levels from the held frames above the resting level of the
+    grasps' first phase (:func:`touch_levels`), as a user with such recordings would set them.
+    """
+    from tactile_torch.robot.touches import resting_level
+
+    array, names = "ts6_f3_distal", ["BALL_RUBBER", "ORANGE_FRESH"]
+    grasps = {n: [] for n in names}
+    for f in sorted((root / "grasps_npz").glob("*.npz")):
+        with np.load(f) as z:
+            if str(z["class_name"]) in grasps:
+                grasps[str(z["class_name"])].append((z[array].astype(np.float32), z["phase"]))
+    rest = resting_level(np.concatenate([g[p == 1] for n in names for g, p in grasps[n]]))
+    held = {n: np.stack([g[p >= 3][:60] for g, p in grasps[n]]) for n in names}
+    levels = touch_levels(np.concatenate(list(held.values())), frame_rate_hz=15.0, rest=rest)
+    weights = np.stack([held[n].mean((0, 1)) for n in names], axis=-1)
+    weights = (weights - weights.mean(-1, keepdims=True)) / 1000.0  # centred templates: nearest mean
+    parts = []
+    for n in names:
+        g = grasps[n][0][0]
+        onset = int(np.argmax([levels.activity(f) >= levels.onset for f in g]))
+        parts += [g[onset - 3 : onset + 9], g[:3]]
+    return np.concatenate(parts), 15.0, weights.astype(np.float32), names, levels, 6
+
+
+def _icub(root):
+    """Three iCub grasps (three objects) between open-hand slices (the ``none`` class), played at 20 Hz.
+
+    Each grasp's last 8 slices (the object held) between two open-hand slices: 32 slices, 1.6 s.
+
+    5 fingertips x 12 taxels per slice, raw 0-255 readings (contact lowers them). The data set gives no
+    rate: 20 Hz is assumed. Rest: the open hand's median reading per taxel; levels set between the
+    open hand's activity and the grasps'.
+    """
+
+    def read(path):
+        lines = [line.split() for line in path.read_text().splitlines()[1:] if line.strip()]
+        return np.array([lines[i + 2 : i + 7] for i in range(0, len(lines), 7)], dtype=np.float32)
+
+    data = root / "iCubGraspDataset"
+    names = ["empty_coke", "med_coke", "med_vitamin_water"]
+    open_hand = read(data / "none_1.txt")
+    grasps = [read(data / f"{n}_1.txt") for n in names]
+    levels = TouchLevels(
+        onset=150.0, release=100.0, sign=-1.0, rest=-np.median(open_hand, axis=0), source="test"
+    )
+    weights = np.stack([255.0 - g[-4:].mean(0) for g in grasps], axis=-1)
+    weights = (weights - weights.mean(-1, keepdims=True)) / 1000.0  # centred templates: nearest mean
+    parts = [open_hand[:2]]
+    for g in grasps:
+        parts += [g[-8:], open_hand[2:4]]
+    return np.concatenate(parts), 20.0, weights.astype(np.float32), names, levels, 4
+
+
+def _bundle(tmp_path, weights, names, levels, n_frames, rate):
+    """A pressure bundle of ``n_frames`` frames with the touch levels and an early rule that always fires."""
+    path = tmp_path / "grasp.onnx"
+    checkpoints = tuple(c for c in (2, 3) if c < n_frames) or (1,)
+    meta = {
+        "frame_rate_hz": rate,
+        "touch_levels": levels.to_metadata(),
+        "early_decision": EarlyRule(threshold=0.0, checkpoints=checkpoints).to_metadata(),  # always early
+    }
+    return OnnxPipeline(
+        frame_bundle(path, weights, n_frames=n_frames, class_names=list(names), metadata=meta)
+    )
+
+
+# -- running the processes --------------------------------------------------------------------------
+
+
+def _start_stream(pipe, topic, domain, *extra):
+    argv = cli(
+        "stream",
+        "--model",
+        str(pipe.path),
+        "--ros2-topic",
+        topic,
+        "--domain-id",
+        str(domain),
+        "--json",
+        *extra,
+    )
+    return subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=ros2_env())
+
+
+def _start_publisher(tmp_path, values, rate, topic, domain, msgtype, *extra):
+    np.save(tmp_path / "values.npy", values)
+    argv = [
+        sys.executable, "-m", "tests.ros2_publisher", "--domain-id", str(domain), "--topic", topic,
+        "--type", msgtype, "--values", str(tmp_path / "values.npy"), "--rate", str(rate), *extra,
+    ]  # fmt: skip
+    return subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=ros2_env())
+
+
+def _finish(*processes, timeout=60):
+    outs = []
+    for p in processes:
+        try:
+            outs.append(p.communicate(timeout=timeout))
+        finally:
+            p.kill()
+        p.stdout_text = outs[-1][0]
+    return outs
+
+
+def _offline(pipe, frames, rate):
+    t = np.arange(len(frames)) / rate
+    live = LiveStream(pipe, ArraySource(frames, item_spec(pipe), t=t))
+    return [result_record(r) for r in live] + [result_record(r) for r in live.finish()]
+
+
+def _assert_same_touches(got, expected):
+    touches = [r for r in got if r["event"] == "touch"]
+    assert [[r[k] for k in TOUCH_KEYS] for r in touches] == [
+        [r[k] for k in TOUCH_KEYS] for r in expected if r["event"] == "touch"
+    ]
+    np.testing.assert_allclose(
+        [r["scores"] for r in touches], [r["scores"] for r in expected if r["event"] == "touch"], atol=1e-5
+    )
+    early = [(r["touch"], r["frames"], r["label"]) for r in got if r["event"] == "early"]
+    assert early == [(r["touch"], r["frames"], r["label"]) for r in expected if r["event"] == "early"]
+
+
+# -- the tests --------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("source", "msgtype", "extra", "sensor"),
+    [
+        ("synthetic", "tactile_msgs/msg/TactileState", ("--sensor", "index"), ("--sensor", "index")),
+        (
+            "drimus_sdh_tactile",
+            "tactile_msgs/msg/TactileState",
+            ("--sensor", "f1_proximal"),
+            ("--sensor", "f1_proximal"),
+        ),
+        ("icub_grasp", "sensor_msgs/msg/Image", ("--encoding", "mono8"), ()),
+    ],
+)
+def test_touches_over_dds_equal_the_offline_touches_and_every_decision_is_published(
+    tmp_path, shared_data, source, msgtype, extra, sensor
+):
+    frames, rate, weights, names, levels, n_frames = (
+        _synthetic()
+        if source == "synthetic"
+        else (_drimus if source.startswith("drimus") else _icub)(shared_data(source))
+    )
+    pipe = _bundle(tmp_path, weights, names, levels, n_frames, rate)
+    expected = _offline(pipe, frames, rate)
+    n_touches = sum(r["event"] == "touch" for r in expected)
+    assert n_touches >= 2 and sum(r["event"] == "early" for r in expected) >= 1  # the replay tests something
+    domain, topic = free_domain_id(), "/hand/tactile"
+    listener = DecisionListener(f"{topic}/decision", domain)  # subscribed before the stream starts
+    try:
+        # Both start at once: the publisher waits for the stream's reader, which the stream creates
+        # after its decision writer, so the listener has the writer before the first decision.
+        stream = _start_stream(pipe, topic, domain, *sensor)
+        publisher = _start_publisher(tmp_path, frames, rate, topic, domain, msgtype, *extra)
+        (out, err), (pub_out, _) = _finish(stream, publisher)
+        decisions = listener.wait_for(len(out.splitlines()), timeout_s=10)
+    finally:
+        listener.close()
+    # without --reconnect the stream ends when the publisher leaves, as at a serial port that fails
+    assert stream.returncode == 4 and f"done {len(frames)}" in pub_out, err
+    assert f"{topic}: the publisher left after {len(frames)} frames" in err
+    got = [json.loads(line) for line in out.splitlines()]
+    _assert_same_touches(got, expected)
+    assert decisions == got  # every decision printed was published, in order, and nothing else
+    header = next(line for line in err.splitlines() if "reading ROS 2 topic" in line)
+    assert f"reading ROS 2 topic {topic} ({msgtype}" in header and "loopback only" in header
+    assert f"decisions published on {topic}/decision (std_msgs/msg/String, JSON)" in header
+    # nothing lost or repeated: every frame read once, in order (header stamps: no gap, nothing back)
+    summary = err.strip().splitlines()[-1]
+    assert summary.startswith(f"{len(frames)} frames read, {n_touches} touches") and " 0 gaps " in summary, (
+        summary
+    )
+    assert f"{len(got)} decisions published on {topic}/decision" in summary
+
+
+def _run_in_process(pipe, source, publisher):
+    """Run the stream's stages in this process on ``source`` until it raises; return (records, error, live)."""
+    live = LiveStream(pipe, source)
+    records, error = [], None
+    try:
+        for result in live:
+            records.append(result_record(result))
+    except (StreamTimeout, StreamDisconnected) as err:
+        error = err
+    records += [result_record(r) for r in live.finish()]
+    _finish(publisher)
+    return records, error, live
+
+
+def test_a_publisher_that_starts_late_pauses_leaves_and_comes_back(tmp_path):
+    # A touch split by the publisher's pause is reported as two (cut, then the rest of a contact), never
+    # merged; the publisher leaving is a disconnection: with reconnect the stream waits for it, says
+    # when it is back, and counts a reconnection; the touch it interrupted is cut, not merged either.
+    # The stream runs in this process (the command's own run is the test above), the publisher in its own.
+    frames, rate, weights, names, levels, n_frames = _synthetic()
+    pipe = _bundle(tmp_path, weights, names, levels, n_frames, rate)
+    domain, topic, events = free_domain_id(), "/hand/tactile", []
+    opened = []
+    source = Ros2Source(
+        topic,
+        item_spec(pipe),
+        fields=TopicFields("tactile_msgs/msg/TactileState"),
+        dds=DdsOptions(domain_id=domain, config="loopback"),
+        silence_s=0.3,
+        idle_timeout_s=1.5,
+        start_timeout_s=30.0,
+        reconnect=True,
+        on_event=lambda e: events.append((time.monotonic(), e.kind, e.message)),
+        on_open=opened.append,
+    )
+    # touch 1 is frames 5-11: a pause after frame 8; touch 2 (17-22): a departure after frame 19. The
+    # publisher starts 0.6 s after the stream: late.
+    plan = "0:9,pause=0.45,9:20,leave=0.45,20:37"
+    publisher = _start_publisher(
+        tmp_path,
+        frames,
+        rate,
+        topic,
+        domain,
+        "tactile_msgs/msg/TactileState",
+        "--plan",
+        plan,
+        "--delay",
+        "0.6",
+    )
+    records, error, live = _run_in_process(pipe, source, publisher)
+    assert "done 37" in publisher.stdout_text
+    assert isinstance(error, StreamDisconnected) and "gave up waiting for a publisher" in str(error)
+    touches = [r for r in records if r["event"] == "touch"]
+    assert [(r["start"], r["frames"], r["ended_by"], r["flags"]) for r in touches] == [
+        (5, 4, "silence", ["cut"]),
+        (9, 3, "release", ["after_cut", "stretched"]),
+        (17, 3, "reconnect", ["cut", "stretched"]),
+        (20, 3, "release", ["after_cut", "stretched"]),
+        (28, 4, "release", []),
+    ], records
+    kinds = [k for _, k, _ in events]
+    assert kinds == [
+        "waiting",
+        "first",
+        "silence",
+        "resumed",
+        "disconnected",
+        "reconnected",
+        "resumed",
+        "disconnected",
+    ]
+    messages = [m for _, _, m in events]
+    assert messages[0].startswith("no matching publisher yet on /hand/tactile") and opened == [topic]
+    assert "the publisher left after 20 frames; waiting for it to come back" in messages[4]
+    assert messages[5].startswith("a publisher of /hand/tactile is back after")
+    assert live.summary().startswith("37 frames read, 5 touches") and source.counts.reconnects == 1
+
+
+def test_vibration_over_imu_messages_gives_the_offline_windows(tmp_path):
+    # IMU messages are samples: m/s^2 converted to g, header stamps as t (checked against the recording's
+    # clock); the windows and their scores are those of the same samples offline.
+    pipe = OnnxPipeline(energy_bundle(tmp_path / "energy.onnx", window=64))
+    rng = np.random.default_rng(3)
+    samples = (rng.normal(0, 0.3, (320, 3)) * np.array([1.0, 2.0, 0.5])).astype(np.float32)
+    spec = item_spec(pipe)
+    expected = [
+        result_record(r) for r in LiveStream(pipe, ArraySource(samples, spec, t=np.arange(320) / 800.0))
+    ]
+    domain = free_domain_id()
+    source = Ros2Source(
+        "/imu", spec, dds=DdsOptions(domain_id=domain, config="loopback"), start_timeout_s=30.0
+    )
+    publisher = _start_publisher(tmp_path, samples, 800.0, "/imu", domain, "sensor_msgs/msg/Imu")
+    got, error, _ = _run_in_process(pipe, source, publisher)
+    assert (
+        isinstance(error, StreamDisconnected) and source.msgtype == "sensor_msgs/msg/Imu"
+    )  # found from the publisher
+    assert [r["sample"] for r in got] == [r["sample"] for r in expected] and len(got) == 9, (
+        error,
+        source.counts,
+    )
+    assert [r["label"] for r in got] == [r["label"] for r in expected]
+    np.testing.assert_allclose([r["scores"] for r in got], [r["scores"] for r in expected], rtol=1e-5)
+    t0 = got[0]["t_start"]
+    np.testing.assert_allclose([r["t_end"] - t0 for r in got], [r["t_end"] for r in expected], atol=2e-6)
