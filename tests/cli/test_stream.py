@@ -340,7 +340,10 @@ def test_stream_bad_options_are_one_usage_error(model, args, match, capsys):
 def test_stream_refuses_a_bundle_that_takes_no_windows(tmp_path, capsys):
     model = energy_bundle(tmp_path / "features.onnx", drop=("window_size",))
     assert main(["stream", "--model", str(model), "--port", "/dev/null"]) == 2
-    assert capsys.readouterr().err.strip() == f"tactile-torch stream: {model} does not take vibration windows"
+    assert (
+        capsys.readouterr().err.strip()
+        == f"tactile-torch stream: {model} does not take vibration windows or taxel frames"
+    )
 
 
 def test_simulate_sensor_needs_a_port_or_a_pty(capsys):
