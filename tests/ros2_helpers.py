@@ -1,4 +1,4 @@
-"""Test helpers for ROS 2 over DDS: a free domain per test, loopback-only configurations, a decision listener.
+"""Test helpers for ROS 2: a free DDS domain per test, loopback-only configurations, a decision listener, bags.
 
 Network rule: every DDS participant the tests start (in the test process or in a subprocess) uses the
 loopback configuration the library ships (:func:`tactile_torch.robot.ros2_dds.loopback_config`), given
@@ -86,7 +86,7 @@ class DecisionListener:
 
     def __init__(self, topic: str, domain_id: int, *, config: str = "loopback") -> None:
         from tactile_torch.robot.ros2_dds import DdsNode, DdsOptions, DdsTypes, TopicReader
-        from tactile_torch.robot.ros_messages import STRING_TYPE, message_types
+        from tactile_torch.robot.ros_types import STRING_TYPE, message_types
 
         self.store = message_types()
         self.node = DdsNode(DdsOptions(domain_id=domain_id, config=config, qos="reliable"))
@@ -108,6 +108,26 @@ class DecisionListener:
 
     def close(self) -> None:
         self.node.close()
+
+
+def write_frame_bag(
+    path, fields, frames, *, storage="mcap", topic="/tactile", encoding="32FC1", stamps_ns=None, store=None
+):
+    """A rosbag2 of one frame per message, written with the same encoder simulate-sensor publishes with."""
+    from rosbags.rosbag2 import StoragePlugin, Writer
+
+    from tactile_torch.robot.ros_messages import MessageEncoder
+    from tactile_torch.robot.ros_types import message_types
+
+    store = store or message_types()
+    encoder = MessageEncoder(fields, store, encoding=encoding)
+    plugin = StoragePlugin.SQLITE3 if storage == "sqlite3" else StoragePlugin.MCAP
+    with Writer(path, version=9, storage_plugin=plugin) as writer:
+        conn = writer.add_connection(topic, fields.msgtype, typestore=store)
+        for i, frame in enumerate(frames):
+            stamp = 2 * 10**9 + i * 66_000_000 if stamps_ns is None else stamps_ns[i]
+            writer.write(conn, 10**9 + i * 10**7, encoder.encode(frame, stamp))
+    return path
 
 
 def cli(*args: str) -> list[str]:

@@ -22,7 +22,8 @@ import numpy as np
 
 from tactile_torch.robot.ros2_dds import DdsNode, DdsOptions, DdsTypes
 from tactile_torch.robot.ros2_publish import linger, publish_recording, wait_for_subscriber
-from tactile_torch.robot.ros_messages import MessageEncoder, TopicFields, message_types
+from tactile_torch.robot.ros_messages import MessageEncoder, TopicFields
+from tactile_torch.robot.ros_types import message_types
 
 
 def main(argv: list[str] | None = None) -> int:

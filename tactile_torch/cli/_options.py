@@ -158,9 +158,58 @@ def add_msg_def(g) -> None:
 
 def message_definitions(args: argparse.Namespace) -> tuple:
     """Return the :class:`~tactile_torch.robot.ros_messages.MessageDefinition` of every ``--msg-def``."""
-    from ..robot.ros_messages import read_message_definition
+    from ..robot.ros_types import read_message_definition
 
     return tuple(read_message_definition(path) for path in getattr(args, "msg_defs", []))
+
+
+def add_touch_options(p: argparse.ArgumentParser) -> None:
+    """Add the options that cut touches from frames (``stream`` and ``predict``; docs/stream.md)."""
+    g = p.add_argument_group("touches (frame bundles, docs/stream.md)")
+    g.add_argument(
+        "--onset",
+        type=float,
+        default=None,
+        help="a touch starts where the frame's total (or peak) pressure above rest reaches this (default: the "
+        "bundle's level, from its training data)",
+    )
+    g.add_argument(
+        "--release",
+        type=float,
+        default=None,
+        help="a touch ends where it falls below this (default: the bundle's; half of a given --onset)",
+    )
+    g.add_argument(
+        "--min-frames",
+        type=at_least(1, int),
+        default=None,
+        help="shortest touch in frames (default: the bundle's)",
+    )
+    g.add_argument(
+        "--touch-signal",
+        default=None,
+        choices=["total", "peak"],
+        help="total or peak pressure above rest (default: the bundle's)",
+    )
+    g.add_argument(
+        "--no-early",
+        action="store_true",
+        help="decide at the end of each touch only, not early with the bundle's calibrated rule",
+    )
+
+
+def touch_options(args: argparse.Namespace, **more):
+    """Return the :class:`~tactile_torch.robot.live.LiveOptions` of the parsed touch options (and ``more``)."""
+    from ..robot.live import LiveOptions
+
+    return LiveOptions(
+        early=not args.no_early,
+        onset=args.onset,
+        release=args.release,
+        min_frames=args.min_frames,
+        touch_signal=args.touch_signal,
+        **more,
+    )
 
 
 def data_options(args: argparse.Namespace):

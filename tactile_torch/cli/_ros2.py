@@ -85,7 +85,8 @@ def dds_options(args: argparse.Namespace):
 
 def topic_fields(args: argparse.Namespace, msgtype: str):
     """Return the :class:`~tactile_torch.robot.ros_messages.TopicFields` of ``msgtype`` and the options."""
-    from ..robot.ros_messages import TopicFields, ros_type_name
+    from ..robot.ros_messages import TopicFields
+    from ..robot.ros_types import ros_type_name
 
     return TopicFields(ros_type_name(msgtype), args.field, args.sensor)
 
@@ -107,24 +108,42 @@ def add_publisher_options(g: argparse._ArgumentGroup) -> None:
     )
 
 
-def run_simulate_ros2(args: argparse.Namespace, values, rate_hz: float, kind: str) -> int:
-    """Publish ``values`` (``(n, 3)`` samples in g or ``(n, H, W)`` frames) on ``--ros2-topic``; return the status."""
+def check_ros2_options(args: argparse.Namespace, what: str) -> None:
+    """Refuse a bad ``--ros2-topic`` or ``--domain-id``, and a missing extra, before any work is done."""
+    from ..robot.ros2_dds import check_domain_id, cyclonedds_module, dds_topic_name
+
+    dds_topic_name(args.ros2_topic)
+    if args.domain_id is not None:
+        check_domain_id(args.domain_id)
+    cyclonedds_module(what)
+
+
+def run_simulate_ros2(args: argparse.Namespace, values, rate_hz: float, kind: str, t=None) -> int:
+    """Publish ``values`` (``(n, 3)`` samples in g or ``(n, H, W)`` frames) on ``--ros2-topic``; return the status.
+
+    ``t``: each item's time in seconds (a frame recording's), else ``i / rate_hz``.
+    """
     from ..robot.ros2_dds import DdsNode, DdsTypes, dds_type_name
     from ..robot.ros2_publish import linger, publish_recording, wait_for_subscriber
-    from ..robot.ros_messages import FLOAT_ARRAY_TYPE, IMU_TYPE, MessageEncoder, message_types
+    from ..robot.ros_messages import MessageEncoder
+    from ..robot.ros_types import FLOAT_ARRAY_TYPE, IMU_TYPE, message_types
 
     msgtype = args.ros2_type or (IMU_TYPE if kind == "sample" else FLOAT_ARRAY_TYPE)
     fields = topic_fields(args, msgtype)
     if (fields.msgtype == IMU_TYPE and fields.field is None) != (kind == "sample"):
         what = "accelerometer samples" if kind == "sample" else "frames"
         raise UsageError(f"--ros2-type {fields.msgtype} cannot carry the {what} of --data")
+    if kind == "frame" and values.ndim != 3:
+        raise UsageError(
+            f"--ros2-topic publishes pressure maps (n, H, W), not frames of shape {values.shape[1:]}"
+        )
     store = message_types(message_definitions(args), topic_type=fields.msgtype)
     encoder = MessageEncoder(fields, store, encoding=args.encoding)
     types = DdsTypes(store)
     with DdsNode(dds_options(args)) as node:
         writer = node.writer(args.ros2_topic, fields.msgtype, types)
         print(
-            f"publishing {len(values)} {kind}s at {rate_hz:g} Hz on {args.ros2_topic} ({fields.describe()}, DDS "
+            f"publishing {len(values)} {kind}s at {rate_hz:.4g} Hz on {args.ros2_topic} ({fields.describe()}, DDS "
             f"{dds_type_name(fields.msgtype)}, domain {node.domain_id}, {node.config_description}, qos {args.qos})",
             flush=True,
         )
@@ -135,8 +154,8 @@ def run_simulate_ros2(args: argparse.Namespace, values, rate_hz: float, kind: st
                 file=sys.stderr,
                 flush=True,
             )
-        n = publish_recording(writer, types, encoder, values, rate_hz=rate_hz, realtime=not args.fast)
-        linger(writer, args.qos)
+        n = publish_recording(writer, types, encoder, values, rate_hz=rate_hz, t=t, realtime=not args.fast)
+        linger(writer, args.qos)  # the last messages arrive before the publisher leaves
     print(f"{n} messages published")
     return 0
 
@@ -159,109 +178,74 @@ def add_subscriber_options(g: argparse._ArgumentGroup) -> None:
     )
 
 
-def run_stream_ros2(args: argparse.Namespace, stopped: type[BaseException]) -> int:
-    """Classify the items of ``--ros2-topic`` until the stream ends; return the exit status.
-
-    ``stopped``: the exception SIGTERM raises (the command's), reported as a requested end.
-    """
+def open_ros2_source(args: argparse.Namespace, spec, *, on_event, on_open):
+    """Return the :class:`~tactile_torch.robot.ros2_source.Ros2Source` of ``--ros2-topic`` (the stream's source)."""
     import math
 
-    from ..robot.live import LiveOptions, LiveStream, item_spec
-    from ..robot.port_lines import StreamDisconnected, StreamTimeout
-    from ..robot.ros2_dds import DdsNode, DdsTypes, cyclonedds_module
-    from ..robot.ros2_publish import DecisionPublisher, decision_topic
     from ..robot.ros2_source import Ros2Source
-    from ..robot.ros_messages import message_types
-    from ..robot.runtime import OnnxPipeline
-    from ..robot.stream_output import result_json, result_text
-    from . import STREAM_DISCONNECTED_EXIT, STREAM_NO_DATA_EXIT, STREAM_STOPPED_EXIT
-    from ._options import parse_range_g
+    from ..robot.ros_messages import TopicFields
 
-    cyclonedds_module("stream --ros2-topic")
-    range_g = parse_range_g(args.range, "--range", off=True)
-    pipe = OnnxPipeline(args.model, intra_op_threads=args.threads)
-    spec = item_spec(pipe, range_g=range_g)
-    options = LiveOptions(
-        step=args.step, max_results=args.max_windows or None, vote=args.vote, vote_method=args.vote_method
-    )
-    fields = topic_fields(args, args.ros2_type) if args.ros2_type else None
-    if fields is None and (args.field or args.sensor):
-        from ..robot.ros_messages import TopicFields
-
-        fields = TopicFields(None, args.field, args.sensor)
-    info = sys.stderr if args.json else sys.stdout  # --json: stdout holds nothing but the JSON lines
-
-    def say(message: str) -> None:
-        print(f"tactile-torch stream: {message}", file=sys.stderr, flush=True)
-
-    publish = args.decision_topic or decision_topic(args.ros2_topic)
-    with DdsNode(dds_options(args)) as node:
-
-        def opened(name: str) -> None:
-            src = live.source
-            target = (
-                "not published"
-                if publish == "none"
-                else f"published on {publish} (std_msgs/msg/String, JSON)"
-            )
-            print(
-                f"{pipe!r}: reading ROS 2 topic {name} ({src.fields.describe()}, domain {node.domain_id}, "
-                f"{node.config_description}, qos {args.qos}); {live.segment} of {live.size} {spec.kind}s; decisions "
-                f"{target}",
-                file=info,
-                flush=True,
-            )
-
-        source = Ros2Source(
-            args.ros2_topic,
-            spec,
-            fields=fields,
-            msg_defs=message_definitions(args),
-            dds=dds_options(args),
-            silence_s=args.silence,
-            idle_timeout_s=args.idle_timeout or math.inf,
-            start_timeout_s=args.start_timeout or math.inf,
-            reconnect=args.reconnect,
-            on_event=lambda event: say(event.message),
-            on_open=opened,
-            node=node,
+    check_ros2_options(args, "stream --ros2-topic")
+    fields = None
+    if args.ros2_type or args.field or args.sensor:
+        fields = TopicFields(
+            topic_fields(args, args.ros2_type).msgtype if args.ros2_type else None, args.field, args.sensor
         )
-        live = LiveStream(pipe, source, options, on_event=lambda event: say(event.message))
-        write = result_json if args.json else result_text
-        outputs = [lambda result: print(write(result), flush=True)]
-        publisher = None
-        if publish != "none":
-            publisher = DecisionPublisher(node, publish, DdsTypes(message_types()), result_json)
-            outputs.append(publisher)
-        live.warm_up()  # the first inference allocates: before the reader exists
-        status = 0
-        try:
-            for result in live:
-                for output in outputs:
-                    output(result)
-        except StreamTimeout as err:
-            say(str(err))
-            status = STREAM_NO_DATA_EXIT
-        except StreamDisconnected as err:
-            say(str(err))
-            status = STREAM_DISCONNECTED_EXIT
-        except (KeyboardInterrupt, stopped) as err:
-            say(f"stopped by {'SIGINT (Ctrl-C)' if isinstance(err, KeyboardInterrupt) else 'SIGTERM'}")
-            status = STREAM_STOPPED_EXIT
-        for result in live.finish():
-            for output in outputs:
-                output(result)
-        published = "" if publisher is None else f", {publisher.published} decisions published on {publish}"
-        print(live.summary() + published, file=info, flush=True)
-    return status
+    return Ros2Source(
+        args.ros2_topic,
+        spec,
+        fields=fields,
+        msg_defs=message_definitions(args),
+        dds=dds_options(args),
+        silence_s=args.silence,
+        idle_timeout_s=args.idle_timeout or math.inf,
+        start_timeout_s=args.start_timeout or math.inf,
+        reconnect=args.reconnect,
+        on_event=on_event,
+        on_open=on_open,
+    )
+
+
+def decision_topic_of(args: argparse.Namespace) -> str | None:
+    """Return the topic the decisions are published on (``None``: ``--decision-topic none``)."""
+    from ..robot.ros2_publish import decision_topic
+
+    topic = args.decision_topic or decision_topic(args.ros2_topic)
+    return None if topic == "none" else topic
+
+
+def decision_hook(args: argparse.Namespace, source) -> list:
+    """Return the output hook that publishes each result on the decision topic (none with ``none``)."""
+    from ..robot.ros2_dds import DdsTypes
+    from ..robot.ros2_publish import DecisionPublisher
+    from ..robot.ros_types import message_types
+    from ..robot.stream_output import result_json
+
+    topic = decision_topic_of(args)
+    if topic is None:
+        return []
+    return [DecisionPublisher(source.node, topic, DdsTypes(message_types()), result_json)]
+
+
+def describe_ros2_source(args: argparse.Namespace, source) -> str:
+    """What the stream's ``reading`` line says it reads: the topic, its type, the DDS domain and network."""
+    topic = decision_topic_of(args)
+    decisions = "not published" if topic is None else f"published on {topic} (std_msgs/msg/String, JSON)"
+    return (
+        f"ROS 2 topic {source.name} ({source.fields.describe()}, domain {source.domain_id}, "
+        f"{source.config_description}, qos {args.qos}; decisions {decisions})"
+    )
 
 
 __all__ = [
     "add_dds_options",
     "add_publisher_options",
     "add_subscriber_options",
+    "check_ros2_options",
     "dds_options",
+    "decision_hook",
+    "describe_ros2_source",
+    "open_ros2_source",
     "run_simulate_ros2",
-    "run_stream_ros2",
     "topic_fields",
 ]

@@ -308,7 +308,7 @@ class LiveStream:
             if self.segment == "touches"
             else f"{self.results} windows"
         )
-        what = "lines skipped" if hasattr(self.source, "max_line_bytes") else "messages skipped"
+        what = f"{getattr(self.source, 'skipped_name', 'messages')} skipped"
         lost = q.lost + c.lost
         return (
             f"{c.items} {item}s read, {cut}, {c.skipped} {what}, {c.rejected} {item}s out of range, {q.gaps} gaps "
@@ -317,11 +317,44 @@ class LiveStream:
         )
 
 
+def classify_recording(
+    pipe: OnnxPipeline,
+    recording,
+    options: LiveOptions = LiveOptions(),
+    *,
+    value_range: tuple[float, float] | None = None,
+    on_event: Callable[[StreamEvent], None] | None = None,
+) -> tuple[list[WindowResult | TouchResult], LiveStream]:
+    """Run a :class:`~tactile_torch.robot.frame_recordings.FrameRecording` through the live stream's stages.
+
+    The frames go through an :class:`~tactile_torch.robot.stream_source.ArraySource` with their ``t``,
+    then the same sequencer, segmenter (touches by default) and classifier as ``tactile-torch stream``:
+    the touches and decisions a live stream of the same frames gives (``tactile-torch predict
+    --touches``). Returns every result, the touch in progress at the end included, and the stream
+    (its counts and summary).
+    """
+    from .stream_source import ArraySource
+
+    spec = item_spec(pipe, value_range=value_range)
+    frames = recording.frames
+    if frames.shape[1:] != spec.shape:
+        raise ValueError(
+            f"{recording.name}: frames of shape {frames.shape[1:]} do not fit this {pipe.pipeline} bundle, "
+            f"which takes frames of {spec.shape}"
+        )
+    source = ArraySource(frames, spec, t=recording.t, name=recording.name, on_event=on_event)
+    live = LiveStream(pipe, source, options, on_event=on_event)
+    results = list(live)
+    results += list(live.finish())
+    return results, live
+
+
 __all__ = [
     "SEGMENTS",
     "LiveOptions",
     "LiveStream",
     "Output",
+    "classify_recording",
     "frame_bundle",
     "item_spec",
     "touch_setup",

@@ -26,7 +26,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from .ros_messages import MissingExtraError, ros_type_name
+from .ros_types import MissingExtraError, ros_type_name
 
 ROS2_EXTRA = "ros2"
 """The optional extra that installs ``cyclonedds`` (and ``rosbags``, for the message definitions)."""

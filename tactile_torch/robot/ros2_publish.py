@@ -24,7 +24,8 @@ from collections.abc import Callable
 import numpy as np
 
 from .ros2_dds import DECISION_DEPTH, DdsNode, DdsTypes
-from .ros_messages import STRING_TYPE, MessageEncoder
+from .ros_messages import MessageEncoder
+from .ros_types import STRING_TYPE
 
 SETTLE_S = 0.25
 """Seconds a publisher waits after it matched a subscriber before it writes: the subscriber matches the
@@ -74,6 +75,10 @@ class DecisionPublisher:
     def __call__(self, result) -> None:
         self.publish(self._to_json(result))
 
+    def summary_note(self) -> str:
+        """What the stream's summary line adds: how many decisions were published where."""
+        return f"{self.published} decisions published on {self.topic}"
+
     def subscribers(self) -> int:
         """Return how many subscribers of the decision topic are matched now."""
         return int(self._writer.get_publication_matched_status().current_count)
@@ -122,6 +127,7 @@ def publish_recording(
     values: np.ndarray,
     *,
     rate_hz: float,
+    t: np.ndarray | None = None,
     start: int = 0,
     stop: int | None = None,
     realtime: bool = True,
@@ -142,6 +148,9 @@ def publish_recording(
     rate_hz : float
         Item ``i`` is stamped ``stamp0_ns + i / rate_hz`` (whatever ``start`` is, so that a recording
         published in parts keeps one clock) and, with ``realtime``, written at that pace.
+    t : ndarray of shape (n,), optional
+        Each item's time in seconds (a recording's own clock, irregular steps kept): stamps
+        ``stamp0_ns + (t[i] - t[0])`` and pace instead of ``i / rate_hz``.
     realtime : bool
         Pace the messages at ``rate_hz`` (on an absolute schedule, so that delays do not add up);
         ``False``: as fast as the writer takes them.
@@ -153,14 +162,14 @@ def publish_recording(
     stop = len(values) if stop is None else min(int(stop), len(values))
     stamp0 = time.time_ns() if stamp0_ns is None else int(stamp0_ns)
     msgtype = encoder.fields.msgtype
-    period_ns = 1e9 / rate_hz
+    offsets = np.arange(len(values)) / rate_hz if t is None else np.asarray(t, dtype=np.float64) - float(t[0])
     began = clock()
     for i in range(start, stop):
         if realtime:
-            wait = began + (i - start) / rate_hz - clock()
+            wait = began + (offsets[i] - offsets[start]) - clock()
             if wait > 0:
                 sleep(wait)
-        cdr = encoder.encode(values[i], stamp0 + round(i * period_ns))
+        cdr = encoder.encode(values[i], stamp0 + round(offsets[i] * 1e9))
         writer.write(types.sample(msgtype, cdr))
     return max(stop - start, 0)
 

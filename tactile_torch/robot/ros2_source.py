@@ -30,7 +30,8 @@ step of more than 1.5 periods); a message without a header (``Float32MultiArray`
 zero (a driver that does not stamp), has no ``t``, as a serial line without one: the publisher's write
 time is no sensor clock (a publisher that stalls would look like lost frames), so only silences break
 such a stream.
-``cyclonedds`` and ``rosbags`` (the extra ``ros2``) are imported when :meth:`Ros2Source.readings` starts.
+``cyclonedds`` and ``rosbags`` (the extra ``ros2``) are imported when a :class:`Ros2Source` is made (it
+joins the DDS domain then; :meth:`Ros2Source.close` leaves it).
 """
 
 from __future__ import annotations
@@ -41,14 +42,8 @@ from collections.abc import Callable, Iterator, Sequence
 
 from .port_lines import StreamDisconnected, StreamEvent, StreamTimeout
 from .ros2_dds import DdsNode, DdsOptions, DdsTypes, TopicReader, discover_type
-from .ros_messages import (
-    IMU_TYPE,
-    MessageDecoder,
-    MessageDefinition,
-    MessageError,
-    TopicFields,
-    message_types,
-)
+from .ros_messages import MessageDecoder, MessageError, TopicFields
+from .ros_types import IMU_TYPE, MessageDefinition, message_types
 from .stream_source import (
     RECONNECT,
     REJECTED,
@@ -88,7 +83,8 @@ class Ros2Source:
         As :class:`~tactile_torch.robot.serial_source.SerialSource`; ``idle_timeout_s`` ``None``
         means never (a topic has no end of input).
     node : DdsNode, optional
-        A participant to use (and not close); default: one made from ``dds`` and closed at the end.
+        A participant to use (and not close); default: one made from ``dds`` now, which
+        :meth:`close` deletes.
 
     Attributes
     ----------
@@ -96,6 +92,8 @@ class Ros2Source:
         Items, messages skipped, items rejected, reconnections (publishers that came back).
     msgtype : str or None
         The topic's message type once known.
+    node : DdsNode
+        The DDS participant (an output hook may publish with it, e.g. the decisions).
     """
 
     def __init__(
@@ -133,9 +131,14 @@ class Ros2Source:
         self.item = spec.kind
         self._events = EventEmitter(on_event, clock)
         self._clock = clock
-        self._node = node
-        self.domain_id: int | None = None
-        self.config_description = ""
+        self._owns_node = node is None
+        self.node = DdsNode(self.dds) if node is None else node
+        self.domain_id, self.config_description = self.node.domain_id, self.node.config_description
+
+    def close(self) -> None:
+        """Leave the DDS domain (delete the participant), if this source made it."""
+        if self._owns_node:
+            self.node.close()
 
     # -- set-up ---------------------------------------------------------------------------------
 
@@ -181,14 +184,7 @@ class Ros2Source:
 
     def readings(self) -> Iterator[Reading | Break]:
         """Yield a :class:`Reading` per accepted message and a :class:`Break` where continuity is lost."""
-        own = self._node is None
-        node = DdsNode(self.dds) if own else self._node
-        self.domain_id, self.config_description = node.domain_id, node.config_description
-        try:
-            yield from self._read(node)
-        finally:
-            if own:
-                node.close()
+        yield from self._read(self.node)
 
     def _read(self, node: DdsNode) -> Iterator[Reading | Break]:
         clock, spec, counts, emit = self._clock, self.spec, self.counts, self._events.emit

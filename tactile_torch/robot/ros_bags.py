@@ -40,15 +40,14 @@ from pathlib import Path
 
 import numpy as np
 
-from .ros_messages import (
+from .ros_messages import MessageDecoder, TopicFields
+from .ros_types import (
     FLOAT_ARRAY_TYPE,
     IMU_TYPE,
     ROS_EXTRA,
     STANDARD_TYPES,
-    MessageDecoder,
     MessageDefinition,
     MissingExtraError,
-    TopicFields,
     has_type,
     message_types,
     rosbags_module,
@@ -169,6 +168,10 @@ def _types_for(path: Path, topic: str, msgtype: str, connection, msg_defs: Seque
 
 
 def _map_shape(path: Path, topic: str, given, shape: tuple[int, int] | None, size: int, i: int):
+    if shape is not None and given is not None and tuple(given) != tuple(shape):
+        raise ValueError(
+            f"{path}:{topic}: message {i} is a {given[0]} x {given[1]} map, not the {shape[0]} x {shape[1]} of the shape"
+        )
     if shape is None:
         if given is None:
             raise ValueError(

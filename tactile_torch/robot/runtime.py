@@ -44,6 +44,7 @@ from .contract import (
     NOVEL_OUTPUT,
     OOD_OUTPUT,
     PIPELINE_KEY,
+    PRESSURE_LAYOUT,
     RANGE_METADATA_KEY,
     SAMPLE_RATE_KEY,
     SCORES_OUTPUT,
@@ -149,6 +150,9 @@ class LabelledInput:
         Sample rate of vibration recordings (``None`` for other data).
     file_labels : ndarray of shape (N,) int64, or None
         The file's own labels (indices into ``file_class_names``), e.g. to score a clustering.
+    note : str or None
+        What was done to fit the data to the bundle (explorations of another length brought to its
+        frames), one line.
     """
 
     raw: np.ndarray
@@ -156,6 +160,7 @@ class LabelledInput:
     file_class_names: list[str] | None
     rate_hz: float | None = None
     file_labels: np.ndarray | None = None
+    note: str | None = None
 
 
 def _onnx_error(path: Path, err: Exception) -> str:
@@ -503,7 +508,7 @@ class OnnxPipeline:
 
             data = read_source(path, options)
         where = data_name(path)
-        layout, rate = self.input_layout, None
+        layout, rate, note = self.input_layout, None, None
         if data.kind == "image" and layout == FRAMES_LAYOUT:
             if data.frames is None:
                 raise ValueError(
@@ -512,6 +517,15 @@ class OnnxPipeline:
                     "(tactile_torch.data.images.render_pressure)"
                 )
             raw, labels = np.ascontiguousarray(data.frames.transpose(0, 1, 4, 2, 3)), data.labels
+            raw, note = self._fit_explorations(raw)
+        elif data.kind == "image" and layout == PRESSURE_LAYOUT:
+            if data.pressure is None:
+                raise ValueError(
+                    f"{where}: frames must be pressure maps (N, T, H, W) for this {self.pipeline} bundle, got "
+                    f"RGB frames {data.frames.shape}"
+                )
+            raw, labels = data.pressure, data.labels
+            raw, note = self._fit_explorations(raw)
         elif data.kind == "vibration" and layout == WINDOWS_LAYOUT:
             if WINDOW_SIZE_KEY not in self.metadata:
                 raise ValueError(f"{self.path}: no {WINDOW_SIZE_KEY} in the bundle's metadata")
@@ -534,7 +548,22 @@ class OnnxPipeline:
             index = {name: i for i, name in enumerate(self.class_names)}
             lookup = np.array([index.get(name, -1) for name in names], dtype=np.int64)
             labels = lookup[labels]
-        return LabelledInput(raw, labels, names, rate, file_labels)
+        return LabelledInput(raw, labels, names, rate, file_labels, note)
+
+    def _fit_explorations(self, raw: np.ndarray) -> tuple[np.ndarray, str | None]:
+        """Explorations of another length than the bundle's ``T`` frames, brought to it as training did."""
+        want = self.input_shape[1]
+        have = raw.shape[1]
+        if want is None or have == want:
+            return raw, None
+        from .touches import fit_frames
+
+        fitted = np.ascontiguousarray(np.stack([fit_frames(x, want) for x in raw]))
+        how = f"their last {want}" if have > want else f"each frame repeated about {want / have:.2g} times"
+        return fitted, (
+            f"explorations of {have} frames brought to the {want} this bundle takes ({how}: "
+            "tactile_torch.robot.touches.fit_frames, as training selected them)"
+        )
 
     def sample_rate_mismatch(self, rate_hz: float | None) -> str | None:
         """Return a one-line warning when data sampled at ``rate_hz`` do not match the bundle's rate.

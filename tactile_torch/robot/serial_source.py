@@ -156,6 +156,7 @@ class SerialSource(PortLines):
         self.spec = spec
         self.time_unit = time_unit
         self.item = spec.kind
+        self.skipped_name = "lines"
         self.rejected = self.format_switches = self.lost_on_reconnect = 0
         self.counts = _PortCounts(self)
 

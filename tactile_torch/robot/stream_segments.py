@@ -130,12 +130,15 @@ def bundle_input(spec: ItemSpec) -> Callable[[np.ndarray], np.ndarray]:
     """Return the function that turns ``W`` consecutive items ``(W, *spec.shape)`` into the bundle's input.
 
     Samples ``(W, 3)`` → windows ``(1, 3, W)``; pressure frames ``(T, H, W)`` → ``(1, T, H, W)``; RGB
-    frames ``(T, H, W, 3)`` → ``(1, T, 3, H, W)``. Always a new contiguous array.
+    frames ``(T, H, W, 3)`` (0-255) → uint8 ``(1, T, 3, H, W)``, as the image bundles take them. Always a
+    new contiguous array.
     """
     if spec.kind == SAMPLE:
         return lambda block: np.ascontiguousarray(block.T)[None]
     if len(spec.shape) == 3:
-        return lambda block: np.ascontiguousarray(block.transpose(0, 3, 1, 2))[None]
+        return lambda block: np.ascontiguousarray(
+            np.rint(np.clip(block, 0, 255)).astype(np.uint8).transpose(0, 3, 1, 2)
+        )[None]
     return lambda block: np.array(block)[None]
 
 

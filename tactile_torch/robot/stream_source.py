@@ -195,6 +195,8 @@ class Source(Protocol):
         What an item is; the source decodes its lines or messages into this shape.
     counts : SourceCounts
         Kept up to date while :meth:`readings` runs.
+    skipped_name : str, optional
+        What the summary calls what ``counts.skipped`` counts (``"lines"``, ``"messages"``: the default).
     """
 
     name: str
@@ -280,6 +282,7 @@ class ArraySource:
                 raise ValueError(f"t must have shape ({len(values)},), got {t.shape}")
         self.values, self.t, self.spec, self.name = values, t, spec, name
         self.counts = SourceCounts()
+        self.skipped_name = "items"
         self._clock = clock
         self._events = EventEmitter(on_event, clock)
 

@@ -347,6 +347,41 @@ def touch_levels(
     )
 
 
+def frame_metadata(
+    explorations: np.ndarray,
+    *,
+    frame_rate_hz: float | None,
+    rgb: bool = False,
+    contact: str = "raises",
+    sign: float | None = None,
+    rest: np.ndarray | None = None,
+) -> tuple[dict, str | None]:
+    """Return the metadata a frame bundle records for the live stream, and a note when the levels could not be set.
+
+    Keys (:mod:`tactile_torch.robot.contract`): ``frame_rate_hz``; ``value_range`` for pressure maps
+    (the training values' range widened by its own width on each side: a corrupted value, or data in
+    other units, lies outside; RGB frames are 0-255 by their type); ``touch_levels``
+    (:func:`touch_levels`), unless the training frames do not allow them (then the note says why and
+    the stream needs ``--onset``).
+    """
+    from .contract import FRAME_RATE_KEY, TOUCH_LEVELS_KEY, VALUE_RANGE_KEY
+
+    meta: dict = {}
+    if frame_rate_hz is not None:
+        meta[FRAME_RATE_KEY] = float(frame_rate_hz)
+    x = np.asarray(explorations)
+    if not rgb:
+        lo, hi = float(x.min()), float(x.max())
+        span = max(hi - lo, abs(hi), 1.0)
+        meta[VALUE_RANGE_KEY] = [lo - span, hi + span]
+    try:
+        levels = touch_levels(x, frame_rate_hz=frame_rate_hz, contact=contact, sign=sign, rest=rest, rgb=rgb)
+    except ValueError as err:
+        return meta, f"no touch levels in the bundle ({err}); stream needs --onset"
+    meta[TOUCH_LEVELS_KEY] = levels.to_metadata()
+    return meta, None
+
+
 class TouchTracker:
     """The touch state machine: feed it each frame's activity, it says where touches start and end.
 
@@ -406,6 +441,7 @@ __all__ = [
     "TouchTracker",
     "contact_sign",
     "fit_frames",
+    "frame_metadata",
     "reading_noise",
     "resting_level",
     "touch_levels",

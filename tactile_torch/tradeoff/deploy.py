@@ -27,9 +27,12 @@ from sklearn.base import clone
 from ..robot.contract import (
     CLASS_NAMES_KEY,
     DEFAULT_RANGE_G,
+    EARLY_RULE_KEY,
+    FRAMES_LAYOUT,
     INPUT_LAYOUT_KEY,
     INPUT_SHAPE_KEY,
     PIPELINE_KEY,
+    PRESSURE_LAYOUT,
     RANGE_METADATA_KEY,
     SAMPLE_RATE_KEY,
     STEP_KEY,
@@ -108,6 +111,53 @@ def _json_params(params: dict) -> dict:
     return out
 
 
+def live_metadata(result: object, name: str, model: object) -> tuple[dict, list[str]]:
+    """Return what a deployed frame bundle records for the live stream (``stream`` on taxel frames) and notes.
+
+    The frame rate, the value range and the touch levels of the training explorations
+    (:func:`tactile_torch.robot.touches.frame_metadata`; the contact direction and resting levels of a
+    fitted :class:`~.transformers.PressureImageFeatures` when the candidate has one), and the
+    early-decision rule calibrated on the study's held-out touches (:mod:`.touch_time`). ``{}`` for
+    vibration windows and feature matrices.
+    """
+    from ..robot.touches import frame_metadata
+    from .transformers import PressureImageFeatures
+
+    cand = result.result(name).candidate
+    s = result.inputs[cand.input]
+    if s.layout not in (PRESSURE_LAYOUT, FRAMES_LAYOUT):
+        return {}, []
+    step = model.steps[0][1]
+    sign = rest = None
+    contact = "raises"
+    if isinstance(step, PressureImageFeatures):
+        sign, rest = step.sign_, step.resting_
+    else:  # the direction the study was told (its pressure-image candidates carry it)
+        for other in result.results:
+            first = other.candidate.estimator.steps[0][1]
+            if other.candidate.input == cand.input and isinstance(first, PressureImageFeatures):
+                contact = "raises" if first.contact == "auto" else first.contact
+                break
+    meta, note = frame_metadata(
+        s.X,
+        frame_rate_hz=result.data.rate_hz,
+        rgb=s.layout == FRAMES_LAYOUT,
+        contact=contact,
+        sign=sign,
+        rest=rest,
+    )
+    notes = [note] if note else []
+    curve = result.touch_time.get(name)
+    if curve is None and result.result(name).cv is not None and result.result(name).cv.models:
+        from .touch_time import touch_time
+
+        curve = touch_time(result.result(name), s, result.data.rate_hz, quick=True)
+    if curve is not None and curve.rule is not None:
+        meta[EARLY_RULE_KEY] = curve.rule.to_metadata()
+        notes.append(f"early decisions: {curve.rule.describe()}")
+    return meta, notes
+
+
 def deploy_candidate(
     result: object, name: str, out_dir: str | Path, pool: object, *, random_state: int = 0
 ) -> dict:
@@ -153,8 +203,9 @@ def deploy_candidate(
     )
     from .learned import is_learned
 
+    live, live_notes = live_metadata(result, name, model)
     if is_learned(model):  # a network or learned front end: its own graph, exported whole (docs/neural.md)
-        return _deploy_learned(result, name, model, check, out / f"{stem}.onnx", len(s.y))
+        return _deploy_learned(result, name, model, check, out / f"{stem}.onnx", len(s.y), live, live_notes)
     step = model.named_steps["features"]
     front = ("front", *features_key(cand))
     if not _stateless(step):
@@ -184,9 +235,10 @@ def deploy_candidate(
     if s.window is not None:
         meta.update({WINDOW_SIZE_KEY: s.window, STEP_KEY: s.window, SAMPLE_RATE_KEY: data.rate_hz})
         meta[RANGE_METADATA_KEY] = DEFAULT_RANGE_G
+    meta.update(live)
     path = join(pool.result(front), classifier, out / f"{stem}.onnx", meta)
     agreement = float(np.mean(classes[OnnxPipeline(path).predict(check)] == model.predict(check)))
-    notes = []
+    notes = list(live_notes)
     model_file = write_model_file(
         out / f"{stem}.npz",
         model,
@@ -210,7 +262,9 @@ def deploy_candidate(
     }
 
 
-def _deploy_learned(result, name: str, model, check: np.ndarray, path: Path, samples: int) -> dict:
+def _deploy_learned(
+    result, name: str, model, check: np.ndarray, path: Path, samples: int, live: dict, live_notes: list[str]
+) -> dict:
     """Export a learned candidate fitted on all the data (its int8 variant quantised as in the study)."""
     from ..neural import export_classifier
     from ..robot.runtime import OnnxPipeline
@@ -221,6 +275,7 @@ def _deploy_learned(result, name: str, model, check: np.ndarray, path: Path, sam
     meta = {PIPELINE_KEY: f"tradeoff: {name}, fitted on all {samples} samples"}
     if s.window is not None:
         meta.update({WINDOW_SIZE_KEY: s.window, STEP_KEY: s.window, SAMPLE_RATE_KEY: result.data.rate_hz})
+    meta.update(live)
     names = [result.data.class_names[int(c)] for c in clf.classes_]
     path = export_classifier(clf, path, check[:2], class_names=names, metadata=meta)
     variant = result.result(name)
@@ -230,7 +285,8 @@ def _deploy_learned(result, name: str, model, check: np.ndarray, path: Path, sam
         path = quantised.replace(path)
     agreement = float(np.mean(clf.classes_[OnnxPipeline(path).predict(check)] == model.predict(check)))
     notes = [
-        f"{path.stem}.npz not written: a learned model has no model-file form; {path.name} is the deployable file"
+        *live_notes,
+        f"{path.stem}.npz not written: a learned model has no model-file form; {path.name} is the deployable file",
     ]
     return {
         "name": name,
@@ -243,4 +299,4 @@ def _deploy_learned(result, name: str, model, check: np.ndarray, path: Path, sam
     }
 
 
-__all__ = ["CHECK_SAMPLES", "deploy_candidate", "write_model_file"]
+__all__ = ["CHECK_SAMPLES", "deploy_candidate", "live_metadata", "write_model_file"]

@@ -271,6 +271,14 @@ def write_outputs(result: TradeoffResult, out_dir: str | Path, *, command: str =
     paths = {}
     for kind in chart_kinds(result) if any(r["decision_s"] is not None for r in result.rows) else []:
         paths[kind] = _chart(result, kind, out / "figures" / CHARTS[kind][0])
+    if result.touch_time:
+        from .touch_time import draw_touch_time
+
+        paths["touch"] = draw_touch_time(
+            result.touch_time,
+            out / "figures" / "accuracy-vs-time-into-touch.png",
+            chance=result.chance or None,
+        )
     data = result.data
     doc = {
         "tactile_torch_version": __version__,
@@ -301,13 +309,16 @@ def write_outputs(result: TradeoffResult, out_dir: str | Path, *, command: str =
         "notes": result.notes,
         "seconds": result.seconds,
         "breaking_points": result.breaking_points,  # see TradeoffResult.breaking_points
+        "accuracy_vs_time": [c.to_json() for c in result.touch_time.values()],  # frame data (.touch_time)
     }
     paths["json"] = out / "tradeoff.json"
     paths["json"].write_text(json.dumps(doc, indent=1, default=_json_default) + "\n")
     paths["md"] = out / "tradeoff.md"
     paths["md"].write_text(
         markdown(
-            result, command=command, figures={k: p.relative_to(out) for k, p in paths.items() if k in CHARTS}
+            result,
+            command=command,
+            figures={k: p.relative_to(out) for k, p in paths.items() if k in CHARTS or k == "touch"},
         )
     )
     return paths
@@ -419,8 +430,14 @@ def markdown(result: TradeoffResult, *, command: str = "", figures: dict[str, Pa
         "",
     ]
     lines += _table(table_rows(result))
-    for kind, rel in (figures or {}).items():
+    figures = dict(figures or {})
+    touch = figures.pop("touch", None)
+    for kind, rel in figures.items():
         lines += [f"![accuracy vs {kind}]({rel.as_posix()})", ""]
+    if result.touch_time:
+        from .touch_time import touch_time_markdown
+
+        lines += touch_time_markdown(result.touch_time, None if touch is None else touch.as_posix())
     if result.breaking_points:
         lines += ["## Breaking points", "", *_table(result.breaking_points.get("rows") or [])]
         lines += [

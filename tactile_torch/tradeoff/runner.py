@@ -392,7 +392,7 @@ def execute_plan(
     baselines = baseline_rows(inputs)
     for b in baselines.values():
         b.pop("_units")
-    return TradeoffResult(
+    result = TradeoffResult(
         data=data,
         results=results,
         rows=rows,
@@ -409,6 +409,13 @@ def execute_plan(
         baselines=baselines,
         warnings=_unit_warnings(inputs),
     )
+    if data.kind in ("image", "pressure"):  # how long the hand must hold (docs/tradeoff.md)
+        from .touch_time import accuracy_vs_time
+
+        stage = time.perf_counter()
+        result.touch_time = accuracy_vs_time(result, quick=plan.quick, log=log)
+        result.seconds += time.perf_counter() - stage
+    return result
 
 
 def check_target(target: float | None) -> None:

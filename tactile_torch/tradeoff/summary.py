@@ -62,6 +62,9 @@ class TradeoffResult:
     deployed : list of dict
         The candidates refitted on all the data and written (:func:`~.deploy.deploy_candidate`): name,
         files (``recommended.onnx``, ``recommended.npz``, ...), samples, agreement, notes.
+    touch_time : dict of str to TouchTime
+        Frame data: accuracy against time into the touch of the recommended candidate and the
+        runner-up, with the early-decision rule their held-out touches calibrate (:mod:`.touch_time`).
     """
 
     data: TradeoffData
@@ -81,6 +84,7 @@ class TradeoffResult:
     baselines: dict[str, dict] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
     deployed: list[dict] = field(default_factory=list)
+    touch_time: dict = field(default_factory=dict)
 
     @property
     def status(self) -> str:

@@ -5,6 +5,7 @@ DDS's own trace); the configuration, names and errors. Needs the optional extra 
 
 from __future__ import annotations
 
+import json
 import subprocess
 import time
 
@@ -25,15 +26,13 @@ from tactile_torch.robot.ros2_dds import (
     resolve_config,
     ros_type_of,
 )
-from tactile_torch.robot.ros_messages import (
+from tactile_torch.robot.ros_messages import MessageDecoder, MessageEncoder, TopicFields
+from tactile_torch.robot.ros_types import (
     FLOAT_ARRAY_TYPE,
     IMAGE_TYPE,
     IMU_TYPE,
     STRING_TYPE,
     TACTILE_STATE_TYPE,
-    MessageDecoder,
-    MessageEncoder,
-    TopicFields,
     message_types,
 )
 from tests.ros2_helpers import cli, free_domain_id, ros2_env, selected_interfaces, sent_to, traced_loopback
@@ -178,6 +177,31 @@ def test_a_reliable_reader_names_a_best_effort_publisher_it_cannot_match():
         while not best_effort.publishers() and time.monotonic() < deadline:
             time.sleep(0.05)
         assert best_effort.publishers() == 1 and not best_effort.incompatible_qos() and writer is not None
+
+
+def test_decisions_are_published_as_std_msgs_string_json():
+    # what `ros2 topic echo /hand/tactile/decision` shows: std_msgs/msg/String whose data is the JSON line
+    from tactile_torch.robot.ros2_publish import DecisionPublisher, decision_topic
+
+    store = message_types()
+    types = DdsTypes(store)
+    topic = decision_topic("/hand/tactile")
+    assert topic == "/hand/tactile/decision"
+    with DdsNode(DdsOptions(domain_id=free_domain_id(), config="loopback")) as node:
+        echo = TopicReader(node, topic, STRING_TYPE, types, profile="reliable")
+        publisher = DecisionPublisher(
+            node, topic, types, to_json=lambda r: json.dumps({"event": "touch", "label": r})
+        )
+        deadline = time.monotonic() + 10
+        while not publisher.subscribers() and time.monotonic() < deadline:
+            time.sleep(0.02)
+        publisher(1)
+        publisher(0)
+        got = []
+        while len(got) < 2 and time.monotonic() < deadline:
+            got += [store.deserialize_cdr(m.cdr, STRING_TYPE).data for m in echo.take(0.1)]
+    assert [json.loads(g)["label"] for g in got] == [1, 0]
+    assert publisher.summary_note() == "2 decisions published on /hand/tactile/decision"
 
 
 def test_configuration_names_and_errors(tmp_path, monkeypatch, capsys):

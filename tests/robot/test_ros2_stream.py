@@ -20,6 +20,7 @@ import time
 import numpy as np
 import pytest
 
+from tactile_torch.cli import main
 from tactile_torch.robot.early_decision import EarlyRule
 from tactile_torch.robot.live import LiveStream, item_spec
 from tactile_torch.robot.port_lines import StreamDisconnected, StreamTimeout
@@ -30,7 +31,7 @@ from tactile_torch.robot.runtime import OnnxPipeline
 from tactile_torch.robot.stream_output import result_record
 from tactile_torch.robot.stream_source import ArraySource
 from tactile_torch.robot.touches import TouchLevels, touch_levels
-from tests.ros2_helpers import DecisionListener, cli, free_domain_id, ros2_env
+from tests.ros2_helpers import DecisionListener, cli, free_domain_id, ros2_env, write_frame_bag
 from tests.stream_helpers import energy_bundle, frame_bundle
 
 pytest.importorskip(
@@ -178,6 +179,7 @@ def _offline(pipe, frames, rate):
 
 
 def _assert_same_touches(got, expected):
+    """The touches (and early decisions) of ``got`` are those of ``expected``: same cut, labels, scores to 1e-5."""
     touches = [r for r in got if r["event"] == "touch"]
     assert [[r[k] for k in TOUCH_KEYS] for r in touches] == [
         [r[k] for k in TOUCH_KEYS] for r in expected if r["event"] == "touch"
@@ -193,20 +195,15 @@ def _assert_same_touches(got, expected):
 
 
 @pytest.mark.parametrize(
-    ("source", "msgtype", "extra", "sensor"),
+    ("source", "msgtype", "encoding", "sensor"),
     [
-        ("synthetic", "tactile_msgs/msg/TactileState", ("--sensor", "index"), ("--sensor", "index")),
-        (
-            "drimus_sdh_tactile",
-            "tactile_msgs/msg/TactileState",
-            ("--sensor", "f1_proximal"),
-            ("--sensor", "f1_proximal"),
-        ),
-        ("icub_grasp", "sensor_msgs/msg/Image", ("--encoding", "mono8"), ()),
+        ("synthetic", "tactile_msgs/msg/TactileState", "32FC1", "index"),
+        ("drimus_sdh_tactile", "tactile_msgs/msg/TactileState", "32FC1", "f3_distal"),
+        ("icub_grasp", "sensor_msgs/msg/Image", "mono8", None),
     ],
 )
-def test_touches_over_dds_equal_the_offline_touches_and_every_decision_is_published(
-    tmp_path, shared_data, source, msgtype, extra, sensor
+def test_touches_over_dds_equal_predict_offline_and_every_decision_is_published(
+    tmp_path, shared_data, capsys, source, msgtype, encoding, sensor
 ):
     frames, rate, weights, names, levels, n_frames = (
         _synthetic()
@@ -214,9 +211,34 @@ def test_touches_over_dds_equal_the_offline_touches_and_every_decision_is_publis
         else (_drimus if source.startswith("drimus") else _icub)(shared_data(source))
     )
     pipe = _bundle(tmp_path, weights, names, levels, n_frames, rate)
+    # offline: predict on a bag of the same messages (the touches it cuts are the stream's stages run
+    # on the bag's frames: ArraySource, checked equal to them here too)
+    t = np.arange(len(frames)) / rate
+    bag = write_frame_bag(
+        tmp_path / "grasps", TopicFields(msgtype, sensor=sensor), frames, encoding=encoding,
+        stamps_ns=[10**9 + round(v * 1e9) for v in t],
+    )  # fmt: skip
+    assert (
+        main(
+            [
+                "predict",
+                "--model",
+                str(pipe.path),
+                "--data",
+                str(bag),
+                "--json",
+                *(("--sensor", sensor) if sensor else ()),
+            ]
+        )
+        == 0
+    )
+    predicted = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
     expected = _offline(pipe, frames, rate)
-    n_touches = sum(r["event"] == "touch" for r in expected)
+    _assert_same_touches(predicted, [r for r in expected if r["event"] == "touch"])
+    n_touches = len(predicted)
     assert n_touches >= 2 and sum(r["event"] == "early" for r in expected) >= 1  # the replay tests something
+    extra = ("--encoding", encoding) + (("--sensor", sensor) if sensor else ())
+    sensor = ("--sensor", sensor) if sensor else ()
     domain, topic = free_domain_id(), "/hand/tactile"
     listener = DecisionListener(f"{topic}/decision", domain)  # subscribed before the stream starts
     try:
@@ -232,7 +254,7 @@ def test_touches_over_dds_equal_the_offline_touches_and_every_decision_is_publis
     assert stream.returncode == 4 and f"done {len(frames)}" in pub_out, err
     assert f"{topic}: the publisher left after {len(frames)} frames" in err
     got = [json.loads(line) for line in out.splitlines()]
-    _assert_same_touches(got, expected)
+    _assert_same_touches(got, expected)  # the touches predict gives, and the early decisions offline
     assert decisions == got  # every decision printed was published, in order, and nothing else
     header = next(line for line in err.splitlines() if "reading ROS 2 topic" in line)
     assert f"reading ROS 2 topic {topic} ({msgtype}" in header and "loopback only" in header
@@ -255,6 +277,7 @@ def _run_in_process(pipe, source, publisher):
     except (StreamTimeout, StreamDisconnected) as err:
         error = err
     records += [result_record(r) for r in live.finish()]
+    source.close()
     _finish(publisher)
     return records, error, live
 

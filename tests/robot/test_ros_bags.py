@@ -11,6 +11,7 @@ from tactile_torch.cli import BAD_INPUT_EXIT, main
 from tactile_torch.data import make_vibration_recordings
 from tactile_torch.robot.data_sources import DataOptions, read_source
 from tactile_torch.robot.ros_bags import read_bag
+from tests.ros2_helpers import write_frame_bag
 
 pytest.importorskip(
     "rosbags", reason="the optional extra 'ros' (rosbags) is not installed: pip install -e '.[ros]'"
@@ -155,25 +156,6 @@ def test_cli_trains_on_bags_written_outside(tmp_path, rec, capsys):
     assert err.count("\n") == 1 and "no topic '/nope'; the bag has /imu (sensor_msgs/msg/Imu)" in err
 
 
-def write_frame_bag(
-    path, fields, frames, *, storage="mcap", topic="/tactile", encoding="32FC1", stamps_ns=None, store=None
-):
-    """A rosbag2 of one frame per message, written with the same encoder simulate-sensor publishes with."""
-    from rosbags.rosbag2 import StoragePlugin, Writer
-
-    from tactile_torch.robot.ros_messages import MessageEncoder, message_types
-
-    store = store or message_types()
-    encoder = MessageEncoder(fields, store, encoding=encoding)
-    plugin = StoragePlugin.SQLITE3 if storage == "sqlite3" else StoragePlugin.MCAP
-    with Writer(path, version=9, storage_plugin=plugin) as writer:
-        conn = writer.add_connection(topic, fields.msgtype, typestore=store)
-        for i, frame in enumerate(frames):
-            stamp = 2 * 10**9 + i * 66_000_000 if stamps_ns is None else stamps_ns[i]
-            writer.write(conn, 10**9 + i * 10**7, encoder.encode(frame, stamp))
-    return path
-
-
 @pytest.mark.parametrize(
     ("msgtype", "encoding", "sensor"),
     [
@@ -216,7 +198,8 @@ def test_unstamped_headers_fall_back_to_the_bags_receive_stamps(tmp_path):
 
 
 def test_a_robots_own_message_is_read_from_the_bags_definition_or_a_msg_file(tmp_path):
-    from tactile_torch.robot.ros_messages import MessageDefinition, TopicFields, message_types
+    from tactile_torch.robot.ros_messages import TopicFields
+    from tactile_torch.robot.ros_types import MessageDefinition, message_types
 
     text = "std_msgs/Header header\nfloat32[] taxels\nuint8 finger\n"
     own = MessageDefinition(text, "my_hand/msg/Taxels")

@@ -8,17 +8,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tactile_torch.robot.ros_messages import (
+from tactile_torch.robot.ros_messages import MessageDecoder, MessageEncoder, MessageError, TopicFields
+from tactile_torch.robot.ros_types import (
     FLOAT_ARRAY_TYPE,
     IMAGE_TYPE,
     IMU_TYPE,
     MAX_MSG_DEF_BYTES,
     TACTILE_STATE_TYPE,
-    MessageDecoder,
     MessageDefinition,
-    MessageEncoder,
-    MessageError,
-    TopicFields,
     message_types,
     read_message_definition,
     ros_type_name,
