@@ -442,6 +442,7 @@ def _check_touch_time_and_live_metadata(result, out):
     from tactile_torch.tradeoff.touch_time import (
         draw_touch_time,
         fold_scores,
+        prefixes,
         touch_time,
         touch_time_markdown,
     )
