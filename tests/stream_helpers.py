@@ -253,3 +253,52 @@ def frame_bundle(
     )
     Path(path).write_bytes(model)
     return path
+
+
+def template_bundle(
+    path: Path,
+    explorations: np.ndarray,
+    labels: np.ndarray,
+    class_names: list[str],
+    *,
+    frame_rate_hz: float,
+    contact: str = "raises",
+) -> Path:
+    """Train and write a :func:`frame_bundle` on pressure-map explorations ``(N, T, H, W)``, numpy only.
+
+    The classifier scores the mean frame against each class's centred mean frame (a linear template
+    classifier). The bundle records what the exporters record: the frame rate, the value range, the touch
+    levels of the training explorations, and an early-decision rule calibrated on held-out explorations
+    (two folds: templates fitted on one half score the other at the rule's checkpoints, prefixes brought
+    to T by :func:`tactile_torch.robot.touches.fit_frames`).
+    """
+    from tactile_torch.robot.early_decision import calibrate_early_rule, checkpoints_for, score_margins
+    from tactile_torch.robot.touches import fit_frames, frame_metadata
+
+    x = np.asarray(explorations, dtype=np.float64)
+    y = np.asarray(labels)
+    n, t = x.shape[:2]
+    c = len(class_names)
+
+    def fit(rows):
+        means = np.stack([x[rows][y[rows] == k].mean(axis=(0, 1)) for k in range(c)])  # (C, H, W)
+        return np.moveaxis(means - means.mean(axis=0), 0, -1)  # (H, W, C)
+
+    checkpoints = checkpoints_for(t)
+    margins, correct = np.full((n, len(checkpoints)), -np.inf), np.zeros((n, len(checkpoints)), bool)
+    half = np.arange(n) % 2 == 0
+    for train in (half, ~half):
+        weights = fit(np.flatnonzero(train)).reshape(-1, c)
+        for j, k in enumerate(checkpoints):
+            prefix = np.stack([fit_frames(e[:k], t) for e in x[~train]]).mean(axis=1)
+            scores = prefix.reshape(len(prefix), -1) @ weights
+            pred = scores.argmax(axis=1)
+            margins[~train, j] = score_margins(scores, pred)
+            correct[~train, j] = pred == y[~train]
+    rule = calibrate_early_rule(margins, correct, checkpoints, how=f"{n} held-out explorations (two folds)")
+    meta, note = frame_metadata(x, frame_rate_hz=frame_rate_hz, contact=contact)
+    assert note is None, note
+    meta["early_decision"] = rule.to_metadata()
+    return frame_bundle(
+        path, fit(np.arange(n)).astype(np.float32), n_frames=t, class_names=class_names, metadata=meta
+    )

@@ -73,10 +73,13 @@ class TouchTime:
         }
 
 
-def fold_scores(model: object, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def fold_scores(
+    model: object, X: np.ndarray, features: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """Return ``(labels, scores)`` of a fitted candidate on raw input ``X`` as its exported graph gives them.
 
     ``labels`` index the classifier's ``classes_`` (as the bundle's ``class_names``); ``scores`` ``(N, C)``.
+    ``features``: the ``features`` step's output for ``X`` when already known (a classical candidate).
     """
     import torch
     from torch import nn
@@ -90,7 +93,7 @@ def fold_scores(model: object, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             x = np.ascontiguousarray(X)
             out = module(torch.from_numpy(x if x.dtype == np.uint8 else x.astype(np.float32)))
         else:
-            z = model.named_steps["features"].transform(X)
+            z = model.named_steps["features"].transform(X) if features is None else features
             head = nn.Sequential(*_head_modules(model)).eval()
             out = head(torch.from_numpy(np.ascontiguousarray(z, dtype=np.float32)))
     return np.asarray(out[0].numpy(), dtype=np.int64), np.asarray(out[1].numpy(), dtype=np.float64)
@@ -100,13 +103,37 @@ def _classes(model: object) -> np.ndarray:
     return np.asarray(model.steps[-1][1].classes_)
 
 
+def prefixes(X: np.ndarray, frames: int, step: object = None) -> np.ndarray:
+    """Return each exploration's first ``frames`` frames brought to its ``T`` frames as the stream brings them.
+
+    For a fused features step (``step.fuse``: the OR of every frame's edges) the ``frames`` themselves
+    are returned: each is repeated in the stretched touch, and the OR of repeated frames is the OR of
+    the frames, so its features are the same at a fraction of the cost.
+    """
+    if getattr(step, "fuse", False):
+        return X[:, :frames]
+    t = X.shape[1]
+    return np.stack([fit_frames(x[:frames], t) for x in X])
+
+
 def touch_time(
-    result: object, samples: object, rate_hz: float, *, quick: bool, target_error: float = DEFAULT_ERROR
+    result: object,
+    samples: object,
+    rate_hz: float,
+    *,
+    quick: bool,
+    target_error: float = DEFAULT_ERROR,
+    cache: dict | None = None,
 ) -> TouchTime:
     """Return the :class:`TouchTime` of one candidate result (its fold models, kept by the study).
 
     ``samples``: the candidate's raw input (explorations ``(N, T, ...)`` with folds and units).
+    ``cache``: features of prefixes by (features step, frames), shared between candidates whose
+    ``features`` step needs no fit.
     """
+    from ..engine import needs_fit
+    from .evaluation import features_key
+    from .learned import is_learned
     from .selection import unit_accuracy, unit_interval
 
     cv = result.cv
@@ -118,11 +145,20 @@ def touch_time(
     n, k = len(y), len(checkpoints)
     predicted = np.full((n, k + 1), -1, dtype=np.int64)
     margins = np.full((n, k), -np.inf)
+    cache = {} if cache is None else cache
+    learned = is_learned(result.candidate.estimator)
+    shared = not learned and not needs_fit(result.candidate.estimator.steps[0][1])
     for model, (_, test) in zip(cv.models, samples.folds, strict=True):
         classes = _classes(model)
+        fitted = model.steps[0][1]
         for j, frames in enumerate(checkpoints):
-            prefix = np.stack([fit_frames(x[:frames], t) for x in X[test]])
-            labels, scores = fold_scores(model, prefix)
+            if shared:  # one transform of every exploration's prefix, for every fold and candidate
+                key = (features_key(result.candidate), frames)
+                if key not in cache:
+                    cache[key] = fitted.transform(prefixes(X, frames, fitted))
+                labels, scores = fold_scores(model, None, cache[key][test])
+            else:
+                labels, scores = fold_scores(model, prefixes(X[test], frames, None if learned else fitted))
             predicted[test, j] = classes[labels]
             margins[test, j] = score_margins(scores, labels)
     predicted[:, k] = cv.predictions  # the whole touch: the study's own out-of-fold predictions
@@ -163,7 +199,7 @@ def accuracy_vs_time(study: object, *, quick: bool, log=print) -> dict[str, Touc
     """
     if study.data.kind not in ("image", "pressure"):
         return {}
-    out = {}
+    out, cache = {}, {}
     for name in (study.recommended, study.runner_up):
         if name is None or name in out:
             continue
@@ -171,7 +207,9 @@ def accuracy_vs_time(study: object, *, quick: bool, log=print) -> dict[str, Touc
         if res.cv is None or not res.cv.models:
             continue
         try:
-            out[name] = touch_time(res, study.inputs[res.candidate.input], study.data.rate_hz, quick=quick)
+            out[name] = touch_time(
+                res, study.inputs[res.candidate.input], study.data.rate_hz, quick=quick, cache=cache
+            )
         except Exception as err:  # a late stage never throws away what the study computed
             study.notes.append(
                 f"accuracy against time into the touch of {name}: failed ({type(err).__name__}: {err})"
@@ -273,6 +311,7 @@ __all__ = [
     "accuracy_vs_time",
     "draw_touch_time",
     "fold_scores",
+    "prefixes",
     "touch_time",
     "touch_time_markdown",
 ]

@@ -442,6 +442,7 @@ def _check_touch_time_and_live_metadata(result, out):
     from tactile_torch.tradeoff.touch_time import (
         draw_touch_time,
         fold_scores,
+        prefixes,
         touch_time,
         touch_time_markdown,
     )
@@ -457,6 +458,10 @@ def _check_touch_time_and_live_metadata(result, out):
     prefix = np.stack([fit_frames(x[:3], 6) for x in s.X[test]])
     labels, _ = fold_scores(model, prefix)
     assert np.array_equal(model.steps[-1][1].classes_[labels], model.predict(prefix))
+    # a fused step's features of a stretched prefix are those of the prefix itself (the OR of repeated frames)
+    fused = result.result("LDA | fused 12").cv.models[0].steps[0][1]
+    stretched = np.stack([fit_frames(x[:2], 6) for x in s.X[:4]])
+    assert np.allclose(fused.transform(stretched), fused.transform(prefixes(s.X[:4], 2, fused)), atol=1e-9)
     assert touch_time_markdown({name: curve}, "f.png")[0] == "## Accuracy against time into the touch"
     assert draw_touch_time({name: curve}, out / "t.png", chance=0.25).read_bytes()[:4] == b"\x89PNG"
     bundle = OnnxPipeline(out / "lda-per-taxel-252.onnx")
