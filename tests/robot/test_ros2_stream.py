@@ -189,6 +189,11 @@ def _assert_same_touches(got, expected):
     )
     early = [(r["touch"], r["frames"], r["label"]) for r in got if r["event"] == "early"]
     assert early == [(r["touch"], r["frames"], r["label"]) for r in expected if r["event"] == "early"]
+    decided = [(d["label"], d["early"], d["frames"]) for d in (r["decision"] for r in touches)]
+    assert decided == [
+        (d["label"], d["early"], d["frames"])
+        for d in (r["decision"] for r in expected if r["event"] == "touch")
+    ]  # what the robot was told for each touch, and how far into it
 
 
 # -- the tests --------------------------------------------------------------------------------------
@@ -238,6 +243,10 @@ def test_touches_over_dds_equal_predict_offline_and_every_decision_is_published(
     n_touches = len(predicted)
     assert n_touches >= 2 and sum(r["event"] == "early" for r in expected) >= 1  # the replay tests something
     extra = ("--encoding", encoding) + (("--sensor", sensor) if sensor else ())
+    # the publisher pauses 0.7 s in the middle of the last touch (the stream's silence is 0.5 s)
+    last = predicted[-1]
+    cut = last["start"] + last["frames"] // 2
+    extra += ("--plan", f"0:{cut},pause=0.7,{cut}:{len(frames)}")
     sensor = ("--sensor", sensor) if sensor else ()
     domain, topic = free_domain_id(), "/hand/tactile"
     listener = DecisionListener(f"{topic}/decision", domain)  # subscribed before the stream starts
@@ -254,16 +263,25 @@ def test_touches_over_dds_equal_predict_offline_and_every_decision_is_published(
     assert stream.returncode == 4 and f"done {len(frames)}" in pub_out, err
     assert f"{topic}: the publisher left after {len(frames)} frames" in err
     got = [json.loads(line) for line in out.splitlines()]
-    _assert_same_touches(got, expected)  # the touches predict gives, and the early decisions offline
+    touches = [r for r in got if r["event"] == "touch"]
+    # every touch before the pause: the touch, label, scores and early decision predict and the offline
+    # stages give
+    before = [r for r in got if r["touch"] < n_touches - 1]
+    _assert_same_touches(before, [r for r in expected if r["touch"] < n_touches - 1])
+    _assert_same_touches(touches[:-2], predicted[:-1])
+    # the paused touch: reported as two, cut by the silence, never one merged touch
+    first, second = touches[-2:]
+    assert (first["start"], first["ended_by"], second["start"]) == (last["start"], "silence", cut)
+    assert "cut" in first["flags"] and "after_cut" in second["flags"]
+    assert first["frames"] + second["frames"] == last["frames"]
     assert decisions == got  # every decision printed was published, in order, and nothing else
     header = next(line for line in err.splitlines() if "reading ROS 2 topic" in line)
     assert f"reading ROS 2 topic {topic} ({msgtype}" in header and "loopback only" in header
     assert f"decisions published on {topic}/decision (std_msgs/msg/String, JSON)" in header
-    # nothing lost or repeated: every frame read once, in order (header stamps: no gap, nothing back)
+    # nothing lost or repeated: every frame read once, in order (header stamps: no step but the pause)
     summary = err.strip().splitlines()[-1]
-    assert summary.startswith(f"{len(frames)} frames read, {n_touches} touches") and " 0 gaps " in summary, (
-        summary
-    )
+    assert summary.startswith(f"{len(frames)} frames read, {n_touches + 1} touches"), summary
+    assert " 1 gaps (0 frames known lost)" in summary and " 0 messages skipped" in summary, summary
     assert f"{len(got)} decisions published on {topic}/decision" in summary
 
 
@@ -374,3 +392,32 @@ def test_vibration_over_imu_messages_gives_the_offline_windows(tmp_path):
     np.testing.assert_allclose([r["scores"] for r in got], [r["scores"] for r in expected], rtol=1e-5)
     t0 = got[0]["t_start"]
     np.testing.assert_allclose([r["t_end"] - t0 for r in got], [r["t_end"] for r in expected], atol=2e-6)
+
+
+def test_the_ros2_commands_of_docs_stream_run_as_written(tmp_path):
+    # docs/stream.md, "ROS 2 topics": its bash block, as written, in a directory holding the two files it
+    # names, with ROS_DOMAIN_ID set to a domain of this test's own (and no CYCLONEDDS_URI: loopback)
+    from pathlib import Path
+
+    from tactile_torch.robot.frame_recordings import FrameRecording, write_frame_recording
+
+    page = (Path(__file__).resolve().parents[2] / "docs" / "stream.md").read_text(encoding="utf-8")
+    section = page.split("## ROS 2 topics", 1)[1].split("\n## ", 1)[0]
+    blocks = [b.split("```", 1)[0] for b in section.split("```bash\n")[1:]]
+    assert len(blocks) == 1 and "--ros2-topic /hand/tactile" in blocks[0]
+    frames, rate, weights, names, levels, n_frames = _synthetic()
+    _bundle(tmp_path, weights, names, levels, n_frames, rate)  # grasp.onnx
+    write_frame_recording(tmp_path / "grasp.npz", FrameRecording(frames, np.arange(len(frames)) / rate))
+    env = ros2_env(ROS_DOMAIN_ID=str(free_domain_id()))
+    env["PATH"] = f"{Path(sys.executable).parent}:{env.get('PATH', '')}"  # tactile-torch of this interpreter
+    run = subprocess.run(
+        ["bash", "-e", "-c", blocks[0]], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=120
+    )
+    assert run.returncode == 0, run.stderr
+    shown = [json.loads(line) for line in run.stdout.splitlines() if line.startswith("{")]
+    touches = [json.loads(line) for line in (tmp_path / "touches.jsonl").read_text().splitlines()]
+    assert len(shown) == 2 and shown == touches[:2] and sum(r["event"] == "touch" for r in touches) == 3
+    assert (
+        "loopback only (127.0.0.1, multicast off)" in run.stderr
+        and f"{len(touches)} decisions published" in run.stderr
+    )
