@@ -165,22 +165,24 @@ def read_source(paths: PathLike | Sequence[PathLike], options: DataOptions | Non
     return data
 
 
+def read_bag_topic(path: PathLike, options: DataOptions):
+    """Read the topic of the bag ``path`` that ``options`` name (:func:`tactile_torch.robot.ros_bags.read_bag`)."""
+    return read_bag(
+        path,
+        options.topic,
+        shape=options.shape,
+        field=options.field,
+        sensor=options.sensor,
+        msg_defs=options.msg_defs,
+        max_messages=options.max_messages,
+    )
+
+
 def _read_bags(paths: list[Path], options: DataOptions):
     from .formats import RecordingArrays
 
     classes, sessions = names_for(paths, index=options.index)
-    topics = [
-        read_bag(
-            p,
-            options.topic,
-            shape=options.shape,
-            field=options.field,
-            sensor=options.sensor,
-            msg_defs=options.msg_defs,
-            max_messages=options.max_messages,
-        )
-        for p in paths
-    ]
+    topics = [read_bag_topic(p, options) for p in paths]
     kinds = {t.kind for t in topics}
     if len(kinds) > 1:
         raise ValueError(
@@ -279,4 +281,4 @@ def check_recordings(
             )
 
 
-__all__ = ["GRAVITY_BAND_G", "DataOptions", "check_recordings", "read_source"]
+__all__ = ["GRAVITY_BAND_G", "DataOptions", "check_recordings", "read_bag_topic", "read_source"]

@@ -163,19 +163,10 @@ def read_frame_recording(
     path = Path(path)
     if is_bag(path):
         from .csv_logs import names_for
-        from .data_sources import DataOptions
-        from .ros_bags import read_bag
+        from .data_sources import DataOptions, read_bag_topic
 
         options = options or DataOptions()
-        topic = read_bag(
-            path,
-            options.topic,
-            shape=options.shape,
-            field=options.field,
-            sensor=options.sensor,
-            msg_defs=options.msg_defs,
-            max_messages=options.max_messages,
-        )
+        topic = read_bag_topic(path, options)
         if topic.kind != "frame":
             raise ValueError(
                 f"{topic.name} holds {topic.msgtype}, not frames (Float32MultiArray, Image, TactileState, or a "

@@ -26,7 +26,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from .ros_types import MissingExtraError, ros_type_name
+from .ros_types import import_extra, ros_type_name
 
 ROS2_EXTRA = "ros2"
 """The optional extra that installs ``cyclonedds`` (and ``rosbags``, for the message definitions)."""
@@ -47,17 +47,9 @@ MAX_CONFIG_BYTES = 1 << 20
 
 
 def cyclonedds_module(what: str = "ROS 2 topics"):
-    """Import ``cyclonedds``, or raise :class:`MissingExtraError` saying that ``what`` needs the extra."""
-    try:
-        import cyclonedds
-        import cyclonedds.domain
-    except ImportError as err:
-        raise MissingExtraError(
-            f"{what} need the optional extra {ROS2_EXTRA!r} (the cyclonedds package), which is not "
-            f"installed: pip install 'tactile-torch[{ROS2_EXTRA}]'",
-            name="cyclonedds",
-        ) from err
-    return cyclonedds
+    """Import ``cyclonedds`` (its C library), or raise :class:`MissingExtraError` saying that ``what`` needs the extra."""
+    import_extra("cyclonedds.domain", ROS2_EXTRA, what)
+    return import_extra("cyclonedds", ROS2_EXTRA, what)
 
 
 def loopback_interface() -> str:

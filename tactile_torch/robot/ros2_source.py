@@ -20,8 +20,9 @@ by Cyclone DDS's default)                       idle timeout, ``reconnected`` an
 offers a QoS the reader cannot match (best      one ``qos`` event naming the fix
 effort for ``qos="reliable"``)
 sends a message that does not give an item      skipped and counted, a ``skipped`` event with the
-(another size, an unknown image encoding, a     reason (five a second at most)
-missing sensor)
+(another size, an unknown image encoding, a     reason (five a second at most); one larger than
+missing sensor)                                 :data:`MIN_MESSAGE_BOUND` or 16 times an item's values
+                                                at 8 bytes each is not even decoded
 sends values outside the item's range           rejected, a ``range`` event and a break
 ==============================================  ==================================================
 
@@ -57,6 +58,8 @@ from .stream_source import (
 )
 
 _POLL_S = 0.05  # longest wait for a message before the silence, timeout and publisher checks run
+MIN_MESSAGE_BOUND = 64 * 1024
+"""A message larger than ``max(MIN_MESSAGE_BOUND, 16 * 8 * values per item)`` bytes is skipped undecoded."""
 
 
 def _giving_up(limit: float) -> str:
@@ -200,6 +203,7 @@ class Ros2Source:
         if self.on_open is not None:
             self.on_open(self.name)
         shape, size, sample = tuple(spec.shape), spec.size, spec.kind == SAMPLE
+        bound = max(MIN_MESSAGE_BOUND, 16 * 8 * size)
         frame_shape = shape[:2]
         check, in_range = spec.checks_range, spec.in_range
         last_item = clock()  # time counts from when the reader is there, as from a port's opening
@@ -211,6 +215,10 @@ class Ros2Source:
             now = clock()
             for received in batch:
                 try:
+                    if len(received.cdr) > bound:  # bounded: a huge message is not decoded
+                        raise MessageError(
+                            f"a message of {len(received.cdr)} bytes, more than the {bound} read at most"
+                        )
                     stamp, values, own_shape = decoder.decode(received.cdr)
                     if len(values) != size or (
                         own_shape is not None and own_shape != frame_shape and not sample
@@ -317,4 +325,4 @@ class Ros2Source:
                     )
 
 
-__all__ = ["Ros2Source"]
+__all__ = ["MIN_MESSAGE_BOUND", "Ros2Source"]

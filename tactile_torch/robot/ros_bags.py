@@ -49,6 +49,7 @@ from .ros_types import (
     MessageDefinition,
     MissingExtraError,
     has_type,
+    import_extra,
     message_types,
     rosbags_module,
 )
@@ -108,15 +109,7 @@ def is_bag(path: PathLike) -> bool:
 
 def _rosbags():
     rosbags_module("reading ROS 2 bags")
-    try:
-        from rosbags.rosbag2 import Reader
-    except ImportError as err:
-        raise MissingExtraError(
-            f"reading ROS 2 bags needs the optional extra {ROS_EXTRA!r} (the rosbags package), which is "
-            f"not installed: pip install 'tactile-torch[{ROS_EXTRA}]'",
-            name="rosbags",
-        ) from err
-    return Reader
+    return import_extra("rosbags.rosbag2", ROS_EXTRA, "reading ROS 2 bags").Reader
 
 
 def _describe(topics: dict[str, str]) -> str:

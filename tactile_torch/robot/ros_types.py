@@ -53,17 +53,24 @@ class MissingExtraError(ImportError, ValueError):
     """An optional extra is not installed (an ``ImportError``; a ``ValueError`` so the CLI prints one line)."""
 
 
+def import_extra(module: str, extra: str, what: str):
+    """Import ``module`` of an optional extra, or raise :class:`MissingExtraError` saying that ``what`` needs it."""
+    import importlib
+
+    try:
+        return importlib.import_module(module)
+    except ImportError as err:
+        package = module.split(".")[0]
+        raise MissingExtraError(
+            f"{what} needs the optional extra {extra!r} (the {package} package), which is not installed: "
+            f"pip install 'tactile-torch[{extra}]'",
+            name=package,
+        ) from err
+
+
 def rosbags_module(what: str = "reading ROS 2 messages"):
     """Import ``rosbags.typesys``, or raise :class:`MissingExtraError` saying that ``what`` needs the extra."""
-    try:
-        import rosbags.typesys as typesys
-    except ImportError as err:
-        raise MissingExtraError(
-            f"{what} needs the optional extra {ROS_EXTRA!r} (the rosbags package), which is not "
-            f"installed: pip install 'tactile-torch[{ROS_EXTRA}]'",
-            name="rosbags",
-        ) from err
-    return typesys
+    return import_extra("rosbags.typesys", ROS_EXTRA, what)
 
 
 def ros_type_name(name: str) -> str:
@@ -283,6 +290,7 @@ __all__ = [
     "default_message",
     "has_header",
     "has_type",
+    "import_extra",
     "message_types",
     "read_message_definition",
     "ros_type_name",

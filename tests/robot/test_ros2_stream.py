@@ -421,3 +421,55 @@ def test_the_ros2_commands_of_docs_stream_run_as_written(tmp_path):
         "loopback only (127.0.0.1, multicast off)" in run.stderr
         and f"{len(touches)} decisions published" in run.stderr
     )
+
+
+def test_messages_that_give_no_frame_are_skipped_and_said(tmp_path):
+    # a message of another size, without the sensor, too large to decode: skipped, counted and said;
+    # a frame out of range: rejected and a break, as on a serial line. One participant, local delivery.
+    from tactile_torch.robot.ros2_dds import DdsNode, DdsTypes
+    from tactile_torch.robot.ros_messages import MessageEncoder
+    from tactile_torch.robot.ros_types import TACTILE_STATE_TYPE, message_types
+    from tactile_torch.robot.stream_source import Break, ItemSpec, Reading
+
+    store = message_types()
+    types = DdsTypes(store)
+    tip, palm = (MessageEncoder(TopicFields(TACTILE_STATE_TYPE, sensor=s), store) for s in ("tip", "palm"))
+    messages = [
+        tip.encode(np.ones(16), 1),
+        tip.encode(np.ones(12), 2),  # another array
+        palm.encode(np.ones(16), 3),  # another sensor
+        tip.encode(np.ones(20_000), 4),  # 80 kB: not decoded
+        tip.encode(np.full(16, 1e6), 5),  # beyond the range
+        tip.encode(np.full(16, 2.0), 6),
+    ]
+    events = []
+    with DdsNode(DdsOptions(domain_id=free_domain_id(), config="loopback")) as node:
+        writer = node.writer("/t", TACTILE_STATE_TYPE, types)
+        source = Ros2Source(
+            "/t",
+            ItemSpec("frame", (4, 4), -10.0, 300.0, 100.0),
+            fields=TopicFields(TACTILE_STATE_TYPE, sensor="tip"),
+            node=node,
+            silence_s=0.2,
+            idle_timeout_s=0.5,
+            start_timeout_s=10.0,
+            on_event=events.append,
+            on_open=lambda name: [writer.write(types.sample(TACTILE_STATE_TYPE, m)) for m in messages],
+        )
+        got = []
+        with pytest.raises(
+            StreamTimeout,
+            match=r"/t: no valid frame for 0\.\d s \(timeout 0\.5 s\); 2 frames read, 3 messages skipped",
+        ):
+            for item in source.readings():
+                got.append(item)
+    assert [type(g).__name__ for g in got] == ["Reading", "Break", "Reading", "Break"]
+    assert [g.kind for g in got if isinstance(g, Break)] == ["rejected", "silence"]
+    assert [float(g.values[0, 0]) for g in got if isinstance(g, Reading)] == [1.0, 2.0]
+    assert got[0].t == pytest.approx(1e-9)  # the header stamp
+    counts = source.counts
+    assert (counts.items, counts.skipped, counts.rejected) == (2, 3, 1)
+    said = [e.message for e in events if e.kind == "skipped"]
+    assert "a message of 12 values, not the 4 x 4 the bundle takes" in said[0]
+    assert "a TactileState without the sensor 'tip'; its sensors: 'palm'" in said[1]
+    assert "a message of 8" in said[2] and "bytes, more than the 65536 read at most" in said[2]
