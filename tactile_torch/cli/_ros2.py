@@ -185,7 +185,7 @@ def open_ros2_source(args: argparse.Namespace, spec, *, on_event, on_open):
     from ..robot.ros2_source import Ros2Source
     from ..robot.ros_messages import TopicFields
 
-    check_ros2_options(args, "stream --ros2-topic")
+    check_ros2_options(args, "--ros2-topic")
     fields = None
     if args.ros2_type or args.field or args.sensor:
         fields = TopicFields(

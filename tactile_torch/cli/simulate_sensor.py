@@ -146,7 +146,7 @@ def run_simulate_sensor(args: argparse.Namespace) -> int:
     if args.ros2_topic:  # a ROS 2 publisher over DDS: samples as sensor_msgs/Imu, frames as frame messages
         from ._ros2 import check_ros2_options, run_simulate_ros2
 
-        check_ros2_options(args, "simulate-sensor --ros2-topic")
+        check_ros2_options(args, "--ros2-topic")
         kind, what = _recording(args)
         if kind == "frames":
             return run_simulate_ros2(args, what.frames, what.rate_hz, "frame", t=what.t)
