@@ -227,7 +227,9 @@ def _live_source(frames: np.ndarray) -> dict:
 
     live = {"frame_rate_hz": DEFAULT_FRAME_RATE_HZ}
     try:
-        live["touch_levels"] = touch_levels(frames, frame_rate_hz=DEFAULT_FRAME_RATE_HZ, rgb=True).to_metadata()
+        live["touch_levels"] = touch_levels(
+            frames, frame_rate_hz=DEFAULT_FRAME_RATE_HZ, rgb=True
+        ).to_metadata()
     except ValueError:  # no pressure in the frames at all: the stream will need --onset
         pass
     return live

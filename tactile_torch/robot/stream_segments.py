@@ -417,7 +417,9 @@ class TouchSegmenter:
             return fit_frames(self._ring[s : s + t], t)
         return fit_frames(self._head[:n], t)
 
-    def _segment(self, kind: str, n: int, ended_by: str | None, ended_at: float | None = None) -> TouchSegment:
+    def _segment(
+        self, kind: str, n: int, ended_by: str | None, ended_at: float | None = None
+    ) -> TouchSegment:
         start_item, started_at, t_start, skipped_at_start, after_cut = self._started
         read_at, t_end = self._last
         flags: tuple[str, ...] = ()

@@ -123,6 +123,26 @@ def fit_frames(frames: np.ndarray, n_frames: int) -> np.ndarray:
     return frames[(np.arange(n_frames) * k) // n_frames]
 
 
+def fit_explorations(explorations: np.ndarray, n_frames: int | None) -> tuple[np.ndarray, str | None]:
+    """Return explorations ``(N, T', ...)`` brought to ``n_frames`` by :func:`fit_frames`, and a one-line note.
+
+    Unchanged (note ``None``) when they already have ``n_frames`` frames or ``n_frames`` is ``None``.
+    """
+    have = explorations.shape[1]
+    if n_frames is None or have == n_frames:
+        return explorations, None
+    fitted = np.ascontiguousarray(np.stack([fit_frames(x, n_frames) for x in explorations]))
+    how = (
+        f"their last {n_frames}"
+        if have > n_frames
+        else f"each frame repeated about {n_frames / have:.2g} times"
+    )
+    return fitted, (
+        f"explorations of {have} frames brought to the {n_frames} this bundle takes ({how}: "
+        "tactile_torch.robot.touches.fit_frames, as training selected them)"
+    )
+
+
 @dataclass(frozen=True, eq=False)
 class TouchLevels:
     """How a touch is cut from frames: activity signal, onset and release levels, shortest touch.
@@ -451,6 +471,7 @@ __all__ = [
     "TouchLevels",
     "TouchTracker",
     "contact_sign",
+    "fit_explorations",
     "fit_frames",
     "frame_metadata",
     "reading_noise",
