@@ -551,19 +551,9 @@ class OnnxPipeline:
         return LabelledInput(raw, labels, names, rate, file_labels, note)
 
     def _fit_explorations(self, raw: np.ndarray) -> tuple[np.ndarray, str | None]:
-        """Explorations of another length than the bundle's ``T`` frames, brought to it as training did."""
-        want = self.input_shape[1]
-        have = raw.shape[1]
-        if want is None or have == want:
-            return raw, None
-        from .touches import fit_frames
+        from .touches import fit_explorations
 
-        fitted = np.ascontiguousarray(np.stack([fit_frames(x, want) for x in raw]))
-        how = f"their last {want}" if have > want else f"each frame repeated about {want / have:.2g} times"
-        return fitted, (
-            f"explorations of {have} frames brought to the {want} this bundle takes ({how}: "
-            "tactile_torch.robot.touches.fit_frames, as training selected them)"
-        )
+        return fit_explorations(raw, self.input_shape[1])
 
     def sample_rate_mismatch(self, rate_hz: float | None) -> str | None:
         """Return a one-line warning when data sampled at ``rate_hz`` do not match the bundle's rate.

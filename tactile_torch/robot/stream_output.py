@@ -327,7 +327,8 @@ class Decision:
         From the touch's first frame to the frame it was decided at: sensor time when the frames carry
         ``t``, else the reader's clock (the latency comes on top).
     latency_ms : float
-        From reading that frame to having the decision.
+        From reading that frame (at the end of a touch: from reading the frame, or the break, that ended
+        it) to having the decision.
     margin : float or None
         The score margin at the decision (:func:`~tactile_torch.robot.early_decision.score_margins`).
     """
@@ -441,7 +442,8 @@ def classify_touches(
             )
             continue
         label, name, row, reason, margin, flags = _classified(pipeline, segment.data, range_g)
-        latency_ms = (clock() - segment.read_at) * 1e3
+        known = segment.ended_at if segment.ended_at is not None else segment.read_at
+        latency_ms = (clock() - known) * 1e3
         decision = early.pop(segment.touch, None) or Decision(
             label, name, False, segment.frames, segment.duration_s, latency_ms, margin
         )

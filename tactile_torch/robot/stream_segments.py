@@ -309,6 +309,9 @@ class TouchSegment:
     started_at, read_at : float
         Reader clock when the touch's first frame and its latest frame (the checkpoint's, or the last)
         were read.
+    ended_at : float or None
+        ``"end"`` segments: reader clock when the end became known (the release frame was read, or the
+        break happened): where the end-of-touch result's latency starts.
     t_start, t_end : float or None
         The sensor's ``t`` of those frames (seconds).
     ended_by : str or None
@@ -340,6 +343,7 @@ class TouchSegment:
     rejected: int = 0
     gaps: int = 0
     flags: tuple[str, ...] = ()
+    ended_at: float | None = None
 
     @property
     def duration_s(self) -> float:
@@ -413,7 +417,9 @@ class TouchSegmenter:
             return fit_frames(self._ring[s : s + t], t)
         return fit_frames(self._head[:n], t)
 
-    def _segment(self, kind: str, n: int, ended_by: str | None) -> TouchSegment:
+    def _segment(
+        self, kind: str, n: int, ended_by: str | None, ended_at: float | None = None
+    ) -> TouchSegment:
         start_item, started_at, t_start, skipped_at_start, after_cut = self._started
         read_at, t_end = self._last
         flags: tuple[str, ...] = ()
@@ -451,11 +457,12 @@ class TouchSegmenter:
             rejected=rejected,
             gaps=gaps,
             flags=flags,
+            ended_at=ended_at,
         )
 
-    def _end(self, code: int, n: int, ended_by: str) -> TouchSegment | None:
+    def _end(self, code: int, n: int, ended_by: str, at: float) -> TouchSegment | None:
         if code == END:
-            segment = self._segment("end", n, ended_by)
+            segment = self._segment("end", n, ended_by, at)
             self.touches += 1
             return segment
         if code == SHORT:
@@ -475,7 +482,7 @@ class TouchSegmenter:
         code = self._tracker.update(self.levels.activity(frame))
         if code == END or code == SHORT:
             self._after_cut = False
-            return self._end(code, n_before, RELEASE)
+            return self._end(code, n_before, RELEASE, reading.read_at)
         if code == START:
             counts = self.totals.counts
             items = counts.items if counts is not None else 0
@@ -501,12 +508,12 @@ class TouchSegmenter:
         n = self._tracker.frames
         code = self._tracker.cut()
         self._after_cut = code == END or code == SHORT
-        return self._end(code, n, kind)
+        return self._end(code, n, kind, at)
 
     def finish(self, kind: str, at: float) -> TouchSegment | None:
         """The input ended (or the stream was stopped): the touch in progress ends; return its segment."""
         n = self._tracker.frames
-        return self._end(self._tracker.cut(), n, kind)
+        return self._end(self._tracker.cut(), n, kind, at)
 
 
 class Segments:

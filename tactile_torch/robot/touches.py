@@ -46,6 +46,8 @@ RELEASE_SHARE = 0.125
 """Default release level: this share of the same median (half the onset: the hysteresis)."""
 DEAD_BAND = 3.0
 """Pressure counts towards a frame's activity above ``rest + DEAD_BAND * noise`` (noise of one reading)."""
+MAX_LEVEL_EXPLORATIONS = 64
+"""Training explorations (evenly spaced) whose frames set the default levels: enough for a median."""
 MIN_TOUCH_S = 0.1
 """Default shortest touch in seconds (at least 2 frames)."""
 GRAY = (0.2989, 0.5870, 0.1140)
@@ -119,6 +121,26 @@ def fit_frames(frames: np.ndarray, n_frames: int) -> np.ndarray:
     if k >= n_frames:
         return frames[k - n_frames :]
     return frames[(np.arange(n_frames) * k) // n_frames]
+
+
+def fit_explorations(explorations: np.ndarray, n_frames: int | None) -> tuple[np.ndarray, str | None]:
+    """Return explorations ``(N, T', ...)`` brought to ``n_frames`` by :func:`fit_frames`, and a one-line note.
+
+    Unchanged (note ``None``) when they already have ``n_frames`` frames or ``n_frames`` is ``None``.
+    """
+    have = explorations.shape[1]
+    if n_frames is None or have == n_frames:
+        return explorations, None
+    fitted = np.ascontiguousarray(np.stack([fit_frames(x, n_frames) for x in explorations]))
+    how = (
+        f"their last {n_frames}"
+        if have > n_frames
+        else f"each frame repeated about {n_frames / have:.2g} times"
+    )
+    return fitted, (
+        f"explorations of {have} frames brought to the {n_frames} this bundle takes ({how}: "
+        "tactile_torch.robot.touches.fit_frames, as training selected them)"
+    )
 
 
 @dataclass(frozen=True, eq=False)
@@ -310,21 +332,29 @@ def touch_levels(
         When the training frames show no activity at all (every frame at rest).
     """
     x = np.asarray(explorations)
+    if rgb and x.ndim == 5 and x.shape[2] == 3 and x.shape[-1] != 3:
+        x = np.moveaxis(x, 2, -1)  # (N, T, H, W, 3), as the stream's RGB frames
+    if x.ndim != (5 if rgb else 4) or not len(x):
+        raise ValueError(
+            f"explorations must have shape (N, T, H, W){' x 3 (RGB)' if rgb else ''}, got {x.shape}"
+        )
+    # a bounded sample of the explorations: RGB display frames are large (100 frames of 96 x 96 x 3 each)
+    sample = x[np.unique(np.linspace(0, len(x) - 1, min(len(x), MAX_LEVEL_EXPLORATIONS)).round().astype(int))]
+    few = sample[np.unique(np.linspace(0, len(sample) - 1, min(len(sample), 8)).round().astype(int))]
     if rgb:
-        if x.ndim == 5 and x.shape[2] == 3 and x.shape[-1] != 3:
-            x = np.moveaxis(x, 2, -1)
-        gray = (x[..., 0] * GRAY[0] + x[..., 1] * GRAY[1] + x[..., 2] * GRAY[2]).astype(np.float64)
-        sign_, rest_, noise = 1.0, 0.0, reading_noise(1.0 - gray / 255.0)
-        frames = x.reshape(-1, *x.shape[-3:]).astype(np.float32)
+        sign_, rest_ = 1.0, 0.0
+        noise = reading_noise(
+            np.stack(
+                [1.0 - (e[..., 0] * GRAY[0] + e[..., 1] * GRAY[1] + e[..., 2] * GRAY[2]) / 255.0 for e in few]
+            )
+        )
     else:
-        if x.ndim != 4:
-            raise ValueError(f"explorations must have shape (N, T, H, W), got {x.shape}")
         sign_ = float(sign) if sign is not None else contact_sign(x, contact)[0]
         rest_ = resting_level(sign_ * x) if rest is None else np.asarray(rest, dtype=np.float64)
-        noise = reading_noise(x)
-        frames = x.reshape(-1, *x.shape[-2:]).astype(np.float32)
+        noise = reading_noise(few)
     base = TouchLevels(1.0, 0.0, 2, signal, sign_, rest_, DEAD_BAND * noise, rgb)
-    activity = np.array([base.activity(f) for f in frames])
+    activity = np.array([base.activity(f.astype(np.float32)) for e in sample for f in e])
+    frames = activity
     contact_level = float(np.median(activity))
     if not contact_level > max(noise, 0.0):  # within one reading's noise of rest: no contact to speak of
         raise ValueError(
@@ -429,6 +459,7 @@ __all__ = [
     "DEAD_BAND",
     "END",
     "GRAY",
+    "MAX_LEVEL_EXPLORATIONS",
     "MIN_TOUCH_S",
     "NONE",
     "ONSET_SHARE",
@@ -440,6 +471,7 @@ __all__ = [
     "TouchLevels",
     "TouchTracker",
     "contact_sign",
+    "fit_explorations",
     "fit_frames",
     "frame_metadata",
     "reading_noise",

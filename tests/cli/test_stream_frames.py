@@ -15,6 +15,7 @@ import pytest
 import serial
 
 from tactile_torch.cli import main
+from tactile_torch.cli.simulate_sensor import MAX_SIMULATED_S
 from tactile_torch.robot.frame_recordings import FrameRecording, write_frame_recording
 from tactile_torch.robot.live import LiveOptions, LiveStream, item_spec
 from tactile_torch.robot.runtime import OnnxPipeline
@@ -165,3 +166,15 @@ def test_stream_json_and_simulate_sensor_as_commands(tmp_path, capsys):
     t = np.array([p[0] for p in lines if p is not None])
     assert len(t) >= len(recording) // 2 and t[-1] == pytest.approx(recording.t[-1], abs=1e-6)
     assert np.array_equal(lines[-1][1].reshape(8, 8), recording.frames[-1])
+
+
+def test_simulate_sensor_frame_options_are_checked(tmp_path, capsys):
+    """A frame recording is played whole (``--recording`` names an exploration); one line, status 2."""
+    x, y, names, rate, replay = _grasps("synthetic", None)
+    path = write_frame_recording(tmp_path / "rec.npz", _recording(x, y, names, rate, replay[:1]))
+    assert main(["simulate-sensor", "--pty", "--data", str(path), "--recording", "1"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.endswith("is one frame recording (it has 't'); play it whole") and err.count("\n") == 0
+    with pytest.raises(SystemExit):  # argparse: one line, status 2
+        main(["simulate-sensor", "--pty", "--seconds", str(MAX_SIMULATED_S + 1)])
+    assert f"expected a number > 0 and <= {MAX_SIMULATED_S}" in capsys.readouterr().err
