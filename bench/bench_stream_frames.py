@@ -15,7 +15,8 @@ its touch levels and calibrated early rule) and with the temporal taxel CNN (``T
 - ``touch-end latency``: at real-time pacing (200 frames/s), from reading the frame that ended a touch
   (the first below the release level) to its JSON line printed, median and 99th percentile.
 
-The DDS path (a ROS 2 topic through Cyclone DDS) adds its rows through :func:`dds_rows`.
+The DDS path (the same bundles and frames over a ROS 2 topic through Cyclone DDS, and the DDS echo that
+is the transport's floor) adds its rows from :mod:`bench.ros2_rows` when the extra ``ros2`` is installed.
 """
 
 from __future__ import annotations
@@ -186,15 +187,17 @@ def _readline_loop(bundle: str, frames: np.ndarray) -> float:
     return n / seconds
 
 
-def dds_rows(quick: bool) -> list[dict]:
-    """Rows of the DDS path (a ROS 2 topic through Cyclone DDS, and the DDS echo floor): filled by the
-    ROS 2 transport (issue 31, DDS half); none yet."""
-    return []
+def _dds_available() -> bool:
+    """Whether the ROS 2 extra is installed (the DDS rows need cyclonedds and rosbags)."""
+    import importlib.util
+
+    return all(importlib.util.find_spec(m) is not None for m in ("cyclonedds", "rosbags"))
 
 
 def run(quick: bool) -> dict:
     rows, notes = [], []
     n_touches = 12 if quick else 60
+    dds = _dds_available()
     with tempfile.TemporaryDirectory() as tmp:
         for side in (16, 4):
             x, y, groups, names = _explorations(side, quick)
@@ -220,7 +223,14 @@ def run(quick: bool) -> dict:
                     row["readline loop frames/s"] = round(reference)
                     row["ratio"] = round(fast["frames_per_s"] / reference, 2)
                 rows.append(row)
-    rows += dds_rows(quick)
+                if dds:  # the same bundle and frames over a ROS 2 topic (bench/ros2_rows.py)
+                    from bench.ros2_rows import dds_rows
+
+                    rows += dds_rows(bundle, model, side, frames, paced, tmp)
+            if dds:
+                from bench.ros2_rows import echo_row
+
+                rows.append(echo_row(side, paced, tmp))
     notes += [
         "Machine shared with other developers' jobs (2 cores): rates and latencies carry their load; compare "
         "within a run.",
@@ -234,8 +244,13 @@ def run(quick: bool) -> dict:
         "with a classical model.",
         "Readline loop: pyserial readline(), np.array(line.split(',')), one predict per T frames (no touches, no "
         "fault handling): what a user would write; same pty, same bundle, same process.",
-        "The DDS path's rows come from bench_stream_frames.dds_rows (ROS 2 through Cyclone DDS).",
     ]
+    if dds:
+        from bench.ros2_rows import NOTES
+
+        notes += NOTES
+    else:
+        notes.append("No ROS 2 rows: the extra ros2 (cyclonedds, rosbags) is not installed.")
     return {"rows": rows, "notes": notes}
 
 

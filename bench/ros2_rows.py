@@ -85,8 +85,7 @@ def _stream(bundle: str, frames: np.ndarray, rate: float, tmp: str) -> dict:
             first = first or result.segment.started_at
             counts[result.kind] += 1
             if result.kind == "touch":
-                ended = getattr(result.segment, "ended_at", None) or result.segment.read_at  # (older stages)
-                latencies.append((now - ended) * 1e3)
+                latencies.append((now - result.segment.ended_at) * 1e3)
                 last = now
     probe = _probe_result(publisher)
     source.close()
