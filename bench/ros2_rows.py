@@ -9,7 +9,8 @@ per result to ``/dev/null``, each decision published back as ``std_msgs/msg/Stri
   sensor QoS); frames read / time from the first touch's first frame to the last touch's result, and
   the frames lost (a best-effort reader that falls behind loses the oldest: its history keeps 1000);
 - ``touch-end latency``: paced at 200 frames/s, from taking the frame that ended a touch off the DDS
-  reader to its JSON line printed (the serial rows' definition), median and 99th percentile;
+  reader to its JSON line printed (the serial rows' definition), median and 99th percentile; and to
+  its decision published on the decision topic (written to the DDS writer);
 - ``round trip``: on the publisher's clock, from writing the frame that ended a touch to the decision
   arriving back on the decision topic: two DDS hops, the stream's stages and the model.
 
@@ -76,16 +77,18 @@ def _stream(bundle: str, frames: np.ndarray, rate: float, tmp: str) -> dict:
     live = LiveStream(pipe, source, LiveOptions())
     live.warm_up()
     publisher = _publisher(frames, domain, rate, tmp)
-    latencies, first, last, counts = [], None, None, {"touch": 0, "early": 0}
+    latencies, published, first, last, counts = [], [], None, None, {"touch": 0, "early": 0}
     with open(os.devnull, "w") as sink, contextlib.suppress(StreamTimeout, StreamDisconnected):
         for result in live:  # ends when the publisher leaves
             print(result_json(result), file=sink, flush=True)
+            printed = time.monotonic()
             decisions(result)
             now = time.monotonic()
             first = first or result.segment.started_at
             counts[result.kind] += 1
             if result.kind == "touch":
-                latencies.append((now - result.segment.ended_at) * 1e3)
+                latencies.append((printed - result.segment.ended_at) * 1e3)
+                published.append((now - result.segment.ended_at) * 1e3)
                 last = now
     probe = _probe_result(publisher)
     source.close()
@@ -99,6 +102,7 @@ def _stream(bundle: str, frames: np.ndarray, rate: float, tmp: str) -> dict:
         "early": counts["early"],
         "latency_median_ms": float(np.median(latencies)) if latencies else float("nan"),
         "latency_p99_ms": float(np.percentile(latencies, 99)) if latencies else float("nan"),
+        "published_median_ms": float(np.median(published)) if published else float("nan"),
         "trip_median_ms": float(np.median(trips)) if trips else float("nan"),
         "trip_p99_ms": float(np.percentile(trips, 99)) if trips else float("nan"),
         "publisher_frames_per_s": probe["written"] / probe["seconds"],
@@ -121,6 +125,7 @@ def dds_rows(
             "touches (early)": f"{fast['touches']} ({fast['early']})",
             "touch-end latency median ms": round(slow["latency_median_ms"], 3),
             "p99 ms": round(slow["latency_p99_ms"], 3),
+            "to published median ms": round(slow["published_median_ms"], 3),
             "round trip median ms": round(slow["trip_median_ms"], 3),
             "round trip p99 ms": round(slow["trip_p99_ms"], 3),
             "publisher frames/s": round(fast["publisher_frames_per_s"]),
@@ -173,3 +178,54 @@ NOTES = [
 
 
 __all__ = ["NOTES", "PACED_HZ", "dds_rows", "echo_row"]
+
+
+def main() -> None:
+    """``python -m bench.ros2_rows``: the serial and DDS paths side by side, on template bundles, one run.
+
+    Without the trade-off study (minutes): synthetic explorations of a 16 x 16 and a 4 x 4 array (T = 20
+    frames), a class-mean template bundle (``tests.stream_helpers.template_bundle``: a linear classical
+    model with touch levels and a calibrated early rule, frame rate 100 Hz in its metadata), 12 touches
+    as fast as possible and 20 paced at 200 frames/s, through the serial path (a pty, the stream-frames
+    benchmark's own function) and through DDS; then the DDS echo.
+    """
+    import tempfile
+
+    from bench.bench_stream_frames import T, _explorations, _recording
+    from bench.bench_stream_frames import _stream as serial_stream
+    from tests.stream_helpers import template_bundle
+
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for side in (16, 4):
+            x, y, _, names = _explorations(side, quick=True)
+            bundle = str(
+                template_bundle(os.path.join(tmp, f"t{side}.onnx"), x, y, names, frame_rate_hz=100.0)
+            )
+            frames, paced = _recording(x, 12), _recording(x, 20)
+            fast = serial_stream(bundle, frames, paced=False)
+            slow = serial_stream(bundle, paced, paced=True)
+            rows.append(
+                {
+                    "array": f"{side}x{side}",
+                    "model": "class-mean templates",
+                    "path": "serial (pty)",
+                    "frames/s (1 thread)": round(fast["frames_per_s"]),
+                    "frames lost": fast["lost"],
+                    "touches (early)": f"{fast['touches']} ({fast['early']})",
+                    "touch-end latency median ms": round(slow["latency_median_ms"], 3),
+                    "p99 ms": round(slow["latency_p99_ms"], 3),
+                }
+            )
+            rows += dds_rows(bundle, "class-mean templates", side, frames, paced, tmp)
+            rows.append(echo_row(side, paced, tmp))
+    keys = list(dict.fromkeys(k for row in rows for k in row))
+    print("| " + " | ".join(keys) + " |")
+    print("|" + "---|" * len(keys))
+    for row in rows:
+        print("| " + " | ".join(str(row.get(k, "")) for k in keys) + " |")
+    print(f"\n{T} frames per touch; " + " ".join(NOTES))
+
+
+if __name__ == "__main__":
+    main()
