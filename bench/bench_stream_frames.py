@@ -1,7 +1,7 @@
 """Frames through the live stream: how many frames per second one stream sustains, and touch-end latency.
 
-For a 16 x 16 and a 4 x 4 taxel array (synthetic pressure maps of the frame generator, 20 frames per
-touch, rest between touches), with the classical model the trade-off study recommends on them
+For a 16 x 16 and a 4 x 4 taxel array (synthetic pressure maps of the frame generator, 40 frames per
+touch at 200 frames/s, rest between touches), with the classical model the trade-off study recommends on them
 (``run_tradeoff(quick=True)`` over the classical candidates, refitted on all the data and deployed with
 its touch levels and calibrated early rule) and with the temporal taxel CNN (``TaxelCNNClassifier``,
 5 epochs, exported with the same touch levels; no early rule: it has no held-out folds here):
@@ -31,7 +31,7 @@ import numpy as np
 
 TITLE = "Frames live: frames per second one stream sustains, and touch-end latency (16x16 and 4x4 arrays)"
 
-T = 20  # frames per touch (the explorations' length)
+T = 40  # frames per touch (the explorations' length): 0.2 s at the paced rate
 PACED_HZ = 200.0
 
 
