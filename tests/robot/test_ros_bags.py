@@ -153,3 +153,27 @@ def test_cli_trains_on_bags_written_outside(tmp_path, rec, capsys):
     assert main([*argv[:-2], "--window", "400", "--topic", "/nope"]) == BAD_INPUT_EXIT
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "no topic '/nope'; the bag has /imu (sensor_msgs/msg/Imu)" in err
+
+
+def test_a_bag_of_pressure_maps_is_a_frame_recording_predict_cuts_touches_from(tmp_path, capsys):
+    """simulate-sensor and predict read a bag of pressure maps as one frame recording (its stamps as t)."""
+    import json
+
+    from tactile_torch.robot.frame_recordings import read_frame_recording
+    from tactile_torch.robot.touches import TouchLevels
+    from tests.stream_helpers import frame_bundle
+
+    maps = np.zeros((20, 4, 5), np.float32)
+    maps[3:9, :2] = 5.0  # two touches: top rows, then bottom rows
+    maps[12:17, 2:] = 5.0
+    bag = write_pressure_bag(tmp_path / "dots_1", maps)
+    rec = read_frame_recording(bag)
+    assert rec.frames.shape == (20, 4, 5) and rec.class_names == ("dots",) and rec.labels.tolist() == [0] * 20
+    np.testing.assert_allclose(rec.t[:3], [0.0, 0.1, 0.2], atol=1e-9)
+    weights = np.zeros((4, 5, 2), np.float32)
+    weights[:2, :, 0] = weights[2:, :, 1] = 1.0
+    levels = TouchLevels(onset=5.0, release=2.0).to_metadata()
+    bundle = frame_bundle(tmp_path / "b.onnx", weights, n_frames=4, metadata={"touch_levels": levels})
+    assert main(["predict", "--model", str(bundle), "--data", str(bag), "--json"]) == 0
+    touches = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
+    assert [(r["start"], r["frames"], r["label"]) for r in touches] == [(3, 6, 0), (12, 5, 1)]
