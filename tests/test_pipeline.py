@@ -58,6 +58,13 @@ def _vibration_parity(tmp_path, data_path, window, method="hmsvm"):
     features, model, model_path = _trained(tmp_path, data_path, method, window=window)
     pipe = pipeline_from_model(load_model_file(model_path))
     bundle = OnnxPipeline(export_pipeline(pipe, tmp_path / "vib.onnx", example_batch=2))
+    # sealed (robot.integrity): a bit flipped in the middle of the file (the SVM's weights) is refused
+    data = bytearray((tmp_path / "vib.onnx").read_bytes())
+    data[len(data) // 2] ^= 1
+    (tmp_path / "flipped.onnx").write_bytes(data)
+    with pytest.raises(ValueError, match=r"flipped\.onnx: the bundle's digest does not match its content"):
+        OnnxPipeline(tmp_path / "flipped.onnx")
+    assert bundle.sealed
     data = bundle.read_npz(data_path)
     labels, _ = _assert_parity(pipe, bundle, data.raw[:13])  # exported at batch 2, run at 13
     # the graph reproduces the estimator on the features computed by the library
@@ -145,6 +152,7 @@ def test_cli_cluster_export_predict_round_trip(tmp_path, vibration_npz, capsys):
         "exported vibration-pyp" in printed and "components: the point estimate of the clustering" in printed
     )
     bundle = OnnxPipeline(onnx_path)
+    assert bundle.sealed  # the mixture's bundle carries its digest too
     pipe = pipeline_from_model(load_model_file(out / "model.npz"))
     data = bundle.read_npz(vibration_npz)
     labels, scores = _assert_parity(pipe, bundle, data.raw[:9])
@@ -216,7 +224,7 @@ def test_cli_stream_classifies_a_simulated_sensor(tmp_path, vibration_npz, capsy
     assert opened == [("/dev/robot-imu", {"baudrate": 230400, "timeout": 0.1})]
     assert status == 0
     out = capsys.readouterr().out
-    printed = [line.split()[2] for line in out.splitlines()[1:5]]
+    printed = [line.split()[2] for line in out.splitlines()]  # stdout: the decisions only
     # windows of 400 every 200 samples of what went over the wire, as the bundle classifies them offline
     sent = np.array([parse_sample(format_sample(s)) for s in recording[:1000]], dtype=np.float32)
     windows = np.stack([sent[s : s + 400].T for s in (0, 200, 400, 600)])

@@ -11,7 +11,8 @@ and ``stream`` run on a robot with onnxruntime and no torch.
 Exit statuses (:data:`EXIT_STATUSES`, also in ``tactile-torch --help``): 0 done; 2 bad input, one
 line ``tactile-torch CMD: ...`` on stderr naming the file or option; 1 an internal error (a bug),
 one line asking to report it, the traceback with ``--debug``; 130 interrupted; ``tradeoff`` 3 (no
-adequate candidate) and 4 (none exported); ``stream`` 3 (no data) and 4 (port failed).
+adequate candidate) and 4 (none exported); ``stream`` 3 (no data), 4 (port failed) and 5 (stdout
+closed: the reader of its decisions went away).
 """
 
 from __future__ import annotations
@@ -43,10 +44,13 @@ STREAM_DISCONNECTED_EXIT = 4
 """Exit status of ``stream`` when the port failed and was not (or could not be) reconnected."""
 STREAM_STOPPED_EXIT = 0
 """Exit status of ``stream`` stopped by SIGTERM or SIGINT (Ctrl-C): a requested end, after the summary."""
+STREAM_OUTPUT_CLOSED_EXIT = 5
+"""Exit status of ``stream`` when its stdout was closed (the reader of the decisions went away): it stops
+at the next decision it cannot write, after one line and the summary on stderr."""
 EXIT_STATUSES = (
     "exit status: 0 done; 2 bad input (one line naming the file or option); 1 internal error (a bug: one "
     "line, please report it; --debug shows the traceback); 130 interrupted; tradeoff: 3 no adequate "
-    "candidate, 4 none exported; stream: 3 no data, 4 port failed"
+    "candidate, 4 none exported; stream: 3 no data, 4 port failed, 5 stdout closed"
 )
 """What ``tactile-torch --help`` says about exit statuses."""
 
@@ -328,6 +332,7 @@ __getattr__, __dir__, __all__ = lazy_exports(
         "NO_RECOMMENDATION_EXIT",
         "STREAM_DISCONNECTED_EXIT",
         "STREAM_NO_DATA_EXIT",
+        "STREAM_OUTPUT_CLOSED_EXIT",
         "STREAM_STOPPED_EXIT",
         "TRAIN_MODULES",
         "build_parser",

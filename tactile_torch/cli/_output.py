@@ -68,15 +68,18 @@ class StdoutGuard:
 
     After the reader of the pipe has gone, further output is discarded (the descriptor is pointed
     at ``os.devnull``, so the interpreter's final flush does not fail either) and the command goes on
-    to write its files.
+    to write its files; :attr:`closed_pipe` says so to a command whose output is its only product
+    (``stream`` stops).
     """
 
     def __init__(self, stream) -> None:
         self._stream = stream
+        self.closed_pipe = False
 
     def _drop(self) -> None:
         import os
 
+        self.closed_pipe = True
         devnull = os.open(os.devnull, os.O_WRONLY)
         try:
             os.dup2(devnull, self._stream.fileno())
@@ -102,6 +105,11 @@ class StdoutGuard:
 
     def __getattr__(self, name: str):
         return getattr(self._stream, name)
+
+
+def stdout_closed() -> bool:
+    """Return whether the reader of ``sys.stdout`` has gone (a write met a closed pipe)."""
+    return bool(getattr(sys.stdout, "closed_pipe", False))
 
 
 def guard_stdout():

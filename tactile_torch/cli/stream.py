@@ -13,8 +13,13 @@ import argparse
 import math
 import sys
 
-from . import STREAM_DISCONNECTED_EXIT, STREAM_NO_DATA_EXIT, STREAM_STOPPED_EXIT
-from ._options import UsageError, add_touch_options, at_least, parse_range_g, touch_options
+from . import (
+    STREAM_DISCONNECTED_EXIT,
+    STREAM_NO_DATA_EXIT,
+    STREAM_OUTPUT_CLOSED_EXIT,
+    STREAM_STOPPED_EXIT,
+)
+from ._options import UsageError, add_touch_options, at_least, in_range, parse_range_g, touch_options
 from ._ros2 import add_dds_options, add_subscriber_options
 
 
@@ -24,12 +29,13 @@ def register(sub) -> None:
         "stream",
         help="classify a live serial sensor (accelerometer samples or taxel frames) with an exported bundle",
         description="Read lines from a serial port (any pyserial URL, e.g. /dev/ttyUSB0, socket://host:port, "
-        "loop://): 'x,y,z' or 't,x,y,z' samples (g) for a vibration bundle, or one frame per line (its H*W "
-        "values, optionally t first) for a taxel-array bundle. Samples are cut into the bundle's windows; "
-        "frames into touches (one decision per touch, early when the bundle's calibrated rule is sure) or "
-        "sliding windows (--segment windows). Silence, disconnection, gaps in t, values out of range and "
-        "garbage lines are reported on stderr; no window or touch spans a gap. Exit status: 0 done, 3 no data "
-        "within the timeout, 4 port failed (see docs/stream.md).",
+        "loop://): 'x,y,z' or 't,x,y,z' samples (g, or --units, --scale) for a vibration bundle, or one frame "
+        "per line (its H*W values, optionally t first) for a taxel-array bundle. Samples are cut into the "
+        "bundle's windows; frames into touches (one decision per touch, early when the bundle's calibrated "
+        "rule is sure) or sliding windows (--segment windows). The decisions go to stdout; status lines "
+        "(silence, disconnection, gaps in t, values out of range, garbage lines, the summary) to stderr; no "
+        "window or touch spans a gap. Exit status: 0 done, 3 no data within the timeout, 4 port failed, 5 "
+        "stdout closed (see docs/stream.md).",
     )
     p.add_argument("--model", required=True, help="the .onnx bundle (vibration windows or taxel frames)")
     p.add_argument("--port", default=None, help="serial port or pyserial URL (or --ros2-topic)")
@@ -102,6 +108,19 @@ def register(sub) -> None:
         "reject frames with a value outside LOW,HIGH (default: the bundle's value_range); inf: off",
     )
     p.add_argument(
+        "--units",
+        default="g",
+        choices=["g", "m/s2"],
+        help="vibration: units of the x,y,z values, as train's --units (default: g)",
+    )
+    p.add_argument(
+        "--scale",
+        type=in_range(0, 1e6),
+        default=None,
+        help="vibration: units per count for a sensor that sends integer counts, e.g. 0.0039 (ADXL345 at full "
+        "resolution), as train's --scale",
+    )
+    p.add_argument(
         "--time-unit",
         default="s",
         choices=["s", "ms", "us", "samples"],
@@ -160,17 +179,26 @@ def open_source(args: argparse.Namespace, spec, *, on_event, on_open):
         from ._ros2 import open_ros2_source
 
         return open_ros2_source(args, spec, on_event=on_event, on_open=on_open)
-    import serial
-
+    from ..robot.port_lines import open_serial_port
     from ..robot.serial_source import SerialSource
 
+    opened = []
+
     def open_port():
-        return serial.serial_for_url(args.port, baudrate=args.baud, timeout=min(0.1, args.silence / 2))
+        # The first open discards what the port held from before the stream; a reopen keeps what the
+        # sensor sent during the wait (pyserial's open would flush it).
+        port = open_serial_port(
+            args.port, baudrate=args.baud, timeout=min(0.1, args.silence / 2), keep_input=bool(opened)
+        )
+        opened.append(args.port)
+        return port
 
     return SerialSource(
         open_port,
         spec,
         time_unit=args.time_unit,
+        units=args.units,
+        scale=args.scale,
         silence_s=args.silence,
         idle_timeout_s=args.idle_timeout or math.inf,
         start_timeout_s=args.start_timeout or math.inf,
@@ -184,11 +212,17 @@ def open_source(args: argparse.Namespace, spec, *, on_event, on_open):
 def output_hooks(args: argparse.Namespace, pipe, live, info) -> list:
     """Return the callables every result goes to: the printed line (text or JSON), surface discovery."""
     from ..robot.stream_output import result_json, result_text
+    from ._output import stdout_closed
 
     write = result_json if args.json else result_text
 
     def show(result) -> None:
-        print(write(result), flush=True)
+        try:
+            print(write(result), flush=True)
+        except BrokenPipeError:  # an unguarded stdout (the guard of cli.main catches it and says so)
+            raise _OutputClosed() from None
+        if stdout_closed():
+            raise _OutputClosed()
 
     hooks = [show]
     if args.discover:  # new surfaces: N novel windows in a row (tactile_torch.robot.discovery)
@@ -196,12 +230,16 @@ def output_hooks(args: argparse.Namespace, pipe, live, info) -> list:
             raise UsageError("--discover proposes surfaces from vibration windows, not from touches")
         from ..robot.discovery import stream_consumer
 
-        hooks.append(stream_consumer(pipe, args.discover, info))
+        hooks.append(stream_consumer(pipe, args.discover, sys.stderr if args.json else sys.stdout))
     if args.ros2_topic:  # each decision published back on a ROS 2 topic, as well as printed
         from ._ros2 import decision_hook
 
         hooks += decision_hook(args, live.source)
     return hooks
+
+
+class _OutputClosed(Exception):
+    """stdout was closed: the reader of the decisions went away."""
 
 
 def _describe(args, pipe, live, spec) -> str:
@@ -234,6 +272,7 @@ def _stream_until_stopped(args: argparse.Namespace) -> int:
     from ..robot.live import LiveStream, frame_bundle, item_spec
     from ..robot.runtime import OnnxPipeline
     from ..robot.stream import StreamDisconnected, StreamTimeout
+    from . import ARGUMENT_FLAGS, with_flags
 
     if bool(args.port) == bool(args.ros2_topic):
         raise UsageError("give either --port PORT (a serial sensor) or --ros2-topic TOPIC (a ROS 2 topic)")
@@ -249,6 +288,10 @@ def _stream_until_stopped(args: argparse.Namespace) -> int:
         spec = item_spec(pipe, value_range=_value_range(args.range))
     else:
         spec = item_spec(pipe, range_g=parse_range_g(args.range, "--range", off=True))
+    if frames and (args.units != "g" or args.scale is not None):
+        raise UsageError(
+            "--units and --scale apply to accelerometer samples; frames go as the sensor sends them"
+        )
         given = [
             o
             for o, v in (
@@ -269,10 +312,12 @@ def _stream_until_stopped(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
         return 2
-    info = sys.stderr if args.json else sys.stdout  # --json: stdout holds nothing but the JSON lines
+    info = sys.stderr  # stdout holds the decisions (text or JSON), stderr everything else
+    # the reader names its arguments (pass units='m/s2'): show the options that set them
+    flags = {**{k: ARGUMENT_FLAGS[k] for k in ("units", "scale", "time_unit")}, "range_g": "--range"}
 
     def say(message: str) -> None:
-        print(f"tactile-torch stream: {message}", file=sys.stderr, flush=True)
+        print(f"tactile-torch stream: {with_flags(message, flags)}", file=sys.stderr, flush=True)
 
     reading = []  # printed once the port is open (and the model warm): a sensor may start then
 
@@ -306,13 +351,20 @@ def _stream_until_stopped(args: argparse.Namespace) -> int:
     except StreamDisconnected as err:
         say(str(err))
         status, why = STREAM_DISCONNECTED_EXIT, "disconnected"
+    except _OutputClosed:  # nobody reads the decisions any more: classifying on would be for nothing
+        what = "windows" if live.segment == "windows" else "touches"
+        say(f"stdout closed (its reader went away) after {live.results} {what}; stopping")
+        status = STREAM_OUTPUT_CLOSED_EXIT
     except (KeyboardInterrupt, _Stopped) as err:
         say(f"stopped by {'SIGTERM' if isinstance(err, _Stopped) else 'SIGINT (Ctrl-C)'}")
         status, why = STREAM_STOPPED_EXIT, "stopped"
     if why is not None:  # a touch in progress is reported, cut, never dropped silently
-        for result in live.finish(why):
-            for hook in hooks:
-                hook(result)
+        try:
+            for result in live.finish(why):
+                for hook in hooks:
+                    hook(result)
+        except _OutputClosed:
+            status = STREAM_OUTPUT_CLOSED_EXIT
     notes = [note() for hook in hooks if (note := getattr(hook, "summary_note", None)) is not None]
     print(", ".join([live.summary(), *notes]), file=info, flush=True)
     close = getattr(source, "close", None)  # a transport that holds more than a port (a DDS participant)

@@ -31,6 +31,8 @@ key                        value
                            touch, resting level: :class:`~tactile_torch.robot.touches.TouchLevels`)
 ``early_decision``         frame bundles: JSON of the calibrated early-decision rule
                            (:class:`~tactile_torch.robot.early_decision.EarlyRule`)
+``tactile_torch.sha256``   ``"sha256:<hex>"`` of the file without this property: checked on load
+                           (:mod:`tactile_torch.robot.integrity`)
 =========================  ======================================================================
 
 Other keys an exporter writes (method, kernel, feature scale, test accuracy, ...) are kept in
@@ -66,6 +68,8 @@ NOVELTY_SCORE_OUTPUT = "novelty"
 # ------------------------------------------------------------------------------------ metadata keys
 PIPELINE_KEY = "tactile_torch.pipeline"
 VERSION_KEY = "tactile_torch.version"
+DIGEST_KEY = "tactile_torch.sha256"
+"""Metadata key of the bundle's digest, written by every exporter (:func:`tactile_torch.robot.integrity.seal`)."""
 INPUT_SHAPE_KEY = "input_shape"
 INPUT_LAYOUT_KEY = "input_layout"
 CLASS_NAMES_KEY = "class_names"
@@ -118,6 +122,7 @@ def metadata_strings(metadata: Mapping[str, object]) -> dict[str, str]:
 __all__ = [
     "CLASS_NAMES_KEY",
     "DEFAULT_RANGE_G",
+    "DIGEST_KEY",
     "EARLY_RULE_KEY",
     "FEATURES_LAYOUT",
     "FEATURES_NAME",

@@ -13,7 +13,7 @@ only.
 Examples
 --------
 >>> pipe = OnnxPipeline("grasp.onnx")                                      # doctest: +SKIP
->>> spec = item_spec(pipe)                                                 # frames (H, W)
+>>> spec = item_spec(pipe)  # frames (H, W)                                  # doctest: +SKIP
 >>> source = SerialSource(open_port, spec, idle_timeout_s=10)              # doctest: +SKIP
 >>> live = LiveStream(pipe, source, LiveOptions(segment="touches"))        # doctest: +SKIP
 >>> live.run([lambda result: print(result_json(result))])                  # doctest: +SKIP

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import json
 import math
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -57,8 +58,11 @@ from .contract import (
     WINDOWS_LAYOUT,
 )
 from .errors import InputTypeError
+from .formats import LabelledInput
+from .integrity import NotProtobufError, UnsealedBundleWarning, check_digest
 
 _KIND_KEYS = {"image": "frames", "vibration": "signals", "features": "features"}
+_WARNED_UNSEALED: set[str] = set()  # bundles without a digest already warned about (the warning only)
 _ONNX_DTYPES = {"tensor(uint8)": "uint8", "tensor(float)": "float32", "tensor(double)": "float64"}
 
 
@@ -132,37 +136,6 @@ class NonFiniteScoresError(ValueError):
         )
 
 
-@dataclass
-class LabelledInput:
-    """Raw input read from a data file by :meth:`OnnxPipeline.read_npz`.
-
-    Attributes
-    ----------
-    raw : ndarray
-        In the bundle's input layout (uint8 frames are kept uint8: :meth:`OnnxPipeline.validate`
-        scales them).
-    labels : ndarray of shape (N,) int64, or None
-        Class index into the bundle's ``class_names`` (-1: a class the bundle does not know); ``None``
-        when the file has no labels.
-    file_class_names : list of str or None
-        The file's own class names.
-    rate_hz : float or None
-        Sample rate of vibration recordings (``None`` for other data).
-    file_labels : ndarray of shape (N,) int64, or None
-        The file's own labels (indices into ``file_class_names``), e.g. to score a clustering.
-    note : str or None
-        What was done to fit the data to the bundle (explorations of another length brought to its
-        frames), one line.
-    """
-
-    raw: np.ndarray
-    labels: np.ndarray | None
-    file_class_names: list[str] | None
-    rate_hz: float | None = None
-    file_labels: np.ndarray | None = None
-    note: str | None = None
-
-
 def _onnx_error(path: Path, err: Exception) -> str:
     with path.open("rb") as f:
         head = f.read(4)
@@ -199,6 +172,10 @@ class OnnxPipeline:
         Names of the input dimensions, e.g. ``"B,T,3,H,W"``.
     input_dtype : numpy.dtype
         dtype the graph takes (uint8 for image frames, float32 for windows and features).
+    sealed : bool
+        Whether the bundle carries a digest (checked on load: a bundle whose bytes do not match it
+        is refused with a ``ValueError``; one without a digest loads with an
+        :class:`~tactile_torch.robot.integrity.UnsealedBundleWarning`; docs/export.md, "Integrity").
     """
 
     def __init__(self, path: str | Path, *, intra_op_threads: int = 1, inter_op_threads: int = 1) -> None:
@@ -223,12 +200,29 @@ class OnnxPipeline:
         options.intra_op_num_threads = intra_op_threads
         options.inter_op_num_threads = inter_op_threads
         self.path = path
+        # Read once: the bytes checked against the digest are the bytes onnxruntime loads.
+        data = path.read_bytes()
         try:
-            self.session = ort.InferenceSession(str(path), options, providers=["CPUExecutionProvider"])
+            self.sealed = check_digest(data, path)
+        except NotProtobufError as err:
+            raise ValueError(
+                f"{path}: not an ONNX bundle onnxruntime can load ({_onnx_error(path, ValueError(err.detail))})"
+            ) from None
+        try:
+            self.session = ort.InferenceSession(data, options, providers=["CPUExecutionProvider"])
         except Exception as err:  # onnxruntime raises its own exception types, with long messages
             raise ValueError(
                 f"{path}: not an ONNX bundle onnxruntime can load ({_onnx_error(path, err)})"
             ) from None
+        if not self.sealed and str(path.resolve()) not in _WARNED_UNSEALED:
+            _WARNED_UNSEALED.add(str(path.resolve()))  # once per file and process: a program may reload it
+            warnings.warn(
+                f"{path}: the bundle has no digest (exported before tactile-torch wrote one, or by another tool): "
+                "its integrity cannot be checked; export it again, or seal a copy you trust "
+                "(tactile_torch.robot.integrity.seal_bundle)",
+                UnsealedBundleWarning,
+                stacklevel=2,
+            )
         self.metadata: dict[str, str] = dict(self.session.get_modelmeta().custom_metadata_map)
         self._input = self.session.get_inputs()[0]
         self._outputs = [o.name for o in self.session.get_outputs()]
@@ -499,6 +493,7 @@ class OnnxPipeline:
         only) declares how CSV logs and ROS 2 bags are read (columns, units, time unit, topic).
         """
         from .formats import data_name, read_data
+        from .touches import fit_explorations
         from .windows import window_recordings
 
         if options is None:
@@ -517,15 +512,15 @@ class OnnxPipeline:
                     "(tactile_torch.data.images.render_pressure)"
                 )
             raw, labels = np.ascontiguousarray(data.frames.transpose(0, 1, 4, 2, 3)), data.labels
-            raw, note = self._fit_explorations(raw)
+            raw, note = fit_explorations(raw, self.input_shape[1])
         elif data.kind == "image" and layout == PRESSURE_LAYOUT:
             if data.pressure is None:
                 raise ValueError(
                     f"{where}: frames must be pressure maps (N, T, H, W) for this {self.pipeline} bundle, got "
                     f"RGB frames {data.frames.shape}"
                 )
-            raw, labels = data.pressure, data.labels
-            raw, note = self._fit_explorations(raw)
+            raw, note = fit_explorations(data.pressure, self.input_shape[1])
+            labels = data.labels
         elif data.kind == "vibration" and layout == WINDOWS_LAYOUT:
             if WINDOW_SIZE_KEY not in self.metadata:
                 raise ValueError(f"{self.path}: no {WINDOW_SIZE_KEY} in the bundle's metadata")
@@ -549,11 +544,6 @@ class OnnxPipeline:
             lookup = np.array([index.get(name, -1) for name in names], dtype=np.int64)
             labels = lookup[labels]
         return LabelledInput(raw, labels, names, rate, file_labels, note)
-
-    def _fit_explorations(self, raw: np.ndarray) -> tuple[np.ndarray, str | None]:
-        from .touches import fit_explorations
-
-        return fit_explorations(raw, self.input_shape[1])
 
     def sample_rate_mismatch(self, rate_hz: float | None) -> str | None:
         """Return a one-line warning when data sampled at ``rate_hz`` do not match the bundle's rate.

@@ -14,11 +14,15 @@ together, a frame of another sensor): skipped and counted, never an item.
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable, Iterator
 
 import numpy as np
 
+from .checks import check_number
+from .csv_logs import STANDARD_GRAVITY, UNITS
+from .data_sources import GRAVITY_BAND_G
 from .port_lines import PortLines, ReadablePort, StreamEvent
 from .stream_source import (
     FORMAT,
@@ -37,6 +41,8 @@ TIME_UNITS = ("s", "ms", "us", "samples")
 """Units the ``t`` field may be in; ``"samples"`` is an item counter (one per sample or frame)."""
 FORMAT_RUN = 16
 """Consecutive lines of the other format (with or without ``t``) after which the new format is followed."""
+UNITS_BLOCK = 64
+"""Samples over which the units of a sample stream are judged (mean acceleration, share out of range)."""
 _UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6}
 
 
@@ -103,6 +109,14 @@ class SerialSource(PortLines):
         accepted values (items with a value outside are rejected and end the segment).
     time_unit : {"s", "ms", "us", "samples"}
         Unit of the ``t`` field; ``"samples"`` reads it as an item counter (needs ``spec.rate_hz``).
+    units : {"g", "m/s2"}, default "g"
+        Samples: units of the ``x,y,z`` values on the line (as ``tactile-torch train --units``); the
+        readings are in g.
+    scale : float, optional
+        Samples: units per count when the sensor sends integer counts (``0.0039`` for the ADXL345 at
+        full resolution): a value is read as ``value * scale`` in ``units``. Samples that look like
+        other units (a mean of 7-12 g over 64 samples: gravity in m/s^2; or most of 64 samples out of
+        range) are said so once (event ``"units"``, with the argument to set).
     silence_s, idle_timeout_s, start_timeout_s, reconnect, backoff_s, on_event, on_open, name, clock, sleep
         As :class:`~tactile_torch.robot.port_lines.PortLines`.
     max_line_bytes : int, optional
@@ -121,6 +135,8 @@ class SerialSource(PortLines):
         spec: ItemSpec,
         *,
         time_unit: str = "s",
+        units: str = "g",
+        scale: float | None = None,
         silence_s: float = 0.5,
         idle_timeout_s: float | None = None,
         start_timeout_s: float | None = None,
@@ -137,6 +153,11 @@ class SerialSource(PortLines):
             raise ValueError(f"time_unit must be one of {TIME_UNITS}, got {time_unit!r}")
         if time_unit == "samples" and spec.rate_hz is None:
             raise ValueError("time_unit='samples' (a sample counter) needs rate_hz")
+        if units not in UNITS:
+            raise ValueError(f"units must be one of {list(UNITS)}, got {units!r}")
+        if spec.kind != SAMPLE and (units != "g" or scale is not None):
+            raise ValueError("units and scale apply to accelerometer samples, not to frames")
+        self.units, self.scale = units, None if scale is None else check_number(scale, "scale")
         if max_line_bytes is None:
             max_line_bytes = max(256, 24 * (spec.size + 1))
         super().__init__(
@@ -159,6 +180,31 @@ class SerialSource(PortLines):
         self.skipped_name = "lines"
         self.rejected = self.format_switches = self.lost_on_reconnect = 0
         self.counts = _PortCounts(self)
+
+    def _judge_units(self, mean: tuple[float, float, float], n: int, rejected: int) -> bool:
+        """Say once what a block of ``n`` samples (mean in g, ``rejected`` out of range) looks like; return whether it did."""
+        norm = math.sqrt(sum(m * m for m in mean))
+        declared = "g" if self.units == "g" and self.scale is None else None
+        if declared and GRAVITY_BAND_G[0] <= norm <= GRAVITY_BAND_G[1]:
+            hint = "these look like m/s^2: pass units='m/s2'"
+            message = (
+                f"the samples read as g have a mean acceleration of {norm:.3g} g over {n} samples (x, y, z = "
+                f"{', '.join(f'{m:.3g}' for m in mean)}): gravity reads 1 g, so {hint} ({STANDARD_GRAVITY} m/s^2 "
+                "= 1 g)"
+            )
+        elif 2 * rejected >= n:
+            hint = "not g? declare units='m/s2', scale= or range_g="
+            message = (
+                f"{rejected} of the last {n} samples were beyond {self.spec.describe_range()}: samples in other "
+                f"units than {self.units}{'' if self.scale is None else f' x {self.scale:g}'}? declare them with "
+                "units='m/s2' (m/s^2) or scale= (units per count of a sensor that sends counts), or the sensor's "
+                "range with range_g="
+            )
+        else:
+            return False
+        self._units_hint = hint
+        self._emit("units", message)
+        return True
 
     @property
     def name(self) -> str:
@@ -183,18 +229,21 @@ class SerialSource(PortLines):
         sample = spec.kind == SAMPLE
         decode = parse_line if sample else self._decode()
         lo, hi = spec.low, spec.high
+        factor = UNITS[self.units] * (1.0 if self.scale is None else self.scale)
+        # the units of samples are judged over blocks until they are found wrong (said once)
+        judge = sample and self._units_hint is None
+        block, block_x, block_y, block_z, block_rejected = 0, 0.0, 0.0, 0.0, 0
         unit = _UNITS[self.time_unit] if self.time_unit in _UNITS else 1.0 / spec.rate_hz
         timed: bool | None = None  # whether the lines carry t (set by the first item of a connection)
         other_run = 0  # consecutive lines of the other format
         count = 0  # items since the connection (re)started, to spot a partial first line
-        reconnects = self.reconnects
         check, in_range = spec.checks_range, spec.in_range
         self._last_sample_at, self._silent = self._clock(), False
         self._delay = self.backoff_s[0]
         for line, now in self._lines():
             if line is None:  # silence or reconnection: continuity lost, the format may change
-                kind = RECONNECT if self.reconnects != reconnects else SILENCE
-                reconnects = self.reconnects
+                kind = RECONNECT if self._reconnected else SILENCE  # after a reconnection t counts the loss
+                self._reconnected = False
                 timed, other_run, count = None, 0, 0
                 yield Break(kind, now)
                 continue
@@ -203,7 +252,16 @@ class SerialSource(PortLines):
                 self.skipped += 1
                 continue
             if sample:
-                t, values = parsed[0], parsed[1:]
+                t, x, y, z = parsed
+                if factor != 1.0:
+                    x, y, z = x * factor, y * factor, z * factor
+                values = (x, y, z)
+                if judge:
+                    block, block_x, block_y, block_z = block + 1, block_x + x, block_y + y, block_z + z
+                    if block == UNITS_BLOCK:
+                        mean = (block_x / block, block_y / block, block_z / block)
+                        judge = not self._judge_units(mean, block, self.rejected - block_rejected)
+                        block, block_x, block_y, block_z, block_rejected = 0, 0.0, 0.0, 0.0, self.rejected
             else:
                 t, values = parsed
             has_t = t is not None

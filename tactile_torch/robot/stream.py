@@ -50,7 +50,7 @@ from collections.abc import Callable, Iterator
 
 from .checks import check_count, check_number
 from .contract import DEFAULT_RANGE_G
-from .port_lines import ReadablePort, StreamDisconnected, StreamEvent, StreamTimeout
+from .port_lines import ReadablePort, StreamDisconnected, StreamEvent, StreamTimeout, open_serial_port
 from .runtime import sensor_range_g
 from .serial_source import FORMAT_RUN, TIME_UNITS, SerialSource
 from .stream_segments import GAP_TOLERANCE, RATE_TOLERANCE, Segments, Sequencer, SlidingWindows, Window
@@ -85,9 +85,17 @@ class WindowReader:
         from ``t``; without it, ``t`` is checked only for going back.
     time_unit : {"s", "ms", "us", "samples"}, default "s"
         Unit of the ``t`` field; ``"samples"`` reads it as a sample counter (needs ``rate_hz``).
+    units : {"g", "m/s2"}, default "g"
+        Units of the ``x,y,z`` values on the line (as ``tactile-torch train --units``); the windows
+        are in g.
+    scale : float, optional
+        Units per count when the sensor sends integer counts (``0.0039`` for the ADXL345 at full
+        resolution): a value is read as ``value * scale`` in ``units``.
     range_g : float, default 5.0
-        Samples with a value beyond ``±range_g`` are rejected (:func:`sensor_range_g` reads it from a
-        bundle); ``math.inf`` turns the check off.
+        Samples with a value beyond ``±range_g`` (in g, after ``units`` and ``scale``) are rejected
+        (:func:`sensor_range_g` reads it from a bundle); ``math.inf`` turns the check off. Samples
+        that look like other units (a mean of 7-12 g: gravity in m/s^2; or most of 64 samples out of
+        range) are said so once (event ``"units"``, with the argument to set).
     silence_s : float, default 0.5
         Seconds without a sample after which a silence is reported and the segment ends.
     idle_timeout_s : float, optional
@@ -99,6 +107,10 @@ class WindowReader:
     reconnect : bool, default False
         Reopen a failed port (``source`` must be a callable) with exponential backoff, until
         ``idle_timeout_s`` has passed without a sample; otherwise raise :class:`StreamDisconnected`.
+        A reopened port gets ``idle_timeout_s`` anew for its first sample. With ``t``, the samples
+        lost while the port was away are counted (:attr:`lost`) from the step of ``t`` across the
+        reconnection; a ``source`` that reopens with :func:`open_serial_port` ``(keep_input=True)``
+        keeps what the sensor sent during the wait (pyserial's ``open`` flushes it).
     backoff_s : tuple of float, default (0.5, 8.0)
         First and longest wait between reconnection attempts; the wait doubles after each failure.
     on_event : callable, optional
@@ -142,6 +154,8 @@ class WindowReader:
         max_windows: int | None = None,
         rate_hz: float | None = None,
         time_unit: str = "s",
+        units: str = "g",
+        scale: float | None = None,
         range_g: float = DEFAULT_RANGE_G,
         silence_s: float = 0.5,
         idle_timeout_s: float | None = None,
@@ -169,6 +183,8 @@ class WindowReader:
             source,
             spec,
             time_unit=time_unit,
+            units=units,
+            scale=scale,
             silence_s=silence_s,
             idle_timeout_s=idle_timeout_s,
             start_timeout_s=start_timeout_s,
@@ -183,6 +199,7 @@ class WindowReader:
         )
         self.window_size = window_size
         self.time_unit = time_unit
+        self.units, self.scale = self.source.units, self.source.scale
         self.sequencer = Sequencer(self.rate_hz, item="sample", on_event=on_event, clock=clock)
         self.segmenter = SlidingWindows(spec, window_size, self.step)
 
@@ -213,6 +230,7 @@ __all__ = [
     "Window",
     "WindowReader",
     "format_sample",
+    "open_serial_port",
     "parse_line",
     "parse_sample",
     "pseudo_terminal",

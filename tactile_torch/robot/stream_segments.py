@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .port_lines import StreamEvent
-from .stream_source import FRAME, SAMPLE, Break, EventEmitter, ItemSpec, Reading, Source
+from .stream_source import FRAME, RECONNECT, SAMPLE, Break, EventEmitter, ItemSpec, Reading, Source
 from .touches import END, SHORT, START, TouchLevels, TouchTracker, fit_frames
 
 GAP_TOLERANCE = 0.5
@@ -83,8 +83,12 @@ class Sequencer:
         """Forget the previous ``t`` (after a break, the next step is not checked)."""
         self._prev_t = None
 
-    def gap(self, t: float) -> bool:
-        """Check the step from the previous ``t`` (seconds); return whether it is a gap."""
+    def gap(self, t: float, in_segment: bool = True) -> bool:
+        """Check the step from the previous ``t`` (seconds); return whether it is a gap.
+
+        ``in_segment`` False: no segment is open (the first item after a reconnection, whose step from
+        the last ``t`` before it counts the items lost meanwhile): the gap is not counted again.
+        """
         prev, self._prev_t = self._prev_t, t
         if prev is None:
             return False
@@ -101,10 +105,10 @@ class Sequencer:
                 return False
             missing = max(1, round(ratio) - 1)
             self.lost += missing
-            what = f"{missing} {self.item}(s) missing"
+            what = f"{missing} {self.item}(s) missing" + ("" if in_segment else " across the reconnection")
         else:
             what = "t went back (a spliced recording or a sensor reset)"
-        self.gaps += 1
+        self.gaps += in_segment
         self._events.emit("gap", f"gap in t from {prev:.6g} to {t:.6g} s: {what}", repeated=True)
         return True
 
@@ -543,13 +547,14 @@ class Segments:
             if reading.__class__ is Break:
                 if segmenter.pending:
                     sequencer.gaps += 1
-                sequencer.reset()
+                if reading.kind != RECONNECT:  # after a reconnection, t's next step counts what was lost
+                    sequencer.reset()
                 out = segmenter.cut(reading.kind, reading.at)
                 if out is not None:
                     yield out
                 continue
             t = reading.t
-            if t is not None and gap(t):
+            if t is not None and gap(t, segmenter.pending > 0):
                 out = segmenter.cut(GAP, reading.read_at)
                 if out is not None:
                     yield out

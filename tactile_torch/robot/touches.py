@@ -41,11 +41,17 @@ found from the data (``auto``)."""
 RESTING_PERCENTILE = 5.0
 """Resting level of a taxel: this percentile of its readings (in the contact direction) over the training frames."""
 ONSET_SHARE = 0.25
-"""Default onset level: this share of the median activity of the training frames (which hold contacts)."""
+"""Default onset level: this share of the peak activity of a weak training touch (:data:`WEAK_TOUCH_QUANTILE`)."""
 RELEASE_SHARE = 0.125
-"""Default release level: this share of the same median (half the onset: the hysteresis)."""
+"""Default release level: this share of the same peak (half the onset: the hysteresis)."""
+WEAK_TOUCH_QUANTILE = 0.1
+"""The training explorations' peak activities are summarised by this quantile: a touch as light as the
+lightest tenth of the training touches still starts (a median would miss the light ones)."""
 DEAD_BAND = 3.0
 """Pressure counts towards a frame's activity above ``rest + DEAD_BAND * noise`` (noise of one reading)."""
+NOISE_CONTACT = 10.0
+"""A light training touch must peak above this many noise standard deviations of one reading, else the
+training frames show no contact (e.g. a taxel pressed in every frame, whose contact is taken for its rest)."""
 MAX_LEVEL_EXPLORATIONS = 64
 """Training explorations (evenly spaced) whose frames set the default levels: enough for a median."""
 MIN_TOUCH_S = 0.1
@@ -302,9 +308,10 @@ def touch_levels(
 ) -> TouchLevels:
     """Return the default touch levels of a bundle from its training explorations.
 
-    The training explorations hold contacts (a grasp's held frames, a finger's exploration), so the
-    median activity of their frames is a contact's activity: the onset is :data:`ONSET_SHARE` of it,
-    the release :data:`RELEASE_SHARE`. The resting levels must show in the data: every taxel at rest
+    Each training exploration holds a contact (a grasp's held frames, a finger's exploration), so its
+    largest frame activity is that touch's strength; the lightest touches matter most, so the onset is
+    :data:`ONSET_SHARE` of the :data:`WEAK_TOUCH_QUANTILE` quantile of those peaks, the release
+    :data:`RELEASE_SHARE` of it. The resting levels must show in the data: every taxel at rest
     in some of the frames (a moving contact; at least 5 % of them), or readings whose rest is
     already subtracted (as the grasp loaders of :mod:`tactile_torch.data.grasps` give them); a taxel
     pressed in every training frame would take its contact for its rest. Pressure is measured above each taxel's resting level (given,
@@ -353,13 +360,15 @@ def touch_levels(
         rest_ = resting_level(sign_ * x) if rest is None else np.asarray(rest, dtype=np.float64)
         noise = reading_noise(few)
     base = TouchLevels(1.0, 0.0, 2, signal, sign_, rest_, DEAD_BAND * noise, rgb)
-    activity = np.array([base.activity(f.astype(np.float32)) for e in sample for f in e])
-    frames = activity
-    contact_level = float(np.median(activity))
-    if not contact_level > max(noise, 0.0):  # within one reading's noise of rest: no contact to speak of
+    peaks = np.array([max(base.activity(f.astype(np.float32)) for f in e) for e in sample])
+    contact_level = float(np.quantile(peaks, WEAK_TOUCH_QUANTILE))
+    if (
+        not contact_level > NOISE_CONTACT * noise
+    ):  # within a few readings' noise of rest: no contact to speak of
         raise ValueError(
-            "explorations: the training frames show no pressure above their resting level (median activity "
-            f"{contact_level:g}), so no touch level can be set from them; give the levels (onset=, release=)"
+            "explorations: the training frames show no pressure above their resting level (a light training "
+            f"touch peaks at {contact_level:g}), so no touch level can be set from them; give the levels "
+            "(onset=, release=)"
         )
     rate = "" if frame_rate_hz is None else f" at {frame_rate_hz:g} frames/s"
     min_frames = 2 if frame_rate_hz is None else max(2, math.ceil(MIN_TOUCH_S * frame_rate_hz - 1e-9))
@@ -372,8 +381,9 @@ def touch_levels(
         rest=rest_,
         floor=DEAD_BAND * noise,
         rgb=rgb,
-        source=f"training data: {ONSET_SHARE:g} and {RELEASE_SHARE:g} of the median {signal} pressure of "
-        f"{len(frames)} training frames ({contact_level:.4g}), shortest touch {min_frames} frames{rate}",
+        source=f"training data: {ONSET_SHARE:g} and {RELEASE_SHARE:g} of the peak {signal} pressure of a light "
+        f"training touch ({contact_level:.4g}, the {WEAK_TOUCH_QUANTILE:.0%} quantile of {len(peaks)}), shortest "
+        f"touch {min_frames} frames{rate}",
     )
 
 
@@ -461,6 +471,7 @@ __all__ = [
     "GRAY",
     "MAX_LEVEL_EXPLORATIONS",
     "MIN_TOUCH_S",
+    "NOISE_CONTACT",
     "NONE",
     "ONSET_SHARE",
     "RELEASE_SHARE",
@@ -468,6 +479,7 @@ __all__ = [
     "SHORT",
     "SIGNALS",
     "START",
+    "WEAK_TOUCH_QUANTILE",
     "TouchLevels",
     "TouchTracker",
     "contact_sign",

@@ -47,14 +47,18 @@ class _Calibration:
 def _copy_metadata(source: object, target_path: Path, mode: str) -> None:
     import onnx
 
+    from .._onnx import save_onnx
+    from ..robot.contract import DIGEST_KEY
+
     model = onnx.load(str(target_path))
     del model.metadata_props[:]
     for prop in source.metadata_props:
-        entry = model.metadata_props.add()
-        entry.key, entry.value = prop.key, prop.value
+        if prop.key != DIGEST_KEY:  # the source's digest: the int8 file gets its own (save_onnx)
+            entry = model.metadata_props.add()
+            entry.key, entry.value = prop.key, prop.value
     entry = model.metadata_props.add()
     entry.key, entry.value = "quantisation", mode
-    onnx.save(model, str(target_path))
+    save_onnx(model, target_path)
 
 
 def quantise_bundle(

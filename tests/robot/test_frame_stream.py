@@ -225,3 +225,29 @@ def test_a_bundle_without_levels_needs_an_onset(tmp_path, bundle):
     with pytest.raises(ValueError, match="segment must be one of"):
         LiveOptions(segment="grasps")
     assert math.isinf(item_spec(bare).high)
+
+
+def test_memory_of_a_touch_stream_does_not_grow(bundle):
+    """Bounded memory: the first and last T frames of a touch whatever its length, nothing per touch kept."""
+    import tracemalloc
+
+    rng = np.random.default_rng(5)
+    press = np.where(np.arange(2000)[:, None, None] % 40 < 30, 5.0, 0.0) * np.ones((1, 4, 4))
+    frames = (press + rng.uniform(0, 0.1, press.shape)).astype(np.float32)
+    press[:, :2] = 5.0
+    long_touch = np.concatenate([np.zeros((2, 4, 4)), press, np.zeros((2, 4, 4))]).astype(np.float32)
+
+    def peak(values):
+        tracemalloc.start()
+        live = LiveStream(bundle, ArraySource(values, item_spec(bundle)), LiveOptions(early=False))
+        n = sum(1 for _ in live)
+        size = tracemalloc.get_traced_memory()[1]
+        tracemalloc.stop()
+        return n, size
+
+    n_short, short = peak(frames[:200])
+    n_long, long = peak(frames)
+    assert (n_short, n_long) == (5, 50)  # 10x the touches ...
+    assert long < short + 64 * 1024  # ... not 10x the memory
+    one, single = peak(long_touch)  # one touch of 2000 frames
+    assert one == 1 and single < short + 64 * 1024

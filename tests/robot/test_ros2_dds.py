@@ -26,7 +26,7 @@ from tactile_torch.robot.ros2_dds import (
     resolve_config,
     ros_type_of,
 )
-from tactile_torch.robot.ros_messages import MessageDecoder, MessageEncoder, TopicFields
+from tactile_torch.robot.ros_messages import MessageEncoder, TopicFields
 from tactile_torch.robot.ros_types import (
     FLOAT_ARRAY_TYPE,
     IMAGE_TYPE,
@@ -108,11 +108,22 @@ def test_the_decision_string_is_what_a_ros2_talker_sends():
     )
 
 
-def test_a_publisher_process_reaches_a_subscriber_on_the_loopback_only(tmp_path):
-    # simulate-sensor publishes a recording as sensor_msgs/Imu; this process subscribes (type found from
-    # the publisher) and decodes every message back to the recording in g. Both participants trace every
-    # RTPS message they send: all went to 127.0.0.1, over the loopback interface alone.
+def test_a_publisher_process_reaches_the_stream_on_the_loopback_only(tmp_path):
+    # simulate-sensor publishes a recording as sensor_msgs/Imu; this process streams it (the type found
+    # from the publisher) through a vibration bundle: every sample arrives, m/s^2 back to g, stamped at
+    # the recording's rate, and the windows and their scores are those of the same samples offline.
+    # Both participants trace every RTPS message they send: all went to 127.0.0.1, over the loopback alone.
+    from tactile_torch.robot.live import LiveStream, item_spec
+    from tactile_torch.robot.port_lines import StreamDisconnected
+    from tactile_torch.robot.ros2_source import Ros2Source
+    from tactile_torch.robot.runtime import OnnxPipeline
+    from tactile_torch.robot.stream_output import result_record
+    from tactile_torch.robot.stream_source import ArraySource
+    from tests.stream_helpers import energy_bundle
+
     signals, rate_hz = _recordings(tmp_path / "rec.npz")
+    pipe = OnnxPipeline(energy_bundle(tmp_path / "energy.onnx", window=64, step=32))
+    offline = [result_record(r) for r in LiveStream(pipe, ArraySource(signals[1], item_spec(pipe)))]
     domain = free_domain_id()
     pub_config = traced_loopback(tmp_path / "pub.xml")
     sub_config = traced_loopback(tmp_path / "sub.xml")
@@ -126,34 +137,35 @@ def test_a_publisher_process_reaches_a_subscriber_on_the_loopback_only(tmp_path)
         text=True,
         env=ros2_env(),
     )  # fmt: skip
-    store = message_types()
-    values = []
+    values, stamps, live = [], [], []
+    source = Ros2Source(
+        "/imu", item_spec(pipe), dds=DdsOptions(domain_id=domain, config=str(sub_config)), start_timeout_s=30
+    )
     try:
-        with DdsNode(DdsOptions(domain_id=domain, config=str(sub_config))) as node:
-            from tactile_torch.robot.ros2_dds import discover_type
+        readings = source.readings
 
-            msgtype = discover_type(node, "/imu", timeout_s=30)
-            assert msgtype == IMU_TYPE
-            reader = TopicReader(node, "/imu", msgtype, DdsTypes(store))
-            decoder = MessageDecoder(TopicFields(msgtype), store)
-            stamps, deadline = [], time.monotonic() + 30
-            while len(values) < len(signals[1]) and time.monotonic() < deadline:
-                for received in reader.take(0.1):
-                    reading = decoder.decode(received.cdr)
-                    values.append(reading.values)
-                    stamps.append(reading.stamp_ns)
+        def recorded():  # the readings, kept on their way to the stream
+            for item in readings():
+                if hasattr(item, "values"):
+                    values.append(item.values)
+                    stamps.append(item.t)
+                yield item
+
+        source.readings = recorded
+        with pytest.raises(StreamDisconnected, match=r"/imu: the publisher left after 200 samples"):
+            for result in LiveStream(pipe, source):
+                live.append(result_record(result))
         out, err = publisher.communicate(timeout=30)
     finally:
+        source.close()
         publisher.kill()
-    assert publisher.returncode == 0, err
-    assert f"{len(signals[1])} messages published" in out
-    got = np.array(values)
-    found = [int(np.argmin(np.abs(signals[1] - v).sum(1))) for v in got[:3]] + [
-        int(np.argmin(np.abs(signals[1] - v).sum(1))) for v in got[-3:]
-    ]
-    assert len(got) == len(signals[1]), found
-    np.testing.assert_allclose(got, signals[1], rtol=1e-6, atol=1e-7)
-    np.testing.assert_allclose(np.diff(stamps), 1e9 / rate_hz, atol=1)  # header stamps at the rate
+    assert publisher.returncode == 0 and f"{len(signals[1])} messages published" in out, err
+    assert source.msgtype == IMU_TYPE
+    np.testing.assert_allclose(np.array(values), signals[1], rtol=1e-6, atol=1e-7)
+    np.testing.assert_allclose(np.diff(stamps), 1 / rate_hz, atol=1e-6)  # header stamps at the rate
+    assert [r["sample"] for r in live] == [r["sample"] for r in offline] and len(live) == 5
+    assert [r["label"] for r in live] == [r["label"] for r in offline]
+    np.testing.assert_allclose([r["scores"] for r in live], [r["scores"] for r in offline], rtol=1e-5)
     for config in (pub_config, sub_config):
         trace = config.with_suffix(".log")
         destinations = sent_to(trace)

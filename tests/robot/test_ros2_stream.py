@@ -32,7 +32,7 @@ from tactile_torch.robot.stream_output import result_record
 from tactile_torch.robot.stream_source import ArraySource
 from tactile_torch.robot.touches import TouchLevels, touch_levels
 from tests.ros2_helpers import DecisionListener, cli, free_domain_id, ros2_env, write_frame_bag
-from tests.stream_helpers import energy_bundle, frame_bundle
+from tests.stream_helpers import frame_bundle
 
 pytest.importorskip(
     "cyclonedds", reason="the optional extra 'ros2' (cyclonedds) is not installed: pip install -e '.[ros2]'"
@@ -363,35 +363,6 @@ def test_a_publisher_that_starts_late_pauses_leaves_and_comes_back(tmp_path):
     assert "the publisher left after 20 frames; waiting for it to come back" in messages[4]
     assert messages[5].startswith("a publisher of /hand/tactile is back after")
     assert live.summary().startswith("37 frames read, 5 touches") and source.counts.reconnects == 1
-
-
-def test_vibration_over_imu_messages_gives_the_offline_windows(tmp_path):
-    # IMU messages are samples: m/s^2 converted to g, header stamps as t (checked against the recording's
-    # clock); the windows and their scores are those of the same samples offline.
-    pipe = OnnxPipeline(energy_bundle(tmp_path / "energy.onnx", window=64))
-    rng = np.random.default_rng(3)
-    samples = (rng.normal(0, 0.3, (320, 3)) * np.array([1.0, 2.0, 0.5])).astype(np.float32)
-    spec = item_spec(pipe)
-    expected = [
-        result_record(r) for r in LiveStream(pipe, ArraySource(samples, spec, t=np.arange(320) / 800.0))
-    ]
-    domain = free_domain_id()
-    source = Ros2Source(
-        "/imu", spec, dds=DdsOptions(domain_id=domain, config="loopback"), start_timeout_s=30.0
-    )
-    publisher = _start_publisher(tmp_path, samples, 800.0, "/imu", domain, "sensor_msgs/msg/Imu")
-    got, error, _ = _run_in_process(pipe, source, publisher)
-    assert (
-        isinstance(error, StreamDisconnected) and source.msgtype == "sensor_msgs/msg/Imu"
-    )  # found from the publisher
-    assert [r["sample"] for r in got] == [r["sample"] for r in expected] and len(got) == 9, (
-        error,
-        source.counts,
-    )
-    assert [r["label"] for r in got] == [r["label"] for r in expected]
-    np.testing.assert_allclose([r["scores"] for r in got], [r["scores"] for r in expected], rtol=1e-5)
-    t0 = got[0]["t_start"]
-    np.testing.assert_allclose([r["t_end"] - t0 for r in got], [r["t_end"] for r in expected], atol=2e-6)
 
 
 def test_the_ros2_commands_of_docs_stream_run_as_written(tmp_path):

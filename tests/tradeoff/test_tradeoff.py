@@ -355,6 +355,7 @@ def test_tradeoff_command_on_vibration_recordings(tmp_path, capsys):
     )
     again = OnnxPipeline(tmp_path / "again.onnx")
     np.testing.assert_array_equal(again.predict(windows), pipe.predict(windows))
+    assert pipe.sealed and again.sealed  # joined front and head, and re-exported: both carry their digest
 
 
 @pytest.mark.slow  # ~27 s: the sweeps themselves are tested in tests/robustness/test_robustness.py; keeps make test near 10 min
@@ -664,6 +665,7 @@ def test_tradeoff_on_a_feature_file_exports_and_recommends(tmp_path, capsys, dty
     assert np.mean(pipe.predict(X) == y) > 0.8
     assert main(["export", "--model", str(out / "recommended.npz"), "--out", str(tmp_path / "m.onnx")]) == 0
     np.testing.assert_array_equal(OnnxPipeline(tmp_path / "m.onnx").predict(X), pipe.predict(X))
+    assert pipe.sealed and OnnxPipeline(tmp_path / "m.onnx").sealed
 
 
 def test_a_failed_run_leaves_the_previous_result_intact(tmp_path, monkeypatch, capsys):
