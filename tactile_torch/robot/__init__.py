@@ -1,8 +1,10 @@
 """The robot side: everything an exported bundle needs on the robot's computer, importable without torch.
 
 Every module of this package imports only the standard library, numpy, and (inside the functions that
-need them) onnxruntime and pyserial: the runtime install (``pip install tactile-torch``) runs it, and
-``tests/robot/test_package.py`` fails if any of its modules imports torch, scikit-learn, scipy or numba.
+need them) onnxruntime, pyserial, and the optional ``cyclonedds`` and ``rosbags`` (ROS 2 topics and bags,
+extras ``ros2`` and ``ros``): the runtime install (``pip install tactile-torch``) runs it, and
+``tests/robot/test_package.py`` fails if any of its modules imports torch, scikit-learn, scipy or numba,
+or loads an optional package at import time.
 The training side (:mod:`tactile_torch.training`, the exporters) imports from here, never the other way.
 
 The package's API is declared the project's one way (:func:`tactile_torch._exports.lazy_exports`, standard
