@@ -2,8 +2,8 @@
 
 One module per command (or group of commands), each holding its parser section (``register``) and a
 handler that parses, calls the library and prints: :mod:`.report`, :mod:`.bench`, :mod:`.train`,
-:mod:`.cluster`, :mod:`.export`, :mod:`.predict`, :mod:`.stream` (``stream`` and
-``simulate-sensor``), :mod:`.tradeoff`. The options several commands share (``--data`` and how to
+:mod:`.cluster`, :mod:`.export`, :mod:`.predict`, :mod:`.stream`, :mod:`.simulate_sensor`,
+:mod:`.tradeoff`. The options several commands share (``--data`` and how to
 read it, sensor ranges, the ``--out`` check) are in :mod:`._options`, what they print besides their
 results in :mod:`._output`. The handlers import the library lazily so that ``tactile-torch predict``
 and ``stream`` run on a robot with onnxruntime and no torch.
@@ -74,7 +74,17 @@ TRAIN_MODULES = (
 NEEDS_TRAIN_EXTRA = ("report", "bench", "train", "cluster", "export", "tradeoff")
 """Commands that need the ``[train]`` extra; ``predict``, ``stream`` and ``simulate-sensor --data`` do not."""
 
-COMMAND_MODULES = ("report", "bench", "train", "cluster", "export", "predict", "stream", "tradeoff")
+COMMAND_MODULES = (
+    "report",
+    "bench",
+    "train",
+    "cluster",
+    "export",
+    "predict",
+    "stream",
+    "simulate_sensor",
+    "tradeoff",
+)
 """The modules of :mod:`tactile_torch.cli` that register commands, in the order of ``--help``."""
 
 ARGUMENT_FLAGS = {
@@ -103,6 +113,10 @@ ARGUMENT_FLAGS = {
     "sensor_range_g": "--sensor-range",
     "topic": "--topic",
     "shape": "--shape",
+    "field": "--field",
+    "sensor": "--sensor",
+    "msg_defs": "--msg-def",
+    "domain_id": "--domain-id",
     "frames": "--frames",
     "max_messages": "--max-messages",
     "index": "--index",
@@ -113,6 +127,11 @@ ARGUMENT_FLAGS = {
     "calibrate": "--calibrate",
     "false_alarm": "--false-alarm",
     "sessions": "--sessions",
+    "onset": "--onset",
+    "release": "--release",
+    "min_frames": "--min-frames",
+    "touch_signal": "--touch-signal",
+    "segment": "--segment",
     MAX_READ_ENV: "--max-read-mb",
 }
 """The library's argument names and the options that set them: the one place where an error message

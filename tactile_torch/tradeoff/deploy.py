@@ -36,10 +36,13 @@ from sklearn.base import clone
 from ..robot.contract import (
     CLASS_NAMES_KEY,
     DEFAULT_RANGE_G,
+    EARLY_RULE_KEY,
+    FRAMES_LAYOUT,
     INPUT_LAYOUT_KEY,
     INPUT_SHAPE_KEY,
     LABELS_OUTPUT,
     PIPELINE_KEY,
+    PRESSURE_LAYOUT,
     RANGE_METADATA_KEY,
     SAMPLE_RATE_KEY,
     STEP_KEY,
@@ -158,6 +161,53 @@ def _evenly(n: int, k: int) -> np.ndarray:
     return np.linspace(0, n - 1, min(k, n)).round().astype(int)
 
 
+def live_metadata(result: object, name: str, model: object) -> tuple[dict, list[str]]:
+    """Return what a deployed frame bundle records for the live stream (``stream`` on taxel frames) and notes.
+
+    The frame rate, the value range and the touch levels of the training explorations
+    (:func:`tactile_torch.robot.touches.frame_metadata`; the contact direction and resting levels of a
+    fitted :class:`~.transformers.PressureImageFeatures` when the candidate has one), and the
+    early-decision rule calibrated on the study's held-out touches (:mod:`.touch_time`). ``{}`` for
+    vibration windows and feature matrices.
+    """
+    from ..robot.touches import frame_metadata
+    from .transformers import PressureImageFeatures
+
+    cand = result.result(name).candidate
+    s = result.inputs[cand.input]
+    if s.layout not in (PRESSURE_LAYOUT, FRAMES_LAYOUT):
+        return {}, []
+    step = model.steps[0][1]
+    sign = rest = None
+    contact = "raises"
+    if isinstance(step, PressureImageFeatures):
+        sign, rest = step.sign_, step.resting_
+    else:  # the direction the study was told (its pressure-image candidates carry it)
+        for other in result.results:
+            first = other.candidate.estimator.steps[0][1]
+            if other.candidate.input == cand.input and isinstance(first, PressureImageFeatures):
+                contact = "raises" if first.contact == "auto" else first.contact
+                break
+    meta, note = frame_metadata(
+        s.X,
+        frame_rate_hz=result.data.rate_hz,
+        rgb=s.layout == FRAMES_LAYOUT,
+        contact=contact,
+        sign=sign,
+        rest=rest,
+    )
+    notes = [note] if note else []
+    curve = result.touch_time.get(name)
+    if curve is None and result.result(name).cv is not None and result.result(name).cv.models:
+        from .touch_time import touch_time
+
+        curve = touch_time(result.result(name), s, result.data.rate_hz, quick=True)
+    if curve is not None and curve.rule is not None:
+        meta[EARLY_RULE_KEY] = curve.rule.to_metadata()
+        notes.append(f"early decisions: {curve.rule.describe()}")
+    return meta, notes
+
+
 def deploy_candidate(
     result: object, name: str, out_dir: str | Path, pool: object, *, random_state: int = 0
 ) -> dict:
@@ -210,13 +260,15 @@ def deploy_candidate(
     if s.window is not None:
         meta.update({WINDOW_SIZE_KEY: s.window, STEP_KEY: s.window, SAMPLE_RATE_KEY: result.data.rate_hz})
         meta[RANGE_METADATA_KEY] = DEFAULT_RANGE_G
+    live, live_notes = live_metadata(result, name, model)  # frame bundles: rate, touch levels, early rule
+    meta.update(live)
     learned = is_learned(model)
     path = out / f"{stem}.onnx"
     if learned:  # a network or learned front end: its own graph, exported whole (docs/neural.md)
         path = _export_learned(result, model, check, path, meta)
     else:
         path = _export_classical(result, cand, model, s, check, path, meta, pool)
-    notes = []
+    notes = list(live_notes)
     if variant.quantisation is not None:
         from .int8 import CLASSIFIER_PREFIX, quantise_bundle
 
@@ -354,6 +406,7 @@ __all__ = [
     "DEPLOY_MAX_SAMPLES",
     "deploy_candidate",
     "deployment_samples",
+    "live_metadata",
     "unknown_rule",
     "write_model_file",
 ]

@@ -402,7 +402,7 @@ def execute_plan(
     baselines = baseline_rows(inputs)
     for b in baselines.values():
         b.pop("_units")
-    return TradeoffResult(
+    result = TradeoffResult(
         data=data,
         results=results,
         rows=rows,
@@ -420,6 +420,13 @@ def execute_plan(
         warnings=_unit_warnings(inputs),
         references=plan.references,
     )
+    if data.kind in ("image", "pressure"):  # how long the hand must hold (docs/tradeoff.md)
+        from .touch_time import accuracy_vs_time
+
+        stage = time.perf_counter()
+        result.touch_time = accuracy_vs_time(result, quick=plan.quick, log=log)
+        result.seconds += time.perf_counter() - stage
+    return result
 
 
 def _study_model(plan: TradeoffPlan) -> str | None:

@@ -69,6 +69,9 @@ class TradeoffResult:
         ends with status 1 (:meth:`mark_incomplete`).
     references : dict of str to FeatureRecipe
         Per raw input, its reference feature set (:class:`~.runner.TradeoffPlan`).
+    touch_time : dict of str to TouchTime
+        Frame data: accuracy against time into the touch of the recommended candidate and the
+        runner-up, with the early-decision rule their held-out touches calibrate (:mod:`.touch_time`).
     """
 
     data: TradeoffData
@@ -96,6 +99,8 @@ class TradeoffResult:
         if isinstance(error, BaseException):
             error = f"{type(error).__name__}: {' '.join(str(error).split())[:300]}"
         self.incomplete.append({"stage": stage, "error": error})
+
+    touch_time: dict = field(default_factory=dict)
 
     @property
     def status(self) -> str:
