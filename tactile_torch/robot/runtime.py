@@ -58,8 +58,8 @@ from .contract import (
     WINDOWS_LAYOUT,
 )
 from .errors import InputTypeError
-from .formats import LabelledInput
 from .integrity import NotProtobufError, UnsealedBundleWarning, check_digest
+from .labelled import LabelledInput
 
 _KIND_KEYS = {"image": "frames", "vibration": "signals", "features": "features"}
 _WARNED_UNSEALED: set[str] = set()  # bundles without a digest already warned about (the warning only)
