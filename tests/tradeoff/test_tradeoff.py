@@ -260,6 +260,12 @@ def test_bad_input_gets_one_clear_line(tmp_path, recordings, capsys):
         ValueError, match=r"'aluminium' holds 1 value\(s\) that are not finite .* sample 7, axis z"
     ):
         plan_tradeoff(vibration_data(overflow, "logs"), log=lambda s: None)
+    signals[1][7, 2] = np.finfo(np.float32).max  # 1e308 saturated by a reader instead of overflowing
+    saturated = RecordingArrays(signals, recordings.labels, recordings.class_names, 800.0)
+    with pytest.raises(
+        ValueError, match=r"'aluminium' holds 1 value\(s\) that are not finite .* sample 7, axis z"
+    ):
+        plan_tradeoff(vibration_data(saturated, "logs"), log=lambda s: None)
 
 
 # ---------------------------------------------------------------------------------------- transformers
