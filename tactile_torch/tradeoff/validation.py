@@ -12,10 +12,17 @@ FLOAT32_MAX = float(np.finfo(np.float32).max)
 measurement: refused as a non-finite one is."""
 
 
-def _not_finite(values: np.ndarray) -> np.ndarray:
-    """Where ``values`` are NaN, infinite, or saturated at float32's range (:data:`FLOAT32_MAX`)."""
+MAX_ACCELERATION_G = 1e15
+"""A vibration sample beyond this many g is no measurement (accelerometers read at most thousands of g) and
+its window's features overflow float32 (spectral powers of 1e25 g are inf): refused even with
+``--sensor-range inf``, in one line, before any work."""
+
+
+def _not_finite(values: np.ndarray, limit: float = FLOAT32_MAX) -> np.ndarray:
+    """Where ``values`` are NaN, infinite, or at least ``limit`` in magnitude (default: saturated at
+    float32's range, :data:`FLOAT32_MAX`)."""
     values = np.asarray(values)
-    return ~np.isfinite(values) | (np.abs(values) >= FLOAT32_MAX)
+    return ~np.isfinite(values) | (np.abs(values) >= limit)
 
 
 def check_two_classes(data: TradeoffData) -> None:
@@ -40,15 +47,16 @@ def check_finite(data: TradeoffData) -> None:
     if data.kind == "vibration":
         rec = data.recordings
         for r, signal in enumerate(rec.signals):
-            bad = _not_finite(signal)
+            bad = _not_finite(signal, MAX_ACCELERATION_G)
             if bad.any():
                 row, axis = np.argwhere(bad)[0]
                 session = "" if rec.session is None else f", session {rec.session[r]}"
                 raise ValueError(
                     f"data: {where}: the recording of {rec.class_names[int(rec.labels[r])]!r}{session} holds "
                     f"{int(bad.sum())} value(s) that are not finite numbers (first: sample {row}, axis "
-                    f"{'xyz'[axis]}: NaN, or beyond float32's range such as 1e308); every window must be "
-                    "finite: fix or drop them (a finite sensor range, sensor_range_g=, refuses such values)"
+                    f"{'xyz'[axis]}: {float(np.asarray(signal)[row, axis]):.3g}; NaN, inf, or beyond "
+                    f"{MAX_ACCELERATION_G:.0e} g, which no accelerometer reads and whose features overflow); every "
+                    "window must be finite: fix or drop them (a finite sensor range, sensor_range_g=, refuses such values)"
                 )
     elif data.raw is not None and np.issubdtype(data.raw.dtype, np.floating) and _not_finite(data.raw).any():
         first = np.argwhere(_not_finite(data.raw))[0]

@@ -266,6 +266,12 @@ def test_bad_input_gets_one_clear_line(tmp_path, recordings, capsys):
         ValueError, match=r"'aluminium' holds 1 value\(s\) that are not finite .* sample 7, axis z"
     ):
         plan_tradeoff(vibration_data(saturated, "logs"), log=lambda s: None)
+    signals[1][7, 2] = 1e30  # beyond any accelerometer: its features overflow float32 (status 4 before)
+    huge = RecordingArrays(signals, recordings.labels, recordings.class_names, 800.0)
+    with pytest.raises(
+        ValueError, match=r"'aluminium' holds 1 value\(s\) .* axis z: 1e\+30; .* beyond 1e\+15 g"
+    ):
+        plan_tradeoff(vibration_data(huge, "logs"), log=lambda s: None)
 
 
 # ---------------------------------------------------------------------------------------- transformers
