@@ -20,7 +20,7 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-from . import BAD_INPUT_EXIT
+from ._codes import BAD_INPUT_EXIT
 
 
 class UsageError(ValueError):

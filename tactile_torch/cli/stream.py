@@ -13,7 +13,7 @@ import argparse
 import math
 import sys
 
-from . import (
+from ._codes import (
     STREAM_DISCONNECTED_EXIT,
     STREAM_NO_DATA_EXIT,
     STREAM_OUTPUT_CLOSED_EXIT,
@@ -280,7 +280,7 @@ def _stream_until_stopped(args: argparse.Namespace) -> int:
     from ..robot.live import LiveStream, frame_bundle, item_spec
     from ..robot.runtime import OnnxPipeline
     from ..robot.stream import StreamDisconnected, StreamTimeout
-    from . import ARGUMENT_FLAGS, with_flags
+    from ._codes import ARGUMENT_FLAGS, with_flags
 
     if bool(args.port) == bool(args.ros2_topic):
         raise UsageError("give either --port PORT (a serial sensor) or --ros2-topic TOPIC (a ROS 2 topic)")

@@ -48,6 +48,7 @@ from ..robot.contract import (
     STEP_KEY,
     WINDOW_SIZE_KEY,
 )
+from ..robot.naming import slug
 
 CHECK_SAMPLES = 64
 """Samples on which the deployed ONNX file's labels are compared with the refitted pipeline's."""
@@ -57,10 +58,6 @@ at most 60 with ``--quick``, 300 without): more data for the model the robot run
 DEPLOY_MAX_SAMPLES = 8000
 """And at most about this many in all (an SVM's kernel grows with the square): the full study's own size
 on the bundled 28 surfaces (300 per class). The study's cap per class, when larger, is kept."""
-
-
-def _slug(name: str) -> str:
-    return "-".join("".join(ch if ch.isalnum() else " " for ch in name.lower()).split())
 
 
 def _source(step: object, rate_hz: float | None) -> dict | None:
@@ -248,7 +245,7 @@ def deploy_candidate(
         model, params = base.cv.final_model(s.X, s.y, s.groups, random_state=random_state)
     else:
         model = clone(cand.estimator).fit(s.X, s.y)
-    stem = "recommended" if name == result.recommended else _slug(name)
+    stem = "recommended" if name == result.recommended else slug(name)
     out = Path(out_dir)
     check = np.ascontiguousarray(s.X[_evenly(len(s.y), CHECK_SAMPLES)])
     samples = (
@@ -359,8 +356,8 @@ def unknown_rule(result: object, cand: object, model: object, s: object, pool: o
 
 def _export_classical(result, cand, model, s, check, path: Path, meta: dict, pool) -> Path:
     """Join the fitted model's feature graph and classifier graph (the study's export parts) into ``path``."""
-    from .evaluation import _head_modules, _stateless, features_key
-    from .export import bind_head, export_fixed_head, export_front, export_head, head_key, join
+    from .evaluation import _stateless, features_key
+    from .export import bind_head, export_fixed_head, export_front, export_head, head_key, head_modules, join
 
     step = model.named_steps["features"]
     front = ("front", *features_key(cand))
@@ -371,7 +368,7 @@ def _export_classical(result, cand, model, s, check, path: Path, meta: dict, poo
         pool.submit(
             front, export_front, clone(step).fit(check[:2]), check[:2]
         )  # a no-op when already exported
-    modules = _head_modules(model)
+    modules = head_modules(model)
     n_features = int(step.transform(check[:1]).shape[1])
     head = ("head", *head_key(modules, n_features))
     pool.submit(head, export_head, modules, n_features, background=False)

@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .evaluation import CandidateResult
+from .candidates import CandidateResult
 from .inputs import Samples, TradeoffData
 from .selection import (
     MIN_UNITS,
@@ -119,7 +119,7 @@ class TradeoffResult:
         raise KeyError(name)
 
     def result(self, name: str) -> CandidateResult:
-        """Return the :class:`~.evaluation.CandidateResult` of candidate ``name`` (its estimator, fitted model)."""
+        """Return the :class:`~.candidates.CandidateResult` of candidate ``name`` (its estimator, fitted model)."""
         for res in self.results:
             if res.candidate.name == name:
                 return res

@@ -84,7 +84,7 @@ def fold_scores(
     import torch
     from torch import nn
 
-    from .evaluation import _head_modules
+    from .export import head_modules
     from .learned import is_learned
 
     with torch.no_grad():
@@ -94,7 +94,7 @@ def fold_scores(
             out = module(torch.from_numpy(x if x.dtype == np.uint8 else x.astype(np.float32)))
         else:
             z = model.named_steps["features"].transform(X) if features is None else features
-            head = nn.Sequential(*_head_modules(model)).eval()
+            head = nn.Sequential(*head_modules(model)).eval()
             out = head(torch.from_numpy(np.ascontiguousarray(z, dtype=np.float32)))
     return np.asarray(out[0].numpy(), dtype=np.int64), np.asarray(out[1].numpy(), dtype=np.float64)
 
