@@ -172,11 +172,7 @@ class WindowReader:
         window_size = check_count(window_size, "window_size", 2)
         self.step = window_size if step is None else check_count(step, "step", 1)
         self.max_windows = None if max_windows is None else check_count(max_windows, "max_windows", 1)
-        if time_unit not in TIME_UNITS:
-            raise ValueError(f"time_unit must be one of {TIME_UNITS}, got {time_unit!r}")
-        if time_unit == "samples" and rate_hz is None:
-            raise ValueError("time_unit='samples' (a sample counter) needs rate_hz")
-        self.rate_hz = None if rate_hz is None else check_number(rate_hz, "rate_hz")
+        self.rate_hz = None if rate_hz is None else check_number(rate_hz, "rate_hz")  # time_unit: SerialSource
         self.range_g = check_number(range_g, "range_g")
         spec = ItemSpec(SAMPLE, (3,), -self.range_g, self.range_g, self.rate_hz, "g")
         self.source = SerialSource(
