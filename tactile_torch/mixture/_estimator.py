@@ -17,7 +17,7 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 from .._constraints import RANDOM_STATE
 from ..robot.checks import numpy_rng
 from ._diagnostics import budget_warning
-from ._mfm import coarsening_power, log_v
+from ._mfm import coarsening_power, k_ceiling, log_v
 from ._point_estimate import choose_partition, partition_components
 from ._predict_mixin import PredictionMixin, _as_array
 from ._predictive import pack_predictive
@@ -25,6 +25,20 @@ from ._summaries import n_clusters_posterior, n_clusters_summary, summary_text
 
 # Floor on the eigenvalues of the hyperparameter W (whitened units; see the class docstring).
 W_FLOOR = 1e-10
+# n_split_merge="auto": one split-merge move per this many points (at least 5 per sweep).
+SPLIT_MERGE_POINTS = 40
+# Sweeps with the starting partition held fixed before a chain runs (components and hyperparameters adapt).
+WARM_UP_SWEEPS = 0
+# Algorithm 8's auxiliary means are drawn afresh every this many points, reused in between (None: once
+# per sweep, Favaro & Teh's "ReUse"; 1: before every point, as in Neal's algorithm 8).
+AUX_REFRESH = None
+
+
+def split_merge_moves(n_split_merge: int | str, n: int) -> int:
+    """Split-merge moves per sweep: ``n_split_merge``, or for ``"auto"`` ``max(5, round(n / SPLIT_MERGE_POINTS))``."""
+    if n_split_merge == "auto":
+        return max(5, round(n / SPLIT_MERGE_POINTS))
+    return int(n_split_merge)
 
 
 def _whitening(X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -165,10 +179,23 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
         from the chain's stream) with a generous ``ceil(2 sqrt(n))`` clusters; an int sets that
         number of k-means clusters; ``"one"`` puts every point in one component; an array gives the
         labels.
-    n_split_merge : int, default 5
-        Split-merge moves per sweep (0 disables them, leaving plain algorithm 8).
+    n_split_merge : int or "auto", default "auto"
+        Split-merge moves per sweep (0 disables them, leaving plain algorithm 8). ``"auto"``: one
+        per ``SPLIT_MERGE_POINTS`` (40) points, at least 5: a move costs about one pass over the
+        points of two components, a sweep's allocation one pass over every point and component, so
+        larger data afford more moves, and on the bundled 28 surfaces (1,680 windows) 42 moves mix K
+        2.3 times as fast per sweep as 5 for a third more time (docs/performance/mixture.md).
+    split_merge : {"sequential", "restricted"}, default "sequential"
+        How a split is proposed. ``"sequential"``: the points of the component are allocated one by
+        one, in a random order, to the part of either anchor point with probability proportional
+        to its size times a Gaussian predictive given the points already there (Dahl & Newcomb
+        2022), then each part draws its parameters by one Gibbs step; one pass over the points.
+        ``"restricted"``: Jain & Neal's (2007) launch state and ``n_launch + 1`` restricted Gibbs
+        scans (the sampler of the earlier versions). Both are exact Metropolis-Hastings moves; the
+        sequential one costs about a sixth of the restricted one and is accepted three times as
+        often on the benchmark data (docs/performance/mixture.md).
     n_launch : int, default 3
-        Intermediate restricted Gibbs scans of the split-merge launch states.
+        Intermediate restricted Gibbs scans of the split-merge launch states (``"restricted"``).
     near_pairs : float or None, default None
         Share of the split-merge moves whose second point is drawn among the 5 nearest neighbours
         (whitened space) of the first, the rest uniformly. Near pairs propose merges of adjacent
@@ -183,6 +210,15 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
     point_estimate : {"vi", "binder", "map"}, default "vi"
         What ``labels_`` is: the minimiser of the expected Variation of Information, of Binder's
         loss (equal costs), or the MAP sample.
+    cluster_features : int or None, default None
+        Count and cluster on the first ``cluster_features`` columns of ``X`` only, and score novelty
+        with all of them: the sampler, the point estimate, ``predict`` and ``predict_proba`` see
+        the leading columns (e.g. the first 3 principal components, where the number of surfaces is
+        counted best), while :meth:`score_samples`, :meth:`novelty_score` and the calibrated
+        novelty rule use the density of every column (e.g. 5 principal components, where new
+        surfaces stand out): a mixture with the point estimate's partition, its components
+        estimated on all columns by the same fixed-partition Gibbs run (``density_means_``, ...).
+        ``None``: every column for both.
     prior_only : bool, default False
         Ignore the data (likelihood switched off): the chain then samples the prior, which checks
         the sampler against the known prior distribution of K (a diagnostic). With ``coarsen`` the
@@ -235,9 +271,18 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
         Proposed and accepted split and merge moves, all chains.
     data_mean_, data_scale_ : ndarray of shape (D,), (D, D)
         Whitening ``z = data_scale_^{-1} (x - data_mean_)`` (``data_scale_`` lower triangular).
+    density_means_, density_covariances_, density_weights_ : ndarray or None
+        With ``cluster_features`` below the number of columns: the mixture over every column whose
+        log density is the novelty score, shapes (K, F), (K, F, F), (K,); None otherwise.
     stopped_by_ : str
         What ended the run: ``"converged"`` (the targets of ``n_iter="auto"`` hold), ``"max_iter"``
-        or ``"max_seconds"`` (a budget of ``n_iter="auto"`` ran out), ``"n_iter"`` (a fixed run).
+        or ``"max_seconds"`` (a budget of ``n_iter="auto"`` ran out), ``"n_iter"`` (a fixed run), or
+        an early stop of ``n_iter="auto"`` when the evidence says the budget cannot reach the targets:
+        ``"stuck"`` (chains in different modes of K that none leaves), ``"ceiling"`` (K at the
+        largest number of components the prior allows), ``"projected"`` (the ESS of K grows too
+        slowly for twice the budget).
+    stop_reason_ : str or None
+        For an early stop: the evidence and the next step, in one line (also the warning).
     budget_exhausted_ : bool
         Whether the convergence targets were missed when the run stopped.
     n_features_in_, n_iter_ : int
@@ -258,6 +303,10 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
     R. M. Neal, "Markov chain sampling methods for Dirichlet process mixture models", JCGS 9, 2000.
     S. Jain, R. M. Neal, "Splitting and merging components of a nonconjugate Dirichlet process
     mixture model", Bayesian Analysis 2(3), 2007.
+    D. B. Dahl, S. Newcomb, "Sequentially allocated merge-split samplers for conjugate Bayesian
+    nonparametric models", J. Statistical Computation and Simulation 92(7), 2022.
+    S. Favaro, Y. W. Teh, "MCMC for normalized random measure mixture models", Statistical Science
+    28(3), 2013 (the reuse of algorithm 8's auxiliary components).
     S. Wade, Z. Ghahramani, "Bayesian cluster analysis: point estimation and credible balls",
     Bayesian Analysis 13(2), 2018.
     A. Vehtari, A. Gelman, D. Simpson, B. Carpenter, P.-C. Bürkner, "Rank-normalization, folding,
@@ -287,11 +336,13 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
         "n_jobs": [Interval(Integral, 1, None, closed="left"), None],
         "n_aux": [Interval(Integral, 1, None, closed="left")],
         "init": [StrOptions({"kmeans", "one"}), Interval(Integral, 1, None, closed="left"), "array-like"],
-        "n_split_merge": [Interval(Integral, 0, None, closed="left")],
+        "n_split_merge": [Interval(Integral, 0, None, closed="left"), StrOptions({"auto"})],
+        "split_merge": [StrOptions({"sequential", "restricted"})],
         "n_launch": [Interval(Integral, 0, None, closed="left")],
         "near_pairs": [Interval(Real, 0, 1, closed="both"), None],
         "thin": [Interval(Integral, 1, None, closed="left"), None],
         "point_estimate": [StrOptions({"vi", "binder", "map"})],
+        "cluster_features": [Interval(Integral, 1, None, closed="left"), None],
         "prior_only": ["boolean"],
         "random_state": RANDOM_STATE,
         "progress": ["boolean"],
@@ -313,11 +364,13 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
         n_jobs: int | None = None,
         n_aux: int = 5,
         init: str | int | np.ndarray = "kmeans",
-        n_split_merge: int = 5,
+        n_split_merge: int | str = "auto",
+        split_merge: str = "sequential",
         n_launch: int = 3,
         near_pairs: float | None = None,
         thin: int | None = None,
         point_estimate: str = "vi",
+        cluster_features: int | None = None,
         prior_only: bool = False,
         random_state: object = None,
         progress: bool = True,
@@ -337,10 +390,12 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
         self.n_aux = n_aux
         self.init = init
         self.n_split_merge = n_split_merge
+        self.split_merge = split_merge
         self.n_launch = n_launch
         self.near_pairs = near_pairs
         self.thin = thin
         self.point_estimate = point_estimate
+        self.cluster_features = cluster_features
         self.prior_only = prior_only
         self.random_state = random_state
         self.progress = progress
@@ -406,8 +461,8 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
         # the compiled kernels load here, at the first fit of a process, not at import
         from . import _gibbs as g
         from ._chains import (
-            AUTO_EVERY,
-            AUTO_FIRST,
+            Chains,
+            RunLength,
             auto_burn_in,
             chain_attributes,
             keep_after_burn_in,
@@ -415,13 +470,19 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
             run_chains,
             run_chains_until,
             targets_met,
+            warm_up,
         )
 
         X = validate_data(self, _as_array(X), dtype=np.float64)
         rng = numpy_rng(self.random_state)
-        n, D = X.shape
-        mean, scale = _whitening(X)
-        Xw = np.ascontiguousarray(np.linalg.solve(scale, (X - mean).T).T)
+        n, F = X.shape
+        D = F if self.cluster_features is None else int(self.cluster_features)
+        if D > F:
+            raise ValueError(
+                f"cluster_features must be at most the number of columns of X ({F}), got {self.cluster_features}"
+            )
+        mean, scale = _whitening(X[:, :D])
+        Xw = np.ascontiguousarray(np.linalg.solve(scale, (X[:, :D] - mean).T).T)
         mfm = self.model == "mfm"
         fit_alpha, fit_d = self.alpha is None and not mfm, self.discount is None and not mfm
         d_low = max(0.0, -float(self.alpha)) if (not fit_alpha and fit_d) else 0.0
@@ -442,7 +503,7 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
         snap_sweeps = np.arange(n_iter - 1, -1, -thin)[::-1]
         cfg = g.Settings(
             n_aux=int(self.n_aux),
-            n_split_merge=int(self.n_split_merge),
+            n_split_merge=split_merge_moves(self.n_split_merge, n),
             n_launch=int(self.n_launch),
             use_lik=not bool(self.prior_only),
             fit_alpha=fit_alpha,
@@ -452,43 +513,45 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
             w_min=W_FLOOR,
             burn_in=burn_in,
             near=float(self.near_pairs if self.near_pairs is not None else (0.9 if mfm else 0.0)),
+            sequential=self.split_merge == "sequential",
+            refresh=max(1, n) if AUX_REFRESH is None else AUX_REFRESH,
         )
         nbr = neighbours(Xw) if cfg.near > 0 and cfg.n_split_merge > 0 else np.zeros((n, 0), dtype=np.int64)
         chain_rngs = rng.spawn(n_chains)
-        chains = []
+        states = []
         for c in range(n_chains):
             st = g.new_state(self._initial_labels(Xw, chain_rngs[c]), D, alpha0, d0, zeta, gamma, lv)
             g.init_components(Xw, st, cfg.use_lik, chain_rngs[c])
-            chains.append(st)
+            warm_up(Xw, st, cfg, chain_rngs[c], WARM_UP_SWEEPS)
+            states.append(st)
         workers = self.n_jobs or min(
             n_chains,
             len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1),
         )
+        chains = Chains(Xw, states, cfg, chain_rngs, nbr, workers, bool(self.progress))
         quantities = ("n_clusters",) + ("alpha",) * fit_alpha + ("discount",) * fit_d
+        self.stop_reason_ = None
         if auto:
-            runs, snap_sweeps, self.stopped_by_, _ = run_chains_until(
-                Xw, chains, cfg, chain_rngs, AUTO_FIRST, n_iter, AUTO_EVERY, workers, self.progress,
-                quantities, burn_in, self.max_seconds, nbr,
-            )  # fmt: skip
+            plan = RunLength(n_iter, self.max_seconds, burn_in, quantities, k_ceiling(n) if mfm else None)
+            runs, snap_sweeps, self.stopped_by_, diag = run_chains_until(chains, plan)
+            self.stop_reason_ = diag.get("reason")
             n_iter = runs[0]["trace"].shape[0]
             burn_in = auto_burn_in(n_iter, burn_in)
-            snap_sweeps = keep_after_burn_in(runs, snap_sweeps, cfg.burn_in, burn_in)
+            snap_sweeps = keep_after_burn_in(runs, snap_sweeps, burn_in)
             self.budget_exhausted_ = self.stopped_by_ != "converged"
         else:
-            runs = run_chains(Xw, chains, cfg, chain_rngs, n_iter, snap_sweeps, workers, self.progress, nbr)
+            runs = run_chains(chains, n_iter, snap_sweeps)
             self.stopped_by_ = "n_iter"
             self.budget_exhausted_ = not targets_met(runs, burn_in, quantities)
-        self.n_features_in_ = D
+        self.n_features_in_ = F
         self.data_mean_, self.data_scale_ = mean, scale
         self.n_iter_ = n_iter
         for name, value in chain_attributes(
             runs, snap_sweeps, burn_in, self.alpha is None and not mfm, self.discount is None and not mfm
         ).items():
             setattr(self, name, value)
-        self._store_point_estimate(Xw, runs, cfg, rng)
-        self._pred = pack_predictive(
-            runs, snap_sweeps, burn_in, n, self.labels_, rng, float(self.k_prior_mean)
-        )
+        self._store_point_estimate(Xw, runs, cfg, rng, X if D < F else None)
+        self._pred = pack_predictive(runs, n, self.labels_, rng, float(self.k_prior_mean))
         self.sweep_seconds_ = float(np.mean([r["seconds"] for r in runs]) / n_iter)
         self.fit_seconds_ = time.perf_counter() - t_fit
         warning = budget_warning(self, auto)
@@ -501,7 +564,9 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
         keep = self.labels_sweeps_ >= self._burn_in
         return self.labels_samples_[:, keep].reshape(-1, self.labels_samples_.shape[-1]).astype(np.int64)
 
-    def _store_point_estimate(self, Xw: np.ndarray, runs: list[dict], cfg, rng) -> None:
+    def _store_point_estimate(
+        self, Xw: np.ndarray, runs: list[dict], cfg, rng, X_all: np.ndarray | None
+    ) -> None:
         labels, loss = choose_partition(self._saved_partitions(), self.map_labels_, self.point_estimate)
         self.labels_ = labels
         self.n_clusters_ = int(labels.max()) + 1
@@ -517,6 +582,28 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
         self.means_, self.covariances_ = c.means, c.covariances
         self.precisions_cholesky_ = c.precisions_cholesky
         self._components = c
+        self._density = None
+        self.density_means_ = self.density_covariances_ = self.density_weights_ = None
+        if X_all is not None:  # novelty scored on every column: the partition's components there
+            mean, scale = _whitening(X_all)
+            Zw = np.ascontiguousarray(np.linalg.solve(scale, (X_all - mean).T).T)
+            d = partition_components(
+                Zw,
+                labels,
+                self._map_state,
+                cfg,
+                rng,
+                mean,
+                scale,
+                float(self.k_prior_mean),
+                same_features=False,
+            )
+            self._density = d
+            self.density_means_, self.density_covariances_, self.density_weights_ = (
+                d.means,
+                d.covariances,
+                d.weights,
+            )
         self.novelty_thresholds_ = None  # the model's own rule until calibrate_novelty
 
     def fit_predict(self, X: object, y: object = None) -> np.ndarray:
@@ -530,6 +617,36 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
         """Return the posterior distribution of K (share of post-burn-in sweeps of all chains), as {K: probability}."""
         check_is_fitted(self)
         return n_clusters_posterior(self.n_clusters_samples_)
+
+    def n_components_posterior(self) -> dict[int, float]:
+        """Return the posterior of the number of *components* K (empty ones included), as {K: probability}.
+
+        Mixture of finite mixtures: the Rao-Blackwellised estimate ``mean over sweeps of P(K | T =
+        t_s)`` from the number of occupied clusters ``t_s`` of each post-burn-in sweep (Miller &
+        Harrison 2018; :func:`~tactile_torch.mixture._mfm.components_given_clusters`), exact given
+        the sampled ``t``. It is at least the posterior of the clusters (K >= T; with ``n`` far
+        above K the two nearly coincide). Its precision is that of the sampled ``t``: being a
+        function of ``t`` per sweep, it has the ESS of K's trace. Pitman-Yor: the process has
+        infinitely many components, so this raises ``ValueError``.
+        """
+        check_is_fitted(self)
+        if self.model != "mfm":
+            raise ValueError(
+                "n_components_posterior needs model='mfm' (a Pitman-Yor process has infinitely many components)"
+            )
+        from ._mfm import components_given_clusters
+
+        n = self.zeta_ * len(self.labels_)
+        ts, counts = np.unique(self.n_clusters_samples_, return_counts=True)
+        span = 200
+        total = np.zeros(int(ts.max()) + span + 1)
+        for t, c in zip(ts, counts, strict=True):
+            p = components_given_clusters(
+                n, float(self.weight_concentration), float(self.k_prior_mean), int(t), span
+            )
+            total[: p.size] += c * p
+        total /= counts.sum()
+        return {int(k): float(v) for k, v in enumerate(total) if v > 1e-9}
 
     def posterior_similarity(self) -> np.ndarray:
         """Return the posterior similarity matrix (n, n): probability that two training points share a component."""
@@ -558,6 +675,7 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
         check_is_fitted(self)
         from ._inference import GaussianMixtureClassifier
 
+        density = self._density
         return GaussianMixtureClassifier(
             self.means_,
             self.precisions_cholesky_,
@@ -566,4 +684,8 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
             novelty_precisions_cholesky=self._components.novelty_precisions_cholesky,
             novelty_log_weight=math.log(self.novelty_weight_) - math.log(1.0 - self.novelty_weight_),
             novelty_thresholds=self.novelty_thresholds_,
+            density_means=None if density is None else density.means,
+            density_precisions_cholesky=None if density is None else density.precisions_cholesky,
+            density_log_weights=None if density is None else np.log(density.weights),
+            cluster_features=None if density is None else self.means_.shape[1],
         )
