@@ -82,6 +82,8 @@ class Clustering:
 
 DEFAULT_CALIBRATE = 0.2
 """Share of each recording's windows held out of the fit to calibrate the novelty thresholds."""
+NOVELTY_COMPONENTS = 5
+"""Principal components of the novelty rule's density (recordings); the first ``components`` of them count K."""
 MAX_WINDOWS = 10
 """Thresholds are calibrated for decisions after N = 1 … ``MAX_WINDOWS`` consecutive windows."""
 
@@ -124,6 +126,7 @@ def fit_clustering(
     window: int = 800,
     step: int | None = None,
     components: int = 3,
+    novelty_components: int | None = NOVELTY_COMPONENTS,
     sensor_range_g: float | None = None,
     name: str = "data",
     log: Callable[[str], None] | None = None,
@@ -142,7 +145,13 @@ def fit_clustering(
     window, step : int
         Vibration: window length and hop in samples (default hop: ``window``).
     components : int
-        Vibration: principal components kept by the transform.
+        Vibration: principal components that the mixture counts and clusters (K, the labels).
+    novelty_components : int or None
+        Vibration: principal components of the novelty rule's density (default 5): the transform
+        keeps ``max(components, novelty_components)`` components, the mixture clusters the first
+        ``components`` and scores novelty on all (:class:`~tactile_torch.mixture.PitmanYorGMM`'s
+        ``cluster_features``); the exported graph computes them side by side. ``None``: the same
+        ``components`` for both.
     sensor_range_g : float, optional
         Vibration: the sensor's range declared by the user, kept in ``source`` (the export's
         default range). ``None`` or ``inf``: not kept.
@@ -175,6 +184,12 @@ def fit_clustering(
 
     if isinstance(false_alarm, bool) or not (isinstance(false_alarm, int | float) and 0 < false_alarm < 1):
         raise ValueError(f"false_alarm must be a number in (0, 1), got {false_alarm!r}")
+    if novelty_components is not None and (
+        isinstance(novelty_components, bool)
+        or not isinstance(novelty_components, int)
+        or novelty_components < 1
+    ):
+        raise ValueError(f"novelty_components must be an integer >= 1 or None, got {novelty_components!r}")
     transform = None
     if data.kind == "features":  # labels optional: clustering does not need them
         if sessions:
@@ -194,13 +209,20 @@ def fit_clustering(
             source["sensor_range_g"] = float(sensor_range_g)
         share = DEFAULT_CALIBRATE if calibrate is None else calibrate
         rows = _holdout(len(features.X), share, features.recording, features.position, None, name)
-        transform = ClusteringTransform(components).fit(features.X[rows[0]])
+        # the novelty rule's components where the data afford them (min(rows, 12 mapped features))
+        width = max(components, min(novelty_components or components, len(rows[0]), 12))
+        transform = ClusteringTransform(width).fit(features.X[rows[0]])
         X = np.asarray(transform.transform(features.X))
+        if width > components:
+            mixture_params = {"cluster_features": components} | mixture_params
         if sessions:
             X = _standardise_sessions(X, data, features.recording, name)
         if log is not None:
             held = f", {rows[1].size} held out to calibrate the novelty rule" if rows[1].size else ""
-            log(f"{name}: {len(X)} windows of {window} samples -> {X.shape[1]} principal components{held}")
+            counted = f" (K counted on the first {components})" if X.shape[1] > components else ""
+            log(
+                f"{name}: {len(X)} windows of {window} samples -> {X.shape[1]} principal components{counted}{held}"
+            )
     else:
         raise ValueError(
             f"{name}: data must hold vibration recordings ('signals') or a 'features' array (n, D) to "

@@ -56,12 +56,20 @@ def test_recordings_go_through_windows_features_and_components(tmp_path):
         **FAST,
     )
     n = len(clustering.X)
-    assert clustering.X.shape == (n, 2) and clustering.truth.shape == (n,)
+    # decision (a) of issue 32: 5 components side by side, K counted and clustered on the first 2
+    assert clustering.X.shape == (n, 5) and clustering.truth.shape == (n,)
+    assert clustering.mixture.cluster_features == 2 and clustering.mixture.means_.shape[1] == 2
+    assert clustering.mixture.density_means_.shape[1] == 5
     assert clustering.source["kind"] == "vibration" and clustering.source["sensor_range_g"] == 8.0
     assert lines == [
-        f"rec.npz: {n} windows of 400 samples -> 2 principal components, 3 held out to calibrate the "
-        "novelty rule"
+        f"rec.npz: {n} windows of 400 samples -> 5 principal components (K counted on the first 2), "
+        "3 held out to calibrate the novelty rule"
     ]
+    # novelty_components=None: one set of components for both
+    same = fit_clustering(
+        read_source([tmp_path / "rec.npz"]), window=400, components=2, novelty_components=None, **FAST
+    )
+    assert same.X.shape == (n, 2) and same.mixture.density_means_ is None
 
 
 def test_images_cannot_be_clustered(tmp_path):

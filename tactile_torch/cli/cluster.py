@@ -37,7 +37,19 @@ def register(sub) -> None:
     p.add_argument("--out", default="runs/cluster", help="output directory (default: runs/cluster)")
     p.add_argument("--window", type=int, default=800, help="recordings: window in samples (default: 800)")
     p.add_argument("--step", type=int, default=None, help="recordings: window hop (default: the window)")
-    p.add_argument("--components", type=int, default=3, help="recordings: principal components (default: 3)")
+    p.add_argument(
+        "--components",
+        type=int,
+        default=3,
+        help="recordings: principal components that count K and cluster (default: 3)",
+    )
+    p.add_argument(
+        "--novelty-components",
+        type=int,
+        default=5,
+        help="recordings: principal components of the novelty rule's density, computed side by side with "
+        "--components in the exported graph (default: 5; 0: the same as --components)",
+    )
     add_allow_pickle(p)
     p.add_argument(
         "--model",
@@ -124,6 +136,7 @@ def run_cluster(args: argparse.Namespace) -> int:
         window=args.window,
         step=args.step,
         components=args.components,
+        novelty_components=args.novelty_components or None,
         sensor_range_g=getattr(args, "data_sensor_range", None),
         name=data_name(args.data),
         log=print,

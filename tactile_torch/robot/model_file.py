@@ -35,7 +35,10 @@ Layout (format version 1, ``docs/formats.md``):
     ``samples`` ``(T, F)`` and ``labels`` ``(T,)``; a mixture's ``means``
     ``(K, D)``, ``precisions_cholesky`` ``(K, D, D)``, ``log_weights`` ``(K,)`` and optionally
     ``novelty_thresholds`` ``(W,)`` (the calibrated threshold of the mean novelty score over
-    N = 1 … W windows; empty: not calibrated) and the new-component density (``novelty_means``, ...).
+    N = 1 … W windows; empty: not calibrated) and the new-component density (``novelty_means``, ...);
+    with the head's ``cluster_features`` K (< F): ``means`` ``(C, K)`` on the first K features and the
+    novelty density over all F, ``density_means`` ``(Q, F)``, ``density_precisions_cholesky``
+    ``(Q, F, F)``, ``density_log_weights`` ``(Q,)``.
 ``ood.means`` ``(C, F)``, ``ood.precision_cholesky`` ``(F, F)``
     classifiers: the statistics of the out-of-distribution distance (older files lack them).
 ``transform.<name>``
@@ -148,6 +151,8 @@ DIMENSIONS = {
     "T": "training samples of a nearest-neighbour head",
     "R": "features the front end makes (before 'select')",
     "W": "numbers of consecutive windows with a novelty threshold",
+    "K": "features a mixture counts and clusters on (head.cluster_features)",
+    "Q": "components of a mixture's novelty density",
 }
 """What each named dimension of :data:`HEADS` and :data:`TRANSFORMS` counts (for error messages)."""
 METHODS = {"classifier": ("hmsvm", "svm", "lda", "knn", "ncm"), "clustering": ("pyp",)}
@@ -424,6 +429,8 @@ def validate_model(header: object, arrays: Mapping[str, np.ndarray], *, where: s
             _fail(where, "scale must be > 0 (a standard deviation per feature)")
         if "center" in arrays:
             _check_arrays(where, "", {"center": (("F",), "f")}, arrays, dims)
+    if head["type"] == "gaussian-mixture":
+        head_arrays = _mixture_arrays(where, head, head_arrays, arrays, dims)
     _check_arrays(where, "head", head_arrays, arrays, dims)
     if head["type"] == "neighbours":
         if (
@@ -466,6 +473,28 @@ def _check_ood(where: str, ood: object, arrays: Mapping[str, np.ndarray], dims: 
         _fail(where, f"ood must have 0 < quantile <= 1 and threshold > 0, got {ood}")
     spec = {"means": (("C", "F"), "f"), "precision_cholesky": (("F", "F"), "f")}
     _check_arrays(where, "ood", spec, arrays, dims)
+
+
+def _mixture_arrays(where: str, head: Mapping, spec: dict, arrays: Mapping, dims: dict[str, int]) -> dict:
+    # a mixture that counts and clusters on the first ``cluster_features`` of the F features and scores
+    # novelty with the density of all F (head.density_*): its components are (C, K), K < F
+    spec = dict(spec)
+    if "cluster_features" in head:
+        k = head["cluster_features"]
+        _check_type(where, "head.cluster_features", k, int)
+        if not 1 <= k < dims.get("F", k + 1):
+            _fail(where, f"head.cluster_features must be in 1..{dims.get('F', k + 1) - 1}, got {k}")
+        dims["K"] = k
+        spec.update({"means": (("C", "K"), "f"), "precisions_cholesky": (("C", "K", "K"), "f")})
+    if "cluster_features" in head or arrays.get("head.density_means", np.zeros(0)).size:
+        spec.update(
+            {
+                "density_means": (("Q", "F"), "f"),
+                "density_precisions_cholesky": (("Q", "F", "F"), "f"),
+                "density_log_weights": (("Q",), "f"),
+            }
+        )
+    return spec
 
 
 def _check_novelty(where: str, header: Mapping, arrays: Mapping[str, np.ndarray]) -> None:
