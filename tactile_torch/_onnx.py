@@ -83,15 +83,36 @@ def export_onnx(
 
 
 def save_onnx(model: object, path: str | Path, *, inputs: Sequence[str | Path] = ()) -> Path:
-    """Write an ``onnx.ModelProto`` to ``path`` atomically, refusing unsafe targets; return ``path``.
+    """Write an ``onnx.ModelProto`` to ``path`` atomically and sealed, refusing unsafe targets; return ``path``.
 
-    A directory, a device, a symbolic link or one of ``inputs`` at ``path`` is refused in one line
-    (:func:`tactile_torch.robot.safe_write.write_atomic`); the file appears under its name only complete.
+    The file gets its digest (:func:`tactile_torch.robot.integrity.seal`: SHA-256 of the file without
+    the digest's own metadata property, replacing any digest the model carried), which
+    :class:`~tactile_torch.robot.runtime.OnnxPipeline` checks on load: every exporter writes through
+    here. A directory, a device, a symbolic link or one of ``inputs`` at ``path`` is refused in one
+    line (:func:`tactile_torch.robot.safe_write.write_atomic`); the file appears under its name only
+    complete.
     """
+    from .robot.integrity import seal
     from .robot.safe_write import write_atomic
 
-    data = model.SerializeToString()
+    data = seal(model.SerializeToString())
     return write_atomic(path, lambda f: f.write(data), inputs=inputs)
+
+
+def unsealed(model: object) -> object:
+    """Return a copy of an ``onnx.ModelProto`` without its digest property (to change or merge it)."""
+    import onnx
+
+    from .robot.contract import DIGEST_KEY
+
+    copy = onnx.ModelProto()
+    copy.CopyFrom(model)
+    kept = [(p.key, p.value) for p in copy.metadata_props if p.key != DIGEST_KEY]
+    del copy.metadata_props[:]
+    for key, value in kept:
+        entry = copy.metadata_props.add()
+        entry.key, entry.value = key, value
+    return copy
 
 
 def _used_names(graph) -> set[str]:

@@ -191,6 +191,8 @@ def fit_clustering(
     ):
         raise ValueError(f"novelty_components must be an integer >= 1 or None, got {novelty_components!r}")
     transform = None
+    if sessions and data.kind == "vibration":
+        check_sessions(data, name)  # before any work: a fit on meaningless sessions runs for minutes
     if data.kind == "features":  # labels optional: clustering does not need them
         if sessions:
             raise ValueError(
@@ -255,15 +257,24 @@ def _holdout(n_rows, share, recording, position, random_state, name) -> tuple[np
     return fitted, held
 
 
-def _standardise_sessions(X: np.ndarray, data, recording: np.ndarray, name: str) -> np.ndarray:
-    """``X`` standardised within each recording session; refuse data without several sessions of several recordings."""
-    from .signal.sessions import standardise_per_session
+def check_sessions(data, name: str = "data") -> None:
+    """Refuse recordings whose sessions cannot be standardised within (``cluster --sessions``), in one line.
 
-    session = None if data.session is None else np.asarray(data.session)
+    Standardising within a session removes what its recordings share; that is the session's gain
+    shift only when the session holds several surfaces. Refused: no sessions, a single session, every
+    session one recording, and (with several classes) a session whose recordings are all of one class,
+    which standardising would erase.
+
+    Raises
+    ------
+    ValueError
+        Naming the data, the session and what it holds.
+    """
+    session = None if data.session is None else np.asarray(data.session).astype(str)
     if session is None or np.unique(session).size < 2:
         raise ValueError(
-            f"{name}: sessions needs recordings of at least two sessions (a 'session' array, or CSV "
-            "logs named <class>_<session>.csv), got "
+            f"{name}: sessions needs recordings of at least two sessions (a 'session' array, CSV logs named "
+            "<class>_<session>.csv, or one folder per session), got "
             + ("none" if session is None else f"one ({session[0]!r})")
         )
     if all(np.count_nonzero(session == s) == 1 for s in np.unique(session)):
@@ -271,7 +282,26 @@ def _standardise_sessions(X: np.ndarray, data, recording: np.ndarray, name: str)
             f"{name}: every session holds one recording; standardising within it would remove what "
             "tells its surface from the others (sessions must each hold the same mix of surfaces)"
         )
-    return standardise_per_session(X, session[recording])
+    labels = np.asarray(data.labels)
+    if np.unique(labels).size < 2:
+        return
+    single = [s for s in np.unique(session) if np.unique(labels[session == s]).size == 1]
+    if single:
+        s = str(single[0])
+        surface = data.class_names[int(labels[session == s][0])]
+        raise ValueError(
+            f"{name}: {len(single)} of {np.unique(session).size} sessions hold a single surface (session {s!r}: "
+            f"{np.count_nonzero(session == s)} recording(s), all {surface!r}); standardising within such a session "
+            "would remove its surface (sessions must each hold the same mix of surfaces: one folder per "
+            "session, or an index CSV, index=)"
+        )
+
+
+def _standardise_sessions(X: np.ndarray, data, recording: np.ndarray, name: str) -> np.ndarray:
+    """``X`` standardised within each recording session (:func:`check_sessions` has passed)."""
+    from .signal.sessions import standardise_per_session
+
+    return standardise_per_session(X, np.asarray(data.session).astype(str)[recording])
 
 
 def clustering_summary(clustering: Clustering) -> str:

@@ -12,16 +12,35 @@ covariance), and every exported graph computes it as a third output, ``ood_dista
 2. ``d(u) = min_c sqrt((u - mu_c)^T S^-1 (u - mu_c))``: ``mu_c`` the training mean of class ``c``,
    ``S`` the pooled within-class covariance plus a ridge of ``1e-3`` times its mean variance (so a
    feature that never varied in training cannot make ``S`` singular).
-3. The threshold is the :data:`DEFAULT_QUANTILE` (99.5 %) quantile of ``d`` over the training
+3. A second view (model files of this version; older ones have only the first) measures the same distance in
+   ``u' = sign(z) * log(1 + |z| / f)``, ``f`` the 5th training percentile of a feature that is never
+   negative in training (1 for the others, :func:`log_floor`): in the first view every value far
+   below a feature's scale is about 0, so a sensor at rest (a tenth of the smoothest surface's
+   variance) sits next to the smoothest surface; in the second it lies far from every one. The
+   distance is the larger of the two, each divided by its 99.5 % training quantile (``norm``).
+4. The threshold is the :data:`DEFAULT_QUANTILE` (99.5 %) quantile of ``d`` over the training
    windows, each measured against statistics fitted without it (5 folds: in-sample distances are
    too short when the training set is small). :class:`tactile_torch.robot.runtime.OnnxPipeline` labels a sample beyond it ``-1``
    ("unknown"), with the reason.
 
+**One rule for every deployable graph.** :func:`fit_rule` fits it (on the features of every training
+sample, standardised as the graph standardises them) for every path that writes a deployable file:
+``tactile-torch train --out`` (:func:`tactile_torch.training.save_model`, then ``export``) and
+``tactile-torch tradeoff``'s deployed models (:mod:`tactile_torch.tradeoff.deploy`): classical, neural,
+int8, and re-exported from ``recommended.npz``. Which features: a classical model's own (its features,
+selected columns and standardisation: the features its head takes); a network that classifies the raw
+input has none, so its distance is measured on the reference features of that input (the 21 window
+features at its window, the fused 12 of an exploration, ...), standardised on the training data. A
+model file carries the rule as its ``ood`` part (the graph built from it computes the distance inside
+the head, :class:`WithDistance`); any other bundle gets it as a float branch beside its own graph
+(:func:`distance_graph`, :func:`add_distance`): an int8 file keeps its distance in float, so it says
+"unknown" exactly where its float twin does.
+
 Measured (``tests/test_pipeline.py``, ``docs/export.md``) on the windows of
 :func:`out_of_distribution_signals`, the one generator of signals no surface gives: at most 1 % of held-in windows unknown;
-zeros, constants, white noise, pure tones and square waves unknown in at least 99 % of windows on
-the synthetic surfaces; on real IMU recordings the square waves and low-amplitude noise are
-data-dependent (terrain vibration looks like noise).
+zeros, constants, white noise, pure tones, square waves and a still sensor unknown in at least 99 % of
+windows on the synthetic surfaces; on real IMU recordings quiet input (a still sensor, low-amplitude
+noise) and some tones are data-dependent (terrain vibration looks like noise, robots stand still).
 
 References
 ----------
@@ -32,6 +51,7 @@ samples and adversarial attacks," NeurIPS 2018.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from pathlib import Path
 
 import numpy as np
 import torch
@@ -56,8 +76,13 @@ OUT_OF_DISTRIBUTION_KINDS = (
     "white noise sd 1 g",
     "pure tone",
     "square wave",
+    "still sensor",
 )
 """Signals of :func:`out_of_distribution_signals`, in the order they are drawn."""
+STILL_NOISE_G = 0.0047
+"""A still sensor's noise (standard deviation, g): 1.2 LSB of the ADXL345's 3.9 mg, as the bundled generator's."""
+STILL_STEP_G = 0.0039
+"""A still sensor's resolution (g): its readings are multiples of it."""
 
 
 def out_of_distribution_signals(
@@ -74,9 +99,12 @@ def out_of_distribution_signals(
     uniform in [-4, 4] g) and ``"constant 1 g"`` (0, 0, 1 g: a sensor at rest), as a stuck sensor
     gives; white noise uniform in ±4.9 g, and Gaussian of sd 0.01, 0.1 and 1 g (the last clipped to
     ±5 g); a ``"pure tone"`` and a ``"square wave"`` of one frequency per window, uniform in
-    [5, rate_hz / 2.2] Hz, an amplitude uniform in [0.05, 4] g and a phase per axis. The tones'
-    frequencies, phases and amplitudes are drawn first, then each selected kind in the order above;
-    a kind left out draws nothing, so a kind's windows depend only on the seed and the kinds before it.
+    [5, rate_hz / 2.2] Hz, an amplitude uniform in [0.05, 4] g and a phase per axis; a ``"still
+    sensor"``: gravity (1 g) tilted by an angle uniform in [0, 30] degrees from z towards x, plus
+    Gaussian noise of :data:`STILL_NOISE_G` per axis, rounded to the resolution :data:`STILL_STEP_G`
+    (a sensor at rest: not constant, yet no surface's vibration). The tones' frequencies, phases and
+    amplitudes are drawn first, then each selected kind in the order above; a kind left out draws
+    nothing, so a kind's windows depend only on the seed and the kinds before it.
 
     Parameters
     ----------
@@ -122,19 +150,79 @@ def out_of_distribution_signals(
         "white noise sd 1 g": lambda: rng.normal(0, 1.0, shape).clip(-5, 5),
         "pure tone": lambda: amp * np.sin(2 * np.pi * freq * t + phase),
         "square wave": lambda: amp * np.sign(np.sin(2 * np.pi * freq * t + phase)),
+        "still sensor": lambda: _still(rng, shape),
     }
     wanted = set(selected)
     signals = {kind: draw[kind]().astype(np.float32) for kind in OUT_OF_DISTRIBUTION_KINDS if kind in wanted}
     return {kind: signals[kind] for kind in selected}
 
 
-def signed_log(z: np.ndarray) -> np.ndarray:
-    """Return ``sign(z) * log1p(|z|)`` elementwise (same shape), the space the distance is measured in."""
-    return np.sign(z) * np.log1p(np.abs(z))
+def _still(rng: np.random.Generator, shape: tuple[int, int, int]) -> np.ndarray:
+    """Windows of a sensor at rest: tilted gravity, small noise, the sensor's resolution."""
+    tilt = np.deg2rad(rng.uniform(0.0, 30.0, (shape[0], 1)))
+    gravity = np.concatenate([np.sin(tilt), np.zeros_like(tilt), np.cos(tilt)], axis=1)[:, :, None]
+    return np.round((gravity + rng.normal(0.0, STILL_NOISE_G, shape)) / STILL_STEP_G) * STILL_STEP_G
+
+
+def signed_log(z: np.ndarray, floor: np.ndarray | float = 1.0) -> np.ndarray:
+    """Return ``sign(z) * log1p(|z| / floor)`` elementwise (same shape), the space the distance is measured in.
+
+    ``floor`` (per feature, broadcast along the last axis): below it the map is about linear, above it
+    logarithmic (the second view's, :func:`log_floor`)."""
+    return np.sign(z) * np.log1p(np.abs(z) / floor)
+
+
+LOG_FLOOR_QUANTILE = 0.05
+"""The second view compares a never-negative feature on a log scale down to this training quantile of it
+(:func:`log_floor`)."""
+
+
+def log_floor(features: np.ndarray) -> np.ndarray:
+    """Return the per-feature ``floor`` of :func:`signed_log`'s second view for training ``features`` ``(N, F)``.
+
+    A feature that is never negative in training (a variance, total variation, crossing count, spectral
+    energy, gradient magnitude) gets its :data:`LOG_FLOOR_QUANTILE` training quantile (or its smallest
+    positive value when that is 0): below it ``log(1 + z / floor)`` keeps falling on a log scale, so a
+    sensor at rest, whose variance is a tenth of the smoothest surface's, lies far from every surface. A
+    feature of both signs (a skewness) keeps 1 (one training standard deviation): a log of values near 0
+    of either sign would split one cluster in two.
+    """
+    features = np.asarray(features, dtype=np.float64)
+    floor = np.ones(features.shape[1])
+    for j in np.flatnonzero((features >= 0).all(axis=0)):
+        column = features[:, j]
+        low = np.quantile(column, LOG_FLOOR_QUANTILE)
+        low = low if low > 0 else column[column > 0].min(initial=0.0)
+        if low > 0:
+            floor[j] = low
+    return floor
+
+
+def _out_of_fold(u: np.ndarray, labels: np.ndarray, n_classes: int) -> np.ndarray:
+    """Distances of rows measured against statistics fitted without them (5 folds, deterministic)."""
+    fold = np.empty(len(labels), dtype=np.int64)
+    for c in range(n_classes):
+        rows = np.flatnonzero(labels == c)
+        fold[rows] = np.arange(len(rows)) % FOLDS
+    distance = np.empty(len(labels))
+    for k in range(FOLDS):
+        held = fold == k
+        if not held.any():
+            continue
+        fit = ~held
+        if len(np.unique(labels[fit])) < n_classes:  # a class too small to leave out: in-sample for it
+            fit = np.ones_like(held)
+        m, chol = _gaussian(u[fit], labels[fit], n_classes)
+        distance[held] = _distance(u[held], m, chol)
+    return distance
 
 
 def fit_ood(
-    features: np.ndarray, labels: np.ndarray, *, quantile: float = DEFAULT_QUANTILE
+    features: np.ndarray,
+    labels: np.ndarray,
+    *,
+    quantile: float = DEFAULT_QUANTILE,
+    floor: np.ndarray | None = None,
 ) -> dict[str, np.ndarray]:
     """Return the distance's statistics fitted on standardised training features.
 
@@ -146,12 +234,16 @@ def fit_ood(
         Class index of each row, ``0 .. C - 1`` (every class present).
     quantile : float, default 0.995
         The threshold is this quantile of the training rows' distances.
+    floor : ndarray of shape (F,), optional
+        A second view (:func:`log_floor`): then the distance is the larger of the two views' distances,
+        each divided by its own ``quantile`` of the training rows' distances (``norm``).
 
     Returns
     -------
     dict
         ``means`` ``(C, F)``, ``precision_cholesky`` ``(F, F)`` (``L`` with ``L L^T = S^-1``) and
-        ``threshold`` (a 0-d array), float64.
+        ``threshold`` (a 0-d array), float64; with ``floor`` also ``floor``, ``log_means``,
+        ``log_precision_cholesky`` and ``norm`` ``(2,)``.
     """
     features = np.asarray(features, dtype=np.float64)
     labels = np.asarray(labels)
@@ -162,32 +254,67 @@ def fit_ood(
     classes = np.unique(labels)
     if len(classes) == 0 or classes[0] != 0 or classes[-1] != len(classes) - 1:
         raise ValueError(f"labels must hold every class 0..C-1, got {classes.tolist()}")
-    means, precision_cholesky = _gaussian(features, labels, len(classes))
     # Calibrate on distances of rows the statistics were not fitted on: in-sample distances are
-    # too short when the training set is small next to the F^2 covariance entries (5 folds, the
-    # rows of each class dealt to the folds in turn: deterministic).
-    fold = np.empty(len(labels), dtype=np.int64)
-    for c in classes:
-        rows = np.flatnonzero(labels == c)
-        fold[rows] = np.arange(len(rows)) % FOLDS
-    distance = np.empty(len(labels))
-    for k in range(FOLDS):
-        held = fold == k
-        if not held.any():
-            continue
-        fit = ~held
-        present = np.unique(labels[fit])
-        if len(present) < len(classes):  # a class too small to leave out: in-sample for it
-            fit = np.ones_like(held)
-        m, chol = _gaussian(features[fit], labels[fit], len(classes))
-        distance[held] = ood_distance(features[held], m, chol)
-    threshold = np.float64(np.quantile(distance, quantile))
-    return {"means": means, "precision_cholesky": precision_cholesky, "threshold": np.asarray(threshold)}
-
-
-def _gaussian(features: np.ndarray, labels: np.ndarray, n_classes: int) -> tuple[np.ndarray, np.ndarray]:
-    """Class means ``(C, F)`` and the tied precision's Cholesky factor ``(F, F)`` in the signed-log space."""
+    # too short when the training set is small next to the F^2 covariance entries.
     u = signed_log(features)
+    means, precision_cholesky = _gaussian(u, labels, len(classes))
+    distance = _out_of_fold(u, labels, len(classes))
+    state = {"means": means, "precision_cholesky": precision_cholesky}
+    if floor is not None:
+        floor = np.asarray(floor, dtype=np.float64)
+        low = signed_log(features, floor)
+        state["log_means"], state["log_precision_cholesky"] = _gaussian(low, labels, len(classes))
+        views = np.stack([distance, _out_of_fold(low, labels, len(classes))])
+        norm = np.quantile(views, quantile, axis=1)
+        norm = np.where(norm > 0, norm, 1.0)
+        distance = (views / norm[:, None]).max(axis=0)
+        state.update(floor=floor, norm=norm)
+    state["threshold"] = np.asarray(np.float64(np.quantile(distance, quantile)))
+    return state
+
+
+def fit_rule(
+    features: np.ndarray,
+    labels: np.ndarray,
+    *,
+    scale: np.ndarray,
+    center: np.ndarray | None = None,
+    quantile: float = DEFAULT_QUANTILE,
+) -> dict[str, np.ndarray | float]:
+    """Return the "unknown" rule fitted on a model's training features, as every deployed graph carries it.
+
+    The distance is measured on ``z = features / scale`` in two views (:func:`signed_log` with floor 1,
+    and with the floors of :func:`log_floor`); a graph that feeds it centred features
+    ``(features - center) / scale`` adds ``offset = center / scale`` back first.
+
+    Parameters
+    ----------
+    features : ndarray of shape (N, F)
+        The training features the model's head takes, before its standardisation (after any column
+        selection): every training sample.
+    labels : array of shape (N,)
+        Each row's class, any labels (encoded here in sorted order, as ``classes_`` are).
+    scale, center : ndarray of shape (F,)
+        The standardisation the graph applies, ``(features - center) / scale`` (``center`` 0 if ``None``).
+    quantile : float
+
+    Returns
+    -------
+    dict
+        :func:`fit_ood`'s arrays and ``threshold``, the ``offset`` ``(F,)`` and the ``quantile``: what a
+        model file's ``ood`` part holds and :class:`DistanceHead` takes.
+    """
+    features = np.asarray(features, dtype=np.float64)
+    scale = np.asarray(scale, dtype=np.float64)
+    z = features / scale
+    encoded = np.unique(np.asarray(labels), return_inverse=True)[1]
+    state = fit_ood(z, encoded, quantile=quantile, floor=log_floor(z))
+    offset = np.zeros(len(scale)) if center is None else np.asarray(center, dtype=np.float64) / scale
+    return {**state, "offset": offset, "quantile": float(quantile)}
+
+
+def _gaussian(u: np.ndarray, labels: np.ndarray, n_classes: int) -> tuple[np.ndarray, np.ndarray]:
+    """Class means ``(C, F)`` and the tied precision's Cholesky factor ``(F, F)`` of signed-log features ``u``."""
     means = np.stack([u[labels == c].mean(axis=0) for c in range(n_classes)])
     residual = u - means[labels]
     cov = residual.T @ residual / max(len(u) - n_classes, 1)
@@ -195,11 +322,34 @@ def _gaussian(features: np.ndarray, labels: np.ndarray, n_classes: int) -> tuple
     return means, np.linalg.cholesky(np.linalg.inv(cov))
 
 
-def ood_distance(features: np.ndarray, means: np.ndarray, precision_cholesky: np.ndarray) -> np.ndarray:
-    """Return the distance of each row of standardised ``features`` ``(B, F)`` to the training classes, ``(B,)``."""
-    u = signed_log(np.asarray(features, dtype=np.float64))
+def _distance(u: np.ndarray, means: np.ndarray, precision_cholesky: np.ndarray) -> np.ndarray:
     diff = (u[:, None, :] - means[None]) @ precision_cholesky  # (B, C, F)
     return np.sqrt((diff**2).sum(axis=-1).min(axis=1))
+
+
+def ood_distance(
+    features: np.ndarray,
+    means: np.ndarray,
+    precision_cholesky: np.ndarray,
+    *,
+    offset: np.ndarray | None = None,
+    floor: np.ndarray | None = None,
+    log_means: np.ndarray | None = None,
+    log_precision_cholesky: np.ndarray | None = None,
+    norm: np.ndarray | None = None,
+) -> np.ndarray:
+    """Return the distance of each row of standardised ``features`` ``(B, F)`` to the training classes, ``(B,)``.
+
+    ``offset`` is added first (centred features back to ``x / scale``); with the second view's
+    ``floor``, ``log_means``, ``log_precision_cholesky`` and ``norm`` (:func:`fit_ood`), the larger of
+    the two views' normalised distances. Without them (model files written before the second view
+    existed): the first view's distance."""
+    z = np.asarray(features, dtype=np.float64) + (0.0 if offset is None else np.asarray(offset))
+    distance = _distance(signed_log(z), means, precision_cholesky)
+    if floor is None:
+        return distance
+    low = _distance(signed_log(z, np.asarray(floor)), log_means, log_precision_cholesky)
+    return np.maximum(distance / norm[0], low / norm[1])
 
 
 class MahalanobisDistance(nn.Module):
@@ -209,20 +359,52 @@ class MahalanobisDistance(nn.Module):
     ----------
     means : array (C, F)
     precision_cholesky : array (F, F)
+    offset : array (F,), optional
+    floor, log_means, log_precision_cholesky, norm : arrays, optional
+        The second view (all or none), as in :func:`ood_distance`.
     """
 
-    def __init__(self, means: object, precision_cholesky: object) -> None:
+    def __init__(
+        self,
+        means: object,
+        precision_cholesky: object,
+        *,
+        offset: object = None,
+        floor: object = None,
+        log_means: object = None,
+        log_precision_cholesky: object = None,
+        norm: object = None,
+    ) -> None:
         super().__init__()
-        self.register_buffer("means", torch.as_tensor(np.asarray(means), dtype=torch.float32).clone())
-        self.register_buffer(
-            "precision_cholesky", torch.as_tensor(np.asarray(precision_cholesky), dtype=torch.float32).clone()
-        )
+
+        def buffer(name: str, value: object) -> None:
+            self.register_buffer(name, torch.as_tensor(np.asarray(value), dtype=torch.float32).clone())
+
+        n = np.asarray(means).shape[1]
+        buffer("means", means)
+        buffer("precision_cholesky", precision_cholesky)
+        buffer("offset", np.zeros(n) if offset is None else offset)
+        self.views = 1 if floor is None else 2
+        if self.views == 2:
+            buffer("floor", floor)
+            buffer("log_means", log_means)
+            buffer("log_precision_cholesky", log_precision_cholesky)
+            buffer("norm", norm)
+
+    @staticmethod
+    def _distance(u: torch.Tensor, means: torch.Tensor, chol: torch.Tensor) -> torch.Tensor:
+        diff = torch.matmul(u.unsqueeze(1) - means.unsqueeze(0), chol)
+        return torch.sqrt(torch.amin((diff * diff).sum(dim=-1), dim=1))
 
     def forward(self, features: torch.Tensor) -> torch.Tensor:
-        z = features.to(torch.float32)
-        u = torch.sign(z) * torch.log1p(torch.abs(z))
-        diff = torch.matmul(u.unsqueeze(1) - self.means.unsqueeze(0), self.precision_cholesky)
-        return torch.sqrt(torch.amin((diff * diff).sum(dim=-1), dim=1))
+        z = features.to(torch.float32) + self.offset
+        size = torch.abs(z)
+        distance = self._distance(torch.sign(z) * torch.log1p(size), self.means, self.precision_cholesky)
+        if self.views == 1:
+            return distance
+        low = torch.sign(z) * torch.log1p(size / self.floor)
+        low = self._distance(low, self.log_means, self.log_precision_cholesky)
+        return torch.maximum(distance / self.norm[0], low / self.norm[1])
 
 
 class WithDistance(nn.Module):
@@ -243,12 +425,146 @@ class WithDistance(nn.Module):
         return labels, scores, self.distance(features)
 
 
+OOD_ARRAYS = ("means", "precision_cholesky", "offset", "floor", "log_means", "log_precision_cholesky", "norm")
+"""The arrays of a fitted rule (:func:`fit_rule`), as a model file's ``ood.<name>`` holds them."""
+
+
+def distance_module(rule: dict) -> MahalanobisDistance:
+    """Return the :class:`MahalanobisDistance` of a fitted rule (or a model file's ``ood`` part)."""
+    return MahalanobisDistance(
+        rule["means"], rule["precision_cholesky"], **{k: rule.get(k) for k in OOD_ARRAYS[2:]}
+    )
+
+
+class DistanceHead(nn.Module):
+    """Features ``(B, F)`` → ``ood_distance`` ``(B,)``: column selection, standardisation and
+    :class:`MahalanobisDistance`; joined after a feature graph, the branch :func:`add_distance` puts
+    beside a bundle's graph.
+
+    Parameters
+    ----------
+    rule : dict
+        :func:`fit_rule`'s result.
+    scale, center : array (k,)
+        The standardisation the rule was fitted under.
+    select : array of int, optional
+        Columns of the features kept (before standardisation).
+    """
+
+    def __init__(self, rule: dict, *, scale: object, center: object = None, select: object = None) -> None:
+        super().__init__()
+        from .signal import ScaleFeatures
+
+        scale = torch.as_tensor(np.asarray(scale, dtype=np.float32))
+        center = (
+            torch.zeros_like(scale)
+            if center is None
+            else torch.as_tensor(np.asarray(center, dtype=np.float32))
+        )
+        self.register_buffer(
+            "select",
+            torch.as_tensor(np.asarray([] if select is None else select), dtype=torch.int64).clone(),
+        )
+        self.standardise = ScaleFeatures(center, scale)
+        self.distance = distance_module(rule)
+
+    def forward(self, features: torch.Tensor) -> torch.Tensor:
+        if self.select.numel():
+            features = features.index_select(1, self.select)
+        return self.distance(self.standardise(features.to(torch.float32)))
+
+
+def distance_graph(front: object, head: DistanceHead, n_features: int) -> object:
+    """Return the ONNX graph raw input → ``ood_distance``: a feature graph ``front`` (input ``raw``, output
+    ``features``: the study's exported front, :func:`tactile_torch.tradeoff.export.export_front`) joined
+    to ``head`` exported for ``n_features`` features."""
+    import tempfile
+
+    from onnx import compose
+
+    from ._onnx import export_onnx, unsealed
+    from .robot.contract import FEATURES_NAME
+
+    with tempfile.TemporaryDirectory(prefix="tactile-torch-ood-") as scratch:
+        import onnx
+
+        path = export_onnx(
+            head.eval(),
+            (torch.zeros(2, n_features, dtype=torch.float32),),
+            Path(scratch) / "distance.onnx",
+            input_names=[FEATURES_NAME],
+            output_names=[OOD_OUTPUT],
+        )
+        tail = compose.add_prefix(unsealed(onnx.load(str(path))), "head.", rename_outputs=False)
+    # the parts were written sealed, each with its own digest: merge_models refuses two values of one key
+    return compose.merge_models(unsealed(front), tail, io_map=[(FEATURES_NAME, f"head.{FEATURES_NAME}")])
+
+
+def add_distance(bundle: str | Path, graph: object, rule: dict, *, out: str | Path | None = None) -> Path:
+    """Add the "unknown" rule to an exported bundle: ``graph`` (raw input → ``ood_distance``,
+    :func:`distance_graph`) as a float branch beside it, the threshold and quantile in its metadata;
+    return the path written (``out``, default ``bundle`` itself).
+
+    The bundle's own graph (labels and scores; an int8 one too) is left as it is: the branch's names are
+    prefixed ``ood.`` and its nodes added to the bundle's graph, reading the same input.
+    :class:`tactile_torch.robot.runtime.OnnxPipeline` then answers "unknown" beyond the threshold, as for
+    a model file's bundle.
+
+    Parameters
+    ----------
+    bundle : path
+        An ``.onnx`` bundle (input ``raw``, outputs ``labels`` and ``scores``).
+    graph : onnx.ModelProto
+    rule : dict
+        :func:`fit_rule`'s result (``threshold``, ``quantile``).
+    """
+    import onnx
+    from onnx import compose
+
+    from ._onnx import save_onnx, unsealed
+    from .robot.contract import QUANTILE_KEY, THRESHOLD_KEY, metadata_strings
+
+    main = unsealed(onnx.load(str(bundle)))  # sealed again, with the branch, when saved
+    side = compose.add_prefix(graph, "ood.", rename_inputs=False, rename_outputs=False)
+    versions = {entry.domain: entry.version for entry in main.opset_import}
+    for entry in side.opset_import:
+        if versions.get(entry.domain, entry.version) != entry.version:
+            side = onnx.version_converter.convert_version(side, versions[entry.domain])
+            break
+    merged = main.graph
+    merged.node.extend(side.graph.node)
+    merged.initializer.extend(side.graph.initializer)
+    merged.value_info.extend(side.graph.value_info)
+    merged.output.extend(side.graph.output)
+    main.functions.extend(side.functions)
+    known = {entry.domain for entry in main.opset_import}
+    main.opset_import.extend(entry for entry in side.opset_import if entry.domain not in known)
+    meta = metadata_strings({THRESHOLD_KEY: float(rule["threshold"]), QUANTILE_KEY: float(rule["quantile"])})
+    kept = [(p.key, p.value) for p in main.metadata_props if p.key not in meta]
+    del main.metadata_props[:]
+    for key, value in [*kept, *meta.items()]:
+        entry = main.metadata_props.add()
+        entry.key, entry.value = key, value
+    onnx.checker.check_model(main)
+    return save_onnx(main, bundle if out is None else out)  # sealed: the digest covers the branch too
+
+
 __all__ = [
     "DEFAULT_QUANTILE",
+    "LOG_FLOOR_QUANTILE",
+    "OOD_ARRAYS",
     "OUT_OF_DISTRIBUTION_KINDS",
+    "STILL_NOISE_G",
+    "STILL_STEP_G",
+    "DistanceHead",
     "MahalanobisDistance",
     "WithDistance",
+    "add_distance",
+    "distance_graph",
+    "distance_module",
     "fit_ood",
+    "fit_rule",
+    "log_floor",
     "ood_distance",
     "out_of_distribution_signals",
     "signed_log",

@@ -264,12 +264,9 @@ def pipeline_from_model(
     classifier = _classifier_head(head, model.part("head"), len(model.class_names))
     ood = model.header.get("ood")
     if ood is not None:  # "unknown" as an answer: the graph also gives the distance to training
-        from .ood import MahalanobisDistance, WithDistance
+        from .ood import WithDistance, distance_module
 
-        state = model.part("ood")
-        classifier = WithDistance(
-            classifier, MahalanobisDistance(state["means"], state["precision_cholesky"])
-        )
+        classifier = WithDistance(classifier, distance_module(model.part("ood")))
         meta[THRESHOLD_KEY] = float(ood["threshold"])
         meta[QUANTILE_KEY] = float(ood["quantile"])
     return InferencePipeline(

@@ -130,11 +130,14 @@ def load_features(
         return FeatureSet(X, data.labels, data.class_names, source, groups=data.groups)
     import torch
 
-    from .robot.windows import window_recordings
+    from .robot.windows import check_window, window_recordings
     from .signal import window_features
 
+    window = check_window(window)
+    gaps = getattr(data, "gaps", None)
+    _check_lengths(data, window, where)
     try:
-        cut = window_recordings(data.signals, window, step)
+        cut = window_recordings(data.signals, window, step, gaps=gaps)
     except ValueError as err:
         raise ValueError(f"{where}: {err}; pass a smaller window (window=)") from None
     X = window_features(torch.from_numpy(cut.windows)).double().numpy()
@@ -219,6 +222,45 @@ class TrainedModel:
         return self.estimator.predict(X / self.scale)
 
 
+def _check_lengths(data, window: int, where: str) -> None:
+    """Refuse a class none of whose recordings (or stretches between gaps) holds a window; warn about
+    recordings that give none (they are left out)."""
+    import warnings
+    from itertools import pairwise
+
+    gaps = getattr(data, "gaps", None)
+    longest = []
+    for i, signal in enumerate(data.signals):
+        bounds = [0, *(() if gaps is None else gaps[i].tolist()), len(signal)]
+        longest.append(max(b - a for a, b in pairwise(bounds)))
+    longest = np.array(longest)
+    short = np.flatnonzero(longest < window)
+    if not short.size:
+        return
+    files = getattr(data, "sources", None)
+
+    def name(i: int) -> str:
+        what = f"recording {i}" if files is None else files[i].removeprefix(f"{where}: ")
+        between = " between gaps" if gaps is not None and len(gaps[i]) else ""
+        return f"{what}, has {longest[i]} samples{between}"
+
+    labels = np.asarray(data.labels)
+    for c, class_name in enumerate(data.class_names):
+        mine = np.flatnonzero(labels == c)
+        if mine.size and (longest[mine] < window).all():
+            i = int(mine[np.argmax(longest[mine])])
+            raise ValueError(
+                f"{where}: every recording of class {class_name!r} is shorter than one window of {window} samples "
+                f"({window / data.rate_hz:.3g} s at {data.rate_hz:g} Hz); the longest, {name(i)}: pass a smaller "
+                "window (window=) or longer recordings"
+            )
+    warnings.warn(
+        f"{where}: {short.size} of {len(longest)} recordings are shorter than one window of {window} samples "
+        f"and give none; e.g. {name(int(short[0]))}",
+        stacklevel=3,
+    )
+
+
 def held_out_folds(features: FeatureSet, n_folds: int = 5, *, random_state: RandomState = None):
     """Return ``(keep, folds, split)``: the folds ``train`` reports on, those of the trade-off.
 
@@ -251,12 +293,25 @@ def held_out_folds(features: FeatureSet, n_folds: int = 5, *, random_state: Rand
             guard=-(-window // step),
             random_state=random_state,
         )
+        if given and "grouped by" in split:  # say which sessions the folds keep apart
+            split += f"; {_listing(np.unique(session.astype(str)), 'session')}"
         return keep, folds, f"{len(keep)} windows; {split}"
     what = "samples" if features.source.get("kind") == "features" else "explorations"
     folds, split = sample_folds(
         features.y, features.groups, n_folds=n_folds, names=names, what=what, random_state=random_state
     )
     return np.arange(len(features.y)), folds, f"{len(features.y)} {what}; {split}"
+
+
+def _listing(names: Sequence[str], what: str, limit: int = 8) -> str:
+    """``"4 sessions: day1, day2, day3, day4"``, the first ``limit`` names and how many more.
+
+    >>> _listing(["a", "b", "c"], "session", limit=2)
+    '3 sessions: a, b and 1 more'
+    """
+    shown = ", ".join(str(n) for n in names[:limit])
+    more = f" and {len(names) - limit} more" if len(names) > limit else ""
+    return f"{len(names)} {what}{'s' if len(names) != 1 else ''}: {shown}{more}"
 
 
 def _fit_scaled(method: str, X: np.ndarray, y: np.ndarray, seed: int, select: int | None, **params):
@@ -424,8 +479,8 @@ def write_classifier_file(
 
     ``class_names`` name the estimator's ``classes_`` in order; ``source`` says how raw input becomes
     features (:mod:`tactile_torch.robot.model_file`); the head takes ``(features[:, select] - center) / scale``.
-    ``ood``: a fitted out-of-distribution state (:func:`tactile_torch.ood.fit_ood` on those scaled
-    features, classes in the head's order, with its ``quantile``), written as the file's ``ood`` part.
+    ``ood``: the fitted "unknown" rule (:func:`tactile_torch.ood.fit_rule` on those features, classes in
+    the head's order), written as the file's ``ood`` part.
     """
     from .robot.model_file import save_model_file
 
@@ -457,7 +512,9 @@ def write_classifier_file(
             "quantile": ood["quantile"],
             "threshold": float(ood["threshold"]),
         }
-        arrays.update({"ood.means": ood["means"], "ood.precision_cholesky": ood["precision_cholesky"]})
+        from .ood import OOD_ARRAYS
+
+        arrays.update({f"ood.{k}": np.asarray(ood[k], dtype=np.float64) for k in OOD_ARRAYS if k in ood})
     return save_model_file(path, header, arrays)
 
 
@@ -469,15 +526,15 @@ def save_model(path: str | Path, model: TrainedModel, features: FeatureSet) -> P
     (``source``), the hyper-parameters, the held-out accuracy and the arrays of the classifier's
     inference module (:func:`classifier_head`), which is what ``tactile-torch export`` turns into ONNX.
     """
-    from .ood import DEFAULT_QUANTILE, fit_ood
+    from .ood import fit_rule
 
     names = [str(features.class_names[int(c)]) for c in model.estimator.classes_]
     # "unknown" as an answer: the distance of a sample's features to the training classes
-    # (tactile_torch.ood), fitted on every row of the data, classes in the order of the head's labels
+    # (tactile_torch.ood, the rule every deployed graph carries), fitted on every row of the data
     classes = np.asarray(model.estimator.classes_)
     known = np.isin(features.y, classes)
     X = features.X[known] if model.select is None else features.X[known][:, model.select]
-    ood = fit_ood(X / model.scale, np.searchsorted(classes, features.y[known]), quantile=DEFAULT_QUANTILE)
+    ood = fit_rule(X, features.y[known], scale=model.scale)
     return write_classifier_file(
         path,
         model.estimator,
@@ -486,7 +543,7 @@ def save_model(path: str | Path, model: TrainedModel, features: FeatureSet) -> P
         scale=model.scale,
         select=model.select,
         test_accuracy=float(model.report.overall_accuracy),
-        ood={**ood, "quantile": DEFAULT_QUANTILE},
+        ood=ood,
     )
 
 

@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from tactile_torch.robot.integrity import seal
 from tactile_torch.robot.stream import format_sample
 
 
@@ -154,21 +155,27 @@ def energy_bundle(
     step: int | None = None,
     drop: tuple[str, ...] = (),
     metadata: dict[str, str] | None = None,
+    sealed: bool = True,
 ) -> Path:
-    """Write a vibration bundle: scores = per-axis mean square over the window, label = their argmax.
+    """Write a vibration bundle: scores = per-axis mean square over the window times a weight of ones
+    (an initializer, as a trained bundle's weights), label = their argmax.
 
     ``drop`` leaves metadata keys out (e.g. ``("window_size",)`` for a bundle that is not a vibration one);
-    ``metadata`` replaces or adds keys (e.g. a header that lies about the window).
+    ``metadata`` replaces or adds keys (e.g. a header that lies about the window); ``sealed=False``
+    writes no digest, as the exporters did before tactile-torch 0.1 wrote one.
 
     The ONNX protobuf is encoded here by hand (a dozen fields of ``onnx.proto``), so that the stream
     and runtime tests run on the robot install, which has onnxruntime but not the ``onnx`` package.
     """
     float_, int64 = 1, 7  # TensorProto.DataType
+    weight = _field(1, 3) + _field(2, float_) + _field(8, "weight") + _field(9, np.ones(3, "<f4").tobytes())
     graph = (
         _field(1, _node("Mul", ["raw", "raw"], ["square"]))
-        + _field(1, _node("ReduceMean", ["square"], ["scores"], axes=[2], keepdims=0))
+        + _field(1, _node("ReduceMean", ["square"], ["energy"], axes=[2], keepdims=0))
+        + _field(1, _node("Mul", ["energy", "weight"], ["scores"]))
         + _field(1, _node("ArgMax", ["scores"], ["labels"], axis=1, keepdims=0))
         + _field(2, "energy")
+        + _field(5, weight)  # GraphProto.initializer: TensorProto dims, data_type, name, raw_data
         + _field(11, _tensor_info("raw", float_, ["B", 3, window]))
         + _field(12, _tensor_info("labels", int64, ["B"]))
         + _field(12, _tensor_info("scores", float_, ["B", 3]))
@@ -191,5 +198,5 @@ def energy_bundle(
         + _field(8, _field(1, "") + _field(2, 13))  # opset_import: the default domain, opset 13
         + b"".join(_field(14, _field(1, k) + _field(2, v)) for k, v in meta.items() if k not in drop)
     )
-    Path(path).write_bytes(model)
+    Path(path).write_bytes(seal(model) if sealed else model)
     return path

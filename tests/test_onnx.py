@@ -4,6 +4,8 @@ import pytest
 import torch
 
 from tactile_torch._onnx import export_onnx, run_onnx
+from tactile_torch.robot.contract import DIGEST_KEY
+from tactile_torch.robot.integrity import check_digest
 
 
 class _Spectrum(torch.nn.Module):
@@ -21,10 +23,10 @@ def test_export_dynamic_batch_metadata_and_parity(tmp_path):
         metadata={"window_size": "64", "class_names": '["a", "b"]'},
     )
     model = onnx.load(str(path))
-    assert {p.key: p.value for p in model.metadata_props} == {
-        "window_size": "64",
-        "class_names": '["a", "b"]',
-    }
+    metadata = {p.key: p.value for p in model.metadata_props}
+    # the metadata given, and the digest every saved file carries (tactile_torch.robot.integrity)
+    assert check_digest(path.read_bytes(), path) and metadata.pop(DIGEST_KEY).startswith("sha256:")
+    assert metadata == {"window_size": "64", "class_names": '["a", "b"]'}
     x = torch.randn(5, 3, 64, generator=torch.Generator().manual_seed(0))  # a batch other than the export's
     got = run_onnx(path, x)
     want = _Spectrum()(x)

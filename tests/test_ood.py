@@ -29,6 +29,9 @@ def reference_signals(n, window, rate, rng, with_small_noise=True):
     signals["white noise sd 1 g"] = rng.normal(0, 1.0, (n, 3, window)).clip(-5, 5)
     signals["pure tone"] = amp * np.sin(2 * np.pi * freq * t + phase)
     signals["square wave"] = amp * np.sign(np.sin(2 * np.pi * freq * t + phase))
+    tilt = np.deg2rad(rng.uniform(0.0, 30.0, n))
+    gravity = np.stack([np.sin(tilt), np.zeros(n), np.cos(tilt)], axis=1)[:, :, None]
+    signals["still sensor"] = np.round((gravity + rng.normal(0, 0.0047, (n, 3, window))) / 0.0039) * 0.0039
     return {name: x.astype(np.float32) for name, x in signals.items()}
 
 
@@ -70,6 +73,10 @@ def test_signals_are_what_their_names_say():
     # the tones' frequency lies below rate / 2.2: at least ~2 samples per half period
     crossings = (np.diff(np.sign(x["pure tone"]), axis=2) != 0).sum(axis=2)
     assert crossings.max() <= 2 * 200 / 2.2 * 1.05 + 2
+    still = x["still sensor"].astype(np.float64)  # at rest: 1 g, small noise, multiples of 3.9 mg
+    np.testing.assert_allclose(np.linalg.norm(still.mean(axis=2), axis=1), 1.0, atol=0.002)
+    assert 0.003 < still.std(axis=2).mean() < 0.006 and not (still.max(axis=2) == still.min(axis=2)).all()
+    np.testing.assert_allclose(still / 0.0039, np.round(still / 0.0039), atol=1e-3)
     same = out_of_distribution_signals(50, 200, 800.0, random_state=0, kinds=["pure tone", "zeros"])
     assert list(same) == ["pure tone", "zeros"]
 

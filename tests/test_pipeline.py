@@ -58,6 +58,13 @@ def _vibration_parity(tmp_path, data_path, window, method="hmsvm"):
     features, model, model_path = _trained(tmp_path, data_path, method, window=window)
     pipe = pipeline_from_model(load_model_file(model_path))
     bundle = OnnxPipeline(export_pipeline(pipe, tmp_path / "vib.onnx", example_batch=2))
+    # sealed (robot.integrity): a bit flipped in the middle of the file (the SVM's weights) is refused
+    data = bytearray((tmp_path / "vib.onnx").read_bytes())
+    data[len(data) // 2] ^= 1
+    (tmp_path / "flipped.onnx").write_bytes(data)
+    with pytest.raises(ValueError, match=r"flipped\.onnx: the bundle's digest does not match its content"):
+        OnnxPipeline(tmp_path / "flipped.onnx")
+    assert bundle.sealed
     data = bundle.read_npz(data_path)
     labels, _ = _assert_parity(pipe, bundle, data.raw[:13])  # exported at batch 2, run at 13
     # the graph reproduces the estimator on the features computed by the library
@@ -145,6 +152,7 @@ def test_cli_cluster_export_predict_round_trip(tmp_path, vibration_npz, capsys):
         "exported vibration-pyp" in printed and "components: the point estimate of the clustering" in printed
     )
     bundle = OnnxPipeline(onnx_path)
+    assert bundle.sealed  # the mixture's bundle carries its digest too
     pipe = pipeline_from_model(load_model_file(out / "model.npz"))
     data = bundle.read_npz(vibration_npz)
     labels, scores = _assert_parity(pipe, bundle, data.raw[:9])
@@ -216,7 +224,7 @@ def test_cli_stream_classifies_a_simulated_sensor(tmp_path, vibration_npz, capsy
     assert opened == [("/dev/robot-imu", {"baudrate": 230400, "timeout": 0.1})]
     assert status == 0
     out = capsys.readouterr().out
-    printed = [line.split()[2] for line in out.splitlines()[1:5]]
+    printed = [line.split()[2] for line in out.splitlines()]  # stdout: the decisions only
     # windows of 400 every 200 samples of what went over the wire, as the bundle classifies them offline
     sent = np.array([parse_sample(format_sample(s)) for s in recording[:1000]], dtype=np.float32)
     windows = np.stack([sent[s : s + 400].T for s in (0, 200, 400, 600)])
@@ -283,21 +291,22 @@ def test_unknown_on_real_recordings(tmp_path):
 
 
 def test_ood_distance_in_the_graph_matches_numpy(tmp_path, vibration_npz):
-    from tactile_torch.ood import ood_distance
+    from tactile_torch.ood import OOD_ARRAYS, ood_distance
 
     features, _, path = _trained(tmp_path, vibration_npz, "svm", window=400)
     mf = load_model_file(path)
     bundle = OnnxPipeline(export_pipeline(pipeline_from_model(mf), tmp_path / "d.onnx"))
     raw = bundle.read_npz(vibration_npz).raw[:7]
-    want = ood_distance(
-        features.X[:7] / mf.arrays["scale"], mf.arrays["ood.means"], mf.arrays["ood.precision_cholesky"]
-    )
+    state = mf.part("ood")
+    assert set(state) == set(OOD_ARRAYS)  # both views and the offset
+    want = ood_distance(features.X[:7] / mf.arrays["scale"], **state)
     np.testing.assert_allclose(bundle.classify(raw).distance, want, rtol=1e-4)
     assert mf.header["ood"]["threshold"] == pytest.approx(bundle.ood_threshold)
 
 
 def test_a_header_is_checked_against_its_graph(tmp_path, vibration_npz):
-    """A crafted header (window = 5) must not export a graph that labels 5-sample windows."""
+    """A crafted header (window = 5, or 24 TB of window) is refused in one line naming the file and
+    the field, before any graph is built or any array allocated (issue 34)."""
     import json as json_
 
     from tactile_torch.robot.model_file import HEADER
@@ -305,14 +314,15 @@ def test_a_header_is_checked_against_its_graph(tmp_path, vibration_npz):
     _, _, path = _trained(tmp_path, vibration_npz, "svm", window=400)
     arrays = dict(np.load(path))
     header = json_.loads(str(arrays.pop(HEADER)))
-    header["source"]["window"] = 5
-    crafted = tmp_path / "crafted.npz"
-    np.savez(crafted, **{HEADER: np.array(json_.dumps(header))}, **arrays)
-    bundle = OnnxPipeline(export_pipeline(pipeline_from_model(crafted), tmp_path / "c.onnx"))
-    # the graph takes what its header says; the OOD statistics were fitted on 400-sample windows, so
-    # 5-sample windows are unknown rather than labelled
-    raw = np.random.default_rng(0).normal(0, 0.3, (20, 3, 5)).astype(np.float32)
-    assert (bundle.predict(raw) == -1).mean() >= 0.9
+    for window in (5, 2 * 10**12):
+        header["source"]["window"] = window
+        crafted = tmp_path / "crafted.npz"
+        np.savez(crafted, **{HEADER: np.array(json_.dumps(header))}, **arrays)
+        with pytest.raises(
+            ValueError,
+            match=rf"crafted\.npz: source\.window must be a number of samples in 16 \.\. 1,048,576 .*got {window}$",
+        ):
+            pipeline_from_model(crafted)
 
 
 @pytest.mark.slow  # trains and exports its own bundle (about 40 s); the API and predict have faster tests above

@@ -11,7 +11,8 @@ and ``stream`` run on a robot with onnxruntime and no torch.
 Exit statuses (:data:`EXIT_STATUSES`, also in ``tactile-torch --help``): 0 done; 2 bad input, one
 line ``tactile-torch CMD: ...`` on stderr naming the file or option; 1 an internal error (a bug),
 one line asking to report it, the traceback with ``--debug``; 130 interrupted; ``tradeoff`` 3 (no
-adequate candidate) and 4 (none exported); ``stream`` 3 (no data) and 4 (port failed).
+adequate candidate) and 4 (none exported); ``stream`` 3 (no data), 4 (port failed) and 5 (stdout
+closed: the reader of its decisions went away).
 """
 
 from __future__ import annotations
@@ -43,10 +44,14 @@ STREAM_DISCONNECTED_EXIT = 4
 """Exit status of ``stream`` when the port failed and was not (or could not be) reconnected."""
 STREAM_STOPPED_EXIT = 0
 """Exit status of ``stream`` stopped by SIGTERM or SIGINT (Ctrl-C): a requested end, after the summary."""
+STREAM_OUTPUT_CLOSED_EXIT = 5
+"""Exit status of ``stream`` when its stdout was closed (the reader of the decisions went away): it stops
+at the next decision it cannot write, after one line and the summary on stderr."""
 EXIT_STATUSES = (
     "exit status: 0 done; 2 bad input (one line naming the file or option); 1 internal error (a bug: one "
     "line, please report it; --debug shows the traceback); 130 interrupted; tradeoff: 3 no adequate "
-    "candidate, 4 none exported; stream: 3 no data, 4 port failed"
+    "candidate, 4 none exported, 1 also when a late stage failed (the rest is written); stream: 3 no data, "
+    "4 port failed, 5 stdout closed"
 )
 """What ``tactile-torch --help`` says about exit statuses."""
 
@@ -94,6 +99,7 @@ ARGUMENT_FLAGS = {
     "units": "--units",
     "scale": "--scale",
     "time_unit": "--time-unit",
+    "sample_rate_hz": "--rate",
     "sensor_range_g": "--sensor-range",
     "topic": "--topic",
     "shape": "--shape",
@@ -179,10 +185,27 @@ def _subparser(parser: argparse.ArgumentParser, command: str) -> argparse.Argume
 
 
 def is_user_error(err: BaseException) -> bool:
-    """Return whether ``err`` is about the user's input (reported in one line, status 2), not a bug."""
-    from ..robot.errors import InputError
+    """Return whether ``err`` is about the user's input (reported in one line, status 2), not a bug.
 
-    return isinstance(err, InputError | ValueError | OSError)
+    An :class:`~tactile_torch.robot.errors.InternalError` (an exception, of any class, that left a stage
+    running on input already accepted: :func:`~tactile_torch.robot.errors.internal_stage`) is a bug.
+    """
+    from ..robot.errors import InputError, InternalError
+
+    return not isinstance(err, InternalError) and isinstance(err, InputError | ValueError | OSError)
+
+
+def internal_error_line(err: BaseException) -> str:
+    """The line (without the command's prefix) that reports a bug: what failed, where, and what to do."""
+    from ..robot.errors import InternalError
+
+    where, cause = "", err
+    if isinstance(err, InternalError):
+        where, cause = f" in {err.stage}", err.error
+    return (
+        f"internal error{where}: {type(cause).__name__}: {_one_line(cause)} (rerun with --debug for the "
+        "traceback, and please report it)"
+    )
 
 
 def with_flags(message: str, flags: dict[str, str]) -> str:
@@ -282,11 +305,7 @@ def _run(args: argparse.Namespace, prefix: str, debug: bool, flags: dict[str, st
         if is_user_error(err):
             print(f"{prefix}: {with_flags(_one_line(err), flags)}", file=sys.stderr)
             return BAD_INPUT_EXIT
-        print(
-            f"{prefix}: internal error: {type(err).__name__}: {_one_line(err)} (rerun with --debug for "
-            "the traceback, and please report it)",
-            file=sys.stderr,
-        )
+        print(f"{prefix}: {internal_error_line(err)}", file=sys.stderr)
         return INTERNAL_ERROR_EXIT
     finally:
         sys.stdout = stdout
@@ -310,9 +329,11 @@ __getattr__, __dir__, __all__ = lazy_exports(
         "NO_RECOMMENDATION_EXIT",
         "STREAM_DISCONNECTED_EXIT",
         "STREAM_NO_DATA_EXIT",
+        "STREAM_OUTPUT_CLOSED_EXIT",
         "STREAM_STOPPED_EXIT",
         "TRAIN_MODULES",
         "build_parser",
+        "internal_error_line",
         "is_user_error",
         "main",
         "with_flags",

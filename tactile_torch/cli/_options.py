@@ -16,6 +16,8 @@ Torch-free: ``predict`` and ``stream`` import it on the robot.
 from __future__ import annotations
 
 import argparse
+import math
+from dataclasses import dataclass
 from pathlib import Path
 
 from . import BAD_INPUT_EXIT
@@ -35,7 +37,8 @@ class CommandParser(argparse.ArgumentParser):
 DATA_HELP = (
     "a .npz of docs/formats.md (frames, signals or features), CSV logs (t,x,y,z; --columns to name others), "
     "or ROS 2 bags (directories or .db3/.mcap files; --topic). Class and session from the file name: "
-    "felt_3.csv -> class felt, session 3 (or --index)"
+    "felt_3.csv -> class felt, session 3; without a number, the session is the folder when the files lie in "
+    "several (day2/felt.csv -> session day2), else the file (or --index)"
 )
 
 
@@ -46,32 +49,91 @@ def _shape(text: str) -> tuple[int, int]:
     return int(parts[0]), int(parts[1])
 
 
-def _positive(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        value = float("nan")
-    if not value > 0:
-        raise argparse.ArgumentTypeError(f"expected a number > 0, got {text!r}")
-    return value
+@dataclass(frozen=True)
+class Number:
+    """An argparse type for a numeric option: a finite number of ``kind`` within bounds, or one of ``words``.
 
+    Every numeric option of every command is declared with one (``tests/cli/test_options.py`` checks it),
+    so a value that is not a number, NaN, or out of range is refused by the parser in one line that
+    names the option, before any work: ``tactile-torch train: argument --gamma: expected 'scale' or a
+    number > 0, got 'abc'``.
 
-def _count(text: str) -> int:
-    if not text.strip().isdigit() or int(text) < 1:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {text!r}")
-    return int(text)
-
-
-def add_data_options(
-    p: argparse.ArgumentParser, *, data_help: str = DATA_HELP, sensor_range: bool = True
-) -> None:
-    """Add ``--data`` and the options saying how to read it to the subcommand parser ``p``.
-
-    ``sensor_range``: add ``--sensor-range`` (recordings beyond it are refused); without it, no range
-    check (``predict`` leaves such windows out with its own ``--range``).
+    >>> Number(int, low=1)("3"), Number(float, low=0, open_low=True, words=("scale",))("scale")
+    (3, 'scale')
     """
-    p.add_argument("--data", required=True, nargs="+", help=data_help)
-    g = p.add_argument_group("reading the data (docs/formats.md)")
+
+    kind: type = float
+    low: float | None = None
+    high: float | None = None
+    open_low: bool = False
+    open_high: bool = False
+    words: tuple[str, ...] = ()
+    allow_inf: bool = False
+    unit: str = ""
+
+    def expected(self) -> str:
+        """The accepted values in words (``"a whole number >= 1"``, ``"'auto' or a number in (0, 1]"``)."""
+        what = "a whole number" if self.kind is int else "a number" if self.allow_inf else "a finite number"
+        what += f" of {self.unit}" if self.unit else ""
+        if self.low is not None and self.high is not None:
+            what += f" in {'(' if self.open_low else '['}{self.low:g}, {self.high:g}{')' if self.open_high else ']'}"
+        elif self.low is not None:
+            what += f" {'>' if self.open_low else '>='} {self.low:g}"
+        elif self.high is not None:
+            what += f" {'<' if self.open_high else '<='} {self.high:g}"
+        if self.allow_inf:
+            what += " (inf: no check)"
+        words = " or ".join(repr(w) for w in self.words)
+        return f"{words} or {what}" if words else what
+
+    def __call__(self, text: str):
+        text = str(text).strip()
+        if text in self.words:
+            return text
+        try:
+            value = float(text)
+            if self.kind is int:
+                if not value.is_integer():
+                    raise ValueError(text)
+                value = int(text) if text.lstrip("+-").isdigit() else int(value)
+        except (ValueError, OverflowError):
+            value = None
+        if value is not None and not (math.isfinite(value) or (self.allow_inf and value == math.inf)):
+            value = None
+        if value is not None and self.low is not None:
+            value = value if (value > self.low if self.open_low else value >= self.low) else None
+        if value is not None and self.high is not None and value != math.inf:
+            value = value if (value < self.high if self.open_high else value <= self.high) else None
+        if value is None:
+            raise argparse.ArgumentTypeError(f"expected {self.expected()}, got {text!r}")
+        return value
+
+
+SEED = Number(int, low=0)
+"""``--seed``: a whole number >= 0 (numpy's seeds)."""
+
+
+def window_type() -> Number:
+    """``--window``: a number of samples in ``MIN_WINDOW .. MAX_WINDOW`` (:mod:`tactile_torch.robot.windows`)."""
+    from ..robot.windows import MAX_WINDOW, MIN_WINDOW
+
+    return Number(int, low=MIN_WINDOW, high=MAX_WINDOW)
+
+
+def window_list(text: str) -> tuple[int, ...]:
+    """``--windows``: comma-separated window sizes, each as :func:`window_type` accepts."""
+    one = window_type()
+    try:
+        return tuple(one(part) for part in str(text).split(","))
+    except argparse.ArgumentTypeError:
+        raise argparse.ArgumentTypeError(
+            f"expected comma-separated window sizes, each {one.expected()}, got {text!r}"
+        ) from None
+
+
+def add_csv_options(g) -> None:
+    """Add the options saying how to read CSV logs (``--columns``, ``--units``, ``--scale``, ``--time-unit``)
+    to the parser or argument group ``g`` (:func:`add_data_options` adds them with the others)."""
     g.add_argument(
         "--columns",
         default=None,
@@ -86,7 +148,7 @@ def add_data_options(
     )
     g.add_argument(
         "--scale",
-        type=_positive,
+        type=Number(low=0, open_low=True),
         default=None,
         help="units per count for integer sensor counts, e.g. 0.0039 (ADXL345 at full resolution)",
     )
@@ -94,13 +156,36 @@ def add_data_options(
         "--time-unit",
         default="auto",
         choices=["auto", "s", "ms", "us"],
-        help="CSV logs: unit of the time column (default: auto, seconds unless the rate is implausible)",
+        help="CSV logs: unit of the time column (default: auto, seconds unless the rate is implausible; a "
+        "declared unit that makes it implausible is refused too)",
+    )
+
+
+def add_data_options(
+    p: argparse.ArgumentParser, *, data_help: str = DATA_HELP, sensor_range: bool = True
+) -> None:
+    """Add ``--data`` and the options saying how to read it to the subcommand parser ``p``.
+
+    ``sensor_range``: add ``--sensor-range`` (recordings beyond it are refused); without it, no range
+    check (``predict`` leaves such windows out with its own ``--range``).
+    """
+    p.add_argument("--data", required=True, nargs="+", help=data_help)
+    g = p.add_argument_group("reading the data (docs/formats.md)")
+    add_csv_options(g)
+    g.add_argument(
+        "--rate",
+        dest="sample_rate_hz",
+        type=Number(float, low=0, open_low=True),
+        default=None,
+        metavar="HZ",
+        help="vibration: the sample rate, stated; the time stamps (or a .npz's rate_hz) must agree within 5%% "
+        "(default: the slope of the time stamps against the sample index, robust to rounding and gaps)",
     )
     if sensor_range:
         g.add_argument(
             "--sensor-range",
             dest="data_sensor_range",
-            type=_positive,
+            type=Number(low=0, open_low=True, allow_inf=True, unit="g"),
             default=None,
             metavar="G",
             help="recordings with samples beyond +-G g are refused; inf: no check (default: 5, the ADXL345)",
@@ -117,13 +202,13 @@ def add_data_options(
     )
     g.add_argument(
         "--frames",
-        type=_count,
+        type=Number(int, low=1),
         default=None,
         help="ROS 2 bags of pressure maps: frames per exploration (default: the shortest bag's)",
     )
     g.add_argument(
         "--max-messages",
-        type=_count,
+        type=Number(int, low=1),
         default=None,
         help="ROS 2 bags: read at most this many messages per topic (default: 10,000,000)",
     )
@@ -140,6 +225,7 @@ def data_options(args: argparse.Namespace):
         units=args.units,
         scale=args.scale,
         time_unit=args.time_unit,
+        sample_rate_hz=args.sample_rate_hz,
         topic=args.topic,
         shape=args.shape,
         frames=args.frames,
@@ -158,6 +244,7 @@ _OPTION_NAMES = {
     "units": "--units",
     "scale": "--scale",
     "time_unit": "--time-unit",
+    "sample_rate_hz": "--rate",
     "data_sensor_range": "--sensor-range",
     "topic": "--topic",
     "shape": "--shape",
@@ -208,35 +295,14 @@ def add_allow_pickle(p: argparse.ArgumentParser) -> None:
     )
 
 
-def at_least(minimum: float, kind: type = float):
-    """Return an argparse type: a number of ``kind`` >= ``minimum``, else a one-line usage error."""
-
-    def parse(text: str):
-        try:
-            value = kind(text)
-        except ValueError:
-            what = "an integer" if kind is int else "a number"
-            raise argparse.ArgumentTypeError(f"expected {what}, got {text!r}") from None
-        if not value >= minimum:
-            raise argparse.ArgumentTypeError(f"expected a number >= {minimum:g}, got {text!r}")
-        return value
-
-    return parse
+def at_least(minimum: float, kind: type = float) -> Number:
+    """Return an argparse type: a finite number of ``kind`` >= ``minimum``, else a one-line usage error."""
+    return Number(kind, low=minimum)
 
 
-def in_range(low: float, high: float):
+def in_range(low: float, high: float) -> Number:
     """Return an argparse type: a finite number ``low < x <= high``, else a one-line usage error."""
-
-    def parse(text: str) -> float:
-        try:
-            value = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-        if not low < value <= high:
-            raise argparse.ArgumentTypeError(f"expected a number > {low:g} and <= {high:g}, got {text!r}")
-        return value
-
-    return parse
+    return Number(float, low=low, high=high, open_low=True)
 
 
 def parse_range_g(text: str | None, option: str, *, off: bool) -> float | None:
@@ -265,13 +331,21 @@ def declare_range(source: dict, args: argparse.Namespace) -> None:
 
 WRITES_OUT_FILE = ("train", "predict", "export")
 """Commands whose ``--out`` is one file: it is checked against their inputs before any work."""
+WRITES_OUT_DIR = {"tradeoff": True, "cluster": False, "report": False}
+"""Commands whose ``--out`` is a directory, and whether it is replaced as a whole (written next to it,
+then moved into place) rather than written into: checked before any work."""
 
 
 def check_out(args: argparse.Namespace) -> None:
-    """Refuse an ``--out`` that is an input, a directory, a device or a symbolic link (one line, status 2)."""
-    from ..robot.safe_write import check_output_path
+    """Refuse an ``--out`` where nothing can be written (a read-only place), or one that is an input, a
+    directory (a device, a symbolic link) where a file is expected: one line naming ``--out``, status 2,
+    before any work."""
+    from ..robot.safe_write import check_output_dir, check_output_path
 
     out = getattr(args, "out", "")
+    if args.command in WRITES_OUT_DIR and out:
+        check_output_dir(out, what="--out", replace=WRITES_OUT_DIR[args.command])
+        return
     if args.command not in WRITES_OUT_FILE or not out:
         return
     inputs = list(getattr(args, "data", None) or [])
@@ -281,9 +355,12 @@ def check_out(args: argparse.Namespace) -> None:
 
 __all__ = [
     "DATA_HELP",
+    "SEED",
     "CommandParser",
+    "Number",
     "UsageError",
     "add_allow_pickle",
+    "add_csv_options",
     "add_data_options",
     "at_least",
     "check_out",
@@ -294,4 +371,6 @@ __all__ = [
     "in_range",
     "parse_range_g",
     "read_data_arg",
+    "window_list",
+    "window_type",
 ]

@@ -12,6 +12,32 @@ import threading
 from collections.abc import Iterator
 
 
+def recordings_line(data, args) -> str:
+    """What the command reads from vibration recordings: how many, the sample rate and where it comes
+    from, the sessions and where they come from (``"24 recordings at 800 Hz (from the time stamps;
+    --rate states it), 4 sessions (from their folders)"``)."""
+    from pathlib import Path
+
+    import numpy as np
+
+    from ..robot.csv_logs import session_source
+
+    paths = [Path(p) for p in args.data]
+    from_file = len(paths) == 1 and paths[0].suffix.lower() == ".npz"
+    if getattr(args, "sample_rate_hz", None) is not None:
+        origin = "stated with --rate"
+    else:
+        origin = "the file's rate_hz" if from_file else "from the time stamps; --rate states it"
+    line = f"{len(data.signals)} recordings at {data.rate_hz:g} Hz ({origin})"
+    if data.session is None:
+        return line + ", no sessions (each recording its own)"
+    n = len(np.unique(np.asarray(data.session).astype(str)))
+    where = (
+        "the file's session array" if from_file else session_source(paths, index=getattr(args, "index", None))
+    )
+    return line + f", {n} session{'s' if n != 1 else ''} (from {where})"
+
+
 def print_class_report(rep) -> None:
     """Print a :class:`tactile_torch.metrics.ClassReport` as a table, then the overall accuracy."""
     print(f"{'class':<24} {'samples':>7} {'accuracy':>9} {'type I':>8} {'type II':>8}")
@@ -68,15 +94,18 @@ class StdoutGuard:
 
     After the reader of the pipe has gone, further output is discarded (the descriptor is pointed
     at ``os.devnull``, so the interpreter's final flush does not fail either) and the command goes on
-    to write its files.
+    to write its files; :attr:`closed_pipe` says so to a command whose output is its only product
+    (``stream`` stops).
     """
 
     def __init__(self, stream) -> None:
         self._stream = stream
+        self.closed_pipe = False
 
     def _drop(self) -> None:
         import os
 
+        self.closed_pipe = True
         devnull = os.open(os.devnull, os.O_WRONLY)
         try:
             os.dup2(devnull, self._stream.fileno())
@@ -102,6 +131,11 @@ class StdoutGuard:
 
     def __getattr__(self, name: str):
         return getattr(self._stream, name)
+
+
+def stdout_closed() -> bool:
+    """Return whether the reader of ``sys.stdout`` has gone (a write met a closed pipe)."""
+    return bool(getattr(sys.stdout, "closed_pipe", False))
 
 
 def guard_stdout():

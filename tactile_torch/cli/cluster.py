@@ -4,17 +4,16 @@ from __future__ import annotations
 
 import argparse
 
-from ._options import UsageError, add_allow_pickle, add_data_options, data_name, read_data_arg
-
-
-def _n_iter(text: str) -> int | str:
-    """``--n-iter``: a number of sweeps or 'auto'."""
-    if text == "auto":
-        return text
-    try:
-        return int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number of sweeps or 'auto', got {text!r}") from None
+from ._options import (
+    SEED,
+    Number,
+    UsageError,
+    add_allow_pickle,
+    add_data_options,
+    data_name,
+    read_data_arg,
+    window_type,
+)
 
 
 def register(sub) -> None:
@@ -35,17 +34,24 @@ def register(sub) -> None:
         "'features' (n, D) and optionally 'labels' (n,)",
     )
     p.add_argument("--out", default="runs/cluster", help="output directory (default: runs/cluster)")
-    p.add_argument("--window", type=int, default=800, help="recordings: window in samples (default: 800)")
-    p.add_argument("--step", type=int, default=None, help="recordings: window hop (default: the window)")
+    p.add_argument(
+        "--window",
+        type=window_type(),
+        default=800,
+        help="recordings: window in samples, >= 16 (default: 800)",
+    )
+    p.add_argument(
+        "--step", type=Number(int, low=1), default=None, help="recordings: window hop (default: the window)"
+    )
     p.add_argument(
         "--components",
-        type=int,
+        type=Number(int, low=1),
         default=3,
         help="recordings: principal components that count K and cluster (default: 3)",
     )
     p.add_argument(
         "--novelty-components",
-        type=int,
+        type=Number(int, low=0),
         default=5,
         help="recordings: principal components of the novelty rule's density, computed side by side with "
         "--components in the exported graph (default: 5; 0: the same as --components)",
@@ -59,38 +65,62 @@ def register(sub) -> None:
     )
     p.add_argument(
         "--coarsen",
-        type=float,
+        type=Number(low=0, open_low=True),
         default=None,
         help="coarsened posterior: likelihood to the power a/(a+n) (--model mfm; default: off, see docs/mixture.md)",
     )
     p.add_argument(
         "--n-iter",
-        type=_n_iter,
+        type=Number(int, low=1, words=("auto",)),
         default="auto",
         help="Gibbs sweeps per chain, burn-in included, or 'auto': until R-hat < 1.01 and ESS of K >= 400 "
         "(default: auto)",
     )
     p.add_argument(
-        "--max-iter", type=int, default=40000, help="--n-iter auto: most sweeps per chain (default: 40000)"
+        "--max-iter",
+        type=Number(int, low=1),
+        default=40000,
+        help="--n-iter auto: most sweeps per chain (default: 40000)",
     )
     p.add_argument(
         "--max-seconds",
-        type=float,
+        type=Number(low=0, open_low=True),
         default=300.0,
         help="--n-iter auto: wall-clock budget of the chains in seconds (default: 300)",
     )
     p.add_argument(
-        "--burn-in", type=int, default=250, help="sweeps discarded per chain, at least (default: 250)"
+        "--burn-in",
+        type=Number(int, low=0),
+        default=250,
+        help="sweeps discarded per chain, at least (default: 250)",
     )
-    p.add_argument("--chains", type=int, default=4, help="independent chains, run in parallel (default: 4)")
-    p.add_argument("--alpha", type=float, default=None, help="fix the concentration (default: sampled)")
-    p.add_argument("--discount", type=float, default=None, help="fix the discount; 0 = Dirichlet process")
     p.add_argument(
-        "--init", default="kmeans", help="'kmeans' (default), 'one', or a number of k-means clusters"
+        "--chains",
+        type=Number(int, low=1),
+        default=4,
+        help="independent chains, run in parallel (default: 4)",
+    )
+    p.add_argument(
+        "--alpha",
+        type=Number(low=0, open_low=True),
+        default=None,
+        help="fix the concentration (default: sampled)",
+    )
+    p.add_argument(
+        "--discount",
+        type=Number(low=0, high=1, open_high=True),
+        default=None,
+        help="fix the discount; 0 = Dirichlet process",
+    )
+    p.add_argument(
+        "--init",
+        type=Number(int, low=1, words=("kmeans", "one")),
+        default="kmeans",
+        help="'kmeans' (default), 'one', or a number of k-means clusters",
     )
     p.add_argument(
         "--calibrate",
-        type=float,
+        type=Number(low=0, high=1, open_high=True),
         metavar="SHARE",
         default=None,
         help="share of the rows held out of the fit to calibrate the novelty rule on: the last SHARE of each "
@@ -99,7 +129,7 @@ def register(sub) -> None:
     )
     p.add_argument(
         "--false-alarm",
-        type=float,
+        type=Number(low=0, high=1, open_low=True, open_high=True),
         metavar="RATE",
         default=0.02,
         help="novelty thresholds: at most RATE of the held-out windows' decisions are novel (default: 0.02)",
@@ -110,7 +140,7 @@ def register(sub) -> None:
         help="standardise the components within each recording session (removes a session's gain shift; "
         "such a model cannot be exported)",
     )
-    p.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
+    p.add_argument("--seed", type=SEED, default=0, help="random seed (default: 0)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(handler=run_cluster)
 
@@ -152,7 +182,7 @@ def run_cluster(args: argparse.Namespace) -> int:
         max_seconds=args.max_seconds,
         burn_in=args.burn_in,
         n_chains=args.chains,
-        init=int(args.init) if args.init.isdigit() else args.init,
+        init=args.init,
         random_state=args.seed,
         progress=not args.quiet,
     )

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import argparse
 
-from ._options import parse_range_g
+from ._options import Number, parse_range_g
 from ._output import stage
 
 
@@ -21,6 +21,7 @@ def register(sub) -> None:
     p.add_argument("--out", required=True, help="the .onnx file to write")
     p.add_argument(
         "--sensor-range",
+        type=Number(low=0, open_low=True, unit="g"),
         metavar="G",
         help="vibration models: the sensor's range in g, kept in the bundle (predict and stream reject "
         "samples beyond it; default: 5, the ADXL345 of the study)",

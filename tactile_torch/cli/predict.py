@@ -8,7 +8,15 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ._options import UsageError, add_allow_pickle, add_data_options, data_name, data_options, parse_range_g
+from ._options import (
+    Number,
+    UsageError,
+    add_allow_pickle,
+    add_data_options,
+    data_name,
+    data_options,
+    parse_range_g,
+)
 from ._output import print_class_report
 
 
@@ -21,10 +29,15 @@ def register(sub) -> None:
     p.add_argument("--model", required=True, help="the .onnx bundle written by tactile-torch export")
     add_data_options(p, sensor_range=False)  # predict's --range leaves windows out instead
     p.add_argument("--out", default="", help="also write the predicted labels and names to this .npz")
-    p.add_argument("--batch", type=int, default=256, help="samples per onnxruntime call (default: 256)")
-    p.add_argument("--threads", type=int, default=1, help="onnxruntime intra-op threads (default: 1)")
+    p.add_argument(
+        "--batch", type=Number(int, low=1), default=256, help="samples per onnxruntime call (default: 256)"
+    )
+    p.add_argument(
+        "--threads", type=Number(int, low=0), default=1, help="onnxruntime intra-op threads (default: 1)"
+    )
     p.add_argument(
         "--range",
+        type=Number(low=0, open_low=True, allow_inf=True, unit="g"),
         metavar="G",
         help="vibration: windows with a sample beyond +-G g are not classified; inf: off (default: the "
         "bundle's sensor_range_g, else 5)",
@@ -42,8 +55,6 @@ def run_predict(args: argparse.Namespace) -> int:
     from ..robot.contract import UNKNOWN, WINDOWS_LAYOUT
     from ..robot.runtime import OnnxPipeline
 
-    if args.batch < 1:
-        raise UsageError(f"--batch must be an int >= 1, got {args.batch}")
     pipe = OnnxPipeline(args.model, intra_op_threads=args.threads)
     range_g = parse_range_g(args.range, "--range", off=True)
     windows = pipe.input_layout == WINDOWS_LAYOUT

@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import argparse
 
+from ._options import SEED
+
 
 def register(sub) -> None:
     """Add the ``report`` command to the subparsers ``sub``."""
     p = sub.add_parser("report", help="run every pipeline on the bundled data and write a report (make run)")
     p.add_argument("--out", default="runs/latest", help="output directory (default: runs/latest)")
-    p.add_argument("--seed", type=int, default=0, help="random seed of the whole run (default: 0)")
+    p.add_argument("--seed", type=SEED, default=0, help="random seed of the whole run (default: 0)")
     p.add_argument("--quick", action="store_true", help="smaller data and fewer iterations, for a smoke test")
     p.add_argument(
         "--full", action="store_true", help="also the study-size experiments (minutes, not seconds)"

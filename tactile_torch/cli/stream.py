@@ -9,8 +9,22 @@ from __future__ import annotations
 import argparse
 import sys
 
-from . import STREAM_DISCONNECTED_EXIT, STREAM_NO_DATA_EXIT, STREAM_STOPPED_EXIT
-from ._options import UsageError, add_allow_pickle, at_least, in_range, parse_range_g
+from . import (
+    STREAM_DISCONNECTED_EXIT,
+    STREAM_NO_DATA_EXIT,
+    STREAM_OUTPUT_CLOSED_EXIT,
+    STREAM_STOPPED_EXIT,
+)
+from ._options import (
+    SEED,
+    Number,
+    UsageError,
+    add_allow_pickle,
+    add_csv_options,
+    at_least,
+    in_range,
+    parse_range_g,
+)
 
 MAX_SIMULATED_S = 600
 """Longest synthetic recording ``simulate-sensor`` generates (28 surfaces are generated: 160 MB)."""
@@ -21,15 +35,15 @@ def register(sub) -> None:
     p = sub.add_parser(
         "stream",
         help="classify a live serial accelerometer stream with an exported vibration bundle",
-        description="Read 'x,y,z' or 't,x,y,z' lines (g) from a serial port (any pyserial URL, e.g. "
+        description="Read 'x,y,z' or 't,x,y,z' lines (g, or --units, --scale) from a serial port (any pyserial URL, e.g. "
         "/dev/ttyUSB0, socket://host:port, loop://), cut them into the bundle's windows and print each "
-        "window's class. Silence, disconnection, gaps in t, samples out of range and garbage lines are "
-        "reported on stderr; no window spans a gap. Exit status: 0 done, 3 no data within the timeout, "
-        "4 port failed (see docs/stream.md).",
+        "window's class on stdout. Status lines (silence, disconnection, gaps in t, samples out of range, "
+        "garbage lines, the summary) go to stderr; no window spans a gap. Exit status: 0 done, 3 no data "
+        "within the timeout, 4 port failed, 5 stdout closed (see docs/stream.md).",
     )
     p.add_argument("--model", required=True, help="the .onnx vibration bundle")
     p.add_argument("--port", required=True, help="serial port or pyserial URL")
-    p.add_argument("--baud", type=int, default=230400, help="baud rate (default: 230400)")
+    p.add_argument("--baud", type=Number(int, low=1), default=230400, help="baud rate (default: 230400)")
     p.add_argument(
         "--step",
         type=at_least(1, int),
@@ -84,8 +98,22 @@ def register(sub) -> None:
     )
     p.add_argument(
         "--range",
+        type=Number(low=0, open_low=True, allow_inf=True, unit="g"),
         help="reject samples beyond +-RANGE g; inf: off (default: the bundle's sensor_range_g, else 5 for the "
         "ADXL345)",
+    )
+    p.add_argument(
+        "--units",
+        default="g",
+        choices=["g", "m/s2"],
+        help="units of the x,y,z values, as train's --units (default: g)",
+    )
+    p.add_argument(
+        "--scale",
+        type=in_range(0, 1e6),
+        default=None,
+        help="units per count for a sensor that sends integer counts, e.g. 0.0039 (ADXL345 at full "
+        "resolution), as train's --scale",
     )
     p.add_argument(
         "--time-unit",
@@ -95,7 +123,7 @@ def register(sub) -> None:
     )
     p.add_argument(
         "--discover",
-        type=int,
+        type=Number(int, low=0),
         default=0,
         metavar="N",
         help="clustering bundles: propose a new surface after N consecutive novel windows (default: off)",
@@ -114,8 +142,13 @@ def register(sub) -> None:
         action="store_true",
         help="instead of --port, open a pseudo-terminal and print the port to read",
     )
-    p.add_argument("--data", default="", help="vibration .npz to play (default: a synthetic surface)")
-    p.add_argument("--recording", type=int, default=0, help="index of the recording to play (default: 0)")
+    p.add_argument(
+        "--data", default="", help="vibration .npz or CSV log to play (default: a synthetic surface)"
+    )
+    add_csv_options(p.add_argument_group("reading a CSV log (docs/formats.md)"))
+    p.add_argument(
+        "--recording", type=Number(int, low=0), default=0, help="index of the recording to play (default: 0)"
+    )
     p.add_argument(
         "--seconds",
         type=in_range(0, MAX_SIMULATED_S),
@@ -125,13 +158,14 @@ def register(sub) -> None:
     p.add_argument(
         "--rate",
         type=in_range(0, 1e6),
-        default=800.0,
-        help="sample rate (Hz) when the file has none, > 0 (default: 800)",
+        default=None,
+        help="sample rate (Hz): of a .npz without rate_hz (default: 800), or stated for a CSV log (its time "
+        "stamps must agree within 5%%; default: their rate)",
     )
-    p.add_argument("--baud", type=int, default=230400, help="baud rate (default: 230400)")
+    p.add_argument("--baud", type=Number(int, low=1), default=230400, help="baud rate (default: 230400)")
     p.add_argument("--fast", action="store_true", help="write as fast as possible instead of in real time")
     p.add_argument("--timestamps", action="store_true", help="write 't,x,y,z' lines (t in seconds)")
-    p.add_argument("--seed", type=int, default=0, help="synthetic: random seed (default: 0)")
+    p.add_argument("--seed", type=SEED, default=0, help="synthetic: random seed (default: 0)")
     add_allow_pickle(p)
     p.set_defaults(handler=run_simulate_sensor)
 
@@ -158,8 +192,16 @@ def _stream_until_stopped(args: argparse.Namespace) -> int:
 
     from ..robot.contract import SAMPLE_RATE_KEY, WINDOW_SIZE_KEY
     from ..robot.runtime import OnnxPipeline
-    from ..robot.stream import StreamDisconnected, StreamTimeout, WindowReader, sensor_range_g
+    from ..robot.stream import (
+        StreamDisconnected,
+        StreamTimeout,
+        WindowReader,
+        open_serial_port,
+        sensor_range_g,
+    )
     from ..robot.stream_output import WindowVote, classify_windows, result_json, result_text
+    from . import ARGUMENT_FLAGS, with_flags
+    from ._output import stdout_closed
 
     range_g = parse_range_g(args.range, "--range", off=True)
     pipe = OnnxPipeline(args.model, intra_op_threads=args.threads)
@@ -175,13 +217,27 @@ def _stream_until_stopped(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
         return 2
-    info = sys.stderr if args.json else sys.stdout  # --json: stdout holds nothing but the JSON lines
+    # stdout holds the decisions (one line per window, text or JSON), stderr everything else
+    info = sys.stderr
+    # the reader names its arguments (pass units='m/s2'): show the options that set them
+    flags = {**{k: ARGUMENT_FLAGS[k] for k in ("units", "scale", "time_unit")}, "range_g": "--range"}
 
     def say(message: str) -> None:
-        print(f"tactile-torch stream: {message}", file=sys.stderr, flush=True)
+        print(f"tactile-torch stream: {with_flags(message, flags)}", file=sys.stderr, flush=True)
+
+    ports_opened = []
 
     def open_port():
-        return serial.serial_for_url(args.port, baudrate=args.baud, timeout=min(0.1, args.silence / 2))
+        # The first open discards what the port held from before the stream; a reopen keeps what the
+        # sensor sent during the wait (pyserial's open would flush it: issue 34).
+        options = {"baudrate": args.baud, "timeout": min(0.1, args.silence / 2)}
+        port = (
+            open_serial_port(args.port, **options, keep_input=True)
+            if ports_opened
+            else serial.serial_for_url(args.port, **options)
+        )
+        ports_opened.append(args.port)
+        return port
 
     reading = []  # printed once the port is open (and the model warm): a sensor may start then
 
@@ -201,6 +257,8 @@ def _stream_until_stopped(args: argparse.Namespace) -> int:
         max_windows=args.max_windows or None,
         rate_hz=rate,
         time_unit=args.time_unit,
+        units=args.units,
+        scale=args.scale,
         range_g=range_g or sensor_range_g(pipe.metadata),
         silence_s=args.silence,
         idle_timeout_s=args.idle_timeout or math.inf,
@@ -217,13 +275,18 @@ def _stream_until_stopped(args: argparse.Namespace) -> int:
 
     def show(result) -> None:
         unknown[0] += result.label == -1
-        print(write(result), flush=True)
+        try:
+            print(write(result), flush=True)
+        except BrokenPipeError:  # an unguarded stdout (the guard of cli.main catches it and says so)
+            raise _OutputClosed() from None
+        if stdout_closed():
+            raise _OutputClosed()
 
     consumers = [show]
     if args.discover:  # new surfaces: N novel windows in a row (tactile_torch.robot.discovery)
         from ..robot.discovery import stream_consumer
 
-        consumers.append(stream_consumer(pipe, args.discover, info))
+        consumers.append(stream_consumer(pipe, args.discover, sys.stderr if args.json else sys.stdout))
     status = 0
     try:
         # The first call allocates: run it before the port is opened (opening flushes the port's
@@ -239,6 +302,9 @@ def _stream_until_stopped(args: argparse.Namespace) -> int:
     except StreamDisconnected as err:
         say(str(err))
         status = STREAM_DISCONNECTED_EXIT
+    except _OutputClosed:  # nobody reads the decisions any more: classifying on would be for nothing
+        say(f"stdout closed (its reader went away) after {reader.windows} windows; stopping")
+        status = STREAM_OUTPUT_CLOSED_EXIT
     except (KeyboardInterrupt, _Stopped) as err:
         say(f"stopped by {'SIGTERM' if isinstance(err, _Stopped) else 'SIGINT (Ctrl-C)'}")
         status = STREAM_STOPPED_EXIT
@@ -255,6 +321,10 @@ def _stream_until_stopped(args: argparse.Namespace) -> int:
 
 class _Stopped(Exception):
     """SIGTERM arrived while streaming."""
+
+
+class _OutputClosed(Exception):
+    """stdout was closed: the reader of the decisions went away."""
 
 
 def _stop_on_sigterm():
@@ -283,10 +353,26 @@ def run_simulate_sensor(args: argparse.Namespace) -> int:
     if bool(args.port) == args.pty:
         print("tactile-torch simulate-sensor: give either --port PORT or --pty", file=sys.stderr)
         return 2
-    if args.data:  # any layout of docs/formats.md, incl. recordings of different lengths
+    if args.data.lower().endswith(".csv"):  # a logger's CSV, read as train reads it
+        from ..robot.data_sources import DataOptions, read_source
+
+        declared = {
+            "columns": args.columns,
+            "units": args.units,
+            "scale": args.scale,
+            "time_unit": args.time_unit,
+        }
+        data = read_source([args.data], DataOptions(**declared, sample_rate_hz=args.rate, check=False))
+    elif args.data:  # any layout of docs/formats.md, incl. recordings of different lengths
         from ..robot.formats import read_recordings
 
-        data = read_recordings(args.data, allow_pickle=args.allow_pickle, default_rate_hz=args.rate)
+        csv_only = [
+            o for o, v in (("--columns", args.columns), ("--units", args.units), ("--scale", args.scale)) if v
+        ]
+        if csv_only or args.time_unit != "auto":
+            raise UsageError(f"{', '.join(csv_only) or '--time-unit'} applies to a CSV log, got {args.data}")
+        data = read_recordings(args.data, allow_pickle=args.allow_pickle, default_rate_hz=args.rate or 800.0)
+    if args.data:
         if not 0 <= args.recording < len(data):
             raise UsageError(f"--recording must be in 0..{len(data) - 1} ({args.data}), got {args.recording}")
         recording, rate = data.signals[args.recording], data.rate_hz

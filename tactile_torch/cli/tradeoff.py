@@ -12,15 +12,18 @@ from __future__ import annotations
 import argparse
 import sys
 
-from . import ARGUMENT_FLAGS, NO_RECOMMENDATION_EXIT, NOT_EXPORTED_EXIT
+from . import ARGUMENT_FLAGS, INTERNAL_ERROR_EXIT, NO_RECOMMENDATION_EXIT, NOT_EXPORTED_EXIT
 from . import with_flags as _with_flags
 from ._options import (
-    UsageError,
+    SEED,
+    Number,
     add_allow_pickle,
     add_data_options,
     data_name,
     data_option_words,
     data_options,
+    window_list,
+    window_type,
 )
 
 REPRODUCED = (
@@ -63,38 +66,60 @@ def register(sub) -> None:
     p.add_argument("--quick", action="store_true", help="fewer candidates and at most 60 samples per class")
     p.add_argument(
         "--folds",
-        type=int,
+        type=Number(int, low=2),
         default=None,
         help="cross-validation folds (default: 5, or fewer when the data allow fewer; a number the data do "
         "not allow is an error)",
     )
     p.add_argument(
-        "--window", type=int, default=None, help="vibration: reference window in samples (default: 800)"
+        "--window",
+        type=window_type(),
+        default=None,
+        help="vibration: reference window in samples (default: 800)",
     )
     p.add_argument(
-        "--windows", default=None, help="vibration: window sizes to try (default: 200,400,800,1600)"
+        "--windows",
+        type=window_list,
+        default=None,
+        help="vibration: window sizes to try (default: 200,400,800,1600)",
     )
     p.add_argument(
-        "--frame-rate", type=float, default=None, help="explorations: frames/s (default: file or 10)"
+        "--frame-rate",
+        type=Number(low=0, open_low=True),
+        default=None,
+        help="explorations: frames/s (default: file or 10)",
     )
     p.add_argument(
-        "--threshold", default=None, help="image threshold: auto (default), otsu, display or a number"
+        "--threshold",
+        type=Number(words=("auto", "otsu", "display")),
+        default=None,
+        help="image threshold: auto (default), otsu, display or a number",
     )
-    p.add_argument("--erosion", default=None, help="erosion in pixels, or relative (default)")
+    p.add_argument(
+        "--erosion",
+        type=Number(words=("relative",)),
+        default=None,
+        help="erosion in pixels, or relative (default)",
+    )
     p.add_argument(
         "--contact",
         default=None,
         choices=["raises", "lowers", "auto"],
         help="pressure maps: does contact raise (default) or lower the reading",
     )
-    p.add_argument("--max-per-class", default=None, help="samples kept per class (default: 60 quick, 300)")
+    p.add_argument(
+        "--max-per-class",
+        type=Number(int, low=2, words=("auto",)),
+        default=None,
+        help="samples kept per class (default: 60 quick, 300)",
+    )
     p.add_argument("--classifiers", default=None, help="comma-separated subset of HM-SVM,SVC,LDA,kNN,NCM")
     p.add_argument(
         "--features", default=None, help="comma-separated feature-set name prefixes (e.g. fused,top)"
     )
     p.add_argument(
         "--target",
-        type=float,
+        type=Number(low=0, high=1, open_low=True),
         default=None,
         metavar="ACC",
         help="the accuracy a deployment needs: recommend the cheapest candidate whose interval's lower end "
@@ -111,9 +136,10 @@ def register(sub) -> None:
         "--csv-session",
         default=None,
         choices=["number", "file"],
-        help="CSV logs: session from the file name's trailing number (felt_3.csv -> 3, default) or one per file",
+        help="CSV logs: session from the file name's trailing number (felt_3.csv -> 3), else the folder when the "
+        "files lie in several (day2/felt.csv -> day2; default: number), or one per file",
     )
-    p.add_argument("--seed", type=int, default=None, help="random seed (default: 0)")
+    p.add_argument("--seed", type=SEED, default=None, help="random seed (default: 0)")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.add_argument(
         "--no-breaking",
@@ -133,7 +159,9 @@ def register(sub) -> None:
         help="where the cross-validation tasks run (default: this process; loky with --n-jobs); dask needs "
         "the optional extra dask",
     )
-    p.add_argument("--n-jobs", type=int, default=None, help="parallel workers (-1: every core)")
+    p.add_argument(
+        "--n-jobs", type=Number(int, low=-1), default=None, help="parallel workers (-1: every core)"
+    )
     p.add_argument(
         "--scheduler",
         default=None,
@@ -141,23 +169,6 @@ def register(sub) -> None:
     )
     add_allow_pickle(p)
     p.set_defaults(handler=run_tradeoff_command)
-
-
-def _number_or(option: str, text: str, *words: str) -> str | float | int:
-    if text in words:
-        return text
-    try:
-        return int(text) if text.isdigit() else float(text)
-    except ValueError:
-        raise UsageError(f"--{option} must be one of {list(words)} or a number, got {text!r}") from None
-
-
-def _int_list(option: str, text: str | None) -> tuple[int, ...] | None:
-    if not text:
-        return None
-    if not all(part.strip().isdigit() for part in text.split(",")):
-        raise UsageError(f"--{option} must be comma-separated whole numbers, got {text!r}")
-    return tuple(int(part) for part in text.split(","))
 
 
 def _names(text: str | None) -> tuple[str, ...] | None:
@@ -172,16 +183,12 @@ def tradeoff_options(args: argparse.Namespace):
     given = {
         "n_folds": args.folds,
         "window": args.window,
-        "windows": _int_list("windows", args.windows),
+        "windows": args.windows,
         "frame_rate_hz": args.frame_rate,
-        "threshold": None
-        if args.threshold is None
-        else _number_or("threshold", args.threshold, "auto", "otsu", "display"),
-        "erosion": None if args.erosion is None else _number_or("erosion", args.erosion, "relative"),
+        "threshold": args.threshold,
+        "erosion": args.erosion,
         "contact": args.contact,
-        "max_per_class": None
-        if args.max_per_class is None
-        else _number_or("max-per-class", args.max_per_class, "auto"),
+        "max_per_class": args.max_per_class,
         "classifiers": _names(args.classifiers),
         "features": _names(args.features),
         "target": args.target,
@@ -197,6 +204,10 @@ def tradeoff_options(args: argparse.Namespace):
     )
 
 
+def _word(value: object) -> str:
+    return ",".join(str(v) for v in value) if isinstance(value, tuple) else str(value)
+
+
 def reproduce_line(args: argparse.Namespace, options) -> str:
     """Return the command line that reproduces this run (the options not at their defaults)."""
     words = [f"--data {' '.join(args.data)}", *data_option_words(args), f"--out {args.out}"]
@@ -205,7 +216,9 @@ def reproduce_line(args: argparse.Namespace, options) -> str:
     words += ["--no-tune"] if args.no_tune else []
     changed = options.changed()
     words += [
-        f"--{name.replace('_', '-')} {getattr(args, name)}" for field, name in REPRODUCED if field in changed
+        f"--{name.replace('_', '-')} {_word(getattr(args, name))}"
+        for field, name in REPRODUCED
+        if field in changed
     ]
     return "tactile-torch tradeoff " + " ".join(words)
 
@@ -231,6 +244,7 @@ def run_tradeoff_command(args: argparse.Namespace) -> int:
     """Run the study, print its summary and what was written; return the exit status."""
     from ..tradeoff import load_tradeoff_data, summary_lines
     from ..tradeoff.job import run_tradeoff_job
+    from ..tradeoff.output import incomplete_lines
 
     options = tradeoff_options(args)
     command = reproduce_line(args, options)
@@ -259,6 +273,10 @@ def run_tradeoff_command(args: argparse.Namespace) -> int:
     for note in result.notes:
         print(f"note:        {with_flags(note)}")
     print(f"written: {', '.join(str(p) for p in paths.values())} ({result.seconds:.0f} s)")
+    if result.incomplete:  # a late stage failed: a bug, reported as one, after what was complete is written
+        for line in incomplete_lines(result):
+            print(f"tactile-torch tradeoff: {line}", file=sys.stderr)
+        return INTERNAL_ERROR_EXIT
     if result.status == "none exported":
         return NOT_EXPORTED_EXIT
     return 0 if result.status == "recommended" else NO_RECOMMENDATION_EXIT

@@ -6,14 +6,16 @@ from __future__ import annotations
 import argparse
 
 from ._options import (
-    UsageError,
+    SEED,
+    Number,
     add_allow_pickle,
     add_data_options,
     data_name,
     declare_range,
     read_data_arg,
+    window_type,
 )
-from ._output import print_class_report
+from ._output import print_class_report, recordings_line
 
 
 def catalogue_choices() -> list[str]:
@@ -37,7 +39,7 @@ def register(sub) -> None:
     )
     p.add_argument(
         "--select",
-        type=int,
+        type=Number(int, low=1),
         default=None,
         metavar="K",
         help="keep the K best-ranked features (the trade-off's 'top K' feature sets; default: all)",
@@ -45,22 +47,34 @@ def register(sub) -> None:
     p.add_argument(
         "--out", default="", help="write the trained model's file here (no pickle), e.g. model.npz"
     )
-    p.add_argument("--C", type=float, default=16.0, help="SVM penalty (default: 16)")
-    p.add_argument("--gamma", default="scale", help="RBF width, a float or 'scale' (default)")
+    p.add_argument("--C", type=Number(low=0, open_low=True), default=16.0, help="SVM penalty (default: 16)")
+    p.add_argument(
+        "--gamma",
+        type=Number(low=0, open_low=True, words=("scale",)),
+        default="scale",
+        help="RBF width, a number > 0 or 'scale' (default)",
+    )
     p.add_argument("--kernel", default="rbf", choices=["rbf", "linear"], help="SVM kernel (default: rbf)")
-    p.add_argument("--window", type=int, default=800, help="vibration window in samples (default: 800)")
-    p.add_argument("--step", type=int, default=None, help="vibration window hop (default: the window)")
+    p.add_argument(
+        "--window", type=window_type(), default=800, help="vibration window in samples, >= 16 (default: 800)"
+    )
+    p.add_argument(
+        "--step", type=Number(int, low=1), default=None, help="vibration window hop (default: the window)"
+    )
     p.add_argument("--no-fuse", action="store_true", help="image: per-frame features instead of fused ones")
     p.add_argument(
         "--folds",
-        type=int,
+        type=Number(int, low=2),
         default=5,
         help="held-out folds, grouped by session or recording, or time blocks (default: 5)",
     )
     p.add_argument(
-        "--test-size", type=float, default=None, help="(old) held-out share: --folds round(1 / share)"
+        "--test-size",
+        type=Number(low=0, high=1, open_low=True, open_high=True),
+        default=None,
+        help="(old) held-out share: --folds round(1 / share)",
     )
-    p.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
+    p.add_argument("--seed", type=SEED, default=0, help="random seed (default: 0)")
     add_allow_pickle(p)
     p.set_defaults(handler=run_train)
 
@@ -70,15 +84,11 @@ def run_train(args: argparse.Namespace) -> int:
     from ..robot.errors import InputError, InputValueError
     from ..training import load_features, save_model, train_classifier
 
-    gamma = args.gamma if args.gamma == "scale" else float(args.gamma)
-    if args.select is not None and args.select < 1:
-        raise UsageError(f"--select must be a number of features >= 1, got {args.select}")
+    data = read_data_arg(args)
+    if data.kind == "vibration":
+        print(f"{data_name(args.data)}: {recordings_line(data, args)}")
     features = load_features(
-        read_data_arg(args),
-        window=args.window,
-        step=args.step,
-        fuse=not args.no_fuse,
-        name=data_name(args.data),
+        data, window=args.window, step=args.step, fuse=not args.no_fuse, name=data_name(args.data)
     )
     declare_range(features.source, args)
     print(
@@ -90,7 +100,7 @@ def run_train(args: argparse.Namespace) -> int:
             features,
             args.method,
             C=args.C,
-            gamma=gamma,
+            gamma=args.gamma,
             kernel=args.kernel,
             n_folds=args.folds,
             test_size=args.test_size,

@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .._checks import check_positive
-from ..robot.csv_logs import read_csv_recording
+from ..robot.csv_logs import read_csv_recording, read_timed_csv_log
 from ..robot.errors import InputTypeError
 
 if TYPE_CHECKING:
@@ -58,6 +58,9 @@ class VibrationRecordings:
         Sample rate shared by all recordings.
     session : ndarray ``(R,)`` of str, optional
         Session (or source file) of each recording, for grouped splits.
+    gaps : list of ndarray, optional
+        Per recording, the samples that start a new stretch after a gap in its time stamps (CSV logs
+        and bags, :attr:`tactile_torch.robot.formats.RecordingArrays.gaps`): no window spans a gap.
     """
 
     signals: list[np.ndarray]
@@ -65,6 +68,7 @@ class VibrationRecordings:
     class_names: tuple[str, ...]
     rate_hz: float
     session: np.ndarray | None = None
+    gaps: list[np.ndarray] | None = None
 
     def __post_init__(self) -> None:
         checked = []
@@ -101,6 +105,12 @@ class VibrationRecordings:
             if session.shape != (len(checked),):
                 raise ValueError(f"session must have shape ({len(checked)},), got {session.shape}")
             self.session = session
+        if self.gaps is not None:
+            self.gaps = [np.asarray(g, dtype=np.int64) for g in self.gaps]
+            if len(self.gaps) != len(checked):
+                raise ValueError(
+                    f"gaps must give one array per recording ({len(checked)}), got {len(self.gaps)}"
+                )
 
     def __len__(self) -> int:
         return len(self.signals)
@@ -128,7 +138,7 @@ class VibrationRecordings:
         -------
         VibrationWindows
             float32 windows ``(N, 3, W)`` (a copy), recordings in order, windows in time order.
-            Recordings shorter than ``size`` give no window.
+            Recordings shorter than ``size`` give no window; no window spans a gap (``gaps``).
 
         Raises
         ------
@@ -140,7 +150,7 @@ class VibrationRecordings:
         from ..robot.windows import window_recordings
 
         check_positive(size, "size", integer=True)
-        cut = window_recordings(self.signals, size, step, max_per_recording=max_per_recording)
+        cut = window_recordings(self.signals, size, step, max_per_recording=max_per_recording, gaps=self.gaps)
         return VibrationWindows(
             windows=torch.from_numpy(cut.windows),
             labels=torch.from_numpy(self.labels[cut.recording]),
@@ -156,7 +166,8 @@ class VibrationRecordings:
         The ratio is approximated by a fraction with denominator <= 1000; resample_poly low-pass
         filters (Kaiser window) before decimating, and pads the ends with zeros, so the first and last
         few dozen samples are attenuated. Resampling does not add information: 100 Hz data upsampled
-        to 800 Hz still holds nothing above 50 Hz.
+        to 800 Hz still holds nothing above 50 Hz. The stretches between ``gaps`` are resampled one by
+        one (no filter reaches across a gap).
         """
         from scipy.signal import resample_poly
 
@@ -164,11 +175,19 @@ class VibrationRecordings:
         ratio = Fraction(float(rate_hz) / self.rate_hz).limit_denominator(1000)
         if ratio == 1:
             return replace(self, signals=[s.copy() for s in self.signals])
-        signals = [
-            resample_poly(s.astype(np.float64), ratio.numerator, ratio.denominator, axis=0).astype(np.float32)
-            for s in self.signals
-        ]
-        return replace(self, signals=signals, rate_hz=self.rate_hz * ratio.numerator / ratio.denominator)
+        up, down = ratio.numerator, ratio.denominator
+        signals, gaps = [], []
+        for i, s in enumerate(self.signals):
+            cuts = [] if self.gaps is None else self.gaps[i].tolist()
+            parts = [
+                resample_poly(part.astype(np.float64), up, down, axis=0).astype(np.float32)
+                for part in np.split(s, cuts)
+            ]
+            signals.append(np.concatenate(parts))
+            gaps.append(np.cumsum([len(p) for p in parts[:-1]]).astype(np.int64))
+        return replace(
+            self, signals=signals, rate_hz=self.rate_hz * up / down, gaps=None if self.gaps is None else gaps
+        )
 
     def save(self, path: str | Path) -> Path:
         """Write the recordings to ``path`` (``.npz``); see :func:`save_vibration_npz`."""
@@ -211,7 +230,12 @@ def save_vibration_npz(path: str | Path, recordings: VibrationRecordings) -> Pat
     from ..robot.formats import RecordingArrays, write_recordings
 
     arrays = RecordingArrays(
-        recordings.signals, recordings.labels, recordings.class_names, recordings.rate_hz, recordings.session
+        recordings.signals,
+        recordings.labels,
+        recordings.class_names,
+        recordings.rate_hz,
+        recordings.session,
+        recordings.gaps,
     )
     return write_recordings(path, arrays)
 
@@ -234,7 +258,9 @@ def load_vibration_npz(path: str | Path, *, allow_pickle: bool = False) -> Vibra
     from ..robot.formats import read_recordings
 
     data = read_recordings(path, allow_pickle=allow_pickle)
-    return VibrationRecordings(data.signals, data.labels, data.class_names, data.rate_hz, data.session)
+    return VibrationRecordings(
+        data.signals, data.labels, data.class_names, data.rate_hz, data.session, data.gaps
+    )
 
 
 def load_vibration_csv(
@@ -248,6 +274,7 @@ def load_vibration_csv(
     scale: float | None = None,
     time_unit: str = "auto",
     rate_hz: float | None = None,
+    sample_rate_hz: float | None = None,
 ) -> VibrationRecordings:
     """Load CSV logs (one recording per file) as :class:`VibrationRecordings` in g.
 
@@ -256,9 +283,10 @@ def load_vibration_csv(
     paths : path or sequence of paths
     class_names, sessions : sequence of str, optional
         Class and session of each file (same length as ``paths``); default from ``index``, else
-        the naming rule: ``felt_3.csv`` → class ``felt``, session ``3``; ``glass.csv`` → class and
-        session ``glass`` (:func:`tactile_torch.robot.csv_logs.class_and_session`, the rule of the
-        command line). Labels index the sorted distinct classes.
+        the naming rule: ``felt_3.csv`` → class ``felt``, session ``3``; ``day2/glass.csv`` → class
+        ``glass``, session ``day2`` when the files lie in several folders, else ``glass``
+        (:func:`tactile_torch.robot.naming.names_for`, the rule of the command line). Labels index
+        the sorted distinct classes.
     index : path, optional
         A CSV with columns ``file,class[,session]`` (files relative to it).
     columns : str or sequence, optional
@@ -271,6 +299,13 @@ def load_vibration_csv(
         unit to pass).
     rate_hz : float, optional
         Resample every file to this rate. Without it, all files must share one rate (within 0.1 %).
+    sample_rate_hz : float, optional
+        The files' sample rate, stated (``--rate``); their time stamps must agree within 5 %. Default:
+        each file's rate from its time stamps, robust to rounding and gaps
+        (:func:`tactile_torch.robot.sample_times.time_base`).
+
+    Gaps in the time stamps are kept (``gaps``: no window spans one); gaps and irregular steps give
+    one warning each for all the files.
 
     Raises
     ------
@@ -283,16 +318,28 @@ def load_vibration_csv(
     >>> rec.class_names, rec.session  # doctest: +SKIP
     (('felt',), array(['1', '2'], dtype='<U1'))
     """
-    from ..robot.csv_logs import names_for, read_csv_log
+    import warnings
+
+    from ..robot.naming import names_for
+    from ..robot.sample_times import describe_timing
 
     paths = [paths] if isinstance(paths, str | Path) else list(paths)
     if not paths:
         raise ValueError("paths must name at least one CSV file, got none")
     names, session = names_for(paths, class_names=class_names, sessions=sessions, index=index)
-    read = [read_csv_log(p, columns=columns, units=units, scale=scale, time_unit=time_unit) for p in paths]
+    logs = [
+        read_timed_csv_log(
+            p, columns=columns, units=units, scale=scale, time_unit=time_unit, sample_rate_hz=sample_rate_hz
+        )
+        for p in paths
+    ]
+    for line in describe_timing(
+        [(str(p), log.timing, log.seconds) for p, log in zip(paths, logs, strict=True)]
+    ):
+        warnings.warn(line, stacklevel=2)
     classes = tuple(sorted(set(names)))
-    rates = np.array([r for _, r in read])
-    signals = [s for s, _ in read]
+    rates = np.array([log.rate_hz for log in logs])
+    signals, gaps = [log.signal for log in logs], [log.gaps for log in logs]
     if rate_hz is None:
         if np.abs(rates / rates[0] - 1).max() > 1e-3:
             raise ValueError(
@@ -303,16 +350,19 @@ def load_vibration_csv(
     else:
         check_positive(rate_hz, "rate_hz")
         common = float(rate_hz)
-        signals = [
-            VibrationRecordings([s], np.zeros(1, np.int64), ("_",), r).resample(common).signals[0]
-            for s, r in zip(signals, rates, strict=True)
+        resampled = [
+            VibrationRecordings([s], np.zeros(1, np.int64), ("_",), r, gaps=[g]).resample(common)
+            for s, r, g in zip(signals, rates, gaps, strict=True)
         ]
+        signals = [one.signals[0] for one in resampled]
+        gaps = [one.gaps[0] for one in resampled]
     return VibrationRecordings(
         signals=signals,
         labels=np.array([classes.index(n) for n in names]),
         class_names=classes,
         rate_hz=common,
         session=np.array(session),
+        gaps=gaps if any(g.size for g in gaps) else None,
     )
 
 

@@ -124,6 +124,7 @@ def rebind(template: Path, model: object, raw: np.ndarray, path: str | Path) -> 
     import torch
     from onnx import numpy_helper
 
+    from .._onnx import save_onnx
     from ..robot.runtime import OnnxPipeline
 
     graph = graph_of(model)
@@ -138,7 +139,7 @@ def rebind(template: Path, model: object, raw: np.ndarray, path: str | Path) -> 
             init.CopyFrom(numpy_helper.from_array(value.astype(old.dtype), init.name))
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    onnx.save(proto, str(path))
+    save_onnx(proto, path)  # sealed anew: the template's digest covered its own weights
     labels, scores = OnnxPipeline(path).predict_scores(raw)
     with torch.no_grad():
         t_labels, t_scores = graph(torch.from_numpy(np.ascontiguousarray(raw)))

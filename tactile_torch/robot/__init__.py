@@ -21,6 +21,6 @@ __getattr__, __dir__, __all__ = lazy_exports(
         "model_file": ("ModelFile", "load_model_file", "save_model_file"),
         "formats": ("read_data", "read_explorations", "read_features", "read_recordings"),
         "data_sources": ("DataOptions", "read_source"),
-        "errors": ("InputError", "InputTypeError", "InputValueError"),
+        "errors": ("InputError", "InputTypeError", "InputValueError", "InternalError", "internal_stage"),
     },
 )

@@ -23,6 +23,21 @@ import numpy as np
 
 from .errors import InputTypeError
 
+FLOAT32_MAX = float(np.finfo(np.float32).max)
+"""The largest float32 (3.4e38): a sample beyond it is kept as it, beyond every sensor's range."""
+
+
+def saturate_float32(values: np.ndarray) -> np.ndarray:
+    """Return finite ``values`` as float32, those beyond float32's range as ``±FLOAT32_MAX`` (not inf).
+
+    A corrupted ``1e308`` then reads as a sample beyond the sensor's range, as ``1e30`` does (refused
+    by ``train``, its window left out by ``predict``), instead of overflowing to inf with a warning.
+
+    >>> saturate_float32(np.array([1.0, -1e308]))
+    array([ 1.0000000e+00, -3.4028235e+38], dtype=float32)
+    """
+    return np.clip(values, -FLOAT32_MAX, FLOAT32_MAX).astype(np.float32)
+
 
 def check_count(value: object, name: str, minimum: int) -> int:
     """Return ``value`` as an ``int`` if it is an integer ``>= minimum`` (bool refused), else raise ``ValueError``.
@@ -86,4 +101,4 @@ def numpy_rng(random_state: object) -> np.random.Generator:
     )
 
 
-__all__ = ["check_count", "check_number", "check_positive", "numpy_rng"]
+__all__ = ["FLOAT32_MAX", "check_count", "check_number", "check_positive", "numpy_rng", "saturate_float32"]

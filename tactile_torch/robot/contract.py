@@ -24,6 +24,8 @@ key                        value
 ``sensor_range_g``         vibration bundles: windows with a sample beyond it are unknown
 ``ood_threshold``          classifier bundles: a larger ``ood_distance`` is unknown
 ``ood_quantile``           the training quantile the threshold was set at (informative)
+``tactile_torch.sha256``   ``"sha256:<hex>"`` of the file without this property: checked on load
+                           (:mod:`tactile_torch.robot.integrity`)
 =========================  ======================================================================
 
 Other keys an exporter writes (method, kernel, feature scale, test accuracy, ...) are kept in
@@ -59,6 +61,8 @@ NOVELTY_SCORE_OUTPUT = "novelty"
 # ------------------------------------------------------------------------------------ metadata keys
 PIPELINE_KEY = "tactile_torch.pipeline"
 VERSION_KEY = "tactile_torch.version"
+DIGEST_KEY = "tactile_torch.sha256"
+"""Metadata key of the bundle's digest, written by every exporter (:func:`tactile_torch.robot.integrity.seal`)."""
 INPUT_SHAPE_KEY = "input_shape"
 INPUT_LAYOUT_KEY = "input_layout"
 CLASS_NAMES_KEY = "class_names"
@@ -102,6 +106,7 @@ def metadata_strings(metadata: Mapping[str, object]) -> dict[str, str]:
 __all__ = [
     "CLASS_NAMES_KEY",
     "DEFAULT_RANGE_G",
+    "DIGEST_KEY",
     "FEATURES_LAYOUT",
     "FEATURES_NAME",
     "FRAMES_LAYOUT",

@@ -15,10 +15,8 @@ header line. What varies between loggers is declared, never guessed silently:
                  plausible one, which is refused in one line naming the unit to pass
 ===============  ==================================================================================
 
-**Naming rule** (:func:`class_and_session`): a file ``<class>_<n>.<ext>`` whose name ends in
-``_`` and a number is recording ``n`` (the session) of class ``<class>``: ``felt_3.csv`` → class
-``felt``, session ``3`` (``felt_03.csv`` too). Any other name is a class of its own and its own session: ``glass.csv``
-→ class ``glass``, session ``glass``. An index CSV (:func:`read_index`) overrides the rule.
+The naming rule for classes and sessions (``felt_3.csv`` → class ``felt``, session ``3``) is
+:mod:`tactile_torch.robot.naming`'s; its names stay importable from here.
 
 Examples
 --------
@@ -32,12 +30,24 @@ import csv
 import io
 import os
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from .checks import saturate_float32
+from .naming import (  # the naming rule's home; importable from here as before
+    INDEX_COLUMNS,
+    class_and_session,
+    csv_class_name,
+    folder_sessions,
+    names_for,
+    read_index,
+    session_source,
+)
 from .npz import _too_large, max_read_bytes
 from .safe_write import write_atomic
+from .sample_times import RATE_TOLERANCE, TimeBase, describe_timing, rate_hz, stamp_resolution, time_base
 
 PathLike = str | os.PathLike
 
@@ -48,96 +58,7 @@ TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6}
 """Accepted ``time_unit`` and their factor to seconds (``"auto"`` picks seconds, see the module notes)."""
 PLAUSIBLE_RATE_HZ = (10.0, 100_000.0)
 """Sample rates an accelerometer log is taken to have under ``time_unit="auto"``."""
-INDEX_COLUMNS = ("file", "class")
-"""Columns an index CSV must have (``session`` is optional)."""
 _CSV_EXPANSION = 4  # bytes of parsed table per byte of CSV text, at most ("0,0,0,0\n": 8 bytes, 4 float64)
-
-
-# ------------------------------------------------------------------------------------ naming rule
-def class_and_session(path: PathLike) -> tuple[str, str]:
-    """Return ``(class, session)`` of a recording from its file name (the naming rule above).
-
-    >>> class_and_session("cork_12.csv"), class_and_session("run.bag"), class_and_session("a_b.mcap")
-    (('cork', '12'), ('run', 'run'), ('a_b', 'a_b'))
-    """
-    stem = (
-        Path(path).stem if Path(path).suffix.lower() in (".csv", ".db3", ".mcap", ".bag") else Path(path).name
-    )
-    base, _, tail = stem.rpartition("_")
-    if base and tail.isdigit():
-        return base, str(int(tail))  # felt_03 and cork_3 are both session 3
-    return stem, stem
-
-
-def read_index(path: PathLike) -> dict[str, tuple[str, str]]:
-    """Return ``{file: (class, session)}`` from an index CSV with columns ``file,class[,session]``.
-
-    ``file`` is a path relative to the index's directory (or absolute); a missing ``session``
-    makes each file its own session. Keys are the resolved paths as strings.
-
-    Raises
-    ------
-    ValueError
-        One line naming the index file: a missing column, an empty class, a file listed twice.
-    """
-    path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"{path}: no such index file")
-    with path.open(newline="") as f:
-        reader = csv.DictReader(f)
-        header = [h.strip().lower() for h in (reader.fieldnames or [])]
-        missing = [c for c in INDEX_COLUMNS if c not in header]
-        if missing:
-            raise ValueError(
-                f"{path}: an index CSV needs the columns file,class[,session], missing {missing} "
-                f"(header: {header})"
-            )
-        reader.fieldnames = header
-        index: dict[str, tuple[str, str]] = {}
-        for row_number, row in enumerate(reader, start=2):
-            name, label = (row.get("file") or "").strip(), (row.get("class") or "").strip()
-            if not name or not label:
-                raise ValueError(f"{path}: row {row_number} must give a file and a class, got {dict(row)}")
-            key = str((path.parent / name).resolve())
-            if key in index:
-                raise ValueError(f"{path}: row {row_number} lists {name!r} a second time")
-            index[key] = (label, (row.get("session") or "").strip() or Path(name).stem)
-    if not index:
-        raise ValueError(f"{path}: the index lists no file")
-    return index
-
-
-def names_for(
-    paths: Sequence[PathLike],
-    *,
-    class_names: Sequence[str] | None = None,
-    sessions: Sequence[str] | None = None,
-    index: PathLike | dict | None = None,
-) -> tuple[list[str], list[str]]:
-    """Return each path's class and session: given explicitly, from an index CSV, or the naming rule.
-
-    Raises
-    ------
-    ValueError
-        When ``class_names``/``sessions`` do not give one entry per file, or a file is not in the index.
-    """
-    if index is not None:
-        table = index if isinstance(index, dict) else read_index(index)
-        absent = [str(p) for p in paths if str(Path(p).resolve()) not in table]
-        if absent:
-            where = index if not isinstance(index, dict) else "the index"
-            raise ValueError(
-                f"{where}: lists no class for {absent[0]} ({len(absent)} file(s) not in the index)"
-            )
-        rule = [table[str(Path(p).resolve())] for p in paths]
-    else:
-        rule = [class_and_session(p) for p in paths]
-    classes = [c for c, _ in rule] if class_names is None else [str(c) for c in class_names]
-    session = [s for _, s in rule] if sessions is None else [str(s) for s in sessions]
-    for name, given in (("class_names", classes), ("sessions", session)):
-        if len(given) != len(paths):
-            raise ValueError(f"{name} must give one entry per file ({len(paths)}), got {len(given)}")
-    return classes, session
 
 
 # ------------------------------------------------------------------------------------ CSV logs
@@ -189,26 +110,54 @@ def _suggest(header: list[str]) -> str:
     return ",".join([time, *axes]) if len(axes) == 3 else "t,x,y,z"
 
 
-def _seconds_per_tick(path: Path, step: float, time_unit: str) -> float:
-    if time_unit != "auto":
-        if time_unit not in TIME_UNITS:
-            raise ValueError(f"time_unit must be one of {[*TIME_UNITS, 'auto']}, got {time_unit!r}")
-        return TIME_UNITS[time_unit]
+_UNIT_NAMES = {"ms": "milliseconds", "us": "microseconds", "s": "seconds"}
+
+
+def _seconds_per_tick(path: Path, period: float, time_unit: str, stated_rate_hz: float | None) -> float:
+    """Seconds per unit of ``t``: the declared unit, or under ``"auto"`` the one the rate makes plausible.
+
+    A declared unit is checked as ``"auto"`` is: one that makes the rate implausible while another
+    unit makes it plausible is refused. With a stated rate, the unit is the one whose rate is
+    nearest to it, and the two must agree within :data:`~tactile_torch.robot.sample_times.RATE_TOLERANCE`.
+    """
+    if time_unit != "auto" and time_unit not in TIME_UNITS:
+        raise ValueError(f"time_unit must be one of {[*TIME_UNITS, 'auto']}, got {time_unit!r}")
+    units = TIME_UNITS if time_unit == "auto" else {time_unit: TIME_UNITS[time_unit]}
+    rates = {u: 1.0 / (period * f) for u, f in units.items()}
+    if stated_rate_hz is not None:
+        unit = min(rates, key=lambda u: abs(np.log(rates[u] / stated_rate_hz)))
+        if abs(rates[unit] / stated_rate_hz - 1.0) > RATE_TOLERANCE:
+            raise ValueError(
+                f"{path}: the time stamps give {rates[unit]:.4g} Hz (t in {_UNIT_NAMES[unit]}), but "
+                f"sample_rate_hz={stated_rate_hz:g} was stated; check the time column (columns=), its unit "
+                "(time_unit=) and the rate"
+            )
+        return units[unit]
     low, high = PLAUSIBLE_RATE_HZ
-    if low <= 1.0 / step <= high:
-        return 1.0
-    plausible = [u for u, f in TIME_UNITS.items() if low <= 1.0 / (step * f) <= high]
-    name = {"ms": "milliseconds", "us": "microseconds", "s": "seconds"}
-    if plausible:
+    plausible = [u for u, f in TIME_UNITS.items() if low <= 1.0 / (period * f) <= high]
+    if time_unit == "auto":
+        if "s" in plausible:
+            return 1.0
+        if plausible:
+            unit = plausible[0]
+            raise ValueError(
+                f"{path}: t looks like {_UNIT_NAMES[unit]}: a step of {period:g} s would be {1.0 / period:.3g} Hz; "
+                f"pass time_unit={unit!r}, or time_unit='s' with sample_rate_hz= if the rate is right"
+            )
+    elif time_unit in plausible:
+        return TIME_UNITS[time_unit]
+    elif plausible:
         unit = plausible[0]
         raise ValueError(
-            f"{path}: t looks like {name[unit]}: median step {step:g} s would be {1.0 / step:.3g} Hz; "
-            f"pass time_unit={unit!r}, or time_unit='s' if the rate is right"
+            f"{path}: t in {_UNIT_NAMES[time_unit]} (time_unit={time_unit!r}) gives {rates[time_unit]:.4g} Hz, "
+            f"not a plausible accelerometer rate ({low:g} Hz to {high:g} Hz); t looks like {_UNIT_NAMES[unit]} "
+            f"({1.0 / (period * TIME_UNITS[unit]):.4g} Hz): pass time_unit={unit!r}, or state the rate with "
+            "sample_rate_hz= if it is right"
         )
     raise ValueError(
-        f"{path}: the median time step {step:g} gives {1.0 / step:.3g} Hz in seconds, "
-        f"{1e3 / step:.3g} Hz in ms and {1e6 / step:.3g} Hz in us, none a plausible accelerometer rate "
-        f"({low:g} Hz to {high:g} Hz); check the time column (columns=) or pass time_unit="
+        f"{path}: the time step {period:g} gives {1.0 / period:.3g} Hz in seconds, "
+        f"{1e3 / period:.3g} Hz in ms and {1e6 / period:.3g} Hz in us, none a plausible accelerometer rate "
+        f"({low:g} Hz to {high:g} Hz); check the time column (columns=), or state the rate with sample_rate_hz="
     )
 
 
@@ -221,45 +170,61 @@ def integer_counts_message(where: str, found: str) -> str:
     )
 
 
-def read_csv_log(
+@dataclass(frozen=True)
+class CsvLog:
+    """One CSV log as read by :func:`read_timed_csv_log`.
+
+    Attributes
+    ----------
+    signal : ndarray (n, 3) float32
+        Accelerations in g.
+    rate_hz : float
+        The sample rate: stated, or from the time stamps (:func:`tactile_torch.robot.sample_times.time_base`).
+    gaps : ndarray (K,) int64
+        Samples that start a new stretch after a gap in the time stamps (no window spans a gap).
+    timing : TimeBase
+        What the time stamps say, in their unit; ``seconds`` converts it.
+    seconds : float
+        Seconds per unit of the time column.
+    """
+
+    signal: np.ndarray
+    rate_hz: float
+    gaps: np.ndarray
+    timing: TimeBase
+    seconds: float
+
+
+def read_timed_csv_log(
     path: PathLike,
     *,
     columns: str | Sequence[str | int] | None = None,
     units: str = "g",
     scale: float | None = None,
     time_unit: str = "auto",
-) -> tuple[np.ndarray, float]:
-    """Read one CSV log; return ``(signal (n, 3) float32 in g, rate_hz)``.
+    sample_rate_hz: float | None = None,
+) -> CsvLog:
+    """Read one CSV log; return its samples in g, its rate and the gaps of its time stamps.
 
-    Parameters
-    ----------
-    path : path
-    columns, units, scale, time_unit
-        See the module notes.
-
-    Returns
-    -------
-    signal : ndarray (n, 3) float32
-        ``value * scale * units factor`` (scale 1 when not given), in g.
-    rate_hz : float
-        ``1 / median(dt)`` in the declared (or detected) time unit; samples are taken as uniformly
-        spaced (a warning says when a step deviates from the median by more than 5 %).
+    The rate is the slope of ``t`` against the sample index between gaps (robust to stamps rounded
+    to 0.1 ms or 1 ms, :func:`tactile_torch.robot.sample_times.time_base`), rounded to the digits the
+    fit supports; ``sample_rate_hz`` states it instead (the stamps must agree within 5 %). Gaps (a
+    step longer than 1.5 periods plus the stamps' resolution) are returned as ``gaps``; the caller
+    warns (:func:`tactile_torch.robot.sample_times.describe_timing`). Values beyond float32's range
+    (``1e308``) are kept as its largest value, beyond every sensor's range (refused or left out there).
 
     Raises
     ------
     ValueError
-        One line naming the file: a missing column, a value that is not a finite number, fewer than
-        2 rows, time stamps that do not strictly increase, an implausible rate under
-        ``time_unit="auto"``, integer counts without ``scale``, an unknown unit, or a file whose parsing
-        would exceed the read bound (:func:`tactile_torch.robot.npz.max_read_bytes`, ``--max-read-mb``).
+        One line naming the file: see :func:`read_csv_log`.
     """
-    import warnings
-
     path = Path(path)
     if units not in UNITS:
         raise ValueError(f"units must be one of {list(UNITS)}, got {units!r}")
     if scale is not None and not (np.isfinite(scale) and scale > 0):
         raise ValueError(f"scale must be a finite number > 0 (units per count), got {scale!r}")
+    if sample_rate_hz is not None and not (np.isfinite(sample_rate_hz) and sample_rate_hz > 0):
+        raise ValueError(f"sample_rate_hz must be a finite number of Hz > 0, got {sample_rate_hz!r}")
     if not path.exists():
         raise FileNotFoundError(f"{path}: no such file")
     if path.is_dir():
@@ -268,7 +233,54 @@ def read_csv_log(
     if path.stat().st_size * _CSV_EXPANSION > limit:  # parsing takes up to ~4 bytes per byte of text
         raise _too_large(path, "parsing the CSV log", path.stat().st_size * _CSV_EXPANSION, limit)
     spec = _column_spec(columns)
-    with path.open(newline="") as f:
+    try:
+        table, header, index = _read_table(path, spec)
+    except UnicodeDecodeError as err:
+        raise ValueError(
+            f"{path}: not UTF-8 text (byte 0x{err.object[err.start]:02x} at offset {err.start}); a CSV log "
+            "is text: t,x,y,z numbers, comma-separated"
+        ) from None
+    try:
+        values = table.astype(np.float64)
+    except ValueError as err:
+        raise ValueError(f"{path}: every value of columns {index} must be a number ({err})") from None
+    if len(values) < 2:
+        raise ValueError(f"{path} must hold at least 2 samples, got {len(values)}")
+    if not np.isfinite(values).all():
+        bad = np.argwhere(~np.isfinite(values))[0]
+        raise ValueError(
+            f"{path} must hold finite values, got {int((~np.isfinite(values)).sum())} NaN/inf "
+            f"(first at data row {bad[0] + 1}, column {_column_name(header, index[bad[1]])})"
+        )
+    dt = np.diff(values[:, 0])
+    if (dt <= 0).any():
+        raise ValueError(
+            f"{path}: time stamps must strictly increase, data row {int(np.argmax(dt <= 0)) + 2} does not"
+        )
+    if (
+        scale is None
+        and not np.char.count(table[:, 1:], ".").any()
+        and not np.char.count(np.char.lower(table[:, 1:]), "e").any()
+    ):
+        raise ValueError(integer_counts_message(str(path), "integers only"))
+    resolution = stamp_resolution(table[:, 0])
+    timing = time_base(values[:, 0], resolution=resolution)
+    seconds = _seconds_per_tick(path, timing.period, time_unit, sample_rate_hz)
+    if sample_rate_hz is None:
+        rate = rate_hz(timing.period * seconds, timing.period_error)
+    else:  # the gaps and the irregularity against the stated period
+        rate = float(sample_rate_hz)
+        timing = time_base(values[:, 0], resolution=resolution, period=1.0 / (rate * seconds))
+    factor = (1.0 if scale is None else float(scale)) * UNITS[units]
+    signal = saturate_float32(values[:, 1:] * factor)
+    return CsvLog(signal, rate, timing.gaps, timing, seconds)
+
+
+def _read_table(path: Path, spec: list | None) -> tuple[np.ndarray, list[str] | None, list[int]]:
+    """The t, x, y, z columns as text ``(n, 4)``, the header (or None) and the columns' indices."""
+    import warnings
+
+    with path.open(newline="", encoding="utf-8") as f:
         first = next(csv.reader(f), None)
     if first is None:
         raise ValueError(f"{path}: empty file, expected a CSV log with columns t,x,y,z")
@@ -284,44 +296,71 @@ def read_csv_log(
         with warnings.catch_warnings():  # a blank line or a header-only file: numpy warns; we say it below
             warnings.simplefilter("ignore", UserWarning)
             table = np.loadtxt(
-                path, delimiter=",", skiprows=0 if header is None else 1, usecols=index, ndmin=2, dtype=str
+                path,
+                delimiter=",",
+                skiprows=0 if header is None else 1,
+                usecols=index,
+                ndmin=2,
+                dtype=str,
+                encoding="utf-8",
             )
+    except UnicodeDecodeError:
+        raise
     except ValueError as err:
         raise ValueError(f"{path}: every row must have the columns {index} ({err})") from None
-    try:
-        values = table.astype(np.float64)
-    except ValueError as err:
-        raise ValueError(f"{path}: every value of columns {index} must be a number ({err})") from None
-    if len(values) < 2:
-        raise ValueError(f"{path} must hold at least 2 samples, got {len(values)}")
-    if not np.isfinite(values).all():
-        bad = np.argwhere(~np.isfinite(values))[0]
-        raise ValueError(
-            f"{path} must hold finite values, got {int((~np.isfinite(values)).sum())} NaN/inf "
-            f"(first at data row {bad[0] + 1}, column {index[bad[1]]})"
-        )
-    dt = np.diff(values[:, 0])
-    if (dt <= 0).any():
-        raise ValueError(
-            f"{path}: time stamps must strictly increase, data row {int(np.argmax(dt <= 0)) + 2} does not"
-        )
-    step = float(np.median(dt))
-    seconds = _seconds_per_tick(path, step, time_unit)
-    rate = float(f"{1.0 / (step * seconds):.9g}")  # 0.01 s steps written as text give 100.00000000000213 Hz
-    if np.abs(dt - step).max() > 0.05 * step:
-        warnings.warn(
-            f"{path}: time steps vary by up to {np.abs(dt - step).max() / step:.0%} of the median; "
-            "the samples are taken as uniformly spaced",
-            stacklevel=2,
-        )
-    if (
-        scale is None
-        and not np.char.count(table[:, 1:], ".").any()
-        and not np.char.count(np.char.lower(table[:, 1:]), "e").any()
-    ):
-        raise ValueError(integer_counts_message(str(path), "integers only"))
-    factor = (1.0 if scale is None else float(scale)) * UNITS[units]
-    return (values[:, 1:] * factor).astype(np.float32), rate
+    return table, header, index
+
+
+def _column_name(header: list[str] | None, column: int) -> str:
+    return f"{column} ({header[column]})" if header is not None and column < len(header) else str(column)
+
+
+def read_csv_log(
+    path: PathLike,
+    *,
+    columns: str | Sequence[str | int] | None = None,
+    units: str = "g",
+    scale: float | None = None,
+    time_unit: str = "auto",
+    sample_rate_hz: float | None = None,
+) -> tuple[np.ndarray, float]:
+    """Read one CSV log; return ``(signal (n, 3) float32 in g, rate_hz)``.
+
+    Parameters
+    ----------
+    path : path
+    columns, units, scale, time_unit
+        See the module notes.
+    sample_rate_hz : float, optional
+        The sample rate, stated; the time stamps must agree with it within 5 %.
+
+    Returns
+    -------
+    signal : ndarray (n, 3) float32
+        ``value * scale * units factor`` (scale 1 when not given), in g.
+    rate_hz : float
+        The slope of ``t`` against the sample index between gaps, in the declared (or detected) time
+        unit (:func:`read_timed_csv_log`), or ``sample_rate_hz``. One warning says when the stamps
+        have gaps or steps further than 5 % from the period (beyond their resolution); the samples
+        are returned as one recording (:func:`read_timed_csv_log` gives the gaps).
+
+    Raises
+    ------
+    ValueError
+        One line naming the file: a missing column, a value that is not a finite number, fewer than
+        2 rows, time stamps that do not strictly increase, a rate implausible for the time unit
+        (declared or ``"auto"``) or off the stated one, integer counts without ``scale``, an unknown
+        unit, text that is not UTF-8, or a file whose parsing would exceed the read bound
+        (:func:`tactile_torch.robot.npz.max_read_bytes`, ``--max-read-mb``).
+    """
+    import warnings
+
+    log = read_timed_csv_log(
+        path, columns=columns, units=units, scale=scale, time_unit=time_unit, sample_rate_hz=sample_rate_hz
+    )
+    for line in describe_timing([(str(path), log.timing, log.seconds)]):
+        warnings.warn(line, stacklevel=2)
+    return log.signal, log.rate_hz
 
 
 def read_csv_recording(
@@ -331,22 +370,25 @@ def read_csv_recording(
     scale: float | None = None,
     units: str = "g",
     time_unit: str = "auto",
+    sample_rate_hz: float | None = None,
 ) -> tuple[np.ndarray, float]:
     """Read one CSV log of time and three accelerations; return ``(signal (n, 3) float32 in g, rate_hz)``.
 
     ``columns`` (names or indices of t, x, y, z), ``units`` (``"g"``, ``"m/s2"``), ``scale`` (units
-    per count, required for integer counts) and ``time_unit`` (``"s"``, ``"ms"``, ``"us"``,
-    ``"auto"``) are those of :func:`read_csv_log`, which reads the file
-    (NumPy only). The rate is ``1 / median(dt)``.
+    per count, required for integer counts), ``time_unit`` (``"s"``, ``"ms"``, ``"us"``,
+    ``"auto"``) and ``sample_rate_hz`` (the rate, stated) are those of :func:`read_csv_log`, which
+    reads the file (NumPy only). The rate is the slope of ``t`` against the sample index.
 
     Raises
     ------
     ValueError
         If a column is missing, a value is not a finite number, there are fewer than 2 rows, the
-        time stamps do not strictly increase, the rate is implausible for the time unit, or the
-        accelerations are integer counts without a ``scale``.
+        time stamps do not strictly increase, the rate is implausible for the time unit or off the
+        stated one, or the accelerations are integer counts without a ``scale``.
     """
-    return read_csv_log(path, columns=columns, units=units, scale=scale, time_unit=time_unit)
+    return read_csv_log(
+        path, columns=columns, units=units, scale=scale, time_unit=time_unit, sample_rate_hz=sample_rate_hz
+    )
 
 
 def write_csv_recording(path: PathLike, signal: np.ndarray, rate_hz: float) -> Path:
@@ -367,26 +409,21 @@ def write_csv_recording(path: PathLike, signal: np.ndarray, rate_hz: float) -> P
     return write_atomic(path, lambda f: f.write(text))
 
 
-def csv_class_name(path: PathLike) -> str:
-    """Return the class a CSV log is named after (:func:`class_and_session`).
-
-    >>> csv_class_name("logs/cork_12.csv"), csv_class_name("glass.csv")
-    ('cork', 'glass')
-    """
-    return class_and_session(path)[0]
-
-
 __all__ = [
     "INDEX_COLUMNS",
     "PLAUSIBLE_RATE_HZ",
     "TIME_UNITS",
     "UNITS",
+    "CsvLog",
     "class_and_session",
     "csv_class_name",
+    "folder_sessions",
     "integer_counts_message",
     "names_for",
     "read_csv_log",
     "read_csv_recording",
     "read_index",
+    "read_timed_csv_log",
+    "session_source",
     "write_csv_recording",
 ]

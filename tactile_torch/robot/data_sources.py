@@ -11,15 +11,18 @@ the file and the sample, vibration recordings that the declared units make impla
 from __future__ import annotations
 
 import os
+import warnings
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
+from .checks import FLOAT32_MAX
 from .contract import DEFAULT_RANGE_G
 from .csv_logs import STANDARD_GRAVITY, UNITS, names_for
 from .ros_bags import MAX_BAG_MESSAGES, PRESSURE_TYPE, is_bag, read_bag
+from .sample_times import RATE_TOLERANCE, describe_timing, time_base
 
 PathLike = str | os.PathLike
 
@@ -42,6 +45,10 @@ class DataOptions:
         Units per count, for integer counts (refused without it).
     time_unit : {"auto", "s", "ms", "us"}
         CSV logs: unit of the time column.
+    sample_rate_hz : float, optional
+        Vibration recordings: the sample rate, stated. CSV logs and bags: their time stamps must
+        agree with it within 5 % (:data:`~tactile_torch.robot.sample_times.RATE_TOLERANCE`); a
+        ``.npz``: its ``rate_hz`` must. Default: the time stamps' rate (or the file's ``rate_hz``).
     topic : str, optional
         Bags: the topic to read (default: the only IMU or pressure-array topic).
     shape : (H, W), optional
@@ -65,6 +72,7 @@ class DataOptions:
     units: str | None = None
     scale: float | None = None
     time_unit: str = "auto"
+    sample_rate_hz: float | None = None
     topic: str | None = None
     shape: tuple[int, int] | None = None
     frames: int | None = None
@@ -113,6 +121,9 @@ def read_source(paths: PathLike | Sequence[PathLike], options: DataOptions | Non
     units = options.units or "g"
     if units not in UNITS:
         raise ValueError(f"units must be one of {list(UNITS)}, got {units!r}")
+    stated = options.sample_rate_hz
+    if stated is not None and not (isinstance(stated, int | float) and np.isfinite(stated) and stated > 0):
+        raise ValueError(f"sample_rate_hz must be a finite number of Hz > 0, got {stated!r}")
     if kind == "bag":
         return _read_bags(paths, options)
     if kind == "csv":
@@ -123,6 +134,7 @@ def read_source(paths: PathLike | Sequence[PathLike], options: DataOptions | Non
             scale=options.scale,
             units=units,
             time_unit=options.time_unit,
+            sample_rate_hz=stated,
         )
         sources = [str(p) for p in paths]
     else:
@@ -131,6 +143,10 @@ def read_source(paths: PathLike | Sequence[PathLike], options: DataOptions | Non
         if data_kind(arrays, path) != "vibration":
             from .formats import read_data
 
+            if stated is not None:
+                raise ValueError(
+                    f"sample_rate_hz applies to vibration recordings, got {data_kind(arrays, path)} data ({path})"
+                )
             return read_data(path, allow_pickle=options.allow_pickle)
         signals = arrays["signals"]
         factor = UNITS[units] * (1.0 if options.scale is None else float(options.scale))
@@ -147,13 +163,31 @@ def read_source(paths: PathLike | Sequence[PathLike], options: DataOptions | Non
             if np.issubdtype(signals.dtype, np.number):
                 arrays["signals"] = signals.astype(np.float64) * factor
         data = recordings_from_arrays(arrays, path)
+        if stated is not None:
+            _check_stated(stated, data.rate_hz, f"{path}: rate_hz is")
+            data.rate_hz = float(stated)
         session = data.session if data.session is not None else np.arange(len(data))
         sources = [f"{path}: recording {i} (session {s})" for i, s in enumerate(session)]
     if options.check:
         check_recordings(
-            data.signals, sources, data.rate_hz, sensor_range_g=options.sensor_range_g, units=units
+            data.signals,
+            sources,
+            data.rate_hz,
+            sensor_range_g=options.sensor_range_g,
+            units=units,
+            gaps=data.gaps,
         )
+    data.sources = sources
     return data
+
+
+def _check_stated(stated: float, found: float, what: str) -> None:
+    """Refuse a stated rate off the one the data give by more than ``RATE_TOLERANCE``."""
+    if abs(found / stated - 1.0) > RATE_TOLERANCE:
+        raise ValueError(
+            f"{what} {found:.6g} Hz, but sample_rate_hz={stated:g} was stated (they must agree within "
+            f"{RATE_TOLERANCE:.0%}); check the rate"
+        )
 
 
 def _read_bags(paths: list[Path], options: DataOptions):
@@ -166,6 +200,17 @@ def _read_bags(paths: list[Path], options: DataOptions):
     kinds = {t.msgtype for t in topics}
     if len(kinds) > 1:
         raise ValueError(f"the bags' topics hold different types ({sorted(kinds)}); read one kind at a time")
+    stated = options.sample_rate_hz
+    if stated is not None:
+        if kinds == {PRESSURE_TYPE}:
+            raise ValueError(
+                f"sample_rate_hz applies to vibration recordings, got pressure maps ({paths[0]})"
+            )
+        for i, t in enumerate(topics):
+            _check_stated(stated, t.rate_hz, f"{t.name}: the time stamps give")
+            stamps = (t.stamps_s - t.stamps_s[0]) * 1e9
+            timing = time_base(stamps, resolution=1.0, period=1e9 / stated)
+            topics[i] = replace(t, rate_hz=float(stated), timing=timing)
     rates = np.array([t.rate_hz for t in topics])
     if np.abs(rates / rates[0] - 1).max() > 1e-2:
         odd = int(np.argmax(np.abs(rates / rates[0] - 1)))
@@ -179,11 +224,21 @@ def _read_bags(paths: list[Path], options: DataOptions):
         return _explorations(topics, labels, names, options.frames)
     signals = [t.values for t in topics]
     sources = [t.name for t in topics]
+    for line in describe_timing([(t.name, t.timing, 1e-9) for t in topics], what="bag"):
+        warnings.warn(line, stacklevel=3)
+    gaps = [t.timing.gaps for t in topics]
     if options.check:
         check_recordings(
-            signals, sources, float(rates[0]), sensor_range_g=options.sensor_range_g, units="m/s2"
+            signals, sources, float(rates[0]), sensor_range_g=options.sensor_range_g, units="m/s2", gaps=gaps
         )
-    return RecordingArrays(signals, labels, names, float(rates[0]), np.array(sessions))
+    return RecordingArrays(
+        signals,
+        labels,
+        names,
+        float(rates[0]),
+        np.array(sessions),
+        gaps if any(g.size for g in gaps) else None,
+    )
 
 
 def _explorations(topics, labels: np.ndarray, names: tuple[str, ...], frames: int | None):
@@ -220,8 +275,12 @@ def check_recordings(
     *,
     sensor_range_g: float = DEFAULT_RANGE_G,
     units: str = "g",
+    gaps: Sequence[np.ndarray] | None = None,
 ) -> None:
     """Refuse recordings whose samples the declared units make implausible; return ``None`` if all pass.
+
+    ``gaps`` (per recording, the samples after a gap in its time stamps): a sample after a gap is
+    named without a time, which ``index / rate_hz`` no longer gives.
 
     Checked per recording ``(n, 3)`` in g, in this order: the mean acceleration's norm lies in
     :data:`GRAVITY_BAND_G` (gravity of m/s^2 data read as g; only when ``units`` is ``"g"``); a
@@ -233,7 +292,7 @@ def check_recordings(
     ValueError
         One line naming the recording (``sources[i]``), the sample (index and time) and the value.
     """
-    for signal, where in zip(signals, sources, strict=True):
+    for i, (signal, where) in enumerate(zip(signals, sources, strict=True)):
         s = np.asarray(signal, dtype=np.float64)
         if not len(s):
             continue
@@ -247,8 +306,16 @@ def check_recordings(
         beyond = np.abs(s) > sensor_range_g
         if beyond.any():
             row, axis = (int(i) for i in np.argwhere(beyond)[0])
+            value = s[row, axis]
+            reads = (
+                f"{value:.4g} g"
+                if abs(value) < FLOAT32_MAX
+                else f"{'-' if value < 0 else ''}{FLOAT32_MAX:.3g} g or more (beyond float32)"
+            )
+            after_gap = gaps is not None and len(gaps[i]) and row >= int(gaps[i][0])
+            when = "after a gap in t" if after_gap else f"t = {row / rate_hz:.4g} s"
             raise ValueError(
-                f"{where}: sample {row} (t = {row / rate_hz:.4g} s) reads {s[row, axis]:.4g} g on {'xyz'[axis]}, "
+                f"{where}: sample {row} ({when}) reads {reads} on {'xyz'[axis]}, "
                 f"beyond the sensor's ±{sensor_range_g:g} g ({int(beyond.any(axis=1).sum())} samples beyond); "
                 "declare the range with sensor_range_g=G, or the units with units= / scale="
             )

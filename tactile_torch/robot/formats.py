@@ -47,8 +47,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .csv_logs import integer_counts_message, names_for, read_csv_recording
+from .checks import saturate_float32
+from .csv_logs import integer_counts_message, read_timed_csv_log
+from .naming import check_class_names, names_for
 from .npz import PathLike, read_npz, write_npz
+from .sample_times import describe_timing
 
 DATA_KINDS = ("image", "vibration", "features")
 """The kinds of data file, by the array that marks them: ``frames``, ``signals``, ``features``."""
@@ -91,6 +94,12 @@ class RecordingArrays:
     class_names : tuple of str
     rate_hz : float
     session : ndarray (R,) str, or None
+    gaps : list of ndarray (K_i,) int64, or None
+        Per recording, the samples that start a new stretch after a gap in its time stamps
+        (increasing, in ``1 .. n_i - 1``); no window spans a gap. ``None``: no gaps.
+    sources : list of str, or None
+        How messages name each recording (its CSV file or bag; set by
+        :func:`~tactile_torch.robot.data_sources.read_source`).
     """
 
     signals: list[np.ndarray]
@@ -98,6 +107,8 @@ class RecordingArrays:
     class_names: tuple[str, ...]
     rate_hz: float
     session: np.ndarray | None = None
+    gaps: list[np.ndarray] | None = None
+    sources: list[str] | None = None
     kind = "vibration"
 
     def __len__(self) -> int:
@@ -165,32 +176,20 @@ def _names(
     if value.ndim != 1 or value.dtype.kind not in "US":
         raise ValueError(f"{path}: {name} must be a 1-D array of strings, got {value.dtype} {value.shape}")
     if value.dtype.kind == "S":
+        for i, raw in enumerate(value.tolist()):
+            try:
+                raw.decode("utf-8")
+            except UnicodeDecodeError as err:
+                raise ValueError(
+                    f"{path}: {name} must be UTF-8 text, got {raw!r} at index {i} (byte 0x{raw[err.start]:02x} "
+                    f"at position {err.start} is not UTF-8)"
+                ) from None
         value = np.char.decode(value, "utf-8")
     names = [str(c) for c in value]
     if not distinct:  # sessions repeat across classes (felt_3 and cork_3 are both session 3)
         check_class_names(sorted(set(names)), f"{path}: {name}")
         return tuple(names)
     return check_class_names(names, f"{path}: {name}")
-
-
-def check_class_names(names: Sequence[str], where: str = "class_names") -> tuple[str, ...]:
-    """Return ``names`` as a tuple if they can name classes, else raise ``ValueError`` starting with ``where``.
-
-    A class name is printed in reports, one per line, and written into bundles: it must hold no
-    control character (a newline would inject a line into a report), and no two may be equal (the
-    labels would be ambiguous).
-    """
-    for i, name in enumerate(names):
-        if any(ord(ch) < 32 or ord(ch) == 127 for ch in name):
-            raise ValueError(
-                f"{where} must hold no control characters (newline, tab, ...), got {name!r} at index {i}"
-            )
-    seen: dict[str, int] = {}
-    for i, name in enumerate(names):
-        if name in seen:
-            raise ValueError(f"{where} must be distinct, got {name!r} at indices {seen[name]} and {i}")
-        seen[name] = i
-    return tuple(names)
 
 
 def _labels(value: np.ndarray, path: Path, n: int, names: tuple[str, ...]) -> np.ndarray:
@@ -347,7 +346,7 @@ def _recordings(arrays: dict[str, np.ndarray], path: Path) -> RecordingArrays:
         signals = list(raw)
     if not signals or not all(len(s) for s in signals):
         raise ValueError(f"{path}: signals must hold at least one recording of at least one sample")
-    signals = [np.ascontiguousarray(s, dtype=np.float32) for s in signals]
+    signals = [np.ascontiguousarray(saturate_float32(s)) for s in signals]
     names = _names(arrays["class_names"], path)
     labels = _labels(arrays["labels"], path, len(signals), names)
     rate = arrays["rate_hz"]
@@ -361,7 +360,32 @@ def _recordings(arrays: dict[str, np.ndarray], path: Path) -> RecordingArrays:
         session = np.asarray(_names(session, path, "session", distinct=False))
         if session.shape != (len(signals),):
             raise ValueError(f"{path}: session must have shape ({len(signals)},), got {session.shape}")
-    return RecordingArrays(signals, labels, names, rate_hz, session)
+    gaps = _gaps(arrays.get("gaps"), path, [len(s) for s in signals])
+    return RecordingArrays(signals, labels, names, rate_hz, session, gaps)
+
+
+def _gaps(value: np.ndarray | None, path: Path, lengths: list[int]) -> list[np.ndarray] | None:
+    """The optional ``gaps`` array ``(K, 2)`` (recording, sample), checked, as a list per recording."""
+    if value is None:
+        return None
+    if value.ndim != 2 or value.shape[1] != 2 or not np.issubdtype(value.dtype, np.integer):
+        raise ValueError(
+            f"{path}: gaps must be integers of shape (K, 2) (recording, sample), got {value.dtype} {value.shape}"
+        )
+    recording, sample = value[:, 0].astype(np.int64), value[:, 1].astype(np.int64)
+    if len(value) and (recording.min() < 0 or recording.max() >= len(lengths)):
+        raise ValueError(
+            f"{path}: gaps must name recordings 0..{len(lengths) - 1}, got {recording.min()}..{recording.max()}"
+        )
+    per_recording = []
+    for r, n in enumerate(lengths):
+        mine = np.sort(sample[recording == r])
+        if mine.size and (mine[0] < 1 or mine[-1] > n - 1 or (np.diff(mine) <= 0).any()):
+            raise ValueError(
+                f"{path}: gaps of recording {r} must be distinct samples in 1..{n - 1}, got {mine.tolist()[:5]}"
+            )
+        per_recording.append(mine)
+    return per_recording
 
 
 def write_recordings(path: PathLike, data: RecordingArrays) -> Path:
@@ -385,6 +409,10 @@ def write_recordings(path: PathLike, data: RecordingArrays) -> Path:
     )
     if data.session is not None:
         arrays["session"] = np.asarray(data.session, dtype=str)
+    if data.gaps is not None and any(len(g) for g in data.gaps):
+        arrays["gaps"] = np.array(
+            [(r, int(i)) for r, g in enumerate(data.gaps) for i in g], dtype=np.int64
+        ).reshape(-1, 2)
     path = _data_path(path)
     _recordings(arrays, path)  # refuse to write what would not read back
     return write_npz(path, arrays)
@@ -400,37 +428,51 @@ def read_csv_recordings(
     scale: float | None = None,
     units: str = "g",
     time_unit: str = "auto",
+    sample_rate_hz: float | None = None,
 ) -> RecordingArrays:
     """Read CSV logs (one recording each) sharing one sample rate as :class:`RecordingArrays`.
 
     Each file's class and session come from ``class_names``/``sessions``, else an ``index`` CSV
     (``file,class[,session]``), else the naming rule (``felt_3.csv`` → class ``felt``, session
-    ``3``; :func:`tactile_torch.robot.csv_logs.class_and_session`). Labels index the sorted distinct
-    classes. ``columns``, ``scale``, ``units``, ``time_unit``: see :func:`read_csv_recording`. The
-    files must share one sample rate within 0.1 %
-    (:meth:`tactile_torch.data.VibrationRecordings.resample` converts).
+    ``3``; ``day2/felt.csv`` → session ``day2`` when the files lie in several folders;
+    :func:`tactile_torch.robot.csv_logs.names_for`). Labels index the sorted distinct classes.
+    ``columns``, ``scale``, ``units``, ``time_unit``, ``sample_rate_hz``: see
+    :func:`~tactile_torch.robot.csv_logs.read_csv_log`. The files must share one sample rate within
+    0.1 % (:meth:`tactile_torch.data.VibrationRecordings.resample` converts). Gaps in the time stamps
+    are kept in ``gaps`` (no window spans one); gaps and irregular steps give one warning each for
+    all the files (:func:`tactile_torch.robot.sample_times.describe_timing`), not one per file.
     """
+    import warnings
+
     paths = [Path(p) for p in paths]
     if not paths:
         raise ValueError("paths must name at least one CSV file, got none")
     names, session = names_for(paths, class_names=class_names, sessions=sessions, index=index)
-    read = [
-        read_csv_recording(p, columns=columns, scale=scale, units=units, time_unit=time_unit) for p in paths
+    logs = [
+        read_timed_csv_log(
+            p, columns=columns, scale=scale, units=units, time_unit=time_unit, sample_rate_hz=sample_rate_hz
+        )
+        for p in paths
     ]
-    rates = np.array([r for _, r in read])
+    rates = np.array([log.rate_hz for log in logs])
     if np.abs(rates / rates[0] - 1).max() > 1e-3:
         odd = int(np.argmax(np.abs(rates / rates[0] - 1)))
         raise ValueError(
             f"the files have different sample rates ({paths[0]}: {rates[0]:g} Hz, {paths[odd]}: "
             f"{rates[odd]:g} Hz); resample them to a common rate (load_vibration_csv(..., rate_hz=))"
         )
+    for line in describe_timing(
+        [(str(p), log.timing, log.seconds) for p, log in zip(paths, logs, strict=True)]
+    ):
+        warnings.warn(line, stacklevel=2)
     classes = check_class_names(sorted(set(names)), "class names (of the CSV files)")
     return RecordingArrays(
-        signals=[s for s, _ in read],
+        signals=[log.signal for log in logs],
         labels=np.array([classes.index(n) for n in names], dtype=np.int64),
         class_names=classes,
         rate_hz=float(rates[0]),
         session=np.array(session),
+        gaps=[log.gaps for log in logs] if any(log.gaps.size for log in logs) else None,
     )
 
 

@@ -39,8 +39,9 @@ Layout (format version 1, ``docs/formats.md``):
     with the head's ``cluster_features`` K (< F): ``means`` ``(C, K)`` on the first K features and the
     novelty density over all F, ``density_means`` ``(Q, F)``, ``density_precisions_cholesky``
     ``(Q, F, F)``, ``density_log_weights`` ``(Q,)``.
-``ood.means`` ``(C, F)``, ``ood.precision_cholesky`` ``(F, F)``
-    classifiers: the statistics of the out-of-distribution distance (older files lack them).
+``ood.means`` ``(C, F)``, ``ood.precision_cholesky`` ``(F, F)``, ``ood.offset`` ``(F,)``, and the second view ``ood.floor`` ``(F,)``, ``ood.log_means``, ``ood.log_precision_cholesky``, ``ood.norm`` ``(2,)``
+    classifiers: the statistics of the out-of-distribution distance (:mod:`tactile_torch.ood`; older
+    files lack them, or the offset and the second view).
 ``transform.<name>``
     clusterings of vibration windows: the fitted attributes of the
     :class:`~tactile_torch.signal.ClusteringTransform` (``mean_``, ``scale_``, ``components_``, ...).
@@ -66,7 +67,8 @@ from pathlib import Path
 import numpy as np
 
 from .formats import check_class_names
-from .npz import PathLike, read_npz, write_npz
+from .npz import MAX_READ_ENV, PathLike, max_read_bytes, read_npz, write_npz
+from .windows import MAX_WINDOW, MIN_WINDOW
 
 FORMAT = "tactile-torch/model"
 FORMAT_VERSION = 2
@@ -151,6 +153,7 @@ DIMENSIONS = {
     "T": "training samples of a nearest-neighbour head",
     "R": "features the front end makes (before 'select')",
     "W": "numbers of consecutive windows with a novelty threshold",
+    "V": "views of the out-of-distribution distance (2)",
     "K": "features a mixture counts and clusters on (head.cluster_features)",
     "Q": "components of a mixture's novelty density",
 }
@@ -338,8 +341,18 @@ def _check_source(where: str, source: object) -> int | None:
     if kind == "vibration":
         for name, want in (("window", int), ("step", int), ("rate_hz", float)):
             _check_type(where, f"source.{name}", source.get(name), want)
-        if source["window"] < 2 or source["step"] < 1 or source["rate_hz"] <= 0:
-            _fail(where, f"source must have window >= 2, step >= 1 and rate_hz > 0, got {source}")
+        if (
+            not MIN_WINDOW <= source["window"] <= MAX_WINDOW
+        ):  # what train makes; checked before any allocation
+            _fail(
+                where,
+                f"source.window must be a number of samples in {MIN_WINDOW} .. {MAX_WINDOW:,} (what train makes), "
+                f"got {source['window']}",
+            )
+        if not 1 <= source["step"] <= MAX_WINDOW or not 0 < source["rate_hz"] < float("inf"):
+            _fail(
+                where, f"source must have step in 1 .. {MAX_WINDOW:,} and a finite rate_hz > 0, got {source}"
+            )
         return VIBRATION_FEATURES
     if kind == "image":
         _check_type(where, "source.fuse", source.get("fuse"), bool)
@@ -359,6 +372,12 @@ def _check_source(where: str, source: object) -> int | None:
             and shape[1] == 3
         ):
             _fail(where, f"source.frame_shape must be [T, 3, H, W], got {shape!r:.80}")
+        if 4 * math.prod(shape) > max_read_bytes():  # one float32 exploration: checked before any allocation
+            _fail(
+                where,
+                f"source.frame_shape {shape} makes one exploration of {4 * math.prod(shape):,} bytes, more than the "
+                f"read limit of {max_read_bytes():,} bytes (raise it with {MAX_READ_ENV}=MB if the file is trusted)",
+            )
         return IMAGE_FEATURES if source["fuse"] else IMAGE_FEATURES * shape[0]
     if kind == "features":
         _check_type(where, "source.n_features", source.get("n_features"), int)
@@ -472,7 +491,19 @@ def _check_ood(where: str, ood: object, arrays: Mapping[str, np.ndarray], dims: 
     if not (0 < ood["quantile"] <= 1 and ood["threshold"] > 0):
         _fail(where, f"ood must have 0 < quantile <= 1 and threshold > 0, got {ood}")
     spec = {"means": (("C", "F"), "f"), "precision_cholesky": (("F", "F"), "f")}
-    _check_arrays(where, "ood", spec, arrays, dims)
+    if "ood.offset" in arrays:  # the offset back from centred features (older files: none)
+        spec["offset"] = (("F",), "f")
+    second = ("floor", "log_means", "log_precision_cholesky", "norm")
+    if any(f"ood.{name}" in arrays for name in second):  # the second view, all or nothing (older files: none)
+        spec.update(
+            floor=(("F",), "f"),
+            log_means=(("C", "F"), "f"),
+            log_precision_cholesky=(("F", "F"), "f"),
+            norm=(("V",), "f"),
+        )
+    _check_arrays(where, "ood", spec, arrays, {**dims, "V": 2})
+    if "floor" in spec and ((arrays["ood.floor"] <= 0).any() or (arrays["ood.norm"] <= 0).any()):
+        _fail(where, "ood.floor and ood.norm must be > 0 (scales)")
 
 
 def _mixture_arrays(where: str, head: Mapping, spec: dict, arrays: Mapping, dims: dict[str, int]) -> dict:

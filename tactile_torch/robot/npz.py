@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import os
 import zipfile
+import zlib
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -96,6 +97,7 @@ def check_npz_size(path: PathLike, *, max_bytes: int | None = None, what: str = 
     """
     path = Path(path)
     limit = max_read_bytes(max_bytes)
+    name = ""
     try:
         with zipfile.ZipFile(path) as archive:
             members = archive.infolist()
@@ -104,6 +106,7 @@ def check_npz_size(path: PathLike, *, max_bytes: int | None = None, what: str = 
                 raise _too_large(path, f"decompressing the {what}", declared, limit)
             needed = 0
             for info in members:
+                name = info.filename
                 with archive.open(info) as member:
                     try:
                         version = np.lib.format.read_magic(member)
@@ -121,8 +124,8 @@ def check_npz_size(path: PathLike, *, max_bytes: int | None = None, what: str = 
                         f"holds {info.file_size:,} bytes: a crafted or truncated {what}"
                     )
                 needed += size
-    except (zipfile.BadZipFile, EOFError, OSError) as err:
-        raise ValueError(f"{path}: truncated or corrupt {what} ({err})") from None
+    except (zipfile.BadZipFile, zlib.error, EOFError, OSError) as err:
+        raise _corrupt(path, name, what, err) from None
     if needed > limit:
         raise _too_large(path, f"the {what}'s arrays", needed, limit)
     return needed
@@ -154,29 +157,48 @@ def read_npz(
         raise ValueError(f"{path}: expected a {what} (.npz), found {found}")
     check_npz_size(path, max_bytes=max_bytes, what=what)
     arrays: dict[str, np.ndarray] = {}
+    member = ""
     try:
-        with np.load(path, allow_pickle=allow_pickle) as npz:
-            for key in npz.files:
-                try:
-                    value = npz[key]
-                except ValueError as err:
-                    if "allow_pickle" not in str(err):
-                        raise
-                    raise ValueError(
-                        f"{path}: {key} is a pickled object array, which tactile-torch does not load by "
-                        "default (unpickling can run code); re-save it as plain arrays (docs/formats.md), or "
-                        "pass allow_pickle=True if you trust the file"
-                    ) from None
-                if not isinstance(value, np.ndarray):  # a zip member that is not a .npy array
-                    raise ValueError(f"{path}: expected a {what} (.npz), found a zip archive holding {key!r}")
+        with zipfile.ZipFile(path) as archive:
+            for info in archive.infolist():
+                member = info.filename
+                key = member.removesuffix(".npy")
+                with archive.open(info) as stream:
+                    value = _read_member(stream, path, key, what, allow_pickle)
+                    if stream.read(1):  # reading to the end checks the member's CRC-32
+                        raise ValueError(f"{path}: {member} holds more bytes than its header declares")
                 arrays[key] = value
-    except (zipfile.BadZipFile, EOFError, OSError) as err:
-        raise ValueError(f"{path}: truncated or corrupt {what} ({err})") from None
-    except ValueError as err:
-        if str(err).startswith(str(path)):
-            raise
-        raise ValueError(f"{path}: unreadable {what} ({err})") from None
+    except (zipfile.BadZipFile, zlib.error, EOFError, OSError) as err:
+        raise _corrupt(path, member, what, err) from None
     return arrays
+
+
+def _corrupt(path: Path, member: str, what: str, err: Exception) -> ValueError:
+    """The one line for a damaged archive: the member whose data do not decompress or check, if known."""
+    if not member:
+        return ValueError(f"{path}: truncated or corrupt {what} ({err})")
+    return ValueError(
+        f"{path}: {member} is corrupt ({err}): the {what} was damaged (a flipped bit, a cut copy); "
+        "copy or write it again"
+    )
+
+
+def _read_member(stream, path: Path, key: str, what: str, allow_pickle: bool) -> np.ndarray:
+    """One ``.npy`` member of an archive, as :func:`numpy.load` reads it (no pickle unless allowed)."""
+    try:
+        return np.lib.format.read_array(stream, allow_pickle=allow_pickle)
+    except ValueError as err:
+        if "allow_pickle" in str(err):
+            raise ValueError(
+                f"{path}: {key} is a pickled object array, which tactile-torch does not load by "
+                "default (unpickling can run code); re-save it as plain arrays (docs/formats.md), or "
+                "pass allow_pickle=True if you trust the file"
+            ) from None
+        if "magic" in str(err).lower():  # a zip member that is not a .npy array
+            raise ValueError(
+                f"{path}: expected a {what} (.npz), found a zip archive holding {key!r}"
+            ) from None
+        raise ValueError(f"{path}: unreadable {what} ({key}: {err})") from None
 
 
 def write_npz(

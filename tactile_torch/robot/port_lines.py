@@ -44,15 +44,42 @@ class StreamEvent:
     ----------
     kind : str
         ``"waiting"`` (no data yet), ``"first"`` (first sample), ``"silence"``, ``"resumed"``, ``"gap"``,
-        ``"range"`` (a sample out of range), ``"rate"`` (``t`` runs at another rate than expected),
-        ``"format"`` (the lines switched between ``x,y,z`` and ``t,x,y,z``), ``"disconnected"``,
-        ``"reconnected"``.
+        ``"range"`` (a sample out of range), ``"units"`` (the samples look like other units than
+        declared, once), ``"rate"`` (``t`` runs at another rate than expected), ``"format"`` (the lines
+        switched between ``x,y,z`` and ``t,x,y,z``), ``"disconnected"``, ``"reconnected"``.
     message : str
         One line for a person.
     """
 
     kind: str
     message: str
+
+
+def open_serial_port(
+    url: str, *, baudrate: int = 230400, timeout: float = 0.1, keep_input: bool = False
+) -> ReadablePort:
+    """Return the serial port ``url`` opened with pyserial (``serial.serial_for_url``).
+
+    pyserial's ``open()`` discards what the OS had buffered for the port (``tcflush`` on POSIX). That is
+    what a stream wants when it first opens the port (stale bytes from before it started), not when
+    it reopens one after a failure: the sensor may already have sent samples during the wait.
+    ``keep_input=True`` opens without that flush where pyserial has one (its POSIX ports), so that
+    nothing is lost silently.
+    """
+    import serial
+
+    if not keep_input:
+        return serial.serial_for_url(url, baudrate=baudrate, timeout=timeout)
+    port = serial.serial_for_url(url, baudrate=baudrate, timeout=timeout, do_not_open=True)
+    flushes = hasattr(port, "_reset_input_buffer")  # called by serialposix.Serial.open (pyserial 3.x)
+    if flushes:
+        port._reset_input_buffer = lambda: None  # this instance only, during open()
+    try:
+        port.open()
+    finally:
+        if flushes:
+            del port._reset_input_buffer
+    return port
 
 
 def _giving_up(limit: float) -> str:
@@ -67,9 +94,10 @@ class PortLines:
     :class:`StreamTimeout` after the idle or start timeout, raises :class:`StreamDisconnected` when the
     port fails, or reopens it with exponential backoff (``reconnect``). Every parameter is
     :class:`~tactile_torch.robot.stream.WindowReader`'s of the same name. The subclass parses the
-    lines, counts accepted ``samples`` and ``skipped`` lines, and keeps ``_last_sample_at`` (the
-    clock at the last valid sample), ``_silent`` and ``_delay`` (the next reconnection wait) up to
-    date, which the timeouts and the backoff here read.
+    lines, counts accepted ``samples``, ``skipped`` lines and ``rejected`` samples, and keeps
+    ``_last_sample_at`` (the clock at the last valid sample), ``_silent``, ``_delay`` (the next
+    reconnection wait) and ``_units_hint`` (what the samples look like, when not the declared units)
+    up to date, which the timeouts and the backoff here read.
 
     Attributes
     ----------
@@ -77,6 +105,8 @@ class PortLines:
         Samples accepted (counted by the subclass).
     skipped : int
         Lines skipped (did not parse, or partial lines longer than ``max_line_bytes``).
+    rejected : int
+        Samples rejected (counted by the subclass).
     reconnects : int
         Successful reconnections.
     """
@@ -124,11 +154,13 @@ class PortLines:
         self._name = name
         self._clock = clock
         self._sleep = sleep
-        self.samples = self.skipped = self.reconnects = 0
+        self.samples = self.skipped = self.rejected = self.reconnects = 0
+        self._units_hint: str | None = None
         self._event_window: dict[str, tuple[float, int]] = {}
         self._held_events: dict[str, int] = {}
         self._last_sample_at, self._silent = clock(), False
         self._delay = self.backoff_s[0]
+        self._reconnected = False  # set with the break that a reconnection yields, cleared by the subclass
 
     # -- events ---------------------------------------------------------------------------------
 
@@ -236,7 +268,7 @@ class PortLines:
             name = self._port_name(port)
             read = self._reader_of(port)
             # the clocks start once the port is open (opening may take a while, and flushes it)
-            self._last_sample_at = clock()
+            self._last_sample_at = opened_at = clock()
             if self.on_open is not None:
                 self.on_open(name)
             while True:
@@ -252,7 +284,13 @@ class PortLines:
                     port = self._reopen(err)
                     read = self._reader_of(port)
                     partial = b""
-                    yield None, clock()
+                    # A port reopened late (at the idle timeout itself) gets the idle timeout anew for its
+                    # first sample: its first read may well be empty. _reopen still gives up once the
+                    # timeout has passed since the last sample, so a port that fails at once is not
+                    # retried for ever.
+                    opened_at = clock()
+                    self._reconnected = True
+                    yield None, opened_at
                     continue
                 now = clock()
                 if chunk:
@@ -275,14 +313,21 @@ class PortLines:
                     now = clock()
                 # Time counts since the last VALID sample: bytes that never parse (garbage, a sensor at
                 # the wrong baud rate, a line format the stream refuses) do not keep the stream alive.
-                waited = now - self._last_sample_at
+                waited = now - max(self._last_sample_at, opened_at)
                 limit = self.idle_timeout_s if self.samples else self.start_timeout_s
-                what = "no valid sample" if self.skipped else "no data" if not self.samples else "no sample"
-                skipped = f", {self.skipped} lines skipped" if self.skipped else ""
+                invalid = self.skipped or self.rejected  # lines arrive, none is a valid sample
+                what = "no valid sample" if invalid else "no data" if not self.samples else "no sample"
+                skipped = ", ".join(
+                    [f"{self.skipped} lines skipped"] * bool(self.skipped)
+                    + [f"{self.rejected} samples out of range"] * bool(self.rejected)
+                )
+                skipped = f", {skipped}" if skipped else ""
                 if waited >= limit:
                     raise StreamTimeout(
                         f"{name}: {what} for {waited:.1f} s (timeout {limit:g} s); {self.samples} samples "
                         f"read, {self.skipped} lines skipped"
+                        + (f", {self.rejected} samples out of range" if self.rejected else "")
+                        + (f"; {self._units_hint}" if self._units_hint else "")
                     )
                 if waited >= self.silence_s and not self._silent:
                     self._silent = True
@@ -302,4 +347,11 @@ class PortLines:
             self._close(port)
 
 
-__all__ = ["PortLines", "ReadablePort", "StreamDisconnected", "StreamEvent", "StreamTimeout"]
+__all__ = [
+    "PortLines",
+    "ReadablePort",
+    "StreamDisconnected",
+    "StreamEvent",
+    "StreamTimeout",
+    "open_serial_port",
+]

@@ -21,13 +21,14 @@ beyond either the bag is refused in one line, before the data is held in memory.
 from __future__ import annotations
 
 import os
-import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from .checks import saturate_float32
 from .csv_logs import STANDARD_GRAVITY
+from .sample_times import TimeBase, rate_hz, time_base
 
 PathLike = str | os.PathLike
 
@@ -59,7 +60,11 @@ class BagTopic:
     values : ndarray, float32
         ``(n, 3)`` accelerations in g (IMU), or ``(n, H, W)`` pressure maps.
     rate_hz : float
-        ``1 / median`` time step.
+        From the stamps: the slope of the stamps against the message index between gaps
+        (:func:`tactile_torch.robot.sample_times.time_base`).
+    timing : TimeBase, optional
+        What the stamps say, in nanoseconds: the gaps (``timing.gaps``, no window spans one) and
+        the irregularity; the readers of several bags warn once for all (``describe_timing``).
     """
 
     path: Path
@@ -68,6 +73,7 @@ class BagTopic:
     stamps_s: np.ndarray
     values: np.ndarray
     rate_hz: float
+    timing: TimeBase | None = None
 
     @property
     def name(self) -> str:
@@ -227,15 +233,10 @@ def read_bag(
     if not np.isfinite(array).all():
         bad = int(np.argwhere(~np.isfinite(array.reshape(len(array), -1)))[0][0])
         raise ValueError(f"{path}:{topic}: message {bad} holds NaN/inf values")
-    step = float(np.median(dt)) * 1e-9
-    if np.abs(dt * 1e-9 - step).max() > 0.05 * step:
-        warnings.warn(
-            f"{path}:{topic}: time steps vary by up to {np.abs(dt * 1e-9 - step).max() / step:.0%} of the "
-            "median; the samples are taken as uniformly spaced",
-            stacklevel=2,
-        )
-    rate = float(f"{1.0 / step:.9g}")
-    return BagTopic(path, topic, msgtype, (ns - ns[0]) * 1e-9, array.astype(np.float32), rate)
+    timing = time_base((ns - ns[0]).astype(np.float64), resolution=1.0)
+    rate = rate_hz(timing.period * 1e-9, timing.period_error)
+    values = saturate_float32(array) if msgtype == IMU_TYPE else array.astype(np.float32)
+    return BagTopic(path, topic, msgtype, (ns - ns[0]) * 1e-9, values, rate, timing)
 
 
 __all__ = [

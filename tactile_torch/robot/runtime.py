@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import json
 import math
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -56,8 +57,10 @@ from .contract import (
     WINDOWS_LAYOUT,
 )
 from .errors import InputTypeError
+from .integrity import NotProtobufError, UnsealedBundleWarning, check_digest
 
 _KIND_KEYS = {"image": "frames", "vibration": "signals", "features": "features"}
+_WARNED_UNSEALED: set[str] = set()  # bundles without a digest already warned about (the warning only)
 _ONNX_DTYPES = {"tensor(uint8)": "uint8", "tensor(float)": "float32", "tensor(double)": "float64"}
 
 
@@ -194,6 +197,10 @@ class OnnxPipeline:
         Names of the input dimensions, e.g. ``"B,T,3,H,W"``.
     input_dtype : numpy.dtype
         dtype the graph takes (uint8 for image frames, float32 for windows and features).
+    sealed : bool
+        Whether the bundle carries a digest (checked on load: a bundle whose bytes do not match it
+        is refused with a ``ValueError``; one without a digest loads with an
+        :class:`~tactile_torch.robot.integrity.UnsealedBundleWarning`; docs/export.md, "Integrity").
     """
 
     def __init__(self, path: str | Path, *, intra_op_threads: int = 1, inter_op_threads: int = 1) -> None:
@@ -218,12 +225,29 @@ class OnnxPipeline:
         options.intra_op_num_threads = intra_op_threads
         options.inter_op_num_threads = inter_op_threads
         self.path = path
+        # Read once: the bytes checked against the digest are the bytes onnxruntime loads.
+        data = path.read_bytes()
         try:
-            self.session = ort.InferenceSession(str(path), options, providers=["CPUExecutionProvider"])
+            self.sealed = check_digest(data, path)
+        except NotProtobufError as err:
+            raise ValueError(
+                f"{path}: not an ONNX bundle onnxruntime can load ({_onnx_error(path, ValueError(err.detail))})"
+            ) from None
+        try:
+            self.session = ort.InferenceSession(data, options, providers=["CPUExecutionProvider"])
         except Exception as err:  # onnxruntime raises its own exception types, with long messages
             raise ValueError(
                 f"{path}: not an ONNX bundle onnxruntime can load ({_onnx_error(path, err)})"
             ) from None
+        if not self.sealed and str(path.resolve()) not in _WARNED_UNSEALED:
+            _WARNED_UNSEALED.add(str(path.resolve()))  # once per file and process: a program may reload it
+            warnings.warn(
+                f"{path}: the bundle has no digest (exported before tactile-torch wrote one, or by another tool): "
+                "its integrity cannot be checked; export it again, or seal a copy you trust "
+                "(tactile_torch.robot.integrity.seal_bundle)",
+                UnsealedBundleWarning,
+                stacklevel=2,
+            )
         self.metadata: dict[str, str] = dict(self.session.get_modelmeta().custom_metadata_map)
         self._input = self.session.get_inputs()[0]
         self._outputs = [o.name for o in self.session.get_outputs()]
@@ -517,7 +541,8 @@ class OnnxPipeline:
                 raise ValueError(f"{self.path}: no {WINDOW_SIZE_KEY} in the bundle's metadata")
             size = int(self.metadata[WINDOW_SIZE_KEY])
             try:
-                cut = window_recordings(data.signals, size, int(self.metadata.get(STEP_KEY, size)))
+                step = int(self.metadata.get(STEP_KEY, size))
+                cut = window_recordings(data.signals, size, step, gaps=getattr(data, "gaps", None))
             except ValueError as err:
                 raise ValueError(f"{where}: {err}, the window of this {self.pipeline} bundle") from None
             raw, labels, rate = cut.windows, data.labels[cut.recording], data.rate_hz

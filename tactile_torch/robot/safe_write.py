@@ -12,8 +12,10 @@ Every file tactile-torch writes (data and model files, ONNX bundles, CSV logs, t
   spellings of the same path are caught too;
 
 and otherwise writes a temporary file in the same directory and renames it over ``path``, so that a
-crash, a full disk or an interrupted run never leaves a truncated file under the final name. NumPy
-and the standard library only (runs on the robot).
+crash, a full disk or an interrupted run never leaves a truncated file under the final name. A place
+where nothing can be created (a read-only file system, a directory without write permission) is refused
+first, naming the output; :func:`check_output_dir` checks an output directory the same way. NumPy and
+the standard library only (runs on the robot).
 
 Examples
 --------
@@ -58,9 +60,11 @@ def check_output_path(path: PathLike, *, inputs: Iterable[PathLike] = (), what: 
     try:
         here = path.lstat()
     except FileNotFoundError:
+        _check_writable(path.parent, path, what)
         return path
     except OSError as err:  # e.g. a path through a regular file: ENOTDIR
         raise ValueError(f"{what} {path}: cannot write there ({err.strerror})") from None
+    _check_writable(path.parent, path, what)
     if stat.S_ISLNK(here.st_mode):
         raise ValueError(
             f"{what} {path} is a symbolic link (to {os.readlink(path)}); refusing to write through it: "
@@ -88,6 +92,51 @@ def check_output_path(path: PathLike, *, inputs: Iterable[PathLike] = (), what: 
             raise ValueError(
                 f"{what} {path} is the input file {source}; refusing to overwrite it: choose another name"
             )
+    return path
+
+
+def _check_writable(directory: Path, path: Path, what: str) -> None:
+    """Raise ``ValueError`` naming ``what`` unless files can be created in ``directory`` (or, when it does
+    not exist yet, in its nearest existing ancestor, where the missing directories would be made)."""
+    existing = Path(os.path.abspath(directory))
+    while not existing.exists() and existing != existing.parent:
+        existing = existing.parent
+    if not existing.is_dir():
+        raise ValueError(f"{what} {path}: cannot write there ({existing} is not a directory)")
+    if not os.access(existing, os.W_OK | os.X_OK):  # read-only file system or no permission
+        raise ValueError(f"{what} {path}: cannot write there ({existing} is not writable)")
+    try:  # what access() cannot see (root, special file systems): make and remove an empty directory
+        os.rmdir(tempfile.mkdtemp(prefix=".tactile-torch-probe-", dir=existing))
+    except OSError as err:
+        raise ValueError(
+            f"{what} {path}: cannot write there ({existing}: {err.strerror or type(err).__name__})"
+        ) from None
+
+
+def check_output_dir(path: PathLike, *, what: str = "output", replace: bool = False) -> Path:
+    """Return ``path`` as a :class:`~pathlib.Path` if a directory of outputs may be written there, else
+    raise ``ValueError`` naming ``what``: before any work, rather than after it, naming a temporary file.
+
+    An existing ``path`` must be a directory. ``replace``: the outputs are written next to ``path`` and
+    moved into place as a whole (``tactile-torch tradeoff``), so its parent must be writable; otherwise
+    they are written into ``path`` (or the nearest existing ancestor, where it would be made).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> check_output_dir(tempfile.mkdtemp() + "/runs/x", what="--out").name
+    'x'
+    """
+    path = Path(path)
+    try:
+        here = path.stat()
+    except FileNotFoundError:
+        here = None
+    except OSError as err:  # e.g. a path through a regular file: ENOTDIR
+        raise ValueError(f"{what} {path}: cannot write there ({err.strerror})") from None
+    if here is not None and not stat.S_ISDIR(here.st_mode):
+        raise ValueError(f"{what} {path} exists and is not a directory; name a directory")
+    _check_writable(path.parent if replace or here is None else path, path, what)
     return path
 
 
@@ -120,4 +169,4 @@ def write_atomic(
     return path
 
 
-__all__ = ["check_output_path", "write_atomic"]
+__all__ = ["check_output_dir", "check_output_path", "write_atomic"]

@@ -40,6 +40,7 @@ Examples
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
@@ -48,21 +49,26 @@ import numpy as np
 
 from .checks import check_count, check_number
 from .contract import DEFAULT_RANGE_G
-from .port_lines import PortLines, ReadablePort, StreamDisconnected, StreamEvent, StreamTimeout
+from .csv_logs import STANDARD_GRAVITY, UNITS
+from .data_sources import GRAVITY_BAND_G
+from .port_lines import (
+    PortLines,
+    ReadablePort,
+    StreamDisconnected,
+    StreamEvent,
+    StreamTimeout,
+    open_serial_port,
+)
 from .runtime import sensor_range_g
+from .sample_times import GAP_TOLERANCE, RATE_TOLERANCE
 from .wire import format_sample, parse_line, parse_sample, pseudo_terminal, simulate_sensor
 
 TIME_UNITS = ("s", "ms", "us", "samples")
 """Units the ``t`` field may be in; ``"samples"`` is a sample counter (one per sample)."""
 
-GAP_TOLERANCE = 0.5
-"""A step of ``t`` longer than ``(1 + GAP_TOLERANCE)`` sample periods is a gap (at least one sample lost)."""
-
-RATE_TOLERANCE = 0.05
-"""A window whose ``t`` span gives a rate off the expected one by more than this share is flagged ``"rate"``."""
-
 _RATE_RUN = 16  # consecutive equal off-period steps of t after which the stream's own rate is adopted
 _FORMAT_RUN = 16  # consecutive lines of the other format (x,y,z / t,x,y,z) after which it is followed
+_UNITS_BLOCK = 64  # samples over which the units are judged (mean acceleration, share out of range)
 
 
 @dataclass(frozen=True)
@@ -130,9 +136,17 @@ class WindowReader(PortLines):
         from ``t``; without it, ``t`` is checked only for going back.
     time_unit : {"s", "ms", "us", "samples"}, default "s"
         Unit of the ``t`` field; ``"samples"`` reads it as a sample counter (needs ``rate_hz``).
+    units : {"g", "m/s2"}, default "g"
+        Units of the ``x,y,z`` values on the line (as ``tactile-torch train --units``); the windows
+        are in g.
+    scale : float, optional
+        Units per count when the sensor sends integer counts (``0.0039`` for the ADXL345 at full
+        resolution): a value is read as ``value * scale`` in ``units``.
     range_g : float, default 5.0
-        Samples with a value beyond ``±range_g`` are rejected (:func:`sensor_range_g` reads it from a
-        bundle); ``math.inf`` turns the check off.
+        Samples with a value beyond ``±range_g`` (in g, after ``units`` and ``scale``) are rejected
+        (:func:`sensor_range_g` reads it from a bundle); ``math.inf`` turns the check off. Samples
+        that look like other units (a mean of 7-12 g: gravity in m/s^2; or most of 64 samples out of
+        range) are said so once (event ``"units"``, with the argument to set).
     silence_s : float, default 0.5
         Seconds without a sample after which a silence is reported and the segment ends.
     idle_timeout_s : float, optional
@@ -144,6 +158,10 @@ class WindowReader(PortLines):
     reconnect : bool, default False
         Reopen a failed port (``source`` must be a callable) with exponential backoff, until
         ``idle_timeout_s`` has passed without a sample; otherwise raise :class:`StreamDisconnected`.
+        A reopened port gets ``idle_timeout_s`` anew for its first sample. With ``t``, the samples
+        lost while the port was away are counted (:attr:`lost`) from the step of ``t`` across the
+        reconnection; a ``source`` that reopens with :func:`open_serial_port` ``(keep_input=True)``
+        keeps what the sensor sent during the wait (pyserial's ``open`` flushes it).
     backoff_s : tuple of float, default (0.5, 8.0)
         First and longest wait between reconnection attempts; the wait doubles after each failure.
     on_event : callable, optional
@@ -187,6 +205,8 @@ class WindowReader(PortLines):
         max_windows: int | None = None,
         rate_hz: float | None = None,
         time_unit: str = "s",
+        units: str = "g",
+        scale: float | None = None,
         range_g: float = DEFAULT_RANGE_G,
         silence_s: float = 0.5,
         idle_timeout_s: float | None = None,
@@ -209,6 +229,9 @@ class WindowReader(PortLines):
             raise ValueError("time_unit='samples' (a sample counter) needs rate_hz")
         self.rate_hz = None if rate_hz is None else check_number(rate_hz, "rate_hz")
         self.range_g = check_number(range_g, "range_g")
+        if units not in UNITS:
+            raise ValueError(f"units must be one of {list(UNITS)}, got {units!r}")
+        self.units, self.scale = units, None if scale is None else check_number(scale, "scale")
         super().__init__(
             source,
             silence_s=silence_s,
@@ -228,8 +251,12 @@ class WindowReader(PortLines):
         self.rejected = self.gaps = self.lost = 0
         self.windows = self.format_switches = 0
 
-    def _time_gap(self, t: float) -> bool:
-        """Check the step from the previous ``t`` (seconds); return whether it is a gap."""
+    def _time_gap(self, t: float, in_segment: bool = True) -> bool:
+        """Check the step from the previous ``t`` (seconds); return whether it is a gap.
+
+        ``in_segment`` False: no segment is open (the first sample after a reconnection, whose step
+        from the last ``t`` before it counts the samples lost meanwhile): the gap breaks nothing new.
+        """
         prev, self._prev_t = self._prev_t, t
         if prev is None:
             return False
@@ -246,10 +273,10 @@ class WindowReader(PortLines):
                 return False
             missing = max(1, round(ratio) - 1)
             self.lost += missing
-            what = f"{missing} sample(s) missing"
+            what = f"{missing} sample(s) missing" + ("" if in_segment else " across the reconnection")
         else:
             what = "t went back (a spliced recording or a sensor reset)"
-        self.gaps += 1
+        self.gaps += in_segment
         self._emit("gap", f"gap in t from {prev:.6g} to {t:.6g} s: {what}", repeated=True)
         return True
 
@@ -270,8 +297,43 @@ class WindowReader(PortLines):
         )
         self._period, self._odd_run = step, 0
 
+    def _judge_units(self, mean: tuple[float, float, float], n: int, rejected: int) -> bool:
+        """Say once what a block of ``n`` samples (mean in g, ``rejected`` out of range) looks like; return whether it did."""
+        norm = math.sqrt(sum(m * m for m in mean))
+        declared = "g" if self.units == "g" and self.scale is None else None
+        if declared and GRAVITY_BAND_G[0] <= norm <= GRAVITY_BAND_G[1]:
+            hint = "these look like m/s^2: pass units='m/s2'"
+            message = (
+                f"the samples read as g have a mean acceleration of {norm:.3g} g over {n} samples (x, y, z = "
+                f"{', '.join(f'{m:.3g}' for m in mean)}): gravity reads 1 g, so {hint} ({STANDARD_GRAVITY} m/s^2 "
+                "= 1 g)"
+            )
+        elif 2 * rejected >= n:
+            hint = "not g? declare units='m/s2', scale= or range_g="
+            message = (
+                f"{rejected} of the last {n} samples were beyond ±{self.range_g:g} g: samples in other units than "
+                f"{self.units}{'' if self.scale is None else f' x {self.scale:g}'}? declare them with units='m/s2' "
+                "(m/s^2) or scale= (units per count of a sensor that sends counts), or the sensor's range with "
+                "range_g="
+            )
+        else:
+            return False
+        self._units_hint = hint
+        self._emit("units", message)
+        return True
+
     def __iter__(self) -> Iterator[Window]:
         w, step, range_g = self.window_size, self.step, self.range_g
+        factor = UNITS[self.units] * (1.0 if self.scale is None else self.scale)
+        # the units are judged over blocks of samples until they are found wrong (said once)
+        judge, block, block_x, block_y, block_z, block_rejected = (
+            self._units_hint is None,
+            0,
+            0.0,
+            0.0,
+            0.0,
+            0,
+        )
         units = {"s": 1.0, "ms": 1e-3, "us": 1e-6}
         unit = units[self.time_unit] if self.time_unit in units else 1.0 / self.rate_hz
         self._period = None if self.rate_hz is None else 1.0 / self.rate_hz
@@ -291,7 +353,10 @@ class WindowReader(PortLines):
         for line, now in self._lines():
             if line is None:  # silence or reconnection: a gap (if a segment was open), the format may change
                 self.gaps += count > 0
-                count, timed, self._prev_t, other_run = 0, None, None, 0
+                count, timed, other_run = 0, None, 0
+                if not self._reconnected:  # a silence: the sensor may have paused, t may jump
+                    self._prev_t = None
+                self._reconnected = False  # a reconnection: t's next step counts what was lost meanwhile
                 continue
             parsed = parse_line(line)
             if parsed is None:
@@ -319,6 +384,14 @@ class WindowReader(PortLines):
                 timed, count, self._prev_t = not timed, 0, None
             other_run = 0
             t, x, y, z = parsed
+            if factor != 1.0:
+                x, y, z = x * factor, y * factor, z * factor
+            if judge:
+                block, block_x, block_y, block_z = block + 1, block_x + x, block_y + y, block_z + z
+                if block == _UNITS_BLOCK:
+                    mean = (block_x / block, block_y / block, block_z / block)
+                    judge = not self._judge_units(mean, block, self.rejected - block_rejected)
+                    block, block_x, block_y, block_z, block_rejected = 0, 0.0, 0.0, 0.0, self.rejected
             if not (-range_g <= x <= range_g and -range_g <= y <= range_g and -range_g <= z <= range_g):
                 # a sample is known to be missing here: end the segment
                 self.rejected += 1
@@ -342,7 +415,7 @@ class WindowReader(PortLines):
                 timed = t is not None
             if t is not None:
                 t *= unit
-                if self._time_gap(t):
+                if self._time_gap(t, count > 0):
                     count = 0
             if not count:  # a segment starts: the connection works, so the next failure waits little
                 self._delay = self.backoff_s[0]
@@ -393,6 +466,7 @@ __all__ = [
     "Window",
     "WindowReader",
     "format_sample",
+    "open_serial_port",
     "parse_line",
     "parse_sample",
     "pseudo_terminal",

@@ -15,10 +15,40 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from itertools import pairwise
 
 import numpy as np
 
 from .checks import check_count
+
+MIN_WINDOW = 16
+"""Fewest samples in a window that features are computed on (``train``, ``cluster``, model files): the
+21 features of fewer samples are degenerate (20 crossing thresholds between a handful of values, the
+upper half of a spectrum of a few bins)."""
+MAX_WINDOW = 1 << 20
+"""Most samples in a feature window (1,048,576: 22 minutes at 800 Hz, 10 s at 100 kHz). A model file
+declaring more is refused before anything is allocated for it."""
+
+
+def check_window(value: object, name: str = "window") -> int:
+    """Return ``value`` as an int if it is a feature window of :data:`MIN_WINDOW` .. :data:`MAX_WINDOW` samples.
+
+    >>> check_window(800)
+    800
+    >>> check_window(5)
+    Traceback (most recent call last):
+    ...
+    ValueError: window must be a number of samples in 16 .. 1,048,576, got 5
+    """
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, int | np.integer)
+        or not MIN_WINDOW <= value <= MAX_WINDOW
+    ):
+        raise ValueError(
+            f"{name} must be a number of samples in {MIN_WINDOW} .. {MAX_WINDOW:,}, got {value!r}"
+        )
+    return int(value)
 
 
 @dataclass
@@ -43,13 +73,17 @@ def window_recordings(
     step: int | None = None,
     *,
     max_per_recording: int | None = None,
+    gaps: Sequence[np.ndarray] | None = None,
 ) -> Windows:
     """Cut every recording ``(n_i, 3)`` into windows of ``size`` samples every ``step``.
 
     Window ``j`` of a recording holds its samples ``j * step ... j * step + size - 1``, transposed to
     ``(3, size)``; trailing samples that do not fill a window are dropped and recordings shorter
     than ``size`` give none. The same windows as :func:`tactile_torch.signal.sliding_windows`, as
-    NumPy.
+    NumPy. ``gaps`` (per recording, the samples that follow a gap in its time stamps,
+    :attr:`tactile_torch.robot.formats.RecordingArrays.gaps`): no window spans a gap; each stretch
+    between gaps is cut on its own, from its first sample, and ``position`` counts the windows of a
+    recording in time order across its stretches.
 
     Returns
     -------
@@ -70,9 +104,14 @@ def window_recordings(
         rec = np.asarray(rec)
         if rec.ndim != 2 or rec.shape[1] != 3:
             raise ValueError(f"signals[{i}] must have shape (n, 3), got {rec.shape}")
-        if len(rec) < size:
+        bounds = [0, *(() if gaps is None else (int(g) for g in gaps[i])), len(rec)]
+        stretches = [rec[a:b] for a, b in pairwise(bounds) if b - a >= size]
+        if not stretches:
             continue
-        view = np.lib.stride_tricks.sliding_window_view(rec, int(size), axis=0)[:: int(step)]  # (n_w, 3, W)
+        views = [
+            np.lib.stride_tricks.sliding_window_view(p, int(size), axis=0)[:: int(step)] for p in stretches
+        ]
+        view = views[0] if len(views) == 1 else np.concatenate(views)  # (n_w, 3, W)
         if max_per_recording is not None:
             view = view[:max_per_recording]
         parts.append(view.astype(np.float32, copy=False))
@@ -80,10 +119,15 @@ def window_recordings(
         position.append(np.arange(len(view), dtype=np.int64))
     if not parts:
         longest = max((len(s) for s in signals), default=0)
+        if gaps is not None and longest >= size:
+            raise ValueError(
+                f"no stretch between gaps in the time stamps holds a window of {size} samples (the longest "
+                f"recording has {longest} samples)"
+            )
         raise ValueError(f"no recording holds a window of {size} samples (longest: {longest} samples)")
     return Windows(
         np.ascontiguousarray(np.concatenate(parts)), np.concatenate(recording), np.concatenate(position)
     )
 
 
-__all__ = ["Windows", "window_recordings"]
+__all__ = ["MAX_WINDOW", "MIN_WINDOW", "Windows", "check_window", "window_recordings"]

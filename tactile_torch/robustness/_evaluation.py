@@ -82,10 +82,28 @@ def crossing(acc: np.ndarray, chance: float) -> np.ndarray:
     return np.where(clean > chance, pos, 0.0)
 
 
+def takes_feature_rows(base: Models, fitted: dict, feats: dict) -> dict[str, tuple]:
+    """Per model: the shape of the input its last step (the classifier) takes on the first fold's test part.
+
+    A ``"features"``-stage factor (noise on the classifier's input at an SNR per row) applies to models
+    whose classifier takes feature rows ``(N, F)``; a network on the raw input (windows, frames, maps)
+    takes ``(N, 3, W)``, ``(N, T, 3, H, W)`` ... and has no feature vector to degrade."""
+    shapes = {}
+    for m in base.names:
+        if m not in fitted:
+            continue
+        Z, _ = last_input(fitted[m][0], feats[base.signature[m]][0][2])
+        shapes[m] = tuple(np.shape(Z))
+    return shapes
+
+
 def evaluate(
-    f, level, base, fitted, feats, whole, X, y, folds, context, n_trials, seed, backend=None
+    f, level, base, fitted, feats, whole, X, y, folds, context, n_trials, seed, backend=None, names=None
 ) -> dict:
-    """Per model: correct (1/0) per sample at one level of ``f``, averaged over trials, or an error."""
+    """Per model: correct (1/0) per sample at one level of ``f``, averaged over trials, or an error.
+
+    ``names``: the models to evaluate (default: every model of ``base``)."""
+    names = base.names if names is None else list(names)
     trials = n_trials if f.random else 1
     total: dict[str, Any] = {}
 
@@ -98,7 +116,7 @@ def evaluate(
     for trial in range(trials):
         trial_seed = seed_of(seed, f.name, level, trial)
         if f.stage == "features":
-            for m in base.names:
+            for m in names:
                 hits = np.full(len(y), np.nan)
                 for k, (_, te) in enumerate(folds):
                     Z, last = last_input(fitted[m][k], feats[base.signature[m]][k][2])
@@ -135,6 +153,23 @@ def evaluate(
     return total
 
 
+def check_drift_context(context: Mapping, y: np.ndarray) -> None:
+    """Raise ``ValueError`` unless the context's ``position`` and ``recording`` (when given) fit ``y``."""
+    if "position" not in context or "recording" not in context:
+        return
+    position = np.asarray(context["position"], dtype=np.float64)
+    recording = np.asarray(context["recording"])
+    if position.shape != y.shape or recording.shape != y.shape:
+        raise ValueError(
+            f"context position and recording must have shape {y.shape} (one per sample), got "
+            f"{position.shape} and {recording.shape}"
+        )
+    if position.min() < 0.0 or position.max() >= 1.0:
+        raise ValueError(
+            f"context position must be the fraction of the recording in [0, 1), got {position.min()}..{position.max()}"
+        )
+
+
 def drift_rows(
     f,
     base: Models,
@@ -152,17 +187,9 @@ def drift_rows(
     Returns ``(rows per model, levels = centres of the later segments, recording of each sample)``, or
     ``None`` when fewer than two segments hold windows; a model that cannot be fitted has the error
     message as its only row."""
+    check_drift_context(context, y)
     position = np.asarray(context["position"], dtype=np.float64)
     recording = np.asarray(context["recording"])
-    if position.shape != y.shape or recording.shape != y.shape:
-        raise ValueError(
-            f"context position and recording must have shape {y.shape} (one per sample), got "
-            f"{position.shape} and {recording.shape}"
-        )
-    if position.min() < 0.0 or position.max() >= 1.0:
-        raise ValueError(
-            f"context position must be the fraction of the recording in [0, 1), got {position.min()}..{position.max()}"
-        )
     train, test = np.flatnonzero(position < share), np.flatnonzero(position >= share)
     segment = np.minimum(((position[test] - share) / (1.0 - share) * segments).astype(int), segments - 1)
     present = [j for j in range(segments) if (segment == j).any()]  # short recordings leave gaps

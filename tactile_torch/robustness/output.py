@@ -29,7 +29,7 @@ def breaking_table(curves: Iterable[Curve]) -> list[dict[str, Any]]:
 
 def breaking_summary(result: SweepResult | Sequence[Curve], out_dir: str | Path) -> dict[str, Any]:
     """Write one chart per factor to ``out_dir`` (``breaking-<factor>.png``) and return
-    ``{"rows": breaking_table(...), "figures": [paths], "skipped": [...]}``: what a results file such as
+    ``{"rows": breaking_table(...), "figures": [paths], "skipped": [...], "failed": [...]}``: what a results file such as
     ``tactile-torch tradeoff``'s ``tradeoff.json`` / ``tradeoff.md`` holds about breaking points."""
     import matplotlib.pyplot as plt
 
@@ -48,6 +48,7 @@ def breaking_summary(result: SweepResult | Sequence[Curve], out_dir: str | Path)
         "rows": breaking_table(result.curves),
         "figures": [str(p) for p in figures],
         "skipped": [list(s) for s in result.skipped],
+        "failed": [list(s) for s in result.failed],
     }
 
 
@@ -75,6 +76,7 @@ def write_breaking_points(
         lines += ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
         lines += ["| " + " | ".join(str(r[c]).replace("|", "\\|") for c in columns) + " |" for r in rows]
     lines += [""] + [f"- not swept: {name} ({why})" for name, why in result.skipped]
+    lines += [f"- **failed** (a bug, please report it): {name}: {why}" for name, why in result.failed]
     lines += ["", *(f"![{Path(p).stem}]({Path(p).name})" for p in summary["figures"])]
     md = out / "breaking_points.md"
     md.write_text("\n".join(lines) + "\n")
@@ -100,6 +102,6 @@ def write_breaking_points(
         for c in result.curves
     ]
     (out / "breaking_points.json").write_text(
-        json.dumps({"curves": curves, "skipped": result.skipped}, indent=1)
+        json.dumps({"curves": curves, "skipped": result.skipped, "failed": result.failed}, indent=1)
     )
     return md

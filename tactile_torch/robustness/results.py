@@ -84,10 +84,12 @@ class Curve:
 
 @dataclass
 class SweepResult:
-    """What :func:`~.sweeps.sweep` returns: the curves, the factors skipped and why, and the folds used."""
+    """What :func:`~.sweeps.sweep` returns: the curves, the factors skipped and why, the factors that
+    failed (an error: a bug; the other factors' curves are kept) and the folds used."""
 
     curves: list[Curve]
     skipped: list[tuple[str, str]] = field(default_factory=list)
+    failed: list[tuple[str, str]] = field(default_factory=list)
     n_splits: int = 0
     kind: str = ""
 

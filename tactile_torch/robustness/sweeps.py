@@ -7,6 +7,7 @@ See :mod:`tactile_torch.robustness` for the stages and the definition of a break
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -169,6 +170,9 @@ def sweep(
     Returns
     -------
     SweepResult
+        A factor that does not apply to a model (noise on the feature rows of a network that classifies
+        the raw input, a parameter the model lacks) is listed in ``skipped`` with why; a factor that
+        raised is listed in ``failed`` with the error (a bug), and the other factors' curves are kept.
 
     Raises
     ------
@@ -176,8 +180,6 @@ def sweep(
         For inputs of the wrong shape, fewer than 2 classes or groups per class, an unknown factor, or
         a model that cannot be fitted on the clean folds.
     """
-    from tqdm.auto import tqdm
-
     from ..engine import Models, as_backend, make_folds
     from . import _evaluation
 
@@ -199,6 +201,7 @@ def sweep(
     if not models:
         raise ValueError("models must hold at least one estimator, got an empty mapping")
     context = dict(context or {})
+    _evaluation.check_drift_context(context, y)
     chosen = (
         factors_for(kind)
         if factors is None
@@ -213,52 +216,149 @@ def sweep(
     for name, value in clean.items():
         if isinstance(value, str):
             raise ValueError(f"models[{name!r}] could not be fitted on the clean folds: {value}")
+    state = _SweepState(
+        models,
+        base,
+        X,
+        y,
+        groups,
+        kind,
+        context,
+        clean,
+        fitted,
+        feats,
+        whole,
+        folds,
+        chance,
+        seed,
+        trials,
+        default_trials,
+        n_bootstrap,
+        progress,
+        runner,
+    )
     result = SweepResult(curves=[], n_splits=len(folds), kind=kind)
     for f in chosen:
-        missing = [k for k in f.needs if k not in context]
-        if missing or kind not in f.kinds or (f.ndim is not None and X.ndim != f.ndim):
-            why = (
-                f"needs {missing} in context" if missing else f"does not apply to X of shape {tuple(X.shape)}"
-            )
-            result.skipped.append((f.name, why))
-            continue
-        if f.stage == "time":
-            drift = _evaluation.drift_rows(
-                f, base, X, y, context, whole, DRIFT_TRAIN_SHARE, DRIFT_SEGMENTS, backend=runner
-            )
-            if drift is None:
-                result.skipped.append(
-                    (f.name, "recordings too short: fewer than two test segments hold samples")
-                )
-                continue
-            rows, levels, group_of = drift
-        else:
-            levels = _allowed_levels(f, X, y, folds)
-            if not levels:
-                result.skipped.append((f.name, f"no level applies to X of shape {tuple(X.shape)}"))
-                continue
-            names = base.names
-            if f.stage == "parameter":  # a model without the parameter is not swept (not broken)
-                probe = Models(models, f.apply(context, levels[0]))
-                result.skipped += [(f"{f.name} for {m}", why) for m, why in probe.errors.items()]
-                names = [m for m in names if m not in probe.errors]
-            rows = {m: [clean[m]] for m in names}
-            bar = tqdm(total=len(levels), desc=f.name, disable=not progress, leave=False)
-            for level in levels:
-                n = trials.get(f.name, default_trials)
-                got = _evaluation.evaluate(
-                    f, level, base, fitted, feats, whole, X, y, folds, context, n, seed, backend=runner
-                )
-                for m in rows:
-                    if not isinstance(rows[m][-1], str):
-                        rows[m].append(got[m])
-                bar.update()
-            bar.close()
-            group_of = groups
-        for m in rows:
-            fields = _evaluation.build_curve(f, m, levels, rows[m], group_of, chance, n_bootstrap, seed)
-            result.curves.append(Curve(**{**fields, "breaking": BreakingPoint(*fields["breaking"])}))
+        try:
+            _sweep_factor(f, state, result)
+        except Exception as err:  # a bug in one factor: the other factors' curves are kept, the failure said
+            text = " ".join(str(err).split())[:300]
+            result.failed.append((f.name, f"{type(err).__name__}: {text}"))
     return result
+
+
+@dataclass(frozen=True)
+class _SweepState:
+    """What every factor of one :func:`sweep` shares: the models, data, folds and the clean fits."""
+
+    models: dict
+    base: Any
+    X: Any
+    y: np.ndarray
+    groups: np.ndarray
+    kind: str
+    context: dict
+    clean: dict
+    fitted: dict
+    feats: dict
+    whole: dict
+    folds: list
+    chance: float
+    seed: int
+    trials: dict
+    default_trials: int
+    n_bootstrap: int
+    progress: bool
+    runner: Any
+
+
+def _skip_reason(f: Degradation, s: _SweepState) -> str | None:
+    """Why factor ``f`` does not apply to the sweep's data at all, or ``None``."""
+    missing = [k for k in f.needs if k not in s.context]
+    if missing:
+        return f"needs {missing} in context"
+    if s.kind not in f.kinds or (f.ndim is not None and s.X.ndim != f.ndim):
+        return f"does not apply to X of shape {tuple(s.X.shape)}"
+    return None
+
+
+def _applicable_models(f: Degradation, levels: tuple, s: _SweepState, result: SweepResult) -> list[str]:
+    """The models factor ``f`` can degrade; each other one is listed in ``result.skipped`` with why."""
+    from ..engine import Models
+    from . import _evaluation
+
+    names = list(s.base.names)
+    if f.stage == "parameter":  # a model without the parameter is not swept (not broken)
+        probe = Models(s.models, f.apply(s.context, levels[0]))
+        result.skipped += [(f"{f.name} for {m}", why) for m, why in probe.errors.items()]
+        names = [m for m in names if m not in probe.errors]
+    elif f.stage == "features":  # noise on feature rows: not for a classifier of the raw input
+        shapes = _evaluation.takes_feature_rows(s.base, s.fitted, s.feats)
+        for m in [m for m in names if len(shapes[m]) != 2]:
+            result.skipped.append(
+                (
+                    f"{f.name} for {m}",
+                    f"does not apply: the model classifies the raw input {shapes[m][1:]} itself, it has no "
+                    "feature vector (noise on its raw input: the sensor-noise and image-noise factors)",
+                )
+            )
+        names = [m for m in names if len(shapes[m]) == 2]
+    return names
+
+
+def _sweep_factor(f: Degradation, s: _SweepState, result: SweepResult) -> None:
+    """Sweep one factor over the models it applies to; append the curves (or why not) to ``result``."""
+    from tqdm.auto import tqdm
+
+    from . import _evaluation
+
+    why = _skip_reason(f, s)
+    if why is not None:
+        result.skipped.append((f.name, why))
+        return
+    if f.stage == "time":
+        drift = _evaluation.drift_rows(
+            f, s.base, s.X, s.y, s.context, s.whole, DRIFT_TRAIN_SHARE, DRIFT_SEGMENTS, backend=s.runner
+        )
+        if drift is None:
+            result.skipped.append((f.name, "recordings too short: fewer than two test segments hold samples"))
+            return
+        rows, levels, group_of = drift
+    else:
+        levels = _allowed_levels(f, s.X, s.y, s.folds)
+        if not levels:
+            result.skipped.append((f.name, f"no level applies to X of shape {tuple(s.X.shape)}"))
+            return
+        names = _applicable_models(f, levels, s, result)
+        rows = {m: [s.clean[m]] for m in names}
+        bar = tqdm(total=len(levels), desc=f.name, disable=not s.progress or not names, leave=False)
+        for level in levels if names else ():
+            n = s.trials.get(f.name, s.default_trials)
+            got = _evaluation.evaluate(
+                f,
+                level,
+                s.base,
+                s.fitted,
+                s.feats,
+                s.whole,
+                s.X,
+                s.y,
+                s.folds,
+                s.context,
+                n,
+                s.seed,
+                backend=s.runner,
+                names=names,
+            )
+            for m in rows:
+                if not isinstance(rows[m][-1], str):
+                    rows[m].append(got[m])
+            bar.update()
+        bar.close()
+        group_of = s.groups
+    for m in rows:
+        fields = _evaluation.build_curve(f, m, levels, rows[m], group_of, s.chance, s.n_bootstrap, s.seed)
+        result.curves.append(Curve(**{**fields, "breaking": BreakingPoint(*fields["breaking"])}))
 
 
 def breaking_points(

@@ -1,18 +1,27 @@
-"""Deploying a trade-off candidate: refit it on all the data, export it, write its model file.
+"""Deploying a trade-off candidate: refit it on all the data, export it with its "unknown" rule, write its
+model file.
 
 The cross-validation measures a *procedure* (features, selection, scaling, classifier, and any tuning
 inside it) on folds; what a robot runs is that procedure fitted once on all the data.
-:func:`deploy_candidate` tunes the candidate as the folds did (its grid on inner folds of all the data,
-:meth:`tactile_torch.engine.CVResult.final_model`), fits it with the chosen parameters on every sample
-of its raw input and writes
+:func:`deploy_candidate` takes every sample of the candidate's raw input (the study's cap of samples per
+class does not apply: at most :data:`DEPLOY_MAX_PER_CLASS` per class and about :data:`DEPLOY_MAX_SAMPLES`
+in all, evenly spaced, said when it cuts), tunes
+the candidate as the folds did (its grid on inner folds of those samples,
+:meth:`tactile_torch.engine.CVResult.final_model`), fits it with the chosen parameters and writes
 
 * ``<name>.onnx``: raw input → labels and scores, with the metadata ``tactile-torch predict`` and
-  ``stream`` read (one file, onnxruntime only); its labels are checked against the refitted
-  pipeline's on up to :data:`CHECK_SAMPLES` samples;
-* ``<name>.npz``: the same model as a model file (:mod:`tactile_torch.robot.model_file`, no pickle), which
-  ``tactile-torch export`` turns into the same graph, for the feature sets a model file describes
-  (vibration windows, RGB explorations, feature matrices, with or without a best-ranked subset);
-  raw pressure maps and per-taxel features have no model-file form yet, said in one note.
+  ``stream`` read (one file, onnxruntime only); an int8 variant is quantised as in the study (its float
+  twin refitted, then quantised, calibrated on training samples). Every file carries the "unknown" rule
+  of :mod:`tactile_torch.ood` (the ``ood_distance`` output and its threshold, fitted on the same samples
+  the same way as ``train`` + ``export``), as a float branch (:func:`tactile_torch.ood.add_distance`): a
+  classical model's distance is on its own standardised features, a network's on the reference features
+  of its raw input. Its labels are checked against the refitted pipeline's on up to
+  :data:`CHECK_SAMPLES` samples;
+* ``<name>.npz``: the same (float) model as a model file (:mod:`tactile_torch.robot.model_file`, no
+  pickle) with the same rule, which ``tactile-torch export`` turns into the same graph, for the feature
+  sets a model file describes (vibration windows, RGB explorations, feature matrices, with or without a
+  best-ranked subset); raw pressure maps, per-taxel features and learned models have no model-file
+  form yet, said in one note.
 
 ``<name>`` is ``recommended`` for the recommended candidate, the candidate's slug otherwise.
 """
@@ -29,6 +38,7 @@ from ..robot.contract import (
     DEFAULT_RANGE_G,
     INPUT_LAYOUT_KEY,
     INPUT_SHAPE_KEY,
+    LABELS_OUTPUT,
     PIPELINE_KEY,
     RANGE_METADATA_KEY,
     SAMPLE_RATE_KEY,
@@ -38,13 +48,19 @@ from ..robot.contract import (
 
 CHECK_SAMPLES = 64
 """Samples on which the deployed ONNX file's labels are compared with the refitted pipeline's."""
+DEPLOY_MAX_PER_CLASS = 1000
+"""At most this many samples per class train the deployed model (evenly spaced; the study itself keeps
+at most 60 with ``--quick``, 300 without): more data for the model the robot runs, at a bounded cost."""
+DEPLOY_MAX_SAMPLES = 8000
+"""And at most about this many in all (an SVM's kernel grows with the square): the full study's own size
+on the bundled 28 surfaces (300 per class). The study's cap per class, when larger, is kept."""
 
 
 def _slug(name: str) -> str:
     return "-".join("".join(ch if ch.isalnum() else " " for ch in name.lower()).split())
 
 
-def _source(step: object, samples: object, rate_hz: float | None) -> dict | None:
+def _source(step: object, rate_hz: float | None) -> dict | None:
     """The model file's ``source`` of a fitted ``features`` step, or ``None`` when it has no model-file form."""
     from ..image import DEFAULT_THRESHOLD
     from .transformers import FeaturePassthrough, ImageFeatureTransformer, WindowFeatureTransformer
@@ -78,12 +94,16 @@ def write_model_file(
     *,
     rate_hz: float | None,
     extra: dict | None = None,
+    ood: dict | None = None,
 ) -> Path | None:
-    """Write a fitted candidate ``Pipeline`` as a model file; return its path, or ``None`` if it has no form."""
+    """Write a fitted candidate ``Pipeline`` as a model file; return its path, or ``None`` if it has no form.
+
+    ``ood``: its "unknown" rule (:func:`tactile_torch.ood.fit_rule` on the model's standardised features).
+    """
     from ..training import write_classifier_file
 
     steps = model.named_steps
-    source = _source(steps["features"], None, rate_hz)
+    source = _source(steps["features"], rate_hz)
     if source is None:
         return None
     scaler, classifier = steps["scale"], steps["classifier"]
@@ -97,6 +117,7 @@ def write_model_file(
         center=scaler.mean_,
         select=select,
         extra=extra,
+        ood=ood,
     )
 
 
@@ -108,6 +129,35 @@ def _json_params(params: dict) -> dict:
     return out
 
 
+def deployment_samples(result: object, key: str) -> tuple[object, int]:
+    """Return the samples of raw input ``key`` the deployed model is fitted on, and how many the data hold.
+
+    Every sample (window, exploration, row) of the data, at most :data:`DEPLOY_MAX_PER_CLASS` per class
+    and about :data:`DEPLOY_MAX_SAMPLES` in all (never fewer per class than the study had), evenly spaced,
+    grouped as the study's folds are (sessions, recordings, time blocks, the file's groups) for the
+    tuning's inner folds."""
+    from .inputs import exploration_samples, vibration_samples
+
+    s = result.inputs[key]
+    data = result.data
+    n_folds = len(s.folds)
+    studied = int(np.bincount(s.y).max())
+    cap = max(studied, min(DEPLOY_MAX_PER_CLASS, DEPLOY_MAX_SAMPLES // len(data.class_names)))
+    if data.kind == "vibration":
+        full = vibration_samples(
+            data.recordings, s.window, n_folds=n_folds, max_per_class=cap, random_state=0
+        )
+        total = int(sum(len(signal) // s.window for signal in data.recordings.signals))
+    else:
+        full = exploration_samples(data, n_folds=n_folds, max_per_class=cap, random_state=0)
+        total = len(data.labels)
+    return full, total
+
+
+def _evenly(n: int, k: int) -> np.ndarray:
+    return np.linspace(0, n - 1, min(k, n)).round().astype(int)
+
+
 def deploy_candidate(
     result: object, name: str, out_dir: str | Path, pool: object, *, random_state: int = 0
 ) -> dict:
@@ -117,7 +167,8 @@ def deploy_candidate(
     ----------
     result : TradeoffResult
     name : str
-        A candidate of ``result`` (``ValueError`` naming the candidates otherwise).
+        A candidate of ``result`` (``ValueError`` naming the candidates otherwise); an int8 variant
+        deploys its float twin's procedure, quantised as in the study.
     out_dir : path
     pool : ExportPool
         The study's pool (the feature graphs are already exported there).
@@ -128,33 +179,137 @@ def deploy_candidate(
     -------
     dict
         ``name``, ``onnx`` (path), ``model_file`` (path or ``None``), ``samples`` (fitted on),
-        ``agreement`` (share of checked samples whose ONNX label equals the pipeline's), ``notes``.
+        ``available`` (samples the data hold), ``agreement`` (share of checked samples whose ONNX label
+        equals the pipeline's), ``ood_threshold``, ``params``, ``notes``.
     """
+    from ..ood import add_distance
     from ..robot.runtime import OnnxPipeline
-    from .evaluation import _head_modules, _stateless, features_key
-    from .export import bind_head, export_fixed_head, export_front, export_head, head_key, join
+    from .learned import CALIBRATION_SAMPLES, is_learned
 
     names = [r.candidate.name for r in result.results]
     if name not in names:
         raise ValueError(f"deploy must name a candidate of this study, got {name!r}; candidates: {names}")
-    cand = result.result(name).candidate
-    s = result.inputs[cand.input]
-    data = result.data
-    cv = result.result(name).cv
+    variant = result.result(name)
+    base = result.result(variant.variant_of) if variant.variant_of is not None else variant
+    cand = base.candidate
+    s, available = deployment_samples(result, cand.input)
     params: dict = {}
-    if cv is not None:  # tuned as in the folds, on inner folds of all the data, then fitted on all of it
-        model, params = cv.final_model(s.X, s.y, s.groups, random_state=random_state)
+    if base.cv is not None:  # tuned as in the folds, on inner folds of all the data, then fitted on all of it
+        model, params = base.cv.final_model(s.X, s.y, s.groups, random_state=random_state)
     else:
         model = clone(cand.estimator).fit(s.X, s.y)
     stem = "recommended" if name == result.recommended else _slug(name)
     out = Path(out_dir)
-    check = np.ascontiguousarray(
-        s.X[np.linspace(0, len(s.y) - 1, min(CHECK_SAMPLES, len(s.y))).round().astype(int)]
+    check = np.ascontiguousarray(s.X[_evenly(len(s.y), CHECK_SAMPLES)])
+    samples = (
+        f"all {len(s.y)}"
+        if len(s.y) == available
+        else f"{len(s.y)} of {available} (evenly spaced: at most {DEPLOY_MAX_PER_CLASS} per class, about {DEPLOY_MAX_SAMPLES} in all)"
     )
+    meta = {PIPELINE_KEY: f"tradeoff: {name}, fitted on {samples} samples"}
+    if s.window is not None:
+        meta.update({WINDOW_SIZE_KEY: s.window, STEP_KEY: s.window, SAMPLE_RATE_KEY: result.data.rate_hz})
+        meta[RANGE_METADATA_KEY] = DEFAULT_RANGE_G
+    learned = is_learned(model)
+    path = out / f"{stem}.onnx"
+    if learned:  # a network or learned front end: its own graph, exported whole (docs/neural.md)
+        path = _export_learned(result, model, check, path, meta)
+    else:
+        path = _export_classical(result, cand, model, s, check, path, meta, pool)
+    notes = []
+    if variant.quantisation is not None:
+        from .int8 import CLASSIFIER_PREFIX, quantise_bundle
+
+        calibration = OnnxPipeline(path).validate(
+            np.ascontiguousarray(s.X[_evenly(len(s.y), CALIBRATION_SAMPLES)])
+        )
+        quantised = path.with_name(f"{path.stem}-int8.onnx")
+        prefix = None if learned else CLASSIFIER_PREFIX  # as in the study (tactile_torch.tradeoff.learned)
+        quantise_bundle(
+            path, quantised, calibration=calibration, mode=variant.quantisation, only_prefix=prefix
+        )
+        path = quantised.replace(path)
+    rule, branch = unknown_rule(result, cand, model, s, pool)
+    add_distance(path, branch, rule)
+    pipe = OnnxPipeline(path)
+    classes = model.steps[-1][1].classes_
+    graph_labels = np.asarray(pipe.run(pipe.validate(check))[LABELS_OUTPUT], dtype=np.int64)
+    agreement = float(np.mean(classes[graph_labels] == model.predict(check)))
+    model_file = None
+    if not learned:
+        model_file = write_model_file(
+            out / f"{stem}.npz",
+            model,
+            result.data.class_names,
+            rate_hz=result.data.rate_hz,
+            extra={"tradeoff": {"candidate": name, "samples": len(s.y), "tuned": _json_params(params)}},
+            ood=rule,
+        )
+    if model_file is None:
+        what = "a learned model" if learned else f"the feature set {cand.features!r}"
+        notes.append(
+            f"{stem}.npz not written: {what} has no model-file form; {stem}.onnx is the deployable file"
+        )
+    elif variant.quantisation is not None:
+        notes.append(
+            f"{stem}.npz holds the float model ({cand.name}): tactile-torch export writes its float graph; "
+            f"{stem}.onnx is the int8 file"
+        )
+    return {
+        "name": name,
+        "onnx": str(path),
+        "model_file": None if model_file is None else str(model_file),
+        "samples": len(s.y),
+        "available": available,
+        "params": _json_params(params),
+        "agreement": agreement,
+        "ood_threshold": float(rule["threshold"]),
+        "notes": notes,
+    }
+
+
+def unknown_rule(result: object, cand: object, model: object, s: object, pool: object) -> tuple[dict, object]:
+    """Fit the "unknown" rule of a deployed model on its training samples; return it and its ONNX branch
+    (raw input → ``ood_distance``, :func:`tactile_torch.ood.distance_graph`).
+
+    A classical model: on its own features, selected columns and standardisation (what its head takes,
+    as ``train`` + ``export`` do). A learned model (no feature vector): on the reference feature set of
+    its raw input (:attr:`~.summary.TradeoffResult.references`), standardised on the same samples. The
+    feature graph is the study's (``pool``): exported once, shared with the classical candidates."""
+    from sklearn.preprocessing import StandardScaler
+
+    from ..ood import DistanceHead, distance_graph, fit_rule
+    from .evaluation import _stateless
+    from .export import export_front
     from .learned import is_learned
 
-    if is_learned(model):  # a network or learned front end: its own graph, exported whole (docs/neural.md)
-        return _deploy_learned(result, name, model, check, out / f"{stem}.onnx", len(s.y))
+    if is_learned(model):
+        step = result.references[cand.input].make().fit(s.X, s.y)
+        features = np.asarray(step.transform(s.X), dtype=np.float64)
+        scaler = StandardScaler().fit(features)
+        select = None
+    else:
+        step = model.named_steps["features"]
+        features = np.asarray(step.transform(s.X), dtype=np.float64)
+        select = model.named_steps["select"].columns_ if "select" in model.named_steps else None
+        features = features if select is None else features[:, select]
+        scaler = model.named_steps["scale"]
+    rule = fit_rule(features, s.y, scale=scaler.scale_, center=scaler.mean_)
+    head = DistanceHead(rule, scale=scaler.scale_, center=scaler.mean_, select=select)
+    example = np.ascontiguousarray(s.X[:2])
+    key = ("front", cand.input, type(step).__name__, repr(sorted(step.get_params().items())))
+    if not _stateless(step):
+        key = (*key, "all data")
+    pool.submit(key, export_front, step, example, background=False)  # a no-op when already exported
+    n_features = int(np.asarray(step.transform(example[:1])).shape[1])
+    return rule, distance_graph(pool.result(key), head, n_features)
+
+
+def _export_classical(result, cand, model, s, check, path: Path, meta: dict, pool) -> Path:
+    """Join the fitted model's feature graph and classifier graph (the study's export parts) into ``path``."""
+    from .evaluation import _head_modules, _stateless, features_key
+    from .export import bind_head, export_fixed_head, export_front, export_head, head_key, join
+
     step = model.named_steps["features"]
     front = ("front", *features_key(cand))
     if not _stateless(step):
@@ -171,76 +326,34 @@ def deploy_candidate(
     try:
         classifier = bind_head(pool.result(head), modules)
     except Exception:  # a structure that cannot be exported with free sizes
-        plain = ("plain head", name, "all data")
+        plain = ("plain head", cand.name, "all data")
         pool.submit(plain, export_fixed_head, modules, n_features, background=False)
         classifier = pool.result(plain)
     classes = model.named_steps["classifier"].classes_
     meta = {
-        PIPELINE_KEY: f"tradeoff: {name}, fitted on all {len(s.y)} samples",
+        **meta,
         INPUT_SHAPE_KEY: [None, *s.X.shape[1:]],
         INPUT_LAYOUT_KEY: s.layout,
-        CLASS_NAMES_KEY: [data.class_names[int(c)] for c in classes],
+        CLASS_NAMES_KEY: [result.data.class_names[int(c)] for c in classes],
     }
-    if s.window is not None:
-        meta.update({WINDOW_SIZE_KEY: s.window, STEP_KEY: s.window, SAMPLE_RATE_KEY: data.rate_hz})
-        meta[RANGE_METADATA_KEY] = DEFAULT_RANGE_G
-    path = join(pool.result(front), classifier, out / f"{stem}.onnx", meta)
-    agreement = float(np.mean(classes[OnnxPipeline(path).predict(check)] == model.predict(check)))
-    notes = []
-    model_file = write_model_file(
-        out / f"{stem}.npz",
-        model,
-        data.class_names,
-        rate_hz=data.rate_hz,
-        extra={"tradeoff": {"candidate": name, "samples": len(s.y), "tuned": _json_params(params)}},
-    )
-    if model_file is None:
-        notes.append(
-            f"{stem}.npz not written: the feature set {cand.features!r} ({type(step).__name__}) has no model-file "
-            f"form; {stem}.onnx is the deployable file"
-        )
-    return {
-        "name": name,
-        "onnx": str(path),
-        "model_file": None if model_file is None else str(model_file),
-        "samples": len(s.y),
-        "params": _json_params(params),
-        "agreement": agreement,
-        "notes": notes,
-    }
+    return join(pool.result(front), classifier, path, meta)
 
 
-def _deploy_learned(result, name: str, model, check: np.ndarray, path: Path, samples: int) -> dict:
-    """Export a learned candidate fitted on all the data (its int8 variant quantised as in the study)."""
+def _export_learned(result, model, check: np.ndarray, path: Path, meta: dict) -> Path:
+    """Export a learned candidate fitted on all the data (its own graph, :func:`tactile_torch.neural.export_classifier`)."""
     from ..neural import export_classifier
-    from ..robot.runtime import OnnxPipeline
-    from .int8 import quantise_bundle
 
     clf = model.steps[-1][1]
-    s = result.inputs[result.result(name).candidate.input]
-    meta = {PIPELINE_KEY: f"tradeoff: {name}, fitted on all {samples} samples"}
-    if s.window is not None:
-        meta.update({WINDOW_SIZE_KEY: s.window, STEP_KEY: s.window, SAMPLE_RATE_KEY: result.data.rate_hz})
     names = [result.data.class_names[int(c)] for c in clf.classes_]
-    path = export_classifier(clf, path, check[:2], class_names=names, metadata=meta)
-    variant = result.result(name)
-    if variant.quantisation is not None:
-        quantised = path.with_name(f"{path.stem}-int8.onnx")
-        quantise_bundle(path, quantised, calibration=check, mode=variant.quantisation)
-        path = quantised.replace(path)
-    agreement = float(np.mean(clf.classes_[OnnxPipeline(path).predict(check)] == model.predict(check)))
-    notes = [
-        f"{path.stem}.npz not written: a learned model has no model-file form; {path.name} is the deployable file"
-    ]
-    return {
-        "name": name,
-        "onnx": str(path),
-        "model_file": None,
-        "samples": samples,
-        "params": {},
-        "agreement": agreement,
-        "notes": notes,
-    }
+    return export_classifier(clf, path, check[:2], class_names=names, metadata=meta)
 
 
-__all__ = ["CHECK_SAMPLES", "deploy_candidate", "write_model_file"]
+__all__ = [
+    "CHECK_SAMPLES",
+    "DEPLOY_MAX_PER_CLASS",
+    "DEPLOY_MAX_SAMPLES",
+    "deploy_candidate",
+    "deployment_samples",
+    "unknown_rule",
+    "write_model_file",
+]

@@ -77,6 +77,13 @@ class CandidateResult:
         The engine's result: every sample's out-of-fold prediction with its group and fold
         (``cv.predictions``, ``cv.groups``, ``cv.fold``) and ``cv.final_model`` to refit the tuned
         candidate on all data.
+    n_parameters, memory_mib, family
+        The learned numbers, the onnxruntime session's peak memory, ``"classical"``, ``"neural"`` or
+        ``"learned front end"``.
+    quantisation : {"static", "dynamic"} or None
+        An int8 variant's quantisation (:mod:`.learned`); ``None`` for a float candidate.
+    variant_of : str or None
+        An int8 variant: the name of its float candidate.
     """
 
     candidate: Candidate
@@ -98,6 +105,7 @@ class CandidateResult:
     memory_mib: float | None = None
     quantisation: str | None = None
     family: str = "classical"
+    variant_of: str | None = None
 
 
 def _stateless(step: object) -> bool:

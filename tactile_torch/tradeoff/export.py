@@ -32,7 +32,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from .._onnx import drop_unused_initializers, export_onnx, save_onnx
+from .._onnx import drop_unused_initializers, export_onnx, save_onnx, unsealed
 from ..robot.contract import FEATURES_NAME, INPUT_NAME, LABELS_OUTPUT, SCORES_OUTPUT, metadata_strings
 
 
@@ -191,6 +191,9 @@ def join(front: object, head: object, path: str | Path, metadata: dict[str, obje
     import onnx
     from onnx import compose
 
+    # the parts were written sealed, each with its own digest: merge_models refuses two values of one
+    # key, and the joined file gets its own (save_onnx)
+    front, head = (unsealed(part) for part in (front, head))
     head = compose.add_prefix(head, "head.", rename_outputs=False)
     model = compose.merge_models(front, head, io_map=[(FEATURES_NAME, f"head.{FEATURES_NAME}")])
     for key, value in metadata_strings(metadata).items():

@@ -67,6 +67,9 @@ class Samples:
         (no groups at all).
     unit : str
         What a unit is, in words (``"session"``, ``"recording"``, ``"group"``, ``"time block"``, ``"fold"``).
+    unit_names : tuple of str or None
+        The name of each unit id, as the data name it (``"day1"``: a session of the file; ``"time block
+        2"``, ``"fold 3"`` otherwise); see :meth:`unit_name`.
     """
 
     key: str
@@ -81,6 +84,18 @@ class Samples:
     groups: np.ndarray | None = None
     units: np.ndarray | None = None
     unit: str = "fold"
+    unit_names: tuple[str, ...] | None = None
+
+    def unit_name(self, unit: int) -> str:
+        """Return the name of unit id ``unit`` (the data's own name of a session or group, if it has one)."""
+        if self.unit_names is not None and 0 <= int(unit) < len(self.unit_names):
+            return self.unit_names[int(unit)]
+        return f"{self.unit} {int(unit) + 1}"
+
+
+def _names_of(values: np.ndarray) -> tuple[str, ...]:
+    """The names of the ids :func:`_group_ids` gives ``values``, in id order."""
+    return tuple(str(v) for v in np.unique(np.asarray(values).astype(str)))
 
 
 def fold_units(folds: list[Fold], n: int) -> np.ndarray:
@@ -354,7 +369,7 @@ def vibration_samples(
             )
     from ..robot.windows import window_recordings
 
-    ds = window_recordings(recordings.signals, window)
+    ds = window_recordings(recordings.signals, window, gaps=getattr(recordings, "gaps", None))
     X, recording, position = ds.windows, ds.recording, ds.position
     y = np.asarray(recordings.labels)[recording]
     rate = float(recordings.rate_hz)
@@ -375,14 +390,23 @@ def vibration_samples(
         )
         unit = "session" if recordings.session is not None else "recording"
         units = group[keep]
+        unit_names = _names_of(session)
     else:  # one recording for some class: consecutive time blocks of every recording, a guard between
+        unit = "session" if recordings.session is not None else "recording"
         group, keep, folds, split = _time_blocks(
-            recording, position, y, window, n_folds, max_per_class, names
+            recording,
+            position,
+            y,
+            window,
+            n_folds,
+            max_per_class,
+            names,
+            why=single_group(group, recording, y, names, unit),
         )
     split = f"{len(keep)} windows; {split}"
     X, y, group = X[keep], y[keep], group[keep]
     if units is None:  # time blocks: block b of every recording is one unit (it is fold b's test set)
-        unit, units = "time block", fold_units(folds, len(y))
+        unit, units, unit_names = "time block", fold_units(folds, len(y)), None
     return Samples(
         f"windows-{window}",
         X,
@@ -395,6 +419,7 @@ def vibration_samples(
         groups=group,
         units=units,
         unit=unit,
+        unit_names=unit_names,
     )
 
 
@@ -457,7 +482,26 @@ def window_folds(
         )
         return group, keep, folds, split
     # one recording (or session) for some class: consecutive time blocks of every recording
-    return _time_blocks(recording, position, y, window, n_folds, max_per_class, names, guard)
+    why = single_group(group, recording, y, names, group_label)
+    return _time_blocks(recording, position, y, window, n_folds, max_per_class, names, guard, why=why)
+
+
+def single_group(
+    group: np.ndarray, recording: np.ndarray, y: np.ndarray, names: Sequence[str], label: str
+) -> str:
+    """Why windows are not grouped, in words the data bear out: the classes with a single ``label``."""
+    classes = np.unique(y)
+    single = [c for c in classes if len(np.unique(group[y == c])) < 2]
+    c = single[0]
+    n_recordings = len(np.unique(recording[y == c]))
+    which = (
+        f"class {_class_name(names, c)!r} has"
+        if len(single) == 1
+        else f"{len(single)} of {len(classes)} classes have"
+    )
+    if label == "session" and n_recordings > 1:
+        return f"{which} a single session (the {n_recordings} recordings of {_class_name(names, c)!r} are one session)"
+    return f"{which} a single {label}"
 
 
 def _time_blocks(
@@ -469,8 +513,11 @@ def _time_blocks(
     max_per_class: int | None,
     names: Sequence[str],
     guard: int = 1,
+    *,
+    why: str = "a class has a single recording",
 ) -> tuple[np.ndarray, np.ndarray, list[Fold], str]:
-    """Time-block folds: ``(block of each window, windows kept, folds over the kept ones, description)``."""
+    """Time-block folds: ``(block of each window, windows kept, folds over the kept ones, description)``;
+    ``why`` says why the windows are not grouped (:func:`single_group`)."""
     present = np.unique(recording)
     n_windows = np.bincount(recording)[present]
     blocks = min(
@@ -497,7 +544,7 @@ def _time_blocks(
         else f"the first {guard} windows of each later block are"
     )
     split = (
-        f"{blocks} folds of consecutive time blocks of every recording (a class has a single recording); "
+        f"{blocks} folds of consecutive time blocks of every recording ({why}); "
         f"{dropped} dropped so that no neighbouring windows are split"
     )
     return recording * blocks + block, keep, folds, split
@@ -547,6 +594,7 @@ def exploration_samples(
         groups=groups,
         units=units,
         unit="group" if grouped else "fold",
+        unit_names=_names_of(groups) if grouped else None,
     )
 
 

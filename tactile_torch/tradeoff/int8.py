@@ -44,17 +44,41 @@ class _Calibration:
         pass
 
 
+CLASSIFIER_PREFIX = "head."
+"""The names of a joined classical bundle's classifier nodes (:func:`tactile_torch.tradeoff.export.join`):
+what its int8 variant quantises. The feature graph stays in float: int8 activations of a window's
+spectrum lose the small high-frequency vibration the features measure."""
+QUANTISED_NODE_TYPES = (
+    "QuantizeLinear",
+    "DequantizeLinear",
+    "MatMulInteger",
+    "ConvInteger",
+    "DynamicQuantizeLinear",
+)
+
+
+def quantised_nodes(path: str | Path) -> int:
+    """Return how many int8 (quantise, dequantise, integer matrix) nodes the ONNX file ``path`` holds."""
+    import onnx
+
+    return sum(n.op_type in QUANTISED_NODE_TYPES for n in onnx.load(str(path)).graph.node)
+
+
 def _copy_metadata(source: object, target_path: Path, mode: str) -> None:
     import onnx
+
+    from .._onnx import save_onnx
+    from ..robot.contract import DIGEST_KEY
 
     model = onnx.load(str(target_path))
     del model.metadata_props[:]
     for prop in source.metadata_props:
-        entry = model.metadata_props.add()
-        entry.key, entry.value = prop.key, prop.value
+        if prop.key != DIGEST_KEY:  # the source's digest: the int8 file gets its own (save_onnx)
+            entry = model.metadata_props.add()
+            entry.key, entry.value = prop.key, prop.value
     entry = model.metadata_props.add()
     entry.key, entry.value = "quantisation", mode
-    onnx.save(model, str(target_path))
+    save_onnx(model, target_path)
 
 
 def quantise_bundle(
@@ -63,6 +87,7 @@ def quantise_bundle(
     *,
     calibration: np.ndarray | None = None,
     mode: str | None = None,
+    only_prefix: str | None = None,
 ) -> tuple[Path, str]:
     """Write an int8 copy of the bundle ``path`` to ``out``; return ``(out, mode used)``.
 
@@ -76,6 +101,9 @@ def quantise_bundle(
     mode : {"static", "dynamic"}, optional
         Default: static when ``calibration`` is given, else dynamic. A static quantisation that fails
         falls back to dynamic (the returned mode says which).
+    only_prefix : str, optional
+        Quantise only the nodes whose names start with this (a joined classical bundle's classifier,
+        ``"head."``); the others stay in float.
 
     Raises
     ------
@@ -101,8 +129,18 @@ def quantise_bundle(
 
     try:
         with tempfile.TemporaryDirectory(prefix="tactile-torch-int8-") as tmp:
+            exclude = (
+                []
+                if only_prefix is None
+                else [n.name for n in source.graph.node if not n.name.startswith(only_prefix)]
+            )
             used = _quantise(
-                _single_opsets(source, path, Path(tmp)), out, source.graph.input[0].name, calibration, mode
+                _single_opsets(source, path, Path(tmp)),
+                out,
+                source.graph.input[0].name,
+                calibration,
+                mode,
+                exclude,
             )
     finally:
         root.setLevel(level)
@@ -131,7 +169,9 @@ def _single_opsets(model: object, path: Path, tmp: Path) -> Path:
     return fixed
 
 
-def _quantise(path: Path, out: Path, input_name: str, calibration: np.ndarray | None, mode: str) -> str:
+def _quantise(
+    path: Path, out: Path, input_name: str, calibration: np.ndarray | None, mode: str, exclude: list[str]
+) -> str:
     from onnxruntime.quantization import QuantFormat, QuantType, quantize_dynamic, quantize_static
 
     if mode == "static":
@@ -145,11 +185,16 @@ def _quantise(path: Path, out: Path, input_name: str, calibration: np.ndarray | 
                 weight_type=QuantType.QInt8,
                 per_channel=True,
                 op_types_to_quantize=list(QUANTISED_OPS),
+                nodes_to_exclude=exclude,
             )
             return "static"
         except Exception:  # an operator static quantisation cannot handle: weights only
             pass
     quantize_dynamic(
-        str(path), str(out), weight_type=QuantType.QInt8, op_types_to_quantize=list(QUANTISED_OPS)
+        str(path),
+        str(out),
+        weight_type=QuantType.QInt8,
+        op_types_to_quantize=list(QUANTISED_OPS),
+        nodes_to_exclude=exclude,
     )
     return "dynamic"

@@ -147,8 +147,10 @@ def run_tradeoff_job(
         See :func:`~tactile_torch.tradeoff.load_tradeoff_data`.
     options : TradeoffOptions
     out_dir : path
-        Replaced as a whole when the run succeeds (:func:`~tactile_torch.tradeoff.output.staged_output`):
-        a run that fails or is killed leaves the previous ``out_dir`` as it was.
+        Replaced as a whole when the candidates were measured (:func:`~tactile_torch.tradeoff.output.staged_output`):
+        a run that fails before (or is killed) leaves the previous ``out_dir`` as it was. A late stage
+        that fails (deployment, breaking points, a chart: a bug) does not discard the others' outputs:
+        they are written, and ``result.incomplete`` (``tradeoff.json``'s ``incomplete``) names it.
     command : str
         The command line that reproduces the run, written into the outputs.
     allow_pickle, backend, n_jobs, scheduler, progress, log
@@ -178,9 +180,13 @@ def run_tradeoff_job(
             **options.run_keywords(),
         )
         if options.breaking and result.recommended is not None:  # docs/robustness.md
-            add_breaking_points(
-                result, staging, quick=options.quick, random_state=options.random_state, progress=progress
-            )
+            log("[tradeoff] breaking points of the recommended and the study's model")
+            try:
+                add_breaking_points(
+                    result, staging, quick=options.quick, random_state=options.random_state, progress=progress
+                )
+            except Exception as err:  # a late stage: what the earlier ones computed is written all the same
+                result.mark_incomplete("breaking points", err)
         paths = write_outputs(result, staging, command=command)
     out = Path(out_dir)
     return result, {role: out / p.relative_to(staging) for role, p in paths.items()}

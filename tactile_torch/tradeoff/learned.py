@@ -13,7 +13,9 @@
 * **int8** (:func:`add_int8_and_memory`): every exported candidate (``quick``: the learned ones) gets an
   int8 variant (:func:`tactile_torch.tradeoff.int8.quantise_bundle`: static, calibrated on 32 samples of
   each training fold; dynamic for the networks, whose labels static int8 kept only 0.55-0.60 of on the
-  bundled and HapMat windows against 0.91-0.94 for dynamic), a candidate of its own: every fold's model is exported (a learned model's
+  bundled and HapMat windows against 0.91-0.94 for dynamic; a classical bundle's classifier only, its
+  feature graph staying in float, and none when that leaves nothing quantised, said in its notes), a
+  candidate of its own: every fold's model is exported (a learned model's
   first-fold file rebound to the fold's weights, a classical head bound to the fold's tensors), quantised
   and scored on that fold's test samples; latency, size and memory are the first fold's file's.
   A classical candidate whose features are fitted per fold (raw pressure maps) gets none (its feature
@@ -94,12 +96,14 @@ def learned_candidates(
     random_state: int = 0,
     threshold: float | str = "auto",
     window: int | None = None,
+    progress: bool = True,
 ) -> list:
     """Return the learned :class:`~.candidates.Candidate`\\ s for ``kind`` on the raw input ``input_key``.
 
     ``classifiers`` (keys or names, as ``tradeoff --classifiers``) keeps only those named; without it
     the set of the module notes. ``threshold`` (the image pipeline's, when a float) starts the learned
-    front end.
+    front end. ``progress``: the networks' own progress bars over their epochs (``tradeoff --quiet``
+    turns them off with the others).
     """
     from .candidates import Candidate
 
@@ -127,6 +131,8 @@ def learned_candidates(
         if key == "learned-front-end" and isinstance(threshold, float):
             params["threshold"] = threshold
         model = catalogue.make_classifier(key, random_state=random_state, **params)
+        if "progress" in model.get_params():
+            model.set_params(progress=progress)
         pipe = Pipeline([("features", RawInput()), ("classifier", model)])
         out.append(Candidate(f"{entry.name} | {what}", entry.name, what, input_key, pipe, key, None))
     return out
@@ -190,6 +196,10 @@ def _fold_file(res: object, k: int, first: Path, samples: object, parts: Path, f
     return fold_file(res.candidate, model, path)
 
 
+class _NothingToQuantise(Exception):
+    """The quantiser left a bundle as it was: no int8 variant to measure."""
+
+
 def add_int8_and_memory(
     results: list,
     samples: dict,
@@ -198,8 +208,11 @@ def add_int8_and_memory(
     fold_file,
     quick: bool,
     progress: bool = True,
+    notes: list | None = None,
 ) -> list:
     """Append the int8 variants to ``results`` and fill ``memory_mib`` (module notes); return ``results``.
+
+    ``notes`` receives one line naming the candidates that get no variant (nothing to quantise).
 
     ``fold_file(candidate, model, path)`` writes a classical fold model's file (the trade-off's export pool) and
     returns its path, or ``None`` when it cannot (features fitted per fold).
@@ -208,11 +221,11 @@ def add_int8_and_memory(
 
     from ..robot.runtime import OnnxPipeline
     from .evaluation import CandidateResult, _progress
-    from .int8 import quantise_bundle
+    from .int8 import CLASSIFIER_PREFIX, quantise_bundle, quantised_nodes
 
     out_dir = Path(out_dir)
     parts = out_dir / "parts-int8"
-    added = []
+    added, unchanged = [], []
     chosen = [r for r in results if r.onnx_file and (not quick or is_learned(r.model))]
     for res in _progress(chosen, "int8", progress):
         s = samples[res.candidate.input]
@@ -231,9 +244,17 @@ def add_int8_and_memory(
                     out_dir / f"{first.stem}-int8.onnx" if k == 0 else parts / f"{first.stem}-int8-{k}.onnx"
                 )
                 # The networks get dynamic int8: static ranges from the calibration windows kept only
-                # 0.55-0.60 of their labels on two data sets (docs/neural.md), dynamic 0.91-0.94.
+                # 0.55-0.60 of their labels on two data sets (docs/neural.md), dynamic 0.91-0.94. A
+                # classical bundle quantises its classifier only: int8 activations of its feature graph
+                # (a window's spectrum) lost the small vibration the features measure.
                 mode = "dynamic" if res.family == "neural" else "static"
-                q_path, mode = quantise_bundle(path, target, calibration=calibration, mode=mode)
+                prefix = None if is_learned(res.model) else CLASSIFIER_PREFIX
+                q_path, mode = quantise_bundle(
+                    path, target, calibration=calibration, mode=mode, only_prefix=prefix
+                )
+                if k == 0 and not quantised_nodes(q_path):
+                    q_path.unlink()
+                    raise _NothingToQuantise()
                 q = OnnxPipeline(q_path)
                 labels = q.predict(s.X[test])
                 classes = res.cv.models[k].steps[-1][1].classes_
@@ -242,6 +263,9 @@ def add_int8_and_memory(
                 if k == 0:
                     q_first = q_path
                     agreement = float(np.mean(labels == OnnxPipeline(path).predict(s.X[test])))
+        except _NothingToQuantise:
+            unchanged.append(res.candidate.name)
+            continue
         except Exception as err:
             lines = [line for line in str(err).splitlines() if line.strip()]
             res.notes.append(f"int8: {type(err).__name__}: {(lines or [''])[-1][:200]}")
@@ -268,8 +292,15 @@ def add_int8_and_memory(
         variant.n_parameters = res.n_parameters
         variant.quantisation = mode
         variant.family = res.family
+        variant.variant_of = res.candidate.name
         added.append(variant)
     results.extend(added)
+    if unchanged and notes is not None:
+        notes.append(
+            f"int8: no variant of {len(unchanged)} classical candidate(s) ({', '.join(unchanged[:3])}"
+            f"{', ...' if len(unchanged) > 3 else ''}): a classical file quantises its classifier only (its "
+            "feature graph stays in float), and theirs holds no operator onnxruntime quantises"
+        )
     import shutil
 
     shutil.rmtree(parts, ignore_errors=True)

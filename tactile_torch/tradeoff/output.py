@@ -1,17 +1,17 @@
-"""Writing a trade-off study: ``tradeoff.json``, ``tradeoff.md`` and the charts."""
+"""Writing a trade-off study: ``tradeoff.json``, ``tradeoff.md`` and the charts (drawn by :mod:`.charts`)."""
 
 from __future__ import annotations
 
 import json
 import math
 import os
-import re
 import shutil
 from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
 
+from .charts import CHARTS, draw_chart, feature_family
 from .summary import TradeoffResult
 
 COST = (
@@ -29,11 +29,6 @@ INTERVAL = (
     "prediction interval for the accuracy on one new unit, mean +- t(g-1) s sqrt(1 + 1/g) over the g units' "
     "out-of-fold accuracies; with fewer than 5 units the range over the units instead"
 )
-CHARTS = {
-    "latency": ("accuracy-vs-latency.png", "latency_ms", "latency of the exported ONNX pipeline, batch 1"),
-    "size": ("accuracy-vs-size.png", "size_bytes", "ONNX file size"),
-    "decision": ("accuracy-vs-decision.png", "decision_s", "time to a decision"),
-}
 TIMING_DIR = "timing"
 """Where the per-candidate ONNX files go: fitted on the first training fold, for latency and size only."""
 
@@ -53,6 +48,8 @@ def _interval_text(row: dict) -> str:
 def describe(row: dict) -> str:
     """One line: a candidate's accuracy with its interval (and unit), latency, size and time to a decision."""
     text = f"{row['name']}: accuracy {row['accuracy']:.3f}, {_interval_text(row)}"
+    if row.get("int8_degraded"):
+        text += f" (int8 loses {row['int8_loss']:.3f} against its float model, beyond its interval)"
     if row["latency_ms"] is None:
         return text
     return f"{text}, latency {row['latency_ms']:.2f} ms, {_size(row['size_bytes'])}, decision in {row['decision_s']:.3g} s"
@@ -66,16 +63,46 @@ def _baseline_text(result: TradeoffResult) -> str:
     return text
 
 
+def incomplete_lines(result: TradeoffResult) -> list[str]:
+    """One line per late stage that failed (an internal error): what is missing, and that the rest is written."""
+    return [
+        f"internal error in {i['stage']}: {i['error']} (that part is missing; everything else is written; "
+        "please report it)"
+        for i in result.incomplete
+    ]
+
+
+FAILURES = ("fit failed: ", "ONNX export failed: ", "no ONNX export: ")
+"""How a candidate's notes begin when it could not be fitted or exported."""
+
+
+def none_exported_line(result: TradeoffResult) -> str:
+    """One line when no candidate could be fitted and exported: how many failed where, and the cause most
+    of them share (e.g. ``windows must be finite``), so that the cause is not only in ``tradeoff.md``."""
+    from collections import Counter
+
+    fit = sum(1 for r in result.rows if r["accuracy"] is None)
+    export = sum(1 for r in result.rows if r["accuracy"] is not None and r["decision_s"] is None)
+    causes = Counter(
+        next((n for n in r["notes"] if n.startswith(FAILURES)), "no note")
+        for r in result.rows
+        if r["decision_s"] is None
+    )
+    line = (
+        f"no recommendation: no candidate could be fitted and exported ({fit} could not be fitted, {export} not "
+        "exported)"
+    )
+    if causes:
+        cause, count = causes.most_common(1)[0]
+        line += f"; {'all' if count == len(result.rows) else f'{count} of {len(result.rows)}'}: {cause}"
+    return line
+
+
 def summary_lines(result: TradeoffResult) -> list[str]:
     """The warnings, the recommendation and the runner-up (or why there is none), one line each."""
     lines = list(result.warnings)
     if result.status == "none exported":
-        failed = sum(1 for r in result.rows if r["accuracy"] is not None and r["decision_s"] is None)
-        return [
-            *lines,
-            f"no recommendation: no candidate could be fitted and exported ({failed} export failures; the notes "
-            "in tradeoff.md say why)",
-        ]
+        return [*lines, none_exported_line(result)]
     if result.status == "none adequate":
         best = max((r for r in result.rows if r["accuracy"] is not None), key=lambda r: r["accuracy"])
         why = (
@@ -90,150 +117,14 @@ def summary_lines(result: TradeoffResult) -> list[str]:
     lines.append(f"baselines:   {_baseline_text(result)}")
     for d in result.deployed:
         files = ", ".join(Path(p).name for p in (d["onnx"], d["model_file"]) if p)
-        lines.append(f"deployed:    {d['name']} refitted on all {d['samples']} samples: {files}")
+        count = (
+            f"all {d['samples']}"
+            if d.get("available", d["samples"]) == d["samples"]
+            else f"{d['samples']} of {d['available']} (evenly spaced)"
+        )
+        lines.append(f"deployed:    {d['name']} refitted on {count} samples: {files}")
         lines += [f"note:        {n}" for n in d["notes"]]
     return lines
-
-
-def feature_family(features: str) -> str:
-    """The feature set's family for a chart's markers: sizes and window lengths dropped.
-
-    >>> feature_family("top 7 of 21, W = 800"), feature_family("21 features, W = 200"), feature_family("per-frame 1200")
-    ('top k', 'all features', 'per-frame')
-    """
-    text = re.sub(r",?\s*W = \d+", "", features).strip()
-    if text.startswith("top "):
-        return "top k"
-    if re.fullmatch(r"(all )?\d+ features", text):
-        return "all features"
-    return re.sub(r"\s*\d+$", "", text) or text
-
-
-def _axis_scale(field: str, values: np.ndarray) -> tuple[float, str]:
-    """Divisor and unit of the x axis: sizes in KiB or MiB, latency in ms, decision in s."""
-    if field == "size_bytes":
-        return (2.0**20, "MiB") if values.max() >= 2**20 else (1024.0, "KiB")
-    return 1.0, "ms" if field == "latency_ms" else "s"
-
-
-def draw_chart(
-    rows: list[dict],
-    which: str,
-    path: str | Path,
-    *,
-    recommended: str | None = None,
-    runner_up: str | None = None,
-    chance: float | None = None,
-    baseline: float | None = None,
-    target: float | None = None,
-) -> Path:
-    """Draw accuracy (with its interval) against one cost of ``rows`` (``tradeoff.json``'s candidates); return ``path``.
-
-    Colour is the classifier, the marker the feature family (:func:`feature_family`); the line is the
-    Pareto front of this chart's own axes (accuracy against this cost); horizontal lines mark chance,
-    the trivial baseline and the target. The x axis is logarithmic only when the costs span a decade
-    or more, with plain tick labels. The recommended and runner-up candidates are ringed and named
-    under the axes, so their labels never overlap the points or each other.
-    """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from matplotlib.lines import Line2D
-    from matplotlib.ticker import FuncFormatter, LogLocator, MaxNLocator
-
-    from .selection import pareto_front
-
-    _, field, label = CHARTS[which]
-    rows = [r for r in rows if r.get(field) is not None and r.get("accuracy") is not None]
-    if not rows:
-        raise ValueError(f"no candidate has a {field} to chart")
-    raw = np.array([r[field] for r in rows], dtype=np.float64)
-    divisor, unit = _axis_scale(field, raw)
-    x = raw / divisor
-    acc = np.array([r["accuracy"] for r in rows])
-    low = np.array([r["accuracy_low"] for r in rows])
-    high = np.array([r["accuracy_high"] for r in rows])
-    classifiers = list(dict.fromkeys(r["classifier"] for r in rows))
-    families = list(dict.fromkeys(feature_family(r["features"]) for r in rows))
-    colours = plt.get_cmap("tab10")
-    markers = "osD^vPXh<>"
-    many = len(rows) > 15
-    fig, ax = plt.subplots(figsize=(8.0, 5.0))
-    for r, xi, a, lo, hi in zip(rows, x, acc, low, high, strict=True):
-        c = colours(classifiers.index(r["classifier"]) % 10)
-        m = markers[families.index(feature_family(r["features"])) % len(markers)]
-        ax.plot([xi, xi], [lo, hi], "-", color=c, lw=0.8, alpha=0.35 if many else 0.6, zorder=1)
-        ax.plot(xi, a, m, color=c, ms=5 if many else 7, mec="white", mew=0.5, zorder=3)
-    front = np.flatnonzero(pareto_front(acc, raw))
-    front = front[np.lexsort((-acc[front], x[front]))]
-    ax.step(x[front], acc[front], where="post", color="0.3", lw=1.2, zorder=2)
-    handles = [Line2D([], [], color="0.3", lw=1.2, label=f"Pareto front (accuracy vs {which})")]
-    lines = [(chance, ":", "chance"), (baseline, "--", "majority class"), (target, "-.", "target")]
-    if chance is not None and baseline is not None and abs(chance - baseline) < 5e-3:  # one line, both names
-        lines = [(baseline, "--", "chance = majority class"), (target, "-.", "target")]
-    for value, style, text in lines:
-        if value is not None:
-            ax.axhline(value, ls=style, color="0.45" if text != "target" else "tab:red", lw=1, zorder=0)
-            handles.append(
-                Line2D(
-                    [],
-                    [],
-                    ls=style,
-                    color="0.45" if text != "target" else "tab:red",
-                    label=f"{text} {value:.2f}",
-                )
-            )
-    chosen = []
-    for name, ring, text in ((recommended, 16, "recommended"), (runner_up, 12, "runner-up")):
-        hit = [i for i, r in enumerate(rows) if r["name"] == name]
-        if not hit:
-            continue
-        i = hit[0]
-        ax.plot(
-            x[i],
-            acc[i],
-            "o",
-            ms=ring,
-            mfc="none",
-            mec="black",
-            mew=1.6 if text == "recommended" else 1.0,
-            zorder=4,
-        )
-        chosen.append(f"{text} ({'thick' if text == 'recommended' else 'thin'} ring): {name}, {acc[i]:.3f}")
-    handles += [
-        Line2D([], [], ls="none", marker="s", color=colours(i % 10), label=clf)
-        for i, clf in enumerate(classifiers)
-    ]
-    handles += [
-        Line2D([], [], ls="none", marker=markers[j % len(markers)], color="0.4", label=f)
-        for j, f in enumerate(families)
-    ]
-    spread = x.max() / max(x.min(), 1e-12)
-    if x.min() > 0 and spread >= 10:
-        ax.set_xscale("log")
-        ax.xaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
-        ax.xaxis.set_minor_locator(LogLocator(subs="auto"))
-        ax.xaxis.set_minor_formatter(FuncFormatter(lambda v, _: ""))
-        ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
-    else:
-        ax.xaxis.set_major_locator(MaxNLocator(6, steps=[1, 2, 2.5, 5, 10]))
-        pad = (x.max() - x.min()) * 0.08 or max(x.max() * 0.05, 1e-3)
-        ax.set_xlim(max(0.0, x.min() - pad), x.max() + pad)
-    ax.set_xlabel(f"{label} ({unit})")
-    ax.set_ylabel(f"accuracy (mean over {rows[0].get('unit') or 'unit'}s, 95 % interval)")
-    floor = min(low.min(), chance if chance is not None else 1.0)
-    ax.set_ylim(max(0.0, floor - 0.05), 1.02)
-    ax.grid(alpha=0.3)
-    ax.legend(handles=handles, fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
-    if chosen:
-        ax.set_title("\n".join(chosen), fontsize=8.5, loc="left")
-    fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110, bbox_inches="tight")
-    plt.close(fig)
-    return path
 
 
 def _chart(result: TradeoffResult, which: str, path: Path) -> Path:
@@ -270,7 +161,10 @@ def write_outputs(result: TradeoffResult, out_dir: str | Path, *, command: str =
     out.mkdir(parents=True, exist_ok=True)
     paths = {}
     for kind in chart_kinds(result) if any(r["decision_s"] is not None for r in result.rows) else []:
-        paths[kind] = _chart(result, kind, out / "figures" / CHARTS[kind][0])
+        try:
+            paths[kind] = _chart(result, kind, out / "figures" / CHARTS[kind][0])
+        except Exception as err:  # a chart that fails leaves the results (and the other charts) written
+            result.mark_incomplete(f"chart {CHARTS[kind][0]}", err)
     data = result.data
     doc = {
         "tactile_torch_version": __version__,
@@ -282,7 +176,14 @@ def write_outputs(result: TradeoffResult, out_dir: str | Path, *, command: str =
             "rate_hz": data.rate_hz,
         },
         "splits": result.splits,
-        "units": {k: {"unit": s.unit, "n_units": len(np.unique(s.units))} for k, s in result.inputs.items()},
+        "units": {
+            k: {
+                "unit": s.unit,
+                "n_units": len(np.unique(s.units)),
+                "names": [s.unit_name(i) for i in np.unique(s.units)],
+            }
+            for k, s in result.inputs.items()
+        },
         "interval": INTERVAL,
         "cost": COST,
         "rule": RULE,
@@ -301,6 +202,8 @@ def write_outputs(result: TradeoffResult, out_dir: str | Path, *, command: str =
         "notes": result.notes,
         "seconds": result.seconds,
         "breaking_points": result.breaking_points,  # see TradeoffResult.breaking_points
+        "complete": not result.incomplete,
+        "incomplete": result.incomplete,
     }
     paths["json"] = out / "tradeoff.json"
     paths["json"].write_text(json.dumps(doc, indent=1, default=_json_default) + "\n")
@@ -360,6 +263,9 @@ def table_rows(result: TradeoffResult) -> list[dict]:
                 "size": _size(r["size_bytes"]),
                 "decision s": r["decision_s"] if r["decision_s"] is not None else "-",
                 "Pareto": "yes" if r["pareto"] else "",
+                "int8 loss": "-"
+                if r.get("int8_loss") is None
+                else f"{r['int8_loss']:.3f}" + (" (beyond the float interval)" if r["int8_degraded"] else ""),
                 "choice": mark,
             }
         )
@@ -397,6 +303,12 @@ def _table(rows: list[dict]) -> list[str]:
 def markdown(result: TradeoffResult, *, command: str = "", figures: dict[str, Path] | None = None) -> str:
     """Return ``tradeoff.md``."""
     lines = ["# Speed against accuracy: which model this data needs", ""]
+    if result.incomplete:
+        lines += [
+            "**Incomplete**: a late stage failed (an internal error, please report it); the rest is below.",
+            "",
+        ]
+        lines += [f"- {i['stage']}: {i['error']}" for i in result.incomplete] + [""]
     if command:
         lines += ["Written by:", "", f"```\n{command}\n```", ""]
     lines += [f"Data: {result.data.description}.", ""]
@@ -422,7 +334,15 @@ def markdown(result: TradeoffResult, *, command: str = "", figures: dict[str, Pa
     for kind, rel in (figures or {}).items():
         lines += [f"![accuracy vs {kind}]({rel.as_posix()})", ""]
     if result.breaking_points:
-        lines += ["## Breaking points", "", *_table(result.breaking_points.get("rows") or [])]
+        points = result.breaking_points
+        lines += ["## Breaking points", "", *_table(points.get("rows") or [])]
+        lines += [f"- {n}" for n in points.get("notes") or []]
+        lines += [f"- not swept: {name}: {why}" for name, why in points.get("skipped") or []]
+        lines += [
+            f"- **failed** (a bug, please report it): {name}: {why}"
+            for name, why in points.get("failed") or []
+        ]
+        lines.append("")
         lines += [
             f"![breaking point]({Path(p).as_posix()})" for p in result.breaking_points.get("figures") or []
         ]
@@ -494,6 +414,7 @@ def staged_output(out_dir: str | Path):
 
 
 __all__ = [
+    "CHARTS",
     "COST",
     "INTERVAL",
     "RULE",
@@ -501,6 +422,7 @@ __all__ = [
     "describe",
     "draw_chart",
     "feature_family",
+    "incomplete_lines",
     "markdown",
     "staged_output",
     "summary_lines",

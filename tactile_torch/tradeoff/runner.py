@@ -23,6 +23,7 @@ from .inputs import (
     vibration_samples,
 )
 from .summary import TradeoffResult, _unit_warnings, baseline_rows, summarise
+from .validation import check_finite, check_folds_fit, check_target, check_two_classes
 
 STUDY_WINDOW = 800
 """The vibration study's reference window (samples)."""
@@ -114,6 +115,10 @@ class TradeoffPlan:
         Features already known (see :attr:`TradeoffData.precomputed`), by features key.
     seconds : float
         Time spent planning.
+    quick : bool
+    references : dict of str to FeatureRecipe
+        Per raw input, its reference feature set (all features: the 21 at the window, fused 12, all
+        columns), on which a learned model's "unknown" rule is measured (:mod:`.deploy`).
     """
 
     data: TradeoffData
@@ -123,6 +128,7 @@ class TradeoffPlan:
     precomputed: dict = field(default_factory=dict)
     seconds: float = 0.0
     quick: bool = False
+    references: dict = field(default_factory=dict)
 
 
 def plan_tradeoff(
@@ -145,6 +151,7 @@ def plan_tradeoff(
     csv_session: str = "number",
     exact_folds: bool = False,
     tune: bool = True,
+    progress: bool = True,
     log: Callable[[str], None] = print,
 ) -> TradeoffPlan:
     """Read the data, cut the raw inputs, make the folds and the candidates.
@@ -190,6 +197,9 @@ def plan_tradeoff(
     tune : bool
         Tune every candidate inside each training fold (nested, :mod:`.candidates`); ``False`` runs them
         at the catalogue's defaults (for comparison; ``--no-tune``).
+    progress : bool
+        The learned models' progress bars over their epochs (the study's own bars are
+        :func:`execute_plan`'s).
     log : callable
         Receives one line per stage.
 
@@ -202,7 +212,7 @@ def plan_tradeoff(
     ValueError
         One line naming the argument: ``n_folds`` below 2 or above what the data allow (a class with
         fewer samples, groups or time blocks), ``max_per_class`` below 2, ``frame_rate_hz`` not
-        positive and finite, ``window`` not a positive integer.
+        positive and finite, ``window`` not a positive integer; data of a single class.
     """
     from .._checks import check_positive
     from ..engine import needs_fit
@@ -233,6 +243,8 @@ def plan_tradeoff(
         data = load_tradeoff_data(
             data, frame_rate_hz=frame_rate_hz, allow_pickle=allow_pickle, csv_session=csv_session
         )
+    check_two_classes(data)
+    check_finite(data)
     cap = MAX_PER_CLASS["quick" if quick else "full"] if max_per_class == "auto" else max_per_class
     notes = list(data.notes)
     log(f"[tradeoff] {data.description}")
@@ -262,6 +274,10 @@ def plan_tradeoff(
             contact=contact,
         )
     notes.extend(more)
+    references: dict = {}  # per raw input, its reference feature set (all features; the first listed)
+    for fs in sets:
+        if fs.select is None:
+            references.setdefault(fs.input, fs)
     if features is not None:
         kept = [fs for fs in sets if any(fs.name.startswith(prefix) for prefix in features)]
         if not kept:
@@ -270,7 +286,7 @@ def plan_tradeoff(
             )
         notes.extend(f"feature set {fs.name!r} left out (features=)" for fs in sets if fs not in kept)
         sets = kept
-    _check_folds_fit(n_folds, inputs)
+    check_folds_fit(n_folds, inputs)
     if exact_folds:
         fewest = min(inputs.values(), key=lambda s: len(s.folds))
         if len(fewest.folds) < n_folds:
@@ -293,6 +309,7 @@ def plan_tradeoff(
             random_state=random_state,
             threshold=resolved if data.kind == "image" else "auto",
             window=inputs[reference].window,
+            progress=progress,
         )
     if not candidates:
         raise ValueError(f"classifiers {list(classifiers)} leave no candidate in this mode (quick={quick})")
@@ -304,24 +321,9 @@ def plan_tradeoff(
             index = inputs[cand.input].index
             F, seconds = known
             precomputed[features_key(cand)] = (F[index], seconds * len(index) / len(F))
-    return TradeoffPlan(data, inputs, candidates, notes, precomputed, time.perf_counter() - start, quick)
-
-
-def _check_folds_fit(n_folds: int, inputs: dict[str, Samples]) -> None:
-    """``n_folds`` asked for more folds than the data allow: one line, rather than silently fewer.
-
-    The default (5) may drop to what small data allow (the folds' description says how many); a number
-    the user gave above every input's count of samples (or groups) per class is a mistake."""
-    for s in inputs.values():
-        counts = np.bincount(s.y)
-        most = int(counts[counts > 0].min())
-        if s.groups is not None:
-            most = min(len(np.unique(s.groups[s.y == c])) for c in np.unique(s.y))
-        if n_folds > max(most, 5):
-            raise ValueError(
-                f"n_folds must be at most {max(most, 5)} here (the rarest class of {s.key} has {most} "
-                f"{'groups' if s.groups is not None else 'samples'}), got {n_folds}"
-            )
+    return TradeoffPlan(
+        data, inputs, candidates, notes, precomputed, time.perf_counter() - start, quick, references
+    )
 
 
 def execute_plan(
@@ -379,7 +381,15 @@ def execute_plan(
         return classical_fold_file(pool, cand, inputs[cand.input], data.class_names, meta)(model, path)
 
     models_dir = Path(out_dir) / "timing"
-    add_int8_and_memory(results, inputs, models_dir, fold_file=fold_file, quick=plan.quick, progress=progress)
+    add_int8_and_memory(
+        results,
+        inputs,
+        models_dir,
+        fold_file=fold_file,
+        quick=plan.quick,
+        progress=progress,
+        notes=plan.notes,
+    )
     rows, recommended, runner_up = summarise(results, inputs, target=target)
     only = None
     if plan.quick:  # a child process per file: the front, the learned and the int8 ones
@@ -408,15 +418,8 @@ def execute_plan(
         chance=1.0 / len(data.class_names),
         baselines=baselines,
         warnings=_unit_warnings(inputs),
+        references=plan.references,
     )
-
-
-def check_target(target: float | None) -> None:
-    """Raise ``ValueError`` unless ``target`` is ``None`` or an accuracy in (0, 1]."""
-    if target is None:
-        return
-    if isinstance(target, bool) or not isinstance(target, int | float | np.number) or not 0 < target <= 1:
-        raise ValueError(f"target must be an accuracy in (0, 1], got {target!r}")
 
 
 def _study_model(plan: TradeoffPlan) -> str | None:
@@ -486,7 +489,7 @@ def run_tradeoff(
     runner = Backend(backend, n_jobs, scheduler)  # checked before any work
     target = options.pop("target", None)
     check_target(target)
-    plan = plan_tradeoff(data, log=log, **options)
+    plan = plan_tradeoff(data, log=log, progress=progress, **options)
     seed = int(options.get("random_state", 0))
     wanted = [deploy] if isinstance(deploy, str) else list(deploy or ())
     known = [c.name for c in plan.candidates]
@@ -495,23 +498,31 @@ def run_tradeoff(
         raise ValueError(
             f"deploy must name a candidate of this study, got {unknown[0]!r}; candidates: {known}"
         )
+    from ..robot.errors import internal_stage
+
+    # The input is accepted from here on: an error below is a bug (status 1), whatever its class.
     with ExportPool(Path(out_dir) / "timing" / "parts", background=background) as pool, runner:
-        result = execute_plan(
-            plan,
-            pool,
-            out_dir=out_dir,
-            target=target,
-            progress=progress,
-            log=log,
-            backend=runner,
-            random_state=seed,
-        )
+        with internal_stage("cross-validation, export and timing"):
+            result = execute_plan(
+                plan,
+                pool,
+                out_dir=out_dir,
+                target=target,
+                progress=progress,
+                log=log,
+                backend=runner,
+                random_state=seed,
+            )
         names = [result.recommended if d == "recommended" else d for d in wanted]
         for name in dict.fromkeys(n for n in names if n is not None):
             from .deploy import deploy_candidate
 
             stage = time.perf_counter()
-            result.deployed.append(deploy_candidate(result, name, out_dir, pool, random_state=seed))
+            try:
+                result.deployed.append(deploy_candidate(result, name, out_dir, pool, random_state=seed))
+            except Exception as err:  # a late stage: the measured candidates are written all the same
+                result.mark_incomplete(f"deployment of {name}", err)
+                continue
             result.seconds += time.perf_counter() - stage
             log(
                 f"[tradeoff] {name} refitted (tuned) on all the data and exported: "

@@ -62,6 +62,13 @@ class TradeoffResult:
     deployed : list of dict
         The candidates refitted on all the data and written (:func:`~.deploy.deploy_candidate`): name,
         files (``recommended.onnx``, ``recommended.npz``, ...), samples, agreement, notes.
+    incomplete : list of dict
+        The late stages that failed (``stage``, ``error``): an internal error (a bug) after the
+        candidates were measured, in the deployment, the breaking points or a chart. What is complete
+        is still written; ``tradeoff.json`` and ``tradeoff.md`` say what is missing, and the command
+        ends with status 1 (:meth:`mark_incomplete`).
+    references : dict of str to FeatureRecipe
+        Per raw input, its reference feature set (:class:`~.runner.TradeoffPlan`).
     """
 
     data: TradeoffData
@@ -81,6 +88,14 @@ class TradeoffResult:
     baselines: dict[str, dict] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
     deployed: list[dict] = field(default_factory=list)
+    incomplete: list[dict] = field(default_factory=list)
+    references: dict = field(default_factory=dict, repr=False)
+
+    def mark_incomplete(self, stage: str, error: BaseException | str) -> None:
+        """Record that the late stage ``stage`` failed with ``error`` (its other outputs are kept)."""
+        if isinstance(error, BaseException):
+            error = f"{type(error).__name__}: {' '.join(str(error).split())[:300]}"
+        self.incomplete.append({"stage": stage, "error": error})
 
     @property
     def status(self) -> str:
@@ -206,7 +221,11 @@ def summarise(
                 unit=unit,
                 n_units=u.n,
                 unit_accuracy=[
-                    {"unit": str(i), "accuracy": float(a), "samples": int(k)}
+                    {
+                        "unit": s.unit_name(i) if s is not None else f"fold {int(i) + 1}",
+                        "accuracy": float(a),
+                        "samples": int(k),
+                    }
                     for i, a, k in zip(u.units, u.accuracy, u.count, strict=True)
                 ],
             )
@@ -222,6 +241,9 @@ def summarise(
                 "family": res.family,
                 "n_parameters": res.n_parameters,
                 "quantisation": res.quantisation,
+                "variant_of": res.variant_of,
+                "int8_loss": None,
+                "int8_degraded": None,
                 "latency_ms": res.latency_ms,
                 "size_bytes": res.size_bytes,
                 "memory_mib": res.memory_mib,
@@ -234,6 +256,7 @@ def summarise(
             }
         )
         rows.append(row)
+    mark_int8_losses(rows)
     ok = [i for i, r in enumerate(rows) if r["decision_s"] is not None and r["accuracy"] is not None]
     if not ok:
         return rows, None, None
@@ -257,4 +280,24 @@ def summarise(
     return rows, rows[ok[first]]["name"], None if second is None else rows[ok[second]]["name"]
 
 
-__all__ = ["TradeoffResult", "baseline_rows", "summarise"]
+def mark_int8_losses(rows: list[dict]) -> None:
+    """Set each int8 variant's ``int8_loss`` (its float model's accuracy minus its own) and
+    ``int8_degraded`` (its accuracy lies below the float model's interval, or range, over the units: it
+    is not the same model any more), with a note saying so."""
+    by_name = {r["name"]: r for r in rows}
+    for row in rows:
+        base = by_name.get(row.get("variant_of"))
+        if base is None or row["accuracy"] is None or base["accuracy"] is None:
+            continue
+        row["int8_loss"] = base["accuracy"] - row["accuracy"]
+        row["int8_degraded"] = bool(row["accuracy"] < base["accuracy_low"] - 1e-12)
+        if row["int8_degraded"]:
+            kind = "range" if base["interval"] == "range" else "95 % interval"
+            row["notes"].append(
+                f"int8 loses {row['int8_loss']:.3f} against its float model ({base['accuracy']:.3f} -> "
+                f"{row['accuracy']:.3f}), below the float model's {kind} [{base['accuracy_low']:.3f}, "
+                f"{base['accuracy_high']:.3f}] per {base['unit']}: quantisation changed the model"
+            )
+
+
+__all__ = ["TradeoffResult", "baseline_rows", "mark_int8_losses", "summarise"]

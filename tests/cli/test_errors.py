@@ -99,31 +99,39 @@ CASES = [
     (
         "train",
         ["--data", "short.npz"],
-        "short.npz: no recording holds a window of 800 samples (longest: 50 samples)",
+        "short.npz: every recording of class 'a' is shorter than one window of 800 samples (1 s at 800 Hz)",
     ),
     ("train", ["--data", "one.npz"], "one.npz: labels: every class needs at least 2 samples"),
     ("train", ["--data", "legacy.npz"], "legacy.npz: signals is a pickled object array"),
-    ("train", ["--data", "rec.npz", "--select", "0"], "--select must be a number of features >= 1, got 0"),
+    (
+        "train",
+        ["--data", "rec.npz", "--select", "0"],
+        "argument --select: expected a whole number >= 1, got '0'",
+    ),
     (
         "tradeoff",
         ["--data", "feat.npz", "--folds", "1000"],
         "--folds must be at most 10 here",
     ),
-    ("tradeoff", ["--data", "feat.npz", "--folds", "1"], "--folds must be a whole number >= 2, got 1"),
+    (
+        "tradeoff",
+        ["--data", "feat.npz", "--folds", "1"],
+        "argument --folds: expected a whole number >= 2, got '1'",
+    ),
     (
         "tradeoff",
         ["--data", "feat.npz", "--max-per-class", "0"],
-        "--max-per-class must be 'auto' or a whole number >= 2",
+        "argument --max-per-class: expected 'auto' or a whole number >= 2, got '0'",
     ),
     (
         "tradeoff",
         ["--data", "feat.npz", "--frame-rate", "0"],
-        "--frame-rate must be a number of frames/s > 0, got 0",
+        "argument --frame-rate: expected a finite number > 0, got '0'",
     ),
     (
         "tradeoff",
         ["--data", "feat.npz", "--target", "1.5"],
-        "--target must be an accuracy in (0, 1], got 1.5",
+        "argument --target: expected a finite number in (0, 1], got '1.5'",
     ),
     ("tradeoff", ["--data", "feat.npz", "--deploy", "nonsense"], "--deploy must name a candidate"),
     ("cluster", ["--data", "images.npz"], "images.npz: --data must hold vibration recordings"),
@@ -156,32 +164,32 @@ CASES = [
     (
         "export",
         ["--model", "m.npz", "--sensor-range", "0"],
-        "--sensor-range must be a finite number of g > 0, got '0'",
+        "argument --sensor-range: expected a finite number of g > 0, got '0'",
     ),
     (
         "export",
         ["--model", "m.npz", "--sensor-range", "inf"],
-        "--sensor-range must be a finite number of g > 0, got 'inf'",
+        "argument --sensor-range: expected a finite number of g > 0, got 'inf'",
     ),
     (
         "export",
         ["--model", "m.npz", "--sensor-range", "5g"],
-        "--sensor-range must be a finite number of g > 0, got '5g'",
+        "argument --sensor-range: expected a finite number of g > 0, got '5g'",
     ),
     (
         "predict",
         ["--model", "m.onnx", "--data", "rec.npz", "--range", "-2"],
-        "--range must be a number of g > 0 ('inf': no check), got '-2'",
+        "argument --range: expected a number of g > 0 (inf: no check), got '-2'",
     ),
     (
         "predict",
         ["--model", "m.onnx", "--data", "rec.npz", "--range", "nan"],
-        "--range must be a number of g > 0 ('inf': no check), got 'nan'",
+        "argument --range: expected a number of g > 0 (inf: no check), got 'nan'",
     ),
     (
         "stream",
         ["--model", "m.onnx", "--port", "/dev/null", "--range", "0"],
-        "--range must be a number of g > 0 ('inf': no check), got '0'",
+        "argument --range: expected a number of g > 0 (inf: no check), got '0'",
     ),
     (
         "train",
@@ -191,7 +199,7 @@ CASES = [
     (
         "predict",
         ["--model", "m.onnx", "--data", "rec.npz", "--batch", "0"],
-        "--batch must be an int >= 1, got 0",
+        "argument --batch: expected a whole number >= 1, got '0'",
     ),
     (
         "predict",
@@ -208,7 +216,11 @@ def test_bad_input_gets_one_line_and_status_2(files, tmp_path, capsys, command, 
         argv += ["--out", str(tmp_path / ("out.onnx" if command == "export" else "out"))]
     if command == "tradeoff":
         argv += ["--quiet", "--quick", "--no-breaking", "--classifiers", "NCM"]
-    assert main(argv) == BAD_INPUT_EXIT
+    try:
+        status = main(argv)
+    except SystemExit as exit:  # a value the option's parser refuses: argparse exits
+        status = exit.code
+    assert status == BAD_INPUT_EXIT
     captured = capsys.readouterr()
     err = captured.err
     assert err.count("\n") == 1 and err.startswith(f"tactile-torch {command}: "), err
@@ -577,6 +589,46 @@ def test_out_onto_a_device_directory_symlink_or_fifo_is_refused(files, tmp_path,
         assert out.is_symlink() and (tmp_path / "elsewhere.npz").read_bytes() == b"keep"
 
 
+@pytest.mark.parametrize(
+    "command",
+    [["tradeoff", "--quick"], ["cluster"], ["report", "--quick"], ["train"], ["predict"], ["export"]],
+    ids=lambda c: c[0],
+)
+def test_an_out_where_nothing_can_be_written_is_refused_before_any_work(
+    files, tmp_path, monkeypatch, capsys, command
+):
+    """A read-only --out is found first (not after the work, naming a temporary file): one line naming
+    --out and the place, status 2. As root, permissions do not stop a write: access() is made to say so."""
+    import os
+
+    import tactile_torch.robot.safe_write as safe_write
+
+    locked = tmp_path / "locked"
+    locked.mkdir()
+    locked.chmod(0o555)
+    if os.geteuid() == 0:
+        access = os.access
+        monkeypatch.setattr(safe_write.os, "access", lambda p, mode: Path(p) != locked and access(p, mode))
+    name = {"train": "m.npz", "predict": "labels.npz", "export": "m.onnx"}.get(command[0], "runs")
+    data = ["--model", str(files / "m.npz")] if command[0] == "export" else ["--data", str(files / "rec.npz")]
+    data = ["--model", str(files / "m.onnx"), *data] if command[0] == "predict" else data
+    data = [] if command[0] == "report" else data
+    try:
+        assert main([*command, *data, "--out", str(locked / name)]) == BAD_INPUT_EXIT
+    finally:
+        locked.chmod(0o755)
+    err = capsys.readouterr().err
+    assert (
+        err
+        == f"tactile-torch {command[0]}: --out {locked / name}: cannot write there ({locked} is not writable)\n"
+    )
+    assert list(locked.iterdir()) == []
+    # a file where a directory is expected, a path through a file
+    if command[0] in ("tradeoff", "cluster"):
+        assert main([*command, *data, "--out", str(files / "rec.npz")]) == BAD_INPUT_EXIT
+        assert "--out" in capsys.readouterr().err
+
+
 def test_write_atomic_leaves_no_partial_file(tmp_path):
     from tactile_torch.robot.safe_write import write_atomic
 
@@ -680,6 +732,50 @@ def test_the_validation_helpers_raise_input_errors():
     assert issubclass(InputTypeError, TypeError) and issubclass(InputTypeError, InputError)
     assert cli.is_user_error(InputTypeError("x")) and cli.is_user_error(FileNotFoundError(2, "x", "f"))
     assert not cli.is_user_error(TypeError("x")) and not cli.is_user_error(AttributeError("x"))
+
+
+def test_an_error_inside_a_stage_on_accepted_input_is_internal_whatever_its_class(
+    tmp_path, monkeypatch, capsys
+):
+    """A ValueError raised by an internal call (a shape check fed by the library itself) after the input was
+    accepted is a bug: status 1 "internal error in <stage>", never status 2 (bad input)."""
+    import tactile_torch.tradeoff.runner as runner
+    from tactile_torch.data.vibration import VibrationRecordings
+    from tactile_torch.robot.errors import InternalError, internal_stage
+
+    with pytest.raises(InternalError) as caught, internal_stage("feature SNR"):
+        raise ValueError("x must have shape (B, F), got (240, 3, 800)")
+    assert not cli.is_user_error(caught.value) and isinstance(caught.value.__cause__, ValueError)
+    with pytest.raises(OSError), internal_stage("writing"):  # the machine's, not a bug: passes as is
+        raise OSError(28, "No space left on device")
+
+    def broken(*args, **kwargs):
+        raise ValueError("x must have shape (B, F), got (240, 3, 800)")
+
+    monkeypatch.setattr(runner, "execute_plan", broken)
+    rng = np.random.default_rng(0)
+    path = VibrationRecordings(
+        [rng.normal(0, 0.1, (2000, 3)).astype(np.float32) for _ in range(4)],
+        np.array([0, 0, 1, 1]),
+        ("a", "b"),
+        800.0,
+    ).save(tmp_path / "rec.npz")
+    argv = [
+        "tradeoff",
+        "--data",
+        str(path),
+        "--out",
+        str(tmp_path / "o"),
+        "--quick",
+        "--quiet",
+        "--windows",
+        "400",
+    ]
+    assert main(argv) == 1
+    assert capsys.readouterr().err == (
+        "tactile-torch tradeoff: internal error in cross-validation, export and timing: ValueError: x must have "
+        "shape (B, F), got (240, 3, 800) (rerun with --debug for the traceback, and please report it)\n"
+    )
 
 
 def test_help_lists_the_exit_statuses(capsys):

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 import serial
 
-from tactile_torch.cli import STREAM_DISCONNECTED_EXIT, STREAM_NO_DATA_EXIT, main
+from tactile_torch.cli import STREAM_DISCONNECTED_EXIT, STREAM_NO_DATA_EXIT, STREAM_OUTPUT_CLOSED_EXIT, main
 from tactile_torch.robot.stream import format_sample, parse_line
 from tests.conftest import _NO_TORCH
 from tests.stream_helpers import PtySensor, axis_recording, energy_bundle, expected_axis
@@ -186,6 +186,30 @@ def test_reconnect_reopens_the_port_with_backoff(model, tmp_path, opened, capsys
     assert "1 reconnections" in err
 
 
+def test_a_reopened_port_keeps_what_arrived_before_the_open(model, tmp_path, opened, capsys):
+    """Issue 34: every reconnection lost what the sensor sent during the backoff wait (opening the port
+    flushed it), uncounted. Now a reopen keeps it, and what was lost while unplugged is counted from t."""
+    sensor = PtySensor(link=tmp_path / "imu")
+    rec, _ = axis_recording("xz", 24)
+
+    def script():
+        opened(1)
+        sensor.write_samples(rec[:24], _t(0, 24))
+        sensor.drain()
+        sensor.replug()  # plugged in again: the sensor sends at once, while the stream waits to reopen
+        sensor.write_samples(rec[29:], _t(29, 19))  # samples 24-28 were sent while it was unplugged
+
+    writer = _Writer(script)
+    status = _stream(model, sensor, "--reconnect", "--max-windows", "3", "--idle-timeout", "5")
+    writer.finish()
+    sensor.close()
+    out, err = capsys.readouterr()
+    assert status == 0, err
+    assert [(r["sample"], round(r["t_start"] * RATE)) for r in _records(out)] == [(16, 0), (24, 8), (40, 29)]
+    assert "gap in t from 0.02875 to 0.03625 s: 5 sample(s) missing across the reconnection" in err
+    assert "40 samples read, 3 windows" in err.splitlines()[-1] and "(5 samples known lost)" in err
+
+
 def test_data_faults_never_reach_a_window(model, sensor_pty, opened, capsys):
     # one session through the data rows of the table: a 1e30 sample, a burst of 30 dropped samples,
     # a spliced recording (t starts again), garbage of every kind, ERR lines and a line without t
@@ -240,11 +264,11 @@ def test_an_out_of_range_sample_without_the_range_check_gets_no_label(model, sen
     writer = _Writer(lambda: (opened(1), sensor_pty.write(b"".join(lines))))
     status = _stream(model, sensor_pty, "--range", "inf", "--max-windows", "3", json_lines=False)
     writer.finish()
-    out = capsys.readouterr().out.splitlines()
-    assert status == 0
-    assert out[1].split()[:3] == ["0", "16", "-"] and "no label: scores not finite" in out[1]
-    assert out[1].endswith("[non_finite_scores]") and "nan" not in out[1] and "inf" not in out[1]
-    assert out[2].split()[2] == "x" and out[3].split()[2] == "x"  # windows 8-23, 16-31 are clean
+    out = capsys.readouterr().out.splitlines()  # the decisions only: the status lines are on stderr
+    assert status == 0 and len(out) == 3
+    assert out[0].split()[:3] == ["0", "16", "-"] and "no label: scores not finite" in out[0]
+    assert out[0].endswith("[non_finite_scores]") and "nan" not in out[0] and "inf" not in out[0]
+    assert out[1].split()[2] == "x" and out[2].split()[2] == "x"  # windows 8-23, 16-31 are clean
 
 
 def test_garbage_is_reported_with_each_window_not_only_at_the_end(model, sensor_pty, opened, capsys):
@@ -257,10 +281,10 @@ def test_garbage_is_reported_with_each_window_not_only_at_the_end(model, sensor_
     status = _stream(model, sensor_pty, "--step", "16", "--max-windows", "3", json_lines=False)
     writer.finish()
     out = capsys.readouterr().out.splitlines()
-    assert status == 0
+    assert status == 0 and len(out) == 3
+    assert out[0].rstrip().endswith("1 skipped  [skipped]")
     assert out[1].rstrip().endswith("1 skipped  [skipped]")
-    assert out[2].rstrip().endswith("1 skipped  [skipped]")
-    assert "skipped" not in out[3]
+    assert "skipped" not in out[2]
 
 
 def test_json_and_vote_lines_are_read_by_another_process(model, tmp_path):
@@ -322,11 +346,14 @@ def test_simulate_sensor_plays_a_recording_on_a_pty(tmp_path):
 @pytest.mark.parametrize(
     ("args", "match"),
     [
-        (["--vote", "0"], "argument --vote: expected a number >= 1, got '0'"),
-        (["--silence", "-1"], "argument --silence: expected a number >= 0.01, got '-1'"),
-        (["--idle-timeout", "soon"], "argument --idle-timeout/--timeout: expected a number, got 'soon'"),
-        (["--step", "1.5"], "argument --step: expected an integer, got '1.5'"),
-        (["--step", "0"], "argument --step: expected a number >= 1, got '0'"),
+        (["--vote", "0"], "argument --vote: expected a whole number >= 1, got '0'"),
+        (["--silence", "-1"], "argument --silence: expected a finite number >= 0.01, got '-1'"),
+        (
+            ["--idle-timeout", "soon"],
+            "argument --idle-timeout/--timeout: expected a finite number >= 0, got 'soon'",
+        ),
+        (["--step", "1.5"], "argument --step: expected a whole number >= 1, got '1.5'"),
+        (["--step", "0"], "argument --step: expected a whole number >= 1, got '0'"),
     ],
 )
 def test_stream_bad_options_are_one_usage_error(model, args, match, capsys):
@@ -432,6 +459,28 @@ def test_garbage_at_the_wrong_baud_rate_times_out_like_silence(model, sensor_pty
     assert re.search(r"no valid sample yet on \S+ after 0\.\d s, \d+ lines skipped", "\n".join(err))
 
 
+def test_m_s2_lines_are_named_and_read_with_units(model, sensor_pty, opened, capsys):
+    """Issue 34: m/s^2 lines were rejected sample by sample with no hint, and "no data yet" was printed."""
+    rec, _ = axis_recording("xz", 32)
+    still = rec * 0.05 + [0.0, 0.0, 1.0]  # a sensor at rest: gravity on z
+    lines = b"".join(format_sample(s) for s in np.concatenate([still, rec]) * 9.80665)  # in m/s^2
+    writer = _Writer(lambda: (opened(1), sensor_pty.write(lines)))
+    assert _stream(model, sensor_pty, "--start-timeout", "1", "--idle-timeout", "1") == STREAM_NO_DATA_EXIT
+    writer.finish()
+    out, err = capsys.readouterr()
+    hints = [line for line in err.splitlines() if "gravity reads 1 g" in line]
+    assert len(hints) == 1 and hints[0].endswith("pass --units m/s2 (9.80665 m/s^2 = 1 g)"), err
+    assert "no data" not in err and err.splitlines()[-2].endswith("these look like m/s^2: pass --units m/s2")
+    writer = _Writer(lambda: (opened(2), sensor_pty.write(lines)))
+    status = _stream(model, sensor_pty, "--units", "m/s2", "--step", "16", "--max-windows", "8")
+    writer.finish()
+    out, err = capsys.readouterr()
+    assert status == 0 and "m/s^2" not in err and "0 samples out of range" in err.splitlines()[-1]
+    records = _records(out)
+    # windows of the recording after the still part, in g, labelled as the bundle labels g windows
+    assert [r["name"] for r in records[4:]] == [expected_axis(rec[i : i + W].T) for i in range(0, 64, 16)]
+
+
 def _default_sigint() -> None:
     """In the child: SIGINT to its default. A test run started in the background of a non-interactive shell
     inherits SIGINT ignored, and Python then keeps ignoring it (no KeyboardInterrupt), as the shell meant."""
@@ -449,8 +498,8 @@ def _start_stream(model, port, *args):
         text=True,
         preexec_fn=_default_sigint,  # the test process may run with SIGINT ignored
     )
-    header = proc.stdout.readline()
-    assert "reading" in header, (header, proc.stderr.read() if proc.poll() is not None else "")
+    header = proc.stderr.readline()  # status lines go to stderr, in text mode as in --json
+    assert "reading" in header, (header, proc.stdout.read() if proc.poll() is not None else "")
     return proc
 
 
@@ -462,8 +511,9 @@ def test_samples_sent_right_after_reading_are_all_counted(model, sensor_pty):
     out, err = proc.communicate(timeout=60)
     lines = out.splitlines()
     assert proc.returncode == 0, err
-    assert [line.split()[1] for line in lines[:10]] == [str(16 * (i + 1)) for i in range(10)], out
-    assert "160 samples read, 10 windows, 0 lines skipped" in lines[-1]
+    # stdout holds the decisions only (one line per window); the summary is the last line of stderr
+    assert [line.split()[1] for line in lines] == [str(16 * (i + 1)) for i in range(10)], out
+    assert "160 samples read, 10 windows, 0 lines skipped" in err.splitlines()[-1]
 
 
 @pytest.mark.parametrize("how", ["SIGTERM", "SIGINT"])
@@ -481,8 +531,42 @@ def test_sigterm_and_sigint_end_with_the_summary_and_status_0(model, sensor_pty,
     proc.send_signal(getattr(signal, how))
     out, err = proc.communicate(timeout=30)
     assert proc.returncode == 0, err
-    assert out.splitlines()[-1].startswith("64 samples read, 4 windows, 0 lines skipped"), out
+    assert len(seen + out.splitlines()) == 4, out  # stdout: the 4 windows, nothing else
+    assert err.splitlines()[-1].startswith("64 samples read, 4 windows, 0 lines skipped"), err
     assert f"stopped by {how}" in err and "Traceback" not in err
+
+
+def test_a_closed_stdout_ends_the_stream_at_once(model, sensor_pty):
+    """The consumer of the decisions dies while the sensor goes on: the stream stops at its next window
+    (text lines go through the same print, show(), as the JSON lines tested here)."""
+    rec, _ = axis_recording("xy", 8)
+    stop = threading.Event()
+
+    def sensor():  # a sensor that never stops (100 windows a second)
+        i = 0
+        while not stop.is_set():
+            sensor_pty.write_samples(rec, _t(i, 16))
+            i += 16
+            time.sleep(0.01)
+
+    proc = _start_stream(model, sensor_pty.path, "--step", "16", "--idle-timeout", "30", "--json")
+    writer = _Writer(sensor)
+    try:
+        assert proc.stdout.readline()  # a first decision, then the reader goes away
+        proc.stdout.close()
+        status = proc.wait(timeout=20)  # before: it classified into nothing until the sensor stopped
+    finally:
+        stop.set()
+        proc.kill()
+        writer.finish()
+    err = proc.stderr.read().splitlines()
+    assert status == STREAM_OUTPUT_CLOSED_EXIT, err
+    assert re.fullmatch(
+        r"tactile-torch stream: stdout closed \(its reader went away\) after \d+ windows; stopping", err[-2]
+    )
+    assert re.match(
+        r"\d+ samples read, \d+ windows, 0 lines skipped", err[-1]
+    ) and "Traceback" not in "".join(err)
 
 
 @pytest.mark.slow

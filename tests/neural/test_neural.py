@@ -196,6 +196,10 @@ def test_int8_bundles_load_and_mostly_agree(tmp_path):
         assert used == mode
         q = OnnxPipeline(out)
         assert (
+            q.sealed
+            and q.metadata["tactile_torch.sha256"] != OnnxPipeline(path).metadata["tactile_torch.sha256"]
+        )
+        assert (
             q.metadata["quantisation"] == mode
             and q.metadata["class_names"] == OnnxPipeline(path).metadata["class_names"]
         )
@@ -272,6 +276,7 @@ def test_learned_cutoff_moves_and_exports(tmp_path):
     assert learned.cutoff_ != pytest.approx(0.5, abs=1e-4)
     assert len(learned.history_) == 6
     path = export_classifier(learned, tmp_path / "cut.onnx", X[:2])
+    assert OnnxPipeline(path).sealed
     labels, scores = OnnxPipeline(path).predict_scores(X[:5])
     expected = learned.decision_function(X[:5])
     assert np.array_equal(labels, expected.argmax(1))
@@ -299,15 +304,16 @@ def test_comparison_scores_every_group_once_and_rebinds_the_folds(tmp_path):
     X = samples.X
     other = WindowCNNClassifier(**{**FAST, "random_state": 7}).fit(X, samples.y)
     path = rebind(tmp_path / "cnn.onnx", other, X[:4], tmp_path / "other.onnx")
-    assert path is not None
+    assert path is not None and OnnxPipeline(path).sealed  # new weights, new digest
     labels, scores = OnnxPipeline(path).predict_scores(X[:6])
     np.testing.assert_allclose(scores, other.predict_proba(X[:6]), atol=1e-4)
     assert np.array_equal(labels, other.predict_proba(X[:6]).argmax(1))
 
 
 def test_int8_accepts_a_joined_model_listing_its_opset_twice(tmp_path):
-    import onnx
     from onnx import TensorProto, helper, numpy_helper
+
+    from tactile_torch._onnx import save_onnx
 
     weight = numpy_helper.from_array(np.random.default_rng(0).normal(size=(4, 3)).astype(np.float32), "w")
     graph = helper.make_graph(
@@ -325,7 +331,7 @@ def test_int8_accepts_a_joined_model_listing_its_opset_twice(tmp_path):
     )
     model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", 20), helper.make_opsetid("", 20)])
     model.ir_version = 10
-    onnx.save(model, tmp_path / "joined.onnx")  # as onnx.compose.merge_models writes a front and a head
+    save_onnx(model, tmp_path / "joined.onnx")  # as tradeoff.export.join writes a merged front and head
     X = np.random.default_rng(1).normal(size=(20, 4)).astype(np.float32)
     out, mode = quantise_bundle(tmp_path / "joined.onnx", tmp_path / "q.onnx", calibration=X[:8])
     assert mode == "static"

@@ -43,7 +43,6 @@ KNOWN_GAPS = {
     "tactile_torch.default_bundles": "no test of its own (minutes); its steps are tests/test_pipeline.py's",
     "tactile_torch.robustness.results": "the sweep results, read in tests/robustness/test_robustness.py",
     "tactile_torch.studies.learned_models": "no test of its own; its models are tests/neural/'s",
-    "tactile_torch.tradeoff.breaking": "tradeoff --breaking-points, in tests/tradeoff/test_tradeoff.py (slow)",
     "tactile_torch.tradeoff.deploy": "tradeoff --deploy, in tests/tradeoff/test_tradeoff.py",
 }
 

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from tactile_torch.robot.discovery import SurfaceDiscovery
+from tests.robot_data import prebuilt
 
 # Short chains in these tests: their R-hat warnings are expected, not failures.
 pytestmark = pytest.mark.filterwarnings("ignore:PitmanYorGMM. R-hat:RuntimeWarning")
@@ -27,25 +28,12 @@ def test_surface_discovery_proposes_after_n_consecutive_novel_windows():
 
 @pytest.fixture(scope="module")
 def clustering_bundle(tmp_path_factory):
-    """An exported clustering of three stylus surfaces (glass, cork, rubber), and their recordings."""
-    from tactile_torch.cli import main
-    from tactile_torch.data.stylus import SURFACES, make_vibration_recordings
-
-    tmp_path = tmp_path_factory.mktemp("discovery")
-    known = [SURFACES[0], SURFACES[5], SURFACES[7]]  # glass, cork, rubber
-    rec = make_vibration_recordings(surfaces=known, duration_s=8.0, random_state=0)
-    np.savez(
-        tmp_path / "rec.npz",
-        signals=np.stack(rec.signals),
-        rate_hz=rec.rate_hz,
-        labels=rec.labels,
-        class_names=np.array(rec.class_names),
-    )
-    out = tmp_path / "cl"
-    common = ["--window", "400", "--n-iter", "60", "--burn-in", "20", "--chains", "2", "--quiet"]
-    assert main(["cluster", "--data", str(tmp_path / "rec.npz"), "--out", str(out), *common]) == 0
-    assert main(["export", "--model", str(out / "model.npz"), "--out", str(tmp_path / "cl.onnx")]) == 0
-    return tmp_path / "cl.onnx", rec
+    """An exported clustering of three stylus surfaces (glass, cork, rubber), their recordings, and one
+    of a surface it never saw: built here, or beforehand on the robot install (tests.robot_data)."""
+    path = prebuilt("discovery", tmp_path_factory.mktemp("discovery"))
+    with np.load(path / "rec.npz") as rec:
+        signals = rec["signals"]
+    return path / "cl.onnx", signals, np.load(path / "unseen.npy")
 
 
 def _stream_discover(bundle, stream, n_windows, monkeypatch, capsys):
@@ -68,12 +56,9 @@ def _stream_discover(bundle, stream, n_windows, monkeypatch, capsys):
 def test_cli_stream_discover_proposes_a_surface_the_clustering_never_saw(
     clustering_bundle, monkeypatch, capsys
 ):
-    from tactile_torch.data.stylus import SURFACES, make_vibration_recordings
-
-    bundle, rec = clustering_bundle
+    bundle, signals, unseen = clustering_bundle
     # the stream: a known surface, then one the clustering never saw (the coarsest sandpaper)
-    unseen = make_vibration_recordings(surfaces=[SURFACES[27]], duration_s=4.0, random_state=1).signals[0]
-    stream = np.concatenate([rec.signals[0][:2000], unseen])
+    stream = np.concatenate([signals[0][:2000], unseen])
     printed = _stream_discover(bundle, stream, 13, monkeypatch, capsys)
     assert "new surface proposed: new surface 1" in printed
     lines = printed.splitlines()
@@ -84,10 +69,10 @@ def test_cli_stream_discover_proposes_a_surface_the_clustering_never_saw(
 
 def test_cli_stream_discover_skips_a_stuck_sensor(clustering_bundle, monkeypatch, capsys):
     """A stuck sensor (constant on every axis) gives unknown windows (label -1): never a new surface."""
-    bundle, rec = clustering_bundle
+    bundle, signals, _ = clustering_bundle
     stuck = np.tile(np.array([[0.02, -0.01, 1.0]], dtype=np.float32), (3200, 1))
     # a stuck stretch between two stretches of a known surface, then stuck to the end
-    stream = np.concatenate([rec.signals[0][:1200], stuck, rec.signals[0][1200:2400], stuck])
+    stream = np.concatenate([signals[0][:1200], stuck, signals[0][1200:2400], stuck])
     printed = _stream_discover(bundle, stream, 22, monkeypatch, capsys)
     lines = printed.splitlines()
     unknown = [line for line in lines if "no vibration: every axis is constant" in line]

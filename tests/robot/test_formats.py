@@ -1,14 +1,14 @@
-"""The data formats (tactile_torch.robot.formats): round trips, no pickle, one error per documented bad input."""
+"""The data formats (tactile_torch.robot.formats): round trips, no pickle, one error per documented bad input.
+
+Torch-free, as on the robot (the data package's loaders through these formats, and the real data sets:
+tests/data/test_files.py)."""
 
 import numpy as np
 import pytest
-import torch
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from numpy.lib.stride_tricks import sliding_window_view
 
-from tactile_torch.data import load_borealtc_imu, load_vibration_npz
-from tactile_torch.data.grasps import load_drimus_grasps
-from tactile_torch.data.images import load_explorations, save_explorations
 from tactile_torch.robot.csv_logs import csv_class_name, read_csv_recording, write_csv_recording
 from tactile_torch.robot.formats import (
     ExplorationArrays,
@@ -24,8 +24,7 @@ from tactile_torch.robot.formats import (
 )
 from tactile_torch.robot.npz import read_npz, write_npz
 from tactile_torch.robot.windows import window_recordings
-from tactile_torch.signal import sliding_windows
-from tests.conftest import require_shared_data, run_without_torch
+from tests.conftest import run_without_torch
 
 
 def _recordings(lengths=(500, 800), seed=0):
@@ -87,16 +86,6 @@ def test_feature_labels_without_class_names_may_be_strings(tmp_path):
     assert read_features(tmp_path / "u.npz").labels is None
     with pytest.raises(ValueError, match=r"u\.npz: missing 'labels'"):
         read_features(tmp_path / "u.npz", require_labels=True)
-
-
-def test_image_wrappers_go_through_the_format(tmp_path):
-    from tactile_torch.data.images import make_explorations
-
-    data = make_explorations(1, n_frames=3, frame_size=24, sensels=6, random_state=0)
-    path = save_explorations(tmp_path / "set.npz", data)
-    assert read_explorations(path).frames.shape == (4, 3, 24, 24, 3)  # channels last on disk
-    back = load_explorations(path)
-    assert torch.equal(back.frames, data.frames) and torch.equal(back.groups, data.groups)
 
 
 def test_csv_round_trip_and_class_names(tmp_path):
@@ -162,7 +151,7 @@ class _RunsCode:
     size=st.integers(2, 40),
     step=st.integers(1, 25),
 )
-def test_window_recordings_equals_sliding_windows_per_recording(lengths, size, step):
+def test_window_recordings_equals_a_sliding_window_view_per_recording(lengths, size, step):
     rng = np.random.default_rng(sum(lengths) + size * step)
     signals = [rng.normal(size=(n, 3)).astype(np.float32) for n in lengths]
     if max(lengths) < size:
@@ -170,7 +159,9 @@ def test_window_recordings_equals_sliding_windows_per_recording(lengths, size, s
             window_recordings(signals, size, step)
         return
     cut = window_recordings(signals, size, step)
-    reference = [sliding_windows(torch.from_numpy(s), size, step).numpy() for s in signals if len(s) >= size]
+    # numpy's sliding windows (the torch ones, signal.sliding_windows, are tested against the same:
+    # tests/data/test_files.py)
+    reference = [sliding_window_view(s, size, axis=0)[::step] for s in signals if len(s) >= size]
     np.testing.assert_array_equal(cut.windows, np.concatenate(reference))
     assert cut.windows.flags.c_contiguous and cut.windows.dtype == np.float32
     for w, r, p in zip(cut.windows, cut.recording, cut.position, strict=True):
@@ -279,25 +270,3 @@ def test_formats_import_without_torch(tmp_path):
     )
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "(4, 3, 400)"  # 500 samples: 1 window, 800: 3
-
-
-# ------------------------------------------------------------------------------------ real data
-def test_real_ragged_recordings_load_without_pickle(tmp_path):
-    rec = load_borealtc_imu(require_shared_data("borealtc_imu"))  # 15 runs of 942 ... 8800 samples
-    assert len({len(s) for s in rec.signals}) > 1
-    path = rec.save(tmp_path / "borealtc.npz")
-    with np.load(path, allow_pickle=False) as raw:
-        assert raw["signals"].shape == (sum(len(s) for s in rec.signals), 3)
-    back = load_vibration_npz(path)
-    for a, b in zip(rec.signals, back.signals, strict=True):
-        np.testing.assert_array_equal(a, b)
-    assert list(back.session) == list(rec.session) and back.class_names == rec.class_names
-
-
-def test_real_pressure_grasps_round_trip(tmp_path):
-    grasps = load_drimus_grasps(require_shared_data("drimus_sdh_tactile"), n_frames=20)
-    pressure = ExplorationArrays(None, grasps.pressure.numpy(), grasps.labels.numpy(), grasps.class_names)
-    back = read_data(write_explorations(tmp_path / "drimus.npz", pressure))
-    np.testing.assert_array_equal(back.pressure, grasps.pressure.numpy())
-    rendered = load_explorations(tmp_path / "drimus.npz", frame_size=tuple(grasps.frames.shape[-2:]))
-    assert torch.equal(rendered.frames, grasps.frames) and rendered.class_names == grasps.class_names

@@ -1,6 +1,7 @@
 """ROS 2 bags (sqlite3 and MCAP storage) written with rosbags' own writer and read back as recordings:
-IMU topics in g with header stamps, pressure-array topics as explorations, bad bags in one line, and
-``--data bag --topic`` on the command line. Needs the optional extra ``ros`` (rosbags)."""
+IMU topics in g with header stamps, pressure-array topics as explorations, bad bags in one line (train
+on bags with ``--data bag --topic``: tests/cli/test_training_inputs.py). Needs the optional extra
+``ros`` (rosbags); torch-free, as on the robot."""
 
 from __future__ import annotations
 
@@ -8,9 +9,10 @@ import numpy as np
 import pytest
 
 from tactile_torch.cli import BAD_INPUT_EXIT, main
-from tactile_torch.data import make_vibration_recordings
 from tactile_torch.robot.data_sources import DataOptions, read_source
 from tactile_torch.robot.ros_bags import read_bag
+from tests.robot_data import surface_recordings
+from tests.stream_helpers import energy_bundle
 
 pytest.importorskip(
     "rosbags", reason="the optional extra 'ros' (rosbags) is not installed: pip install -e '.[ros]'"
@@ -21,7 +23,7 @@ G = 9.80665
 
 @pytest.fixture(scope="module")
 def rec():
-    return make_vibration_recordings(4, duration_s=4.0, random_state=0)
+    return surface_recordings(4, 4.0)
 
 
 def _typestore():
@@ -140,16 +142,11 @@ def test_bad_bags_get_one_line(tmp_path, rec):
         read_bag(tmp_path / "nothing.mcap")
 
 
-def test_cli_trains_on_bags_written_outside(tmp_path, rec, capsys):
-    bags = []
-    for k, (signal, label) in enumerate(zip(rec.signals, rec.labels, strict=True)):
-        for half, part in enumerate((signal[:1600], signal[1600:]), start=1):
-            name = f"{rec.class_names[label]}_{half}"
-            bags.append(write_imu_bag(tmp_path / name, part, 800.0, storage="mcap" if k % 2 else "sqlite3"))
-    argv = ["train", "--data", *map(str, bags), "--topic", "/imu", "--window", "400"]
-    assert main(argv) == 0
-    text = capsys.readouterr().out
-    assert "32 samples x 21 features (vibration), 4 classes" in text and "2 folds grouped by session" in text
-    assert main([*argv[:-2], "--window", "400", "--topic", "/nope"]) == BAD_INPUT_EXIT
+def test_predict_reads_bags_by_topic_without_torch(tmp_path, rec, capsys):
+    bag = write_imu_bag(tmp_path / "z_1", rec.signals[0][:640], 800.0, storage="mcap")
+    model = str(energy_bundle(tmp_path / "m.onnx"))  # labels the axis of most energy: z (gravity)
+    assert main(["predict", "--model", model, "--data", str(bag), "--topic", "/imu"]) == 0
+    assert "overall accuracy 1.0000" in capsys.readouterr().out
+    assert main(["predict", "--model", model, "--data", str(bag), "--topic", "/nope"]) == BAD_INPUT_EXIT
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "no topic '/nope'; the bag has /imu (sensor_msgs/msg/Imu)" in err

@@ -3,6 +3,7 @@ pyserial's loop:// and a pseudo-terminal. The CLI over a pty is in tests/cli/tes
 
 import io
 import math
+import re
 import threading
 import time
 import tracemalloc
@@ -383,8 +384,11 @@ def test_reconnection_gives_up_after_the_idle_timeout():
     assert clock.slept == [0.5, 1.0, 2.0, 1.5]
 
 
-def test_a_port_back_before_the_idle_timeout_is_reopened():
-    """The issue's case: idle timeout 10 s, the port back after 8.5 s (the old backoff gave up at 7.5 s)."""
+@pytest.mark.parametrize("first_read", [(), (0.05,)], ids=["data at once", "first read empty"])
+def test_a_port_back_before_the_idle_timeout_is_reopened(first_read):
+    """The issue's case: idle timeout 10 s, the port back after 8.5 s (the old backoff gave up at 7.5 s).
+    Issue 34: the reopen lands on the timeout itself; when its first read was empty (the sensor's first
+    line comes 50 ms later), the idle clock, still running from the last sample, ended the stream."""
     clock = _Clock()
     rec = _recording(24)
     lines = [format_sample(s) for s in rec]
@@ -394,7 +398,7 @@ def test_a_port_back_before_the_idle_timeout_is_reopened():
             return _ScriptedPort([b"".join(lines[:8]), OSError(5, "Input/output error")], clock)
         if sum(clock.slept) < 8.5:
             raise OSError(2, "No such file")
-        return _ScriptedPort([b"".join(lines[8:])], clock)
+        return _ScriptedPort([*first_read, b"".join(lines[8:])], clock)
 
     events = []
     reader = WindowReader(
@@ -571,3 +575,92 @@ def test_a_real_recording_with_its_own_time_column_streams_without_false_gaps(sh
     expected = sliding_window_view(table[:, 1:].astype(np.float32), 100, axis=0)[::50]
     np.testing.assert_array_equal(np.concatenate([w.data for w in windows]), expected)
     assert all(w.rate_hz == pytest.approx(100.0, rel=1e-3) and w.flags == () for w in windows)
+
+
+# ---------------------------------------------------------------- issue 34: units, reconnects
+G = 9.80665  # m/s^2 per g
+
+
+def test_units_and_scale_convert_the_lines_to_g():
+    rec = _recording(40)
+    for units, scale, factor in (("m/s2", None, G), ("g", 0.0039, 1 / 0.0039)):
+        lines = b"".join(format_sample(s) for s in rec * factor)  # m/s^2, or ADXL345 counts
+        reader = WindowReader(io.BytesIO(lines), window_size=8, units=units, scale=scale)
+        got = np.concatenate([w.data[0].T for w in reader])
+        wire = np.array([parse_sample(format_sample(s)) for s in rec * factor]) / factor
+        np.testing.assert_allclose(got, wire.astype(np.float32), rtol=1e-6)
+        assert reader.rejected == 0 and reader.samples == 40
+    with pytest.raises(ValueError, match=r"units must be one of \['g', 'm/s2'\], got 'mg'"):
+        WindowReader(io.BytesIO(), window_size=8, units="mg")
+    with pytest.raises(ValueError, match="scale must be > 0, got 0"):
+        WindowReader(io.BytesIO(), window_size=8, scale=0)
+
+
+@pytest.mark.parametrize(
+    ("gravity", "hint"),
+    [
+        (
+            1.0,
+            r"as g have a mean acceleration of (9|1\d)\.\d+ g over 64 samples .* look like m/s\^2: pass units='m/s2'",
+        ),
+        (0.0, r"\d+ of the last 64 samples were beyond ±5 g: .* units='m/s2' .* scale= .* range_g="),
+    ],
+    ids=["gravity", "no gravity"],
+)
+def test_samples_in_other_units_are_named_once(gravity, hint):
+    # m/s^2 lines read as g: gravity reads 9.8 "g" (every sample rejected), or the vibration alone
+    # (without gravity) throws most samples beyond the range; one line says what the data look like
+    rec = (_recording(400) * (0.3 if gravity else 4) + np.array([0.0, 0.0, gravity])) * G
+    clock = _Clock()
+    script = [b"".join(format_sample(s) for s in rec), 0.3, 0.3, 0.3]
+    reader, events, _ = _reader(script, clock, window_size=8, start_timeout_s=0.8, idle_timeout_s=0.8)
+    with pytest.raises(
+        StreamTimeout, match=r"no valid sample for 0\.\d s .* samples out of range; (these look|not g)"
+    ):
+        list(reader)
+    units = [e.message for e in events if e.kind == "units"]
+    assert len(units) == 1 and re.search(hint, units[0]), units
+    # samples arrive: never "no data" (it was printed while samples were being rejected)
+    assert not [e for e in events if "no data" in e.message]
+    waiting = next(e.message for e in events if e.kind in ("waiting", "silence"))
+    assert re.match(
+        r"no valid sample (yet on /dev/imu )?(for |after )0\.\d s.*, \d+ samples out of range", waiting
+    )
+
+
+def test_samples_in_g_raise_no_units_line():
+    rec = _recording(400) + np.array([0.0, 0.0, 1.0])  # gravity and vibration, in g
+    events = []
+    reader = WindowReader(
+        io.BytesIO(b"".join(format_sample(s) for s in rec)), window_size=8, on_event=events.append
+    )
+    assert len(list(reader)) == 50 and events == []
+
+
+def test_samples_lost_across_a_reconnection_are_counted_from_t():
+    clock = _Clock()
+    rec = _recording(40)
+    t = np.arange(40) / 800.0
+    ports = [
+        _ScriptedPort([_timed_lines(rec[:16], t[:16]), OSError(5, "Input/output error")], clock),
+        _ScriptedPort([_timed_lines(rec[21:], t[21:])], clock),  # samples 16-20 sent while unplugged
+    ]
+    events = []
+    reader = WindowReader(
+        lambda: ports.pop(0),
+        window_size=8,
+        rate_hz=800.0,
+        reconnect=True,
+        idle_timeout_s=1.0,
+        clock=clock,
+        sleep=clock.sleep,
+        on_event=events.append,
+        name="/dev/imu",
+    )
+    with pytest.raises(StreamTimeout):
+        list(reader)
+    # gaps: the reconnection and the silence at the end (the step of t across the reconnection is the
+    # same gap, counted once)
+    assert reader.lost == 5 and reader.gaps == 2 and reader.samples == 35
+    gap = next(e.message for e in events if e.kind == "gap")
+    assert gap == "gap in t from 0.01875 to 0.02625 s: 5 sample(s) missing across the reconnection"

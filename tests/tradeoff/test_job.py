@@ -89,6 +89,7 @@ def test_the_library_notes_name_arguments_and_the_command_prints_options(tmp_pat
         notes=[*notes, "threshold: from each training fold's histogram (Otsu) (threshold= to set one)"],
         status="recommended",
         seconds=1.0,
+        incomplete=[],
     )
     monkeypatch.setattr(tactile_torch.tradeoff, "load_tradeoff_data", lambda *a, **k: None)
     monkeypatch.setattr(tactile_torch.tradeoff.job, "run_tradeoff_job", lambda *a, **k: (result, {}))
@@ -98,4 +99,11 @@ def test_the_library_notes_name_arguments_and_the_command_prints_options(tmp_pat
         "recommended: x (with --target ACC: the)",
         f"note:        frame rate not given: {RATE:g} frames/s assumed (--frame-rate to set it)",
         "note:        --threshold: from each training fold's histogram (Otsu) (--threshold to set one)",
+    ]
+    # a late stage that failed (a bug): what was complete is written; one line, status 1, never 2
+    result.incomplete = [{"stage": "breaking points", "error": "ValueError: x must have shape (B, F)"}]
+    assert main(["tradeoff", "--data", str(path), "--out", str(tmp_path / "o"), "--quiet"]) == 1
+    assert capsys.readouterr().err.splitlines() == [
+        "tactile-torch tradeoff: internal error in breaking points: ValueError: x must have shape (B, F) "
+        "(that part is missing; everything else is written; please report it)"
     ]

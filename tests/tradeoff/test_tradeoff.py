@@ -233,6 +233,33 @@ def test_bad_input_gets_one_clear_line(tmp_path, recordings, capsys):
     assert main(["tradeoff", "--data", str(tmp_path / "other.npz"), "--out", str(tmp_path / "o")]) == 2
     errors = capsys.readouterr().err.strip().splitlines()
     assert len(errors) == 1 and errors[0].startswith("tactile-torch tradeoff: ")  # no traceback
+    # data the study cannot compare models on, named before any work: one class, values that are not finite
+    from tactile_torch.data.vibration import VibrationRecordings
+    from tactile_torch.tradeoff.runner import plan_tradeoff
+    from tactile_torch.tradeoff.validation import check_two_classes
+
+    with pytest.raises(ValueError, match=r"data: f holds a single class \('a'\)"):
+        check_two_classes(
+            TradeoffData("features", ("a",), "f: 4 samples", raw=np.zeros((4, 3)), labels=np.zeros(4))
+        )
+
+    one = VibrationRecordings(
+        recordings.signals[:1] * 2, np.array([0, 0]), ("glass",), 800.0, np.array(["1", "2"])
+    )
+    with pytest.raises(
+        ValueError, match=r"holds a single class \('glass'\); comparing classifiers needs .* two"
+    ):
+        plan_tradeoff(one.save(tmp_path / "one.npz"), log=lambda s: None)
+    from tactile_torch.robot.formats import RecordingArrays
+    from tactile_torch.tradeoff.inputs import vibration_data
+
+    signals = [np.array(s, copy=True) for s in recordings.signals]
+    signals[1][7, 2] = np.inf  # 1e308 in a CSV read with --sensor-range inf, as float32
+    overflow = RecordingArrays(signals, recordings.labels, recordings.class_names, 800.0)
+    with pytest.raises(
+        ValueError, match=r"'aluminium' holds 1 value\(s\) that are not finite .* sample 7, axis z"
+    ):
+        plan_tradeoff(vibration_data(overflow, "logs"), log=lambda s: None)
 
 
 # ---------------------------------------------------------------------------------------- transformers
@@ -355,6 +382,7 @@ def test_tradeoff_command_on_vibration_recordings(tmp_path, capsys):
     )
     again = OnnxPipeline(tmp_path / "again.onnx")
     np.testing.assert_array_equal(again.predict(windows), pipe.predict(windows))
+    assert pipe.sealed and again.sealed  # joined front and head, and re-exported: both carry their digest
 
 
 @pytest.mark.slow  # ~27 s: the sweeps themselves are tested in tests/robustness/test_robustness.py; keeps make test near 10 min
@@ -622,6 +650,7 @@ def test_tradeoff_on_a_feature_file_exports_and_recommends(tmp_path, capsys, dty
     assert np.mean(pipe.predict(X) == y) > 0.8
     assert main(["export", "--model", str(out / "recommended.npz"), "--out", str(tmp_path / "m.onnx")]) == 0
     np.testing.assert_array_equal(OnnxPipeline(tmp_path / "m.onnx").predict(X), pipe.predict(X))
+    assert pipe.sealed and OnnxPipeline(tmp_path / "m.onnx").sealed
 
 
 def test_a_failed_run_leaves_the_previous_result_intact(tmp_path, monkeypatch, capsys):
@@ -755,7 +784,7 @@ def _synthetic_rows(n, seed=0):
 
 @pytest.mark.parametrize("n", [5, 15, 40])
 def test_charts_for_5_to_40_candidates(tmp_path, n):
-    from tactile_torch.tradeoff.output import CHARTS, draw_chart, feature_family
+    from tactile_torch.tradeoff.charts import CHARTS, draw_chart, feature_family
 
     rows = _synthetic_rows(n)
     for which in CHARTS:
@@ -770,4 +799,4 @@ def test_charts_for_5_to_40_candidates(tmp_path, n):
             target=0.8,
         )
         assert path.read_bytes()[:4] == b"\x89PNG"
-    assert {feature_family(r["features"]) for r in rows} <= {"all features", "top k"}
+    assert {feature_family(r["features"]).split(",")[0] for r in rows} <= {"all features", "top k"}
