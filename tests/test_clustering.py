@@ -105,12 +105,12 @@ def test_recordings_are_calibrated_on_their_last_windows_features_only_on_reques
     rec = make_vibration_recordings(3, duration_s=8.0, random_state=0)
     data = read_source([rec.save(tmp_path / "rec.npz")])
     clustering = fit_clustering(data, window=400, components=2, **FAST)
-    n = len(clustering.X)  # 3 recordings x 16 windows: the last 3 of each held out
-    assert clustering.calibration_rows.size == 9 and clustering.fitted_rows.size == n - 9
-    assert clustering.mixture.labels_.shape == (n - 9,) and clustering.false_alarm == 0.02
+    n = len(clustering.X)  # 3 recordings x 16 windows: the last third (5) of each held out
+    assert clustering.calibration_rows.size == 15 and clustering.fitted_rows.size == n - 15
+    assert clustering.mixture.labels_.shape == (n - 15,) and clustering.false_alarm == 0.02
     t = clustering.mixture.novelty_thresholds_
     assert t.shape == (10,) and np.isfinite(t).all()
-    # at most 2 % of the held-out windows are novel: with 9 windows, none (the threshold is their max)
+    # at most 2 % of the held-out windows are novel: with 15 windows, none (the threshold is their max)
     assert not clustering.mixture.novel_after(clustering.X[clustering.calibration_rows], 1).any()
     assert "novelty: a window is novel when its score (minus its log density) exceeds" in clustering_summary(
         clustering
@@ -122,7 +122,7 @@ def test_recordings_are_calibrated_on_their_last_windows_features_only_on_reques
     np.testing.assert_allclose(res["novelty_thresholds"], t)
     assert not res["per_session"]
     model = load_model_file(paths["model"])
-    assert model.header["novelty"] == {"false_alarm": 0.02, "calibration_rows": 9}
+    assert model.header["novelty"] == {"false_alarm": 0.02, "calibration_rows": 15}
     np.testing.assert_allclose(model.arrays["head.novelty_thresholds"], t, rtol=1e-6)
     assert fit_clustering(data, window=400, components=2, calibrate=0, **FAST).calibration_rows.size == 0
     features, _ = _features(tmp_path)
