@@ -183,8 +183,7 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
         Split-merge moves per sweep (0 disables them, leaving plain algorithm 8). ``"auto"``: one
         per ``SPLIT_MERGE_POINTS`` (40) points, at least 5: a move costs about one pass over the
         points of two components, a sweep's allocation one pass over every point and component, so
-        larger data afford more moves, and on the bundled 28 surfaces (1,680 windows) 42 moves mix K
-        2.3 times as fast per sweep as 5 for a third more time (docs/performance/mixture.md).
+        larger data afford more moves (docs/mixture.md, "Time to a converged posterior of K").
     split_merge : {"sequential", "restricted"}, default "sequential"
         How a split is proposed. ``"sequential"``: the points of the component are allocated one by
         one, in a random order, to the part of either anchor point with probability proportional
@@ -192,8 +191,8 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
         2022), then each part draws its parameters by one Gibbs step; one pass over the points.
         ``"restricted"``: Jain & Neal's (2007) launch state and ``n_launch + 1`` restricted Gibbs
         scans (the sampler of the earlier versions). Both are exact Metropolis-Hastings moves; the
-        sequential one costs about a sixth of the restricted one and is accepted three times as
-        often on the benchmark data (docs/performance/mixture.md).
+        sequential one needs one pass over the two components' points where the restricted one needs
+        ``n_launch + 2`` (measured in docs/mixture.md).
     n_launch : int, default 3
         Intermediate restricted Gibbs scans of the split-merge launch states (``"restricted"``).
     near_pairs : float or None, default None
