@@ -96,6 +96,18 @@ def gain_invariant_features(feats) -> np.ndarray:
     return np.column_stack([*(c for c in per_axis), *ratios])
 
 
+def _gain_invariant_pca(windows, components: int) -> np.ndarray:
+    """Principal components of the standardised :func:`gain_invariant_features` of ``windows``."""
+    import torch
+    from sklearn.decomposition import PCA
+    from sklearn.preprocessing import StandardScaler
+
+    from ..signal import window_features
+
+    G = gain_invariant_features(window_features(windows.to(torch.float64)).numpy())
+    return PCA(components, random_state=0).fit_transform(StandardScaler().fit_transform(G))
+
+
 def sessions_3x3(
     seed: int = 0, *, per_session: bool = False, components: int = 3, gain_invariant: bool = False
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -117,17 +129,11 @@ def sessions_3x3(
     ]
     shifted = VibrationRecordings(signals, rec.labels, rec.class_names, rec.rate_hz, rec.session)
     ds = shifted.windows(800)
-    if gain_invariant:
-        import torch
-        from sklearn.decomposition import PCA
-        from sklearn.preprocessing import StandardScaler
-
-        from ..signal import window_features
-
-        G = gain_invariant_features(window_features(ds.windows.to(torch.float64)).numpy())
-        X = PCA(components, random_state=0).fit_transform(StandardScaler().fit_transform(G))
-    else:
-        X = _pca_features(ds.windows, components)
+    X = (
+        _gain_invariant_pca(ds.windows, components)
+        if gain_invariant
+        else _pca_features(ds.windows, components)
+    )
     if per_session:
         from ..signal.sessions import standardise_per_session
 
@@ -136,13 +142,14 @@ def sessions_3x3(
 
 
 def real_sessions(
-    name: str = "hapmat_imu5", *, per_session: bool = False, components: int = 3
+    name: str = "hapmat_imu5", *, per_session: bool = False, components: int = 3, gain_invariant: bool = False
 ) -> tuple[np.ndarray, np.ndarray]:
     """Return PCA-3 features and labels of a real set cut into 3 sessions with the gains ``SESSION_GAINS``.
 
     Each recording is cut into thirds in time; third k is session k, its signal scaled by
     ``SESSION_GAINS[k]`` (every session then holds every surface, as CSV logs of a re-mounted sensor
-    would). 2 s windows, 1 s apart. ``per_session``: standardise within each session.
+    would). 2 s windows, 1 s apart. ``per_session``: standardise within each session;
+    ``gain_invariant``: as :func:`sessions_3x3`'s.
     """
     from ..data.recordings import load_borealtc_imu, load_hapmat_imu5
     from ..data.vibration import VibrationRecordings
@@ -164,7 +171,11 @@ def real_sessions(
         [f"{i}/{k}" for i, k in enumerate(sessions)],
     )
     ds = shifted.windows(int(2 * rec.rate_hz), int(rec.rate_hz))
-    X = _pca_features(ds.windows, components)
+    X = (
+        _gain_invariant_pca(ds.windows, components)
+        if gain_invariant
+        else _pca_features(ds.windows, components)
+    )
     if per_session:
         from ..signal.sessions import standardise_per_session
 
@@ -219,6 +230,7 @@ SOURCE_NAMES = (
     "borealtc",
     "hapmat-3-sessions",
     "hapmat-3-sessions, per-session standardised",
+    "hapmat-3-sessions, gain-invariant",
 )
 """Every source :func:`k_sources` can return (the real sets' only where their data are present)."""
 
@@ -247,6 +259,9 @@ def k_sources(quick: bool = False, components: int = 3) -> dict[str, tuple[np.nd
             out["hapmat-3-sessions"] = real_sessions(components=components)
             out["hapmat-3-sessions, per-session standardised"] = real_sessions(
                 per_session=True, components=components
+            )
+            out["hapmat-3-sessions, gain-invariant"] = real_sessions(
+                gain_invariant=True, components=components
             )
     return out
 
