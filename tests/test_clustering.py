@@ -124,6 +124,19 @@ def test_recordings_are_calibrated_on_their_last_windows_features_only_on_reques
     model = load_model_file(paths["model"])
     assert model.header["novelty"] == {"false_alarm": 0.02, "calibration_rows": 15}
     np.testing.assert_allclose(model.arrays["head.novelty_thresholds"], t, rtol=1e-6)
+    # the head counts on 2 of the 5 components (issue 32, decision (a)); crafted shapes are refused
+    from tactile_torch.robot.model_file import validate_model
+
+    assert model.header["head"]["cluster_features"] == 2 and model.arrays["head.means"].shape[1] == 2
+    for change, message in (
+        ({"cluster_features": 5}, r"head\.cluster_features must be in 1\.\.4, got 5"),
+        ({"cluster_features": 3}, r"head\.means has shape .* must be 3"),
+    ):
+        with pytest.raises(ValueError, match=message):
+            validate_model({**model.header, "head": {**model.header["head"], **change}}, model.arrays)
+    short = {**model.arrays, "head.density_means": model.arrays["head.density_means"][:, :4]}
+    with pytest.raises(ValueError, match=r"head\.density_means has shape"):
+        validate_model(model.header, short)
     assert fit_clustering(data, window=400, components=2, calibrate=0, **FAST).calibration_rows.size == 0
     features, _ = _features(tmp_path)
     assert fit_clustering(features, **FAST).mixture.novelty_thresholds_ is None
