@@ -164,3 +164,19 @@ def partition_components(
         novelty_means=np.stack([m + A @ mu for mu, _ in novelty]),
         novelty_precisions_cholesky=np.stack([precision_cholesky(A @ c @ A.T) for _, c in novelty]),
     )
+
+
+def _whitening(X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Return (mean, lower Cholesky factor A of the data covariance) so that ``A^{-1}(x - mean)`` is white.
+
+    Covariance with ddof=1, plus a ridge of 1e-9 of its mean variance so that collinear features
+    still factorise; when the data have no spread at all (one point, or identical points) the
+    scale is the identity.
+    """
+    mean = X.mean(axis=0)
+    D = X.shape[1]
+    cov = np.cov(X, rowvar=False, ddof=1).reshape(D, D) if X.shape[0] > 1 else np.zeros((D, D))
+    level = float(np.trace(cov)) / D
+    if not level > 0.0:
+        return mean, np.eye(D)
+    return mean, np.linalg.cholesky(cov + 1e-9 * level * np.eye(D))
