@@ -15,11 +15,11 @@ install: $(STAMP)
 # torch goes first, pinned to the CPU build, so that resolving the rest finds it satisfied and
 # never pulls a (multi-GB, CUDA) newer release; the last line fails loudly if a CUDA build slipped in.
 # Development gets everything: the robot runtime (the package's own dependencies), the `train` extra,
-# the optional `dask` and `ros` extras (their tests run in CI) and the `dev` tools.
+# the optional `dask`, `ros` and `ros2` extras (their tests run in CI) and the `dev` tools.
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet $(TORCH)
-	$(PY) -m pip install --quiet -e '.[train,dask,ros,dev]'
+	$(PY) -m pip install --quiet -e '.[train,dask,ros,ros2,dev]'
 	$(PY) -m tactile_torch.warmup
 	$(PY) -c "import torch, sys; ok = torch.__version__.startswith('2.13.0') and torch.version.cuda is None; print('torch', torch.__version__, 'cuda', torch.version.cuda); sys.exit(0 if ok else 'expected the CPU build of torch 2.13.0')"
 	touch $(STAMP)

@@ -35,7 +35,8 @@ def markdown_table(rows: list[dict], floatfmt: str = ".4g") -> str:
     columns = list(dict.fromkeys(k for row in rows for k in row))
 
     def cell(v: object) -> str:
-        return format(v, floatfmt) if isinstance(v, float) else str(v)
+        text = format(v, floatfmt) if isinstance(v, float) else str(v)
+        return text.replace("|", "\\|")  # a '|' inside a cell would split it into two columns
 
     lines = ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
     lines += ["| " + " | ".join(cell(r.get(c, "")) for c in columns) + " |" for r in rows]

@@ -52,7 +52,9 @@ from torch import nn
 from .robot.contract import (
     CLASS_NAMES_KEY,
     DEFAULT_RANGE_G,
+    EARLY_RULE_KEY,
     FEATURES_LAYOUT,
+    FRAME_RATE_KEY,
     FRAMES_LAYOUT,
     INPUT_LAYOUT_KEY,
     INPUT_NAME,
@@ -66,6 +68,7 @@ from .robot.contract import (
     SCORES_OUTPUT,
     STEP_KEY,
     THRESHOLD_KEY,
+    TOUCH_LEVELS_KEY,
     VERSION_KEY,
     WINDOW_SIZE_KEY,
     WINDOWS_LAYOUT,
@@ -204,6 +207,10 @@ def _front_end(
         threshold = float(source.get("threshold", DEFAULT_THRESHOLD))
         erosion = int(source.get("erosion", DEFAULT_EROSION))
         meta.update(threshold=threshold, erosion=erosion)
+        # the live stream's frame rate and touch levels (model files written since they exist)
+        for key in (FRAME_RATE_KEY, TOUCH_LEVELS_KEY, EARLY_RULE_KEY):
+            if key in source:
+                meta[key] = source[key]
         front = ExplorationFeatures(fuse=fuse, threshold=threshold, erosion=erosion)
         return [front], [None, t, c, h, w], FRAMES_LAYOUT, meta
     if kind == "features":

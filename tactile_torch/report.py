@@ -16,19 +16,20 @@ from __future__ import annotations
 
 import json
 import math
-import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import matplotlib
 
+from .robot.naming import slug
+
 matplotlib.use("Agg")  # reports are written on headless machines
 import matplotlib.pyplot as plt
 
 
 def _slug(text: str) -> str:
-    return re.sub(r"[^a-z0-9]+", "-", text.lower()).strip("-") or "figure"
+    return slug(text) or "figure"  # the file and anchor of a figure or section; never empty
 
 
 def _cell(value: Any, floatfmt: str) -> str:

@@ -127,6 +127,7 @@ def load_features(
         images = explorations_from_arrays(data)
         X = exploration_features(images.frames, fuse=fuse).double().numpy()
         source = {"kind": "image", "fuse": fuse, "frame_shape": list(images.frames.shape[1:])}
+        source.update(_live_source(images.frames.numpy()))
         return FeatureSet(X, data.labels, data.class_names, source, groups=data.groups)
     import torch
 
@@ -259,6 +260,21 @@ def _check_lengths(data, window: int, where: str) -> None:
         f"and give none; e.g. {name(int(short[0]))}",
         stacklevel=3,
     )
+
+
+def _live_source(frames: np.ndarray) -> dict:
+    """What a model file of RGB explorations keeps for the live stream: the frame rate and touch levels."""
+    from .robot.touches import touch_levels
+    from .tradeoff.inputs import DEFAULT_FRAME_RATE_HZ
+
+    live = {"frame_rate_hz": DEFAULT_FRAME_RATE_HZ}
+    try:
+        live["touch_levels"] = touch_levels(
+            frames, frame_rate_hz=DEFAULT_FRAME_RATE_HZ, rgb=True
+        ).to_metadata()
+    except ValueError:  # no pressure in the frames at all: the stream will need --onset
+        pass
+    return live
 
 
 def held_out_folds(features: FeatureSet, n_folds: int = 5, *, random_state: RandomState = None):

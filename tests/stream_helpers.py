@@ -200,3 +200,112 @@ def energy_bundle(
     )
     Path(path).write_bytes(seal(model) if sealed else model)
     return path
+
+
+def _initializer(name: str, array: np.ndarray) -> bytes:
+    """One TensorProto (dims, data_type, name, raw_data) of a float32 or int64 array."""
+    array = np.ascontiguousarray(array)
+    data_type = {np.dtype(np.float32): 1, np.dtype(np.int64): 7}[array.dtype]
+    dims = b"".join(_field(1, int(d)) for d in array.shape)
+    return (
+        dims
+        + _field(2, data_type)
+        + _field(8, name)
+        + _field(9, array.astype(array.dtype.newbyteorder("<")).tobytes())
+    )
+
+
+def frame_bundle(
+    path: Path,
+    weights: np.ndarray,
+    *,
+    n_frames: int = 4,
+    class_names: list[str] | None = None,
+    metadata: dict[str, object] | None = None,
+) -> Path:
+    """Write a pressure-map bundle ``(B, T, H, W)``: scores = the mean frame times ``weights`` ``(H, W, C)``.
+
+    A linear classifier of the mean frame over the ``T`` frames (``weights`` may be class-mean
+    templates fitted with numpy: a real, if simple, trained model), label = the argmax of the scores.
+    ``metadata`` adds keys (``frame_rate_hz``, ``touch_levels`` ... JSON-encoded when not strings).
+    Encoded by hand, like :func:`energy_bundle`, so that the robot tests need no ``onnx`` package.
+    """
+    h, w, c = weights.shape
+    float_, int64 = 1, 7
+    graph = (
+        _field(1, _node("ReduceMean", ["raw"], ["mean"], axes=[1], keepdims=0))
+        + _field(1, _node("Flatten", ["mean"], ["flat"], axis=1))
+        + _field(1, _node("MatMul", ["flat", "weights"], ["scores"]))
+        + _field(1, _node("ArgMax", ["scores"], ["labels"], axis=1, keepdims=0))
+        + _field(2, "mean-frame")
+        + _field(5, _initializer("weights", weights.reshape(h * w, c).astype(np.float32)))
+        + _field(11, _tensor_info("raw", float_, ["B", n_frames, h, w]))
+        + _field(12, _tensor_info("labels", int64, ["B"]))
+        + _field(12, _tensor_info("scores", float_, ["B", c]))
+    )
+    meta = {
+        "tactile_torch.pipeline": "pressure-mean-frame",
+        "tactile_torch.version": "test",
+        "input_shape": json.dumps([None, n_frames, h, w]),
+        "input_layout": "B,T,H,W",
+        "class_names": json.dumps(class_names or [f"class {i}" for i in range(c)]),
+        **{k: v if isinstance(v, str) else json.dumps(v) for k, v in (metadata or {}).items()},
+    }
+    model = (
+        _field(1, 8)
+        + _field(2, "tactile-torch tests")
+        + _field(7, graph)
+        + _field(8, _field(1, "") + _field(2, 13))
+        + b"".join(_field(14, _field(1, k) + _field(2, v)) for k, v in meta.items())
+    )
+    Path(path).write_bytes(seal(model))
+    return path
+
+
+def template_bundle(
+    path: Path,
+    explorations: np.ndarray,
+    labels: np.ndarray,
+    class_names: list[str],
+    *,
+    frame_rate_hz: float,
+    contact: str = "raises",
+) -> Path:
+    """Train and write a :func:`frame_bundle` on pressure-map explorations ``(N, T, H, W)``, numpy only.
+
+    The classifier scores the mean frame against each class's centred mean frame (a linear template
+    classifier). The bundle records what the exporters record: the frame rate, the value range, the touch
+    levels of the training explorations, and an early-decision rule calibrated on held-out explorations
+    (two folds: templates fitted on one half score the other at the rule's checkpoints, prefixes brought
+    to T by :func:`tactile_torch.robot.touches.fit_frames`).
+    """
+    from tactile_torch.robot.early_decision import calibrate_early_rule, checkpoints_for, score_margins
+    from tactile_torch.robot.touches import fit_frames, frame_metadata
+
+    x = np.asarray(explorations, dtype=np.float64)
+    y = np.asarray(labels)
+    n, t = x.shape[:2]
+    c = len(class_names)
+
+    def fit(rows):
+        means = np.stack([x[rows][y[rows] == k].mean(axis=(0, 1)) for k in range(c)])  # (C, H, W)
+        return np.moveaxis(means - means.mean(axis=0), 0, -1)  # (H, W, C)
+
+    checkpoints = checkpoints_for(t)
+    margins, correct = np.full((n, len(checkpoints)), -np.inf), np.zeros((n, len(checkpoints)), bool)
+    half = np.arange(n) % 2 == 0
+    for train in (half, ~half):
+        weights = fit(np.flatnonzero(train)).reshape(-1, c)
+        for j, k in enumerate(checkpoints):
+            prefix = np.stack([fit_frames(e[:k], t) for e in x[~train]]).mean(axis=1)
+            scores = prefix.reshape(len(prefix), -1) @ weights
+            pred = scores.argmax(axis=1)
+            margins[~train, j] = score_margins(scores, pred)
+            correct[~train, j] = pred == y[~train]
+    rule = calibrate_early_rule(margins, correct, checkpoints, how=f"{n} held-out explorations (two folds)")
+    meta, note = frame_metadata(x, frame_rate_hz=frame_rate_hz, contact=contact)
+    assert note is None, note
+    meta["early_decision"] = rule.to_metadata()
+    return frame_bundle(
+        path, fit(np.arange(n)).astype(np.float32), n_frames=t, class_names=class_names, metadata=meta
+    )

@@ -2,10 +2,10 @@
 
 One module per command (or group of commands), each holding its parser section (``register``) and a
 handler that parses, calls the library and prints: :mod:`.report`, :mod:`.bench`, :mod:`.train`,
-:mod:`.cluster`, :mod:`.export`, :mod:`.predict`, :mod:`.stream` (``stream`` and
-``simulate-sensor``), :mod:`.tradeoff`. The options several commands share (``--data`` and how to
+:mod:`.cluster`, :mod:`.export`, :mod:`.predict`, :mod:`.stream`, :mod:`.simulate_sensor`,
+:mod:`.tradeoff`. The options several commands share (``--data`` and how to
 read it, sensor ranges, the ``--out`` check) are in :mod:`._options`, what they print besides their
-results in :mod:`._output`. The handlers import the library lazily so that ``tactile-torch predict``
+results in :mod:`._output`, the exit statuses and the argument names' options in :mod:`._codes`. The handlers import the library lazily so that ``tactile-torch predict``
 and ``stream`` run on a robot with onnxruntime and no torch.
 
 Exit statuses (:data:`EXIT_STATUSES`, also in ``tactile-torch --help``): 0 done; 2 bad input, one
@@ -19,44 +19,19 @@ from __future__ import annotations
 
 import argparse
 import os
-import re
 import sys
 import warnings
 
 from .._exports import lazy_exports
-
-BAD_INPUT_EXIT = 2
-"""Exit status for bad input (a missing or malformed file, a wrong option), after one line on stderr."""
-INTERNAL_ERROR_EXIT = 1
-"""Exit status for an unexpected error (a bug): one line on stderr, the traceback with ``--debug``."""
-INTERRUPTED_EXIT = 130
-"""Exit status after Ctrl-C (SIGINT) outside ``stream``."""
-NOT_BUILT_EXIT = 2
-"""Exit status when a command cannot do its work (e.g. ``bench`` outside a source checkout)."""
-NO_RECOMMENDATION_EXIT = 3
-"""Exit status of ``tradeoff`` when no candidate is adequate (none reaches ``--target``, or none is
-significantly above the trivial baseline): the outputs are written, nothing is deployed."""
-NOT_EXPORTED_EXIT = 4
-"""Exit status of ``tradeoff`` when no candidate could be fitted and exported (the notes say why)."""
-STREAM_NO_DATA_EXIT = 3
-"""Exit status of ``stream`` when no sample came within the start or idle timeout."""
-STREAM_DISCONNECTED_EXIT = 4
-"""Exit status of ``stream`` when the port failed and was not (or could not be) reconnected."""
-STREAM_STOPPED_EXIT = 0
-"""Exit status of ``stream`` stopped by SIGTERM or SIGINT (Ctrl-C): a requested end, after the summary."""
-STREAM_OUTPUT_CLOSED_EXIT = 5
-"""Exit status of ``stream`` when its stdout was closed (the reader of the decisions went away): it stops
-at the next decision it cannot write, after one line and the summary on stderr."""
-EXIT_STATUSES = (
-    "exit status: 0 done; 2 bad input (one line naming the file or option); 1 internal error (a bug: one "
-    "line, please report it; --debug shows the traceback); 130 interrupted; tradeoff: 3 no adequate "
-    "candidate, 4 none exported, 1 also when a late stage failed (the rest is written); stream: 3 no data, "
-    "4 port failed, 5 stdout closed"
+from ._codes import (
+    ARGUMENT_FLAGS,
+    BAD_INPUT_EXIT,
+    EXIT_STATUSES,
+    INTERNAL_ERROR_EXIT,
+    INTERRUPTED_EXIT,
+    MAX_READ_ENV,
+    with_flags,
 )
-"""What ``tactile-torch --help`` says about exit statuses."""
-
-MAX_READ_ENV = "TACTILE_TORCH_MAX_READ_MB"
-"""Where ``--max-read-mb`` puts the read bound (:func:`tactile_torch.robot.npz.max_read_bytes` reads it)."""
 
 TRAIN_EXTRA = "train"
 TRAIN_MODULES = (
@@ -74,50 +49,18 @@ TRAIN_MODULES = (
 NEEDS_TRAIN_EXTRA = ("report", "bench", "train", "cluster", "export", "tradeoff")
 """Commands that need the ``[train]`` extra; ``predict``, ``stream`` and ``simulate-sensor --data`` do not."""
 
-COMMAND_MODULES = ("report", "bench", "train", "cluster", "export", "predict", "stream", "tradeoff")
+COMMAND_MODULES = (
+    "report",
+    "bench",
+    "train",
+    "cluster",
+    "export",
+    "predict",
+    "stream",
+    "simulate_sensor",
+    "tradeoff",
+)
 """The modules of :mod:`tactile_torch.cli` that register commands, in the order of ``--help``."""
-
-ARGUMENT_FLAGS = {
-    "n_folds": "--folds",
-    "window": "--window",
-    "windows": "--windows",
-    "step": "--step",
-    "frame_rate_hz": "--frame-rate",
-    "threshold": "--threshold",
-    "erosion": "--erosion",
-    "contact": "--contact",
-    "max_per_class": "--max-per-class",
-    "classifiers": "--classifiers",
-    "features": "--features",
-    "target": "--target",
-    "deploy": "--deploy",
-    "csv_session": "--csv-session",
-    "random_state": "--seed",
-    "out": "--out",
-    "select": "--select",
-    "columns": "--columns",
-    "units": "--units",
-    "scale": "--scale",
-    "time_unit": "--time-unit",
-    "sample_rate_hz": "--rate",
-    "sensor_range_g": "--sensor-range",
-    "topic": "--topic",
-    "shape": "--shape",
-    "frames": "--frames",
-    "max_messages": "--max-messages",
-    "index": "--index",
-    "allow_pickle": "--allow-pickle",
-    "n_consecutive": "--discover",
-    "max_iter": "--max-iter",
-    "max_seconds": "--max-seconds",
-    "calibrate": "--calibrate",
-    "novelty_components": "--novelty-components",
-    "false_alarm": "--false-alarm",
-    "sessions": "--sessions",
-    MAX_READ_ENV: "--max-read-mb",
-}
-"""The library's argument names and the options that set them: the one place where an error message
-of the library, which names the argument, is translated to the option a user typed (:func:`with_flags`)."""
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -208,31 +151,6 @@ def internal_error_line(err: BaseException) -> str:
     )
 
 
-def with_flags(message: str, flags: dict[str, str]) -> str:
-    """Return ``message`` with the library's argument names shown as the options that set them.
-
-    The library names an argument either at the start of a message about it (``n_folds must be >= 2``,
-    ``window: none of the window sizes ...``), which becomes the option (``--folds must be >= 2``), or
-    as a keyword to set, in Python's syntax (``pass time_unit='ms'``, ``name one with topic=``,
-    ``shape=(H, W)``, ``allow_pickle=True``), which becomes the option and its value on the command
-    line (``pass --time-unit ms``, ``name one with --topic``, ``--shape H,W``, ``--allow-pickle``).
-    ``flags``: argument name -> option, those of the command at hand (:data:`ARGUMENT_FLAGS`). A
-    message that starts with a file name is about the file's content and keeps its words (``x.npz:
-    features must be finite``).
-    """
-    if not flags:
-        return message
-    names = "|".join(sorted(map(re.escape, flags), key=len, reverse=True))
-
-    def keyword(m: re.Match) -> str:
-        quoted, pair, word = m[3], m[4], m[5]
-        value = quoted if quoted is not None else pair.replace(" ", "") if pair is not None else word or ""
-        return f"{m[1]}{flags[m[2]]}" + (f" {value}" if value and value != "True" else "")
-
-    message = re.sub(rf"^({names})( must| needs| applies|:)", lambda m: flags[m[1]] + m[2], message)
-    return re.sub(rf"(^|[\s(,/])({names})=(?:'([^']*)'|\(([^()]*)\)|([\w.+-]+))?", keyword, message)
-
-
 def _missing_train_modules() -> list[str]:
     import importlib.util
 
@@ -317,25 +235,22 @@ def _run(args: argparse.Namespace, prefix: str, debug: bool, flags: dict[str, st
 
 __getattr__, __dir__, __all__ = lazy_exports(
     __name__,
-    {},  # the commands' modules are not API: main and the exit statuses are
-    defined=(
-        "ARGUMENT_FLAGS",
-        "BAD_INPUT_EXIT",
-        "EXIT_STATUSES",
-        "INTERNAL_ERROR_EXIT",
-        "INTERRUPTED_EXIT",
-        "NOT_BUILT_EXIT",
-        "NOT_EXPORTED_EXIT",
-        "NO_RECOMMENDATION_EXIT",
-        "STREAM_DISCONNECTED_EXIT",
-        "STREAM_NO_DATA_EXIT",
-        "STREAM_OUTPUT_CLOSED_EXIT",
-        "STREAM_STOPPED_EXIT",
-        "TRAIN_MODULES",
-        "build_parser",
-        "internal_error_line",
-        "is_user_error",
-        "main",
-        "with_flags",
-    ),
+    {  # the commands' modules are not API: main and the exit statuses are
+        "_codes": (
+            "ARGUMENT_FLAGS",
+            "BAD_INPUT_EXIT",
+            "EXIT_STATUSES",
+            "INTERNAL_ERROR_EXIT",
+            "INTERRUPTED_EXIT",
+            "NOT_BUILT_EXIT",
+            "NOT_EXPORTED_EXIT",
+            "NO_RECOMMENDATION_EXIT",
+            "STREAM_DISCONNECTED_EXIT",
+            "STREAM_NO_DATA_EXIT",
+            "STREAM_OUTPUT_CLOSED_EXIT",
+            "STREAM_STOPPED_EXIT",
+            "with_flags",
+        ),
+    },
+    defined=("TRAIN_MODULES", "build_parser", "internal_error_line", "is_user_error", "main"),
 )

@@ -20,7 +20,7 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-from . import BAD_INPUT_EXIT
+from ._codes import BAD_INPUT_EXIT
 
 
 class UsageError(ValueError):
@@ -201,6 +201,19 @@ def add_data_options(
         help="ROS 2 bags: taxels of Float32MultiArray pressure maps (default: the message layout)",
     )
     g.add_argument(
+        "--field",
+        default=None,
+        help="ROS 2 bags: the dotted path of the field that holds the numbers, for any message type "
+        "(e.g. taxels.values; default: the standard types' own field)",
+    )
+    g.add_argument(
+        "--sensor",
+        default=None,
+        metavar="NAME",
+        help="ROS 2 bags of tactile_msgs/TactileState: the sensor (channel) to read (default: the only one)",
+    )
+    add_msg_def(g)
+    g.add_argument(
         "--frames",
         type=Number(int, low=1),
         default=None,
@@ -213,6 +226,75 @@ def add_data_options(
         help="ROS 2 bags: read at most this many messages per topic (default: 10,000,000)",
     )
     g.add_argument("--index", default=None, help="CSV file,class[,session] giving each data file's class")
+
+
+def add_msg_def(g) -> None:
+    """Add ``--msg-def FILE`` (repeatable: a robot's own ROS 2 message definitions) to the parser or group ``g``."""
+    g.add_argument(
+        "--msg-def",
+        dest="msg_defs",
+        action="append",
+        default=[],
+        metavar="FILE",
+        help="ROS 2: the .msg text of a message type of your robot, as pkg/msg/Name.msg or pkg/msg/Name=FILE "
+        "(a lone FILE defines the topic's type); repeat for the types it uses",
+    )
+
+
+def message_definitions(args: argparse.Namespace) -> tuple:
+    """Return the :class:`~tactile_torch.robot.ros_messages.MessageDefinition` of every ``--msg-def``."""
+    from ..robot.ros_types import read_message_definition
+
+    return tuple(read_message_definition(path) for path in getattr(args, "msg_defs", []))
+
+
+def add_touch_options(p: argparse.ArgumentParser) -> None:
+    """Add the options that cut touches from frames (``stream`` and ``predict``; docs/stream.md)."""
+    g = p.add_argument_group("touches (frame bundles, docs/stream.md)")
+    g.add_argument(
+        "--onset",
+        type=Number(float),
+        default=None,
+        help="a touch starts where the frame's total (or peak) pressure above rest reaches this (default: the "
+        "bundle's level, from its training data)",
+    )
+    g.add_argument(
+        "--release",
+        type=Number(float),
+        default=None,
+        help="a touch ends where it falls below this (default: the bundle's; half of a given --onset)",
+    )
+    g.add_argument(
+        "--min-frames",
+        type=at_least(1, int),
+        default=None,
+        help="shortest touch in frames (default: the bundle's)",
+    )
+    g.add_argument(
+        "--touch-signal",
+        default=None,
+        choices=["total", "peak"],
+        help="total or peak pressure above rest (default: the bundle's)",
+    )
+    g.add_argument(
+        "--no-early",
+        action="store_true",
+        help="decide at the end of each touch only, not early with the bundle's calibrated rule",
+    )
+
+
+def touch_options(args: argparse.Namespace, **more):
+    """Return the :class:`~tactile_torch.robot.live.LiveOptions` of the parsed touch options (and ``more``)."""
+    from ..robot.live import LiveOptions
+
+    return LiveOptions(
+        early=not args.no_early,
+        onset=args.onset,
+        release=args.release,
+        min_frames=args.min_frames,
+        touch_signal=args.touch_signal,
+        **more,
+    )
 
 
 def data_options(args: argparse.Namespace):
@@ -228,6 +310,9 @@ def data_options(args: argparse.Namespace):
         sample_rate_hz=args.sample_rate_hz,
         topic=args.topic,
         shape=args.shape,
+        field=args.field,
+        sensor=args.sensor,
+        msg_defs=message_definitions(args),
         frames=args.frames,
         index=args.index,
         sensor_range_g=(args.data_sensor_range or DEFAULT_RANGE_G)
@@ -248,6 +333,8 @@ _OPTION_NAMES = {
     "data_sensor_range": "--sensor-range",
     "topic": "--topic",
     "shape": "--shape",
+    "field": "--field",
+    "sensor": "--sensor",
     "frames": "--frames",
     "max_messages": "--max-messages",
     "index": "--index",
@@ -269,6 +356,7 @@ def data_option_words(args: argparse.Namespace) -> list[str]:
             else str(value)
         )
         words.append(f"{option} {text}")
+    words += [f"--msg-def {path}" for path in getattr(args, "msg_defs", None) or []]
     return words
 
 

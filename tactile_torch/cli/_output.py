@@ -81,7 +81,7 @@ def warning_line(prefix: str, flags: dict[str, str] | None = None):
     def show(message, category, filename, lineno, file=None, line=None) -> None:
         text = " ".join(str(message).split())
         if flags:
-            from . import with_flags
+            from ._codes import with_flags
 
             text = with_flags(text, flags)
         print(f"{prefix}: warning: {text}", file=sys.stderr if file is None else file)

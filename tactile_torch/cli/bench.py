@@ -7,7 +7,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from . import NOT_BUILT_EXIT
+from ._codes import NOT_BUILT_EXIT
 
 
 def register(sub) -> None:

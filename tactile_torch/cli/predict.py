@@ -13,9 +13,11 @@ from ._options import (
     UsageError,
     add_allow_pickle,
     add_data_options,
+    add_touch_options,
     data_name,
     data_options,
     parse_range_g,
+    touch_options,
 )
 from ._output import print_class_report
 
@@ -42,6 +44,26 @@ def register(sub) -> None:
         help="vibration: windows with a sample beyond +-G g are not classified; inf: off (default: the "
         "bundle's sensor_range_g, else 5)",
     )
+    p.add_argument(
+        "--touches",
+        action="store_true",
+        help="frame bundles: cut touches from the data's frames as 'stream' does and classify each (the "
+        "default for a frame recording or a bag; explorations are played one after another with --rest)",
+    )
+    p.add_argument(
+        "--rest",
+        type=Number(float, low=0, high=3600),
+        default=0.5,
+        help="--touches on explorations: seconds of rest after each (default: 0.5)",
+    )
+    p.add_argument(
+        "--frame-rate",
+        type=Number(float, low=0, open_low=True, high=1e6),
+        default=10.0,
+        help="--touches on explorations: frames per second (default: 10, the study's)",
+    )
+    p.add_argument("--json", action="store_true", help="--touches: one JSON object per touch on stdout")
+    add_touch_options(p)
     add_allow_pickle(p)
     p.set_defaults(handler=run_predict)
 
@@ -56,12 +78,16 @@ def run_predict(args: argparse.Namespace) -> int:
     from ..robot.runtime import OnnxPipeline
 
     pipe = OnnxPipeline(args.model, intra_op_threads=args.threads)
+    if _touch_data(args, pipe):
+        return predict_touches(args, pipe)
     range_g = parse_range_g(args.range, "--range", off=True)
     windows = pipe.input_layout == WINDOWS_LAYOUT
     if range_g is not None and not windows:
         raise UsageError(f"--range: {args.model} takes no vibration windows ({pipe.pipeline} bundle)")
     data = pipe.read_npz(args.data, allow_pickle=args.allow_pickle, options=data_options(args))
     where = data_name(args.data)
+    if data.note:
+        print(f"tactile-torch predict: note: {where}: {data.note}", file=sys.stderr)
     mismatch = pipe.sample_rate_mismatch(data.rate_hz)
     if mismatch:
         print(f"tactile-torch predict: warning: {where}: {mismatch}", file=sys.stderr)
@@ -167,3 +193,112 @@ def _print_novel(novel, pipe, data) -> None:
         mine = file_labels == c
         name = names[c] if 0 <= c < len(names) else f"class {c}"
         print(f"  {name:<22} {int(novel[mine].sum()):>6} of {int(mine.sum())} novel")
+
+
+def _touch_data(args: argparse.Namespace, pipe) -> bool:
+    """Whether to cut touches: asked for, or a frame bundle given a frame recording or a bag of frames."""
+    from ..robot.live import frame_bundle
+
+    if not frame_bundle(pipe):
+        if args.touches:
+            raise UsageError(
+                f"--touches: touches are cut from frames; {args.model} takes {pipe.input_layout} input"
+            )
+        return False
+    if args.touches:
+        return True
+    if len(args.data) != 1:
+        return False
+    from ..robot.ros_bags import is_bag
+
+    if is_bag(args.data[0]):
+        return True
+    from ..robot.npz import read_npz
+
+    arrays = read_npz(args.data[0], what="data file (.npz of docs/formats.md)")
+    return "frames" in arrays and "t" in arrays
+
+
+def predict_touches(args: argparse.Namespace, pipe) -> int:
+    """Cut touches from the data's frames as the stream does, classify each; print them and a class report."""
+    import numpy as np
+
+    from ..metrics import class_report
+    from ..robot.frame_recordings import read_frame_recording, touch_labels
+    from ..robot.stream_output import result_json, result_text
+
+    if len(args.data) != 1:
+        raise UsageError(f"--data: touches are cut from one recording at a time, got {len(args.data)} files")
+    if args.range is not None:
+        raise UsageError(
+            "--range: frames out of the bundle's value_range are rejected as in stream; --range is for windows"
+        )
+    from ..robot.live import classify_recording
+
+    options = data_options(args)
+    if options.shape is None:  # bags of flat arrays (TactileState, a field): the bundle's frames
+        from dataclasses import replace
+
+        options = replace(options, shape=tuple(int(d) for d in pipe.input_shape[-2:]))
+    recording = read_frame_recording(args.data[0], rate_hz=args.frame_rate, rest_s=args.rest, options=options)
+
+    def say(event) -> None:
+        print(f"tactile-torch predict: {event.message}", file=sys.stderr)
+
+    results, live = classify_recording(pipe, recording, touch_options(args, segment="touches"), on_event=say)
+    touches = [r for r in results if r.kind == "touch"]
+    write = result_json if args.json else result_text
+    if not args.json:
+        print(f"{pipe!r}: {len(recording)} frames of {recording.name}")
+    for result in touches:
+        print(write(result))
+    if args.json:
+        print(live.summary(), file=sys.stderr)
+        return 0
+    print(live.summary())
+    truth = np.array(
+        [touch_labels(recording, r.segment.start_item, r.segment.frames) for r in touches], dtype=np.int64
+    )
+    decided = np.array(
+        [-2 if r.decision.label is None else r.decision.label for r in touches], dtype=np.int64
+    )
+    ended = np.array([-2 if r.label is None else r.label for r in touches], dtype=np.int64)
+    early = np.array([r.decision.early for r in touches], dtype=bool)
+    if early.any():
+        after = np.array([r.decision.after_s for r in touches])[early]
+        print(
+            f"{int(early.sum())} of {len(touches)} touches decided early, median {np.median(after):.3g} s into the touch "
+            f"({live.rule.describe()})"
+        )
+    if args.out:
+        from ..robot.npz import write_npz
+
+        arrays = {
+            "start": np.array([r.segment.start_item for r in touches], dtype=np.int64),
+            "frames": np.array([r.segment.frames for r in touches], dtype=np.int64),
+            "duration_s": np.array([r.segment.duration_s for r in touches]),
+            "ended_by": np.array([str(r.segment.ended_by) for r in touches]),
+            "labels": ended,
+            "names": np.array([str(r.name) if r.reason is None else f"unknown: {r.reason}" for r in touches]),
+            "decision_labels": decided,
+            "decision_early": early,
+            "decision_s": np.array([r.decision.after_s for r in touches]),
+            "true_labels": truth,
+        }
+        write_npz(args.out, arrays, inputs=[*args.data, args.model])
+        print(f"touches written to {args.out}")
+    if recording.labels is None or not (truth >= 0).any():
+        return 0
+    names = list(recording.class_names or ())
+    index = {name: i for i, name in enumerate(pipe.class_names)}
+    lookup = np.array([index.get(name, -1) for name in names], dtype=np.int64)
+    known = truth >= 0
+    truth_b = np.where(known, lookup[np.maximum(truth, 0)], -1)
+    keep = (truth_b >= 0) & (decided >= 0)
+    if keep.any():
+        n = len(pipe.class_names)
+        print("decisions (early where the rule was sure, else at the end of the touch):")
+        print_class_report(
+            class_report(truth_b[keep], decided[keep], labels=np.arange(n), names=pipe.class_names)
+        )
+    return 0

@@ -12,8 +12,8 @@ from __future__ import annotations
 import argparse
 import sys
 
-from . import ARGUMENT_FLAGS, INTERNAL_ERROR_EXIT, NO_RECOMMENDATION_EXIT, NOT_EXPORTED_EXIT
-from . import with_flags as _with_flags
+from ._codes import ARGUMENT_FLAGS, INTERNAL_ERROR_EXIT, NO_RECOMMENDATION_EXIT, NOT_EXPORTED_EXIT
+from ._codes import with_flags as _with_flags
 from ._options import (
     SEED,
     Number,

@@ -16,6 +16,7 @@ import numpy as np
 import torch
 
 from .._checks import check_positive
+from ..robot.touches import fit_frames
 from .images import SATURATION, ImageExplorations, render_pressure
 
 ICUB = "icub_grasp"
@@ -63,7 +64,8 @@ def load_icub_grasps(
     path : path, optional
         The data set's directory; default ``shared_data_dir("icub_grasp")``.
     n_frames : int
-        Slices kept per grasp, the last ones (the object held); every grasp has at least 4.
+        Slices kept per grasp, the last ones (the object held; :func:`tactile_torch.robot.touches.fit_frames`,
+        which the live stream brings a touch to the bundle's frames with); every grasp has at least 4.
     scale : int
         Display pixels per taxel.
     reliable_only : bool
@@ -92,7 +94,7 @@ def load_icub_grasps(
             raise ValueError(
                 f"n_frames must be <= {taxels.shape[0]} (slices of {row['file']}), got {n_frames}"
             )
-        maps.append(taxels.max(axis=0) - taxels[-n_frames:])
+        maps.append(taxels.max(axis=0) - fit_frames(taxels, n_frames))
         labels.append(names.index(row["class_name"]))
     pressure = torch.from_numpy(np.stack(maps).astype(np.float32))
     return ImageExplorations(
@@ -129,7 +131,8 @@ def load_drimus_grasps(
     sensor : str
         Array name in the grasp files (``ts1_f1_proximal`` ... ``ts6_f3_distal``).
     n_frames : int
-        Frames kept per grasp, the last ones (the object held); every grasp has at least 324.
+        Frames kept per grasp, the last ones (the object held; :func:`tactile_torch.robot.touches.fit_frames`,
+        which the live stream brings a touch to the bundle's frames with); every grasp has at least 324.
     scale : int
         Display pixels per taxel.
 
@@ -156,7 +159,7 @@ def load_drimus_grasps(
                 raise ValueError(
                     f"n_frames must be <= {readings.shape[0]} (frames of {file.name}), got {n_frames}"
                 )
-            maps.append(readings[-n_frames:] - readings.min(axis=0))
+            maps.append(fit_frames(readings, n_frames) - readings.min(axis=0))
             labels.append(int(grasp["label"]))
             names[int(grasp["label"])] = str(grasp["class_name"])
     pressure = torch.from_numpy(np.stack(maps))

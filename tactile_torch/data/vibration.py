@@ -3,8 +3,8 @@
 :class:`VibrationRecordings` holds recordings in the vibration format of docs/formats.md (``signals`` in g,
 ``labels``, ``class_names``, ``rate_hz``, optional ``session``); :meth:`~VibrationRecordings.windows`
 cuts them into the ``(N, 3, W)`` windows of :func:`tactile_torch.signal.window_features`. The
-seeded stylus simulator lives in :mod:`tactile_torch.data.stylus` (its names stay importable from
-here too). Files are read and written by :mod:`tactile_torch.robot.formats` (NumPy only; ``docs/formats.md``);
+seeded stylus simulator lives in :mod:`tactile_torch.data.stylus` (its names are still importable
+from here, as deprecated aliases). Files are read and written by :mod:`tactile_torch.robot.formats` (NumPy only; ``docs/formats.md``);
 the functions here turn them into :class:`VibrationRecordings`.
 
 Examples
@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .._checks import check_positive
+from .._exports import moved_names
 from ..robot.csv_logs import read_csv_recording, read_timed_csv_log
 from ..robot.errors import InputTypeError
 
@@ -366,25 +367,22 @@ def load_vibration_csv(
     )
 
 
-# The simulator's names, importable from here as before the split (loaded on first use: the
-# simulator imports this module).
-_SIMULATOR_NAMES = (
-    "SPEED_M_S",
-    "SURFACES",
-    "Surface",
-    "make_vibration_dataset",
-    "make_vibration_recordings",
-    "surface_table",
+# The simulator's names, deprecated aliases here since the simulator moved to .stylus (which imports
+# this module: the aliases are looked up by name, on use, so that this module does not import it).
+__getattr__ = moved_names(
+    __name__,
+    {
+        name: "tactile_torch.data.stylus"
+        for name in (
+            "SPEED_M_S",
+            "SURFACES",
+            "Surface",
+            "make_vibration_dataset",
+            "make_vibration_recordings",
+            "surface_table",
+        )
+    },
 )
-
-
-def __getattr__(name: str):
-    if name in _SIMULATOR_NAMES:
-        from . import stylus
-
-        return getattr(stylus, name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
 
 __all__ = [
     "QUANTUM_G",
@@ -397,5 +395,4 @@ __all__ = [
     "load_vibration_npz",
     "read_csv_recording",
     "save_vibration_npz",
-    *_SIMULATOR_NAMES,
 ]

@@ -59,7 +59,7 @@ __getattr__, __dir__, __all__ = lazy_exports(
             "take",
             "with_params",
         ),
-        "_tasks": ("BACKENDS", "Backend", "as_backend"),
+        "_tasks": ("BACKENDS", "Backend", "as_backend", "progress_bar"),
         "_tuning": ("PROTOCOLS", "Tuning", "tune"),
     },
 )

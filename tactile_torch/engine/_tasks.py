@@ -114,3 +114,16 @@ def as_backend(
     if isinstance(backend, Backend):
         return backend
     return Backend(backend, n_jobs, scheduler)
+
+
+def progress_bar(items, desc: str, enabled: bool):
+    """Return ``items`` wrapped in a tqdm progress bar named ``desc`` (``items`` itself when not ``enabled``).
+
+    The one progress bar of the evaluation stages (folds, exports, int8, memory): it disappears when
+    done (``leave=False``) and follows the terminal's width.
+    """
+    if not enabled:
+        return items
+    from tqdm.auto import tqdm
+
+    return tqdm(items, desc=desc, leave=False, dynamic_ncols=True)

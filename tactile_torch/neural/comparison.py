@@ -68,9 +68,9 @@ class _PipelineGraph:
     def module(model: object) -> object:
         from torch import nn
 
-        from ..tradeoff.evaluation import _head_modules
+        from ..tradeoff.export import head_modules
 
-        return nn.Sequential(model.steps[0][1].to_module(), *_head_modules(model)).eval()
+        return nn.Sequential(model.steps[0][1].to_module(), *head_modules(model)).eval()
 
 
 def graph_of(model: object) -> object:
@@ -88,9 +88,9 @@ def n_parameters(model: object) -> int:
     """Return the learned numbers of a fitted model (see the module notes)."""
     if hasattr(model, "n_parameters_"):
         return int(model.n_parameters_)
-    from ..tradeoff.evaluation import _head_modules
+    from ..tradeoff.export import head_modules
 
-    return int(sum(b.numel() for m in _head_modules(model) for b in m.buffers()))
+    return int(sum(b.numel() for m in head_modules(model) for b in m.buffers()))
 
 
 def export_model(model: object, path: str | Path, example: np.ndarray, class_names: list[str]) -> Path:
@@ -203,8 +203,8 @@ def compare_models(
 
     Files go to ``out_dir`` (``<slug>.onnx``, ``<slug>-int8.onnx``).
     """
+    from ..robot.naming import slug
     from ..robot.runtime import OnnxPipeline
-    from ..tradeoff.evaluation import _slug
     from ..tradeoff.int8 import MODES, quantise_bundle
 
     out_dir = Path(out_dir)
@@ -223,7 +223,7 @@ def compare_models(
             predicted[test] = model.predict(X[test])
             if k == 0:
                 first = model
-                path = export_model(model, out_dir / f"{_slug(spec.name)}.onnx", X[train[:2]], class_names)
+                path = export_model(model, out_dir / f"{slug(spec.name)}.onnx", X[train[:2]], class_names)
                 raw = X[test[:PARITY_BATCH]]
                 onnx_labels = _classes(model)[OnnxPipeline(path).predict(raw)]
                 agreement = float(np.mean(onnx_labels == model.predict(raw)))
@@ -233,14 +233,14 @@ def compare_models(
             if spec.int8:
                 fold_path = path
                 if k > 0:
-                    part = out_dir / "parts" / f"{_slug(spec.name)}-{k}.onnx"
+                    part = out_dir / "parts" / f"{slug(spec.name)}-{k}.onnx"
                     fold_path = rebind(path, model, X[test[:PARITY_BATCH]], part) or export_model(
                         model, part, X[train[:2]], class_names
                     )
                 for mode in MODES:
                     q_path, _ = quantise_bundle(
                         fold_path,
-                        out_dir / f"{_slug(spec.name)}-int8-{mode}-{k}.onnx",
+                        out_dir / f"{slug(spec.name)}-int8-{mode}-{k}.onnx",
                         calibration=X[train[:CALIBRATION_SAMPLES]],
                         mode=mode,
                     )

@@ -24,6 +24,13 @@ key                        value
 ``sensor_range_g``         vibration bundles: windows with a sample beyond it are unknown
 ``ood_threshold``          classifier bundles: a larger ``ood_distance`` is unknown
 ``ood_quantile``           the training quantile the threshold was set at (informative)
+``frame_rate_hz``          frame bundles: the frames per second the model was trained at
+``value_range``            frame bundles: JSON ``[low, high]``; a frame with a value outside is
+                           rejected by ``stream``
+``touch_levels``           frame bundles: JSON of the touch levels (onset, release, shortest
+                           touch, resting level: :class:`~tactile_torch.robot.touches.TouchLevels`)
+``early_decision``         frame bundles: JSON of the calibrated early-decision rule
+                           (:class:`~tactile_torch.robot.early_decision.EarlyRule`)
 ``tactile_torch.sha256``   ``"sha256:<hex>"`` of the file without this property: checked on load
                            (:mod:`tactile_torch.robot.integrity`)
 =========================  ======================================================================
@@ -79,6 +86,15 @@ QUANTILE_KEY = "ood_quantile"
 NOVELTY_THRESHOLDS_KEY = "novelty_thresholds"
 """Clustering bundles calibrated on known windows: JSON list of the thresholds of the mean novelty over N = 1, 2, ... windows."""
 
+FRAME_RATE_KEY = "frame_rate_hz"
+"""Frame bundles: the frame rate (frames/s) of the explorations the model was trained on."""
+VALUE_RANGE_KEY = "value_range"
+"""Frame bundles: JSON ``[low, high]`` of the values a frame may hold (others are rejected live)."""
+TOUCH_LEVELS_KEY = "touch_levels"
+"""Frame bundles: JSON of the levels that cut touches from frames (:mod:`tactile_torch.robot.touches`)."""
+EARLY_RULE_KEY = "early_decision"
+"""Frame bundles: JSON of the calibrated early-decision rule (:mod:`tactile_torch.robot.early_decision`)."""
+
 # ------------------------------------------------------------------------------------ input layouts
 WINDOWS_LAYOUT = "B,3,W"
 FRAMES_LAYOUT = "B,T,3,H,W"
@@ -107,9 +123,11 @@ __all__ = [
     "CLASS_NAMES_KEY",
     "DEFAULT_RANGE_G",
     "DIGEST_KEY",
+    "EARLY_RULE_KEY",
     "FEATURES_LAYOUT",
     "FEATURES_NAME",
     "FRAMES_LAYOUT",
+    "FRAME_RATE_KEY",
     "INPUT_LAYOUT_KEY",
     "INPUT_NAME",
     "INPUT_SHAPE_KEY",
@@ -127,9 +145,11 @@ __all__ = [
     "SCORES_OUTPUT",
     "STEP_KEY",
     "THRESHOLD_KEY",
+    "TOUCH_LEVELS_KEY",
     "UINT8_SCALE_KEY",
     "UNKNOWN",
     "UNKNOWN_NAME",
+    "VALUE_RANGE_KEY",
     "VERSION_KEY",
     "WINDOWS_LAYOUT",
     "WINDOW_SIZE_KEY",

@@ -21,7 +21,7 @@ import numpy as np
 from .checks import FLOAT32_MAX
 from .contract import DEFAULT_RANGE_G
 from .csv_logs import STANDARD_GRAVITY, UNITS, names_for
-from .ros_bags import MAX_BAG_MESSAGES, PRESSURE_TYPE, is_bag, read_bag
+from .ros_bags import MAX_BAG_MESSAGES, is_bag, read_bag
 from .sample_times import RATE_TOLERANCE, describe_timing, time_base
 
 PathLike = str | os.PathLike
@@ -53,6 +53,12 @@ class DataOptions:
         Bags: the topic to read (default: the only IMU or pressure-array topic).
     shape : (H, W), optional
         Bags: the taxel grid of pressure-array messages.
+    field : str, optional
+        Bags: the dotted path of the field holding the numbers, for any message type.
+    sensor : str, optional
+        Bags of ``tactile_msgs/msg/TactileState``: the sensor (channel) to read.
+    msg_defs : sequence of MessageDefinition
+        Bags: definitions (``.msg`` text) of message types neither standard nor stored in the bag.
     frames : int, optional
         Bags of pressure maps: frames per exploration (default: the shortest recording's length).
     index : path, optional
@@ -75,6 +81,9 @@ class DataOptions:
     sample_rate_hz: float | None = None
     topic: str | None = None
     shape: tuple[int, int] | None = None
+    field: str | None = None
+    sensor: str | None = None
+    msg_defs: tuple = ()
     frames: int | None = None
     index: PathLike | None = None
     sensor_range_g: float = DEFAULT_RANGE_G
@@ -190,19 +199,32 @@ def _check_stated(stated: float, found: float, what: str) -> None:
         )
 
 
+def read_bag_topic(path: PathLike, options: DataOptions):
+    """Read the topic of the bag ``path`` that ``options`` name (:func:`tactile_torch.robot.ros_bags.read_bag`)."""
+    return read_bag(
+        path,
+        options.topic,
+        shape=options.shape,
+        field=options.field,
+        sensor=options.sensor,
+        msg_defs=options.msg_defs,
+        max_messages=options.max_messages,
+    )
+
+
 def _read_bags(paths: list[Path], options: DataOptions):
     from .formats import RecordingArrays
 
     classes, sessions = names_for(paths, index=options.index)
-    topics = [
-        read_bag(p, options.topic, shape=options.shape, max_messages=options.max_messages) for p in paths
-    ]
-    kinds = {t.msgtype for t in topics}
+    topics = [read_bag_topic(p, options) for p in paths]
+    kinds = {t.kind for t in topics}
     if len(kinds) > 1:
-        raise ValueError(f"the bags' topics hold different types ({sorted(kinds)}); read one kind at a time")
+        raise ValueError(
+            f"the bags' topics hold IMU samples and frames ({sorted({t.msgtype for t in topics})}); read one kind at a time"
+        )
     stated = options.sample_rate_hz
     if stated is not None:
-        if kinds == {PRESSURE_TYPE}:
+        if kinds == {"frame"}:
             raise ValueError(
                 f"sample_rate_hz applies to vibration recordings, got pressure maps ({paths[0]})"
             )
@@ -220,7 +242,7 @@ def _read_bags(paths: list[Path], options: DataOptions):
         )
     names = tuple(sorted(set(classes)))
     labels = np.array([names.index(c) for c in classes], dtype=np.int64)
-    if kinds == {PRESSURE_TYPE}:
+    if kinds == {"frame"}:
         return _explorations(topics, labels, names, options.frames)
     signals = [t.values for t in topics]
     sources = [t.name for t in topics]
@@ -326,4 +348,4 @@ def check_recordings(
             )
 
 
-__all__ = ["GRAVITY_BAND_G", "DataOptions", "check_recordings", "read_source"]
+__all__ = ["GRAVITY_BAND_G", "DataOptions", "check_recordings", "read_bag_topic", "read_source"]

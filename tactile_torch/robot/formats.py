@@ -49,6 +49,7 @@ import numpy as np
 
 from .checks import saturate_float32
 from .csv_logs import integer_counts_message, read_timed_csv_log
+from .labelled import LabelledInput  # noqa: F401  (importable from here, as before)
 from .naming import check_class_names, names_for
 from .npz import PathLike, read_npz, write_npz
 from .sample_times import describe_timing

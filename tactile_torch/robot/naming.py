@@ -198,6 +198,20 @@ def csv_class_name(path: PathLike) -> str:
     return class_and_session(path)[0]
 
 
+def slug(name: str) -> str:
+    """Return ``name`` as a file stem: lower case, runs of other characters than letters and digits
+    as one ``-``, none at the ends (``"SVM (RBF) + fused"`` -> ``"svm-rbf-fused"``).
+
+    The one name-to-file rule of the exported ``.onnx`` files (trade-off candidates, deployed models,
+    compared learned models). Letters and digits are Unicode's (``str.isalnum``); an empty result is
+    possible (a name of punctuation only).
+
+    >>> slug("SVM (RBF) + fused")
+    'svm-rbf-fused'
+    """
+    return "-".join("".join(ch if ch.isalnum() else " " for ch in name.lower()).split())
+
+
 __all__ = [
     "INDEX_COLUMNS",
     "check_class_names",
@@ -207,4 +221,5 @@ __all__ = [
     "names_for",
     "read_index",
     "session_source",
+    "slug",
 ]

@@ -155,6 +155,7 @@ class PortLines:
         self._clock = clock
         self._sleep = sleep
         self.samples = self.skipped = self.rejected = self.reconnects = 0
+        self.item = "sample"  # what an item is called in messages ("frame" for a frame stream)
         self._units_hint: str | None = None
         self._event_window: dict[str, tuple[float, int]] = {}
         self._held_events: dict[str, int] = {}
@@ -231,7 +232,7 @@ class PortLines:
                 if limit is not None and waited >= limit:
                     raise StreamDisconnected(
                         f"{name}: gave up reconnecting after {attempts} attempt(s), {waited:.1f} s without a "
-                        f"sample (idle timeout {limit:g} s): {error}"
+                        f"{self.item} (idle timeout {limit:g} s): {error}"
                     )
                 # the last wait is cut short so that one attempt is made at the timeout itself
                 self._sleep(self._delay if limit is None else min(self._delay, limit - waited))
@@ -278,7 +279,7 @@ class PortLines:
                 except OSError as err:
                     if not self.reconnect:
                         raise StreamDisconnected(
-                            f"{name} disconnected after {self.samples} samples: {err}"
+                            f"{name} disconnected after {self.samples} {self.item}s: {err}"
                         ) from err
                     self._close(port)
                     port = self._reopen(err)
@@ -316,17 +317,18 @@ class PortLines:
                 waited = now - max(self._last_sample_at, opened_at)
                 limit = self.idle_timeout_s if self.samples else self.start_timeout_s
                 invalid = self.skipped or self.rejected  # lines arrive, none is a valid sample
-                what = "no valid sample" if invalid else "no data" if not self.samples else "no sample"
+                item = self.item
+                what = f"no valid {item}" if invalid else "no data" if not self.samples else f"no {item}"
                 skipped = ", ".join(
                     [f"{self.skipped} lines skipped"] * bool(self.skipped)
-                    + [f"{self.rejected} samples out of range"] * bool(self.rejected)
+                    + [f"{self.rejected} {item}s out of range"] * bool(self.rejected)
                 )
                 skipped = f", {skipped}" if skipped else ""
                 if waited >= limit:
                     raise StreamTimeout(
-                        f"{name}: {what} for {waited:.1f} s (timeout {limit:g} s); {self.samples} samples "
+                        f"{name}: {what} for {waited:.1f} s (timeout {limit:g} s); {self.samples} {item}s "
                         f"read, {self.skipped} lines skipped"
-                        + (f", {self.rejected} samples out of range" if self.rejected else "")
+                        + (f", {self.rejected} {item}s out of range" if self.rejected else "")
                         + (f"; {self._units_hint}" if self._units_hint else "")
                     )
                 if waited >= self.silence_s and not self._silent:
@@ -334,7 +336,7 @@ class PortLines:
                     if self.samples:
                         self._emit(
                             "silence",
-                            f"{what} for {waited:.1f} s after {self.samples} samples{skipped}; waiting "
+                            f"{what} for {waited:.1f} s after {self.samples} {item}s{skipped}; waiting "
                             f"({_giving_up(limit)})",
                         )
                         yield None, now

@@ -45,6 +45,7 @@ from .contract import (
     NOVEL_OUTPUT,
     OOD_OUTPUT,
     PIPELINE_KEY,
+    PRESSURE_LAYOUT,
     RANGE_METADATA_KEY,
     SAMPLE_RATE_KEY,
     SCORES_OUTPUT,
@@ -58,6 +59,7 @@ from .contract import (
 )
 from .errors import InputTypeError
 from .integrity import NotProtobufError, UnsealedBundleWarning, check_digest
+from .labelled import LabelledInput
 
 _KIND_KEYS = {"image": "frames", "vibration": "signals", "features": "features"}
 _WARNED_UNSEALED: set[str] = set()  # bundles without a digest already warned about (the warning only)
@@ -132,33 +134,6 @@ class NonFiniteScoresError(ValueError):
             "label is returned: values far outside the sensor's range (e.g. a corrupted 1e30 sample) "
             "overflow the features"
         )
-
-
-@dataclass
-class LabelledInput:
-    """Raw input read from a data file by :meth:`OnnxPipeline.read_npz`.
-
-    Attributes
-    ----------
-    raw : ndarray
-        In the bundle's input layout (uint8 frames are kept uint8: :meth:`OnnxPipeline.validate`
-        scales them).
-    labels : ndarray of shape (N,) int64, or None
-        Class index into the bundle's ``class_names`` (-1: a class the bundle does not know); ``None``
-        when the file has no labels.
-    file_class_names : list of str or None
-        The file's own class names.
-    rate_hz : float or None
-        Sample rate of vibration recordings (``None`` for other data).
-    file_labels : ndarray of shape (N,) int64, or None
-        The file's own labels (indices into ``file_class_names``), e.g. to score a clustering.
-    """
-
-    raw: np.ndarray
-    labels: np.ndarray | None
-    file_class_names: list[str] | None
-    rate_hz: float | None = None
-    file_labels: np.ndarray | None = None
 
 
 def _onnx_error(path: Path, err: Exception) -> str:
@@ -518,6 +493,7 @@ class OnnxPipeline:
         only) declares how CSV logs and ROS 2 bags are read (columns, units, time unit, topic).
         """
         from .formats import data_name, read_data
+        from .touches import fit_explorations
         from .windows import window_recordings
 
         if options is None:
@@ -527,7 +503,7 @@ class OnnxPipeline:
 
             data = read_source(path, options)
         where = data_name(path)
-        layout, rate = self.input_layout, None
+        layout, rate, note = self.input_layout, None, None
         if data.kind == "image" and layout == FRAMES_LAYOUT:
             if data.frames is None:
                 raise ValueError(
@@ -536,6 +512,15 @@ class OnnxPipeline:
                     "(tactile_torch.data.images.render_pressure)"
                 )
             raw, labels = np.ascontiguousarray(data.frames.transpose(0, 1, 4, 2, 3)), data.labels
+            raw, note = fit_explorations(raw, self.input_shape[1])
+        elif data.kind == "image" and layout == PRESSURE_LAYOUT:
+            if data.pressure is None:
+                raise ValueError(
+                    f"{where}: frames must be pressure maps (N, T, H, W) for this {self.pipeline} bundle, got "
+                    f"RGB frames {data.frames.shape}"
+                )
+            raw, note = fit_explorations(data.pressure, self.input_shape[1])
+            labels = data.labels
         elif data.kind == "vibration" and layout == WINDOWS_LAYOUT:
             if WINDOW_SIZE_KEY not in self.metadata:
                 raise ValueError(f"{self.path}: no {WINDOW_SIZE_KEY} in the bundle's metadata")
@@ -559,7 +544,7 @@ class OnnxPipeline:
             index = {name: i for i, name in enumerate(self.class_names)}
             lookup = np.array([index.get(name, -1) for name in names], dtype=np.int64)
             labels = lookup[labels]
-        return LabelledInput(raw, labels, names, rate, file_labels)
+        return LabelledInput(raw, labels, names, rate, file_labels, note)
 
     def sample_rate_mismatch(self, rate_hz: float | None) -> str | None:
         """Return a one-line warning when data sampled at ``rate_hz`` do not match the bundle's rate.

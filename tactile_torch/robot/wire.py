@@ -1,7 +1,8 @@
-"""The sensor's line protocol: parse and format ``x,y,z`` / ``t,x,y,z`` lines; a simulated sensor.
+"""The sensor's line protocol: parse and format ``x,y,z`` / ``t,x,y,z`` lines and frame lines; a simulated sensor.
 
 One ASCII line per sample, ``x,y,z`` in g, or ``t,x,y,z`` with ``t`` a number (seconds unless the
-reader is told otherwise), terminated by ``\\n`` (``\\r\\n`` accepted). numpy only: this module runs on
+reader is told otherwise), terminated by ``\\n`` (``\\r\\n`` accepted); a frame of a taxel array is
+one line of its values in row-major order, optionally with ``t`` first (:func:`format_frame`). numpy only: this module runs on
 the robot (through :mod:`tactile_torch.robot.stream`, which re-exports these names) and on the bench
 (``tactile-torch simulate-sensor``).
 """
@@ -82,6 +83,25 @@ def format_sample(sample: np.ndarray, t: float | None = None) -> bytes:
     return (xyz if t is None else f"{t:.6f},{xyz}").encode("ascii")
 
 
+def format_frame(frame: np.ndarray, t: float | None = None) -> bytes:
+    """Return the protocol line of one frame: its values in row-major order, ``t`` (seconds) first if given.
+
+    Integer-valued frames (raw counts, uint8 RGB) are written as integers; others with 9 significant
+    digits, which float32 values survive exactly.
+
+    >>> format_frame(np.array([[0, 12], [3, 4]]), t=0.5)
+    b'0.500000,0,12,3,4\\n'
+    """
+    flat = np.asarray(frame).reshape(-1)
+    if flat.dtype.kind in "iub" or (
+        np.abs(flat).max(initial=0) < 2**53 and np.array_equal(flat, np.round(flat))
+    ):
+        body = ",".join(map(str, flat.astype(np.int64).tolist()))
+    else:
+        body = ",".join(f"{v:.9g}" for v in flat.astype(np.float32).tolist())
+    return (body + "\n" if t is None else f"{t:.6f},{body}\n").encode("ascii")
+
+
 @contextlib.contextmanager
 def pseudo_terminal(*, drain_timeout_s: float = 10.0) -> Iterator[tuple[BinaryIO, str]]:
     """Open a pseudo-terminal pair (POSIX); yield ``(sink, path)``: what is written to ``sink`` is read at ``path``.
@@ -149,4 +169,51 @@ def simulate_sensor(
     return len(recording)
 
 
-__all__ = ["format_sample", "parse_line", "parse_sample", "pseudo_terminal", "simulate_sensor"]
+def simulate_frames(
+    sink: _Sink,
+    frames: np.ndarray,
+    *,
+    t: np.ndarray | None = None,
+    rate_hz: float = 10.0,
+    realtime: bool = True,
+    timestamps: bool = False,
+    sleep: Callable[[float], None] = time.sleep,
+) -> int:
+    """Write frames ``(n, H, W)`` (or ``(n, H, W, 3)`` RGB) to ``sink`` as frame lines; return the number written.
+
+    With ``t`` (seconds, ``(n,)``) the frames are paced at their recorded times (pauses included) and
+    ``timestamps=True`` writes that ``t``; without it they are paced at ``rate_hz`` and ``t = i / rate_hz``.
+    ``realtime=False`` writes as fast as the sink takes them.
+    """
+    frames = np.asarray(frames)
+    if frames.ndim not in (3, 4) or len(frames) == 0:
+        raise ValueError(f"frames must have shape (n, H, W) or (n, H, W, 3) with n >= 1, got {frames.shape}")
+    if not np.isfinite(frames).all():
+        raise ValueError("frames must be finite, got NaN or inf values")
+    if t is None:
+        if not rate_hz > 0:
+            raise ValueError(f"rate_hz must be > 0, got {rate_hz}")
+        t = np.arange(len(frames)) / float(rate_hz)
+    else:
+        t = np.asarray(t, dtype=np.float64)
+        if t.shape != (len(frames),) or not np.isfinite(t).all():
+            raise ValueError(f"t must hold {len(frames)} finite times in seconds, got shape {t.shape}")
+    start, t0 = time.perf_counter(), float(t[0])
+    for i, frame in enumerate(frames):
+        if realtime:
+            lag = start + (t[i] - t0) - time.perf_counter()
+            if lag > 0:
+                sleep(lag)
+        sink.write(format_frame(frame, float(t[i]) if timestamps else None))
+    return len(frames)
+
+
+__all__ = [
+    "format_frame",
+    "format_sample",
+    "parse_line",
+    "parse_sample",
+    "pseudo_terminal",
+    "simulate_frames",
+    "simulate_sensor",
+]

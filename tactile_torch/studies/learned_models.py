@@ -316,7 +316,7 @@ def run(section, ctx) -> None:
     import json
 
     from ..neural.comparison import compare_models
-    from ..tradeoff.evaluation import _slug
+    from ..robot.naming import slug
 
     mode = _mode(ctx)
     section.text(
@@ -336,7 +336,7 @@ def run(section, ctx) -> None:
     out = ctx.out_dir / "learned_models"
     for source in _sources(ctx):
         samples = source["samples"]
-        where = out / _slug(source["name"])
+        where = out / slug(source["name"])
         rows = compare_models(source["specs"], samples, source["classes"], where, log=lambda _: None)
         (where / "rows.json").write_text(json.dumps(rows, indent=1, default=str))
         for row in rows:

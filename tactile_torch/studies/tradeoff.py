@@ -102,6 +102,14 @@ def _show(section, ctx, title: str, result, out: Path, paths: dict) -> None:
         if kind in paths:
             rel = paths[kind].relative_to(ctx.out_dir).as_posix()
             section.text(f"![{title}: accuracy against {kind}]({rel})")
+    if result.touch_time:  # frame data: how long the hand must hold (docs/tradeoff.md)
+        from ..tradeoff.touch_time import touch_time_markdown
+
+        rel = paths["touch"].relative_to(ctx.out_dir).as_posix() if "touch" in paths else None
+        lines = touch_time_markdown(result.touch_time, rel)[2:]
+        section.text(
+            "**Accuracy against time into the touch** (how long the hand must hold). " + "\n".join(lines)
+        )
     if result.notes:
         section.text("Notes: " + "; ".join(result.notes) + ".")
     section.text(

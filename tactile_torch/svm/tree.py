@@ -17,8 +17,8 @@ from numba import njit, types
 
 from .._checks import RandomState, numpy_rng
 
-if TYPE_CHECKING:
-    from .estimators import SVC
+if TYPE_CHECKING:  # the base class, not estimators.SVC: estimators imports this module
+    from ._base import _KernelMachine
 
 
 def split_classes(means: np.ndarray, *, n_init: int = 10, random_state: RandomState = None) -> np.ndarray:
@@ -144,7 +144,8 @@ class TreeNode:
     n_samples : int
         Training samples of those classes.
     svc : SVC or None
-        The binary SVM of an internal node (``f > 0``: go to ``right``); None for a leaf.
+        The binary :class:`~tactile_torch.svm.SVC` of an internal node (``f > 0``: go to ``right``);
+        None for a leaf.
     left, right : TreeNode or None
         Children on the negative and positive side.
     column : int
@@ -157,7 +158,7 @@ class TreeNode:
     classes: tuple
     depth: int
     n_samples: int
-    svc: SVC | None = None
+    svc: _KernelMachine | None = None
     left: TreeNode | None = None
     right: TreeNode | None = None
     column: int = -1

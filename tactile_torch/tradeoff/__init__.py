@@ -29,12 +29,12 @@ __getattr__, __dir__, __all__ = lazy_exports(
         "candidates": (
             "CLASSIFIERS",
             "Candidate",
+            "CandidateResult",
             "FeatureRecipe",
             "build_candidates",
             "feature_sets",
             "make_classifier",
         ),
-        "evaluation": ("CandidateResult",),
         "inputs": ("Samples", "TradeoffData", "load_tradeoff_data"),
         "output": ("summary_lines", "write_outputs"),
         "runner": ("run_tradeoff",),

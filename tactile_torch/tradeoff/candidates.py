@@ -29,13 +29,14 @@ a feature file: all columns and the ``k`` best-ranked.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
+import numpy as np
 from sklearn.pipeline import Pipeline
 from sklearn.preprocessing import StandardScaler
 
 from .. import catalogue
-from ..engine import Tuning
+from ..engine import CVResult, Tuning
 from .transformers import (
     MAX_TAXELS,
     FeaturePassthrough,
@@ -283,10 +284,74 @@ def build_candidates(
     return out
 
 
+@dataclass
+class CandidateResult:
+    """What was measured for one candidate (see :mod:`.evaluation`'s notes for the definitions).
+
+    Attributes
+    ----------
+    candidate : Candidate
+    fold_accuracy : list of float
+        Empty when fitting failed (see ``notes``).
+    fit_s : float
+        Mean seconds of one fold's fit, tuning included.
+    model : Pipeline or None
+        Fitted on the first training fold (the exported one); ``None`` when fitting failed.
+    latency_ms, size_bytes, decision_s, onnx_agreement : float or None
+        ``None`` when the export failed (see ``notes``).
+    onnx_file : str or None
+    notes : list of str
+        Warnings raised while fitting, export errors.
+    parity_predictions : ndarray or None
+        The first fold's predictions of its first :data:`.evaluation.PARITY_SAMPLES` test samples (what the
+        exported file must reproduce).
+    predictions : ndarray of shape (N,) or None
+        Out-of-fold prediction of every sample of the candidate's raw input (``-1`` if never tested),
+        for the per-unit accuracies of :mod:`.selection`.
+    tune_s : float
+        Mean seconds of one fold's tuning (0 when not tuned).
+    params : list of dict
+        The parameters tuning chose in each fold (``{}`` per fold when not tuned).
+    cv : CVResult or None
+        The engine's result: every sample's out-of-fold prediction with its group and fold
+        (``cv.predictions``, ``cv.groups``, ``cv.fold``) and ``cv.final_model`` to refit the tuned
+        candidate on all data.
+    n_parameters, memory_mib, family
+        The learned numbers, the onnxruntime session's peak memory, ``"classical"``, ``"neural"`` or
+        ``"learned front end"``.
+    quantisation : {"static", "dynamic"} or None
+        An int8 variant's quantisation (:mod:`.learned`); ``None`` for a float candidate.
+    variant_of : str or None
+        An int8 variant: the name of its float candidate.
+    """
+
+    candidate: Candidate
+    fold_accuracy: list[float]
+    fit_s: float
+    model: Pipeline | None
+    latency_ms: float | None = None
+    size_bytes: int | None = None
+    decision_s: float | None = None
+    onnx_agreement: float | None = None
+    onnx_file: str | None = None
+    notes: list[str] = field(default_factory=list)
+    parity_predictions: np.ndarray | None = field(default=None, repr=False)
+    predictions: np.ndarray | None = field(default=None, repr=False)
+    tune_s: float = 0.0
+    params: list[dict] = field(default_factory=list)
+    cv: CVResult | None = field(default=None, repr=False)
+    n_parameters: int | None = None
+    memory_mib: float | None = None
+    quantisation: str | None = None
+    family: str = "classical"
+    variant_of: str | None = None
+
+
 __all__ = [
     "CLASSIFIERS",
     "TOP_K",
     "Candidate",
+    "CandidateResult",
     "FeatureRecipe",
     "build_candidates",
     "build_pipeline",

@@ -151,16 +151,20 @@ def draw_chart(
         c = colours(classifiers.index(r["classifier"]) % 10)
         m = markers[families.index(feature_family(r["features"])) % len(markers)]
         int8 = r.get("quantisation") is not None
+        ms = 5 if many else 7
         ax.plot([xi, xi], [lo, hi], "-", color=c, lw=0.8, alpha=0.35 if many else 0.6, zorder=1)
+        # A filled marker's edge in its own colour, a hollow one larger with an edge thin for its size: a
+        # white edge on a float plus ("P", the networks) left a thin cross, and a thick edge on an int8 plus
+        # filled it, so at 5 points the two read the wrong way round.
         ax.plot(
             xi,
             a,
             m,
             color=c,
-            ms=5 if many else 7,
+            ms=1.3 * ms if int8 else ms,
             mfc="white" if int8 else c,
-            mec=c if int8 else "white",
-            mew=1.3 if int8 else 0.5,
+            mec=c,
+            mew=ms / 6 if int8 else 0.5,
             zorder=3,
         )
         if r.get("int8_degraded"):

@@ -36,15 +36,19 @@ from sklearn.base import clone
 from ..robot.contract import (
     CLASS_NAMES_KEY,
     DEFAULT_RANGE_G,
+    EARLY_RULE_KEY,
+    FRAMES_LAYOUT,
     INPUT_LAYOUT_KEY,
     INPUT_SHAPE_KEY,
     LABELS_OUTPUT,
     PIPELINE_KEY,
+    PRESSURE_LAYOUT,
     RANGE_METADATA_KEY,
     SAMPLE_RATE_KEY,
     STEP_KEY,
     WINDOW_SIZE_KEY,
 )
+from ..robot.naming import slug
 
 CHECK_SAMPLES = 64
 """Samples on which the deployed ONNX file's labels are compared with the refitted pipeline's."""
@@ -54,10 +58,6 @@ at most 60 with ``--quick``, 300 without): more data for the model the robot run
 DEPLOY_MAX_SAMPLES = 8000
 """And at most about this many in all (an SVM's kernel grows with the square): the full study's own size
 on the bundled 28 surfaces (300 per class). The study's cap per class, when larger, is kept."""
-
-
-def _slug(name: str) -> str:
-    return "-".join("".join(ch if ch.isalnum() else " " for ch in name.lower()).split())
 
 
 def _source(step: object, rate_hz: float | None) -> dict | None:
@@ -158,6 +158,53 @@ def _evenly(n: int, k: int) -> np.ndarray:
     return np.linspace(0, n - 1, min(k, n)).round().astype(int)
 
 
+def live_metadata(result: object, name: str, model: object) -> tuple[dict, list[str]]:
+    """Return what a deployed frame bundle records for the live stream (``stream`` on taxel frames) and notes.
+
+    The frame rate, the value range and the touch levels of the training explorations
+    (:func:`tactile_torch.robot.touches.frame_metadata`; the contact direction and resting levels of a
+    fitted :class:`~.transformers.PressureImageFeatures` when the candidate has one), and the
+    early-decision rule calibrated on the study's held-out touches (:mod:`.touch_time`). ``{}`` for
+    vibration windows and feature matrices.
+    """
+    from ..robot.touches import frame_metadata
+    from .transformers import PressureImageFeatures
+
+    cand = result.result(name).candidate
+    s = result.inputs[cand.input]
+    if s.layout not in (PRESSURE_LAYOUT, FRAMES_LAYOUT):
+        return {}, []
+    step = model.steps[0][1]
+    sign = rest = None
+    contact = "raises"
+    if isinstance(step, PressureImageFeatures):
+        sign, rest = step.sign_, step.resting_
+    else:  # the direction the study was told (its pressure-image candidates carry it)
+        for other in result.results:
+            first = other.candidate.estimator.steps[0][1]
+            if other.candidate.input == cand.input and isinstance(first, PressureImageFeatures):
+                contact = "raises" if first.contact == "auto" else first.contact
+                break
+    meta, note = frame_metadata(
+        s.X,
+        frame_rate_hz=result.data.rate_hz,
+        rgb=s.layout == FRAMES_LAYOUT,
+        contact=contact,
+        sign=sign,
+        rest=rest,
+    )
+    notes = [note] if note else []
+    curve = result.touch_time.get(name)
+    if curve is None and result.result(name).cv is not None and result.result(name).cv.models:
+        from .touch_time import touch_time
+
+        curve = touch_time(result.result(name), s, result.data.rate_hz, quick=True)
+    if curve is not None and curve.rule is not None:
+        meta[EARLY_RULE_KEY] = curve.rule.to_metadata()
+        notes.append(f"early decisions: {curve.rule.describe()}")
+    return meta, notes
+
+
 def deploy_candidate(
     result: object, name: str, out_dir: str | Path, pool: object, *, random_state: int = 0
 ) -> dict:
@@ -198,7 +245,7 @@ def deploy_candidate(
         model, params = base.cv.final_model(s.X, s.y, s.groups, random_state=random_state)
     else:
         model = clone(cand.estimator).fit(s.X, s.y)
-    stem = "recommended" if name == result.recommended else _slug(name)
+    stem = "recommended" if name == result.recommended else slug(name)
     out = Path(out_dir)
     check = np.ascontiguousarray(s.X[_evenly(len(s.y), CHECK_SAMPLES)])
     samples = (
@@ -210,13 +257,15 @@ def deploy_candidate(
     if s.window is not None:
         meta.update({WINDOW_SIZE_KEY: s.window, STEP_KEY: s.window, SAMPLE_RATE_KEY: result.data.rate_hz})
         meta[RANGE_METADATA_KEY] = DEFAULT_RANGE_G
+    live, live_notes = live_metadata(result, name, model)  # frame bundles: rate, touch levels, early rule
+    meta.update(live)
     learned = is_learned(model)
     path = out / f"{stem}.onnx"
     if learned:  # a network or learned front end: its own graph, exported whole (docs/neural.md)
         path = _export_learned(result, model, check, path, meta)
     else:
         path = _export_classical(result, cand, model, s, check, path, meta, pool)
-    notes = []
+    notes = list(live_notes)
     if variant.quantisation is not None:
         from .int8 import CLASSIFIER_PREFIX, quantise_bundle
 
@@ -307,8 +356,8 @@ def unknown_rule(result: object, cand: object, model: object, s: object, pool: o
 
 def _export_classical(result, cand, model, s, check, path: Path, meta: dict, pool) -> Path:
     """Join the fitted model's feature graph and classifier graph (the study's export parts) into ``path``."""
-    from .evaluation import _head_modules, _stateless, features_key
-    from .export import bind_head, export_fixed_head, export_front, export_head, head_key, join
+    from .evaluation import _stateless, features_key
+    from .export import bind_head, export_fixed_head, export_front, export_head, head_key, head_modules, join
 
     step = model.named_steps["features"]
     front = ("front", *features_key(cand))
@@ -319,7 +368,7 @@ def _export_classical(result, cand, model, s, check, path: Path, meta: dict, poo
         pool.submit(
             front, export_front, clone(step).fit(check[:2]), check[:2]
         )  # a no-op when already exported
-    modules = _head_modules(model)
+    modules = head_modules(model)
     n_features = int(step.transform(check[:1]).shape[1])
     head = ("head", *head_key(modules, n_features))
     pool.submit(head, export_head, modules, n_features, background=False)
@@ -354,6 +403,7 @@ __all__ = [
     "DEPLOY_MAX_SAMPLES",
     "deploy_candidate",
     "deployment_samples",
+    "live_metadata",
     "unknown_rule",
     "write_model_file",
 ]

@@ -21,14 +21,13 @@ Stages (each with a progress bar):
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 from sklearn.base import clone
 from sklearn.pipeline import Pipeline
 
-from ..engine import Backend, CVResult, needs_fit, signature
+from ..engine import Backend, CVResult, needs_fit, progress_bar, signature
 from ..engine import cross_validate as engine_cross_validate
 from ..robot.contract import (
     CLASS_NAMES_KEY,
@@ -38,86 +37,16 @@ from ..robot.contract import (
     STEP_KEY,
     WINDOW_SIZE_KEY,
 )
-from .candidates import Candidate
+from ..robot.naming import slug
+from .candidates import Candidate, CandidateResult
 from .inputs import Samples
 
 PARITY_SAMPLES = 8
 """Held-out samples on which each exported file's labels are compared with the pipeline's."""
 
 
-@dataclass
-class CandidateResult:
-    """What was measured for one candidate (see the module notes for the definitions).
-
-    Attributes
-    ----------
-    candidate : Candidate
-    fold_accuracy : list of float
-        Empty when fitting failed (see ``notes``).
-    fit_s : float
-        Mean seconds of one fold's fit, tuning included.
-    model : Pipeline or None
-        Fitted on the first training fold (the exported one); ``None`` when fitting failed.
-    latency_ms, size_bytes, decision_s, onnx_agreement : float or None
-        ``None`` when the export failed (see ``notes``).
-    onnx_file : str or None
-    notes : list of str
-        Warnings raised while fitting, export errors.
-    parity_predictions : ndarray or None
-        The first fold's predictions of its first :data:`PARITY_SAMPLES` test samples (what the
-        exported file must reproduce).
-    predictions : ndarray of shape (N,) or None
-        Out-of-fold prediction of every sample of the candidate's raw input (``-1`` if never tested),
-        for the per-unit accuracies of :mod:`.selection`.
-    tune_s : float
-        Mean seconds of one fold's tuning (0 when not tuned).
-    params : list of dict
-        The parameters tuning chose in each fold (``{}`` per fold when not tuned).
-    cv : CVResult or None
-        The engine's result: every sample's out-of-fold prediction with its group and fold
-        (``cv.predictions``, ``cv.groups``, ``cv.fold``) and ``cv.final_model`` to refit the tuned
-        candidate on all data.
-    n_parameters, memory_mib, family
-        The learned numbers, the onnxruntime session's peak memory, ``"classical"``, ``"neural"`` or
-        ``"learned front end"``.
-    quantisation : {"static", "dynamic"} or None
-        An int8 variant's quantisation (:mod:`.learned`); ``None`` for a float candidate.
-    variant_of : str or None
-        An int8 variant: the name of its float candidate.
-    """
-
-    candidate: Candidate
-    fold_accuracy: list[float]
-    fit_s: float
-    model: Pipeline | None
-    latency_ms: float | None = None
-    size_bytes: int | None = None
-    decision_s: float | None = None
-    onnx_agreement: float | None = None
-    onnx_file: str | None = None
-    notes: list[str] = field(default_factory=list)
-    parity_predictions: np.ndarray | None = field(default=None, repr=False)
-    predictions: np.ndarray | None = field(default=None, repr=False)
-    tune_s: float = 0.0
-    params: list[dict] = field(default_factory=list)
-    cv: CVResult | None = field(default=None, repr=False)
-    n_parameters: int | None = None
-    memory_mib: float | None = None
-    quantisation: str | None = None
-    family: str = "classical"
-    variant_of: str | None = None
-
-
 def _stateless(step: object) -> bool:
     return not needs_fit(step)
-
-
-def _progress(items, desc: str, enabled: bool):
-    if not enabled:
-        return items
-    from tqdm.auto import tqdm
-
-    return tqdm(items, desc=desc, leave=False, dynamic_ncols=True)
 
 
 def features_key(candidate: Candidate) -> tuple:
@@ -203,34 +132,6 @@ def cross_validate(
     return results
 
 
-def _head_modules(model: Pipeline) -> list:
-    """The fitted steps after ``features`` as torch modules: selection, standardisation, classifier.
-
-    A learned candidate (:mod:`.learned`) has no such head: it is exported whole."""
-    from ..classifier_inference import inference_module
-    from .export import Standardize, absorb_rbf_gamma, share_tree_depth
-    from .transformers import ColumnSelect
-
-    modules = []
-    if "select" not in model.named_steps:  # an identity selection: heads with and without one share a graph
-        n = model.named_steps["scale"].n_features_in_
-        modules.append(ColumnSelect(np.arange(n)))
-    for name, step in model.steps[1:]:
-        if name == "classifier":
-            head = inference_module(step)
-            if modules and isinstance(modules[-1], Standardize):
-                absorb_rbf_gamma(modules[-1], head)
-            share_tree_depth(head)
-            modules.append(head)
-        elif hasattr(step, "to_module"):
-            modules.append(step.to_module())
-        elif hasattr(step, "scale_") and hasattr(step, "mean_"):  # StandardScaler
-            modules.append(Standardize(step.mean_, step.scale_))
-        else:
-            raise TypeError(f"pipeline step {name!r} ({type(step).__name__}) has no export path")
-    return modules
-
-
 def submit_fronts(candidates: list[Candidate], samples: dict[str, Samples], pool: object) -> None:
     """Queue the export of every stateless feature graph (they do not depend on the folds) in ``pool``."""
     from .export import export_front
@@ -240,10 +141,6 @@ def submit_fronts(candidates: list[Candidate], samples: dict[str, Samples], pool
         if _stateless(step):
             X = samples[cand.input].X
             pool.submit(("front", *features_key(cand)), export_front, clone(step).fit(X[:2]), X[:2])
-
-
-def _slug(name: str) -> str:
-    return "-".join("".join(ch if ch.isalnum() else " " for ch in name.lower()).split())
 
 
 def export_and_time(
@@ -261,7 +158,7 @@ def export_and_time(
     Returns the number of distinct exported parts the files join."""
     from ..metrics import time_per_sample
     from ..robot.runtime import OnnxPipeline
-    from .export import bind_head, export_fixed_head, export_front, export_head, head_key, join
+    from .export import bind_head, export_fixed_head, export_front, export_head, head_key, head_modules, join
     from .learned import export_learned, is_learned, n_parameters
 
     out_dir = Path(out_dir)
@@ -285,7 +182,7 @@ def export_and_time(
             front = (*front, "fold 1")
             pool.submit(front, export_front, step, raw[:2])
         try:
-            modules = _head_modules(model)
+            modules = head_modules(model)
         except (TypeError, ValueError) as err:
             res.notes.append(f"no ONNX export: {err}")
             continue
@@ -294,7 +191,7 @@ def export_and_time(
         head = ("head", *head_key(modules, n_features))
         pool.submit(head, export_head, modules, n_features, background=False)
         plans.append((res, raw, front, head, modules))
-    for res, raw, front, head, modules in _progress(plans, "ONNX export + latency", progress):
+    for res, raw, front, head, modules in progress_bar(plans, "ONNX export + latency", progress):
         cand, model = res.candidate, res.model
         s = samples[cand.input]
         classes = model.named_steps["classifier"].classes_
@@ -314,7 +211,7 @@ def export_and_time(
                 plain = ("plain head", cand.name)
                 pool.submit(plain, export_fixed_head, modules, n_features_of[cand.name], background=False)
                 classifier = pool.result(plain)
-            path = join(pool.result(front), classifier, out_dir / f"{_slug(cand.name)}.onnx", meta)
+            path = join(pool.result(front), classifier, out_dir / f"{slug(cand.name)}.onnx", meta)
             pipe = OnnxPipeline(path)
             res.onnx_agreement = float(np.mean(classes[pipe.predict(raw)] == res.parity_predictions))
             res.latency_ms = 1e3 * time_per_sample(pipe.predict, raw[:1])
@@ -324,12 +221,12 @@ def export_and_time(
         except Exception as err:  # a failed export leaves the candidate out of the choice, said in its notes
             lines = [line for line in str(err).splitlines() if line.strip()]
             res.notes.append(f"ONNX export failed: {type(err).__name__}: {(lines or [''])[-1][:200]}")
-    for res in _progress(learned, "ONNX export (learned models)", progress):
+    for res in progress_bar(learned, "ONNX export (learned models)", progress):
         s = samples[res.candidate.input]
         raw = np.ascontiguousarray(s.X[s.folds[0][1][:PARITY_SAMPLES]])
         try:
             path = export_learned(
-                res, s, class_names, out_dir / f"{_slug(res.candidate.name)}.onnx", metadata or {}
+                res, s, class_names, out_dir / f"{slug(res.candidate.name)}.onnx", metadata or {}
             )
             pipe = OnnxPipeline(path)
             classes = res.model.steps[-1][1].classes_
@@ -350,13 +247,13 @@ def classical_fold_file(
     """Return ``fold_file(model, path)``: writes a classical fold model of ``candidate`` to one ONNX file
     (its stateless feature graph from ``pool``, its head bound to the fold's tensors); ``None`` for a
     features step fitted per fold (its graph would be exported once per fold)."""
-    from .export import bind_head, export_head, head_key, join
+    from .export import bind_head, export_head, head_key, head_modules, join
 
     def fold_file(model: Pipeline, path: Path) -> Path | None:
         step = model.named_steps["features"]
         if not _stateless(step):
             return None
-        modules = _head_modules(model)
+        modules = head_modules(model)
         n_features = int(step.transform(samples.X[:1]).shape[1])
         head = ("head", *head_key(modules, n_features))
         pool.submit(head, export_head, modules, n_features, background=False)

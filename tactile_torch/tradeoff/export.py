@@ -316,6 +316,37 @@ class ExportPool:
         return self._models[key]
 
 
+def head_modules(model: object) -> list:
+    """Return the fitted steps of a ``Pipeline`` after ``features`` as torch modules: selection,
+    standardisation, classifier (the head :func:`export_head` exports).
+
+    A learned candidate (:mod:`.learned`) has no such head: it is exported whole. The one builder of
+    heads from fitted pipelines: the trade-off's export, its deployment, touch times and the
+    learned-model comparison (:mod:`tactile_torch.neural.comparison`) all call it.
+    """
+    from ..classifier_inference import inference_module
+    from .transformers import ColumnSelect
+
+    modules = []
+    if "select" not in model.named_steps:  # an identity selection: heads with and without one share a graph
+        n = model.named_steps["scale"].n_features_in_
+        modules.append(ColumnSelect(np.arange(n)))
+    for name, step in model.steps[1:]:
+        if name == "classifier":
+            head = inference_module(step)
+            if modules and isinstance(modules[-1], Standardize):
+                absorb_rbf_gamma(modules[-1], head)
+            share_tree_depth(head)
+            modules.append(head)
+        elif hasattr(step, "to_module"):
+            modules.append(step.to_module())
+        elif hasattr(step, "scale_") and hasattr(step, "mean_"):  # StandardScaler
+            modules.append(Standardize(step.mean_, step.scale_))
+        else:
+            raise TypeError(f"pipeline step {name!r} ({type(step).__name__}) has no export path")
+    return modules
+
+
 __all__ = [
     "DEPTH_STEP",
     "ExportPool",
@@ -326,6 +357,7 @@ __all__ = [
     "export_front",
     "export_head",
     "head_key",
+    "head_modules",
     "join",
     "share_tree_depth",
 ]

@@ -150,10 +150,10 @@ def n_parameters(model: object) -> int | None:
     clf = model.steps[-1][1]
     if hasattr(clf, "n_parameters_"):
         return int(clf.n_parameters_)
-    from .evaluation import _head_modules
+    from .export import head_modules
 
     try:
-        return int(sum(b.numel() for m in _head_modules(model) for b in m.buffers()))
+        return int(sum(b.numel() for m in head_modules(model) for b in m.buffers()))
     except (TypeError, ValueError, KeyError):
         return None
 
@@ -219,15 +219,16 @@ def add_int8_and_memory(
     """
     import dataclasses
 
+    from ..engine import progress_bar
     from ..robot.runtime import OnnxPipeline
-    from .evaluation import CandidateResult, _progress
+    from .candidates import CandidateResult
     from .int8 import CLASSIFIER_PREFIX, quantise_bundle, quantised_nodes
 
     out_dir = Path(out_dir)
     parts = out_dir / "parts-int8"
     added, unchanged = [], []
     chosen = [r for r in results if r.onnx_file and (not quick or is_learned(r.model))]
-    for res in _progress(chosen, "int8", progress):
+    for res in progress_bar(chosen, "int8", progress):
         s = samples[res.candidate.input]
         first = out_dir / res.onnx_file
         fold_accuracy, q_first, agreement, mode = [], None, None, None
@@ -311,12 +312,12 @@ def measure_memory(
     results: list, samples: dict, out_dir: str | Path, *, only: set[str] | None, progress: bool
 ) -> None:
     """Fill ``memory_mib`` of the results with a file (only those named in ``only`` when given)."""
+    from ..engine import progress_bar
     from ..robot.runtime import OnnxPipeline
-    from .evaluation import _progress
     from .memory import peak_memory_mib
 
     chosen = [r for r in results if r.onnx_file and (only is None or r.candidate.name in only)]
-    for res in _progress(chosen, "memory", progress):
+    for res in progress_bar(chosen, "memory", progress):
         s = samples[res.candidate.input]
         path = Path(out_dir) / res.onnx_file
         try:

@@ -165,6 +165,17 @@ def write_outputs(result: TradeoffResult, out_dir: str | Path, *, command: str =
             paths[kind] = _chart(result, kind, out / "figures" / CHARTS[kind][0])
         except Exception as err:  # a chart that fails leaves the results (and the other charts) written
             result.mark_incomplete(f"chart {CHARTS[kind][0]}", err)
+    if result.touch_time:
+        from .touch_time import draw_touch_time
+
+        try:
+            paths["touch"] = draw_touch_time(
+                result.touch_time,
+                out / "figures" / "accuracy-vs-time-into-touch.png",
+                chance=result.chance or None,
+            )
+        except Exception as err:  # as above: the results stay written
+            result.mark_incomplete("chart accuracy-vs-time-into-touch.png", err)
     data = result.data
     doc = {
         "tactile_torch_version": __version__,
@@ -204,13 +215,16 @@ def write_outputs(result: TradeoffResult, out_dir: str | Path, *, command: str =
         "breaking_points": result.breaking_points,  # see TradeoffResult.breaking_points
         "complete": not result.incomplete,
         "incomplete": result.incomplete,
+        "accuracy_vs_time": [c.to_json() for c in result.touch_time.values()],  # frame data (.touch_time)
     }
     paths["json"] = out / "tradeoff.json"
     paths["json"].write_text(json.dumps(doc, indent=1, default=_json_default) + "\n")
     paths["md"] = out / "tradeoff.md"
     paths["md"].write_text(
         markdown(
-            result, command=command, figures={k: p.relative_to(out) for k, p in paths.items() if k in CHARTS}
+            result,
+            command=command,
+            figures={k: p.relative_to(out) for k, p in paths.items() if k in CHARTS or k == "touch"},
         )
     )
     return paths
@@ -331,8 +345,14 @@ def markdown(result: TradeoffResult, *, command: str = "", figures: dict[str, Pa
         "",
     ]
     lines += _table(table_rows(result))
-    for kind, rel in (figures or {}).items():
+    figures = dict(figures or {})
+    touch = figures.pop("touch", None)
+    for kind, rel in figures.items():
         lines += [f"![accuracy vs {kind}]({rel.as_posix()})", ""]
+    if result.touch_time:
+        from .touch_time import touch_time_markdown
+
+        lines += touch_time_markdown(result.touch_time, None if touch is None else touch.as_posix())
     if result.breaking_points:
         points = result.breaking_points
         lines += ["## Breaking points", "", *_table(points.get("rows") or [])]

@@ -402,7 +402,7 @@ def execute_plan(
     baselines = baseline_rows(inputs)
     for b in baselines.values():
         b.pop("_units")
-    return TradeoffResult(
+    result = TradeoffResult(
         data=data,
         results=results,
         rows=rows,
@@ -420,6 +420,13 @@ def execute_plan(
         warnings=_unit_warnings(inputs),
         references=plan.references,
     )
+    if data.kind in ("image", "pressure"):  # how long the hand must hold (docs/tradeoff.md)
+        from .touch_time import accuracy_vs_time
+
+        stage = time.perf_counter()
+        result.touch_time = accuracy_vs_time(result, quick=plan.quick, log=log)
+        result.seconds += time.perf_counter() - stage
+    return result
 
 
 def _study_model(plan: TradeoffPlan) -> str | None:
@@ -493,10 +500,12 @@ def run_tradeoff(
     seed = int(options.get("random_state", 0))
     wanted = [deploy] if isinstance(deploy, str) else list(deploy or ())
     known = [c.name for c in plan.candidates]
-    unknown = [d for d in wanted if d != "recommended" and d not in known]
+    # an int8 variant (``NAME (int8)``, as tradeoff.json names it) is made after the cross-validation
+    unknown = [d for d in wanted if d != "recommended" and d.removesuffix(" (int8)") not in known]
     if unknown:
         raise ValueError(
-            f"deploy must name a candidate of this study, got {unknown[0]!r}; candidates: {known}"
+            f"deploy must name a candidate of this study, got {unknown[0]!r}; candidates: {known} "
+            "(or their int8 variants, 'NAME (int8)')"
         )
     from ..robot.errors import internal_stage
 
@@ -514,9 +523,16 @@ def run_tradeoff(
                 random_state=seed,
             )
         names = [result.recommended if d == "recommended" else d for d in wanted]
+        measured = {r.candidate.name for r in result.results}
         for name in dict.fromkeys(n for n in names if n is not None):
             from .deploy import deploy_candidate
 
+            if name not in measured:  # an int8 variant the study did not make: the data's, not a bug
+                result.notes.append(
+                    f"deploy= {name!r} not written: the study made no such int8 variant (a quick study makes "
+                    "them of the learned models only; a classical file with nothing to quantise has none)"
+                )
+                continue
             stage = time.perf_counter()
             try:
                 result.deployed.append(deploy_candidate(result, name, out_dir, pool, random_state=seed))

@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .evaluation import CandidateResult
+from .candidates import CandidateResult
 from .inputs import Samples, TradeoffData
 from .selection import (
     MIN_UNITS,
@@ -69,6 +69,9 @@ class TradeoffResult:
         ends with status 1 (:meth:`mark_incomplete`).
     references : dict of str to FeatureRecipe
         Per raw input, its reference feature set (:class:`~.runner.TradeoffPlan`).
+    touch_time : dict of str to TouchTime
+        Frame data: accuracy against time into the touch of the recommended candidate and the
+        runner-up, with the early-decision rule their held-out touches calibrate (:mod:`.touch_time`).
     """
 
     data: TradeoffData
@@ -97,6 +100,8 @@ class TradeoffResult:
             error = f"{type(error).__name__}: {' '.join(str(error).split())[:300]}"
         self.incomplete.append({"stage": stage, "error": error})
 
+    touch_time: dict = field(default_factory=dict)
+
     @property
     def status(self) -> str:
         """``"recommended"``, ``"none adequate"`` (candidates were measured, none reaches the rule's bar) or
@@ -114,7 +119,7 @@ class TradeoffResult:
         raise KeyError(name)
 
     def result(self, name: str) -> CandidateResult:
-        """Return the :class:`~.evaluation.CandidateResult` of candidate ``name`` (its estimator, fitted model)."""
+        """Return the :class:`~.candidates.CandidateResult` of candidate ``name`` (its estimator, fitted model)."""
         for res in self.results:
             if res.candidate.name == name:
                 return res

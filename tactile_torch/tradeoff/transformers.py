@@ -50,6 +50,7 @@ from ..image import (
     exploration_features,
     otsu_threshold,
 )
+from ..robot.touches import CONTACT, contact_sign, reading_noise, resting_level
 from ..signal import AXIS_FEATURES, WindowFeatures, window_features
 
 EROSION_FRACTION = DEFAULT_EROSION / 96
@@ -57,10 +58,6 @@ EROSION_FRACTION = DEFAULT_EROSION / 96
 bundled 96-pixel frames."""
 MAX_TAXELS = 256
 """Largest frame (taxels or pixels) for which per-taxel time-series features are offered (7 per taxel)."""
-CONTACT = ("raises", "lowers", "auto")
-"""How contact changes a raw pressure reading: found from the data (``"auto"``) or given."""
-_RESTING_PERCENTILE = 5.0
-_MIN_SKEW = 0.1
 
 
 def relative_erosion(height: int, width: int) -> int:
@@ -301,20 +298,10 @@ class PressureImageFeatures(TransformerMixin, BaseEstimator):
         threshold = self.threshold
         self.factor_ = display_factor(*X.shape[-2:]) if self.upsample == "auto" else int(self.upsample)
         values = X.astype(np.float64).reshape(-1, *X.shape[2:])  # (N * T, H, W)
-        dev = values - np.median(values, axis=0)
-        spread = dev.std()
-        self.skewness_ = float((dev**3).mean() / spread**3) if spread > 0 else 0.0
-        if self.contact == "auto":
-            if abs(self.skewness_) < _MIN_SKEW:
-                raise ValueError(
-                    "contact: the readings do not show whether contact raises or lowers them "
-                    f"(skewness {self.skewness_:.2f}); set contact='raises' or contact='lowers'"
-                )
-            self.sign_ = 1.0 if self.skewness_ > 0 else -1.0
-        else:
-            self.sign_ = 1.0 if self.contact == "raises" else -1.0
+        # the contact direction and each taxel's resting level: the robot's touch levels use the same
+        self.sign_, self.skewness_ = contact_sign(values, self.contact)
         signed = self.sign_ * values
-        self.resting_ = np.percentile(signed, _RESTING_PERCENTILE, axis=0)
+        self.resting_ = resting_level(signed)
         above = np.maximum(signed - self.resting_, 0.0)
         self.scale_ = float(above.max())
         if self.scale_ <= 0:
@@ -334,8 +321,7 @@ class PressureImageFeatures(TransformerMixin, BaseEstimator):
         elif threshold == "display":
             # Frame-to-frame differences cancel the slowly changing contact: their median absolute value
             # measures the sensor noise (Gaussian: sigma = 1.4826 * MAD / sqrt(2)).
-            steps = np.abs(np.diff(X.astype(np.float64), axis=1))
-            self.noise_ = float(1.4826 * np.median(steps) / np.sqrt(2.0)) if X.shape[1] > 1 else 0.0
+            self.noise_ = reading_noise(X)
             self.level_ = max(DISPLAY_FLOOR_SHARE * self.scale_, NOISE_MULTIPLE * self.noise_)
         else:
             self.level_ = float(threshold) * self.scale_

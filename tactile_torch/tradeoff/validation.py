@@ -7,6 +7,23 @@ import numpy as np
 
 from .inputs import Samples, TradeoffData
 
+FLOAT32_MAX = float(np.finfo(np.float32).max)
+"""A sample at float32's largest magnitude is an overflow a reader saturated (1e308 read as float32), not a
+measurement: refused as a non-finite one is."""
+
+
+MAX_ACCELERATION_G = 1e15
+"""A vibration sample beyond this many g is no measurement (accelerometers read at most thousands of g) and
+its window's features overflow float32 (spectral powers of 1e25 g are inf): refused even with
+``--sensor-range inf``, in one line, before any work."""
+
+
+def _not_finite(values: np.ndarray, limit: float = FLOAT32_MAX) -> np.ndarray:
+    """Where ``values`` are NaN, infinite, or at least ``limit`` in magnitude (default: saturated at
+    float32's range, :data:`FLOAT32_MAX`)."""
+    values = np.asarray(values)
+    return ~np.isfinite(values) | (np.abs(values) >= limit)
+
 
 def check_two_classes(data: TradeoffData) -> None:
     """One class: nothing to choose between (one line naming the class, before any work)."""
@@ -23,27 +40,26 @@ def check_two_classes(data: TradeoffData) -> None:
 
 def check_finite(data: TradeoffData) -> None:
     """A sample that is not a finite number (NaN, or an overflow such as 1e308 read as float32) would make
-    every candidate fail after minutes: one line naming where, before any work."""
+    every candidate fail after minutes: one line naming where, before any work. A value saturated at
+    float32's range (a reader that clips 1e308 to 3.4e38 rather than overflowing to inf) is refused too:
+    its features overflow all the same."""
     where = data.description.partition(":")[0]
     if data.kind == "vibration":
         rec = data.recordings
         for r, signal in enumerate(rec.signals):
-            bad = ~np.isfinite(np.asarray(signal))
+            bad = _not_finite(signal, MAX_ACCELERATION_G)
             if bad.any():
                 row, axis = np.argwhere(bad)[0]
                 session = "" if rec.session is None else f", session {rec.session[r]}"
                 raise ValueError(
                     f"data: {where}: the recording of {rec.class_names[int(rec.labels[r])]!r}{session} holds "
                     f"{int(bad.sum())} value(s) that are not finite numbers (first: sample {row}, axis "
-                    f"{'xyz'[axis]}: NaN, or beyond float32's range such as 1e308); every window must be "
-                    "finite: fix or drop them (a finite sensor range, sensor_range_g=, refuses such values)"
+                    f"{'xyz'[axis]}: {float(np.asarray(signal)[row, axis]):.3g}; NaN, inf, or beyond "
+                    f"{MAX_ACCELERATION_G:.0e} g, which no accelerometer reads and whose features overflow); every "
+                    "window must be finite: fix or drop them (a finite sensor range, sensor_range_g=, refuses such values)"
                 )
-    elif (
-        data.raw is not None
-        and np.issubdtype(data.raw.dtype, np.floating)
-        and not np.isfinite(data.raw).all()
-    ):
-        first = np.argwhere(~np.isfinite(data.raw))[0]
+    elif data.raw is not None and np.issubdtype(data.raw.dtype, np.floating) and _not_finite(data.raw).any():
+        first = np.argwhere(_not_finite(data.raw))[0]
         raise ValueError(
             f"data: {where}: sample {first[0]} holds values that are not finite numbers; every sample must be finite"
         )

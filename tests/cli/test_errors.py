@@ -189,7 +189,8 @@ CASES = [
     (
         "stream",
         ["--model", "m.onnx", "--port", "/dev/null", "--range", "0"],
-        "argument --range: expected a number of g > 0 (inf: no check), got '0'",
+        # parsed once the bundle says samples or frames (frames take LOW,HIGH)
+        "--range must be a number of g > 0 ('inf': no check), got '0'",
     ),
     (
         "train",

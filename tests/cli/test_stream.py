@@ -367,14 +367,20 @@ def test_stream_bad_options_are_one_usage_error(model, args, match, capsys):
 def test_stream_refuses_a_bundle_that_takes_no_windows(tmp_path, capsys):
     model = energy_bundle(tmp_path / "features.onnx", drop=("window_size",))
     assert main(["stream", "--model", str(model), "--port", "/dev/null"]) == 2
-    assert capsys.readouterr().err.strip() == f"tactile-torch stream: {model} does not take vibration windows"
+    assert (
+        capsys.readouterr().err.strip()
+        == f"tactile-torch stream: {model} does not take vibration windows or taxel frames"
+    )
 
 
 def test_simulate_sensor_needs_a_port_or_a_pty(capsys):
     assert main(["simulate-sensor"]) == 2
     assert (
-        capsys.readouterr().err.strip() == "tactile-torch simulate-sensor: give either --port PORT or --pty"
+        capsys.readouterr().err.strip()
+        == "tactile-torch simulate-sensor: give one of --port PORT, --pty or --ros2-topic TOPIC"
     )
+    assert main(["stream", "--model", "m.onnx"]) == 2  # a stream reads a port or a ROS 2 topic
+    assert "give either --port PORT (a serial sensor) or --ros2-topic TOPIC" in capsys.readouterr().err
 
 
 @pytest.fixture

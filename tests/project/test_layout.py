@@ -20,6 +20,10 @@ The public modules that no test names yet are listed in ``KNOWN_GAPS``, each wit
 
 No module of the library (nor of ``train/``, ``export/``, ``bench/``) is above 600 lines, except the
 compiled SMO kernel ``tactile_torch/svm/_smo.py``.
+
+CONTRIBUTING.md's "Which file to touch" table names every package (``tactile_torch/<package>/`` in a
+row), so that a contributor finds each package's file to touch there. The import rules (no cycle, no
+arrow up the floors) are ``test_imports.py``'s.
 """
 
 from __future__ import annotations
@@ -43,12 +47,18 @@ KNOWN_GAPS = {
     "tactile_torch.default_bundles": "no test of its own (minutes); its steps are tests/test_pipeline.py's",
     "tactile_torch.robustness.results": "the sweep results, read in tests/robustness/test_robustness.py",
     "tactile_torch.studies.learned_models": "no test of its own; its models are tests/neural/'s",
-    "tactile_torch.tradeoff.deploy": "tradeoff --deploy, in tests/tradeoff/test_tradeoff.py",
 }
 
 
 def _packages(library: Path) -> list[str]:
     return sorted(p.parent.name for p in library.glob("*/__init__.py"))
+
+
+def contributing_table_gaps(library: Path, contributing: Path) -> list[str]:
+    """Packages of the library that no row of the "Which file to touch" table names as ``tactile_torch/<package>/``."""
+    section = contributing.read_text().split("\n## Which file to touch", 1)[-1].split("\n## ", 1)[0]
+    table = "\n".join(line for line in section.splitlines() if line.startswith("|"))
+    return [package for package in _packages(library) if f"tactile_torch/{package}/" not in table]
 
 
 def misplaced_root_tests(library: Path, tests: Path) -> list[str]:
@@ -143,6 +153,12 @@ def test_every_public_module_is_named_by_a_test():
     assert untested_modules(LIBRARY, TESTS) == sorted(KNOWN_GAPS)
 
 
+def test_contributing_table_names_every_package():
+    assert contributing_table_gaps(LIBRARY, ROOT / "CONTRIBUTING.md") == [], (
+        "add its row to 'Which file to touch'"
+    )
+
+
 def test_no_module_above_600_lines():
     assert long_modules(ROOT) == []
 
@@ -166,3 +182,9 @@ def test_the_checks_fail_on_violations(tmp_path):
     (tests / "test_wire.py").unlink()
     assert untested_modules(library, tests) == ["tactile_torch.robot.wire"]
     assert long_modules(tmp_path) == [f"tactile_torch/robot/wire.py ({MAX_LINES + 1} lines)"]
+    contributing = tmp_path / "CONTRIBUTING.md"
+    contributing.write_text(
+        "## Which file to touch\n\n| to add | the file |\n|---|---|\n| a wire | `tactile_torch/robot/wire.py` |\n"
+        "\n## Next\n\n`tactile_torch/svm/` named outside the table\n"
+    )
+    assert contributing_table_gaps(library, contributing) == ["svm"]

@@ -270,3 +270,12 @@ def test_formats_import_without_torch(tmp_path):
     )
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "(4, 3, 400)"  # 500 samples: 1 window, 800: 3
+
+
+def test_labelled_input_has_one_home_importable_from_formats_and_runtime():
+    """``LabelledInput`` moved to ``robot.labelled``; the old import paths give the same class."""
+    from tactile_torch.robot import formats, labelled, runtime
+
+    assert formats.LabelledInput is labelled.LabelledInput is runtime.LabelledInput
+    item = labelled.LabelledInput(np.zeros((2, 3, 4), np.float32), np.array([0, -1]), ["a"])
+    assert item.rate_hz is None and item.note is None and item.labels.tolist() == [0, -1]

@@ -12,6 +12,7 @@ from tactile_torch.cli import BAD_INPUT_EXIT, main
 from tactile_torch.robot.data_sources import DataOptions, read_source
 from tactile_torch.robot.ros_bags import read_bag
 from tests.robot_data import surface_recordings
+from tests.ros2_helpers import write_frame_bag
 from tests.stream_helpers import energy_bundle
 
 pytest.importorskip(
@@ -109,7 +110,7 @@ def test_pressure_bags_become_explorations(tmp_path):
         write_pressure_bag(tmp_path / "grid_1", maps[1], storage="sqlite3", layout=False),
     ]
     with pytest.raises(
-        ValueError, match=r"grid_1:/pressure: message 0 has 20 values and a layout of 0 dimension"
+        ValueError, match=r"grid_1:/pressure: message 0 has 20 values and no two-dimensional shape"
     ):
         read_source(bags)
     data = read_source(bags, DataOptions(shape=(4, 5), frames=10))
@@ -150,3 +151,91 @@ def test_predict_reads_bags_by_topic_without_torch(tmp_path, rec, capsys):
     assert main(["predict", "--model", model, "--data", str(bag), "--topic", "/nope"]) == BAD_INPUT_EXIT
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "no topic '/nope'; the bag has /imu (sensor_msgs/msg/Imu)" in err
+
+
+@pytest.mark.parametrize(
+    ("msgtype", "encoding", "sensor"),
+    [
+        ("sensor_msgs/msg/Image", "mono8", None),
+        ("sensor_msgs/msg/Image", "mono16", None),
+        ("sensor_msgs/msg/Image", "32FC1", None),
+        ("tactile_msgs/msg/TactileState", "32FC1", "tip"),
+    ],
+)
+def test_image_and_tactile_state_bags_become_maps_timed_by_their_headers(tmp_path, msgtype, encoding, sensor):
+    from tactile_torch.robot.ros_messages import TopicFields
+
+    rng = np.random.default_rng(1)
+    maps = rng.integers(0, 256, (12, 4, 5)).astype(np.float32)
+    fields = TopicFields(msgtype, sensor=sensor)
+    bag = write_frame_bag(tmp_path / "duck_1", fields, maps, encoding=encoding, storage="sqlite3")
+    shape = None if msgtype.endswith("Image") else (4, 5)
+    topic = read_bag(bag, sensor=sensor, shape=shape)
+    assert (
+        topic.kind == "frame"
+        and topic.values.shape == (12, 4, 5)
+        and topic.rate_hz == pytest.approx(1 / 0.066)
+    )
+    np.testing.assert_array_equal(topic.values, maps)
+    if msgtype.endswith("TactileState"):
+        with pytest.raises(
+            ValueError, match=r"duck_1:/tactile: message 0 has 20 values and no two-dimensional shape"
+        ):
+            read_bag(bag)
+    data = read_source([bag], DataOptions(shape=shape, sensor=sensor, frames=6))
+    assert data.kind == "image" and data.pressure.shape == (2, 6, 4, 5) and data.class_names == ("duck",)
+
+
+def test_unstamped_headers_fall_back_to_the_bags_receive_stamps(tmp_path):
+    from tactile_torch.robot.ros_messages import TopicFields
+
+    maps = np.arange(5 * 6, dtype=np.float32).reshape(5, 2, 3)
+    bag = write_frame_bag(tmp_path / "b", TopicFields("sensor_msgs/msg/Image"), maps, stamps_ns=[0] * 5)
+    assert read_bag(bag).rate_hz == pytest.approx(100.0)  # receive stamps 10 ms apart
+
+
+def test_a_robots_own_message_is_read_from_the_bags_definition_or_a_msg_file(tmp_path):
+    from tactile_torch.robot.ros_messages import TopicFields
+    from tactile_torch.robot.ros_types import MessageDefinition, message_types
+
+    text = "std_msgs/Header header\nfloat32[] taxels\nuint8 finger\n"
+    own = MessageDefinition(text, "my_hand/msg/Taxels")
+    maps = np.arange(8 * 6, dtype=np.float32).reshape(8, 2, 3)
+    fields = TopicFields("my_hand/msg/Taxels", field="taxels")
+    bag = write_frame_bag(tmp_path / "mcap_bag", fields, maps, store=message_types([own]))
+    np.testing.assert_array_equal(read_bag(bag, "/tactile", field="taxels", shape=(2, 3)).values, maps)
+    with pytest.raises(ValueError, match=r"field='taxels' given; name one with topic="):
+        read_bag(bag, field="taxels", shape=(2, 3))
+    with pytest.raises(
+        ValueError, match=r"topic /tactile holds my_hand/msg/Taxels, expected .* or the numbers at field="
+    ):
+        read_bag(bag, "/tactile")
+    with pytest.raises(ValueError, match=r"my_hand/msg/Taxels has no field 'values'"):
+        read_bag(bag, "/tactile", field="values", shape=(2, 3))
+    # the same topic with the definition given as a .msg file (a bag that does not store it)
+    read = read_bag(bag, "/tactile", field="taxels", shape=(2, 3), msg_defs=[own])
+    np.testing.assert_array_equal(read.values, maps)
+
+
+def test_a_bag_of_pressure_maps_is_a_frame_recording_predict_cuts_touches_from(tmp_path, capsys):
+    """simulate-sensor and predict read a bag of pressure maps as one frame recording (its stamps as t)."""
+    import json
+
+    from tactile_torch.robot.frame_recordings import read_frame_recording
+    from tactile_torch.robot.touches import TouchLevels
+    from tests.stream_helpers import frame_bundle
+
+    maps = np.zeros((20, 4, 5), np.float32)
+    maps[3:9, :2] = 5.0  # two touches: top rows, then bottom rows
+    maps[12:17, 2:] = 5.0
+    bag = write_pressure_bag(tmp_path / "dots_1", maps)
+    rec = read_frame_recording(bag)
+    assert rec.frames.shape == (20, 4, 5) and rec.class_names == ("dots",) and rec.labels.tolist() == [0] * 20
+    np.testing.assert_allclose(rec.t[:3], [0.0, 0.1, 0.2], atol=1e-9)
+    weights = np.zeros((4, 5, 2), np.float32)
+    weights[:2, :, 0] = weights[2:, :, 1] = 1.0
+    levels = TouchLevels(onset=5.0, release=2.0).to_metadata()
+    bundle = frame_bundle(tmp_path / "b.onnx", weights, n_frames=4, metadata={"touch_levels": levels})
+    assert main(["predict", "--model", str(bundle), "--data", str(bag), "--json"]) == 0
+    touches = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
+    assert [(r["start"], r["frames"], r["label"]) for r in touches] == [(3, 6, 0), (12, 5, 1)]

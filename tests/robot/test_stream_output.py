@@ -127,10 +127,11 @@ def test_json_lines_are_strict_json_with_every_field(bundle):
     assert len(records) == 4 and all("\n" not in line for line in lines)
     first = records[0]
     assert set(first) == {
-        "window", "time", "sample", "t_start", "t_end", "rate_hz", "label", "name", "score", "scores",
+        "event", "window", "time", "sample", "t_start", "t_end", "rate_hz", "label", "name", "score", "scores",
         "latency_ms", "skipped", "rejected", "gaps", "flags", "reason", "vote",
     }  # fmt: skip
     assert (first["window"], first["sample"], first["name"], first["skipped"]) == (0, 16, "y", 1)
+    assert first["event"] == "window"
     assert first["t_start"] == 0.0 and first["t_end"] == pytest.approx(15 / 800.0)
     assert first["score"] == max(first["scores"]) and first["rate_hz"] == pytest.approx(800.0)
     assert first["vote"] == {"label": 1, "name": "y", "support": 1.0, "windows": 1}

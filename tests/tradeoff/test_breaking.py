@@ -66,7 +66,8 @@ def test_a_cnn_recommended_is_swept_and_a_late_failure_keeps_the_outputs(tmp_pat
     path = sawtooth_recordings(2.0).save(tmp_path / "saw.npz")
     out = tmp_path / "study"
     argv = ["tradeoff", "--data", str(path), "--out", str(out), "--quick", "--quiet", "--windows", "200"]
-    status = main([*argv, "--classifiers", "lda,cnn-small", "--folds", "2"])
+    int8_name = "1-D CNN small | raw window, W = 200 (int8)"  # a name of tradeoff.json, made after the folds
+    status = main([*argv, "--classifiers", "lda,cnn-small", "--folds", "2", "--deploy", int8_name])
     captured = capsys.readouterr()
     assert status == 1, captured.err
     err = captured.err.strip().splitlines()
@@ -121,6 +122,12 @@ def test_a_cnn_recommended_is_swept_and_a_late_failure_keeps_the_outputs(tmp_pat
         assert np.mean(bundle.predict(x) == -1) >= 0.95, kind
     held_in = sawtooth_recordings(1.0, sessions=1, random_state=9).windows(200).windows.numpy()
     assert np.mean(bundle.predict(held_in) == -1) <= 0.1
+    # --deploy of an int8 variant: quantised, with the same rule as its float twin
+    deployed = {d["name"]: d for d in doc["deployed"]}
+    quantised = OnnxPipeline(out / deployed[int8_name]["onnx"])
+    assert quantised.metadata["quantisation"] == "dynamic"
+    assert quantised.ood_threshold == pytest.approx(deployed[int8_name]["ood_threshold"])
+    assert np.mean(quantised.predict(junk["still sensor"]) == -1) >= 0.95
 
 
 @pytest.mark.slow  # the whole default study (every candidate, every factor at every level): minutes

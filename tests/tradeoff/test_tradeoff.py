@@ -260,6 +260,18 @@ def test_bad_input_gets_one_clear_line(tmp_path, recordings, capsys):
         ValueError, match=r"'aluminium' holds 1 value\(s\) that are not finite .* sample 7, axis z"
     ):
         plan_tradeoff(vibration_data(overflow, "logs"), log=lambda s: None)
+    signals[1][7, 2] = np.finfo(np.float32).max  # 1e308 saturated by a reader instead of overflowing
+    saturated = RecordingArrays(signals, recordings.labels, recordings.class_names, 800.0)
+    with pytest.raises(
+        ValueError, match=r"'aluminium' holds 1 value\(s\) that are not finite .* sample 7, axis z"
+    ):
+        plan_tradeoff(vibration_data(saturated, "logs"), log=lambda s: None)
+    signals[1][7, 2] = 1e30  # beyond any accelerometer: its features overflow float32 (status 4 before)
+    huge = RecordingArrays(signals, recordings.labels, recordings.class_names, 800.0)
+    with pytest.raises(
+        ValueError, match=r"'aluminium' holds 1 value\(s\) .* axis z: 1e\+30; .* beyond 1e\+15 g"
+    ):
+        plan_tradeoff(vibration_data(huge, "logs"), log=lambda s: None)
 
 
 # ---------------------------------------------------------------------------------------- transformers
@@ -442,6 +454,7 @@ def test_tradeoff_on_small_taxel_arrays(tmp_path, monkeypatch):
         progress=False,
         log=lambda s: None,
         background=False,
+        deploy=["LDA | per-taxel 252"],
     )
     assert list(cwd.iterdir()) == []
     assert list((tmp_path / "o" / "timing").glob("*.onnx"))  # the timing files, under out_dir only
@@ -457,6 +470,47 @@ def test_tradeoff_on_small_taxel_arrays(tmp_path, monkeypatch):
     paths = write_outputs(result, tmp_path / "o")
     assert json.loads(paths["json"].read_text())["breaking_points"]["rows"][0]["breaking point"] == 3.0
     assert "## Breaking points" in paths["md"].read_text()
+    _check_touch_time_and_live_metadata(result, tmp_path / "o")
+
+
+def _check_touch_time_and_live_metadata(result, out):
+    """Frame data: accuracy against time into the touch (held-out prefixes brought to T frames as the
+    stream brings them), and the deployed bundle's touch levels, frame rate, value range and early rule."""
+    from tactile_torch.robot.early_decision import EarlyRule
+    from tactile_torch.robot.runtime import OnnxPipeline
+    from tactile_torch.robot.touches import TouchLevels, fit_frames
+    from tactile_torch.tradeoff.touch_time import (
+        draw_touch_time,
+        fold_scores,
+        prefixes,
+        touch_time,
+        touch_time_markdown,
+    )
+
+    name = "LDA | per-taxel 252"
+    res, s = result.result(name), result.inputs["pressure"]
+    curve = touch_time(res, s, result.data.rate_hz, quick=True)
+    assert [r["frames"] for r in curve.rows] == [2, 3, 4, 6] and curve.seconds[-1] == pytest.approx(0.6)
+    assert curve.rows[-1]["accuracy"] == pytest.approx(result.row(name)["accuracy"])  # the study's own
+    assert curve.margins.shape == (len(s.y), 3) and curve.rule.touches == len(s.y)
+    # the prefix scores are those of the fold model's exported graph: its labels are the model's predict
+    model, test = res.cv.models[0], s.folds[0][1]
+    prefix = np.stack([fit_frames(x[:3], 6) for x in s.X[test]])
+    labels, _ = fold_scores(model, prefix)
+    assert np.array_equal(model.steps[-1][1].classes_[labels], model.predict(prefix))
+    # a fused step's features of a stretched prefix are those of the prefix itself (the OR of repeated frames)
+    fused = result.result("LDA | fused 12").cv.models[0].steps[0][1]
+    stretched = np.stack([fit_frames(x[:2], 6) for x in s.X[:4]])
+    assert np.allclose(fused.transform(stretched), fused.transform(prefixes(s.X[:4], 2, fused)), atol=1e-9)
+    assert touch_time_markdown({name: curve}, "f.png")[0] == "## Accuracy against time into the touch"
+    assert draw_touch_time({name: curve}, out / "t.png", chance=0.25).read_bytes()[:4] == b"\x89PNG"
+    bundle = OnnxPipeline(out / "lda-per-taxel-252.onnx")
+    meta = bundle.metadata
+    assert float(meta["frame_rate_hz"]) == 10.0 and json.loads(meta["value_range"])[0] < 200.0
+    levels = TouchLevels.from_metadata(meta["touch_levels"], (6, 6))
+    assert levels.sign == 1.0 and levels.onset > levels.release > 0 and "training data" in levels.source
+    rule = EarlyRule.from_metadata(meta["early_decision"])
+    assert rule.checkpoints == (2, 3, 4) and rule.touches == len(s.y)
 
 
 @pytest.mark.slow

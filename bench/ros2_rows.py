@@ -1,0 +1,231 @@
+"""The DDS rows of the stream benchmark: the same stream fed over a ROS 2 topic, and the transport's floor.
+
+:func:`dds_rows` measures one bundle on frames published by another process
+(:mod:`bench.ros2_probe`) as ``std_msgs/msg/Float32MultiArray`` over Cyclone DDS, on the loopback only
+and a DDS domain of its own, the stream in this process (``Ros2Source`` -> ``LiveStream``, a JSON line
+per result to ``/dev/null``, each decision published back as ``std_msgs/msg/String``):
+
+- ``frames/s``: the publisher writes as fast as its writer takes the messages (best effort, the
+  sensor QoS); frames read / time from the first touch's first frame to the last touch's result, and
+  the frames lost (a best-effort reader that falls behind loses the oldest: its history keeps 1000);
+- ``touch-end latency``: paced at 200 frames/s, from taking the frame that ended a touch off the DDS
+  reader to its JSON line printed (the serial rows' definition), median and 99th percentile; and to
+  its decision published on the decision topic (written to the DDS writer);
+- ``round trip``: on the publisher's clock, from writing the frame that ended a touch to the decision
+  arriving back on the decision topic: two DDS hops, the stream's stages and the model.
+
+:func:`echo_row` is the floor of the transport alone: the same publisher, paced, and in this process a
+DDS echo that answers each frame at once (decode, ``{"i": n}`` published back), no stages, no model.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import subprocess
+import sys
+import time
+
+import numpy as np
+
+PACED_HZ = 200.0
+
+
+def _domain() -> int:
+    from tests.ros2_helpers import free_domain_id
+
+    return free_domain_id()
+
+
+def _publisher(values: np.ndarray, domain: int, rate: float, tmp: str) -> subprocess.Popen:
+    path = os.path.join(tmp, f"frames-{domain}.npy")
+    np.save(path, values.astype(np.float32))
+    argv = [sys.executable, "-m", "bench.ros2_probe", "publish", "--domain-id", str(domain), "--values", path]
+    env = {k: v for k, v in os.environ.items() if k not in ("CYCLONEDDS_URI", "ROS_DOMAIN_ID")}
+    return subprocess.Popen([*argv, "--rate", str(rate)], stdout=subprocess.PIPE, text=True, env=env)
+
+
+def _probe_result(publisher: subprocess.Popen) -> dict:
+    out, _ = publisher.communicate(timeout=120)
+    return json.loads(out.strip().splitlines()[-1])
+
+
+def _stream(bundle: str, frames: np.ndarray, rate: float, tmp: str) -> dict:
+    from tactile_torch.robot.live import LiveOptions, LiveStream, item_spec
+    from tactile_torch.robot.port_lines import StreamDisconnected, StreamTimeout
+    from tactile_torch.robot.ros2_dds import DdsOptions, DdsTypes
+    from tactile_torch.robot.ros2_publish import DecisionPublisher
+    from tactile_torch.robot.ros2_source import Ros2Source
+    from tactile_torch.robot.ros_messages import TopicFields
+    from tactile_torch.robot.ros_types import FLOAT_ARRAY_TYPE, message_types
+    from tactile_torch.robot.runtime import OnnxPipeline
+    from tactile_torch.robot.stream_output import result_json
+
+    pipe = OnnxPipeline(bundle)
+    domain = _domain()
+    source = Ros2Source(
+        "/bench/frames",
+        item_spec(pipe),
+        fields=TopicFields(FLOAT_ARRAY_TYPE),
+        dds=DdsOptions(domain_id=domain, config="loopback"),
+        silence_s=1.0,
+        idle_timeout_s=3.0,
+        start_timeout_s=60.0,
+    )
+    decisions = DecisionPublisher(source.node, "/bench/replies", DdsTypes(message_types()), result_json)
+    live = LiveStream(pipe, source, LiveOptions())
+    live.warm_up()
+    publisher = _publisher(frames, domain, rate, tmp)
+    latencies, published, first, last, counts = [], [], None, None, {"touch": 0, "early": 0}
+    with open(os.devnull, "w") as sink, contextlib.suppress(StreamTimeout, StreamDisconnected):
+        for result in live:  # ends when the publisher leaves
+            print(result_json(result), file=sink, flush=True)
+            printed = time.monotonic()
+            decisions(result)
+            now = time.monotonic()
+            first = first or result.segment.started_at
+            counts[result.kind] += 1
+            if result.kind == "touch":
+                latencies.append((printed - result.segment.ended_at) * 1e3)
+                published.append((now - result.segment.ended_at) * 1e3)
+                last = now
+    probe = _probe_result(publisher)
+    source.close()
+    read = source.counts.items
+    trips = [ms for _, ms in probe["replies"]]
+    return {
+        "frames": read,
+        "lost": len(frames) - read,
+        "frames_per_s": read / (last - first) if first is not None and last is not None else float("nan"),
+        "touches": counts["touch"],
+        "early": counts["early"],
+        "latency_median_ms": float(np.median(latencies)) if latencies else float("nan"),
+        "latency_p99_ms": float(np.percentile(latencies, 99)) if latencies else float("nan"),
+        "published_median_ms": float(np.median(published)) if published else float("nan"),
+        "trip_median_ms": float(np.median(trips)) if trips else float("nan"),
+        "trip_p99_ms": float(np.percentile(trips, 99)) if trips else float("nan"),
+        "publisher_frames_per_s": probe["written"] / probe["seconds"],
+    }
+
+
+def dds_rows(
+    bundle: str, model: str, side: int, frames: np.ndarray, paced: np.ndarray, tmp: str
+) -> list[dict]:
+    """One row: ``bundle`` streamed over DDS (frames/s on ``frames``, latencies on ``paced`` at 200 Hz)."""
+    fast = _stream(bundle, frames, 0.0, tmp)
+    slow = _stream(bundle, paced, PACED_HZ, tmp)
+    return [
+        {
+            "array": f"{side}x{side}",
+            "model": model,
+            "path": "ROS 2 (Cyclone DDS, loopback)",
+            "frames/s (1 thread)": round(fast["frames_per_s"]),
+            "frames lost": fast["lost"],
+            "touches (early)": f"{fast['touches']} ({fast['early']})",
+            "touch-end latency median ms": round(slow["latency_median_ms"], 3),
+            "p99 ms": round(slow["latency_p99_ms"], 3),
+            "to published median ms": round(slow["published_median_ms"], 3),
+            "round trip median ms": round(slow["trip_median_ms"], 3),
+            "round trip p99 ms": round(slow["trip_p99_ms"], 3),
+            "publisher frames/s": round(fast["publisher_frames_per_s"]),
+        }
+    ]
+
+
+def echo_row(side: int, paced: np.ndarray, tmp: str) -> dict:
+    """The floor: frames paced at 200 Hz over DDS, each answered at once by a DDS echo in this process."""
+    from tactile_torch.robot.ros2_dds import DdsNode, DdsOptions, DdsTypes, TopicReader
+    from tactile_torch.robot.ros_types import FLOAT_ARRAY_TYPE, STRING_TYPE, message_types
+
+    store = message_types()
+    types = DdsTypes(store)
+    domain = _domain()
+    with DdsNode(DdsOptions(domain_id=domain, config="loopback")) as node:
+        frames = TopicReader(node, "/bench/frames", FLOAT_ARRAY_TYPE, types)
+        writer = node.writer("/bench/replies", STRING_TYPE, types, profile="reliable")
+        publisher = _publisher(paced, domain, PACED_HZ, tmp)
+        answered, last = 0, time.monotonic() + 60.0
+        while answered < len(paced) and time.monotonic() < last:
+            for received in frames.take(0.05):
+                store.deserialize_cdr(received.cdr, FLOAT_ARRAY_TYPE)  # a reader decodes what it takes
+                cdr = store.serialize_cdr(
+                    store.types[STRING_TYPE](data=json.dumps({"i": answered})), STRING_TYPE
+                )
+                writer.write(types.sample(STRING_TYPE, cdr))
+                answered += 1
+                last = time.monotonic() + 5.0
+        probe = _probe_result(publisher)
+    trips = [ms for _, ms in probe["replies"]]
+    return {
+        "array": f"{side}x{side}",
+        "model": "none: DDS echo (the transport's floor)",
+        "path": "ROS 2 (Cyclone DDS, loopback)",
+        "frames lost": len(paced) - answered,
+        "round trip median ms": round(float(np.median(trips)), 3),
+        "round trip p99 ms": round(float(np.percentile(trips, 99)), 3),
+    }
+
+
+NOTES = [
+    "ROS 2 rows: the frames are published by another process (python -m bench.ros2_probe) as "
+    "std_msgs/msg/Float32MultiArray over Cyclone DDS (loopback only, best effort, a DDS domain of their own); "
+    "the stream runs in the benchmark's process (Ros2Source -> LiveStream), publishes each decision back as "
+    "std_msgs/msg/String JSON, and the publisher times each round trip on its own clock: from writing the frame "
+    "that ended a touch to the decision's arrival. The echo row answers every frame at once, no stages, no "
+    "model: the transport's floor.",
+]
+
+
+__all__ = ["NOTES", "PACED_HZ", "dds_rows", "echo_row"]
+
+
+def main() -> None:
+    """``python -m bench.ros2_rows``: the serial and DDS paths side by side, on template bundles, one run.
+
+    Without the trade-off study (minutes): synthetic explorations of a 16 x 16 and a 4 x 4 array (T = 20
+    frames), a class-mean template bundle (``tests.stream_helpers.template_bundle``: a linear classical
+    model with touch levels and a calibrated early rule, frame rate 100 Hz in its metadata), 12 touches
+    as fast as possible and 20 paced at 200 frames/s, through the serial path (a pty, the stream-frames
+    benchmark's own function) and through DDS; then the DDS echo.
+    """
+    import tempfile
+
+    from bench.bench_stream_frames import T, _explorations, _recording
+    from bench.bench_stream_frames import _stream as serial_stream
+    from tests.stream_helpers import template_bundle
+
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for side in (16, 4):
+            x, y, _, names = _explorations(side, quick=True)
+            bundle = str(
+                template_bundle(os.path.join(tmp, f"t{side}.onnx"), x, y, names, frame_rate_hz=100.0)
+            )
+            frames, paced = _recording(x, 12), _recording(x, 20)
+            fast = serial_stream(bundle, frames, paced=False)
+            slow = serial_stream(bundle, paced, paced=True)
+            rows.append(
+                {
+                    "array": f"{side}x{side}",
+                    "model": "class-mean templates",
+                    "path": "serial (pty)",
+                    "frames/s (1 thread)": round(fast["frames_per_s"]),
+                    "frames lost": fast["lost"],
+                    "touches (early)": f"{fast['touches']} ({fast['early']})",
+                    "touch-end latency median ms": round(slow["latency_median_ms"], 3),
+                    "p99 ms": round(slow["latency_p99_ms"], 3),
+                }
+            )
+            rows += dds_rows(bundle, "class-mean templates", side, frames, paced, tmp)
+            rows.append(echo_row(side, paced, tmp))
+    keys = list(dict.fromkeys(k for row in rows for k in row))
+    print("| " + " | ".join(keys) + " |")
+    print("|" + "---|" * len(keys))
+    for row in rows:
+        print("| " + " | ".join(str(row.get(k, "")) for k in keys) + " |")
+    print(f"\n{T} frames per touch; " + " ".join(NOTES))
+
+
+if __name__ == "__main__":
+    main()
