@@ -7,7 +7,7 @@ windows, their features (:func:`tactile_torch.training.load_features`), then the
 :class:`~tactile_torch.signal.ClusteringTransform` and its principal components; a ``features``
 array as it is) and fits :class:`~tactile_torch.mixture.PitmanYorGMM` to it.
 
-**Calibration of the novelty rule.** Recordings: the last ``calibrate`` share (default 20 %) of
+**Calibration of the novelty rule.** Recordings: the last ``calibrate`` share (default a third) of
 each recording's windows is held out of the fit (and of the transform), and the mixture's novelty
 thresholds are set on them (:meth:`~tactile_torch.mixture.PitmanYorGMM.calibrate_novelty`: the
 ``1 - false_alarm`` quantile of the novelty score, minus the log density, per number of
@@ -80,8 +80,12 @@ class Clustering:
             self.fitted_rows = np.arange(len(self.X))
 
 
-DEFAULT_CALIBRATE = 0.2
-"""Share of each recording's windows held out of the fit to calibrate the novelty thresholds."""
+DEFAULT_CALIBRATE = 1 / 3
+"""Share of each recording's windows held out of the fit to calibrate the novelty thresholds: a third
+(issue 32, decision (c); docs/mixture.md: on HapMat and BorealTC it keeps the false alarms after 3
+windows at 2.3 % and 1.3 %, where 20 % gave 8.4 % and 9.1 %)."""
+NOVELTY_COMPONENTS = 5
+"""Principal components of the novelty rule's density (recordings); the first ``components`` of them count K."""
 MAX_WINDOWS = 10
 """Thresholds are calibrated for decisions after N = 1 … ``MAX_WINDOWS`` consecutive windows."""
 
@@ -124,6 +128,7 @@ def fit_clustering(
     window: int = 800,
     step: int | None = None,
     components: int = 3,
+    novelty_components: int | None = NOVELTY_COMPONENTS,
     sensor_range_g: float | None = None,
     name: str = "data",
     log: Callable[[str], None] | None = None,
@@ -142,7 +147,13 @@ def fit_clustering(
     window, step : int
         Vibration: window length and hop in samples (default hop: ``window``).
     components : int
-        Vibration: principal components kept by the transform.
+        Vibration: principal components that the mixture counts and clusters (K, the labels).
+    novelty_components : int or None
+        Vibration: principal components of the novelty rule's density (default 5): the transform
+        keeps ``max(components, novelty_components)`` components, the mixture clusters the first
+        ``components`` and scores novelty on all (:class:`~tactile_torch.mixture.PitmanYorGMM`'s
+        ``cluster_features``); the exported graph computes them side by side. ``None``: the same
+        ``components`` for both.
     sensor_range_g : float, optional
         Vibration: the sensor's range declared by the user, kept in ``source`` (the export's
         default range). ``None`` or ``inf``: not kept.
@@ -152,7 +163,7 @@ def fit_clustering(
         Called with one line once the rows are ready, before the (long) fit.
     calibrate : float, optional
         Share of the rows held out of the fit to calibrate the novelty thresholds on: the last
-        ``calibrate`` of each recording's windows (default for recordings: 0.2,
+        ``calibrate`` of each recording's windows (default for recordings: a third,
         :data:`DEFAULT_CALIBRATE`), or for a feature matrix a random share (default: none, no
         calibration; the draw uses ``random_state``). ``0``: no hold-out, the model's own rule.
     false_alarm : float
@@ -175,6 +186,12 @@ def fit_clustering(
 
     if isinstance(false_alarm, bool) or not (isinstance(false_alarm, int | float) and 0 < false_alarm < 1):
         raise ValueError(f"false_alarm must be a number in (0, 1), got {false_alarm!r}")
+    if novelty_components is not None and (
+        isinstance(novelty_components, bool)
+        or not isinstance(novelty_components, int)
+        or novelty_components < 1
+    ):
+        raise ValueError(f"novelty_components must be an integer >= 1 or None, got {novelty_components!r}")
     transform = None
     if sessions and data.kind == "vibration":
         check_sessions(data, name)  # before any work: a fit on meaningless sessions runs for minutes
@@ -196,13 +213,20 @@ def fit_clustering(
             source["sensor_range_g"] = float(sensor_range_g)
         share = DEFAULT_CALIBRATE if calibrate is None else calibrate
         rows = _holdout(len(features.X), share, features.recording, features.position, None, name)
-        transform = ClusteringTransform(components).fit(features.X[rows[0]])
+        # the novelty rule's components where the data afford them (min(rows, 12 mapped features))
+        width = max(components, min(novelty_components or components, len(rows[0]), 12))
+        transform = ClusteringTransform(width).fit(features.X[rows[0]])
         X = np.asarray(transform.transform(features.X))
+        if width > components:
+            mixture_params = {"cluster_features": components} | mixture_params
         if sessions:
             X = _standardise_sessions(X, data, features.recording, name)
         if log is not None:
             held = f", {rows[1].size} held out to calibrate the novelty rule" if rows[1].size else ""
-            log(f"{name}: {len(X)} windows of {window} samples -> {X.shape[1]} principal components{held}")
+            counted = f" (K counted on the first {components})" if X.shape[1] > components else ""
+            log(
+                f"{name}: {len(X)} windows of {window} samples -> {X.shape[1]} principal components{counted}{held}"
+            )
     else:
         raise ValueError(
             f"{name}: data must hold vibration recordings ('signals') or a 'features' array (n, D) to "

@@ -58,7 +58,8 @@ def save_clustering_model(
         "method": "pyp",
         "class_names": [f"component {i}" for i in range(k)],
         "source": dict(source),
-        "head": {"type": "gaussian-mixture"},
+        "head": {"type": "gaussian-mixture"}
+        | ({"cluster_features": module.cluster_features} if module.cluster_features is not None else {}),
         "summary": mixture.summary(),
         "k_summary": {
             k: (list(v) if isinstance(v, tuple) else v) for k, v in mixture.n_clusters_summary_.items()

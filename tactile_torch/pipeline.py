@@ -338,6 +338,10 @@ def _clustering_pipeline(model: ModelFile, sensor_range_g: float | None) -> Infe
         novelty_precisions_cholesky=state.get("novelty_precisions_cholesky"),
         novelty_log_weight=float(state.get("novelty_log_weight", 0.0)),
         novelty_thresholds=state.get("novelty_thresholds"),
+        density_means=state.get("density_means"),
+        density_precisions_cholesky=state.get("density_precisions_cholesky"),
+        density_log_weights=state.get("density_log_weights"),
+        cluster_features=(model.header.get("head") or {}).get("cluster_features"),
     )
     source = model.source
     modules, shape, layout, meta = _front_end(source, sensor_range_g)

@@ -56,12 +56,20 @@ def test_recordings_go_through_windows_features_and_components(tmp_path):
         **FAST,
     )
     n = len(clustering.X)
-    assert clustering.X.shape == (n, 2) and clustering.truth.shape == (n,)
+    # decision (a) of issue 32: 5 components side by side, K counted and clustered on the first 2
+    assert clustering.X.shape == (n, 5) and clustering.truth.shape == (n,)
+    assert clustering.mixture.cluster_features == 2 and clustering.mixture.means_.shape[1] == 2
+    assert clustering.mixture.density_means_.shape[1] == 5
     assert clustering.source["kind"] == "vibration" and clustering.source["sensor_range_g"] == 8.0
     assert lines == [
-        f"rec.npz: {n} windows of 400 samples -> 2 principal components, 3 held out to calibrate the "
-        "novelty rule"
+        f"rec.npz: {n} windows of 400 samples -> 5 principal components (K counted on the first 2), "
+        "3 held out to calibrate the novelty rule"
     ]
+    # novelty_components=None: one set of components for both
+    same = fit_clustering(
+        read_source([tmp_path / "rec.npz"]), window=400, components=2, novelty_components=None, **FAST
+    )
+    assert same.X.shape == (n, 2) and same.mixture.density_means_ is None
 
 
 def test_images_cannot_be_clustered(tmp_path):
@@ -97,12 +105,12 @@ def test_recordings_are_calibrated_on_their_last_windows_features_only_on_reques
     rec = make_vibration_recordings(3, duration_s=8.0, random_state=0)
     data = read_source([rec.save(tmp_path / "rec.npz")])
     clustering = fit_clustering(data, window=400, components=2, **FAST)
-    n = len(clustering.X)  # 3 recordings x 16 windows: the last 3 of each held out
-    assert clustering.calibration_rows.size == 9 and clustering.fitted_rows.size == n - 9
-    assert clustering.mixture.labels_.shape == (n - 9,) and clustering.false_alarm == 0.02
+    n = len(clustering.X)  # 3 recordings x 16 windows: the last third (5) of each held out
+    assert clustering.calibration_rows.size == 15 and clustering.fitted_rows.size == n - 15
+    assert clustering.mixture.labels_.shape == (n - 15,) and clustering.false_alarm == 0.02
     t = clustering.mixture.novelty_thresholds_
     assert t.shape == (10,) and np.isfinite(t).all()
-    # at most 2 % of the held-out windows are novel: with 9 windows, none (the threshold is their max)
+    # at most 2 % of the held-out windows are novel: with 15 windows, none (the threshold is their max)
     assert not clustering.mixture.novel_after(clustering.X[clustering.calibration_rows], 1).any()
     assert "novelty: a window is novel when its score (minus its log density) exceeds" in clustering_summary(
         clustering
@@ -114,8 +122,21 @@ def test_recordings_are_calibrated_on_their_last_windows_features_only_on_reques
     np.testing.assert_allclose(res["novelty_thresholds"], t)
     assert not res["per_session"]
     model = load_model_file(paths["model"])
-    assert model.header["novelty"] == {"false_alarm": 0.02, "calibration_rows": 9}
+    assert model.header["novelty"] == {"false_alarm": 0.02, "calibration_rows": 15}
     np.testing.assert_allclose(model.arrays["head.novelty_thresholds"], t, rtol=1e-6)
+    # the head counts on 2 of the 5 components (issue 32, decision (a)); crafted shapes are refused
+    from tactile_torch.robot.model_file import validate_model
+
+    assert model.header["head"]["cluster_features"] == 2 and model.arrays["head.means"].shape[1] == 2
+    for change, message in (
+        ({"cluster_features": 5}, r"head\.cluster_features must be in 1\.\.4, got 5"),
+        ({"cluster_features": 3}, r"head\.means has shape .* must be 3"),
+    ):
+        with pytest.raises(ValueError, match=message):
+            validate_model({**model.header, "head": {**model.header["head"], **change}}, model.arrays)
+    short = {**model.arrays, "head.density_means": model.arrays["head.density_means"][:, :4]}
+    with pytest.raises(ValueError, match=r"head\.density_means has shape"):
+        validate_model(model.header, short)
     assert fit_clustering(data, window=400, components=2, calibrate=0, **FAST).calibration_rows.size == 0
     features, _ = _features(tmp_path)
     assert fit_clustering(features, **FAST).mixture.novelty_thresholds_ is None

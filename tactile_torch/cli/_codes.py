@@ -80,6 +80,7 @@ ARGUMENT_FLAGS = {
     "max_iter": "--max-iter",
     "max_seconds": "--max-seconds",
     "calibrate": "--calibrate",
+    "novelty_components": "--novelty-components",
     "false_alarm": "--false-alarm",
     "sessions": "--sessions",
     "onset": "--onset",

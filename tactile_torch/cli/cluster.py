@@ -25,7 +25,7 @@ def register(sub) -> None:
         "the unsupervised transform -> principal components) or to a 'features' array (n, D); write the point "
         "estimate of the clustering (and the MAP sample, the posterior samples of K) to OUT/clustering.npz, a "
         "summary (posterior of K first) to OUT/summary.txt and the model to OUT/model.npz (for tactile-torch "
-        "export). Recordings: the last 20 % of each recording's windows are held out of the fit and set the "
+        "export). Recordings: the last third of each recording's windows are held out of the fit and set the "
         "novelty threshold (--calibrate, --false-alarm) that the exported graph, predict and stream --discover use.",
     )
     add_data_options(
@@ -47,7 +47,14 @@ def register(sub) -> None:
         "--components",
         type=Number(int, low=1),
         default=3,
-        help="recordings: principal components (default: 3)",
+        help="recordings: principal components that count K and cluster (default: 3)",
+    )
+    p.add_argument(
+        "--novelty-components",
+        type=Number(int, low=0),
+        default=5,
+        help="recordings: principal components of the novelty rule's density, computed side by side with "
+        "--components in the exported graph (default: 5; 0: the same as --components)",
     )
     add_allow_pickle(p)
     p.add_argument(
@@ -117,7 +124,7 @@ def register(sub) -> None:
         metavar="SHARE",
         default=None,
         help="share of the rows held out of the fit to calibrate the novelty rule on: the last SHARE of each "
-        "recording's windows (recordings: default 0.2), a random SHARE of a 'features' array (default: "
+        "recording's windows (recordings: default a third), a random SHARE of a 'features' array (default: "
         "none); 0: no hold-out, the model's own rule",
     )
     p.add_argument(
@@ -159,6 +166,7 @@ def run_cluster(args: argparse.Namespace) -> int:
         window=args.window,
         step=args.step,
         components=args.components,
+        novelty_components=args.novelty_components or None,
         sensor_range_g=getattr(args, "data_sensor_range", None),
         name=data_name(args.data),
         log=print,

@@ -165,8 +165,9 @@ ESS_TARGET = 400.0
 def budget_warning(model, auto: bool) -> str | None:
     """Return the warning of a fitted :class:`~tactile_torch.mixture.PitmanYorGMM`, or None when there is none.
 
-    ``n_iter="auto"``: only when a budget ran out before the targets held; it gives the diagnostics
-    that missed their target and names the budget to raise. A fixed ``n_iter``: when an R-hat is
+    ``n_iter="auto"``: only when a budget ran out before the targets held, or the run stopped early
+    because it could not reach them (``stop_reason_``: the evidence and the next step); it gives
+    the diagnostics that missed their target and names the budget to raise. A fixed ``n_iter``: when an R-hat is
     above the threshold (the chains disagree); it suggests ``n_iter="auto"``.
     """
     n_iter = model.n_iter_
@@ -174,6 +175,8 @@ def budget_warning(model, auto: bool) -> str | None:
     if auto:
         if model.stopped_by_ == "converged":
             return None
+        if model.stop_reason_:  # stopped early: the evidence, in one line
+            return f"PitmanYorGMM: stopped after {n_iter} sweeps per chain: {model.stop_reason_}"
         missed = [f"{r['quantity']} {r['R-hat']:.3f}" for r in rows if not r["converged"]]
         ess = next(float(r["ESS bulk"]) for r in model.convergence_ if r["quantity"] == "K")
         what = f"R-hat {', '.join(missed) or 'below ' + str(RHAT_THRESHOLD)}, bulk ESS of K {ess:.0f}"

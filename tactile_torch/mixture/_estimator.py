@@ -12,38 +12,36 @@ from typing import ClassVar
 import numpy as np
 from sklearn.base import BaseEstimator, ClusterMixin, _fit_context
 from sklearn.utils._param_validation import Interval, StrOptions
-from sklearn.utils.validation import check_is_fitted, validate_data
+from sklearn.utils.validation import validate_data
 
 from .._constraints import RANDOM_STATE
 from ..robot.checks import numpy_rng
 from ._diagnostics import budget_warning
-from ._mfm import coarsening_power, log_v
-from ._point_estimate import choose_partition, partition_components
+from ._mfm import coarsening_power, k_ceiling, log_v
+from ._point_estimate import _whitening
+from ._posterior_mixin import PosteriorMixin
 from ._predict_mixin import PredictionMixin, _as_array
 from ._predictive import pack_predictive
-from ._summaries import n_clusters_posterior, n_clusters_summary, summary_text
 
 # Floor on the eigenvalues of the hyperparameter W (whitened units; see the class docstring).
 W_FLOOR = 1e-10
+# n_split_merge="auto": one split-merge move per this many points (at least 5 per sweep).
+SPLIT_MERGE_POINTS = 40
+# Sweeps with the starting partition held fixed before a chain runs (components and hyperparameters adapt).
+WARM_UP_SWEEPS = 0
+# Algorithm 8's auxiliary means are drawn afresh every this many points, reused in between (None: once
+# per sweep, Favaro & Teh's "ReUse"; 1: before every point, as in Neal's algorithm 8).
+AUX_REFRESH = None
 
 
-def _whitening(X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Return (mean, lower Cholesky factor A of the data covariance) so that ``A^{-1}(x - mean)`` is white.
-
-    Covariance with ddof=1, plus a ridge of 1e-9 of its mean variance so that collinear features
-    still factorise; when the data have no spread at all (one point, or identical points) the
-    scale is the identity.
-    """
-    mean = X.mean(axis=0)
-    D = X.shape[1]
-    cov = np.cov(X, rowvar=False, ddof=1).reshape(D, D) if X.shape[0] > 1 else np.zeros((D, D))
-    level = float(np.trace(cov)) / D
-    if not level > 0.0:
-        return mean, np.eye(D)
-    return mean, np.linalg.cholesky(cov + 1e-9 * level * np.eye(D))
+def split_merge_moves(n_split_merge: int | str, n: int) -> int:
+    """Split-merge moves per sweep: ``n_split_merge``, or for ``"auto"`` ``max(5, round(n / SPLIT_MERGE_POINTS))``."""
+    if n_split_merge == "auto":
+        return max(5, round(n / SPLIT_MERGE_POINTS))
+    return int(n_split_merge)
 
 
-class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
+class PitmanYorGMM(PredictionMixin, PosteriorMixin, ClusterMixin, BaseEstimator):
     """Pitman-Yor process mixture of Gaussians (infinite GMM) fitted by Gibbs sampling, several chains.
 
     **Model.** Data are first whitened: ``z = A^{-1}(x - m)`` with ``m`` the data mean and
@@ -165,10 +163,22 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
         from the chain's stream) with a generous ``ceil(2 sqrt(n))`` clusters; an int sets that
         number of k-means clusters; ``"one"`` puts every point in one component; an array gives the
         labels.
-    n_split_merge : int, default 5
-        Split-merge moves per sweep (0 disables them, leaving plain algorithm 8).
+    n_split_merge : int or "auto", default "auto"
+        Split-merge moves per sweep (0 disables them, leaving plain algorithm 8). ``"auto"``: one
+        per ``SPLIT_MERGE_POINTS`` (40) points, at least 5: a move costs about one pass over the
+        points of two components, a sweep's allocation one pass over every point and component, so
+        larger data afford more moves (docs/mixture.md, "Time to a converged posterior of K").
+    split_merge : {"sequential", "restricted"}, default "sequential"
+        How a split is proposed. ``"sequential"``: the points of the component are allocated one by
+        one, in a random order, to the part of either anchor point with probability proportional
+        to its size times a Gaussian predictive given the points already there (Dahl & Newcomb
+        2022), then each part draws its parameters by one Gibbs step; one pass over the points.
+        ``"restricted"``: Jain & Neal's (2007) launch state and ``n_launch + 1`` restricted Gibbs
+        scans (the sampler of the earlier versions). Both are exact Metropolis-Hastings moves; the
+        sequential one needs one pass over the two components' points where the restricted one needs
+        ``n_launch + 2`` (measured in docs/mixture.md).
     n_launch : int, default 3
-        Intermediate restricted Gibbs scans of the split-merge launch states.
+        Intermediate restricted Gibbs scans of the split-merge launch states (``"restricted"``).
     near_pairs : float or None, default None
         Share of the split-merge moves whose second point is drawn among the 5 nearest neighbours
         (whitened space) of the first, the rest uniformly. Near pairs propose merges of adjacent
@@ -183,6 +193,15 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
     point_estimate : {"vi", "binder", "map"}, default "vi"
         What ``labels_`` is: the minimiser of the expected Variation of Information, of Binder's
         loss (equal costs), or the MAP sample.
+    cluster_features : int or None, default None
+        Count and cluster on the first ``cluster_features`` columns of ``X`` only, and score novelty
+        with all of them: the sampler, the point estimate, ``predict`` and ``predict_proba`` see
+        the leading columns (e.g. the first 3 principal components, where the number of surfaces is
+        counted best), while :meth:`score_samples`, :meth:`novelty_score` and the calibrated
+        novelty rule use the density of every column (e.g. 5 principal components, where new
+        surfaces stand out): a mixture with the point estimate's partition, its components
+        estimated on all columns by the same fixed-partition Gibbs run (``density_means_``, ...).
+        ``None``: every column for both.
     prior_only : bool, default False
         Ignore the data (likelihood switched off): the chain then samples the prior, which checks
         the sampler against the known prior distribution of K (a diagnostic). With ``coarsen`` the
@@ -235,9 +254,18 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
         Proposed and accepted split and merge moves, all chains.
     data_mean_, data_scale_ : ndarray of shape (D,), (D, D)
         Whitening ``z = data_scale_^{-1} (x - data_mean_)`` (``data_scale_`` lower triangular).
+    density_means_, density_covariances_, density_weights_ : ndarray or None
+        With ``cluster_features`` below the number of columns: the mixture over every column whose
+        log density is the novelty score, shapes (K, F), (K, F, F), (K,); None otherwise.
     stopped_by_ : str
         What ended the run: ``"converged"`` (the targets of ``n_iter="auto"`` hold), ``"max_iter"``
-        or ``"max_seconds"`` (a budget of ``n_iter="auto"`` ran out), ``"n_iter"`` (a fixed run).
+        or ``"max_seconds"`` (a budget of ``n_iter="auto"`` ran out), ``"n_iter"`` (a fixed run), or
+        an early stop of ``n_iter="auto"`` when the evidence says the budget cannot reach the targets:
+        ``"stuck"`` (chains in different modes of K that none leaves), ``"ceiling"`` (K at the
+        largest number of components the prior allows), ``"projected"`` (the ESS of K grows too
+        slowly for twice the budget).
+    stop_reason_ : str or None
+        For an early stop: the evidence and the next step, in one line (also the warning).
     budget_exhausted_ : bool
         Whether the convergence targets were missed when the run stopped.
     n_features_in_, n_iter_ : int
@@ -258,6 +286,10 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
     R. M. Neal, "Markov chain sampling methods for Dirichlet process mixture models", JCGS 9, 2000.
     S. Jain, R. M. Neal, "Splitting and merging components of a nonconjugate Dirichlet process
     mixture model", Bayesian Analysis 2(3), 2007.
+    D. B. Dahl, S. Newcomb, "Sequentially allocated merge-split samplers for conjugate Bayesian
+    nonparametric models", J. Statistical Computation and Simulation 92(7), 2022.
+    S. Favaro, Y. W. Teh, "MCMC for normalized random measure mixture models", Statistical Science
+    28(3), 2013 (the reuse of algorithm 8's auxiliary components).
     S. Wade, Z. Ghahramani, "Bayesian cluster analysis: point estimation and credible balls",
     Bayesian Analysis 13(2), 2018.
     A. Vehtari, A. Gelman, D. Simpson, B. Carpenter, P.-C. Bürkner, "Rank-normalization, folding,
@@ -287,11 +319,13 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
         "n_jobs": [Interval(Integral, 1, None, closed="left"), None],
         "n_aux": [Interval(Integral, 1, None, closed="left")],
         "init": [StrOptions({"kmeans", "one"}), Interval(Integral, 1, None, closed="left"), "array-like"],
-        "n_split_merge": [Interval(Integral, 0, None, closed="left")],
+        "n_split_merge": [Interval(Integral, 0, None, closed="left"), StrOptions({"auto"})],
+        "split_merge": [StrOptions({"sequential", "restricted"})],
         "n_launch": [Interval(Integral, 0, None, closed="left")],
         "near_pairs": [Interval(Real, 0, 1, closed="both"), None],
         "thin": [Interval(Integral, 1, None, closed="left"), None],
         "point_estimate": [StrOptions({"vi", "binder", "map"})],
+        "cluster_features": [Interval(Integral, 1, None, closed="left"), None],
         "prior_only": ["boolean"],
         "random_state": RANDOM_STATE,
         "progress": ["boolean"],
@@ -313,11 +347,13 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
         n_jobs: int | None = None,
         n_aux: int = 5,
         init: str | int | np.ndarray = "kmeans",
-        n_split_merge: int = 5,
+        n_split_merge: int | str = "auto",
+        split_merge: str = "sequential",
         n_launch: int = 3,
         near_pairs: float | None = None,
         thin: int | None = None,
         point_estimate: str = "vi",
+        cluster_features: int | None = None,
         prior_only: bool = False,
         random_state: object = None,
         progress: bool = True,
@@ -337,10 +373,12 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
         self.n_aux = n_aux
         self.init = init
         self.n_split_merge = n_split_merge
+        self.split_merge = split_merge
         self.n_launch = n_launch
         self.near_pairs = near_pairs
         self.thin = thin
         self.point_estimate = point_estimate
+        self.cluster_features = cluster_features
         self.prior_only = prior_only
         self.random_state = random_state
         self.progress = progress
@@ -406,8 +444,8 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
         # the compiled kernels load here, at the first fit of a process, not at import
         from . import _gibbs as g
         from ._chains import (
-            AUTO_EVERY,
-            AUTO_FIRST,
+            Chains,
+            RunLength,
             auto_burn_in,
             chain_attributes,
             keep_after_burn_in,
@@ -415,13 +453,19 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
             run_chains,
             run_chains_until,
             targets_met,
+            warm_up,
         )
 
         X = validate_data(self, _as_array(X), dtype=np.float64)
         rng = numpy_rng(self.random_state)
-        n, D = X.shape
-        mean, scale = _whitening(X)
-        Xw = np.ascontiguousarray(np.linalg.solve(scale, (X - mean).T).T)
+        n, F = X.shape
+        D = F if self.cluster_features is None else int(self.cluster_features)
+        if D > F:
+            raise ValueError(
+                f"cluster_features must be at most the number of columns of X ({F}), got {self.cluster_features}"
+            )
+        mean, scale = _whitening(X[:, :D])
+        Xw = np.ascontiguousarray(np.linalg.solve(scale, (X[:, :D] - mean).T).T)
         mfm = self.model == "mfm"
         fit_alpha, fit_d = self.alpha is None and not mfm, self.discount is None and not mfm
         d_low = max(0.0, -float(self.alpha)) if (not fit_alpha and fit_d) else 0.0
@@ -442,7 +486,7 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
         snap_sweeps = np.arange(n_iter - 1, -1, -thin)[::-1]
         cfg = g.Settings(
             n_aux=int(self.n_aux),
-            n_split_merge=int(self.n_split_merge),
+            n_split_merge=split_merge_moves(self.n_split_merge, n),
             n_launch=int(self.n_launch),
             use_lik=not bool(self.prior_only),
             fit_alpha=fit_alpha,
@@ -452,43 +496,45 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
             w_min=W_FLOOR,
             burn_in=burn_in,
             near=float(self.near_pairs if self.near_pairs is not None else (0.9 if mfm else 0.0)),
+            sequential=self.split_merge == "sequential",
+            refresh=max(1, n) if AUX_REFRESH is None else AUX_REFRESH,
         )
         nbr = neighbours(Xw) if cfg.near > 0 and cfg.n_split_merge > 0 else np.zeros((n, 0), dtype=np.int64)
         chain_rngs = rng.spawn(n_chains)
-        chains = []
+        states = []
         for c in range(n_chains):
             st = g.new_state(self._initial_labels(Xw, chain_rngs[c]), D, alpha0, d0, zeta, gamma, lv)
             g.init_components(Xw, st, cfg.use_lik, chain_rngs[c])
-            chains.append(st)
+            warm_up(Xw, st, cfg, chain_rngs[c], WARM_UP_SWEEPS)
+            states.append(st)
         workers = self.n_jobs or min(
             n_chains,
             len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1),
         )
+        chains = Chains(Xw, states, cfg, chain_rngs, nbr, workers, bool(self.progress))
         quantities = ("n_clusters",) + ("alpha",) * fit_alpha + ("discount",) * fit_d
+        self.stop_reason_ = None
         if auto:
-            runs, snap_sweeps, self.stopped_by_, _ = run_chains_until(
-                Xw, chains, cfg, chain_rngs, AUTO_FIRST, n_iter, AUTO_EVERY, workers, self.progress,
-                quantities, burn_in, self.max_seconds, nbr,
-            )  # fmt: skip
+            plan = RunLength(n_iter, self.max_seconds, burn_in, quantities, k_ceiling(n) if mfm else None)
+            runs, snap_sweeps, self.stopped_by_, diag = run_chains_until(chains, plan)
+            self.stop_reason_ = diag.get("reason")
             n_iter = runs[0]["trace"].shape[0]
             burn_in = auto_burn_in(n_iter, burn_in)
-            snap_sweeps = keep_after_burn_in(runs, snap_sweeps, cfg.burn_in, burn_in)
+            snap_sweeps = keep_after_burn_in(runs, snap_sweeps, burn_in)
             self.budget_exhausted_ = self.stopped_by_ != "converged"
         else:
-            runs = run_chains(Xw, chains, cfg, chain_rngs, n_iter, snap_sweeps, workers, self.progress, nbr)
+            runs = run_chains(chains, n_iter, snap_sweeps)
             self.stopped_by_ = "n_iter"
             self.budget_exhausted_ = not targets_met(runs, burn_in, quantities)
-        self.n_features_in_ = D
+        self.n_features_in_ = F
         self.data_mean_, self.data_scale_ = mean, scale
         self.n_iter_ = n_iter
         for name, value in chain_attributes(
             runs, snap_sweeps, burn_in, self.alpha is None and not mfm, self.discount is None and not mfm
         ).items():
             setattr(self, name, value)
-        self._store_point_estimate(Xw, runs, cfg, rng)
-        self._pred = pack_predictive(
-            runs, snap_sweeps, burn_in, n, self.labels_, rng, float(self.k_prior_mean)
-        )
+        self._store_point_estimate(Xw, runs, cfg, rng, X if D < F else None)
+        self._pred = pack_predictive(runs, n, self.labels_, rng, float(self.k_prior_mean))
         self.sweep_seconds_ = float(np.mean([r["seconds"] for r in runs]) / n_iter)
         self.fit_seconds_ = time.perf_counter() - t_fit
         warning = budget_warning(self, auto)
@@ -496,74 +542,6 @@ class PitmanYorGMM(PredictionMixin, ClusterMixin, BaseEstimator):
             warnings.warn(warning, RuntimeWarning, stacklevel=2)
         return self
 
-    def _saved_partitions(self) -> np.ndarray:
-        """Post-burn-in saved partitions of every chain, (n_saved_total, n) int64."""
-        keep = self.labels_sweeps_ >= self._burn_in
-        return self.labels_samples_[:, keep].reshape(-1, self.labels_samples_.shape[-1]).astype(np.int64)
-
-    def _store_point_estimate(self, Xw: np.ndarray, runs: list[dict], cfg, rng) -> None:
-        labels, loss = choose_partition(self._saved_partitions(), self.map_labels_, self.point_estimate)
-        self.labels_ = labels
-        self.n_clusters_ = int(labels.max()) + 1
-        self.expected_loss_ = loss
-        self.n_clusters_summary_ = n_clusters_summary(
-            self.n_clusters_samples_, self.n_clusters_, self.map_n_clusters_
-        )
-        c = partition_components(
-            Xw, labels, self._map_state, cfg, rng, self.data_mean_, self.data_scale_, float(self.k_prior_mean)
-        )
-        self.alpha_, self.discount_ = c.alpha, c.discount
-        self.weights_, self.novelty_weight_ = c.weights, c.novelty_weight
-        self.means_, self.covariances_ = c.means, c.covariances
-        self.precisions_cholesky_ = c.precisions_cholesky
-        self._components = c
-        self.novelty_thresholds_ = None  # the model's own rule until calibrate_novelty
-
     def fit_predict(self, X: object, y: object = None) -> np.ndarray:
         """Fit and return ``labels_`` (the point estimate of the training points' partition)."""
         return self.fit(X).labels_
-
-    # ------------------------------------------------------------------------------------------
-    # summaries and export
-    # ------------------------------------------------------------------------------------------
-    def n_clusters_posterior(self) -> dict[int, float]:
-        """Return the posterior distribution of K (share of post-burn-in sweeps of all chains), as {K: probability}."""
-        check_is_fitted(self)
-        return n_clusters_posterior(self.n_clusters_samples_)
-
-    def posterior_similarity(self) -> np.ndarray:
-        """Return the posterior similarity matrix (n, n): probability that two training points share a component."""
-        check_is_fitted(self)
-        from ._partition import posterior_similarity
-
-        return posterior_similarity(self._saved_partitions())
-
-    def summary(self) -> str:
-        """Return a readable summary: the posterior of K first, then the point estimate, the MAP sample, convergence."""
-        check_is_fitted(self)
-        return summary_text(self)
-
-    def to_module(self):
-        """Return the point estimate's mixture as a torch module ``features (B, D) -> (labels, log_resp, novel, novelty)``.
-
-        Components: ``means_``, ``precisions_cholesky_``, ``log(weights_)``. ``novelty`` is
-        :meth:`novelty_score` (minus the log density). ``novel``: once :meth:`calibrate_novelty` has
-        run, ``novelty > novelty_thresholds_[0]`` (the thresholds travel as a buffer); before, a
-        row is novel when ``log novelty_weight_ + log p_new(x)`` exceeds ``log((1 -
-        novelty_weight_) w_k) + log N(x | k)`` for every k, with ``p_new`` the prior predictive
-        density of a new component approximated by an equal mixture of 64 Gaussians ``N(xi, S^{-1}
-        + R^{-1})`` (``S`` drawn from its prior, hyperparameters from the fixed-partition run).
-        Either way exactly :meth:`predict` with ``using="point"``.
-        """
-        check_is_fitted(self)
-        from ._inference import GaussianMixtureClassifier
-
-        return GaussianMixtureClassifier(
-            self.means_,
-            self.precisions_cholesky_,
-            np.log(self.weights_),
-            novelty_means=self._components.novelty_means,
-            novelty_precisions_cholesky=self._components.novelty_precisions_cholesky,
-            novelty_log_weight=math.log(self.novelty_weight_) - math.log(1.0 - self.novelty_weight_),
-            novelty_thresholds=self.novelty_thresholds_,
-        )

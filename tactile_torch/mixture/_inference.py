@@ -45,7 +45,11 @@ class GaussianMixtureClassifier(torch.nn.Module):
     (float32 by default) and calls :func:`gaussian_mixture_scores`; exports to ONNX with a dynamic
     batch. ``log_resp`` are the log responsibilities over the K components (rows log-sum-exp to 0).
 
-    ``novelty`` is minus the row's log density under the mixture (``-logsumexp`` of the scores).
+    ``novelty`` is minus the row's log density under the mixture (``-logsumexp`` of the scores), or,
+    with ``density_means`` (M, F), ``density_precisions_cholesky`` (M, F, F) and
+    ``density_log_weights`` (M,), under that mixture of every input column, while the components
+    see the first ``cluster_features`` columns only (``x (B, F)``: e.g. 5 principal components, of
+    which the first 3 are counted and clustered).
     ``novel``: with calibrated thresholds (``novelty_thresholds`` (N,), the thresholds of the mean
     ``novelty`` over N = 1, 2, ... windows; see
     :meth:`~tactile_torch.mixture.PitmanYorGMM.calibrate_novelty`), ``novelty >
@@ -69,10 +73,18 @@ class GaussianMixtureClassifier(torch.nn.Module):
         novelty_precisions_cholesky: object | None = None,
         novelty_log_weight: float = 0.0,
         novelty_thresholds: object | None = None,
+        density_means: object | None = None,
+        density_precisions_cholesky: object | None = None,
+        density_log_weights: object | None = None,
+        cluster_features: int | None = None,
         dtype: torch.dtype = torch.float32,
     ) -> None:
         super().__init__()
         D = np.asarray(means).shape[-1]
+        F = D if density_means is None else np.asarray(density_means).shape[-1]
+        self.cluster_features = (
+            None if cluster_features is None or cluster_features == F else int(cluster_features)
+        )
 
         def buffer(name: str, value: object, shape: tuple[int, ...]) -> None:
             arr = np.zeros(shape) if value is None else np.asarray(value)
@@ -86,12 +98,24 @@ class GaussianMixtureClassifier(torch.nn.Module):
         self.register_buffer("novelty_log_weight", torch.tensor(float(novelty_log_weight), dtype=dtype))
         thresholds = np.zeros(0) if novelty_thresholds is None else np.asarray(novelty_thresholds).ravel()
         self.register_buffer("novelty_thresholds", torch.as_tensor(thresholds, dtype=dtype))
+        buffer("density_means", density_means, (0, F))
+        buffer("density_precisions_cholesky", density_precisions_cholesky, (0, F, F))
+        buffer("density_log_weights", density_log_weights, (0,))
 
     def forward(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
+        features = x
+        if self.cluster_features is not None:  # components on the leading columns, novelty on all
+            x = x[:, : self.cluster_features]
         scores = gaussian_mixture_scores(x, self.means, self.precisions_cholesky, self.log_weights)
         best = scores.max(dim=-1).values
         log_resp = scores - torch.logsumexp(scores, dim=-1, keepdim=True)
-        novelty = -torch.logsumexp(scores, dim=-1)
+        if self.density_means.shape[0]:
+            density = gaussian_mixture_scores(
+                features, self.density_means, self.density_precisions_cholesky, self.density_log_weights
+            )
+            novelty = -torch.logsumexp(density, dim=-1)
+        else:
+            novelty = -torch.logsumexp(scores, dim=-1)
         m = self.novelty_means.shape[0]
         if self.novelty_thresholds.shape[0]:  # calibrated: the threshold of one window
             novel = novelty > self.novelty_thresholds[0]

@@ -92,10 +92,14 @@ class Components(NamedTuple):
     novelty_precisions_cholesky: np.ndarray
 
 
-def partition_components(Xw, labels, map_state, cfg, rng, data_mean, data_scale, k_mean=10.0) -> Components:
+def partition_components(
+    Xw, labels, map_state, cfg, rng, data_mean, data_scale, k_mean=10.0, *, same_features=True
+) -> Components:
     """Return the components of the partition ``labels``: posterior means from a fixed-partition Gibbs run.
 
-    The run starts from the MAP sample's hyperparameters and uses the sampler's own component and
+    The run starts from the MAP sample's hyperparameters (``same_features``; otherwise, for
+    features other than the chains', from the prior's centre: ``xi = 0``, ``R = W = I``, ``beta =
+    D``, the partition prior's parameters kept) and uses the sampler's own component and
     hyperparameter updates (``cfg`` with ``allocate=False``), ``_FIXED_SWEEPS`` sweeps of which the
     last three quarters are averaged; no label switching can occur. ``_NOVELTY_DRAWS`` Gaussians of
     the prior predictive of a new component are drawn along the run. ``data_mean`` and
@@ -106,9 +110,14 @@ def partition_components(Xw, labels, map_state, cfg, rng, data_mean, data_scale,
     n, D = Xw.shape
     K = int(labels.max()) + 1
     NO_NEIGHBOURS = np.zeros((n, 0), dtype=np.int64)  # no split-merge moves: the partition is fixed
+    NO_SNAPSHOTS, NO_LABELS = np.zeros(0, dtype=np.int64), np.zeros((0, n), dtype=np.int32)
     st = g.new_state(labels, D, float(map_state.sc[0]), float(map_state.sc[1]))
-    for name in ("sc", "xi", "R", "GR", "W", "GW"):  # lv is not used: the partition is fixed
-        np.copyto(getattr(st, name), getattr(map_state, name))
+    if same_features:
+        for name in ("sc", "xi", "R", "GR", "W", "GW"):  # lv is not used: the partition is fixed
+            np.copyto(getattr(st, name), getattr(map_state, name))
+    else:
+        for k in (0, 1, 3, 4):  # alpha, d, zeta, gamma; beta stays at D
+            st.sc[k] = map_state.sc[k]
     fixed = cfg._replace(allocate=False, burn_in=_FIXED_SWEEPS)
     g.init_components(Xw, st, fixed.use_lik, rng)
     trace = np.zeros((_FIXED_SWEEPS, len(g.TRACE_NAMES)))
@@ -117,7 +126,8 @@ def partition_components(Xw, labels, map_state, cfg, rng, data_mean, data_scale,
     unused = g.ChainState(*(a.copy() for a in st))
     for s in range(_FIXED_SWEEPS):
         g.run_sweeps(
-            Xw, st, fixed, rng, s, 1, trace, np.zeros(4, dtype=np.int64), unused, np.array([np.inf]), NO_NEIGHBOURS
+            Xw, st, fixed, rng, s, 1, trace, np.zeros(4, dtype=np.int64), unused, np.array([np.inf]),
+            NO_NEIGHBOURS, NO_SNAPSHOTS, NO_LABELS,
         )  # fmt: skip
         if s < _FIXED_SWEEPS - kept:
             continue
@@ -154,3 +164,19 @@ def partition_components(Xw, labels, map_state, cfg, rng, data_mean, data_scale,
         novelty_means=np.stack([m + A @ mu for mu, _ in novelty]),
         novelty_precisions_cholesky=np.stack([precision_cholesky(A @ c @ A.T) for _, c in novelty]),
     )
+
+
+def _whitening(X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Return (mean, lower Cholesky factor A of the data covariance) so that ``A^{-1}(x - mean)`` is white.
+
+    Covariance with ddof=1, plus a ridge of 1e-9 of its mean variance so that collinear features
+    still factorise; when the data have no spread at all (one point, or identical points) the
+    scale is the identity.
+    """
+    mean = X.mean(axis=0)
+    D = X.shape[1]
+    cov = np.cov(X, rowvar=False, ddof=1).reshape(D, D) if X.shape[0] > 1 else np.zeros((D, D))
+    level = float(np.trace(cov)) / D
+    if not level > 0.0:
+        return mean, np.eye(D)
+    return mean, np.linalg.cholesky(cov + 1e-9 * level * np.eye(D))

@@ -28,9 +28,13 @@ def _as_array(X: object) -> object:
 class PredictionMixin:
     """Methods of a fitted :class:`PitmanYorGMM` that classify, score and flag new rows."""
 
-    def _whiten(self, X: object) -> np.ndarray:
+    def _checked(self, X: object) -> np.ndarray:
+        """``X`` validated against the fit (every column)."""
         check_is_fitted(self)
-        X = validate_data(self, _as_array(X), dtype=np.float64, reset=False)
+        return validate_data(self, _as_array(X), dtype=np.float64, reset=False)
+
+    def _whiten(self, X: object) -> np.ndarray:
+        X = self._checked(X)[:, : self.data_mean_.size]  # the columns the chains clustered
         return np.linalg.solve(self.data_scale_, (X - self.data_mean_).T).T
 
     def _cluster_and_new(self, X: object, using: str) -> tuple[np.ndarray, np.ndarray]:
@@ -53,10 +57,7 @@ class PredictionMixin:
         return log_joint, log_new
 
     def _point_scores(self, X: object) -> tuple[np.ndarray, np.ndarray]:
-        check_is_fitted(self)
-        return point_scores(
-            validate_data(self, _as_array(X), dtype=np.float64, reset=False), self._components
-        )
+        return point_scores(self._checked(X)[:, : self.data_mean_.size], self._components)
 
     def predict(self, X: object, *, using: str = "samples") -> np.ndarray:
         """Return the cluster (0 … K-1) of every row of ``X`` (n, D), or -1 where it is novel; shape (n,).
@@ -145,10 +146,18 @@ class PredictionMixin:
     def score_samples(self, X: object) -> np.ndarray:
         """Return the log density of every row of ``X`` under the point estimate's mixture (``weights_``), shape (n,).
 
+        With ``cluster_features`` below the number of columns: under the mixture over every column
+        (``density_means_``, ...), whose partition is the point estimate's.
+
         Finite for every finite row: a density below ``exp(-1.8e308)`` (a point ~1e154 standard
         deviations from every component) is reported as ``-1.8e308``.
         """
-        from ._predictive import LOG_FLOOR
+        from ._predictive import LOG_FLOOR, log_gauss_upper
 
+        X = self._checked(X)
+        if self._density is not None:  # novelty scored on every column (cluster_features)
+            d = self._density
+            known = log_gauss_upper(X, d.means, d.precisions_cholesky) + np.log(d.weights)
+            return np.maximum(np.logaddexp.reduce(known, axis=1), LOG_FLOOR)
         known, _ = self._point_scores(X)
         return np.maximum(np.logaddexp.reduce(known - math.log(1 - self.novelty_weight_), axis=1), LOG_FLOOR)

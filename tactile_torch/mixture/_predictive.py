@@ -59,19 +59,18 @@ def log_gauss_upper(X: np.ndarray, means: np.ndarray, U: np.ndarray) -> np.ndarr
     return np.maximum(log_det - 0.5 * X.shape[1] * _LOG_2PI - 0.5 * _quadratic(y), LOG_FLOOR)
 
 
-def pack_predictive(runs, snap_sweeps, burn_in, n, labels, rng, k_mean: float = 10.0) -> dict:
+def pack_predictive(runs, n, labels, rng, k_mean: float = 10.0) -> dict:
     """Pack the components of (at most ``_PREDICTIVE_SAMPLES`` per chain) saved sweeps for prediction.
 
-    ``runs``: the chains' saved samples; ``labels``: the point estimate, onto whose clusters every
+    ``runs``: the chains' saved samples (after the burn-in, each with its sweep's partition);
+    ``labels``: the point estimate, onto whose clusters every
     sample's components are mapped. One Gaussian of the new component's prior predictive is drawn
     per sample from ``rng``.
     """
     K = int(labels.max()) + 1
     D = runs[0]["samples"][0]["mu"].shape[1]
     mus, Ls, ldets, logw, share, owner, new_mu, new_prec, new_ldet, new_logw = ([] for _ in range(10))
-    post_sweeps = snap_sweeps >= burn_in
     for run in runs:
-        saved_labels = run["labels"][post_sweeps]
         pick = np.unique(
             np.linspace(0, len(run["samples"]) - 1, min(_PREDICTIVE_SAMPLES, len(run["samples"]))).astype(int)
         )
@@ -86,7 +85,7 @@ def pack_predictive(runs, snap_sweeps, burn_in, n, labels, rng, k_mean: float = 
             ldets.append(smp["ldet"])
             logw.append(log_join)
             table = np.zeros((Ks, K))
-            np.add.at(table, (saved_labels[k], labels), 1.0)
+            np.add.at(table, (smp["labels"], labels), 1.0)
             share.append(table / table.sum(axis=1, keepdims=True))
             owner.append(np.full(Ks, s))
             xi, cov = new_component_gaussian(smp["xi"], smp["GR"], smp["GW"], beta, rng)

@@ -47,6 +47,9 @@ _STOPPED = {
     "converged": "; stopped: convergence targets met",
     "max_iter": "; stopped: the sweep budget max_iter ran out",
     "max_seconds": "; stopped: the time budget max_seconds ran out",
+    "stuck": "; stopped early: the chains are stuck in different modes of K",
+    "ceiling": "; stopped early: K reached the prior's ceiling",
+    "projected": "; stopped early: the budget cannot reach the convergence targets",
 }
 
 
@@ -74,7 +77,9 @@ def summary_text(model) -> str:
         ),
     ]
     bad = [r["quantity"] for r in model.convergence_ if np.isfinite(r["R-hat"]) and not r["converged"]]
-    if bad:
+    if getattr(model, "stop_reason_", None):
+        lines.append(f"WARNING: {model.stop_reason_}")
+    elif bad:
         lines.append(
             f"WARNING: R-hat > {RHAT_THRESHOLD} for {', '.join(bad)}: the chains disagree, run longer"
         )

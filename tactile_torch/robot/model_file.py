@@ -35,7 +35,10 @@ Layout (format version 1, ``docs/formats.md``):
     ``samples`` ``(T, F)`` and ``labels`` ``(T,)``; a mixture's ``means``
     ``(K, D)``, ``precisions_cholesky`` ``(K, D, D)``, ``log_weights`` ``(K,)`` and optionally
     ``novelty_thresholds`` ``(W,)`` (the calibrated threshold of the mean novelty score over
-    N = 1 … W windows; empty: not calibrated) and the new-component density (``novelty_means``, ...).
+    N = 1 … W windows; empty: not calibrated) and the new-component density (``novelty_means``, ...);
+    with the head's ``cluster_features`` K (< F): ``means`` ``(C, K)`` on the first K features and the
+    novelty density over all F, ``density_means`` ``(Q, F)``, ``density_precisions_cholesky``
+    ``(Q, F, F)``, ``density_log_weights`` ``(Q,)``.
 ``ood.means`` ``(C, F)``, ``ood.precision_cholesky`` ``(F, F)``, ``ood.offset`` ``(F,)``, and the second view ``ood.floor`` ``(F,)``, ``ood.log_means``, ``ood.log_precision_cholesky``, ``ood.norm`` ``(2,)``
     classifiers: the statistics of the out-of-distribution distance (:mod:`tactile_torch.ood`; older
     files lack them, or the offset and the second view).
@@ -151,6 +154,8 @@ DIMENSIONS = {
     "R": "features the front end makes (before 'select')",
     "W": "numbers of consecutive windows with a novelty threshold",
     "V": "views of the out-of-distribution distance (2)",
+    "K": "features a mixture counts and clusters on (head.cluster_features)",
+    "Q": "components of a mixture's novelty density",
 }
 """What each named dimension of :data:`HEADS` and :data:`TRANSFORMS` counts (for error messages)."""
 METHODS = {"classifier": ("hmsvm", "svm", "lda", "knn", "ncm"), "clustering": ("pyp",)}
@@ -443,6 +448,8 @@ def validate_model(header: object, arrays: Mapping[str, np.ndarray], *, where: s
             _fail(where, "scale must be > 0 (a standard deviation per feature)")
         if "center" in arrays:
             _check_arrays(where, "", {"center": (("F",), "f")}, arrays, dims)
+    if head["type"] == "gaussian-mixture":
+        head_arrays = _mixture_arrays(where, head, head_arrays, arrays, dims)
     _check_arrays(where, "head", head_arrays, arrays, dims)
     if head["type"] == "neighbours":
         if (
@@ -497,6 +504,28 @@ def _check_ood(where: str, ood: object, arrays: Mapping[str, np.ndarray], dims: 
     _check_arrays(where, "ood", spec, arrays, {**dims, "V": 2})
     if "floor" in spec and ((arrays["ood.floor"] <= 0).any() or (arrays["ood.norm"] <= 0).any()):
         _fail(where, "ood.floor and ood.norm must be > 0 (scales)")
+
+
+def _mixture_arrays(where: str, head: Mapping, spec: dict, arrays: Mapping, dims: dict[str, int]) -> dict:
+    # a mixture that counts and clusters on the first ``cluster_features`` of the F features and scores
+    # novelty with the density of all F (head.density_*): its components are (C, K), K < F
+    spec = dict(spec)
+    if "cluster_features" in head:
+        k = head["cluster_features"]
+        _check_type(where, "head.cluster_features", k, int)
+        if not 1 <= k < dims.get("F", k + 1):
+            _fail(where, f"head.cluster_features must be in 1..{dims.get('F', k + 1) - 1}, got {k}")
+        dims["K"] = k
+        spec.update({"means": (("C", "K"), "f"), "precisions_cholesky": (("C", "K", "K"), "f")})
+    if "cluster_features" in head or arrays.get("head.density_means", np.zeros(0)).size:
+        spec.update(
+            {
+                "density_means": (("Q", "F"), "f"),
+                "density_precisions_cholesky": (("Q", "F", "F"), "f"),
+                "density_log_weights": (("Q",), "f"),
+            }
+        )
+    return spec
 
 
 def _check_novelty(where: str, header: Mapping, arrays: Mapping[str, np.ndarray]) -> None:

@@ -172,7 +172,9 @@ class WindowReader:
         window_size = check_count(window_size, "window_size", 2)
         self.step = window_size if step is None else check_count(step, "step", 1)
         self.max_windows = None if max_windows is None else check_count(max_windows, "max_windows", 1)
-        self.rate_hz = None if rate_hz is None else check_number(rate_hz, "rate_hz")  # time_unit: SerialSource
+        self.rate_hz = (
+            None if rate_hz is None else check_number(rate_hz, "rate_hz")
+        )  # time_unit: SerialSource
         self.range_g = check_number(range_g, "range_g")
         spec = ItemSpec(SAMPLE, (3,), -self.range_g, self.range_g, self.rate_hz, "g")
         self.source = SerialSource(

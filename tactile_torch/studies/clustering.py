@@ -29,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from ..clustering import NOVELTY_COMPONENTS
 from ..metrics import pairwise_accuracy
 from ..mixture import PitmanYorGMM
 from .clustering_experiments import (
@@ -94,8 +95,10 @@ def study_windows(ctx) -> dict[str, Any]:
         pos, y = ds.position.numpy()[keep], ds.labels.numpy()[keep]
         feats = window_features(ds.windows[torch.as_tensor(keep)].to(torch.float64))
         train = pos < sz["train"]
-        transform = ClusteringTransform(n_components=3).fit(feats[torch.as_tensor(train)])
-        X = np.asarray(transform.transform(feats))
+        # 5 components, as tactile-torch cluster's graph: K and clusters on the first 3, novelty on all 5
+        transform = ClusteringTransform(n_components=NOVELTY_COMPONENTS).fit(feats[torch.as_tensor(train)])
+        X5 = np.asarray(transform.transform(feats))
+        X = X5[:, :3]
         block = (pos - sz["train"]) // sz["test"]
         worn = [
             replace(s, rms_g=0.85 * s.rms_g, texture=0.85 * s.texture, impact_g=0.85 * s.impact_g)
@@ -115,7 +118,9 @@ def study_windows(ctx) -> dict[str, Any]:
             "X": X[train],
             "y": y[train],
             "tests": [(X[block == b], y[block == b]) for b in range(5)],
-            "session2": (np.asarray(transform.transform(f2)), later.labels.numpy()[second]),
+            "X_novelty": X5[train],
+            "tests_novelty": [(X5[block == b], y[block == b]) for b in range(5)],
+            "session2": (np.asarray(transform.transform(f2))[:, :3], later.labels.numpy()[second]),
             "transform": transform,
             "names": [str(c) for c in rec.class_names[: sz["surfaces"]]],
         }
@@ -417,10 +422,11 @@ def _novelty(section, data: dict, sz: dict, ctx) -> None:
     rows = []
     for prior in ("pyp", "mfm"):
         row = novelty_test(
-            data["X"],
+            data.get("X_novelty", data["X"]),
             data["y"],
-            data["tests"],
+            data.get("tests_novelty", data["tests"]),
             withheld,
+            cluster_features=3 if "X_novelty" in data else None,
             model=prior,
             coarsen=None,
             n_iter=sz["n_iter"] // 2,
@@ -436,7 +442,7 @@ def _novelty(section, data: dict, sz: dict, ctx) -> None:
         "existing component: a new surface is a new component of the model. `tactile-torch stream --discover N` "
         "proposes a new surface after N novel windows in a row; the columns 'after 3 in a row' decide so (N = 3). "
         "The 'calibrated' columns are the rule of `tactile-torch cluster` bundles: a window is novel when minus "
-        "its log density exceeds the 98 % quantile of the same on windows of known surfaces the fit did not see "
+        "its log density (over 5 principal components, with the partition found on the first 3) exceeds the 98 % quantile of the same on windows of known surfaces the fit did not see "
         "(here the first half of each known surface's test windows; decided on the second halves), or, for "
         "'mean of 3', when the mean of 3 consecutive windows exceeds the quantile of such means (docs/mixture.md)."
     )

@@ -71,13 +71,52 @@ def bundled_28(seed: int = 0, components: int = 3) -> tuple[np.ndarray, np.ndarr
     return _pca_features(ds.windows, components), ds.labels.numpy()
 
 
+def gain_invariant_features(feats) -> np.ndarray:
+    """Return the 20 features of :func:`~tactile_torch.signal.window_features`' 21 that a session's gain does not move.
+
+    A gain ``g`` multiplies every axis of a session: ``var`` by ``g^2``, ``tv`` and ``hf`` by ``g``;
+    the standardised moments (``skew``, ``kurt``, ``m5``) and the threshold crossings (thresholds
+    between the window's extremes) are unchanged. Kept per axis: ``skew``, ``log kurt``, ``m5``,
+    ``log(1 + cross)``, ``log(tv / sd)``, ``log(hf / sd)`` (spectral shape normalised by power),
+    and between axes ``log(var_x / var_z)``, ``log(var_y / var_z)``.
+    """
+    F = np.asarray(feats, dtype=np.float64).reshape(len(feats), 3, 7)
+    var, skew, kurt, m5, tv, cross, hf = (F[:, :, k] for k in range(7))
+    tiny = np.finfo(np.float64).tiny
+    log_sd = 0.5 * np.log(np.maximum(var, tiny))
+    per_axis = [
+        skew,
+        np.log(np.maximum(kurt, tiny)),
+        m5,
+        np.log1p(cross),
+        np.log(np.maximum(tv, tiny)) - log_sd,
+        np.log(np.maximum(hf, tiny)) - log_sd,
+    ]
+    ratios = [2 * (log_sd[:, 0] - log_sd[:, 2]), 2 * (log_sd[:, 1] - log_sd[:, 2])]
+    return np.column_stack([*(c for c in per_axis), *ratios])
+
+
+def _gain_invariant_pca(windows, components: int) -> np.ndarray:
+    """Principal components of the standardised :func:`gain_invariant_features` of ``windows``."""
+    import torch
+    from sklearn.decomposition import PCA
+    from sklearn.preprocessing import StandardScaler
+
+    from ..signal import window_features
+
+    G = gain_invariant_features(window_features(windows.to(torch.float64)).numpy())
+    return PCA(components, random_state=0).fit_transform(StandardScaler().fit_transform(G))
+
+
 def sessions_3x3(
-    seed: int = 0, *, per_session: bool = False, components: int = 3
+    seed: int = 0, *, per_session: bool = False, components: int = 3, gain_invariant: bool = False
 ) -> tuple[np.ndarray, np.ndarray]:
     """Return PCA-3 features and labels of 3 surfaces x 3 sessions with the gains ``SESSION_GAINS``.
 
     ``per_session``: standardise the features within each session
     (:func:`tactile_torch.signal.sessions.standardise_per_session`), the remedy when sessions are known.
+    ``gain_invariant``: the principal components of the standardised :func:`gain_invariant_features`
+    instead (no session labels needed: issue 32, decision (b)).
     """
     from ..data import make_vibration_recordings
     from ..data.vibration import VibrationRecordings
@@ -90,7 +129,11 @@ def sessions_3x3(
     ]
     shifted = VibrationRecordings(signals, rec.labels, rec.class_names, rec.rate_hz, rec.session)
     ds = shifted.windows(800)
-    X = _pca_features(ds.windows, components)
+    X = (
+        _gain_invariant_pca(ds.windows, components)
+        if gain_invariant
+        else _pca_features(ds.windows, components)
+    )
     if per_session:
         from ..signal.sessions import standardise_per_session
 
@@ -99,13 +142,14 @@ def sessions_3x3(
 
 
 def real_sessions(
-    name: str = "hapmat_imu5", *, per_session: bool = False, components: int = 3
+    name: str = "hapmat_imu5", *, per_session: bool = False, components: int = 3, gain_invariant: bool = False
 ) -> tuple[np.ndarray, np.ndarray]:
     """Return PCA-3 features and labels of a real set cut into 3 sessions with the gains ``SESSION_GAINS``.
 
     Each recording is cut into thirds in time; third k is session k, its signal scaled by
     ``SESSION_GAINS[k]`` (every session then holds every surface, as CSV logs of a re-mounted sensor
-    would). 2 s windows, 1 s apart. ``per_session``: standardise within each session.
+    would). 2 s windows, 1 s apart. ``per_session``: standardise within each session;
+    ``gain_invariant``: as :func:`sessions_3x3`'s.
     """
     from ..data.recordings import load_borealtc_imu, load_hapmat_imu5
     from ..data.vibration import VibrationRecordings
@@ -127,7 +171,11 @@ def real_sessions(
         [f"{i}/{k}" for i, k in enumerate(sessions)],
     )
     ds = shifted.windows(int(2 * rec.rate_hz), int(rec.rate_hz))
-    X = _pca_features(ds.windows, components)
+    X = (
+        _gain_invariant_pca(ds.windows, components)
+        if gain_invariant
+        else _pca_features(ds.windows, components)
+    )
     if per_session:
         from ..signal.sessions import standardise_per_session
 
@@ -176,11 +224,13 @@ SOURCE_NAMES = (
     "gaussian-3",
     "sessions-3x3",
     "sessions-3x3, per-session standardised",
+    "sessions-3x3, gain-invariant",
     "bundled-28",
     "hapmat",
     "borealtc",
     "hapmat-3-sessions",
     "hapmat-3-sessions, per-session standardised",
+    "hapmat-3-sessions, gain-invariant",
 )
 """Every source :func:`k_sources` can return (the real sets' only where their data are present)."""
 
@@ -200,6 +250,7 @@ def k_sources(quick: bool = False, components: int = 3) -> dict[str, tuple[np.nd
         out["sessions-3x3"] = sessions_3x3(components=components)
         out["sessions-3x3, per-session standardised"] = sessions_3x3(per_session=True, components=components)
         if not quick:
+            out["sessions-3x3, gain-invariant"] = sessions_3x3(gain_invariant=True, components=components)
             out["bundled-28"] = bundled_28(components=components)
         for name, key in (("hapmat_imu5", "hapmat"), ("borealtc_imu", "borealtc")):
             if shared_data_dir(name) is not None:
@@ -208,6 +259,9 @@ def k_sources(quick: bool = False, components: int = 3) -> dict[str, tuple[np.nd
             out["hapmat-3-sessions"] = real_sessions(components=components)
             out["hapmat-3-sessions, per-session standardised"] = real_sessions(
                 per_session=True, components=components
+            )
+            out["hapmat-3-sessions, gain-invariant"] = real_sessions(
+                gain_invariant=True, components=components
             )
     return out
 

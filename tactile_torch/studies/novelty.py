@@ -353,12 +353,21 @@ def _main(argv: list[str] | None = None) -> None:
     parser.add_argument("--chains", type=int, default=2)
     parser.add_argument("--components", type=int, default=3, help="principal components of the features")
     parser.add_argument(
+        "--cluster-features",
+        type=int,
+        default=None,
+        help="count and cluster on the first K of the components, score novelty on all of them "
+        "(PitmanYorGMM's cluster_features; tactile-torch cluster's default: --components 5 --cluster-features 3)",
+    )
+    parser.add_argument(
         "--rules", nargs="*", default=[*RULES, ROBUST], help="rules to report (names of RULES, ROBUST)"
     )
     parser.add_argument(
         "--agreement", action="store_true", help="also refit to the test windows: the robust model's answer"
     )
     args = parser.parse_args(argv)
+    if args.cluster_features is not None and not 1 <= args.cluster_features < args.components:
+        parser.error(f"--cluster-features must be in 1 .. {args.components - 1}, got {args.cluster_features}")
     refuse_unknown(parser, "--only", args.only, SOURCES)
     refuse_unknown(parser, "--rules", args.rules, (*RULES, ROBUST))
     first = True
@@ -373,6 +382,7 @@ def _main(argv: list[str] | None = None) -> None:
             n_components=args.components,
             split=tuple(args.split),
             agreement=args.agreement,
+            **({"cluster_features": args.cluster_features} if args.cluster_features else {}),
         )
         if first:
             print("| " + " | ".join(rows[0]) + " |")

@@ -307,7 +307,9 @@ def test_map_component_module_exports_to_onnx(tmp_path):
     np.testing.assert_array_equal(novel, want_novel.numpy())
     np.testing.assert_array_equal(labels[:15], model.predict(X[:15], using="point"))
     assert novel.tolist() == [False] * 15 + [True, True]
-    np.testing.assert_allclose(log_resp, want_log_resp.numpy(), rtol=1e-5, atol=1e-4)
+    np.testing.assert_allclose(log_resp[:15], want_log_resp[:15].numpy(), rtol=1e-5, atol=1e-4)
+    # the two far rows' scores are differences of terms near 1e4: float32 keeps about 1e-3 of them
+    np.testing.assert_allclose(log_resp[15:], want_log_resp[15:].numpy(), rtol=1e-4, atol=1e-3)
 
 
 def test_scikit_learn_conventions_and_tensor_input():

@@ -75,7 +75,15 @@ def test_graph_onnx_and_stream_make_the_estimators_decision(fitted, tmp_path):
     # the stream's N-window decision (numpy, on the robot) = the estimator's
     d = SurfaceDiscovery(3, thresholds=module.novelty_thresholds.tolist())
     verdicts = [d.update(0, bool(f), float(s)) for f, s in zip(novel, score, strict=True)]
-    np.testing.assert_array_equal([v.novel for v in verdicts], model.novel_after(stream, 3))
+    # equal, except where the float32 scores' mean ties the threshold (within their rounding)
+    tie = (
+        np.abs(np.nan_to_num(window_means(score.astype(np.float64), 3)) - module.novelty_thresholds[2].item())
+        < 1e-3
+    )
+    assert tie.sum() <= 2
+    np.testing.assert_array_equal(
+        np.array([v.novel for v in verdicts])[~tie], model.novel_after(stream, 3)[~tie]
+    )
     last = d.proposals[-1]  # the new cluster, proposed once its windows fill the mean, named to the end
     assert 18 <= last["first_window"] <= 22 and last["first_window"] + last["windows"] == 40
 
@@ -156,3 +164,30 @@ def test_per_component_thresholds_need_enough_calibration_runs():
     )
     # at 20 %: component 0 its own quantile (80), component 1 its own (50; 20 >= 1 / 0.2 runs)
     assert threshold.tolist() == [80.0, 50.0, 80.0, 50.0]
+
+
+def test_counting_on_leading_columns_and_scoring_novelty_on_all_of_them(tmp_path):
+    # issue 32, decision (a): cluster_features=3 of 5 columns; the graph computes both side by side
+    X, y = _three_known_one_new()
+    extra = np.random.default_rng(1).normal(0.0, 1.0, size=(len(X), 2))
+    extra[y == 3] += 6.0  # the new cluster stands apart in the last 2 columns
+    X5 = np.hstack([X, extra])
+    known = y < 3
+    model = PitmanYorGMM(
+        n_iter=150, burn_in=50, n_chains=2, cluster_features=3, random_state=0, progress=False
+    )
+    model.fit(X5[known])
+    assert model.n_features_in_ == 5 and model.means_.shape[1] == 3 and model.density_means_.shape[1] == 5
+    # the clusters come from the first 3 columns only; the novelty density from all 5
+    shifted = X5[known] + [0.0, 0.0, 0.0, 9.0, 9.0]
+    np.testing.assert_array_equal(
+        model.predict(X5[known], using="point"), model.predict(shifted, using="point")
+    )
+    assert model.novelty_score(X5[y == 3]).mean() > model.novelty_score(X5[known]).mean() + 10
+    # the torch graph (what export traces; ONNX parity of the sliced input: tests/test_pipeline.py's round trip)
+    rows = X5[known][::5]
+    labels, _, _, score = model.to_module().double()(torch.as_tensor(rows))
+    np.testing.assert_allclose(score.numpy(), model.novelty_score(rows), rtol=1e-6, atol=1e-6)
+    np.testing.assert_array_equal(labels.numpy(), model.predict(rows, using="point"))
+    with pytest.raises(ValueError, match="cluster_features must be at most the number of columns of X"):
+        PitmanYorGMM(n_iter=5, burn_in=1, cluster_features=6, progress=False).fit(X5)

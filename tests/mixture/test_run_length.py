@@ -124,3 +124,68 @@ def test_near_pairs_split_merge_leaves_the_posterior_unchanged():
     for k in (1, 2, 3):
         a, b = (a_all == k).astype(float), (without == k).astype(float)
         assert abs(a.mean() - b.mean()) < 4 * math.hypot(batch_se(a), batch_se(b)) + 0.01
+
+
+def _plan(**kw):
+    from tactile_torch.mixture._chains import RunLength
+
+    return RunLength(
+        **{"max_iter": 40000, "max_seconds": 300.0, "burn_in": 10, "quantities": ("n_clusters",)} | kw
+    )
+
+
+def _labelled_runs(trace_k: np.ndarray, n: int = 50) -> list[dict]:
+    runs = _runs(trace_k)
+    for r in runs:
+        r["labels"] = np.zeros((1, n), dtype=np.int32)
+    return runs
+
+
+def test_chains_stuck_in_different_modes_stop_early_with_the_evidence():
+    from tactile_torch.mixture._chains import hopeless, stuck_groups
+
+    rng = np.random.default_rng(1)
+    # chain 0 holds K = 1, chains 1-3 move between 2 and 3: two groups, none drifting
+    k = np.vstack([np.ones(1000), 2 + (rng.random((3, 1000)) < 0.3)])
+    assert stuck_groups(k[:, 10:]) == [[0], [1, 2, 3]]
+    runs = _labelled_runs(k)
+    diag = diagnostics(runs, 125, ("n_clusters",))
+    stop, why = hopeless(runs, 125, diag, _plan(), elapsed=2.0)
+    assert stop == "stuck"
+    assert "chain 0: K 1; chains 1, 2, 3: K 2-3" in why and "none moved between them in 875 sweeps" in why
+    assert "R-hat of K" in why and "Next:" in why
+    # a chain still drifting (its halves do not overlap) may yet join the others: not stuck
+    drifting = k.copy()
+    drifting[0, 125 + 875 // 2 :] = 0  # K 1 in the first half after the burn-in, 0 in the second
+    assert hopeless(_labelled_runs(drifting), 125, diag, _plan(), elapsed=2.0) is None
+    # chains that share a value connect, however much they disagree
+    assert stuck_groups(np.array([[1, 2, 2], [2, 3, 3], [3, 4, 4]])) == [[0, 1, 2]]
+    # a budget large enough for the switches mixing needs: keep going
+    assert hopeless(runs, 125, diag, _plan(max_iter=10**9, max_seconds=None), elapsed=2.0) is None
+
+
+def test_a_budget_that_cannot_reach_the_ess_target_stops_early_and_says_how_much_it_needs():
+    from tactile_torch.mixture._chains import hopeless
+
+    slow = _ar1(np.random.default_rng(2), 4, 1000, 0.995)  # ESS of about 10 per 1,000 sweeps
+    runs = _labelled_runs(np.round(3 * slow))
+    diag = diagnostics(runs, 125, ("n_clusters",))
+    diag["n_clusters"] = 1.0  # R-hat is fine: only the ESS is short
+    stop, why = hopeless(runs, 125, diag, _plan(max_iter=5000), elapsed=1.0)
+    assert stop == "projected" and "more than twice the budget (max_iter=5000, max_seconds=300)" in why
+    # the same ESS with a budget that affords the projected run: keep going
+    assert hopeless(runs, 125, diag, _plan(max_iter=10**7, max_seconds=None), elapsed=1.0) is None
+    # by time: 1,000 sweeps took 60 s, so the projected run needs far more than twice 300 s
+    assert hopeless(runs, 125, diag, _plan(max_iter=10**7), elapsed=60.0)[0] == "projected"
+
+
+def test_k_at_the_priors_ceiling_stops_early():
+    from tactile_torch.mixture._chains import hopeless
+    from tactile_torch.mixture._mfm import k_ceiling
+
+    assert k_ceiling(10) == 11 and k_ceiling(1680) == 4 * 82 + 60
+    k = np.full((2, 400), 30.0)
+    k[1, 300:] = 60
+    runs = _labelled_runs(k)
+    stop, why = hopeless(runs, 50, diagnostics(runs, 50, ("n_clusters",)), _plan(k_ceiling=60), elapsed=1.0)
+    assert stop == "ceiling" and "K reached 60, the ceiling of the prior's table" in why

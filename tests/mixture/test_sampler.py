@@ -342,3 +342,31 @@ def test_progress_pool_runs_chains_on_its_threads_and_closes_the_bar():
     assert pool._shutdown and bar.disable
     with progress_pool(2, 5, 2, progress=False) as (pool, bar):
         assert bar.disable
+
+
+def test_components_given_clusters_recover_the_prior_of_k_from_the_prior_of_the_clusters():
+    # Rao-Blackwellisation of K (Miller & Harrison 2018): sum_t P(K = k | T = t) P(T = t) must be the
+    # geometric prior p(k), with P(T = t) from enumerating every partition
+    from tactile_torch.mixture._mfm import components_given_clusters, log_prior_k
+
+    n, gamma, k_mean = 7, 0.7, 3.0
+    p_t = exact_mfm_prior_k(n, gamma, k_mean)
+    span = 120
+    p_k = sum(
+        p_t[t] * components_given_clusters(n, gamma, k_mean, t, span)[: n + span - 10]
+        for t in range(1, n + 1)
+    )
+    k = np.arange(1, 40)
+    np.testing.assert_allclose(p_k[1:40], np.exp(log_prior_k(k, k_mean)), rtol=1e-9, atol=1e-15)
+
+
+def test_restricted_split_merge_still_samples_the_mfm_prior():
+    # the sequential moves are the default; the restricted-Gibbs ones (split_merge="restricted") stay exact
+    n = 8
+    X = np.random.default_rng(0).normal(size=(n, 2))
+    model = PitmanYorGMM(
+        model="mfm", k_prior_mean=3.0, split_merge="restricted", n_iter=6000, burn_in=200, n_chains=1,
+        prior_only=True, random_state=1, progress=False,
+    ).fit(X)  # fmt: skip
+    assert model.split_merge_stats_["split_accepted"] > 100
+    assert_samples_prior_of_k(model, exact_mfm_prior_k(n, 1.0, 3.0))

@@ -110,3 +110,19 @@ def test_a_source_without_its_data_is_said_to_be_skipped(monkeypatch, capsys):
 
 def test_every_source_returned_is_a_listed_name():
     assert set(ck.k_sources(quick=True)) <= set(ck.SOURCE_NAMES)
+
+
+def test_gain_invariant_features_do_not_move_with_a_sessions_gain():
+    # issue 32, decision (b): a gain multiplies every axis of a session; these 20 features stay put
+    import torch
+
+    from tactile_torch.signal import window_features
+    from tactile_torch.studies.clustering_k import gain_invariant_features
+
+    w = torch.as_tensor(np.random.default_rng(0).standard_t(5, size=(4, 3, 256)))
+    a = gain_invariant_features(window_features(w).numpy())
+    b = gain_invariant_features(window_features(1.25 * w).numpy())
+    assert a.shape == (4, 20) and np.isfinite(a).all()
+    np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-9)
+    # the features it is built from do move
+    assert not np.allclose(window_features(w).numpy(), window_features(1.25 * w).numpy())

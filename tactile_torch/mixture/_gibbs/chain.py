@@ -1,8 +1,10 @@
 """The driver of one chain: its settings in one structure, the initial component draws, and a run of sweeps.
 
-One sweep = ``n_split_merge`` split-merge moves, Neal's algorithm 8 over every point, a Gibbs update
+One sweep = ``n_split_merge`` split-merge moves (sequentially allocated, :mod:`.sequential`, or by
+restricted Gibbs sampling, :mod:`.split_merge`), Neal's algorithm 8 over every point, a Gibbs update
 of every component, then of the hyperparameters; :func:`run_sweeps` runs many of them in compiled
-code and releases the GIL, so that chains run in parallel threads.
+code, saves the partition at the sweeps asked for, and releases the GIL, so that chains run in
+parallel threads.
 """
 
 from __future__ import annotations
@@ -15,9 +17,10 @@ from numba import njit, types
 from .allocation import _component_stats, allocate, update_components
 from .conditionals import component_step
 from .hyper import update_hyper
-from .linalg import A1, A2, I1, I2, RNG, b1, f8, i8, void
+from .linalg import A1, A2, I1, I2, J2, RNG, b1, f8, i8, void
+from .sequential import sequential_moves
 from .split_merge import split_merge_moves
-from .state import STATE, copy_state, log_joint
+from .state import STATE, copy_state, log_prior_terms
 
 
 class Settings(NamedTuple):
@@ -43,9 +46,13 @@ class Settings(NamedTuple):
     """Sweeps before which the MAP sample is not tracked."""
     near: float
     """Share of split-merge pairs drawn among a point's nearest neighbours (0: uniform pairs)."""
+    sequential: bool
+    """True: sequentially-allocated merge-split moves; False: restricted Gibbs (Jain & Neal)."""
+    refresh: int
+    """Algorithm 8's auxiliary means are drawn afresh every ``refresh`` points (1: every point)."""
 
 
-SETTINGS = types.NamedTuple((i8, i8, i8, b1, b1, b1, b1, f8, f8, i8, f8), Settings)
+SETTINGS = types.NamedTuple((i8, i8, i8, b1, b1, b1, b1, f8, f8, i8, f8, b1, i8), Settings)
 """numba type of :class:`Settings`."""
 
 TRACE_NAMES = ("n_clusters", "alpha", "discount", "beta", "log_posterior")
@@ -57,10 +64,9 @@ def init_components(X, st, use_lik, rng):
     """Draw every active component's (S, mu) from its conditional given its points, centred on their mean."""
     D = X.shape[1]
     K = st.ist[0]
-    cap = st.cnt.shape[0]
-    means = np.zeros((cap, D))
-    scats = np.zeros((cap, D, D))
-    _component_stats(X, st.z, st.cnt, st.act, K, means, scats)
+    means = np.zeros((K, D))
+    scats = np.zeros((K, D, D))
+    _component_stats(X, st.z, st.pos, K, st.cnt, st.act, means, scats)
     Rxi = st.R @ st.xi
     zero_mean = np.zeros(D)
     zero_scat = np.zeros((D, D))
@@ -68,7 +74,7 @@ def init_components(X, st, use_lik, rng):
         j = st.act[t]
         if use_lik:
             st.ldet[j] = component_step(
-                st.cnt[j], means[j], scats[j], means[j].copy(), st.sc[2], st.W, st.R, Rxi, True,
+                st.cnt[j], means[t], scats[t], means[t].copy(), st.sc[2], st.W, st.R, Rxi, True,
                 st.mu[j], st.L[j], 0.0, st.sc[3], rng,
             )[1]  # fmt: skip
         else:
@@ -90,27 +96,35 @@ def init_components(X, st, use_lik, rng):
             )[1]
 
 
-@njit(void(A2, STATE, SETTINGS, RNG, i8, i8, A2, I1, STATE, A1, I2), cache=True, nogil=True)
-def run_sweeps(X, st, cfg, rng, start, count, trace, counters, best, best_val, nbr):
+@njit(void(A2, STATE, SETTINGS, RNG, i8, i8, A2, I1, STATE, A1, I2, I1, J2), cache=True, nogil=True)
+def run_sweeps(X, st, cfg, rng, start, count, trace, counters, best, best_val, nbr, snaps, labels):
     """Run sweeps ``start .. start + count - 1`` on ``st``; write their rows of ``trace`` (see TRACE_NAMES).
 
     ``nbr`` (n, k): each point's k nearest neighbours, from which a share ``cfg.near`` of the
-    split-merge pairs is drawn (:func:`~tactile_torch.mixture._gibbs.split_merge.split_merge_moves`).
+    split-merge pairs is drawn. ``snaps`` (increasing sweep numbers): after sweep ``snaps[r]`` the
+    partition is written to ``labels[r]`` (int32, components numbered 0 .. K-1 in slot order).
 
     ``counters`` accumulates the split-merge statistics; from sweep ``cfg.burn_in`` on, a state whose
     log joint density exceeds ``best_val[0]`` is copied into ``best`` (the MAP sample).
     """
     n = X.shape[0]
+    relabel = np.zeros(st.cnt.shape[0], dtype=np.int32)
+    r = 0
+    while r < snaps.shape[0] and snaps[r] < start:
+        r += 1
     for s in range(start, start + count):
         if cfg.allocate:
             if cfg.n_split_merge > 0:
-                split_merge_moves(
-                    cfg.n_split_merge, X, st, cfg.n_launch, cfg.use_lik, rng, counters, nbr, cfg.near
-                )
-            allocate(X, st, cfg.n_aux, cfg.use_lik, rng)
-        update_components(X, st, cfg.use_lik, rng)
+                if cfg.sequential:
+                    sequential_moves(cfg.n_split_merge, X, st, cfg.use_lik, rng, counters, nbr, cfg.near)
+                else:
+                    split_merge_moves(
+                        cfg.n_split_merge, X, st, cfg.n_launch, cfg.use_lik, rng, counters, nbr, cfg.near
+                    )
+            allocate(X, st, cfg.n_aux, cfg.use_lik, rng, cfg.refresh)
+        loglik = update_components(X, st, cfg.use_lik, rng)
         update_hyper(st, n, cfg.fit_alpha, cfg.fit_d, cfg.d_low, cfg.w_min, rng)
-        lj = log_joint(X, st, cfg.use_lik)
+        lj = loglik + log_prior_terms(st)
         trace[s, 0] = st.ist[0]
         trace[s, 1] = st.sc[0]
         trace[s, 2] = st.sc[1]
@@ -119,3 +133,9 @@ def run_sweeps(X, st, cfg, rng, start, count, trace, counters, best, best_val, n
         if s >= cfg.burn_in and lj > best_val[0]:
             best_val[0] = lj
             copy_state(st, best)
+        if r < snaps.shape[0] and snaps[r] == s:
+            for t in range(st.ist[0]):
+                relabel[st.act[t]] = t
+            for i in range(n):
+                labels[r, i] = relabel[st.z[i]]
+            r += 1

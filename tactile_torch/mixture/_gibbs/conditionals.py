@@ -9,10 +9,12 @@ from numba import njit
 
 from .densities import _normal_draw_prec, normal_logpdf, wishart_draw, wishart_logpdf
 from .linalg import (
+    LOG2PI,
     _cholesky,
     _gram,
     _scale_factor,
     _solve_chol,
+    _trace_prod_chol,
 )
 
 
@@ -96,3 +98,20 @@ def _draw_precision_given_point(rng, x, mu, beta, W, zeta, L):
     C = np.empty((D, D))
     ldet_p = _scale_factor(P, C)
     return wishart_draw(rng, C, -ldet_p, beta + zeta, L)
+
+
+@njit(cache=True)
+def group_loglik(n, mean, scat, mu, L, ldet, zeta):
+    """``zeta sum_k log N(x_k | mu, S^{-1})`` of ``n`` points with this ``mean`` and ``scat`` (scatter about it), ``S = L L^T``.
+
+    ``sum_k (x_k - mu)^T S (x_k - mu) = tr(S scat) + n (mean - mu)^T S (mean - mu)``: the points
+    enter through their sufficient statistics only.
+    """
+    D = mean.shape[0]
+    q = 0.0
+    for e in range(D):
+        v = 0.0
+        for a in range(e, D):
+            v += L[a, e] * (mean[a] - mu[a])
+        q += v * v
+    return zeta * (n * (0.5 * ldet - 0.5 * D * LOG2PI) - 0.5 * (_trace_prod_chol(scat, L) + n * q))

@@ -19,6 +19,7 @@ f8, i8, b1, void = types.float64, types.int64, types.boolean, types.void
 A1, A2, A3 = (types.Array(types.float64, k, "C") for k in (1, 2, 3))
 I1 = types.Array(types.int64, 1, "C")
 I2 = types.Array(types.int64, 2, "C")
+J2 = types.Array(types.int32, 2, "C")
 RNG = numba.typeof(np.random.default_rng(0))
 
 LOG2PI = math.log(2.0 * math.pi)

@@ -29,7 +29,7 @@ from numba import njit, types
 
 from .conditionals import base_logpdf
 from .densities import _log_prior_alpha, _log_prior_beta, log_eppf, log_eppf_mfm, wishart_logpdf
-from .linalg import A1, A2, A3, I1, LOG2PI, _logdet_chol, _quad_chol
+from .linalg import A1, A2, A3, I1, LOG2PI, _logdet_chol, _quad_rows
 
 
 class ChainState(NamedTuple):
@@ -165,15 +165,26 @@ def pop_free(st):
 def log_joint(X, st, use_lik):
     """Unnormalised log density of the whole state (labels, components, hyperparameters) given X."""
     n, D = X.shape
-    z, cnt, mu, L, ldet, act = st.z, st.cnt, st.mu, st.L, st.ldet, st.act
-    K = st.ist[0]
-    alpha, d, beta, zeta = st.sc[0], st.sc[1], st.sc[2], st.sc[3]
+    z, L, mu, ldet = st.z, st.L, st.mu, st.ldet
+    zeta = st.sc[3]
     out = 0.0
     if use_lik:
         half = 0.5 * D * LOG2PI
         for i in range(n):
             j = z[i]
-            out += zeta * (0.5 * ldet[j] - half - 0.5 * _quad_chol(L[j], X[i], mu[j]))
+            out += zeta * (0.5 * ldet[j] - half - 0.5 * _quad_rows(L, j, mu, j, X, i))
+    return out + log_prior_terms(st)
+
+
+@njit(cache=True)
+def log_prior_terms(st):
+    """The log joint density of the state without the likelihood: partition, components, hyperparameters."""
+    cnt, mu, L, ldet, act = st.cnt, st.mu, st.L, st.ldet, st.act
+    K = st.ist[0]
+    D = mu.shape[1]
+    n = st.z.shape[0]
+    alpha, d, beta = st.sc[0], st.sc[1], st.sc[2]
+    out = 0.0
     if st.sc[4] > 0.0:
         out += log_eppf_mfm(cnt, act, K, st.sc[4], st.lv)
     else:
