@@ -48,3 +48,24 @@ def test_cli_help_lists_every_design_subcommand():
     ).stdout
     for name in ["train", "cluster", "export", "predict", "stream", "simulate-sensor", "bench", "report"]:
         assert name in out
+
+
+def test_quick_and_full_are_exclusive_in_the_library_and_the_cli(tmp_path, capsys):
+    """Every study reads one size of run (RunContext.mode): both at once is refused, before any work."""
+    from tactile_torch.cli import main
+    from tactile_torch.studies import RunContext
+
+    assert [RunContext(quick=q, full=f).mode for q, f in ((1, 0), (0, 1), (0, 0))] == [
+        "quick",
+        "full",
+        "default",
+    ]
+    with pytest.raises(ValueError, match="quick and full are exclusive"):
+        run_report(tmp_path / "r", quick=True, full=True)
+    assert not (tmp_path / "r").exists()
+    with pytest.raises(SystemExit) as stop:
+        main(["report", "--quick", "--full", "--out", str(tmp_path / "r")])
+    err = capsys.readouterr().err
+    assert (
+        stop.value.code == 2 and err.count("\n") == 1 and "--full: not allowed with argument --quick" in err
+    )

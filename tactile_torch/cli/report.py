@@ -12,8 +12,11 @@ def register(sub) -> None:
     p = sub.add_parser("report", help="run every pipeline on the bundled data and write a report (make run)")
     p.add_argument("--out", default="runs/latest", help="output directory (default: runs/latest)")
     p.add_argument("--seed", type=SEED, default=0, help="random seed of the whole run (default: 0)")
-    p.add_argument("--quick", action="store_true", help="smaller data and fewer iterations, for a smoke test")
-    p.add_argument(
+    size = p.add_mutually_exclusive_group()
+    size.add_argument(
+        "--quick", action="store_true", help="smaller data and fewer iterations, for a smoke test"
+    )
+    size.add_argument(
         "--full", action="store_true", help="also the study-size experiments (minutes, not seconds)"
     )
     p.add_argument("--only", default="", help="comma-separated study names to run (default: all)")

@@ -46,6 +46,17 @@ class RunContext:
     out_dir: Path = Path("runs/latest")
     cache: dict[str, Any] = field(default_factory=dict)
 
+    def __post_init__(self) -> None:
+        if self.quick and self.full:
+            raise ValueError(
+                "quick and full are exclusive (quick shrinks the run, full enlarges it): pass one"
+            )
+
+    @property
+    def mode(self) -> str:
+        """``"quick"``, ``"full"`` or ``"default"``: the size of this run, as the studies' records name it."""
+        return "quick" if self.quick else "full" if self.full else "default"
+
     def cached(self, key: str, make: Callable[[], Any]) -> Any:
         """Return ``cache[key]``, computing it with ``make()`` the first time."""
         if key not in self.cache:

@@ -61,19 +61,15 @@ FIG4_NOISE = ((0.0, 0.0), (0.1, 0.01), (0.3, 0.05), (0.5, 0.09))
 """The four noise settings (mean, variance) of the Fig. 4 figure; (0, 0) is the clean frame."""
 
 
-def _mode(ctx) -> str:
-    return "quick" if ctx.quick else "full" if ctx.full else "default"
-
-
 def _factors(kind: str, ctx):
     """The factors of ``kind`` at this run's levels (the full run: every level of the records)."""
     from ..robustness.degradations import QUICK_LEVELS, factors_for
 
     chosen = []
     for f in factors_for(kind):
-        if _mode(ctx) == "default" and f.name in FULL_ONLY:
+        if ctx.mode == "default" and f.name in FULL_ONLY:
             continue
-        if _mode(ctx) != "full" and f.name in QUICK_LEVELS:
+        if ctx.mode != "full" and f.name in QUICK_LEVELS:
             levels = QUICK_LEVELS[f.name]
             f = dataclasses.replace(f, levels=levels[-2:] if ctx.quick else levels, path=None)
         chosen.append(f)
@@ -87,7 +83,7 @@ def image_data(ctx):
     from ..data.images import OBJECTS, SENSEL_PITCH_MM
     from . import image_features
 
-    size = SIZES[_mode(ctx)]
+    size = SIZES[ctx.mode]
     data = image_features.dataset(ctx)
     labels = data.labels.numpy()
     keep = np.concatenate([np.flatnonzero(labels == c)[: size["per_class"]] for c in np.unique(labels)])
@@ -107,7 +103,7 @@ def vibration_data(ctx):
     from .vibration_features import bundled_recordings
 
     rec = bundled_recordings(ctx)
-    n = int(SIZES[_mode(ctx)]["seconds"] * rec.rate_hz)
+    n = int(SIZES[ctx.mode]["seconds"] * rec.rate_hz)
     ds = replace(rec, signals=[s[:n] for s in rec.signals]).windows(800)
     recording, position = ds.recording.numpy(), ds.position.numpy()
     per_recording = np.bincount(recording)[recording]
@@ -121,7 +117,7 @@ def image_sweep(ctx, progress: bool = True):
     from ..robustness.sweeps import sweep
     from ._models import image_candidates
 
-    size = SIZES[_mode(ctx)]
+    size = SIZES[ctx.mode]
     frames, labels, _, pitch_px, _ = image_data(ctx)
     models = image_candidates(ctx.seed("breaking_points", "image estimators"), names=size["image_models"])
     result = sweep(
@@ -144,7 +140,7 @@ def vibration_sweep(ctx, progress: bool = True):
     from ..robustness.sweeps import sweep
     from ._models import vibration_candidates
 
-    size = SIZES[_mode(ctx)]
+    size = SIZES[ctx.mode]
     windows, labels, groups, context, _ = vibration_data(ctx)
     models = vibration_candidates(
         ctx.seed("breaking_points", "vibration estimators"), names=size["vibration_models"]
@@ -272,7 +268,7 @@ def run(section, ctx) -> None:
 
 
 def _run(section, ctx) -> None:
-    size = SIZES[_mode(ctx)]
+    size = SIZES[ctx.mode]
     section.text(
         "For every factor, each candidate is cross-validated at increasingly harsh levels; its **breaking "
         "point** is the first level where accuracy falls halfway from its clean value to chance (1 / classes), "
@@ -298,7 +294,7 @@ def _run(section, ctx) -> None:
         + ", ".join(f"{name} {n}" for name, n in size["trials"].items())
         + "."
     )
-    if _mode(ctx) == "default":
+    if ctx.mode == "default":
         clean = [c.clean for c in result.curves]
         section.text(
             f"This subset (short explorations, few per class) leaves the clean accuracies at {min(clean):.2f} ... "
@@ -329,7 +325,7 @@ def _real_sets(section, ctx, progress: bool) -> None:
     from ..robustness.sweeps import recording_blocks, sweep
     from ._models import erosion_for, image_candidates, vibration_candidates
 
-    size = SIZES[_mode(ctx)]
+    size = SIZES[ctx.mode]
     done = []
     if not ctx.full:
         section.text(

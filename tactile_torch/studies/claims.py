@@ -74,10 +74,6 @@ SIZES = {  # generated image sets (explorations per class, frames; the knob map'
 WINDOW_SECONDS = (0.25, 0.5, 1.0, 2.0)  # the study's W = 200 ... 1600 at 800 Hz (default run: 0.25, 1, 2)
 
 
-def _mode(ctx) -> str:
-    return "quick" if ctx.quick else "full" if ctx.full else "default"
-
-
 # ------------------------------------------------------------------------------------ image sources
 def image_sources(ctx) -> list[dict]:
     """The method-1 data sources: name, frames, labels, groups (objects, or None), erosion."""
@@ -86,7 +82,7 @@ def image_sources(ctx) -> list[dict]:
     from ._models import erosion_for
     from .image_features import dataset
 
-    size = SIZES[_mode(ctx)]
+    size = SIZES[ctx.mode]
     sources = []
     bundled = dataset(ctx)
     sources.append(
@@ -102,7 +98,7 @@ def image_sources(ctx) -> list[dict]:
     if shared_data_dir("drimus_sdh_tactile") is not None:
         from ..data.grasps import load_drimus_grasps
 
-        for sensor in ("ts1_f1_proximal", "ts2_f1_distal") if _mode(ctx) == "full" else ("ts1_f1_proximal",):
+        for sensor in ("ts1_f1_proximal", "ts2_f1_distal") if ctx.mode == "full" else ("ts1_f1_proximal",):
             sources.append(
                 {
                     "name": f"drimus_sdh_tactile {sensor} (real)",
@@ -220,7 +216,7 @@ def fusion_map(ctx, sources: list[dict]) -> tuple[list[dict], list[dict]]:
 
     from .image_features import features
 
-    size = SIZES[_mode(ctx)]
+    size = SIZES[ctx.mode]
     rows, unseen = [], []
     for s in tqdm(sources, desc="claims: image sources", disable=ctx.quick, leave=False):
         if s["name"].startswith("bundled generator (default"):
@@ -241,7 +237,7 @@ def knob_map(ctx) -> list[dict]:
 
     from ..data.images import make_explorations
 
-    size = SIZES[_mode(ctx)]
+    size = SIZES[ctx.mode]
     rows = []
     settings = [(knob, value) for knob, values in KNOBS.items() for value in values]
     for knob, value in tqdm(settings, desc="claims: generator knobs", disable=ctx.quick, leave=False):
@@ -291,7 +287,7 @@ def vibration_sources(ctx) -> list[dict]:
     from ..data.stylus import make_vibration_recordings
     from .vibration_features import bundled_recordings
 
-    size = SIZES[_mode(ctx)]
+    size = SIZES[ctx.mode]
     bundled = bundled_recordings(ctx)
     n = round(size["stylus_s"] * bundled.rate_hz)  # as long as the hard set's recordings
     sources = [
@@ -419,7 +415,7 @@ def _run(section, ctx) -> None:
         "that fails on some source is data-dependent, and the docs say so."
     )
     section.command(ctx.command("claims"))
-    size = SIZES[_mode(ctx)]
+    size = SIZES[ctx.mode]
 
     sources = image_sources(ctx)
     section.text(

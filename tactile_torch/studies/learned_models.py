@@ -38,10 +38,6 @@ COLUMNS = [
 ]
 
 
-def _mode(ctx) -> str:
-    return "full" if ctx.full else "quick" if ctx.quick else "default"
-
-
 def _classical(features: object, classifier: object):
     from sklearn.pipeline import Pipeline
     from sklearn.preprocessing import StandardScaler
@@ -142,7 +138,7 @@ def _taxel_specs(ctx) -> list:
 
 def _size(ctx) -> tuple[int, int]:
     """(samples per class, folds) of the run's mode."""
-    return {"quick": (4, 2), "default": (10, 3), "full": (16, 4)}[_mode(ctx)]
+    return {"quick": (4, 2), "default": (10, 3), "full": (16, 4)}[ctx.mode]
 
 
 def _bundled_vibration(ctx) -> list[dict]:
@@ -158,7 +154,7 @@ def _bundled_vibration(ctx) -> list[dict]:
         max_per_class=per_class,
         random_state=ctx.seed("learned_models", "bundled vibration folds"),
     )
-    specs = _vibration_specs(ctx, _mode(ctx) == "full")
+    specs = _vibration_specs(ctx, ctx.mode == "full")
     return [
         {"name": "bundled vibration", "samples": samples, "classes": list(rec.class_names), "specs": specs}
     ]
@@ -260,7 +256,7 @@ slowest to export); ``make run`` (and ``--quick``) has the bundled vibration onl
 def _sources(ctx, only: tuple[str, ...] | None = None) -> list[dict]:
     """The data sets of this run (``only``: those of :data:`SOURCES` named): name, samples with folds,
     class names, model specs."""
-    names = list(SOURCES) if _mode(ctx) == "full" else ["bundled vibration"]
+    names = list(SOURCES) if ctx.mode == "full" else ["bundled vibration"]
     out = []
     for name in names:
         if only is None or name in only:
@@ -318,7 +314,7 @@ def run(section, ctx) -> None:
     from ..neural.comparison import compare_models
     from ..robot.naming import slug
 
-    mode = _mode(ctx)
+    mode = ctx.mode
     section.text(
         "Classical models on the study's features, small neural networks on the raw input, the method-1 "
         "front end learned through the differentiable ops (threshold, edge threshold, temperatures) under a "

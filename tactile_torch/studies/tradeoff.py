@@ -32,10 +32,6 @@ VIBRATION = {"quick": (8, (800,)), "default": (16, (800, 200)), "full": (300, No
 IMAGES = {"quick": (None, ("fused",)), "default": (20, ("fused",)), "full": (None, None)}
 
 
-def _mode(ctx) -> str:
-    return "full" if ctx.full else "quick" if ctx.quick else "default"
-
-
 def _vibration_data(ctx):
     from ..tradeoff.inputs import vibration_data
     from .vibration_features import bundled_recordings
@@ -124,7 +120,7 @@ def run(section, ctx) -> None:
     from ..tradeoff.export import ExportPool
     from ..tradeoff.runner import execute_plan, plan_tradeoff
 
-    mode = _mode(ctx)
+    mode = ctx.mode
     quick = mode != "full"
     section.text(
         "Every candidate (classifier x feature set) is cross-validated with folds that keep related samples "
