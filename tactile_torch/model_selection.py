@@ -40,7 +40,7 @@ from sklearn.utils._param_validation import Interval, Options
 from sklearn.utils.validation import check_is_fitted
 
 from ._checks import RandomState, numpy_rng
-from .engine.folds import Split, rotating_splits, stratified_splitter
+from .engine.folds import Split, odd_even_split, rotating_splits, stratified_splitter
 from .engine.folds import labels_1d as _labels
 from .robot.errors import InputTypeError
 
@@ -395,38 +395,6 @@ def _path_scores(estimator, X, y, split, Cs, shared) -> list[float]:
     else:
         models = svm.fit_path(X_train, y[train], Cs)
     return [float(np.mean(model.predict(X_test) == y[test])) for model in models]
-
-
-def odd_even_split(position: int | object) -> tuple[np.ndarray, np.ndarray]:
-    """Return ``(train, test)`` indices: odd-numbered windows train, even-numbered ones test.
-
-    Windows are numbered from 1 in recording order, as in method 2's study (so the first window of a
-    recording, numbered 1, is odd and trains).
-
-    Parameters
-    ----------
-    position : int or array-like of shape (n,)
-        The number of windows of one recording, or the index of every window inside its own
-        recording (``VibrationWindows.position``), for windows of several recordings.
-
-    Examples
-    --------
-    >>> odd_even_split(5)
-    (array([0, 2, 4]), array([1, 3]))
-    >>> odd_even_split([0, 1, 2, 0, 1])  # two recordings: windows 1, 2, 3 and 1, 2
-    (array([0, 2, 3]), array([1, 4]))
-    """
-    if isinstance(position, Integral) and not isinstance(position, bool):
-        if position < 0:
-            raise ValueError(f"position must be a number of windows >= 0, got {position}")
-        position = np.arange(position)
-    else:
-        position = _labels(position, "position")
-        if not np.issubdtype(position.dtype, np.integer) or (position < 0).any():
-            raise ValueError(
-                "position must hold the windows' indices (integers >= 0) inside their recordings"
-            )
-    return np.flatnonzero(position % 2 == 0), np.flatnonzero(position % 2 == 1)
 
 
 def rank_feature_groups(

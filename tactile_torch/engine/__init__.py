@@ -59,6 +59,7 @@ __getattr__, __dir__, __all__ = lazy_exports(
             "cap_per_class",
             "fold_units",
             "group_folds",
+            "odd_even_split",
             "rotating_splits",
             "sample_folds",
             "stratified_folds",

@@ -9,6 +9,7 @@ The one home of fold making (``tests/project/test_evaluation_home.py`` fails whe
   every class has two, else consecutive time blocks of every recording with guard windows between
   blocks (:func:`single_group` says why, in words); :func:`fold_units`, :func:`cap_per_class`;
 * :func:`rotating_splits`: method 1's rounds (train, validation, test: 60 / 20 / 20 %);
+  :func:`odd_even_split`: method 2's odd/even windows;
 * :func:`stratified_splitter`, :func:`stratified_folds`, :func:`group_folds`: scikit-learn's
   ``StratifiedKFold`` (shuffled, seeded; the splitter, or its folds as a list) and ``GroupKFold`` folds,
   for the grid searches and the report's studies;
@@ -16,8 +17,8 @@ The one home of fold making (``tests/project/test_evaluation_home.py`` fails whe
   test), the hold-out of the studies that train on a recording's past and test on its future.
 
 :func:`sample_folds`, :func:`window_folds`, :func:`fold_units` and :func:`cap_per_class` are also
-importable from ``tactile_torch.tradeoff.inputs``, :class:`Split` and :func:`rotating_splits` from
-``tactile_torch.model_selection``, and :func:`time_holdout` serves ``studies.novelty.time_split``.
+importable from ``tactile_torch.tradeoff.inputs``, :class:`Split`, :func:`rotating_splits` and
+:func:`odd_even_split` from ``tactile_torch.model_selection``, and :func:`time_holdout` serves ``studies.novelty.time_split``.
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from itertools import accumulate
-from numbers import Real
+from numbers import Integral, Real
 
 import numpy as np
 
@@ -307,6 +308,38 @@ def rotating_splits(y: object, *, n_folds: int = 5, random_state: RandomState = 
     return splits
 
 
+def odd_even_split(position: int | object) -> tuple[np.ndarray, np.ndarray]:
+    """Return ``(train, test)`` indices: odd-numbered windows train, even-numbered ones test.
+
+    Windows are numbered from 1 in recording order, as in method 2's study (so the first window of a
+    recording, numbered 1, is odd and trains).
+
+    Parameters
+    ----------
+    position : int or array-like of shape (n,)
+        The number of windows of one recording, or the index of every window inside its own
+        recording (``VibrationWindows.position``), for windows of several recordings.
+
+    Examples
+    --------
+    >>> odd_even_split(5)
+    (array([0, 2, 4]), array([1, 3]))
+    >>> odd_even_split([0, 1, 2, 0, 1])  # two recordings: windows 1, 2, 3 and 1, 2
+    (array([0, 2, 3]), array([1, 4]))
+    """
+    if isinstance(position, Integral) and not isinstance(position, bool):
+        if position < 0:
+            raise ValueError(f"position must be a number of windows >= 0, got {position}")
+        position = np.arange(position)
+    else:
+        position = labels_1d(position, "position")
+        if not np.issubdtype(position.dtype, np.integer) or (position < 0).any():
+            raise ValueError(
+                "position must hold the windows' indices (integers >= 0) inside their recordings"
+            )
+    return np.flatnonzero(position % 2 == 0), np.flatnonzero(position % 2 == 1)
+
+
 def stratified_splitter(n_folds: int, seed: int):
     """Return scikit-learn's ``StratifiedKFold(n_folds, shuffle=True, random_state=seed)``: the splitter to
     hand to a grid search's ``cv=`` (e.g. :func:`tactile_torch.model_selection.stratified_grid_search`)."""
@@ -393,6 +426,7 @@ __all__ = [
     "fold_units",
     "group_folds",
     "labels_1d",
+    "odd_even_split",
     "rotating_splits",
     "sample_folds",
     "single_group",

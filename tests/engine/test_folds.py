@@ -99,5 +99,5 @@ def test_the_old_homes_still_serve_the_moved_names():
 
     for name in ("sample_folds", "window_folds", "fold_units", "cap_per_class"):
         assert getattr(inputs, name) is getattr(folds, name) and name in inputs.__all__
-    for name in ("rotating_splits", "Split"):
+    for name in ("rotating_splits", "Split", "odd_even_split"):
         assert getattr(model_selection, name) is getattr(folds, name) and name in model_selection.__all__
