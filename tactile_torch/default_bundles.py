@@ -66,7 +66,7 @@ def build_default_bundles(
     built: dict[str, Bundle] = {}
     if any(k.startswith("vibration") for k in kinds):
         from .data.stylus import make_vibration_recordings
-        from .model_selection import odd_even_split
+        from .engine.folds import odd_even_split
         from .signal import window_features
 
         rec = make_vibration_recordings(28, duration_s=10 if quick else 60, random_state=random_state)

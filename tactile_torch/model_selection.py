@@ -34,79 +34,20 @@ import numpy as np
 from scipy.sparse import issparse
 from scipy.stats import rankdata
 from sklearn.base import BaseEstimator, ClassifierMixin, MetaEstimatorMixin, _fit_context, clone
-from sklearn.model_selection import GridSearchCV, ParameterGrid, StratifiedKFold, check_cv
+from sklearn.model_selection import GridSearchCV, ParameterGrid, check_cv
 from sklearn.pipeline import Pipeline
 from sklearn.utils._param_validation import Interval, Options
 from sklearn.utils.validation import check_is_fitted
 
 from ._checks import RandomState, numpy_rng
+from .engine.folds import Split, odd_even_split, rotating_splits, stratified_splitter
+from .engine.folds import labels_1d as _labels
 from .robot.errors import InputTypeError
 
 VIBRATION_STUDY_C = 16.0
 """Method 2: the RBF SVM's penalty ``C`` the study chose (stratified 10-fold CV)."""
 VIBRATION_STUDY_GAMMA = 0.0186
 """Method 2: the RBF kernel's ``gamma`` the study chose, on features scaled to unit std."""
-
-
-@dataclass(frozen=True)
-class Split:
-    """Indices of one round of the 60/20/20 protocol."""
-
-    train: np.ndarray
-    validation: np.ndarray
-    test: np.ndarray
-
-
-def _labels(y: object, name: str = "y") -> np.ndarray:
-    if hasattr(y, "detach"):
-        y = y.detach().cpu().numpy()
-    y = np.asarray(y)
-    if y.ndim != 1:
-        raise ValueError(f"{name} must be a 1-D array, got shape {y.shape}")
-    return y
-
-
-def rotating_splits(y: object, *, n_folds: int = 5, random_state: RandomState = None) -> list[Split]:
-    """Return method 1's rounds: stratified folds; round ``k`` tests on fold ``k``, validates on fold
-    ``k + 1`` and trains on the others (with 5 folds: 60 % / 20 % / 20 %).
-
-    Every sample is in exactly one test fold. Folds are stratified (each class spread evenly),
-    which needs at least ``n_folds`` samples of every class.
-
-    Parameters
-    ----------
-    y : array-like of shape (n,)
-    n_folds : int, default 5
-    random_state : int, numpy or torch Generator, or None
-        Shuffles the samples before folding.
-
-    Returns
-    -------
-    list of ``n_folds`` :class:`Split`
-
-    Examples
-    --------
-    >>> splits = rotating_splits(np.repeat([0, 1], 10), random_state=0)
-    >>> [(len(s.train), len(s.validation), len(s.test)) for s in splits][:2]
-    [(12, 4, 4), (12, 4, 4)]
-    """
-    y = _labels(y)
-    if n_folds < 3:
-        raise ValueError(f"n_folds must be >= 3 (train, validation and test folds), got {n_folds}")
-    _, counts = np.unique(y, return_counts=True)
-    if counts.min() < n_folds:
-        raise ValueError(
-            f"every class needs at least n_folds={n_folds} samples for stratified folds, "
-            f"got a class with {counts.min()}"
-        )
-    seed = int(numpy_rng(random_state).integers(2**31))
-    folds = [test for _, test in StratifiedKFold(n_folds, shuffle=True, random_state=seed).split(y, y)]
-    splits = []
-    for k in range(n_folds):
-        validation = folds[(k + 1) % n_folds]
-        train = np.sort(np.concatenate([folds[j] for j in range(n_folds) if j not in (k, (k + 1) % n_folds)]))
-        splits.append(Split(train=train, validation=np.sort(validation), test=np.sort(folds[k])))
-    return splits
 
 
 def parameter_grid(grid: Mapping[str, Sequence]) -> list[dict]:
@@ -256,7 +197,7 @@ def stratified_grid_search(
     for our SVMs, scikit-learn's ``GridSearchCV`` otherwise (same attributes: ``cv_results_``,
     ``best_params_``, ``best_estimator_`` ...)."""
     seed = int(numpy_rng(random_state).integers(2**31))
-    cv = StratifiedKFold(n_folds, shuffle=True, random_state=seed)
+    cv = stratified_splitter(n_folds, seed)
     if supports_batched_search(estimator):
         return SVMGridSearchCV(estimator, dict(param_grid), cv=cv).fit(np.asarray(X), _labels(y))
     return GridSearchCV(estimator, dict(param_grid), cv=cv, scoring="accuracy", refit=True).fit(
@@ -454,38 +395,6 @@ def _path_scores(estimator, X, y, split, Cs, shared) -> list[float]:
     else:
         models = svm.fit_path(X_train, y[train], Cs)
     return [float(np.mean(model.predict(X_test) == y[test])) for model in models]
-
-
-def odd_even_split(position: int | object) -> tuple[np.ndarray, np.ndarray]:
-    """Return ``(train, test)`` indices: odd-numbered windows train, even-numbered ones test.
-
-    Windows are numbered from 1 in recording order, as in method 2's study (so the first window of a
-    recording, numbered 1, is odd and trains).
-
-    Parameters
-    ----------
-    position : int or array-like of shape (n,)
-        The number of windows of one recording, or the index of every window inside its own
-        recording (``VibrationWindows.position``), for windows of several recordings.
-
-    Examples
-    --------
-    >>> odd_even_split(5)
-    (array([0, 2, 4]), array([1, 3]))
-    >>> odd_even_split([0, 1, 2, 0, 1])  # two recordings: windows 1, 2, 3 and 1, 2
-    (array([0, 2, 3]), array([1, 4]))
-    """
-    if isinstance(position, Integral) and not isinstance(position, bool):
-        if position < 0:
-            raise ValueError(f"position must be a number of windows >= 0, got {position}")
-        position = np.arange(position)
-    else:
-        position = _labels(position, "position")
-        if not np.issubdtype(position.dtype, np.integer) or (position < 0).any():
-            raise ValueError(
-                "position must hold the windows' indices (integers >= 0) inside their recordings"
-            )
-    return np.flatnonzero(position % 2 == 0), np.flatnonzero(position % 2 == 1)
 
 
 def rank_feature_groups(

@@ -282,11 +282,11 @@ def held_out_folds(features: FeatureSet, n_folds: int = 5, *, random_state: Rand
 
     Windows are grouped by session (or recording) when every class has two, else cut into
     consecutive time blocks of every recording with guard windows between blocks
-    (:func:`tactile_torch.tradeoff.inputs.window_folds`); explorations and feature rows are grouped
-    by ``groups`` when given, else stratified (:func:`~tactile_torch.tradeoff.inputs.sample_folds`).
+    (:func:`tactile_torch.engine.folds.window_folds`); explorations and feature rows are grouped
+    by ``groups`` when given, else stratified (:func:`~tactile_torch.engine.folds.sample_folds`).
     ``folds`` index ``keep``, the samples used; ``split`` names the split in words.
     """
-    from .tradeoff.inputs import sample_folds, window_folds
+    from .engine.folds import sample_folds, window_folds
 
     names = features.class_names
     if features.recording is not None:

@@ -1,8 +1,14 @@
 """The evaluation engine: cross-validation of raw-input scikit-learn models, for every study.
 
 One engine serves the trade-off (:mod:`tactile_torch.tradeoff`), the breaking points
-(:mod:`tactile_torch.robustness`) and the report's studies:
+(:mod:`tactile_torch.robustness`) and the report's studies, and it is the one home of fold making:
 
+* **every fold and hold-out** (:mod:`tactile_torch.engine.folds`): :func:`sample_folds` (explorations
+  and feature rows, grouped when every class has two groups), :func:`window_folds` (windows of
+  recordings: grouped by session or recording, else time blocks with guard windows), method 1's
+  :func:`rotating_splits`, :func:`stratified_folds` and :func:`group_folds` for the studies,
+  :func:`time_holdout` (each recording cut in time order); the studies' scikit-learn
+  cross-validation on those folds through :func:`fold_predictions` and :func:`fold_scores`;
 * **folds that keep groups apart**: :func:`make_folds` (stratified, grouped by recording, session or
   object) and, inside each outer training part, :func:`inner_splits` for tuning;
 * **feature caching**: models are ``Pipeline``\\ s whose first step is named ``"features"``; models with
@@ -47,6 +53,20 @@ __getattr__, __dir__, __all__ = lazy_exports(
     __name__,
     {
         "_crossval": ("CVResult", "cross_validate"),
+        "_sklearn_cv": ("fold_predictions", "fold_scores"),
+        "folds": (
+            "Split",
+            "cap_per_class",
+            "fold_units",
+            "group_folds",
+            "odd_even_split",
+            "rotating_splits",
+            "sample_folds",
+            "stratified_folds",
+            "stratified_splitter",
+            "time_holdout",
+            "window_folds",
+        ),
         "_models": (
             "Folds",
             "Models",

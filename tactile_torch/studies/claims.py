@@ -118,26 +118,24 @@ def image_sources(ctx) -> list[dict]:
 def _predictions(fused, concat, y, groups, folds: int, ctx) -> tuple[dict, int]:
     """Cross-validated predictions ``{(scheme, classifier, features): labels}``: stratified folds, and
     folds grouped by ``groups`` (unseen objects) when given; seeded from ``ctx``."""
-    from sklearn.model_selection import GroupKFold, StratifiedKFold, cross_val_predict
     from sklearn.pipeline import make_pipeline
     from sklearn.preprocessing import StandardScaler
 
+    from ..engine import fold_predictions, group_folds, stratified_folds
     from ._models import IMAGE_SVM_C, classifiers
 
     n = int(min(folds, np.bincount(y)[np.unique(y)].min()))
-    schemes = {
-        "stratified": (StratifiedKFold(n, shuffle=True, random_state=ctx.seed("claims", "cv folds")), None)
-    }
+    schemes = {"stratified": stratified_folds(y, n, ctx.seed("claims", "cv folds"))}
     if groups is not None and len(np.unique(groups)) >= n:
-        schemes["unseen objects"] = (GroupKFold(n), groups)
+        schemes["unseen objects"] = group_folds(y, groups, n)
     preds = {}
-    for scheme, (cv, grp) in schemes.items():
+    for scheme, cv in schemes.items():
         for clf_name, clf in classifiers(ctx.seed("claims", "image estimators"), svm_c=IMAGE_SVM_C).items():
             if ctx.quick and clf_name == "HM-SVM":
                 continue  # the quick sets have too few explorations per class to train it
             for feats, X in (("fused", fused), ("concatenated", concat)):
                 model = make_pipeline(StandardScaler(), clf)
-                preds[scheme, clf_name, feats] = cross_val_predict(model, X, y, cv=cv, groups=grp)
+                preds[scheme, clf_name, feats] = fold_predictions(model, X, y, cv)
     return preds, n
 
 
@@ -308,12 +306,14 @@ def vibration_sources(ctx) -> list[dict]:
 
 def _time_split(rec, size: int):
     """Windows of ``size`` samples; train = first two thirds of every recording, test = the rest."""
+    from fractions import Fraction
+
+    from ..engine.folds import time_holdout
     from ._models import vibration_features
 
     ds = rec.windows(size)
-    recording, position = ds.recording.numpy(), ds.position.numpy()
-    count = np.bincount(recording)[recording]
-    train = position < (2 * count) // 3
+    # the first floor(2 m / 3) of a recording's m windows (rounded down, unlike the novelty study's split)
+    train = time_holdout(ds.recording.numpy(), ds.position.numpy(), (Fraction(2, 3),), rounding="floor") == 0
     return vibration_features(ds.windows), ds.labels.numpy(), train
 
 

@@ -66,16 +66,17 @@ def features(ctx):
 def _accuracies(feats: dict, cv_seed: int) -> list[dict]:
     """5-fold CV accuracy (stratified, and grouped by object) of LDA and an RBF SVC on each feature set."""
     from sklearn.discriminant_analysis import LinearDiscriminantAnalysis
-    from sklearn.model_selection import GroupKFold, StratifiedKFold, cross_val_score
     from sklearn.pipeline import make_pipeline
     from sklearn.preprocessing import StandardScaler
     from sklearn.svm import SVC
 
+    from ..engine import fold_scores, group_folds, stratified_folds
+
     y, groups = feats["labels"], feats["groups"]
     n_splits = int(min(5, np.bincount(y).min(), len(np.unique(groups))))
     splits = {
-        "stratified 5-fold": list(StratifiedKFold(n_splits, shuffle=True, random_state=cv_seed).split(y, y)),
-        "5-fold, unseen objects": list(GroupKFold(n_splits).split(y, y, groups)),
+        "stratified 5-fold": stratified_folds(y, n_splits, cv_seed),
+        "5-fold, unseen objects": group_folds(y, groups, n_splits),
     }
     classifiers = {
         "LDA": lambda: make_pipeline(StandardScaler(), LinearDiscriminantAnalysis()),
@@ -87,7 +88,7 @@ def _accuracies(feats: dict, cv_seed: int) -> list[dict]:
         for name, make in classifiers.items():
             row = {"features": f"{'fused' if fused else 'unfused'} ({x.shape[1]})", "classifier": name}
             for split, folds in splits.items():
-                scores = cross_val_score(make(), x, y, cv=folds)
+                scores = fold_scores(make(), x, y, folds)
                 row[split] = f"{scores.mean():.3f} ± {scores.std():.3f}"
             rows.append(row)
     return rows

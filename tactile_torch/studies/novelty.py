@@ -66,16 +66,13 @@ SPLIT = (0.4, 0.2)
 
 
 def time_split(recording: np.ndarray, position: np.ndarray, split: tuple[float, float] = SPLIT) -> np.ndarray:
-    """Return 0 (train), 1 (calibration) or 2 (test) per window: each recording cut in time order, shape (n,)."""
-    part = np.full(recording.shape, 2)
-    for r in np.unique(recording):
-        idx = np.flatnonzero(recording == r)
-        idx = idx[np.argsort(position[idx], kind="stable")]
-        a = round(split[0] * idx.size)
-        b = round((split[0] + split[1]) * idx.size)
-        part[idx[:a]] = 0
-        part[idx[a:b]] = 1
-    return part
+    """Return 0 (train), 1 (calibration) or 2 (test) per window: each recording cut in time order, shape (n,).
+
+    :func:`tactile_torch.engine.folds.time_holdout` with the shares ``split`` (rounded to the nearest window).
+    """
+    from ..engine.folds import time_holdout
+
+    return time_holdout(recording, position, split)
 
 
 def window_runs(score: np.ndarray, recording: np.ndarray, position: np.ndarray, n: int, how: str) -> tuple:

@@ -45,6 +45,7 @@ def scaled_features(windows, train: np.ndarray) -> np.ndarray:
 def run(section, ctx) -> None:
     from sklearn.svm import SVC as LibSVC
 
+    from ..engine.folds import odd_even_split
     from ..metrics import class_report
     from ..model_selection import rank_feature_groups, stratified_grid_search
     from ..signal import AXES, AXIS_FEATURES, FEATURE_NAMES
@@ -56,8 +57,7 @@ def run(section, ctx) -> None:
     y = ds.labels.numpy()
     names = list(ds.class_names)
     position = ds.position.numpy()
-    train = np.flatnonzero(position % 2 == 0)  # windows 1, 3, 5 ... (numbered from 1)
-    test = np.flatnonzero(position % 2 == 1)
+    train, test = odd_even_split(position)  # train: windows 1, 3, 5 ... (numbered from 1)
     X = scaled_features(ds.windows, train)
     section.text(
         f"{len(y)} windows of W = {WINDOW} ({len(names)} surfaces), 21 features scaled to unit standard "
@@ -153,6 +153,7 @@ def _agreement(section, ctx, X_train, y_train, X_test) -> None:
     from sklearn.svm import SVC as LibSVC
 
     from ..data import shared_data_dir
+    from ..engine.folds import odd_even_split
     from ..svm import SVC, scale_gamma
 
     sets = [("synthetic (bundled)", X_train, y_train, X_test, None)]
@@ -167,7 +168,7 @@ def _agreement(section, ctx, X_train, y_train, X_test) -> None:
         rec = getattr(data, loader)()
         ds = rec.windows(size)
         position = ds.position.numpy()
-        tr, te = np.flatnonzero(position % 2 == 0), np.flatnonzero(position % 2 == 1)
+        tr, te = odd_even_split(position)
         X = scaled_features(ds.windows, tr)
         sets.append(
             (

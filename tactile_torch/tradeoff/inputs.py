@@ -1,7 +1,10 @@
 """The data of a trade-off study: one data file read through the package's loaders, cut into the raw
 inputs the candidates take, with cross-validation folds that never put related samples on both sides.
 
-Folds (every candidate of one raw input sees the same folds):
+Folds (every candidate of one raw input sees the same folds; made by :mod:`tactile_torch.engine.folds`,
+whose :func:`~tactile_torch.engine.folds.sample_folds`, :func:`~tactile_torch.engine.folds.window_folds`,
+:func:`~tactile_torch.engine.folds.fold_units` and :func:`~tactile_torch.engine.folds.cap_per_class`
+are also importable from here):
 
 * **Vibration windows** (non-overlapping, ``step = W``). When every class has at least two
   recordings (or sessions, when the file gives ``session``), folds are grouped by recording
@@ -25,7 +28,13 @@ from pathlib import Path
 import numpy as np
 
 from .._checks import RandomState
-from ..engine.folds import _check_folds, _class_name, _group_ids, sample_folds
+from ..engine.folds import (
+    _group_ids,
+    cap_per_class,
+    fold_units,
+    sample_folds,
+    window_folds,
+)
 from ..robot.contract import FEATURES_LAYOUT, FRAMES_LAYOUT, PRESSURE_LAYOUT, WINDOWS_LAYOUT
 
 WINDOW_SIZES = (200, 400, 800, 1600)
@@ -97,14 +106,6 @@ class Samples:
 def _names_of(values: np.ndarray) -> tuple[str, ...]:
     """The names of the ids :func:`_group_ids` gives ``values``, in id order."""
     return tuple(str(v) for v in np.unique(np.asarray(values).astype(str)))
-
-
-def fold_units(folds: list[Fold], n: int) -> np.ndarray:
-    """Return the index of the fold that tests each of ``n`` samples."""
-    units = np.full(n, -1, dtype=np.int64)
-    for k, (_, test) in enumerate(folds):
-        units[test] = k
-    return units
 
 
 @dataclass
@@ -267,20 +268,6 @@ def vibration_data(recordings: object, name: str) -> TradeoffData:
     )
 
 
-# ------------------------------------------------------------------------------------------- folds
-def _evenly(index: np.ndarray, cap: int) -> np.ndarray:
-    if len(index) <= cap:
-        return index
-    return index[np.unique(np.linspace(0, len(index) - 1, cap).round().astype(int))]
-
-
-def cap_per_class(y: np.ndarray, cap: int | None) -> np.ndarray:
-    """Indices keeping at most ``cap`` samples per class, evenly spaced in the given order (all if ``None``)."""
-    if cap is None:
-        return np.arange(len(y))
-    return np.sort(np.concatenate([_evenly(np.flatnonzero(y == c), cap) for c in np.unique(y)]))
-
-
 def vibration_samples(
     recordings: object,
     window: int,
@@ -313,38 +300,26 @@ def vibration_samples(
     y = np.asarray(recordings.labels)[recording]
     rate = float(recordings.rate_hz)
     session = recordings.session if recordings.session is not None else np.arange(len(recordings))
-    group = _group_ids(np.asarray(session))[recording]
-    per_class = np.array([len(np.unique(group[y == c])) for c in np.unique(y)])
-    units = None
-    if per_class.min() >= 2:
-        keep = cap_per_class(y, max_per_class)
-        folds, split = sample_folds(
-            y[keep],
-            group[keep],
-            n_folds=n_folds,
-            names=names,
-            what="recordings",
-            group_label="session" if recordings.session is not None else "recording",
-            random_state=random_state,
-        )
-        unit = "session" if recordings.session is not None else "recording"
-        units = group[keep]
-        unit_names = _names_of(session)
-    else:  # one recording for some class: consecutive time blocks of every recording, a guard between
-        unit = "session" if recordings.session is not None else "recording"
-        group, keep, folds, split = _time_blocks(
-            recording,
-            position,
-            y,
-            window,
-            n_folds,
-            max_per_class,
-            names,
-            why=single_group(group, recording, y, names, unit),
-        )
+    unit = "session" if recordings.session is not None else "recording"
+    by_session = _group_ids(np.asarray(session))[recording]
+    grouped = all(len(np.unique(by_session[y == c])) >= 2 for c in np.unique(y))
+    group, keep, folds, split = window_folds(
+        recording,
+        position,
+        y,
+        session,
+        group_label=unit,
+        n_folds=n_folds,
+        names=names,
+        window=window,
+        max_per_class=max_per_class,
+        random_state=random_state,
+    )
     split = f"{len(keep)} windows; {split}"
     X, y, group = X[keep], y[keep], group[keep]
-    if units is None:  # time blocks: block b of every recording is one unit (it is fold b's test set)
+    if grouped:  # grouped by session (or recording): each is a unit
+        units, unit_names = group, _names_of(session)
+    else:  # time blocks: block b of every recording is one unit (it is fold b's test set)
         unit, units, unit_names = "time block", fold_units(folds, len(y)), None
     return Samples(
         f"windows-{window}",
@@ -360,133 +335,6 @@ def vibration_samples(
         unit=unit,
         unit_names=unit_names,
     )
-
-
-def window_folds(
-    recording: np.ndarray,
-    position: np.ndarray,
-    y: np.ndarray,
-    session: np.ndarray,
-    *,
-    group_label: str = "session",
-    n_folds: int,
-    names: Sequence[str],
-    window: int,
-    guard: int = 1,
-    max_per_class: int | None = None,
-    random_state: RandomState = None,
-) -> tuple[np.ndarray, np.ndarray, list[Fold], str]:
-    """Folds of windows cut from recordings, every ``step`` samples, that never split neighbouring windows.
-
-    The decision of :func:`vibration_samples` (module notes) for windows that may overlap: grouped by
-    session (or recording) when every class has two, else consecutive time blocks with ``guard``
-    windows dropped between blocks. What ``tactile-torch train`` reports on
-    (:func:`tactile_torch.training.held_out_folds`).
-
-    Parameters
-    ----------
-    recording, position, y : ndarray (N,)
-        Each window's recording, its index within the recording (time order), its class.
-    session : ndarray (R,)
-        Each recording's session (or its index); windows are grouped by it.
-    group_label : str
-        What ``session`` holds, in the description (``"session"``, ``"recording"``).
-    guard : int
-        Time blocks: windows dropped at the start of every later block (``ceil(W / step)`` for
-        windows cut every ``step`` samples, so that no kept window overlaps another block's).
-
-    Returns
-    -------
-    groups : ndarray (N,)
-        What the folds keep on one side (session or recording, or a recording's time block).
-    keep : ndarray
-        The windows used (every window but the guards, at most ``max_per_class`` per class).
-    folds : list of (train, test)
-        Index arrays into ``keep``.
-    split : str
-        How the folds were made, in words.
-    """
-    group = _group_ids(np.asarray(session))[recording]
-    per_class = np.array([len(np.unique(group[y == c])) for c in np.unique(y)])
-    if per_class.min() >= 2:
-        keep = cap_per_class(y, max_per_class)
-        folds, split = sample_folds(
-            y[keep],
-            group[keep],
-            n_folds=n_folds,
-            names=names,
-            what="recordings",
-            group_label=group_label,
-            random_state=random_state,
-        )
-        return group, keep, folds, split
-    # one recording (or session) for some class: consecutive time blocks of every recording
-    why = single_group(group, recording, y, names, group_label)
-    return _time_blocks(recording, position, y, window, n_folds, max_per_class, names, guard, why=why)
-
-
-def single_group(
-    group: np.ndarray, recording: np.ndarray, y: np.ndarray, names: Sequence[str], label: str
-) -> str:
-    """Why windows are not grouped, in words the data bear out: the classes with a single ``label``."""
-    classes = np.unique(y)
-    single = [c for c in classes if len(np.unique(group[y == c])) < 2]
-    c = single[0]
-    n_recordings = len(np.unique(recording[y == c]))
-    which = (
-        f"class {_class_name(names, c)!r} has"
-        if len(single) == 1
-        else f"{len(single)} of {len(classes)} classes have"
-    )
-    if label == "session" and n_recordings > 1:
-        return f"{which} a single session (the {n_recordings} recordings of {_class_name(names, c)!r} are one session)"
-    return f"{which} a single {label}"
-
-
-def _time_blocks(
-    recording: np.ndarray,
-    position: np.ndarray,
-    y: np.ndarray,
-    window: int,
-    n_folds: int,
-    max_per_class: int | None,
-    names: Sequence[str],
-    guard: int = 1,
-    *,
-    why: str = "a class has a single recording",
-) -> tuple[np.ndarray, np.ndarray, list[Fold], str]:
-    """Time-block folds: ``(block of each window, windows kept, folds over the kept ones, description)``;
-    ``why`` says why the windows are not grouped (:func:`single_group`)."""
-    present = np.unique(recording)
-    n_windows = np.bincount(recording)[present]
-    blocks = min(
-        n_folds, int(n_windows.min() // (guard + 1))
-    )  # every later block keeps a window after its guard
-    if blocks < 2:
-        short = names[int(y[recording == present[n_windows.argmin()]][0])]
-        need = 2 * (guard + 1)
-        raise ValueError(
-            f"window: {window} samples leaves a recording of class {short!r} only {n_windows.min()} window(s); "
-            f"time-block folds need at least {need} (two blocks, each with {guard} guard window(s)): choose a "
-            "shorter window (window=)"
-        )
-    count = np.bincount(recording)[recording]
-    block = position * blocks // count
-    guarded = (position > 0) & (block != np.maximum(position - guard, 0) * blocks // count)
-    keep = np.flatnonzero(~guarded)
-    keep = keep[cap_per_class(y[keep], max_per_class)]
-    folds = [(np.flatnonzero(block[keep] != b), np.flatnonzero(block[keep] == b)) for b in range(blocks)]
-    _check_folds(folds, y[keep], names, "windows")
-    dropped = (
-        "the first window of each later block is"
-        if guard == 1
-        else f"the first {guard} windows of each later block are"
-    )
-    split = (
-        f"{blocks} folds of consecutive time blocks of every recording ({why}); "
-        f"{dropped} dropped so that no neighbouring windows are split"
-    )
-    return recording * blocks + block, keep, folds, split
 
 
 def allowed_windows(

@@ -82,8 +82,8 @@ UPWARD_ALLOWED = {
     (
         "training",
         "tradeoff",
-    ): "training.py uses tradeoff/transformers.py (moves to features/) and the folds of "
-    "tradeoff/inputs.py (move to engine/)",
+    ): "training.py uses tradeoff/transformers.py (moves to features/) and tradeoff/inputs.py's "
+    "DEFAULT_FRAME_RATE_HZ (its folds are in engine/folds.py now)",
 }
 
 
