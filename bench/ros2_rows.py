@@ -5,11 +5,11 @@
 and a DDS domain of its own, the stream in this process (``Ros2Source`` -> ``LiveStream``, a JSON line
 per result to ``/dev/null``, each decision published back as ``std_msgs/msg/String``):
 
-- ``frames/s``: the publisher writes as fast as its writer takes the messages, reliable on both sides
-  (``--qos reliable``: the writer waits for the reader, so the rate is what the stream sustains; at the
-  sensor QoS, best effort, a reader that falls behind a faster publisher loses the oldest frames: its
-  history keeps 1000); frames read / time from the first touch's first frame to the last touch's result,
-  and the frames lost;
+- ``frames/s``: the publisher writes as fast as its writer takes the messages (15,000-57,000 frames/s
+  here), reliable on both sides (``--qos reliable``); both histories keep the last 1000, so the writer
+  does not wait for a slower reader and a flood still loses frames (``frames lost``; at the sensor QoS,
+  best effort, as many). frames/s is what the stream sustained: frames read / time from the first
+  touch's first frame to the last touch's result;
 - ``touch-end latency``: paced at 200 frames/s, from taking the frame that ended a touch off the DDS
   reader to its JSON line printed (the serial rows' definition), median and 99th percentile; and to
   its decision published on the decision topic (written to the DDS writer);
@@ -119,8 +119,8 @@ def dds_rows(
     bundle: str, model: str, side: int, frames: np.ndarray, paced: np.ndarray, tmp: str
 ) -> list[dict]:
     """One row: ``bundle`` streamed over DDS (frames/s on ``frames``, latencies on ``paced`` at 200 Hz)."""
-    # as fast as possible: reliable, so the rate is what the reader sustains (best effort drops what a
-    # reader slower than the publisher cannot take: ~65 % of the frames in a run at 17,000-69,000 frames/s)
+    # as fast as possible, reliable (keep-last 1000 on both sides: a flood still drops what the stream
+    # cannot take; frames/s is what it sustained)
     fast = _stream(bundle, frames, 0.0, tmp, qos="reliable")
     slow = _stream(bundle, paced, PACED_HZ, tmp)
     return [
@@ -178,7 +178,8 @@ def echo_row(side: int, paced: np.ndarray, tmp: str) -> dict:
 NOTES = [
     "ROS 2 rows: the frames are published by another process (python -m bench.ros2_probe) as "
     "std_msgs/msg/Float32MultiArray over Cyclone DDS (loopback only, a DDS domain of their own; "
-    "frames/s: reliable, so the publisher waits for the stream; the latency rows: best effort at 200 frames/s); "
+    "frames/s: a flood (the publisher's rate in its column), reliable with keep-last 1000, so frames the stream "
+    "cannot take are lost and frames/s is what it sustained; the latency rows: best effort at 200 frames/s); "
     "the stream runs in the benchmark's process (Ros2Source -> LiveStream), publishes each decision back as "
     "std_msgs/msg/String JSON, and the publisher times each round trip on its own clock: from writing the frame "
     "that ended a touch to the decision's arrival. The echo row answers every frame at once, no stages, no "
