@@ -51,8 +51,11 @@ def check_finite(data: TradeoffData) -> None:
             if bad.any():
                 row, axis = np.argwhere(bad)[0]
                 session = "" if rec.session is None else f", session {rec.session[r]}"
+                files = getattr(
+                    rec, "sources", None
+                )  # the CSV file or bag of each recording, when read from one
                 raise ValueError(
-                    f"data: {where}: the recording of {rec.class_names[int(rec.labels[r])]!r}{session} holds "
+                    f"data: {where}: {'' if not files else f'{files[r]}: '}the recording of {rec.class_names[int(rec.labels[r])]!r}{session} holds "
                     f"{int(bad.sum())} value(s) that are not finite numbers (first: sample {row}, axis "
                     f"{'xyz'[axis]}: {float(np.asarray(signal)[row, axis]):.3g}; NaN, inf, or beyond "
                     f"{MAX_ACCELERATION_G:.0e} g, which no accelerometer reads and whose features overflow); every "

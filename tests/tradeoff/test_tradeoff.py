@@ -268,8 +268,11 @@ def test_bad_input_gets_one_clear_line(tmp_path, recordings, capsys):
         plan_tradeoff(vibration_data(saturated, "logs"), log=lambda s: None)
     signals[1][7, 2] = 1e30  # beyond any accelerometer: its features overflow float32 (status 4 before)
     huge = RecordingArrays(signals, recordings.labels, recordings.class_names, 800.0)
+    huge.sources = [f"day{i}/{recordings.class_names[c]}.csv" for i, c in enumerate(recordings.labels)]
     with pytest.raises(
-        ValueError, match=r"'aluminium' holds 1 value\(s\) .* axis z: 1e\+30; .* beyond 1e\+15 g"
+        ValueError,
+        match=r"logs: day1/aluminium\.csv: the recording of 'aluminium' holds 1 value\(s\) .* "
+        r"axis z: 1e\+30; .* beyond 1e\+15 g",
     ):
         plan_tradeoff(vibration_data(huge, "logs"), log=lambda s: None)
 
@@ -854,3 +857,48 @@ def test_charts_for_5_to_40_candidates(tmp_path, n):
         )
         assert path.read_bytes()[:4] == b"\x89PNG"
     assert {feature_family(r["features"]).split(",")[0] for r in rows} <= {"all features", "top k"}
+
+
+def test_an_int8_variant_below_its_float_interval_is_flagged_in_rows_lines_and_chart(tmp_path, monkeypatch):
+    """mark_int8_losses: the loss and the flag, the note, the one-line description, the chart's legend."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from tactile_torch.tradeoff.charts import draw_chart
+    from tactile_torch.tradeoff.output import describe
+    from tactile_torch.tradeoff.summary import mark_int8_losses
+
+    base = _synthetic_rows(2)
+    for r in base:
+        r.update(accuracy=0.9, accuracy_low=0.85, accuracy_high=0.95, interval="range", n_units=4, notes=[])
+    close = dict(
+        base[0], name=base[0]["name"] + " (int8)", variant_of=base[0]["name"], accuracy=0.86, notes=[]
+    )
+    lost = dict(
+        base[1], name=base[1]["name"] + " (int8)", variant_of=base[1]["name"], accuracy=0.80, notes=[]
+    )
+    for r in (close, lost):
+        r["quantisation"] = "dynamic"
+    rows = [*base, close, lost]
+    mark_int8_losses(rows)
+    assert (
+        close["int8_degraded"] is False and close["notes"] == [] and close["int8_loss"] == pytest.approx(0.04)
+    )
+    assert lost["int8_degraded"] is True and lost["int8_loss"] == pytest.approx(0.10)
+    assert "below the float model's range [0.850, 0.950] per session" in lost["notes"][0]
+    assert "int8 loses 0.100 against its float model" in describe(lost) and "int8 loses" not in describe(
+        close
+    )
+    assert "int8_loss" not in base[0]  # float models are left as they are
+    import matplotlib.axes
+
+    fig_calls, original = [], matplotlib.axes.Axes.legend
+
+    def spy(self, *args, **kwargs):
+        fig_calls.append([h.get_label() for h in kwargs.get("handles", [])])
+        return original(self, *args, **kwargs)
+
+    monkeypatch.setattr(matplotlib.axes.Axes, "legend", spy)
+    draw_chart(rows, "latency", tmp_path / "int8.png", chance=0.2)
+    assert any("int8 below its float interval" in labels for labels in fig_calls)
+    assert (tmp_path / "int8.png").read_bytes()[:4] == b"\x89PNG"
