@@ -26,10 +26,9 @@ def _parsed(line: str):
                 "out_dir": "my runs/seed 7",
                 "random_state": 7,
                 "quick": True,
-                "full": True,
                 "only": ["claims", "tradeoff"],
             },
-            {"out": "my runs/seed 7", "seed": 7, "quick": True, "full": True, "only": "claims,tradeoff"},
+            {"out": "my runs/seed 7", "seed": 7, "quick": True, "full": False, "only": "claims,tradeoff"},
         ),
         (
             {"out_dir": Path("runs/latest"), "random_state": 0},
@@ -52,11 +51,11 @@ def test_report_command_keeps_every_option_and_parses_back(options, expected):
 
 
 def test_run_context_command_uses_the_run_options():
-    ctx = RunContext(random_state=3, quick=True, full=True, out_dir=Path("elsewhere"))
+    ctx = RunContext(random_state=3, full=True, out_dir=Path("elsewhere"))  # quick and full are exclusive
     args = _parsed(ctx.command("image_features", "image_classification"))
     assert (args.seed, args.quick, args.full, args.out, args.only) == (
         3,
-        True,
+        False,
         True,
         "elsewhere",
         "image_features,image_classification",

@@ -42,6 +42,7 @@ def sawtooth_recordings(seconds: float, *, sessions: int = 4, random_state: int 
     )
 
 
+@pytest.mark.slow  # 42 s on a quiet 2-core machine: the default run stays under 10 minutes (make test-all runs it)
 def test_a_cnn_recommended_is_swept_and_a_late_failure_keeps_the_outputs(tmp_path, monkeypatch, capsys):
     """The trade-off command end to end with a CNN offered on a tiny budget (6 epochs): the CNN wins and
     its breaking points are swept (the feature SNR says in one line why it does not apply); a factor that

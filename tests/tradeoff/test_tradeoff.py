@@ -335,6 +335,7 @@ def test_cached_features_equal_fitting_the_whole_pipeline(recordings):
             assert res.fold_accuracy[k] == pytest.approx(np.mean(model.predict(s.X[test]) == s.y[test]))
 
 
+@pytest.mark.slow  # 36 s on a quiet 2-core machine: the default run stays under 10 minutes (make test-all runs it)
 def test_tradeoff_command_on_vibration_recordings(tmp_path, capsys):
     rec = make_vibration_recordings(3, duration_s=6, n_sessions=2, random_state=5)
     path = rec.save(tmp_path / "rec.npz")
@@ -431,6 +432,7 @@ def test_tradeoff_command_writes_the_breaking_points(tmp_path, capsys):
     assert "drift" in str(doc["breaking_points"]["skipped"])  # no positions within recordings here
 
 
+@pytest.mark.slow  # 27 s on a quiet 2-core machine: the default run stays under 10 minutes (make test-all runs it)
 def test_tradeoff_on_small_taxel_arrays(tmp_path, monkeypatch):
     """Raw pressure maps of a 6 x 6 array (raw counts, resting at 200) through the same study; nothing is
     written outside ``out_dir`` (the working directory stays empty)."""
@@ -679,7 +681,8 @@ def test_units_of_explorations_and_time_blocks(recordings):
 # ------------------------------------------------------------------- feature files, atomic output
 @pytest.mark.parametrize(
     "dtype",
-    [np.float32, pytest.param(np.float64, marks=pytest.mark.slow)],  # same path; keeps the suite short
+    # 21 s each on a quiet 2-core machine: both slow, so the default run stays under 10 minutes
+    [pytest.param(np.float32, marks=pytest.mark.slow), pytest.param(np.float64, marks=pytest.mark.slow)],
 )
 def test_tradeoff_on_a_feature_file_exports_and_recommends(tmp_path, capsys, dtype):
     from tactile_torch.robot.runtime import OnnxPipeline
@@ -710,6 +713,7 @@ def test_tradeoff_on_a_feature_file_exports_and_recommends(tmp_path, capsys, dty
     assert pipe.sealed and OnnxPipeline(tmp_path / "m.onnx").sealed
 
 
+@pytest.mark.slow  # 17 s on a quiet 2-core machine: the default run stays under 10 minutes (make test-all runs it)
 def test_a_failed_run_leaves_the_previous_result_intact(tmp_path, monkeypatch, capsys):
     from tactile_torch.tradeoff import output
 
@@ -765,6 +769,7 @@ def test_a_killed_run_leaves_the_previous_result_intact(tmp_path):
     assert not list(tmp_path.glob(".o.partial-*"))
 
 
+@pytest.mark.slow  # 16 s on a quiet 2-core machine: the default run stays under 10 minutes (make test-all runs it)
 def test_no_adequate_candidate_recommends_nothing(tmp_path, capsys):
     from tactile_torch.cli import NO_RECOMMENDATION_EXIT
 
