@@ -141,6 +141,7 @@ def test_pipeline_from_model_takes_model_files_only(tmp_path, vibration_npz):
         load_model_file(tmp_path / "missing.npz")
 
 
+@pytest.mark.slow  # 10 s on a quiet 2-core machine: keeps the default run under 10 minutes
 def test_cli_cluster_export_predict_round_trip(tmp_path, vibration_npz, capsys):
     out = tmp_path / "cluster"
     args = ["cluster", "--data", str(vibration_npz), "--window", "400", "--out", str(out)]
@@ -187,6 +188,7 @@ def test_cli_predict_prints_a_class_report_without_torch(tmp_path, vibration_npz
     assert accuracy == pytest.approx((model.predict(features.X) == features.y).mean(), abs=1e-4)
 
 
+@pytest.mark.slow  # 10 s on a quiet 2-core machine: keeps the default run under 10 minutes
 def test_predict_refuses_data_of_the_wrong_kind(tmp_path, vibration_npz):
     data = make_explorations(1, n_frames=2, frame_size=24, sensels=6, random_state=0)
     image_path = save_explorations(tmp_path / "img.npz", data)
@@ -198,6 +200,7 @@ def test_predict_refuses_data_of_the_wrong_kind(tmp_path, vibration_npz):
         bundle.read_npz(image_path)
 
 
+@pytest.mark.slow  # 9 s on a quiet 2-core machine: keeps the default run under 10 minutes
 def test_cli_stream_classifies_a_simulated_sensor(tmp_path, vibration_npz, capsys, monkeypatch):
     from tactile_torch.robot.stream import format_sample, parse_sample, simulate_sensor
 

@@ -290,6 +290,7 @@ def test_map_and_binder_point_estimates_are_available():
     assert 0.0 <= binder.expected_loss_ <= 1.0
 
 
+@pytest.mark.slow  # 10 s on a quiet 2-core machine: keeps the default run under 10 minutes
 def test_map_component_module_exports_to_onnx(tmp_path):
     from tactile_torch._onnx import export_onnx, run_onnx
 

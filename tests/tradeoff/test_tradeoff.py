@@ -113,6 +113,7 @@ def test_head_template_binds_other_fits_and_runs_at_another_batch(tmp_path):
     np.testing.assert_allclose(scores, want[1].numpy(), rtol=1e-6, atol=1e-9)
 
 
+@pytest.mark.slow  # 8 s on a quiet 2-core machine: keeps the default run under 10 minutes
 def test_bound_one_vs_one_head_keeps_only_what_the_graph_reads(tmp_path):
     """The one-vs-one SVM's n_support (a buffer for its model file) is not bound into the ONNX head."""
     import onnx
@@ -797,7 +798,16 @@ def test_no_adequate_candidate_recommends_nothing(tmp_path, capsys):
 
 
 # --------------------------------------------------------------------------- train every method
-@pytest.mark.parametrize("method", ["lda", "knn", "ncm", "svc", "hmsvm"])
+@pytest.mark.parametrize(  # svc and hmsvm: 6 s each, slow (the default run stays under 10 minutes)
+    "method",
+    [
+        "lda",
+        "knn",
+        "ncm",
+        pytest.param("svc", marks=pytest.mark.slow),
+        pytest.param("hmsvm", marks=pytest.mark.slow),
+    ],
+)
 def test_train_writes_every_catalogue_method_and_export_reproduces_it(tmp_path, capsys, method):
     from tactile_torch.robot.runtime import OnnxPipeline
     from tactile_torch.training import load_features, load_model, train_classifier
