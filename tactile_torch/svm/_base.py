@@ -15,8 +15,9 @@ from sklearn.base import BaseEstimator, ClassifierMixin, _fit_context
 from sklearn.exceptions import ConvergenceWarning
 from sklearn.utils._available_if import available_if
 from sklearn.utils._param_validation import Interval, Options, StrOptions
+from sklearn.utils.class_weight import compute_class_weight
 from sklearn.utils.multiclass import check_classification_targets
-from sklearn.utils.validation import check_is_fitted, validate_data
+from sklearn.utils.validation import _check_sample_weight, check_is_fitted, validate_data
 
 from .._checks import numpy_rng
 from .._constraints import RANDOM_STATE
@@ -67,14 +68,19 @@ class _KernelMachine(ClassifierMixin, BaseEstimator):
         "cache_size": [Interval(Real, 0, None, closed="neither")],
         "max_iter": [Options(Integral, {-1}), Interval(Integral, 1, None, closed="left")],
         "probability": ["boolean"],
+        "class_weight": [dict, StrOptions({"balanced"}), None],
         "n_jobs": [None, Options(Integral, {-1}), Interval(Integral, 1, None, closed="left")],
         "random_state": RANDOM_STATE,
     }
 
     # --- training -----------------------------------------------------------------------------
 
-    def _training_data(self, X: object, y: object) -> tuple[np.ndarray, np.ndarray]:
-        """Validate ``X`` and ``y``; set ``classes_``, ``n_features_in_``; return ``(X, y_index)``."""
+    def _training_data(
+        self, X: object, y: object, sample_weight: object = None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+        """Validate ``X``, ``y`` and the weights; set ``classes_``, ``class_weight_``, ``n_features_in_``;
+        return ``(X, y_index, weight)``: ``weight`` is each sample's bound factor (its sample weight
+        times its class's weight), ``None`` when nothing is weighted."""
         X, y = _as_numpy(X), _as_numpy(y)
         _check_2d(X)
         X, y = validate_data(self, X, y, dtype=np.float64, order="C", ensure_all_finite=False)
@@ -82,16 +88,36 @@ class _KernelMachine(ClassifierMixin, BaseEstimator):
         if y.dtype.kind == "f" and not np.isfinite(y).all():
             raise ValueError("y must not contain NaN or inf labels")
         check_classification_targets(y)
-        self.classes_, y_index, counts = np.unique(y, return_inverse=True, return_counts=True)
+        self.classes_, y_index = np.unique(y, return_inverse=True)
         if self.classes_.shape[0] < 2:
             raise ValueError(f"y must hold at least 2 classes, got one class: {self.classes_.tolist()}")
+        self.class_weight_ = compute_class_weight(self.class_weight, classes=self.classes_, y=y)
+        weight = None
+        if sample_weight is not None:
+            weight = _check_sample_weight(
+                _as_numpy(sample_weight), X, dtype=np.float64, allow_all_zero_weights=True
+            )
+            if (weight < 0).any():  # scikit-learn's check refuses NaN and inf, naming sample_weight
+                bad = int(np.flatnonzero(weight < 0)[0])
+                raise ValueError(
+                    f"sample_weight must be >= 0, got {float(weight[bad]):g} (first at index {bad})"
+                )
+        if sample_weight is not None or self.class_weight is not None:
+            base = np.ones(X.shape[0]) if weight is None else weight
+            weight = base * self.class_weight_[y_index]
+        counts = np.bincount(
+            y_index if weight is None else y_index[weight > 0], minlength=self.classes_.shape[0]
+        )
         if counts.min() < 2:
             lonely = self.classes_[counts < 2].tolist()
+            what = (
+                "samples" if weight is None else "samples of positive weight (sample_weight x class_weight)"
+            )
             raise ValueError(
                 f"every class needs at least 2 samples (a class seen once cannot be both learnt and "
-                f"validated), got 1 sample of class(es) {lonely}"
+                f"validated), got fewer than 2 {what} of class(es) {lonely}"
             )
-        return X, y_index.astype(np.int64)
+        return X, y_index.astype(np.int64), weight
 
     @_fit_context(prefer_skip_nested_validation=True)
     def fit_path(
@@ -100,6 +126,7 @@ class _KernelMachine(ClassifierMixin, BaseEstimator):
         y: object,
         Cs: Sequence[float],
         *,
+        sample_weight: object = None,
         kernel_data: KernelData | None = None,
         rows: np.ndarray | None = None,
     ) -> list:
@@ -115,6 +142,8 @@ class _KernelMachine(ClassifierMixin, BaseEstimator):
         X : array or tensor of shape (n_samples, n_features)
         y : array-like of shape (n_samples,)
         Cs : sequence of float > 0
+        sample_weight : array-like of shape (n_samples,), optional
+            As in :meth:`fit`.
         kernel_data : KernelData, optional
             Kernel values to use (e.g. one precomputed kernel shared by every fold of a grid
             search); ``rows`` maps the samples of ``X`` to its samples. Its gamma must be this
@@ -125,7 +154,7 @@ class _KernelMachine(ClassifierMixin, BaseEstimator):
         -------
         list of fitted estimators (copies of this one with ``C`` set), by increasing C.
         """
-        return self._fit_path(X, y, Cs, kernel_data=kernel_data, rows=rows)
+        return self._fit_path(X, y, Cs, sample_weight=sample_weight, kernel_data=kernel_data, rows=rows)
 
     def _fit_path(
         self,
@@ -133,6 +162,7 @@ class _KernelMachine(ClassifierMixin, BaseEstimator):
         y: object,
         Cs: Sequence[float],
         *,
+        sample_weight: object = None,
         kernel_data: KernelData | None = None,
         rows: np.ndarray | None = None,
     ) -> list:
@@ -144,11 +174,11 @@ class _KernelMachine(ClassifierMixin, BaseEstimator):
         params = self.get_params(deep=False)
         models = [type(self)(**{**params, "C": C}) for C in Cs]
         first = models[0]
-        X, y_index = first._training_data(X, y)
+        X, y_index, weight = first._training_data(X, y, sample_weight)
         first.gamma_ = scale_gamma(X) if isinstance(self.gamma, str) else float(self.gamma)
         if kernel_data is None:
             kernel_data, rows = KernelData.of(X, self.kernel, first.gamma_), None
-        problems = first._problems(X, y_index)
+        problems = first._problems(X, y_index, weight)
         solutions = solve_set(
             kernel_data,
             problems if rows is None else problems.remapped(rows),
@@ -194,15 +224,41 @@ class _KernelMachine(ClassifierMixin, BaseEstimator):
                 setattr(self, name, value)
 
     @_fit_context(prefer_skip_nested_validation=True)
-    def fit(self, X: object, y: object) -> _KernelMachine:
+    def fit(self, X: object, y: object, sample_weight: object = None) -> _KernelMachine:
         """Fit on ``X`` (n_samples, n_features) and labels ``y`` (n_samples,); return ``self``.
 
-        Raises ``ValueError`` for fewer than 2 classes, a class with 1 sample, NaN/inf features,
-        mismatched lengths and bad hyper-parameters (``C <= 0``, unknown kernel ...). Repeated
-        samples and constant features are fine. Warns (``ConvergenceWarning``) if ``max_iter``
-        stopped a binary problem early.
+        Parameters
+        ----------
+        X : array-like, DataFrame or tensor of shape (n_samples, n_features)
+            Finite features.
+        y : array-like of shape (n_samples,)
+            Class labels (a column vector ``(n_samples, 1)`` is accepted with scikit-learn's
+            ``DataConversionWarning``).
+        sample_weight : array-like of shape (n_samples,), optional
+            Per-sample factors of C, as scikit-learn's ``SVC``: sample ``i``'s dual variable is bounded
+            by ``C * sample_weight[i] * class_weight_[class of i]``. Weights must be finite and
+            ``>= 0`` (scikit-learn's ``SVC`` drops negative ones silently; here they raise); samples of
+            weight 0 are left out of training. ``gamma="scale"`` is computed on
+            all samples, unweighted (as scikit-learn's).
+
+        Returns
+        -------
+        self
+
+        Raises
+        ------
+        ValueError
+            For fewer than 2 classes, a class with fewer than 2 samples (of positive weight), NaN/inf
+            features, mismatched lengths, negative or non-finite ``sample_weight``, and bad
+            hyper-parameters (``C <= 0``, unknown kernel, a ``class_weight`` naming an unknown class
+            ...). Repeated samples and constant features are fine.
+
+        Warns
+        -----
+        ConvergenceWarning
+            If ``max_iter`` stopped a binary problem early.
         """
-        (model,) = self._fit_path(X, y, [self.C])
+        (model,) = self._fit_path(X, y, [self.C], sample_weight=sample_weight)
         for name in ("probA_", "probB_"):  # from an earlier fit with probability=True
             self.__dict__.pop(name, None)
         self._copy_fitted(model)

@@ -8,7 +8,9 @@ contiguous prefix. With libsvm's shrinking interval (1000) it takes libsvm's ste
 same iterations, same ``rho``); the estimators shrink every 100 iterations, which on large problems
 keeps the kernel rows short sooner. One addition: a warm start (``alpha``, with or without its
 gradient); the C-path of the batched model selection scales a solution to the next C (``alpha``,
-``G + 1`` and ``G_bar`` scale with C).
+``G + 1`` and ``G_bar`` scale with C). Each variable has its own upper bound ``C_i = C w_i`` (libsvm's
+``get_C(i)``: class weights, and the sample weights of scikit-learn's patched libsvm); ``w = 1``
+gives the plain problem bit for bit.
 
 Kernel rows are computed from a transposed copy of the features (the dot products vectorise over
 the samples) and the squared norms, ``exp(-gamma (|x_i|^2 + |x_j|^2 - 2 x_i . x_j))`` as libsvm, or
@@ -89,7 +91,7 @@ def _exp_inplace(v, scratch):
 
 
 # Rows of the per-position arrays (positions move when the solver swaps them, as in libsvm).
-Y, GRAD, HBAR, ALPHA, QD, SQ = 0, 1, 2, 3, 4, 5  # float64 rows of ``fs``
+Y, GRAD, HBAR, ALPHA, QD, SQ, BOUND = 0, 1, 2, 3, 4, 5, 6  # float64 rows of ``fs``
 GIDX, ASET, SLOT, FILLED = 0, 1, 2, 3  # int64 rows of ``ist``
 STATUS, UP, LOW = 0, 1, 2  # int8 rows of ``cs``
 I2 = types.Array(i8, 2, "C")
@@ -224,11 +226,12 @@ def _swap(i, j, fs, ist, cs, XT, cc):
         h = after
 
 
-@njit(void(i8, f8, A2, C2), cache=True, nogil=True)
-def _set_status(t, C, fs, cs):
-    """Status of ``alpha_t`` and its membership of libsvm's sets I_up and I_low."""
+@njit(void(i8, A2, C2), cache=True, nogil=True)
+def _set_status(t, fs, cs):
+    """Status of ``alpha_t`` (against its bound ``C_t``) and its membership of libsvm's sets I_up and
+    I_low."""
     a, positive = fs[ALPHA, t], fs[Y, t] > 0.0
-    if a >= C:
+    if a >= fs[BOUND, t]:
         status = UPPER
     elif a <= 0.0:
         status = LOWER
@@ -305,8 +308,8 @@ def _select(active, tol, fs, ist, cs, cc, kc):
     return -1, -1  # pragma: no cover - the scan finds the minimum it just computed
 
 
-@njit(void(i8, i8, i8, f8, A2, I2, C2, CC, KC), cache=True, nogil=True)
-def _update(i, j, active, C, fs, ist, cs, cc, kc):
+@njit(void(i8, i8, i8, A2, I2, C2, CC, KC), cache=True, nogil=True)
+def _update(i, j, active, fs, ist, cs, cc, kc):
     """libsvm's two-variable step on ``(i, j)`` and the updates of ``g``, the statuses and ``hbar``."""
     cache = cc[0]
     l = fs.shape[1]
@@ -314,6 +317,7 @@ def _update(i, j, active, C, fs, ist, cs, cc, kc):
     kj = cache[_row(j, active, cc, kc, fs, ist)]
     y, g, hbar, alpha, qd = fs[Y], fs[GRAD], fs[HBAR], fs[ALPHA], fs[QD]
     yi, yj = y[i], y[j]
+    ci, cj = fs[BOUND, i], fs[BOUND, j]
     old_i, old_j = alpha[i], alpha[j]
     ai, aj = old_i, old_j
     quad = qd[i] + qd[j] - 2.0 * ki[j]
@@ -331,29 +335,29 @@ def _update(i, j, active, C, fs, ist, cs, cc, kc):
         elif ai < 0.0:
             ai = 0.0
             aj = -diff
-        if diff > 0.0:  # libsvm's C_i - C_j, 0 here
-            if ai > C:
-                ai = C
-                aj = C - diff
-        elif aj > C:
-            aj = C
-            ai = C + diff
+        if diff > ci - cj:
+            if ai > ci:
+                ai = ci
+                aj = ci - diff
+        elif aj > cj:
+            aj = cj
+            ai = cj + diff
     else:
         delta = (yj * g[j] - yi * g[i]) / quad  # (G_i - G_j) / quad
         total = ai + aj
         ai -= delta
         aj += delta
-        if total > C:
-            if ai > C:
-                ai = C
-                aj = total - C
+        if total > ci:
+            if ai > ci:
+                ai = ci
+                aj = total - ci
         elif aj < 0.0:
             aj = 0.0
             ai = total
-        if total > C:
-            if aj > C:
-                aj = C
-                ai = total - C
+        if total > cj:
+            if aj > cj:
+                aj = cj
+                ai = total - cj
         elif ai < 0.0:
             ai = 0.0
             aj = total
@@ -362,16 +366,16 @@ def _update(i, j, active, C, fs, ist, cs, cc, kc):
     for t in range(active):
         g[t] -= si * ki[t] + sj * kj[t]
     upper_i, upper_j = cs[STATUS, i] == UPPER, cs[STATUS, j] == UPPER
-    _set_status(i, C, fs, cs)
-    _set_status(j, C, fs, cs)
+    _set_status(i, fs, cs)
+    _set_status(j, fs, cs)
     if upper_i != (cs[STATUS, i] == UPPER):
         row = cache[_row(i, l, cc, kc, fs, ist)]
-        step = -C * yi if upper_i else C * yi
+        step = -ci * yi if upper_i else ci * yi
         for t in range(l):
             hbar[t] -= step * row[t]
     if upper_j != (cs[STATUS, j] == UPPER):
         row = cache[_row(j, l, cc, kc, fs, ist)]
-        step = -C * yj if upper_j else C * yj
+        step = -cj * yj if upper_j else cj * yj
         for t in range(l):
             hbar[t] -= step * row[t]
 
@@ -446,7 +450,7 @@ def _shrink(active, unshrink, tol, fs, ist, cs, XT, cc, kc):
     return active, unshrink
 
 
-_SMO_SIG = types.Tuple((i8, f8, f8, b1))(R2, R1, RF2, RI1, R1, f8, f8, i8, f8, i8, i8, i8, A1, A1, A1, i8)
+_SMO_SIG = types.Tuple((i8, f8, f8, b1))(R2, R1, RF2, RI1, R1, R1, f8, f8, i8, f8, i8, i8, i8, A1, A1, A1, i8)
 
 
 @njit(_SMO_SIG, cache=True, nogil=True)
@@ -456,6 +460,7 @@ def smo(
     K,
     gidx_in,
     y_in,
+    w_in,
     C,
     gamma,
     kind,
@@ -468,25 +473,27 @@ def smo(
     Gbar_io,
     warm,
 ):
-    """Solve ``min 1/2 a^T Q a - sum(a)``, ``0 <= a <= C``, ``y^T a = 0``; return ``(iterations, rho,
+    """Solve ``min 1/2 a^T Q a - sum(a)``, ``0 <= a_i <= C w_i``, ``y^T a = 0``; return ``(iterations, rho,
     objective, converged)`` and write ``alpha``, ``G = Q a - 1`` and ``G_bar`` (libsvm's gradient
     of the variables at C) into the ``*_io`` arrays, in the order of ``gidx_in``.
 
     ``XT_in`` (F, N) and ``sq_in`` (N,): transposed features and squared norms of every sample the
     problem may index (RBF, linear); ``K`` (N, N): the float32 kernel matrix (precomputed kernel);
-    ``gidx_in`` (l,): the problem's samples (indices into those); ``y_in`` (l,): labels +1/-1.
+    ``gidx_in`` (l,): the problem's samples (indices into those); ``y_in`` (l,): labels +1/-1;
+    ``w_in`` (l,): the factors ``w_i > 0`` of each variable's upper bound.
     ``warm``: 0 cold start; 1 ``alpha``, ``G`` and ``G_bar`` given; 2 ``alpha`` given (gradient
     computed). Stops at libsvm's maximal violating pair gap ``< tol`` or after ``max_iter``
     iterations (``-1``: no cap). Shrinks every ``shrink_every`` iterations (libsvm: 1000; 0: never);
     ``cache_bytes`` bounds the kernel-row cache (at least two rows).
     """
     l = y_in.shape[0]
-    fs = np.zeros((6, l))
+    fs = np.zeros((7, l))
     ist = np.empty((4, l), dtype=np.int64)
     cs = np.empty((3, l), dtype=np.int8)
     y = fs[Y]
     for t in range(l):
         y[t] = y_in[t]
+        fs[BOUND, t] = C * w_in[t]
         ist[GIDX, t] = gidx_in[t]
         ist[ASET, t] = t
         ist[SLOT, t] = -1
@@ -510,7 +517,7 @@ def smo(
         for t in range(l):
             alpha[t] = alpha_io[t]
     for t in range(l):
-        _set_status(t, C, fs, cs)
+        _set_status(t, fs, cs)
 
     n_slots = max(2, min(l, cache_bytes // (4 * l)))
     cc = (
@@ -538,7 +545,7 @@ def smo(
                         g[t] -= coef * row[t]
                     if cs[STATUS, i] == UPPER:
                         for t in range(l):
-                            hbar[t] -= C * y[i] * row[t]
+                            hbar[t] -= fs[BOUND, i] * y[i] * row[t]
 
     active = l
     unshrink = False
@@ -562,7 +569,7 @@ def smo(
                 break
             counter = 1  # shrink at the next iteration
         n_iter += 1
-        _update(i, j, active, C, fs, ist, cs, cc, kc)
+        _update(i, j, active, fs, ist, cs, cc, kc)
 
     if active < l:  # stopped by max_iter: make g exact everywhere
         _reconstruct(active, l, fs, ist, cs, cc, kc)
@@ -585,6 +592,7 @@ def smo(
         R1,
         RF2,
         RI1,
+        R1,
         R1,
         RI1,
         RI1,
@@ -616,6 +624,7 @@ def smo_many(
     K,
     rows,
     y,
+    weight,
     offsets,
     which,
     C,
@@ -639,7 +648,8 @@ def smo_many(
 ):
     """Run :func:`smo` on the problems ``which`` of a set stored end to end.
 
-    Problem ``p`` is ``rows[offsets[p]:offsets[p + 1]]`` with labels ``y[...]``; its solution goes
+    Problem ``p`` is ``rows[offsets[p]:offsets[p + 1]]`` with labels ``y[...]`` and bound factors
+    ``weight[...]`` (the upper bound of a variable is ``C * weight``); its solution goes
     to the same slice of ``alpha``, ``grad`` and ``grad_bar``, its iterations, ``rho``, objective
     and convergence to ``n_iter[p]``, ``rho[p]``, ``objective[p]``, ``converged[p]``. ``ratio > 0``
     warm-starts each problem from its solution at ``C / ratio`` in the ``*_prev`` arrays (``alpha``
@@ -663,6 +673,7 @@ def smo_many(
             K,
             rows[a:b],
             y[a:b],
+            weight[a:b],
             C,
             gamma,
             kind,

@@ -66,6 +66,10 @@ class SVC(_KernelMachine):
     probability : bool, default False
         Fit Platt's sigmoids by an internal 5-fold cross-validation (about 5 more fits), for
         :meth:`predict_proba` and ``to_module(probability=True)``; as scikit-learn's.
+    class_weight : dict, "balanced" or None, default None
+        As scikit-learn's: the C of class ``c`` is ``class_weight[c] * C`` (classes not in the dict
+        keep weight 1); ``"balanced"`` gives ``n_samples / (n_classes * np.bincount(y))``. Combined
+        with ``fit``'s ``sample_weight`` by product.
     multi_class : {"ovo", "ovr"}, default "ovo"
         One-vs-one (libsvm's, scikit-learn's) or one-vs-rest, for more than two classes.
     decision_function_shape : {"ovr", "ovo"}, default "ovr"
@@ -100,6 +104,8 @@ class SVC(_KernelMachine):
         Dual objective ``1/2 a^T Q a - sum(a)`` at each solution (libsvm's ``obj``).
     gamma_ : float
         The RBF width used.
+    class_weight_ : ndarray of shape (n_classes,)
+        The weight of each class (1 without ``class_weight``).
     probA_, probB_ : ndarray of shape (n_problems,)
         Platt's ``A`` and ``B`` of each binary problem (``probability=True`` only):
         ``P = 1 / (1 + exp(A f + B))`` of the side where its decision value ``f`` is > 0.
@@ -135,6 +141,7 @@ class SVC(_KernelMachine):
         cache_size: float = 512.0,
         max_iter: int = -1,
         probability: bool = False,
+        class_weight: dict | str | None = None,
         multi_class: str = "ovo",
         decision_function_shape: str = "ovr",
         n_jobs: int | None = None,
@@ -147,6 +154,7 @@ class SVC(_KernelMachine):
         self.cache_size = cache_size
         self.max_iter = max_iter
         self.probability = probability
+        self.class_weight = class_weight
         self.multi_class = multi_class
         self.decision_function_shape = decision_function_shape
         self.n_jobs = n_jobs
@@ -161,15 +169,17 @@ class SVC(_KernelMachine):
             return "binary"
         return self.multi_class
 
-    def _problems(self, X: np.ndarray, y_index: np.ndarray) -> ProblemSet:
+    def _problems(self, X: np.ndarray, y_index: np.ndarray, weight: np.ndarray | None) -> ProblemSet:
         members = [np.flatnonzero(y_index == k) for k in range(self.classes_.shape[0])]
         mode = self._mode()
         if mode == "binary":
-            return ProblemSet.of([(members[0], members[1])])
-        if mode == "ovr":
-            return ProblemSet.of([(np.flatnonzero(y_index != k), members[k]) for k in range(len(members))])
-        first, second = np.triu_indices(len(members), 1)
-        return ProblemSet.of([(members[i], members[j]) for i, j in zip(first, second, strict=True)])
+            sides = [(members[0], members[1])]
+        elif mode == "ovr":
+            sides = [(np.flatnonzero(y_index != k), members[k]) for k in range(len(members))]
+        else:
+            first, second = np.triu_indices(len(members), 1)
+            sides = [(members[i], members[j]) for i, j in zip(first, second, strict=True)]
+        return ProblemSet.of(sides, weight)
 
     def _store(self, X: np.ndarray, y_index: np.ndarray, problems: ProblemSet, sol: Solutions) -> None:
         column = self._support(y_index, problems, sol)
@@ -279,8 +289,9 @@ class HierarchicalSVC(_KernelMachine):
 
     Parameters
     ----------
-    C, kernel, gamma, tol, cache_size, max_iter, n_jobs
-        As in :class:`SVC`, for every node.
+    C, kernel, gamma, tol, cache_size, max_iter, class_weight, n_jobs
+        As in :class:`SVC`, for every node (a sample's bound is ``C`` times its sample weight times
+        its class's weight, in every node it belongs to).
     probability : bool, default False
         Fit Platt's sigmoid of every node by an internal 5-fold cross-validation, for
         :meth:`predict_proba` (the product of the branch probabilities from the root to each class)
@@ -311,6 +322,8 @@ class HierarchicalSVC(_KernelMachine):
     probA_, probB_ : ndarray of shape (n_nodes,)
         Each node's sigmoid ``P(right | margin f) = 1 / (1 + exp(A f + B))`` (``probability=True``).
     gamma_ : float
+    class_weight_ : ndarray of shape (n_classes,)
+        The weight of each class (1 without ``class_weight``).
     n_features_in_ : int
     feature_names_in_ : ndarray of str
         Column names, when ``X`` was a pandas DataFrame with string column names.
@@ -342,6 +355,7 @@ class HierarchicalSVC(_KernelMachine):
         cache_size: float = 512.0,
         max_iter: int = -1,
         probability: bool = False,
+        class_weight: dict | str | None = None,
         n_init: int = 10,
         n_jobs: int | None = None,
         random_state=None,
@@ -353,15 +367,20 @@ class HierarchicalSVC(_KernelMachine):
         self.cache_size = cache_size
         self.max_iter = max_iter
         self.probability = probability
+        self.class_weight = class_weight
         self.n_init = n_init
         self.n_jobs = n_jobs
         self.random_state = random_state
 
-    def _problems(self, X: np.ndarray, y_index: np.ndarray) -> ProblemSet:
+    def _problems(self, X: np.ndarray, y_index: np.ndarray, weight: np.ndarray | None) -> ProblemSet:
         n_class = self.classes_.shape[0]
-        counts = np.bincount(y_index, minlength=n_class)
-        sums = [np.bincount(y_index, weights=X[:, f], minlength=n_class) for f in range(X.shape[1])]
-        means = np.stack(sums, axis=1) / counts[:, None]
+        used = np.ones(y_index.shape[0], dtype=bool) if weight is None else weight > 0
+        counts = np.bincount(y_index[used], minlength=n_class)
+        # the class means weighted by the samples' weights (a class's own weight cancels)
+        w = np.ones(y_index.shape[0]) if weight is None else weight
+        totals = np.bincount(y_index, weights=w, minlength=n_class)
+        sums = [np.bincount(y_index, weights=w * X[:, f], minlength=n_class) for f in range(X.shape[1])]
+        means = np.stack(sums, axis=1) / totals[:, None]
         self._fitted_tree = build_tree(
             self.classes_, means, counts, n_init=self.n_init, random_state=self.random_state
         )
@@ -372,7 +391,7 @@ class HierarchicalSVC(_KernelMachine):
                 side[node.left.members], side[node.right.members] = 1, 2
                 of_sample = side[y_index]
                 sides.append((np.flatnonzero(of_sample == 1), np.flatnonzero(of_sample == 2)))
-        return ProblemSet.of(sides)
+        return ProblemSet.of(sides, weight)
 
     def _store(self, X: np.ndarray, y_index: np.ndarray, problems: ProblemSet, sol: Solutions) -> None:
         self.tree_ = self._fitted_tree.copy()

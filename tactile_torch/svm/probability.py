@@ -177,7 +177,7 @@ def cross_val_decisions(
             if test.any():
                 sides.append((local[~test & (y > 0)], local[~test & (y < 0)]))
                 held.append(start + np.flatnonzero(test))
-    folds = ProblemSet.of(sides)
+    folds = ProblemSet.of(sides, problems.sample_weight(X.shape[0]))
     if kernel_data is None:
         kernel_data = KernelData.of(X, kernel, gamma)
     solutions = solve_set(kernel_data, folds if rows is None else folds.remapped(rows), list(Cs), **solver)

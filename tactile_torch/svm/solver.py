@@ -2,10 +2,12 @@
 
 The training problem is libsvm's C-SVC dual (the L1 hinge loss)::
 
-    min_a  1/2 a^T Q a - sum(a)    subject to  0 <= a_i <= C,  sum_i y_i a_i = 0,
+    min_a  1/2 a^T Q a - sum(a)    subject to  0 <= a_i <= C w_i,  sum_i y_i a_i = 0,
     Q_ij = y_i y_j K(x_i, x_j),    y_i in {-1, +1},
 
-with decision function ``f(x) = sum_i y_i a_i K(x_i, x) - rho``. The binary problems of an estimator
+with decision function ``f(x) = sum_i y_i a_i K(x_i, x) - rho``; ``w_i`` (1 unless weighted) is the
+sample's weight times its class's weight (libsvm's per-class ``C``, scikit-learn's ``sample_weight``
+and ``class_weight``). The binary problems of an estimator
 (one per pair of classes, per class, or per tree node) form a :class:`ProblemSet`, solved by
 :func:`solve_set` along increasing values of C: each problem's solution at one C warm-starts the
 next. Samples are ordered and labelled as libsvm orders and labels them (the first class first,
@@ -48,21 +50,44 @@ class ProblemSet:
 
     Problem ``p`` holds the samples ``rows[offsets[p]:offsets[p + 1]]`` (indices into a
     :class:`~tactile_torch.svm.kernels.KernelData`): those of its first class, labelled +1 in ``y``,
-    then those of its second class, labelled -1.
+    then those of its second class, labelled -1. ``weight`` holds each stored sample's bound factor
+    ``w_i > 0`` (its variable's upper bound is ``C w_i``).
     """
 
     rows: np.ndarray
     y: np.ndarray
     offsets: np.ndarray
+    weight: np.ndarray
 
     @classmethod
-    def of(cls, sides: Sequence[tuple[np.ndarray, np.ndarray]]) -> ProblemSet:
-        """The problems ``first`` (+1) against ``second`` (-1) for each ``(first, second)``."""
+    def of(
+        cls, sides: Sequence[tuple[np.ndarray, np.ndarray]], sample_weight: np.ndarray | None = None
+    ) -> ProblemSet:
+        """The problems ``first`` (+1) against ``second`` (-1) for each ``(first, second)``.
+
+        ``sample_weight`` (indexed like the rows, optional: all 1) gives each sample's bound factor;
+        samples of weight 0 are left out (libsvm's ``remove_zero_weight``: they cannot move the
+        solution). The callers make sure that every side keeps a sample.
+        """
+        if sample_weight is not None:
+            sides = [
+                (first[sample_weight[first] > 0], second[sample_weight[second] > 0])
+                for first, second in sides
+            ]
         sizes = [(first.shape[0], second.shape[0]) for first, second in sides]
         rows = np.concatenate([part for pair in sides for part in pair]).astype(np.int64)
         y = np.repeat(np.tile([1.0, -1.0], len(sides)), np.ravel(sizes))
         offsets = np.concatenate([[0], np.cumsum([a + b for a, b in sizes])]).astype(np.int64)
-        return cls(rows, y, offsets)
+        weight = (
+            np.ones(rows.shape[0]) if sample_weight is None else np.asarray(sample_weight, np.float64)[rows]
+        )
+        return cls(rows, y, offsets, np.ascontiguousarray(weight))
+
+    def sample_weight(self, n_samples: int) -> np.ndarray:
+        """Each sample's bound factor, shape (n_samples,) (1 for a sample in no problem)."""
+        out = np.ones(n_samples)
+        out[self.rows] = self.weight
+        return out
 
     def __len__(self) -> int:
         return self.offsets.shape[0] - 1
@@ -74,7 +99,7 @@ class ProblemSet:
 
     def remapped(self, index: np.ndarray) -> ProblemSet:
         """The same problems with ``rows`` mapped through ``index`` (into another kernel's samples)."""
-        return ProblemSet(np.asarray(index, dtype=np.int64)[self.rows], self.y, self.offsets)
+        return ProblemSet(np.asarray(index, dtype=np.int64)[self.rows], self.y, self.offsets, self.weight)
 
 
 @dataclass
@@ -168,6 +193,7 @@ def solve_set(
                 data.K,
                 problems.rows,
                 problems.y,
+                problems.weight,
                 problems.offsets,
                 which,
                 sol.C,
@@ -238,6 +264,7 @@ def solve_dual(
     max_iter: int = -1,
     cache_size: float = 200.0,
     shrink_every: int = SHRINK_EVERY,
+    sample_weight: object = None,
 ) -> DualSolution:
     """Solve the binary C-SVC dual of the samples ``x`` with labels ``y`` (+1/-1) and return it.
 
@@ -260,6 +287,8 @@ def solve_dual(
         MiB of float32 kernel rows kept.
     shrink_every : int
         Iterations between shrinking passes (libsvm's is 1000; 0: no shrinking).
+    sample_weight : array of shape (n,), optional
+        Bound factors ``w_i > 0``: ``0 <= a_i <= C w_i`` (default all 1).
 
     Returns
     -------
@@ -275,7 +304,8 @@ def solve_dual(
     x = np.asarray(x.detach().cpu() if hasattr(x, "detach") else x, dtype=np.float64)
     y = np.asarray(y.detach().cpu() if hasattr(y, "detach") else y, dtype=np.float64)
     n = x.shape[0]
-    problem = ProblemSet(np.arange(n, dtype=np.int64), np.where(y > 0, 1.0, -1.0), np.array([0, n]))
+    weight = np.ones(n) if sample_weight is None else np.asarray(sample_weight, dtype=np.float64)
+    problem = ProblemSet(np.arange(n, dtype=np.int64), np.where(y > 0, 1.0, -1.0), np.array([0, n]), weight)
     (sol,) = solve_set(
         KernelData.of(x, kernel, gamma),
         problem,
