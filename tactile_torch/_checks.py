@@ -8,7 +8,10 @@ defined in :mod:`tactile_torch.robot.checks`, which the robot side uses, and imp
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import functools
+import warnings
+from collections.abc import Callable, Sequence
+from typing import TypeVar
 
 import numpy as np
 import torch
@@ -64,6 +67,58 @@ def check_floating(x: torch.Tensor, name: str) -> torch.Tensor:
     if not x.is_floating_point():
         raise InputTypeError(f"{name} must have a floating dtype (float32 or float64), got {x.dtype}")
     return x
+
+
+def values_unavailable() -> bool:
+    """Return ``True`` while tensor values cannot be read: under a transform that records the ops.
+
+    That is ONNX export (``torch.compiler.is_exporting()``), ``torch.compile``
+    (``torch.compiler.is_compiling()``), ``torch.jit.trace`` (``torch.jit.is_tracing()``) and
+    ``torch.func.vmap`` (a vmap level on functorch's interpreter stack; torch has no public query for
+    it). Checks that depend on values (finite, range) are skipped then, and the ops take their one
+    graph form: reading a value there would fail (vmap, ``fullgraph=True``), be frozen into the graph
+    (jit.trace) or break it.
+
+    Examples
+    --------
+    >>> values_unavailable()
+    False
+    >>> bool(torch.vmap(lambda x: x + values_unavailable())(torch.zeros(2)).all())
+    True
+    """
+    if torch.compiler.is_exporting() or torch.compiler.is_compiling() or torch.jit.is_tracing():
+        return True
+    stack = torch._C._functorch.get_interpreter_stack()
+    return bool(stack) and any(level.key() == torch._C._functorch.TransformType.Vmap for level in stack)
+
+
+Op = TypeVar("Op", bound=Callable)
+
+
+def quiet_jit_trace(op: Op) -> Op:
+    """Return ``op`` ignoring ``torch.jit.TracerWarning`` while ``torch.jit.trace`` records it.
+
+    Under ``jit.trace`` every size is a tensor, so each shape check or size computation of an op
+    warns that it "might cause the trace to be incorrect". The ops read nothing else (their value
+    checks are skipped there: :func:`values_unavailable`), and their tests replay a trace at other
+    batch sizes and frame counts, so those warnings would only be noise. A no-op when not tracing.
+
+    Examples
+    --------
+    >>> double = quiet_jit_trace(lambda x: x * x.shape[0])
+    >>> double(torch.ones(2)).tolist()
+    [2.0, 2.0]
+    """
+
+    @functools.wraps(op)
+    def run(*args, **kwargs):
+        if not torch.jit.is_tracing():
+            return op(*args, **kwargs)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", torch.jit.TracerWarning)
+            return op(*args, **kwargs)
+
+    return run
 
 
 def check_finite(x: torch.Tensor, name: str) -> torch.Tensor:
@@ -130,5 +185,7 @@ __all__ = [
     "check_shape",
     "check_tensor",
     "numpy_rng",
+    "quiet_jit_trace",
     "torch_generator",
+    "values_unavailable",
 ]

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import torch
 
-from .._checks import check_floating, check_positive, check_tensor
+from .._checks import check_floating, check_positive, check_tensor, quiet_jit_trace
 from ._constants import DEFAULT_EDGE_THRESHOLD, DEFAULT_EROSION, DEFAULT_THRESHOLD
 from ._kernels import (
     _edges,
@@ -22,15 +22,19 @@ from ._kernels import (
 )
 from ._scheduler import run_exploration_features
 from ._validation import (
+    Scalar,
     Threshold,
     check_frames,
     check_image,
+    check_scalar,
     check_temperature,
     check_threshold,
     check_unit_range,
+    warn_if_gradient_lost,
 )
 
 
+@quiet_jit_trace
 def to_grayscale(frames: torch.Tensor) -> torch.Tensor:
     """Return the grayscale image ``0.2989 R + 0.5870 G + 0.1140 B`` of RGB frames, on the [0, 1] scale.
 
@@ -41,7 +45,16 @@ def to_grayscale(frames: torch.Tensor) -> torch.Tensor:
 
     Returns
     -------
-    tensor of shape (..., H, W), float (the input's float dtype, float32 for uint8).
+    tensor of shape (..., H, W)
+        The input's float dtype (float32 for uint8).
+
+    Raises
+    ------
+    TypeError
+        If ``frames`` is not a tensor, or neither uint8 nor floating.
+    ValueError
+        If ``frames`` is not ``(..., 3, H, W)``, has an empty dimension, or (float) holds NaN/inf or
+        values outside [0, 1].
 
     Examples
     --------
@@ -52,6 +65,7 @@ def to_grayscale(frames: torch.Tensor) -> torch.Tensor:
     return _gray(frames, frames.dtype if frames.is_floating_point() else torch.float32)
 
 
+@quiet_jit_trace
 def otsu_threshold(gray: torch.Tensor) -> torch.Tensor:
     """Return Otsu's threshold of each sample, pooled over all its pixels (e.g. all frames of an exploration).
 
@@ -59,15 +73,24 @@ def otsu_threshold(gray: torch.Tensor) -> torch.Tensor:
     the between-class variance of ``{<= k}`` and ``{> k}`` is chosen (the middle of a plateau of
     maxima, as MATLAB ``graythresh``), and ``(k + 0.5) / 255`` is returned so that
     ``I < threshold`` selects the darker class. A constant sample gives ``0.5 / 255`` (nothing pressed
-    unless it is black).
+    unless it is black). Not differentiable (a histogram).
 
     Parameters
     ----------
-    gray : tensor of shape (B, ...), float in [0, 1]
+    gray : tensor of shape (B, ...)
+        Float in [0, 1].
 
     Returns
     -------
-    tensor of shape (B,), float64.
+    tensor of shape (B,)
+        float64 thresholds on the [0, 1] scale.
+
+    Raises
+    ------
+    TypeError
+        If ``gray`` is not a floating tensor.
+    ValueError
+        If ``gray`` has no batch dimension or no pixel, or values outside [0, 1] (or NaN/inf).
 
     Examples
     --------
@@ -83,23 +106,41 @@ def otsu_threshold(gray: torch.Tensor) -> torch.Tensor:
     return _otsu_from_histogram(_level_histogram(gray))
 
 
+@quiet_jit_trace
 def pressure_mask(
-    gray: torch.Tensor, threshold: Threshold = DEFAULT_THRESHOLD, *, temperature: float | None = None
+    gray: torch.Tensor, threshold: Threshold = DEFAULT_THRESHOLD, *, temperature: Scalar | None = None
 ) -> torch.Tensor:
     """Return the pressed region ``gray < threshold`` (1 pressed, 0 not) of every frame.
 
     Parameters
     ----------
-    gray : tensor of shape (B, T, H, W), float in [0, 1]
+    gray : tensor of shape (B, T, H, W)
+        Float in [0, 1].
     threshold : float in (0, 1], tensor of shape () or (B,), or ``"otsu"``
         Pressed below this intensity (the study: 240/255, white being no pressure); ``"otsu"`` picks one
-        per exploration with :func:`otsu_threshold`. A tensor threshold may require gradients.
-    temperature : float, optional
-        ``None``: hard mask. Otherwise ``sigmoid((threshold - gray) / temperature)``.
+        per exploration with :func:`otsu_threshold`. A tensor threshold may require gradients (soft
+        mode).
+    temperature : float or 0-d tensor, optional
+        ``None``: hard mask. Otherwise ``sigmoid((threshold - gray) / temperature)``; a tensor may
+        require gradients.
 
     Returns
     -------
-    tensor of shape (B, T, H, W), gray's dtype, values in {0, 1} (hard) or (0, 1) (soft).
+    tensor of shape (B, T, H, W)
+        gray's dtype, values in {0, 1} (hard) or (0, 1) (soft).
+
+    Raises
+    ------
+    TypeError
+        If ``gray`` (or a tensor ``threshold``/``temperature``) is not a floating tensor.
+    ValueError
+        If ``gray`` is not ``(B, T, H, W)`` or not finite, ``threshold`` is out of (0, 1] or of the wrong
+        shape, or ``temperature`` is not ``> 0``.
+
+    Warns
+    -----
+    UserWarning
+        In the hard mode, if ``gray`` or ``threshold`` requires gradients (the comparison has none).
 
     Examples
     --------
@@ -109,13 +150,15 @@ def pressure_mask(
     check_image(gray, "gray", ["B", "T", "H", "W"])
     check_threshold(threshold, gray.shape[0])
     check_temperature(temperature)
+    warn_if_gradient_lost(temperature, gray=gray, threshold=threshold)
     if isinstance(threshold, str):
         threshold = otsu_threshold(gray)
     return _pressure(gray, _threshold_tensor(threshold, gray), temperature).to(gray.dtype)
 
 
+@quiet_jit_trace
 def erode(
-    mask: torch.Tensor, size: int = DEFAULT_EROSION, *, temperature: float | None = None
+    mask: torch.Tensor, size: int = DEFAULT_EROSION, *, temperature: Scalar | None = None
 ) -> torch.Tensor:
     """Return the erosion (minimum filter) of ``mask`` by a ``size x size`` square.
 
@@ -130,16 +173,27 @@ def erode(
     ----------
     mask : tensor of shape (..., H, W), floating
     size : int >= 1
-        Side of the square (1: no erosion).
-    temperature : float, optional
-        ``None``: exact minimum. Otherwise the soft minimum ``-t * logsumexp(-x / t)`` over the window
-        (below the minimum by at most ``t * log(size**2)``); under autograd it keeps ``2 * size``
-        input-sized terms for the backward pass, as suits the small inputs of training, not bulk
-        feature extraction.
+        Side of the square in pixels (1: no erosion). An integer: it is not a soft parameter.
+    temperature : float or 0-d tensor, optional
+        ``None``: exact minimum (differentiable almost everywhere, as ``torch.minimum``). Otherwise
+        the soft minimum ``-t * logsumexp(-x / t)`` over the window (below the minimum by at most
+        ``t * log(size**2)``; a tensor ``t`` may require gradients); under autograd it keeps
+        ``2 * size`` input-sized terms for the backward pass, as suits the small inputs of training,
+        not bulk feature extraction.
 
     Returns
     -------
-    tensor of shape (..., H, W), mask's dtype.
+    tensor of shape (..., H, W)
+        mask's dtype.
+
+    Raises
+    ------
+    TypeError
+        If ``mask`` is not a floating tensor, ``size`` not an integer, or a tensor ``temperature``
+        not floating.
+    ValueError
+        If ``mask`` is not ``(..., H, W)``, empty or not finite, ``size < 1``, or ``temperature`` not
+        ``> 0``.
 
     Examples
     --------
@@ -153,8 +207,9 @@ def erode(
     return _erode(mask, int(size), temperature)
 
 
+@quiet_jit_trace
 def sobel_edges(
-    mask: torch.Tensor, edge_threshold: float = DEFAULT_EDGE_THRESHOLD, *, temperature: float | None = None
+    mask: torch.Tensor, edge_threshold: Scalar = DEFAULT_EDGE_THRESHOLD, *, temperature: Scalar | None = None
 ) -> torch.Tensor:
     """Return the binary edge map: pixels whose Sobel gradient magnitude exceeds ``edge_threshold``.
 
@@ -166,13 +221,29 @@ def sobel_edges(
     Parameters
     ----------
     mask : tensor of shape (..., H, W), floating
-    edge_threshold : float >= 0
-    temperature : float, optional
-        ``None``: {0, 1} edges. Otherwise ``sigmoid((gx^2 + gy^2 - edge_threshold^2) / temperature)``.
+    edge_threshold : float >= 0 or 0-d tensor
+        A tensor may require gradients (soft mode).
+    temperature : float or 0-d tensor, optional
+        ``None``: {0, 1} edges. Otherwise ``sigmoid((gx^2 + gy^2 - edge_threshold^2) / temperature)``;
+        a tensor may require gradients.
 
     Returns
     -------
-    tensor of shape (..., H, W), mask's dtype.
+    tensor of shape (..., H, W)
+        mask's dtype.
+
+    Raises
+    ------
+    TypeError
+        If ``mask`` (or a tensor ``edge_threshold``/``temperature``) is not a floating tensor.
+    ValueError
+        If ``mask`` is not ``(..., H, W)``, empty or not finite, ``edge_threshold < 0``, or
+        ``temperature`` not ``> 0``.
+
+    Warns
+    -----
+    UserWarning
+        In the hard mode, if ``mask`` or ``edge_threshold`` requires gradients (the comparison has none).
 
     Examples
     --------
@@ -181,11 +252,15 @@ def sobel_edges(
     [0.0, 0.0, 1.0, 1.0, 0.0, 0.0]
     """
     check_image(mask, "mask", ["*", "H", "W"])
-    check_positive(edge_threshold, "edge_threshold", strict=False)
+    check_scalar(edge_threshold, "edge_threshold", strict=False)
     check_temperature(temperature)
-    return _edges(mask, float(edge_threshold), temperature).to(mask.dtype)
+    warn_if_gradient_lost(temperature, mask=mask, edge_threshold=edge_threshold)
+    if not isinstance(edge_threshold, torch.Tensor):
+        edge_threshold = float(edge_threshold)
+    return _edges(mask, edge_threshold, temperature).to(mask.dtype)
 
 
+@quiet_jit_trace
 def fuse_edges(edges: torch.Tensor, *, soft: bool = False) -> torch.Tensor:
     """Return the logical OR of the edge maps over the frame axis.
 
@@ -193,12 +268,21 @@ def fuse_edges(edges: torch.Tensor, *, soft: bool = False) -> torch.Tensor:
     ----------
     edges : tensor of shape (B, T, H, W), floating, values in [0, 1]
     soft : bool
-        ``False``: maximum over frames (the OR of {0, 1} maps). ``True``: noisy-OR ``1 - prod(1 - e)``,
-        computed as ``-expm1(sum(log1p(-e)))`` (exactly 1 where some ``e`` is 1).
+        ``False``: maximum over frames (the OR of {0, 1} maps; its gradient reaches the largest
+        value). ``True``: noisy-OR ``1 - prod(1 - e)``, computed as ``-expm1(sum(log1p(-e)))``
+        (exactly 1 where some ``e`` is 1).
 
     Returns
     -------
-    tensor of shape (B, H, W), edges' dtype.
+    tensor of shape (B, H, W)
+        edges' dtype.
+
+    Raises
+    ------
+    TypeError
+        If ``edges`` is not a floating tensor.
+    ValueError
+        If ``edges`` is not ``(B, T, H, W)``, empty or not finite.
 
     Examples
     --------
@@ -209,19 +293,35 @@ def fuse_edges(edges: torch.Tensor, *, soft: bool = False) -> torch.Tensor:
     return _or_finish(_or_accumulate(None, edges, soft), soft)
 
 
-def gradient(image: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+@quiet_jit_trace
+def gradient(image: torch.Tensor, *, soft: bool = False) -> tuple[torch.Tensor, torch.Tensor]:
     """Return the Sobel gradient magnitude ``M`` and direction ``A = atan2(gy, gx)`` of an image.
 
     Unnormalised Sobel with scipy's 'reflect' border; ``gx`` along columns, ``gy`` along rows
-    (downwards); ``A`` in radians in ``(-pi, pi]``, 0 where both gradients vanish.
+    (downwards); ``A`` in radians in ``(-pi, pi]``, 0 where both gradients vanish. ``M`` has a zero
+    gradient where it is 0.
 
     Parameters
     ----------
     image : tensor of shape (..., H, W), floating
+    soft : bool
+        ``True``: the direction is faded out where the image is nearly flat, ``A * s(min(M^2 / 0.25,
+        1))`` with ``s(u) = 3 u^2 - 2 u^3``, so that its gradient stays bounded (``atan2`` turns by up
+        to ``2 pi`` under a tiny change of a vanishing gradient). Equal to ``A`` wherever ``M >= 0.5``,
+        hence at every pixel of a binary image (``M`` is 0 or ``>= 1`` there): the soft pipeline of
+        :func:`exploration_features` uses it, and its hard limit is exact.
 
     Returns
     -------
     (magnitude, direction) : two tensors of shape (..., H, W)
+        image's dtype.
+
+    Raises
+    ------
+    TypeError
+        If ``image`` is not a floating tensor.
+    ValueError
+        If ``image`` is not ``(..., H, W)``, empty or not finite.
 
     Examples
     --------
@@ -230,9 +330,10 @@ def gradient(image: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
     (32.9848, 1.3258)
     """
     check_image(image, "image", ["*", "H", "W"])
-    return _gradient(image)
+    return _gradient(image, soft)
 
 
+@quiet_jit_trace
 def gradient_statistics(image: torch.Tensor) -> torch.Tensor:
     """Return the six statistics ``[mean, std, skew, kurt, p95, mad]`` of each image's pixels.
 
@@ -249,6 +350,14 @@ def gradient_statistics(image: torch.Tensor) -> torch.Tensor:
     Returns
     -------
     tensor of shape (..., 6)
+        image's dtype.
+
+    Raises
+    ------
+    TypeError
+        If ``image`` is not a floating tensor.
+    ValueError
+        If ``image`` is not ``(..., H, W)``, empty or not finite.
 
     Examples
     --------
@@ -259,14 +368,15 @@ def gradient_statistics(image: torch.Tensor) -> torch.Tensor:
     return _statistics(image)
 
 
+@quiet_jit_trace
 def exploration_features(
     frames: torch.Tensor,
     *,
     fuse: bool = True,
     threshold: Threshold = DEFAULT_THRESHOLD,
     erosion: int = DEFAULT_EROSION,
-    edge_threshold: float = DEFAULT_EDGE_THRESHOLD,
-    temperature: float | None = None,
+    edge_threshold: Scalar = DEFAULT_EDGE_THRESHOLD,
+    temperature: Scalar | None = None,
     frames_per_chunk: int | None = None,
 ) -> torch.Tensor:
     """Return the method-1 features of explorations: 12 per exploration, or 12 per frame without fusion.
@@ -282,9 +392,10 @@ def exploration_features(
     ``torch.get_num_threads()`` worker threads, each running its torch ops on one thread (a setting
     of the worker thread only: nothing process-wide changes); results do not depend on the thread
     count. Hard mode on uint8 frames decides the pressed region on integers (bit-identical to the
-    float32 grayscale, see ``tactile_torch.image._integer_cut``). The soft mode and
-    the ONNX export trace run in the caller's thread, on one block. A blank exploration (no pressure
-    anywhere) has an all-zero fused image and all-zero features.
+    float32 grayscale, see ``tactile_torch.image._integer_cut``). The soft mode and the transforms
+    that record the ops (ONNX export, ``torch.compile``, ``torch.jit.trace``, ``torch.func.vmap``)
+    run in the caller's thread, on one block, without the checks that read values. A blank
+    exploration (no pressure anywhere) has an all-zero fused image and all-zero features.
 
     Parameters
     ----------
@@ -295,19 +406,41 @@ def exploration_features(
     threshold : float in (0, 1], tensor of shape () or (B,), or ``"otsu"``
         See :func:`pressure_mask`; ``"otsu"`` takes one threshold per exploration over all its frames.
     erosion : int >= 1
-        Side of the square structuring element (see :func:`erode`).
-    edge_threshold : float >= 0
+        Side of the square structuring element in pixels (see :func:`erode`). The default, the study's
+        10, suits its 96 x 96 frames (about 3 px per mm); scale it with the frame size
+        (``round(10 * H / 96)``) for other renderings.
+    edge_threshold : float >= 0 or 0-d tensor
         See :func:`sobel_edges`.
-    temperature : float, optional
+    temperature : float or 0-d tensor, optional
         ``None``: the hard pipeline. Otherwise every step is smooth (soft threshold, soft erosion, soft
-        edges, noisy-OR fusion), so gradients reach ``frames`` (float) and a tensor ``threshold``.
+        edges, noisy-OR fusion, a direction faded out where the fused image is flat: see
+        :func:`gradient`), so gradients reach ``frames`` (float) and the tensors among ``threshold``,
+        ``edge_threshold`` and ``temperature``.
     frames_per_chunk : int, optional
         Frames per block; default: as many as fit :data:`CHUNK_PIXELS` pixels (at least 1). While
-        exporting to ONNX all frames and explorations form one block.
+        the ops are recorded (export, compile, trace, vmap) all frames and explorations form one block.
 
     Returns
     -------
-    tensor of shape (B, 12) or (B, T * 12), float (float32 for uint8 frames).
+    tensor of shape (B, 12) or (B, T * 12)
+        float (frames' dtype; float32 for uint8 frames).
+
+    Raises
+    ------
+    TypeError
+        If ``frames`` is not a uint8 or floating tensor, ``erosion`` or ``frames_per_chunk`` is not an
+        integer, or a tensor ``threshold``/``edge_threshold``/``temperature`` is not floating.
+    ValueError
+        If ``frames`` is not ``(B, T, 3, H, W)`` with ``T >= 1``, holds NaN/inf or (float) values outside
+        [0, 1]; ``threshold`` is out of (0, 1], of the wrong shape or an unknown string; ``erosion``,
+        ``temperature`` or ``frames_per_chunk`` is not ``> 0``; ``edge_threshold < 0``.
+
+    Warns
+    -----
+    UserWarning
+        In the hard mode, if ``frames``, ``threshold`` or ``edge_threshold`` requires gradients (the
+        hard steps have none); and if every feature of the batch is 0 because the erosion removed every
+        pressed region (the message gives the largest erosion that keeps a contact).
 
     Examples
     --------
@@ -318,10 +451,11 @@ def exploration_features(
     check_frames(frames)
     check_threshold(threshold, frames.shape[0])
     check_positive(erosion, "erosion", integer=True)
-    check_positive(edge_threshold, "edge_threshold", strict=False)
+    check_scalar(edge_threshold, "edge_threshold", strict=False)
     check_temperature(temperature)
     if frames_per_chunk is not None:
         check_positive(frames_per_chunk, "frames_per_chunk", integer=True)
+    warn_if_gradient_lost(temperature, frames=frames, threshold=threshold, edge_threshold=edge_threshold)
     return run_exploration_features(
         frames,
         fuse=fuse,

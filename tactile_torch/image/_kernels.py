@@ -12,6 +12,7 @@ import math
 import torch
 import torch.nn.functional as F
 
+from .._checks import values_unavailable
 from . import _export
 from ._constants import GRAY_WEIGHTS, HISTOGRAM_LEVELS
 
@@ -35,7 +36,9 @@ def _window_pads(k: int) -> tuple[int, int]:
 # the 1-D buffer (1 along a row, the padded width along a column), so every step is one long contiguous
 # elementwise operation instead of many short rows. Positions that mix rows or images land only in the
 # padding, which is cut off afterwards.
-def _window_min(x: torch.Tensor, k: int, stride: int, temperature: float | None) -> torch.Tensor:
+def _window_min(
+    x: torch.Tensor, k: int, stride: int, temperature: float | torch.Tensor | None
+) -> torch.Tensor:
     """Minimum of ``x[q], x[q + stride], ..., x[q + (k-1) stride]`` for every ``q`` (1-D, shorter output).
 
     Hard: by doubling, windows of 1, 2, 4, ... from two shifted copies each and a last overlapping step,
@@ -56,27 +59,32 @@ def _window_min(x: torch.Tensor, k: int, stride: int, temperature: float | None)
     return x[:n_out]
 
 
-def _soft_window_min(x: torch.Tensor, k: int, stride: int, temperature: float) -> torch.Tensor:
+def _soft_window_min(x: torch.Tensor, k: int, stride: int, temperature: float | torch.Tensor) -> torch.Tensor:
     """``-t * logsumexp(-x / t)`` over the windows of :func:`_window_min`, from ``k`` shifted slices.
 
     Shifted by the exact minimum ``m`` (a constant for autograd: the expression does not depend on
     it), ``m - t * log(sum_j exp((m - x_j) / t))`` has terms in (0, 1], one of them 1. Memory: ``k``
     output-sized terms kept for the backward pass (none without autograd); an unfolded view would
     make its backward materialise a ``(k - 1) * stride + 1``-wide gradient, which for the column pass
-    of 100 frames of 96 x 96 was 4 GiB. Windows lying wholly in the infinite padding give ``inf``
-    with a zero gradient.
+    of 100 frames of 96 x 96 was 4 GiB. The infinite padding contributes exactly 0 (its term is
+    masked, so that the derivative in ``t``, ``0 * inf`` otherwise, is defined); windows lying wholly
+    in the padding give ``inf`` with a zero gradient.
     """
     n_out = x.shape[0] - (k - 1) * stride
     with torch.no_grad():
         low = _window_min(x.detach(), k, stride, None)
+        inside = torch.isfinite(x)
     finite = torch.isfinite(low)
     low = torch.where(finite, low, 0.0)
-    total = sum(torch.exp((low - x[j * stride : j * stride + n_out]) / temperature) for j in range(k))
+    total = 0.0
+    for j in range(k):
+        part, real = x[j * stride : j * stride + n_out], inside[j * stride : j * stride + n_out]
+        total = total + torch.where(real, torch.exp((low - torch.where(real, part, low)) / temperature), 0.0)
     soft = low - temperature * torch.log(torch.where(finite, total, 1.0))
     return torch.where(finite, soft, math.inf)
 
 
-def _erode(mask: torch.Tensor, k: int, temperature: float | None) -> torch.Tensor:
+def _erode(mask: torch.Tensor, k: int, temperature: float | torch.Tensor | None) -> torch.Tensor:
     """Minimum filter of (..., H, W) by a k x k square, outside ignored (any dtype; soft: float)."""
     if k == 1:
         return mask
@@ -126,7 +134,11 @@ def _sobel(image: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
 
 
 def _edges(
-    mask: torch.Tensor, edge_threshold: float, temperature: float | None, *, ring: bool = False
+    mask: torch.Tensor,
+    edge_threshold: float | torch.Tensor,
+    temperature: float | torch.Tensor | None,
+    *,
+    ring: bool = False,
 ) -> torch.Tensor:
     """Edges of (..., H, W): {0, 1} in mask's dtype (hard) or float in (0, 1) (soft); ``ring``: see
     :func:`_unflat`."""
@@ -135,7 +147,7 @@ def _edges(
     squared = torch.addcmul(gx * gx, gy, gy)
     if temperature is not None:
         edges = torch.sigmoid((squared - edge_threshold * edge_threshold) / temperature)
-    elif mask.is_floating_point():
+    elif mask.is_floating_point() or isinstance(edge_threshold, torch.Tensor) or values_unavailable():
         edges = (squared > edge_threshold * edge_threshold).to(mask.dtype)
     else:
         # A binary int8 mask has integer squared magnitudes of at most 32 (|gx|, |gy| <= 4), so
@@ -145,8 +157,12 @@ def _edges(
     return _unflat(edges, mask.shape, ring=ring)
 
 
-def _pressure(gray: torch.Tensor, threshold: torch.Tensor, temperature: float | None) -> torch.Tensor:
+def _pressure(
+    gray: torch.Tensor, threshold: torch.Tensor, temperature: float | torch.Tensor | None
+) -> torch.Tensor:
     """Pressed region: int8 {0, 1} (hard) or float (soft)."""
+    if temperature is None and values_unavailable():  # no out= under vmap or compile
+        return (gray < threshold).to(torch.int8)
     if temperature is None:
         # written straight to int8: several times faster than a bool result converted afterwards
         return torch.lt(gray, threshold, out=torch.empty(gray.shape, dtype=torch.int8))
@@ -191,7 +207,28 @@ def _safe_sqrt(x: torch.Tensor) -> torch.Tensor:
     return torch.where(positive, torch.sqrt(torch.where(positive, x, 1.0)), 0.0)
 
 
-def _gradient(image: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+FLAT_MAGNITUDE = 0.5
+"""Sobel magnitude below which the soft direction is faded out (see :func:`_gradient`)."""
+CUT_WIDTH = 0.2
+"""Width in radians of the arc below the ``atan2`` cut (just above ``-pi``) on which the soft direction
+turns smoothly back to ``pi`` (see :func:`_gradient`)."""
+
+
+def _gradient(image: torch.Tensor, soft: bool = False) -> tuple[torch.Tensor, torch.Tensor]:
+    """Sobel magnitude and direction of (..., H, W).
+
+    ``soft``: a direction that is a smooth function of the image, equal to ``atan2`` on binary images.
+    ``atan2`` jumps by ``2 pi`` where ``gy`` changes sign with ``gx < 0`` (its cut, on which vertical
+    edges of a binary image lie: ``A = pi``) and turns by up to ``2 pi`` under a tiny change of a
+    nearly vanishing gradient; a soft image puts pixels at both, where the derivative means nothing.
+    So (1) on the arc ``-pi < A < -pi + CUT_WIDTH`` the direction is replaced by the cubic that joins
+    ``pi`` (slope 1) to ``-pi + CUT_WIDTH`` (slope 1), continuous across the cut; a binary image's
+    gradient has integer components of at most 4, so no angle of it lies on that arc (the nearest,
+    ``atan(1/4)`` = 0.245 rad from the cut, is outside); (2) the result is multiplied by
+    ``w = s(min(M^2 / FLAT_MAGNITUDE^2, 1))``, ``s(u) = 3u^2 - 2u^3`` (continuously differentiable),
+    which fades it out where the image is flat and is 1 wherever ``M >= 0.5``, hence at every
+    non-flat pixel of a binary image (``M >= 1``). The hard limit is exact.
+    """
     gx, gy = _sobel(image)
     squared = gx * gx + gy * gy
     flat = squared == 0
@@ -199,6 +236,19 @@ def _gradient(image: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
     direction = torch.where(flat, 0.0, torch.atan2(torch.where(flat, 1.0, gy), torch.where(flat, 1.0, gx)))
     # atan2(-0.0, x < 0) = -pi: fold it onto pi so that the range is (-pi, pi].
     direction = torch.where(direction <= -math.pi, -direction, direction)
+    if soft:
+        v = (direction + math.pi) / CUT_WIDTH  # in (0, 1) on the arc below the cut
+        v2 = v * v
+        # cubic Hermite: pi at v = 0, -pi + CUT_WIDTH at v = 1, slope 1 in the angle at both ends
+        joined = (
+            (2 * v2 * v - 3 * v2 + 1) * math.pi
+            + (v2 * v - 2 * v2 + v) * CUT_WIDTH
+            + (3 * v2 - 2 * v2 * v) * (CUT_WIDTH - math.pi)
+            + (v2 * v - v2) * CUT_WIDTH
+        )
+        direction = torch.where(v < 1, joined, direction)
+        u = torch.clamp(squared / (FLAT_MAGNITUDE * FLAT_MAGNITUDE), max=1.0)
+        direction = direction * (u * u * (3.0 - 2.0 * u))
     return _safe_sqrt(squared), direction
 
 
@@ -232,8 +282,10 @@ def _statistics(image: torch.Tensor) -> torch.Tensor:
     return torch.stack([mean.squeeze(-1), std, skew, kurt, p95, mad], dim=-1).to(image.dtype)
 
 
-def _image_features(image: torch.Tensor) -> torch.Tensor:
-    magnitude, direction = _gradient(image)
+def _image_features(image: torch.Tensor, soft: bool = False) -> torch.Tensor:
+    """(..., H, W) → (..., 12): statistics of the magnitude, then of the direction (``soft``: see
+    :func:`_gradient`)."""
+    magnitude, direction = _gradient(image, soft)
     return torch.cat([_statistics(magnitude), _statistics(direction)], dim=-1)
 
 

@@ -1,17 +1,31 @@
 """Argument checks of the public image functions (each public entry validates once, here).
 
-Checks that depend on the values (finite, range) are skipped while tracing for export: an exported
-graph cannot raise, and the trace must not depend on the example input's values.
+Checks that depend on the values (finite, range) are skipped while the values cannot be read
+(:func:`tactile_torch._checks.values_unavailable`: ONNX export, ``torch.compile``, ``jit.trace``,
+``vmap``): an exported graph cannot raise, and a trace must not depend on the example input's values.
 """
 
 from __future__ import annotations
 
+import warnings
+
 import torch
 
-from .._checks import check_finite, check_floating, check_positive, check_shape, check_tensor
+from .._checks import (
+    check_finite,
+    check_floating,
+    check_positive,
+    check_shape,
+    check_tensor,
+    values_unavailable,
+)
 from ..robot.errors import InputTypeError
 
 Threshold = float | torch.Tensor | str
+"""A pressure threshold: a number in (0, 1], a floating tensor of shape () or (B,), or ``"otsu"``."""
+Scalar = float | torch.Tensor
+"""A soft parameter (temperature, edge threshold): a real number or a floating 0-d tensor, which may
+require gradients."""
 
 
 def check_frames(frames: object, name: str = "frames", *, batched: bool = True) -> torch.Tensor:
@@ -25,7 +39,7 @@ def check_frames(frames: object, name: str = "frames", *, batched: bool = True) 
             "frame per exploration (T >= 1)" if batched and frames.shape[1] == 0 else "non-empty dimensions"
         )
         raise ValueError(f"{name} must have at least one {what}, got shape {tuple(frames.shape)}")
-    if frames.is_floating_point() and not torch.compiler.is_exporting():
+    if frames.is_floating_point() and not values_unavailable():
         check_unit_range(frames, name)
     return frames
 
@@ -48,15 +62,53 @@ def check_image(x: object, name: str, spec: list) -> torch.Tensor:
     check_floating(x, name)
     if any(s == 0 for s in x.shape):
         raise ValueError(f"{name} must have non-empty dimensions, got shape {tuple(x.shape)}")
-    if not torch.compiler.is_exporting():
+    if not values_unavailable():
         check_finite(x, name)
     return x
 
 
-def check_temperature(temperature: float | None) -> None:
-    """``None`` (hard mode) or a positive number."""
+def check_scalar(value: object, name: str, *, strict: bool = True) -> None:
+    """A real number, or a floating 0-d tensor, ``> 0`` (``>= 0`` unless ``strict``) and finite.
+
+    A tensor's value is checked unless the values cannot be read (:func:`values_unavailable`).
+    """
+    if not isinstance(value, torch.Tensor):
+        check_positive(value, name, strict=strict)
+        return
+    if value.ndim != 0:
+        raise ValueError(
+            f"{name} must be a number or a 0-d tensor, got a tensor of shape {tuple(value.shape)}"
+        )
+    check_floating(value, name)
+    if values_unavailable():
+        return
+    number = float(value.detach())
+    if not (number > 0 if strict else number >= 0) or number == float("inf"):
+        raise ValueError(f"{name} must be {'> 0' if strict else '>= 0'} and finite, got {number!r}")
+
+
+def check_temperature(temperature: Scalar | None) -> None:
+    """``None`` (hard mode), a positive number or a positive floating 0-d tensor."""
     if temperature is not None:
-        check_positive(temperature, "temperature")
+        check_scalar(temperature, "temperature")
+
+
+def warn_if_gradient_lost(temperature: Scalar | None, **inputs: object) -> None:
+    """Warn (one line) when the hard mode is given tensors that require gradients it cannot give.
+
+    The hard steps are comparisons: their output has no gradient. Silent otherwise (soft mode, grad
+    mode off, nothing requiring gradients, values unavailable).
+    """
+    if temperature is not None or not torch.is_grad_enabled() or values_unavailable():
+        return
+    names = [n for n, x in inputs.items() if isinstance(x, torch.Tensor) and x.requires_grad]
+    if names:
+        warnings.warn(
+            f"{' and '.join(names)} require{'s' if len(names) == 1 else ''} gradients, but the hard mode "
+            "(temperature=None) has none: pass temperature= for the differentiable mode, or detach",
+            UserWarning,
+            stacklevel=4,  # the caller of the public function (under its quiet_jit_trace wrapper)
+        )
 
 
 def check_threshold(threshold: Threshold, batch: int, name: str = "threshold") -> None:
@@ -71,7 +123,7 @@ def check_threshold(threshold: Threshold, batch: int, name: str = "threshold") -
                 f"{name} must be a scalar tensor or have shape ({batch},), got {tuple(threshold.shape)}"
             )
         check_floating(threshold, name)
-        if not torch.compiler.is_exporting():
+        if not values_unavailable():
             check_finite(threshold, name)
         return
     check_positive(threshold, name)

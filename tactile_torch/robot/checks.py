@@ -74,7 +74,7 @@ def check_positive(value: object, name: str, *, strict: bool = True, integer: bo
     kind = numbers.Integral if integer else numbers.Real
     if isinstance(value, bool) or not isinstance(value, kind):
         raise InputTypeError(f"{name} must be {'an integer' if integer else 'a real number'}, got {value!r}")
-    if not np.isfinite(value) or (value <= 0 if strict else value < 0):
+    if not math.isfinite(value) or (value <= 0 if strict else value < 0):
         raise ValueError(f"{name} must be {'> 0' if strict else '>= 0'}, got {value!r}")
 
 
