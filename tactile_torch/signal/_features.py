@@ -4,12 +4,20 @@ module form (definitions in the package docstring, :mod:`tactile_torch.signal`).
 from __future__ import annotations
 
 import functools
+import math
 
 import numpy as np
 import torch
 from torch import nn
 
-from .._checks import check_finite, check_positive, check_shape, check_tensor
+from .._checks import (
+    check_finite,
+    check_positive,
+    check_shape,
+    check_tensor,
+    quiet_jit_trace,
+    values_unavailable,
+)
 from .._parallel import map_blocks, serial_torch_ops_in_this_thread
 from ..robot.errors import InputTypeError
 
@@ -93,6 +101,7 @@ def sliding_windows(recording: torch.Tensor, size: int, step: int | None = None)
     return recording.unfold(-2, int(size), int(step))
 
 
+@quiet_jit_trace
 def window_features(windows: torch.Tensor) -> torch.Tensor:
     """Return the 21 vibration features of every window, 7 per axis in axis-major order.
 
@@ -120,9 +129,12 @@ def window_features(windows: torch.Tensor) -> torch.Tensor:
     -----
     Differentiable (float64 gradcheck) in every feature but ``cross``, whose gradient is zero. In
     eager mode the spectrum uses ``torch.fft.rfft`` and the crossings a floor-and-correct
-    formulation (``O(W)``, not ``O(20 W)``); when traced for export (``torch.export``, ONNX) the
-    spectrum becomes a MatMul with a precomputed cos/sin basis of the upper-half bins only and the
-    crossings an elementwise bisection, both exportable and equal to the eager results (tested).
+    formulation (``O(W)``, not ``O(20 W)``); when the ops are recorded (ONNX export and
+    ``torch.export``, ``torch.compile``, ``torch.jit.trace``, ``torch.func.vmap``) the spectrum becomes
+    a MatMul with a precomputed cos/sin basis of the upper-half bins only and the crossings an
+    elementwise bisection, one graph without validation (it cannot raise; NaN/inf give NaN/inf
+    features), equal to the eager results (tested). A jit trace holds ``W`` as a constant (windows
+    of another length fail in it); ``vmap`` and ``compile(fullgraph=True)`` work.
 
     The eager path works on blocks of windows small enough to stay in the CPU cache and runs them
     on ``torch.get_num_threads()`` threads, each running its torch ops on one thread (a setting of
@@ -134,8 +146,8 @@ def window_features(windows: torch.Tensor) -> torch.Tensor:
     >>> window_features(torch.randn(4, 3, 800)).shape
     torch.Size([4, 21])
     """
-    if torch.compiler.is_exporting():  # traced: one graph, no validation (it cannot raise)
-        width = windows.shape[-1]
+    if values_unavailable():  # recorded: one graph, no validation (it cannot raise)
+        width = int(windows.shape[-1])  # a constant of a jit trace, an int otherwise
         stats = _row_statistics(windows.reshape(-1, width), exact=True)
         features = _features_from_statistics(stats, width).to(windows.dtype)
         return features.reshape(*windows.shape[:-2], len(FEATURE_NAMES))
@@ -280,8 +292,13 @@ def _upper_half_basis(width: int, dtype: torch.dtype) -> torch.Tensor:
     """``(W, 2K)`` cos and sin of the K upper-half DFT bins (``W // 4 < k <= W // 2``), float64-accurate.
 
     Only the NumPy array is cached: a tensor made while tracing for export belongs to that trace, and
-    handing it to a second export in the same process breaks the second graph.
+    handing it to a second export in the same process breaks the second graph. Under
+    ``torch.compile`` (which cannot run the NumPy function) the same angles are computed with torch.
     """
+    if torch.compiler.is_compiling() and not torch.compiler.is_exporting():
+        k = torch.arange(width // 4 + 1, width // 2 + 1)
+        angle = (2 * math.pi / width) * (torch.outer(torch.arange(width), k) % width).to(torch.float64)
+        return torch.cat([torch.cos(angle), torch.sin(angle)], dim=1).to(dtype)
     return torch.from_numpy(_upper_half_basis_array(width)).to(dtype)
 
 
@@ -291,7 +308,7 @@ def _upper_half_amplitude_sum(d: torch.Tensor, *, basis: bool) -> torch.Tensor:
     ``basis=True`` computes the needed bins only, as one MatMul with a cos/sin basis (exportable,
     no DFT operator); otherwise ``torch.fft.rfft`` (faster in eager mode for large W).
     """
-    width = d.shape[-1]
+    width = int(d.shape[-1])  # a constant of a jit trace, an int otherwise
     if not basis:
         return torch.fft.rfft(d, dim=-1)[:, width // 4 + 1 :].abs().sum(-1)
     proj = d @ _upper_half_basis(width, d.dtype)
@@ -320,7 +337,8 @@ class WindowFeatures(nn.Module):
         self.window_size = window_size
 
     def forward(self, windows: torch.Tensor) -> torch.Tensor:
-        if self.window_size is not None and not torch.compiler.is_exporting():
+        """Return :func:`window_features` of ``windows`` ``(B, 3, W)`` → ``(B, 21)``."""
+        if self.window_size is not None and not values_unavailable():
             check_shape(check_tensor(windows, "windows"), "windows", ["*", 3, self.window_size])
         return window_features(windows)
 

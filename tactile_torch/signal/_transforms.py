@@ -19,10 +19,19 @@ from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted, validate_data
 from torch import nn
 
-from .._checks import check_finite, check_floating, check_positive, check_shape, check_tensor
+from .._checks import (
+    check_finite,
+    check_floating,
+    check_positive,
+    check_shape,
+    check_tensor,
+    quiet_jit_trace,
+    values_unavailable,
+)
 from ._features import AXIS_FEATURES, CLUSTERING_FEATURE_NAMES, FEATURE_NAMES
 
 
+@quiet_jit_trace
 def clustering_features(features: torch.Tensor, *, eps: float = 1e-6) -> torch.Tensor:
     """Return the 12 per-axis features of the unsupervised path from the 21 window features.
 
@@ -52,7 +61,7 @@ def clustering_features(features: torch.Tensor, *, eps: float = 1e-6) -> torch.T
     >>> clustering_features(window_features(torch.zeros(1, 3, 100)))[0, :4]
     tensor([  0.0000, -13.8155,   0.0000, -13.8155])
     """
-    if not torch.compiler.is_exporting():
+    if not values_unavailable():  # recorded ops (export, compile, jit.trace, vmap): no checks
         check_tensor(features, "features")
         check_shape(features, "features", ["B", len(FEATURE_NAMES)])
         check_floating(features, "features")
