@@ -12,7 +12,7 @@ import math
 import torch
 import torch.nn.functional as F
 
-from .._checks import values_unavailable
+from ..validation import values_unavailable
 from . import _export
 from ._constants import GRAY_WEIGHTS, HISTOGRAM_LEVELS
 

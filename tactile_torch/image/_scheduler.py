@@ -5,7 +5,7 @@ explorations share a block when they fit; the OR is accumulated across a long ex
 so memory stays bounded whatever ``B`` and ``T``. The hard eager path runs the blocks on worker
 threads whose torch ops are serial (:mod:`tactile_torch._parallel`); the soft path (autograd) runs in
 the caller's thread, and so do the transforms that record the ops (ONNX export, ``torch.compile``,
-``jit.trace``, ``vmap``: :func:`~tactile_torch._checks.values_unavailable`), on one block (no Python
+``jit.trace``, ``vmap``: :func:`~tactile_torch.validation.values_unavailable`), on one block (no Python
 arithmetic on a symbolic batch size, no worker thread outside vmap's thread-local levels).
 """
 
@@ -17,8 +17,8 @@ import warnings
 
 import torch
 
-from .._checks import values_unavailable
 from .._parallel import map_blocks, serial_torch_ops_in_this_thread
+from ..validation import values_unavailable
 from . import _export
 from ._constants import CHUNK_PIXELS
 from ._integer_cut import GRAY_INTEGER, float32, integer_cut, pressed_uint8

@@ -1,7 +1,7 @@
 """Argument checks of the public image functions (each public entry validates once, here).
 
 Checks that depend on the values (finite, range) are skipped while the values cannot be read
-(:func:`tactile_torch._checks.values_unavailable`: ONNX export, ``torch.compile``, ``jit.trace``,
+(:func:`tactile_torch.validation.values_unavailable`: ONNX export, ``torch.compile``, ``jit.trace``,
 ``vmap``): an exported graph cannot raise, and a trace must not depend on the example input's values.
 """
 
@@ -11,7 +11,8 @@ import warnings
 
 import torch
 
-from .._checks import (
+from ..exceptions import InputTypeError
+from ..validation import (
     check_finite,
     check_floating,
     check_positive,
@@ -19,7 +20,6 @@ from .._checks import (
     check_tensor,
     values_unavailable,
 )
-from ..robot.errors import InputTypeError
 
 Threshold = float | torch.Tensor | str
 """A pressure threshold: a number in (0, 1], a floating tensor of shape () or (B,), or ``"otsu"``."""

@@ -10,7 +10,9 @@ import numpy as np
 import torch
 from torch import nn
 
-from .._checks import (
+from .._parallel import map_blocks, serial_torch_ops_in_this_thread
+from ..exceptions import InputTypeError
+from ..validation import (
     check_finite,
     check_positive,
     check_shape,
@@ -18,8 +20,6 @@ from .._checks import (
     quiet_jit_trace,
     values_unavailable,
 )
-from .._parallel import map_blocks, serial_torch_ops_in_this_thread
-from ..robot.errors import InputTypeError
 
 AXES = ("x", "y", "z")
 AXIS_FEATURES = ("var", "skew", "kurt", "m5", "tv", "cross", "hf")

@@ -19,7 +19,7 @@ from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted, validate_data
 from torch import nn
 
-from .._checks import (
+from ..validation import (
     check_finite,
     check_floating,
     check_positive,

@@ -19,8 +19,7 @@ from sklearn.utils.class_weight import compute_class_weight
 from sklearn.utils.multiclass import check_classification_targets
 from sklearn.utils.validation import _check_sample_weight, check_is_fitted, validate_data
 
-from .._checks import numpy_rng
-from .._constraints import RANDOM_STATE
+from ..validation import RANDOM_STATE, numpy_rng
 from . import _smo
 from .kernels import KERNELS, KernelData, scale_gamma
 from .probability import cross_val_decisions, platt_parameters
