@@ -51,6 +51,7 @@ from ..image import (
 )
 from ..robot.stream.touches import CONTACT, contact_sign, reading_noise, resting_level
 from ..signal import AXIS_FEATURES, WindowFeatures, window_features
+from ..validation import tensor_from_array
 
 MAX_TAXELS = 256
 """Largest frame (taxels or pixels) for which per-taxel time-series features are offered (7 per taxel)."""
@@ -129,7 +130,7 @@ class ImageFeatureTransformer(TransformerMixin, BaseEstimator):
         if self.threshold == "otsu":
             from ..image import to_grayscale
 
-            gray = to_grayscale(torch.from_numpy(np.ascontiguousarray(X)))
+            gray = to_grayscale(tensor_from_array(np.ascontiguousarray(X)))
             self.threshold_ = float(otsu_threshold(gray.reshape(1, -1))[0])
         else:
             self.threshold_ = float(self.threshold)
@@ -137,7 +138,7 @@ class ImageFeatureTransformer(TransformerMixin, BaseEstimator):
 
     def transform(self, X: object) -> np.ndarray:
         check_is_fitted(self, "erosion_")
-        frames = torch.from_numpy(np.ascontiguousarray(_as_array(X)))
+        frames = tensor_from_array(np.ascontiguousarray(_as_array(X)))
         return (
             exploration_features(frames, fuse=self.fuse, threshold=self.threshold_, erosion=self.erosion_)
             .double()
@@ -321,7 +322,7 @@ class PressureImageFeatures(TransformerMixin, BaseEstimator):
         X = _as_array(X)
         _check_ndim(X, 4, "(N, T, H, W)")
         with torch.no_grad():
-            frames = self._pressed()(torch.from_numpy(np.ascontiguousarray(X, dtype=np.float32)))
+            frames = self._pressed()(tensor_from_array(np.ascontiguousarray(X, dtype=np.float32)))
         return (
             exploration_features(frames, fuse=self.fuse, threshold=0.5, erosion=self.erosion_)
             .double()
@@ -399,7 +400,7 @@ class TaxelFeatureTransformer(TransformerMixin, BaseEstimator):
     def transform(self, X: object) -> np.ndarray:
         check_is_fitted(self, "rgb_")
         X = np.ascontiguousarray(_as_array(X))
-        raw = torch.from_numpy(X if X.dtype == np.uint8 else X.astype(np.float32))
+        raw = tensor_from_array(X if X.dtype == np.uint8 else X.astype(np.float32))
         with torch.no_grad():
             return TaxelFeatures(self.rgb_)(raw).double().numpy()
 
@@ -428,7 +429,7 @@ class WindowFeatureTransformer(TransformerMixin, BaseEstimator):
     def transform(self, X: object) -> np.ndarray:
         check_is_fitted(self, "window_size_")
         X = np.ascontiguousarray(_as_array(X))
-        return window_features(torch.from_numpy(X.astype(np.float32, copy=False))).double().numpy()
+        return window_features(tensor_from_array(X.astype(np.float32, copy=False))).double().numpy()
 
     def to_module(self) -> nn.Module:
         check_is_fitted(self, "window_size_")

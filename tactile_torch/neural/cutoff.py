@@ -31,7 +31,7 @@ from sklearn.utils.multiclass import check_classification_targets
 from sklearn.utils.validation import check_is_fitted
 from torch import nn
 
-from ..validation import RANDOM_STATE, numpy_rng, torch_generator
+from ..validation import RANDOM_STATE, numpy_rng, tensor_from_array, torch_generator
 from .front_end import HardFrontEndGraph, _fit_standardised_head, crammer_singer_loss
 
 HF_COLUMNS = (6, 13, 20)
@@ -142,7 +142,7 @@ class LearnedCutoffClassifier(ClassifierMixin, BaseEstimator):
             raise ValueError(f"windows must have shape (N, 3, W) with N >= 1 and W >= 4, got {raw.shape}")
         if raw.dtype.kind != "f" or not np.isfinite(raw).all():
             raise ValueError("windows must be finite floats (g)")
-        return torch.from_numpy(np.ascontiguousarray(raw, dtype=np.float32))
+        return tensor_from_array(np.ascontiguousarray(raw, dtype=np.float32))
 
     def _learn(self, windows: torch.Tensor, y: torch.Tensor, generator: torch.Generator) -> None:
         from ..signal import window_features

@@ -41,7 +41,7 @@ from sklearn.utils.validation import check_is_fitted
 from torch import nn
 
 from ..exceptions import InputTypeError
-from ..validation import RANDOM_STATE, numpy_rng, torch_generator
+from ..validation import RANDOM_STATE, numpy_rng, tensor_from_array, torch_generator
 from .networks import (
     WINDOW_WIDTHS,
     ClassifierGraph,
@@ -104,7 +104,7 @@ class _NeuralClassifier(ClassifierMixin, BaseEstimator):
             raise InputTypeError(f"{self._input_name} must be numeric, got dtype {X.dtype}")
         if X.dtype.kind == "f" and not np.isfinite(X).all():
             raise ValueError(f"{self._input_name} must be finite, got NaN or inf values")
-        return torch.from_numpy(np.ascontiguousarray(X, dtype=np.float32))
+        return tensor_from_array(np.ascontiguousarray(X, dtype=np.float32))
 
     def _make_network(self, X: torch.Tensor, n_classes: int, generator: torch.Generator) -> nn.Module:
         raise NotImplementedError

@@ -40,7 +40,7 @@ from sklearn.utils.validation import check_is_fitted
 from torch import nn
 
 from ..exceptions import InputTypeError
-from ..validation import RANDOM_STATE, numpy_rng, torch_generator
+from ..validation import RANDOM_STATE, numpy_rng, tensor_from_array, torch_generator
 
 INITIAL_TEMPERATURES = (0.02, 0.05, 0.5)
 """Starting temperatures of the soft threshold (gray levels on the 0-1 scale), the soft erosion and the
@@ -244,7 +244,7 @@ class LearnedFrontEndClassifier(ClassifierMixin, BaseEstimator):
             raise ValueError(f"frames must have shape (N, T, 3, H, W) with N >= 1, got {raw.shape}")
         if raw.dtype != np.uint8:
             raise InputTypeError(f"frames must be uint8 RGB (0-255), got dtype {raw.dtype}")
-        return torch.from_numpy(np.ascontiguousarray(raw))
+        return tensor_from_array(np.ascontiguousarray(raw))
 
     def _hard_features(self, frames: torch.Tensor) -> torch.Tensor:
         from ..image import exploration_features

@@ -26,6 +26,7 @@ from ..validation import (
     check_shape,
     check_tensor,
     quiet_jit_trace,
+    tensor_from_array,
     values_unavailable,
 )
 from ._features import AXIS_FEATURES, CLUSTERING_FEATURE_NAMES, FEATURE_NAMES
@@ -108,7 +109,7 @@ def _validate_features(estimator: BaseEstimator, X: object, *, reset: bool) -> t
 
 def _as_tensor(X: object, validated: np.ndarray, is_tensor: bool) -> torch.Tensor:
     # the caller's tensor itself (its dtype and autograd graph), or the validated array as one
-    return X if is_tensor else torch.from_numpy(validated)
+    return X if is_tensor else tensor_from_array(validated)
 
 
 def _returned(result: torch.Tensor, is_tensor: bool) -> torch.Tensor | np.ndarray:
@@ -337,7 +338,7 @@ class ClusteringTransform(ClassNamePrefixFeaturesOutMixin, TransformerMixin, Bas
         """Fit the standardisation and the PCA on ``X`` ``(n, 21)`` (or ``(n, D)``), ``n >= 2``; return
         ``self``."""
         X, _ = _validate_features(self, X, reset=True)
-        x = torch.from_numpy(X.astype(np.float64, copy=False))
+        x = tensor_from_array(X.astype(np.float64, copy=False))
         if self.features == "window":
             if X.shape[1] != len(FEATURE_NAMES):
                 raise ValueError(

@@ -45,6 +45,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import torch
 
+from ..validation import tensor_from_array
 from .kernels import KernelData, kernel_matrix
 
 if TYPE_CHECKING:  # the solver (numba) is imported where it runs: the inference graph does without
@@ -181,7 +182,7 @@ def cross_val_decisions(
     if kernel_data is None:
         kernel_data = KernelData.of(X, kernel, gamma)
     solutions = solve_set(kernel_data, folds if rows is None else folds.remapped(rows), list(Cs), **solver)
-    X_t = torch.from_numpy(np.ascontiguousarray(X, dtype=np.float64))
+    X_t = tensor_from_array(np.ascontiguousarray(X, dtype=np.float64))
     out = []
     for sol in solutions:
         decision = np.empty(problems.rows.shape[0])

@@ -45,6 +45,7 @@ __getattr__, __dir__, __all__ = lazy_exports(
             "check_shape",
             "check_tensor",
             "quiet_jit_trace",
+            "tensor_from_array",
             "torch_generator",
             "values_unavailable",
         ),

@@ -133,6 +133,23 @@ def check_finite(x: torch.Tensor, name: str) -> torch.Tensor:
     return x
 
 
+def tensor_from_array(array: np.ndarray) -> torch.Tensor:
+    """Return ``torch.from_numpy(array)``, sharing its memory, or of a copy if ``array`` is read-only.
+
+    A read-only array (a memory map, a pandas frame's values under copy-on-write, a broadcast view)
+    would make torch warn that writing to the tensor is undefined: the copy keeps the caller's array
+    safe and the library's output free of that warning.
+
+    Examples
+    --------
+    >>> frozen = np.zeros(3)
+    >>> frozen.flags.writeable = False
+    >>> tensor_from_array(frozen).tolist()
+    [0.0, 0.0, 0.0]
+    """
+    return torch.from_numpy(array if array.flags.writeable else array.copy())
+
+
 RandomState = int | np.random.Generator | np.random.RandomState | torch.Generator | None
 
 
@@ -186,6 +203,7 @@ __all__ = [
     "check_tensor",
     "numpy_rng",
     "quiet_jit_trace",
+    "tensor_from_array",
     "torch_generator",
     "values_unavailable",
 ]
