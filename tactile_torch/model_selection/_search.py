@@ -37,7 +37,7 @@ from sklearn.base import BaseEstimator, ClassifierMixin, MetaEstimatorMixin, _fi
 from sklearn.model_selection import GridSearchCV, ParameterGrid, check_cv
 from sklearn.pipeline import Pipeline
 from sklearn.utils._param_validation import Interval, Options
-from sklearn.utils.validation import check_is_fitted
+from sklearn.utils.validation import _check_sample_weight, check_is_fitted, column_or_1d
 
 from ..exceptions import InputTypeError
 from ..validation import RandomState, numpy_rng
@@ -239,6 +239,11 @@ class SVMGridSearchCV(MetaEstimatorMixin, ClassifierMixin, BaseEstimator):
     A warm-started solution equals an independent fit up to the solver's tolerance, so a score can
     differ from ``GridSearchCV``'s by a prediction that flips between two solutions within ``tol``.
 
+    ``fit(X, y, sample_weight=...)`` passes each split's weights to the SVM's ``fit_path`` (and all of
+    them to the refit), and the scores are the test folds' weighted accuracies, as ``GridSearchCV``
+    forwards ``sample_weight`` to its default scorer.
+    A pandas ``X`` keeps its column names (``feature_names_in_``, and the refitted estimator's).
+
     Parameters
     ----------
     estimator : SVC, HierarchicalSVC, or a Pipeline ending with one
@@ -258,7 +263,11 @@ class SVMGridSearchCV(MetaEstimatorMixin, ClassifierMixin, BaseEstimator):
         ``std_test_score``, ``rank_test_score``, as ``GridSearchCV``'s.
     best_index_, best_params_, best_score_
     best_estimator_ : estimator (``refit=True``)
+    classes_ : ndarray of shape (n_classes,)
+        The refitted estimator's classes (``refit=True``).
     n_features_in_ : int
+    feature_names_in_ : ndarray of str
+        Column names, when ``X`` was a pandas DataFrame with string column names.
     n_splits_ : int
     search_time_ : float
         Seconds of the search (without the refit); ``refit_time_``: seconds of the refit.
@@ -290,8 +299,31 @@ class SVMGridSearchCV(MetaEstimatorMixin, ClassifierMixin, BaseEstimator):
 
     # the searched estimator's own parameters are validated by its fits (not skipped as nested)
     @_fit_context(prefer_skip_nested_validation=False)
-    def fit(self, X: object, y: object) -> SVMGridSearchCV:
-        """Run the search on ``X`` (n_samples, n_features) and labels ``y``; return ``self``."""
+    def fit(self, X: object, y: object, sample_weight: object = None) -> SVMGridSearchCV:
+        """Run the search on ``X`` and labels ``y``; return ``self``.
+
+        Parameters
+        ----------
+        X : array-like, DataFrame or tensor of shape (n_samples, n_features)
+        y : array-like of shape (n_samples,)
+            A column vector ``(n_samples, 1)`` is accepted with scikit-learn's
+            ``DataConversionWarning``.
+        sample_weight : array-like of shape (n_samples,), optional
+            Per-sample weights of the SVM's ``fit`` (sliced per split) and of the test accuracies.
+
+        Returns
+        -------
+        self
+
+        Raises
+        ------
+        TypeError
+            If ``estimator`` is not one of the package's SVMs (or a Pipeline ending with one), or ``X``
+            is sparse.
+        ValueError
+            If ``y`` is missing or not 1-D (a column vector aside), ``X`` is not 2-D with ``y``'s
+            number of samples, ``sample_weight`` has another length, or a fit refuses its data.
+        """
         from ..svm.kernels import KernelData
         from ..svm.threads import resolve_threads, run_blocks
 
@@ -304,13 +336,28 @@ class SVMGridSearchCV(MetaEstimatorMixin, ClassifierMixin, BaseEstimator):
             raise InputTypeError("X must be a dense array or tensor: sparse input is not supported")
         if y is None:
             raise ValueError("SVMGridSearchCV requires y to be passed, but the target y is None")
+        given = X
         X = np.asarray(X.detach().cpu() if hasattr(X, "detach") else X)
-        y = _labels(y)
+        y = np.asarray(y.detach().cpu() if hasattr(y, "detach") else y)
+        y = column_or_1d(y, warn=True) if y.ndim == 2 and y.shape[1] == 1 else _labels(y)
         if X.ndim != 2 or X.shape[0] != y.shape[0]:
             raise ValueError(
                 f"X must have shape (n_samples, n_features) with y's {y.shape[0]} samples, got {X.shape}"
             )
+        if sample_weight is not None:
+            sample_weight = _check_sample_weight(
+                np.asarray(
+                    sample_weight.detach().cpu() if hasattr(sample_weight, "detach") else sample_weight
+                ),
+                X,
+                dtype=np.float64,
+            )
         self.n_features_in_ = X.shape[1]
+        columns = getattr(given, "columns", None)
+        if columns is not None and all(isinstance(c, str) for c in columns):
+            self.feature_names_in_ = np.asarray(columns, dtype=object)
+        else:
+            self.__dict__.pop("feature_names_in_", None)
         start = time.perf_counter()
         splits = list(check_cv(self.cv, y, classifier=True).split(X, y))
         candidates = list(ParameterGrid(self.param_grid))
@@ -335,7 +382,7 @@ class SVMGridSearchCV(MetaEstimatorMixin, ClassifierMixin, BaseEstimator):
                 shared = KernelData.precomputed(X, svm.kernel, float(gamma), threads)
 
             def run(split, estimator=estimator, Cs=Cs, shared=shared):
-                return _path_scores(estimator, X, y, split, Cs, shared)
+                return _path_scores(estimator, X, y, split, Cs, shared, sample_weight)
 
             per_split = run_blocks(run, splits, threads)
             for k, accuracy in enumerate(per_split):
@@ -346,7 +393,9 @@ class SVMGridSearchCV(MetaEstimatorMixin, ClassifierMixin, BaseEstimator):
         self.n_splits_ = len(splits)
         if self.refit:
             start = time.perf_counter()
-            self.best_estimator_ = clone(self.estimator).set_params(**self.best_params_).fit(X, y)
+            best = clone(self.estimator).set_params(**self.best_params_)
+            # the caller's X (a DataFrame keeps its column names in the refitted estimator)
+            self.best_estimator_ = best.fit(given, y, **_weight_argument(best, sample_weight))
             self.refit_time_ = time.perf_counter() - start
             self.classes_ = self.best_estimator_.classes_
         return self
@@ -380,21 +429,37 @@ class SVMGridSearchCV(MetaEstimatorMixin, ClassifierMixin, BaseEstimator):
         return self.best_estimator_.decision_function(X)
 
 
-def _path_scores(estimator, X, y, split, Cs, shared) -> list[float]:
+def _weight_argument(estimator: object, sample_weight: np.ndarray | None) -> dict:
+    """The keyword that gives ``sample_weight`` to the SVM's ``fit`` (through a Pipeline: its step)."""
+    if sample_weight is None:
+        return {}
+    if isinstance(estimator, Pipeline):
+        return {f"{estimator.steps[-1][0]}__sample_weight": sample_weight}
+    return {"sample_weight": sample_weight}
+
+
+def _path_scores(estimator, X, y, split, Cs, shared, sample_weight=None) -> list[float]:
     """Test accuracy, on one split, of the estimator fitted along ``Cs`` (increasing)."""
     train, test = split
     svm, _ = _final_step(estimator)
     X_train, X_test = X[train], X[test]
+    weight = None if sample_weight is None else sample_weight[train]
     if isinstance(estimator, Pipeline):
         head = Pipeline(clone(estimator).steps[:-1]).fit(X_train, y[train])
         X_train, X_test = head.transform(X_train), head.transform(X_test)
     if shared is not None:
         models = svm.fit_path(
-            X_train, y[train], Cs, kernel_data=shared, rows=np.asarray(train, dtype=np.int64)
+            X_train,
+            y[train],
+            Cs,
+            sample_weight=weight,
+            kernel_data=shared,
+            rows=np.asarray(train, dtype=np.int64),
         )
     else:
-        models = svm.fit_path(X_train, y[train], Cs)
-    return [float(np.mean(model.predict(X_test) == y[test])) for model in models]
+        models = svm.fit_path(X_train, y[train], Cs, sample_weight=weight)
+    test_weight = None if sample_weight is None else sample_weight[test]
+    return [float(np.average(model.predict(X_test) == y[test], weights=test_weight)) for model in models]
 
 
 def rank_feature_groups(

@@ -93,9 +93,7 @@ class _KernelMachine(ClassifierMixin, BaseEstimator):
         self.class_weight_ = compute_class_weight(self.class_weight, classes=self.classes_, y=y)
         weight = None
         if sample_weight is not None:
-            weight = _check_sample_weight(
-                _as_numpy(sample_weight), X, dtype=np.float64, allow_all_zero_weights=True
-            )
+            weight = _check_sample_weight(_as_numpy(sample_weight), X, dtype=np.float64)
             if (weight < 0).any():  # scikit-learn's check refuses NaN and inf, naming sample_weight
                 bad = int(np.flatnonzero(weight < 0)[0])
                 raise ValueError(

@@ -145,6 +145,46 @@ def test_batched_search_equals_gridsearchcv(estimator):
     np.testing.assert_array_equal(ours.predict(X), ref.predict(X))
 
 
+def test_batched_search_with_sample_weight_equals_gridsearchcv():
+    X, y = _small_problem()
+    weight = np.where(y == 0, 10.0, 0.1) * np.random.default_rng(0).uniform(0.5, 2.0, size=y.shape[0])
+    ours = SVMGridSearchCV(SVC(), {"C": [0.5, 8.0]}, cv=3).fit(X, y, sample_weight=weight)
+    # scikit-learn slices the weights for the fits and forwards them to its accuracy scorer
+    ref = GridSearchCV(SVC(), {"C": [0.5, 8.0]}, cv=3).fit(X, y, sample_weight=weight)
+    np.testing.assert_allclose(
+        ours.cv_results_["mean_test_score"], ref.cv_results_["mean_test_score"], atol=0.01
+    )
+    unweighted = SVMGridSearchCV(SVC(), {"C": [0.5, 8.0]}, cv=3).fit(X, y)
+    assert np.abs(ours.cv_results_["mean_test_score"] - unweighted.cv_results_["mean_test_score"]).max() > 0.1
+    np.testing.assert_array_equal(ours.predict(X), ref.predict(X))
+    # through a pipeline the weights reach its SVM step, as a loop over the splits gives them
+    pipe = make_pipeline(StandardScaler(), SVC())
+    search = SVMGridSearchCV(pipe, {"svc__C": [0.5, 8.0]}, cv=3).fit(X, y, sample_weight=weight)
+    for i, C in enumerate([0.5, 8.0]):
+        scores = []
+        for train, test in StratifiedKFold(3).split(X, y):
+            model = clone(pipe).set_params(svc__C=C).fit(X[train], y[train], svc__sample_weight=weight[train])
+            scores.append(np.average(model.predict(X[test]) == y[test], weights=weight[test]))
+        assert search.cv_results_["mean_test_score"][i] == pytest.approx(np.mean(scores), abs=0.01)
+
+
+def test_batched_search_takes_a_column_vector_y_and_keeps_column_names():
+    import pandas as pd
+    from sklearn.exceptions import DataConversionWarning
+
+    X, y = _small_problem()
+    frame = pd.DataFrame(X, columns=["a", "b"])
+    flat = SVMGridSearchCV(SVC(), {"C": [1.0, 4.0]}, cv=3).fit(frame, y)
+    with pytest.warns(DataConversionWarning, match="column-vector y"):
+        column = SVMGridSearchCV(SVC(), {"C": [1.0, 4.0]}, cv=3).fit(frame, y[:, None])
+    np.testing.assert_array_equal(column.cv_results_["mean_test_score"], flat.cv_results_["mean_test_score"])
+    assert (
+        column.feature_names_in_.tolist() == ["a", "b"] == column.best_estimator_.feature_names_in_.tolist()
+    )
+    with pytest.raises(ValueError, match=r"y should be a 1d array|y must be a 1-D array"):
+        SVMGridSearchCV(SVC(), {"C": [1.0]}, cv=3).fit(X, np.stack([y, y], axis=1))
+
+
 def test_batched_search_with_a_pipeline_and_other_parameters():
     X, y = _small_problem()
     X = X * [1.0, 100.0]  # unequal scales: the pipeline standardises each fold's training part
