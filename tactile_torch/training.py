@@ -32,24 +32,6 @@ METHODS = tuple(catalogue.choices())
 ``"svm"``, an alias of ``"svc"`` (the one-vs-one SVM)."""
 
 
-def make_classifier(
-    method: str,
-    *,
-    C: float = 16.0,
-    gamma: str | float = "scale",
-    kernel: str = "rbf",
-    random_state: RandomState = None,
-):
-    """Return an unfitted classifier of the catalogue (:mod:`tactile_torch.catalogue`): ``hmsvm``,
-    ``svc`` (or ``svm``, one-vs-one), ``lda``, ``knn`` or ``ncm``, at its defaults; ``C``, ``gamma`` and
-    ``kernel`` apply to the SVMs only."""
-    if method not in METHODS:
-        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
-    key = catalogue.resolve(method)
-    params = {"C": C, "gamma": gamma, "kernel": kernel} if key in ("hmsvm", "svc") else {}
-    return catalogue.make_classifier(key, random_state=random_state, **params)
-
-
 @dataclass
 class TrainedModel:
     """A classifier fitted by :func:`train_classifier`, with its feature scale and held-out report.
@@ -147,16 +129,14 @@ def _listing(names: Sequence[str], what: str, limit: int = 8) -> str:
 
 
 def _fit_scaled(method: str, X: np.ndarray, y: np.ndarray, seed: int, select: int | None, **params):
-    """Return ``(fitted classifier, scale, selected columns or None)`` fitted on ``X``, ``y``."""
-    columns = None
-    if select is not None:
-        from .features.transformers import RankedFeatureSelector
-
-        columns = RankedFeatureSelector(select).fit(X, y).columns_
-        X = X[:, columns]
-    std = X.std(axis=0, ddof=1)
-    scale = np.where(std > 0, std, 1.0)
-    return make_classifier(method, random_state=seed, **params).fit(X / scale, y), scale, columns
+    """Return ``(fitted classifier, scale, selected columns or None)`` fitted on ``X``, ``y``: the catalogue's
+    pipeline (:func:`tactile_torch.catalogue.classifier_pipeline`) with the study's unit-std scaling."""
+    key = catalogue.resolve(method)
+    params = params if key in catalogue.KERNEL_CLASSIFIERS else {}
+    pipe = catalogue.classifier_pipeline(key, select=select, scaling="unit", random_state=seed, **params)
+    pipe.fit(X, y)
+    columns = pipe.named_steps["select"].columns_ if select is not None else None
+    return pipe.named_steps["classifier"], pipe.named_steps["scale"].scale_, columns
 
 
 def train_classifier(
@@ -193,6 +173,8 @@ def train_classifier(
     """
     from .metrics import class_report
 
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
     if test_size is not None:
         if not 0.0 < test_size < 1.0:
             raise ValueError(f"test_size must be in (0, 1), got {test_size!r}")
@@ -395,7 +377,6 @@ __all__ = [
     "classifier_head",
     "held_out_folds",
     "load_model",
-    "make_classifier",
     "save_model",
     "train_classifier",
     "write_classifier_file",

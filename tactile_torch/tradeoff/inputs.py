@@ -242,12 +242,6 @@ def _all_csv(paths: str | Path | Sequence[str | Path]) -> bool:
     return all(Path(p).suffix.lower() == ".csv" for p in paths)
 
 
-def _trailing_number(stem: str) -> str:
-    """``"felt_3"`` -> ``"3"``; a stem without a trailing ``_<number>`` is its own session."""
-    base, _, tail = str(stem).rpartition("_")
-    return str(int(tail)) if base and tail.isdigit() else str(stem)
-
-
 def vibration_data(recordings: object, name: str) -> TradeoffData:
     """Wrap recordings (``signals``, ``labels``, ``class_names``, ``rate_hz``, ``session``) for the study."""
     lengths = [len(s) for s in recordings.signals]

@@ -24,7 +24,7 @@ from ...validation import check_number
 from ..files.csv_logs import STANDARD_GRAVITY, UNITS
 from ..files.data_sources import GRAVITY_BAND_G
 from .port_lines import PortLines, ReadablePort, StreamEvent
-from .source import FORMAT, RECONNECT, REJECTED, SAMPLE, SILENCE, Break, ItemSpec, Reading, SourceCounts
+from .source import FORMAT, RECONNECT, REJECTED, SAMPLE, SILENCE, Break, ItemSpec, Reading
 from .wire import parse_line
 
 TIME_UNITS = ("s", "ms", "us", "samples")
@@ -78,12 +78,6 @@ class _PortCounts:
     reconnects = property(lambda self: self._source.reconnects)
     format_switches = property(lambda self: self._source.format_switches)
     lost = property(lambda self: self._source.lost_on_reconnect)
-
-    def snapshot(self) -> SourceCounts:
-        """The counts now, as a plain :class:`SourceCounts`."""
-        return SourceCounts(
-            self.items, self.skipped, self.rejected, self.reconnects, self.format_switches, self.lost
-        )
 
 
 class SerialSource(PortLines):
