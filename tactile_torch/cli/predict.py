@@ -68,7 +68,7 @@ def register(sub) -> None:
     p.set_defaults(handler=run_predict)
 
 
-def run_predict(args: argparse.Namespace) -> int:
+def run_predict(args: argparse.Namespace) -> int:  # noqa: PLR0915
     """Classify the data file with the bundle and print the labels or a class report; return the exit status."""
     # torch-free: onnxruntime and numpy only, as on the robot.
     import numpy as np

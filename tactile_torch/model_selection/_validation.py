@@ -160,7 +160,7 @@ def _fit_task(rest, Z_train, y_train, g_train, Z_test, tuning, seed, threads):
     return out
 
 
-def cross_validate(
+def cross_validate(  # noqa: C901, PLR0913, PLR0915
     models: Mapping[str, Any],
     X: Any,
     y: Any,

@@ -97,7 +97,7 @@ def takes_feature_rows(base: Models, fitted: dict, feats: dict) -> dict[str, tup
     return shapes
 
 
-def evaluate(
+def evaluate(  # noqa: PLR0913
     f, level, base, fitted, feats, whole, X, y, folds, context, n_trials, seed, backend=None, names=None
 ) -> dict:
     """Per model: correct (1/0) per sample at one level of ``f``, averaged over trials, or an error.

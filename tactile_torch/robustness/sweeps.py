@@ -108,7 +108,7 @@ def _allowed_levels(f: Degradation, X: Any, y: np.ndarray, folds: list) -> tuple
     return tuple(v for v in f.levels if v <= top)
 
 
-def sweep(
+def sweep(  # noqa: PLR0913
     models: Mapping[str, Any] | Any,
     X: torch.Tensor | np.ndarray,
     y: object,

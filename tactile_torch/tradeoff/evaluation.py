@@ -143,7 +143,7 @@ def submit_fronts(candidates: list[Candidate], samples: dict[str, Samples], pool
             pool.submit(("front", *features_key(cand)), export_front, clone(step).fit(X[:2]), X[:2])
 
 
-def export_and_time(
+def export_and_time(  # noqa: PLR0915
     results: list[CandidateResult],
     samples: dict[str, Samples],
     class_names: tuple[str, ...],

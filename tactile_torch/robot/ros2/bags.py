@@ -181,7 +181,7 @@ def _map_shape(path: Path, topic: str, given, shape: tuple[int, int] | None, siz
     return shape
 
 
-def read_bag(
+def read_bag(  # noqa: PLR0915
     path: PathLike,
     topic: str | None = None,
     *,

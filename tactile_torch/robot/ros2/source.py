@@ -99,7 +99,7 @@ class Ros2Source:
         The DDS participant (an output hook may publish with it, e.g. the decisions).
     """
 
-    def __init__(
+    def __init__(  # noqa: PLR0913
         self,
         topic: str,
         spec: ItemSpec,
@@ -189,7 +189,7 @@ class Ros2Source:
         """Yield a :class:`Reading` per accepted message and a :class:`Break` where continuity is lost."""
         yield from self._read(self.node)
 
-    def _read(self, node: DdsNode) -> Iterator[Reading | Break]:
+    def _read(self, node: DdsNode) -> Iterator[Reading | Break]:  # noqa: C901, PLR0915
         clock, spec, counts, emit = self._clock, self.spec, self.counts, self._events.emit
         started = clock()
         if self.msgtype is None:  # a ROS 2 tool finds the type from the publisher

@@ -113,7 +113,7 @@ class SerialSource(PortLines):
         Items, lines skipped, items rejected, reconnections, format switches (live).
     """
 
-    def __init__(
+    def __init__(  # noqa: PLR0913
         self,
         source: ReadablePort | Callable[[], ReadablePort],
         spec: ItemSpec,
@@ -207,7 +207,7 @@ class SerialSource(PortLines):
 
         return frame
 
-    def readings(self) -> Iterator[Reading | Break]:
+    def readings(self) -> Iterator[Reading | Break]:  # noqa: PLR0915
         """Yield a :class:`Reading` per accepted line and a :class:`Break` where continuity is lost."""
         spec = self.spec
         sample = spec.kind == SAMPLE

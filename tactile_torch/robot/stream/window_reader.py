@@ -141,7 +141,7 @@ class WindowReader:
         Switches between the ``x,y,z`` and ``t,x,y,z`` line formats that were followed.
     """
 
-    def __init__(
+    def __init__(  # noqa: PLR0913
         self,
         source: ReadablePort | Callable[[], ReadablePort],
         *,
