@@ -96,18 +96,16 @@ class SoftFrontEnd(nn.Module):
             }
 
     def forward(self, frames: torch.Tensor) -> torch.Tensor:
-        from ..image._kernels import _edges, _erode, _gray, _image_features, _pressure
+        from ..image import learnable_exploration_features
 
-        threshold = torch.sigmoid(self.threshold_logit)
         t_mask, t_edge = self.log_temperatures.exp().unbind()
-        gray = _gray(frames, torch.float32)
-        mask = _pressure(gray, threshold, t_mask)
-        eroded = _erode(mask, self.erosion, self.erosion_temperature)
-        edges = _edges(eroded, self.log_edge_threshold.exp(), t_edge)
-        below = edges < 1.0  # noisy-OR over the frames, as tactile_torch.image's soft fusion
-        log_not = torch.where(below, torch.log1p(-torch.where(below, edges, 0.0)), -math.inf).sum(1)
-        fused = -torch.expm1(log_not)
-        return _image_features(fused)
+        return learnable_exploration_features(
+            frames,
+            torch.sigmoid(self.threshold_logit),
+            self.log_edge_threshold.exp(),
+            (t_mask, self.erosion_temperature, t_edge),
+            self.erosion,
+        )
 
 
 class HardFrontEndGraph(nn.Module):

@@ -15,8 +15,7 @@ from typing import Any
 import numpy as np
 
 from ..metrics import pairwise_accuracy
-from ..mixture import PitmanYorGMM, baseline_clusterings
-from ..mixture._novelty import window_means
+from ..mixture import PitmanYorGMM, baseline_clusterings, window_means
 
 STUDY = {"model": "pyp", "coarsen": None}
 """The study's Pitman-Yor mixture (``PitmanYorGMM``'s defaults are the mixture of finite mixtures)."""

@@ -39,7 +39,7 @@ from typing import Any
 
 import numpy as np
 
-from ..mixture._novelty import window_means
+from ..mixture import window_means
 
 SHIPPED = "calibrated mean log density (PitmanYorGMM.calibrate_novelty, novel_after)"
 """The rule the estimator, the exported graph and ``stream --discover`` use."""

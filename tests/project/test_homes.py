@@ -375,3 +375,55 @@ def test_function_size_is_ruffs_and_its_exceptions_are_listed():
     )
     crossed = sorted(set(SIZE_EXCEPTIONS) - set(found))
     assert not crossed, f"within the limits now: drop them from SIZE_EXCEPTIONS: {crossed}"
+
+
+# ---- private names stay in their package ---------------------------------------------------------------------
+
+# Floor 0's helper modules, which every package may import (CONTRIBUTING.md, "The layout").
+SHARED_PRIVATE = {"tactile_torch._exports", "tactile_torch._parallel"}
+
+
+def private_imports_across_packages(path: Path, tree: ast.Module | None = None) -> list[str]:
+    """What a library module imports from another top-level package under a private name (a ``_module`` or a
+    ``_name``), as ``module:name``."""
+    parts = path.relative_to(LIBRARY.parent).with_suffix("").parts
+    package = parts[:-1]  # a module's package, and an __init__'s own
+    found = []
+    for node in ast.walk(tree or _tree(path)):
+        if not isinstance(node, ast.ImportFrom) or (not node.module and not node.level):
+            continue
+        if node.level:
+            base = list(package[: len(package) - node.level + 1])
+            target = [*base, *(node.module.split(".") if node.module else [])]
+        elif node.module.startswith("tactile_torch"):
+            target = node.module.split(".")
+        else:
+            continue
+        if target[:2] == list(parts[:2]) or ".".join(target[:2]) in SHARED_PRIVATE:
+            continue  # the same top-level package (or module), or floor 0's helpers
+        private_module = any(p.startswith("_") for p in target[1:])
+        names = [a.name for a in node.names if a.name.startswith("_") and a.name not in ("__version__",)]
+        if private_module or names:
+            found.append(f"{'.'.join(target)}:{','.join(a.name for a in node.names)}")
+    return found
+
+
+def test_no_private_name_is_imported_across_packages():
+    found = {
+        _rel(path): hits
+        for path in _python_files("tactile_torch")
+        if (hits := private_imports_across_packages(path))
+    }
+    assert not found, f"private names imported across packages (make them public in the lower one): {found}"
+
+
+def test_the_private_import_check_sees_both_forms():
+    source = (
+        "from ..model_selection._split import group_ids\nfrom ..image import _gray\n"
+        "from ._other import _x\nfrom .._parallel import map_blocks\nfrom tactile_torch.mixture._novelty import f\n"
+    )
+    assert private_imports_across_packages(LIBRARY / "tradeoff" / "inputs.py", ast.parse(source)) == [
+        "tactile_torch.model_selection._split:group_ids",
+        "tactile_torch.image:_gray",
+        "tactile_torch.mixture._novelty:f",
+    ]
