@@ -51,9 +51,9 @@ def test_save_model_writes_every_method_and_train_needs_two_samples_per_class(fe
     ]  # (labels, scores, distance)
     np.testing.assert_array_equal(labels.numpy(), lda.estimator.predict(features.X / lda.scale))
     with pytest.raises(TypeError, match="estimator must be a fitted tactile_torch SVM"):
-        from tactile_torch.training import classifier_head
+        from tactile_torch.export.classifier_inference import encode_classifier
 
-        classifier_head(object())
+        encode_classifier(object())
     y = features.y.copy()
     y[y == 2] = 1
     y[0] = 2  # class 'glass' keeps a single sample
