@@ -460,9 +460,12 @@ class FeaturePassthrough(TransformerMixin, BaseEstimator):
         return ToFloat32()
 
 
-# RawInput and FeaturePassthrough are both the identity `features` step, but not the same thing yet:
-# FeaturePassthrough validates a 2-D float feature matrix and exports a float32 cast, RawInput takes any
-# raw input (windows, frames) as is and exports nn.Identity. Merging them is issue 40's later step.
+# RawInput and FeaturePassthrough are both an identity `features` step, but two jobs, kept as two classes
+# (issue 40 looked at merging them): FeaturePassthrough is a feature matrix, validated as one (2-D, finite,
+# float64) and exported as the float32 cast every classical head is exported for; RawInput is a network's
+# raw input (windows, frames, pressure maps of any shape), passed as it is to a network that owns its
+# dtype, and its class is what marks a candidate as learned (tradeoff.learned.is_learned). One class with a
+# mode would branch on the mode in all three methods and in is_learned.
 class RawInput(TransformerMixin, BaseEstimator):
     """The raw input unchanged (the ``features`` step of a learned candidate); nothing is learnt."""
 

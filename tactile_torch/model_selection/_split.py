@@ -422,22 +422,3 @@ def time_holdout(
             part[idx[start:end]] = k
             start = max(start, end)
     return part
-
-
-__all__ = [
-    "Fold",
-    "Split",
-    "cap_per_class",
-    "fold_units",
-    "group_folds",
-    "group_ids",
-    "labels_1d",
-    "odd_even_split",
-    "rotating_splits",
-    "sample_folds",
-    "single_group",
-    "stratified_folds",
-    "stratified_splitter",
-    "time_holdout",
-    "window_folds",
-]
