@@ -217,6 +217,9 @@ def fit_rule(
     return {**state, "offset": offset, "quantile": float(quantile)}
 
 
+_STATE_KEYS = ("means", "precision_cholesky", "log_means", "log_precision_cholesky", "floor", "norm")
+
+
 class MahalanobisNovelty(OutlierMixin, BaseEstimator):
     """The "unknown" rule as a scikit-learn novelty detector: class-conditional Mahalanobis distance.
 
@@ -283,45 +286,27 @@ class MahalanobisNovelty(OutlierMixin, BaseEstimator):
         else:
             X, y = validate_data(self, X, y, dtype=np.float64, ensure_min_samples=2)
         self.classes_, codes = np.unique(y, return_inverse=True)
-        floor = log_floor(X) if self.two_views else None
-        state = fit_ood(X, codes, quantile=self.quantile, floor=floor)
-        self.means_, self.precision_cholesky_ = state["means"], state["precision_cholesky"]
-        self.floor_ = state.get("floor")
-        self.log_means_, self.log_precision_cholesky_ = (
-            state.get("log_means"),
-            state.get("log_precision_cholesky"),
-        )
-        self.norm_ = state.get("norm")
-        self.threshold_ = float(state["threshold"])
+        state = fit_ood(X, codes, quantile=self.quantile, floor=log_floor(X) if self.two_views else None)
+        self.threshold_ = float(state.pop("threshold"))
         self.offset_ = -self.threshold_
+        for key in _STATE_KEYS:
+            setattr(self, f"{key}_", state.get(key))
         return self
 
     def state(self) -> dict[str, np.ndarray]:
         """Return the fitted arrays as :func:`fit_ood` returns them (a model file's ``ood`` part holds them)."""
         check_is_fitted(self)
-        state = {"means": self.means_, "precision_cholesky": self.precision_cholesky_}
-        if self.floor_ is not None:
-            state.update(
-                log_means=self.log_means_,
-                log_precision_cholesky=self.log_precision_cholesky_,
-                floor=self.floor_,
-                norm=self.norm_,
-            )
-        return {**state, "threshold": np.asarray(np.float64(self.threshold_))}
+        keys = _STATE_KEYS if self.floor_ is not None else _STATE_KEYS[:2]
+        return {
+            **{k: getattr(self, f"{k}_") for k in keys},
+            "threshold": np.asarray(np.float64(self.threshold_)),
+        }
 
     def mahalanobis(self, X: object) -> np.ndarray:
         """Return the distance of each row of ``X`` ``(B, F)`` to the training classes, ``(B,)``."""
-        check_is_fitted(self)
-        X = validate_data(self, X, dtype=np.float64, reset=False)
-        second = {}
-        if self.floor_ is not None:
-            second = {
-                "floor": self.floor_,
-                "log_means": self.log_means_,
-                "log_precision_cholesky": self.log_precision_cholesky_,
-                "norm": self.norm_,
-            }
-        return ood_distance(X, self.means_, self.precision_cholesky_, **second)
+        state = self.state()
+        del state["threshold"]
+        return ood_distance(validate_data(self, X, dtype=np.float64, reset=False), **state)
 
     def score_samples(self, X: object) -> np.ndarray:
         """Return minus the distance (higher: more like the training data), ``(B,)``."""
