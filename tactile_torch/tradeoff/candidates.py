@@ -137,17 +137,6 @@ class Candidate:
     tuning: Tuning | None = None
 
 
-def build_pipeline(features: FeatureRecipe, classifier: str, random_state: int = 0) -> Pipeline:
-    """Return the unfitted ``Pipeline`` of ``classifier`` (a catalogue key or name) on ``features``."""
-    return catalogue.classifier_pipeline(
-        classifier,
-        features.make(),
-        select=features.select,
-        random_state=random_state,
-        n_features=features.n_features,
-    )
-
-
 def feature_sets(
     kind: str,
     input_shape: tuple[int, ...],
@@ -268,7 +257,9 @@ def build_candidates(
                     study = "vibration" if fs.input.startswith("windows") else "exploration"
                     study = None if fs.input == "features" else study
                 tuning = candidate_tuning(key, fs.n_features, quick=quick, study=study)
-            pipe = build_pipeline(fs, clf, random_state)
+            pipe = catalogue.classifier_pipeline(
+                clf, fs.make(), select=fs.select, random_state=random_state, n_features=fs.n_features
+            )
             out.append(Candidate(f"{clf} | {fs.name}", clf, fs.name, fs.input, pipe, key, tuning))
     return out
 
@@ -343,7 +334,6 @@ __all__ = [
     "CandidateResult",
     "FeatureRecipe",
     "build_candidates",
-    "build_pipeline",
     "candidate_tuning",
     "feature_sets",
 ]
