@@ -537,7 +537,9 @@ def test_report_section_smoke_run(tmp_path):
     # one verdict per method: the vibration part recommends; the quick image set (12 explorations in 3 folds)
     # has no candidate significantly above the baseline, and says so
     assert text.count("**recommended: ") == 1 and text.count("**no recommendation: ") == 1
-    assert text.index("**recommended: ") < text.index("### Tactile images") < text.index("**no recommendation: ")
+    assert (
+        text.index("**recommended: ") < text.index("### Tactile images") < text.index("**no recommendation: ")
+    )
     assert "accuracy-vs-decision.png" in text
     assert json.loads((tmp_path / "tradeoff" / "vibration" / "tradeoff.json").read_text())["recommended"]
 
