@@ -85,11 +85,12 @@ class DecisionListener:
     """A DDS participant in the test process that collects the JSON decisions published on a topic."""
 
     def __init__(self, topic: str, domain_id: int, *, config: str = "loopback") -> None:
-        from tactile_torch.robot.ros2.dds import DdsNode, DdsOptions, DdsTypes, TopicReader
+        from tactile_torch.robot.ros2.dds import DdsNode, DdsOptions, DdsTypes
         from tactile_torch.robot.ros2.message_types import STRING_TYPE, message_types
+        from tactile_torch.robot.ros2.reader import TopicReader
 
         self.store = message_types()
-        self.node = DdsNode(DdsOptions(domain_id=domain_id, config=config, qos="reliable"))
+        self.node = DdsNode(DdsOptions(domain_id=domain_id, config=config, qos="lossless"))
         self.reader = TopicReader(self.node, topic, STRING_TYPE, DdsTypes(self.store))
         self.decisions: list[dict] = []
 
