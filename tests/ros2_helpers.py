@@ -131,6 +131,21 @@ def write_frame_bag(
     return path
 
 
+def start_publisher(tmp_path, values, rate, topic, domain, msgtype, *extra):
+    """Start ``python -m tests.ros2_publisher`` publishing ``values`` (saved in ``tmp_path``); return the process."""
+    import subprocess
+
+    import numpy as np
+
+    path = Path(tmp_path) / f"values-{domain}.npy"
+    np.save(path, values)
+    argv = [
+        sys.executable, "-m", "tests.ros2_publisher", "--domain-id", str(domain), "--topic", topic,
+        "--type", msgtype, "--values", str(path), "--rate", str(rate), *extra,
+    ]  # fmt: skip
+    return subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=ros2_env())
+
+
 def cli(*args: str) -> list[str]:
     """The command line of ``tactile-torch`` with ``args``, run by this interpreter."""
     return [sys.executable, "-m", "tactile_torch.cli", *args]

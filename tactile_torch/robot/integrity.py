@@ -163,26 +163,8 @@ def check_digest(data: bytes, where: str | PathLike) -> bool:
         after export), the file holds two digests, or a digest's key or value is in the file but not as
         the digest property (its entry was damaged).
     """
-    try:
-        entries = _digest_entries(data)
-    except _Corrupt as err:
-        raise NotProtobufError(where, f"its protobuf is corrupt or truncated ({err})") from None
-    stored = [value for _, _, value in entries]
-    again = "the file was changed or corrupted after export: export it again"
-    if len(stored) > 1:
-        raise ValueError(f"{where}: the bundle holds {len(stored)} digests ({DIGEST_KEY}); {again}")
-    if not stored:
-        if DIGEST_KEY.encode() in data or _DIGEST_VALUE.search(data):
-            raise ValueError(f"{where}: the bundle's digest entry ({DIGEST_KEY}) is damaged; {again}")
-        return False
-    expected = _sha256(_without(data, entries))
-    if stored[0] != expected.encode():
-        shown = stored[0][:80].decode("ascii", "replace")
-        raise ValueError(
-            f"{where}: the bundle's digest does not match its content (stored {shown}, computed {expected}): "
-            f"{again}"
-        )
-    return True
+    view = memoryview(data)
+    return _verify(data, len(data), lambda start, end: (view[start:end],), where)
 
 
 _CHUNK = 1 << 20
@@ -199,35 +181,44 @@ def check_file_digest(file, where: str | PathLike) -> bool:
     size = file.seek(0, 2)
     if size == 0:
         return check_digest(b"", where)
+    buffer = bytearray(_CHUNK)
+
+    def chunks(start: int, end: int):
+        file.seek(start)
+        while start < end:
+            n = file.readinto(memoryview(buffer)[: min(_CHUNK, end - start)])
+            if not n:
+                return
+            yield memoryview(buffer)[:n]
+            start += n
+
+    # the top level's tags and the small metadata entries are read through a map; the graph is hashed in chunks
     with mmap.mmap(file.fileno(), 0, access=mmap.ACCESS_READ) as view:
-        try:  # the top level's tags and the small metadata entries are read; the graph is skipped
-            entries = _digest_entries(view)
-        except _Corrupt as err:
-            raise NotProtobufError(where, f"its protobuf is corrupt or truncated ({err})") from None
+        return _verify(view, size, chunks, where)
+
+
+def _verify(view, size: int, chunks, where: str | PathLike) -> bool:
+    """The check of :func:`check_digest`: ``view`` is read for the top-level fields, ``chunks(start, end)``
+    yields the bytes of ``[start, end)`` that are hashed (and searched for a damaged digest entry)."""
+    try:
+        entries = _digest_entries(view)
+    except _Corrupt as err:
+        raise NotProtobufError(where, f"its protobuf is corrupt or truncated ({err})") from None
     stored = [value for _, _, value in entries]
     again = "the file was changed or corrupted after export: export it again"
     if len(stored) > 1:
         raise ValueError(f"{where}: the bundle holds {len(stored)} digests ({DIGEST_KEY}); {again}")
-    digest, pos, found = hashlib.sha256(), 0, b""
-    tail, key = b"", DIGEST_KEY.encode()
-    buffer = bytearray(_CHUNK)
-    for start, end in [(s_, e_) for s_, e_, _ in entries] + [(size, size)]:
-        file.seek(pos)
-        while pos < start:
-            n = file.readinto(memoryview(buffer)[: min(_CHUNK, start - pos)])
-            if not n:
-                break
-            chunk = memoryview(buffer)[:n]
+    digest, damaged, tail, key, pos = hashlib.sha256(), False, b"", DIGEST_KEY.encode(), 0
+    for start, end in [*((s, e) for s, e, _ in entries), (size, size)]:
+        for chunk in chunks(pos, start):
             digest.update(chunk)
             if not stored:  # a damaged digest entry: its key or value in the bytes, but not as the property
                 window = tail + bytes(chunk)
-                if key in window or _DIGEST_VALUE.search(window):
-                    found = window
+                damaged = damaged or key in window or _DIGEST_VALUE.search(window) is not None
                 tail = window[-80:]
-            pos += n
         pos = end
     if not stored:
-        if found:
+        if damaged:
             raise ValueError(f"{where}: the bundle's digest entry ({DIGEST_KEY}) is damaged; {again}")
         return False
     expected = DIGEST_PREFIX + digest.hexdigest()

@@ -156,15 +156,17 @@ class MessageDecoder:
         self._path = fields.field.split(".") if fields.field else None
         self._stamped = has_header(store, fields.msgtype)
 
-    def decode(self, cdr: bytes | memoryview) -> MessageValues:
-        """Return the :class:`MessageValues` of one message's CDR bytes (with their 4-byte header)."""
+    def _message(self, cdr: bytes | memoryview):
         try:
-            message = self.store.deserialize_cdr(cdr, self.fields.msgtype)
+            return self.store.deserialize_cdr(cdr, self.fields.msgtype)
         except Exception as err:  # rosbags raises assorted errors on bytes that do not decode
             raise MessageError(
                 f"a message that does not decode as {self.fields.msgtype} ({type(err).__name__})"
             ) from None
-        return self.values(message)
+
+    def decode(self, cdr: bytes | memoryview) -> MessageValues:
+        """Return the :class:`MessageValues` of one message's CDR bytes (with their 4-byte header)."""
+        return self.values(self._message(cdr))
 
     def decode_sensors(self, cdr: bytes | memoryview) -> tuple[int | None, list[tuple[str, np.ndarray]]]:
         """Return ``(stamp_ns, [(sensor name, values), ...])`` of every sensor of a ``TactileState`` message.
@@ -172,12 +174,7 @@ class MessageDecoder:
         The values of each sensor as :meth:`decode` gives one (float, flat, in the message's order); a
         sensor whose values are not finite is left out (the message is not refused for one bad sensor).
         """
-        try:
-            message = self.store.deserialize_cdr(cdr, self.fields.msgtype)
-        except Exception as err:  # rosbags raises assorted errors on bytes that do not decode
-            raise MessageError(
-                f"a message that does not decode as {self.fields.msgtype} ({type(err).__name__})"
-            ) from None
+        message = self._message(cdr)
         channels = []
         for channel in message.sensors:
             values = np.asarray(channel.values, dtype=np.float64).reshape(-1)

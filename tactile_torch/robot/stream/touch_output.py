@@ -183,26 +183,17 @@ def classify_touches(
         if segment.kind == "checkpoint":
             if not active or key in early or segment.frames not in rule.checkpoints:
                 continue
-            label, name, row, reason, margin, flags = _classified(pipeline, segment.data, range_g)
+            classified = _classified(pipeline, segment.data, range_g)
+            label, name, _, _, margin, _ = classified
             if margin is None or margin < rule.threshold:
                 continue
             latency_ms = (clock() - segment.read_at) * 1e3
             decision = Decision(label, name, True, segment.frames, segment.duration_s, latency_ms, margin)
             early[key] = decision
-            yield TouchResult(
-                segment,
-                "early",
-                label,
-                name,
-                row,
-                latency_ms,
-                time.time(),
-                segment.flags + flags,
-                margin,
-                decision,
-            )
+            yield _result(segment, "early", classified, latency_ms, decision)
             continue
-        label, name, row, reason, margin, flags = _classified(pipeline, segment.data, range_g)
+        classified = _classified(pipeline, segment.data, range_g)
+        label, name, _, _, margin, _ = classified
         known = segment.ended_at if segment.ended_at is not None else segment.read_at
         latency_ms = (clock() - known) * 1e3
         decision = early.pop(key, None)
@@ -215,20 +206,18 @@ def classify_touches(
                 )
         for older in [k for k in early if k[0] == segment.sensor]:  # a sensor's touches end in order
             del early[older]
-        yield TouchResult(
-            segment,
-            "touch",
-            label,
-            name,
-            row,
-            latency_ms,
-            time.time(),
-            segment.flags + flags,
-            margin,
-            decision,
-            reason,
-            withheld,
-        )
+        yield _result(segment, "touch", classified, latency_ms, decision, withheld)
+
+
+def _result(
+    segment: TouchSegment, kind: str, classified, latency_ms: float, decision, withheld=None
+) -> TouchResult:
+    """The :class:`TouchResult` of one classified touch (``classified``: :func:`_classified`'s tuple)."""
+    label, name, row, reason, margin, flags = classified
+    return TouchResult(
+        segment, kind, label, name, row, latency_ms, time.time(), segment.flags + flags, margin, decision,
+        reason if kind == "touch" else None, withheld,
+    )  # fmt: skip
 
 
 def touch_record(result: TouchResult) -> dict:

@@ -13,7 +13,6 @@ the loopback-only configuration. Torch-free. Needs the optional extra ``ros2``.
 from __future__ import annotations
 
 import subprocess
-import sys
 import threading
 import time
 
@@ -30,7 +29,7 @@ from tactile_torch.robot.stream.output import result_record
 from tactile_torch.robot.stream.port_lines import StreamDisconnected, StreamTimeout
 from tactile_torch.robot.stream.source import FRAME, ArraySource, Break, ItemSpec
 from tactile_torch.robot.stream.touches import TouchLevels
-from tests.ros2_helpers import cli, free_domain_id, ros2_env
+from tests.ros2_helpers import cli, free_domain_id, ros2_env, start_publisher
 from tests.stream_helpers import frame_bundle
 
 pytest.importorskip("cyclonedds", reason="the optional extra 'ros2' (cyclonedds) is not installed")
@@ -40,12 +39,7 @@ SPEC = ItemSpec(FRAME, (4, 4), rate_hz=100.0, units="counts")
 
 
 def _publisher(tmp_path, values, domain, *args, rate=100.0, msgtype=FLOAT_ARRAY_TYPE, topic="/t"):
-    np.save(tmp_path / "values.npy", values)
-    argv = [
-        sys.executable, "-m", "tests.ros2_publisher", "--domain-id", str(domain), "--topic", topic,
-        "--type", msgtype, "--values", str(tmp_path / "values.npy"), "--rate", str(rate), *args,
-    ]  # fmt: skip
-    return subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=ros2_env())
+    return start_publisher(tmp_path, values, rate, topic, domain, msgtype, *args)
 
 
 def _source(domain, *, qos="sensor", depth=1000, events=None, fields=None, **kwargs):
