@@ -5,11 +5,10 @@
 and a DDS domain of its own, the stream in this process (``Ros2Source`` -> ``LiveStream``, a JSON line
 per result to ``/dev/null``, each decision published back as ``std_msgs/msg/String``):
 
-- ``frames/s``: the publisher writes as fast as its writer takes the messages (15,000-57,000 frames/s
-  here), reliable on both sides (``--qos reliable``); both histories keep the last 1000, so the writer
-  does not wait for a slower reader and a flood still loses frames (``frames lost``; at the sensor QoS,
-  best effort, as many). frames/s is what the stream sustained: frames read / time from the first
-  touch's first frame to the last touch's result;
+- ``frames/s``: the publisher writes as fast as its writer takes the messages, lossless on both sides
+  (``--qos lossless``: reliable, keep all up to 1000 queued, so the writer waits for a slower reader and
+  no frame is lost: ``frames lost`` says so); frames/s is what the stream sustained: frames read / time
+  from the first touch's first frame to the last touch's result;
 - ``touch-end latency``: paced at 200 frames/s, from taking the frame that ended a touch off the DDS
   reader to its JSON line printed (the serial rows' definition), median and 99th percentile; and to
   its decision published on the decision topic (written to the DDS writer);
@@ -119,9 +118,9 @@ def dds_rows(
     bundle: str, model: str, side: int, frames: np.ndarray, paced: np.ndarray, tmp: str
 ) -> list[dict]:
     """One row: ``bundle`` streamed over DDS (frames/s on ``frames``, latencies on ``paced`` at 200 Hz)."""
-    # as fast as possible, reliable (keep-last 1000 on both sides: a flood still drops what the stream
-    # cannot take; frames/s is what it sustained)
-    fast = _stream(bundle, frames, 0.0, tmp, qos="reliable")
+    # as fast as possible, lossless (reliable, keep all: the publisher waits for the stream; frames/s is
+    # what the stream sustained)
+    fast = _stream(bundle, frames, 0.0, tmp, qos="lossless")
     slow = _stream(bundle, paced, PACED_HZ, tmp)
     return [
         {
@@ -262,8 +261,9 @@ def hand_row(
 NOTES = [
     "ROS 2 rows: the frames are published by another process (python -m bench.ros2_probe) as "
     "std_msgs/msg/Float32MultiArray over Cyclone DDS (loopback only, a DDS domain of their own; "
-    "frames/s: a flood (the publisher's rate in its column), reliable with keep-last 1000, so frames the stream "
-    "cannot take are lost and frames/s is what it sustained; the latency rows: best effort at 200 frames/s); "
+    "frames/s: a flood (the publisher's rate in its column), lossless (reliable, keep all: the publisher waits for "
+    "the stream, nothing is lost; at --qos sensor a flood loses what the stream cannot take, counted), and "
+    "frames/s is what the stream sustained; the latency rows: best effort at 200 frames/s); "
     "the stream runs in the benchmark's process (Ros2Source -> LiveStream), publishes each decision back as "
     "std_msgs/msg/String JSON, and the publisher times each round trip on its own clock: from writing the frame "
     "that ended a touch to the decision's arrival. The echo row answers every frame at once, no stages, no "
