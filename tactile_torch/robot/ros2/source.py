@@ -256,6 +256,7 @@ class _Reading:
         self.writer: int | None = None  # the publication whose messages are being read
         self.leases: dict[int, float] = {}
         self.left: set[int] = set()  # writers whose departure was said
+        self.interleaved = False
 
     # -- the loop ----------------------------------------------------------------------------------
     def run(self) -> Iterator[Reading | Break]:
@@ -357,8 +358,13 @@ class _Reading:
         if previous is None:
             return
         away = self.gone_at is not None or now - self.last_item >= self.source.silence_s
-        if not away:  # two publishers at once: their messages interleave
-            self.emit("publishers", f"{self.source.name}: messages of more than one publisher interleave")
+        if not away:  # two publishers at once: their messages interleave (said once)
+            if not self.interleaved:
+                self.interleaved = True
+                self.emit(
+                    "publishers",
+                    f"{self.source.name}: messages of more than one publisher interleave: they are read as one sensor",
+                )
             return
         self.counts.reconnects += 1
         gone = self.gone_at if self.gone_at is not None else self.last_item
