@@ -189,9 +189,12 @@ class Sequencer:
         if prev is None:
             self._pass(reading, out)
             return
-        if period is None:  # no rate to judge steps by: only t going back breaks continuity
+        if period is None:  # no rate to judge steps by: only t going back breaks continuity, said at once
             if t <= prev:
-                self._disturb(prev, reading)
+                self.note(
+                    "gap",
+                    f"gap in t from {prev:.6g} to {t:.6g} s: t went back (a spliced recording or a sensor reset)",
+                )
             self._pass(reading, out, cut=t <= prev)
             return
         held = self._held

@@ -222,3 +222,17 @@ def test_a_frame_value_beyond_float32_is_rejected_without_a_numpy_warning():
         items = list(source.readings())
     assert [i.__class__.__name__ for i in items] == ["Reading", "Break", "Break", "Reading"]
     assert source.counts.rejected == 2
+
+
+def test_without_a_rate_only_t_going_back_breaks_and_nothing_is_counted():
+    t = [i / 100.0 for i in range(10)] + [i / 100.0 for i in range(10)]
+    spec = ItemSpec(SAMPLE, (3,), -5.0, 5.0, None, "g")
+    readings = [Reading((0.0, 0.0, 1.0), ti, 0.0) for ti in t]
+    events = []
+    sequencer = Sequencer(None, on_event=events.append, clock=lambda: 0.0)
+    segments = Segments(_Readings(readings, spec), SlidingWindows(spec, 4, 4), sequencer)
+    windows = [*segments, *segments.finish()]
+    assert sequencer.lost == 0 and len(windows) == 4
+    assert [e.message for e in events] == [
+        "gap in t from 0.09 to 0 s: t went back (a spliced recording or a sensor reset)"
+    ]
