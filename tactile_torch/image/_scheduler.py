@@ -20,7 +20,7 @@ import torch
 from .._parallel import map_blocks, serial_torch_ops_in_this_thread
 from ..validation import values_unavailable
 from . import _export
-from ._constants import CHUNK_PIXELS
+from ._constants import CHUNK_PIXELS, relative_erosion
 from ._integer_cut import GRAY_INTEGER, float32, integer_cut, pressed_uint8
 from ._kernels import (
     _edges,
@@ -160,8 +160,9 @@ def _warn_if_eroded_away(
         warnings.warn(
             f"erosion={erosion} removed every pressed region of {len(lost)} of the {with_contact} "
             f"exploration(s) with one ({height} x {width} frames), so their features are all 0: try "
-            f"erosion <= {min(lost)}, the largest that keeps a contact in each (erosion is in pixels; the "
-            "study's 10 suits its 96 x 96 frames)",
+            f"erosion <= {min(lost)}, the largest that keeps a contact in each (erosion is in pixels: the "
+            f"study's 10 suits its 96 x 96 frames; relative_erosion({height}, {width}) = "
+            f"{relative_erosion(height, width)} scales it to these)",
             UserWarning,
             stacklevel=5,  # the caller of exploration_features (under its quiet_jit_trace wrapper)
         )

@@ -179,3 +179,67 @@ def test_no_erosion_warning_for_blank_explorations_or_a_few_lost_contacts():
         warnings.simplefilter("error")
         assert image.exploration_features(blank).abs().max() == 0  # the documented zeros
         image.exploration_features(torch.cat([pressed, pressed, light[:1]]))  # 1 of 3 lost: no warning
+
+
+# ---------------------------------------------------------------- training end to end, two sources
+class _SoftTexture(torch.nn.Module):
+    """A user's module as docs/image.md writes it: learnt threshold, edge threshold and temperature."""
+
+    def __init__(self, n_classes: int, erosion: int) -> None:
+        super().__init__()
+        self.erosion = erosion
+        self.threshold = torch.nn.Parameter(torch.tensor(240 / 255))
+        self.log_edge_threshold = torch.nn.Parameter(torch.tensor(0.5).log())
+        self.log_temperature = torch.nn.Parameter(torch.tensor(0.05).log())
+        self.norm = torch.nn.BatchNorm1d(12)
+        self.head = torch.nn.Linear(12, n_classes)
+
+    def forward(self, frames: torch.Tensor) -> torch.Tensor:
+        features = image.exploration_features(
+            frames,
+            threshold=self.threshold,
+            erosion=self.erosion,
+            edge_threshold=self.log_edge_threshold.exp(),
+            temperature=self.log_temperature.exp(),
+        )
+        return self.head(self.norm(features))
+
+
+def _real_or_synthetic_grasps(shared_data):
+    """Two grasps of each object of drimus_sdh_tactile (real), or generated explorations when absent."""
+    from tactile_torch.data import shared_data_dir
+    from tactile_torch.data.grasps import DRIMUS, load_drimus_grasps
+
+    if shared_data_dir(DRIMUS) is not None:
+        data = load_drimus_grasps(shared_data(DRIMUS), n_frames=4)
+        keep = torch.cat([torch.nonzero(data.labels == c).flatten()[:2] for c in data.labels.unique()])
+        return "drimus_sdh_tactile", data.frames[keep], data.labels[keep]
+    data = make_explorations(2, n_frames=4, frame_size=24, random_state=1)  # the same code, synthetic
+    return "synthetic", data.frames, data.labels
+
+
+@pytest.mark.filterwarnings("error")
+@pytest.mark.parametrize("source", ["generator", "real"])
+def test_adam_trains_every_soft_parameter_end_to_end(source, shared_data):
+    if source == "generator":
+        data = make_explorations(2, n_frames=4, frame_size=24, random_state=0)
+        frames, labels = data.frames, data.labels
+    else:
+        _, frames, labels = _real_or_synthetic_grasps(shared_data)
+    torch.manual_seed(0)
+    model = _SoftTexture(int(labels.max()) + 1, erosion=2)
+    start = {n: p.detach().clone() for n, p in model.named_parameters()}
+    optimiser = torch.optim.Adam(model.parameters(), lr=0.05)
+    losses = []
+    for _ in range(6):
+        optimiser.zero_grad()
+        loss = torch.nn.functional.cross_entropy(model(frames.float() / 255), labels)
+        loss.backward()
+        for name in ("threshold", "log_edge_threshold", "log_temperature"):
+            grad = getattr(model, name).grad
+            assert torch.isfinite(grad) and grad != 0, name
+        optimiser.step()
+        losses.append(loss.item())
+    assert losses[-1] < losses[0]
+    for name in ("threshold", "log_edge_threshold", "log_temperature"):
+        assert not torch.equal(getattr(model, name).detach(), start[name]), name

@@ -72,9 +72,24 @@ def test_compile_fullgraph_has_no_graph_break(case):
     torch.testing.assert_close(compiled(x), CASES[case](x), rtol=1e-6, atol=1e-6)
 
 
+_INDUCTOR_BUG = (
+    "torch 2.13's inductor fails on the hard per-frame path (erosion, edges and the statistics fused: "
+    "InductorError 'vr must not be None for symbol q1', also with dynamic=False; each step compiles "
+    "alone): docs/image.md says so; dynamo itself has no graph break (the eager-backend test)"
+)
+
+
 @pytest.mark.slow
-@pytest.mark.parametrize("case", sorted(CASES))
-def test_compile_fullgraph_with_inductor_gives_the_eager_results(case):  # 1-3 min per case
+@pytest.mark.parametrize(
+    "case",
+    [
+        pytest.param(case, marks=pytest.mark.xfail(strict=True, reason=_INDUCTOR_BUG))
+        if case == "hard float, per frame"
+        else case
+        for case in sorted(CASES)
+    ],
+)
+def test_compile_fullgraph_with_inductor_gives_the_eager_results(case):  # 1-8 min per case
     fn = CASES[case]
     compiled = torch.compile(fn, fullgraph=True)
     for shape in ((2, 3, 16, 16), (4, 3, 16, 16)):
