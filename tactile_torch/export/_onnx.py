@@ -38,6 +38,50 @@ def export_onnx(
     default when given. ``metadata`` goes into the model's ``metadata_props``. The exported model is
     checked with ``onnx.checker`` and written atomically (:func:`save_onnx`: never onto a directory, a
     device, a symbolic link or one of ``inputs``). Returns ``path``.
+
+    Parameters
+    ----------
+    module : torch.nn.Module
+        Put in eval mode and exported.
+    example_inputs : sequence of tensors
+        One per argument of ``module.forward``; their batch size is not the exported one (dynamic).
+    path : str or Path
+        The ``.onnx`` file to write.
+    input_names, output_names : sequence of str, optional
+        Names of the graph's inputs and outputs (the exporter's by default).
+    dynamic_batch : bool, default True
+        Dimension 0 of every input is dynamic (1 to 2**20).
+    metadata : mapping of str to str, optional
+        Written into the model's ``metadata_props``.
+    opset_version : int, optional
+        The exporter's default when ``None``.
+    dynamic_shapes : object, optional
+        ``torch.export``'s dynamic shapes, replacing ``dynamic_batch``'s.
+    inputs : sequence of str or Path
+        Files the export must never overwrite (the caller's inputs).
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    ValueError
+        If ``path`` cannot be written (a directory, a device, a symbolic link, one of ``inputs``, a
+        missing parent), before the export.
+    torch.onnx.errors.OnnxExporterError
+        If torch cannot export ``module``.
+    onnx.checker.ValidationError
+        If the exported model fails ``onnx.checker``.
+
+    Examples
+    --------
+    >>> import tempfile, onnxruntime
+    >>> path = export_onnx(torch.nn.Linear(3, 2), (torch.ones(2, 3),), Path(tempfile.mkdtemp()) / "m.onnx")
+    >>> session = onnxruntime.InferenceSession(str(path))
+    >>> session.run(None, {session.get_inputs()[0].name: np.ones((5, 3), np.float32)})[0].shape
+    (5, 2)
     """
     import onnx
 

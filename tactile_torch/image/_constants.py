@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import math
 
+from ..validation import check_positive
+
 DEFAULT_THRESHOLD = 240.0 / 255.0
 """Pressed-region threshold of the study (240 on the 0-255 scale)."""
 DEFAULT_EROSION = 10
@@ -33,9 +35,28 @@ def relative_erosion(height: int, width: int) -> int:
 
     Rounded half up, at least 1 (no erosion).
 
+    Parameters
+    ----------
+    height, width : int >= 1
+        The frame's size in pixels.
+
+    Returns
+    -------
+    int >= 1
+        The side of the erosion's square in pixels (10 for the study's 96 x 96 frames).
+
+    Raises
+    ------
+    TypeError
+        If ``height`` or ``width`` is not an integer.
+    ValueError
+        If ``height`` or ``width`` is < 1.
+
     Examples
     --------
     >>> relative_erosion(96, 96), relative_erosion(4, 4), relative_erosion(14, 6)
     (10, 1, 1)
     """
+    check_positive(height, "height", integer=True)
+    check_positive(width, "width", integer=True)
     return max(1, math.floor(EROSION_FRACTION * min(height, width) + 0.5))

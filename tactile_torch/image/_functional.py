@@ -497,6 +497,12 @@ def learnable_exploration_features(
     -------
     tensor of shape (B, 12), float32.
 
+    Raises
+    ------
+    RuntimeError
+        torch's, from the first op whose shapes disagree: no check of its own (see above; the
+        module that calls it validates its settings when it is built).
+
     Examples
     --------
     >>> t = torch.tensor(0.05)

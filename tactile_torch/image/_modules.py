@@ -35,7 +35,17 @@ class ToGrayscale(nn.Module):
     """
 
     def forward(self, frames: torch.Tensor) -> torch.Tensor:
-        """Return :func:`to_grayscale` of ``frames``."""
+        """Return :func:`to_grayscale` of ``frames``.
+
+        Parameters
+        ----------
+        frames : tensor of shape (..., 3, H, W), uint8 or floating
+
+        Returns
+        -------
+        tensor of shape (..., H, W)
+            The dtype of float ``frames``, float32 for uint8. Errors as :func:`to_grayscale`.
+        """
         return to_grayscale(frames)
 
 
@@ -61,7 +71,17 @@ class PressureMask(nn.Module):
         self.temperature = temperature
 
     def forward(self, gray: torch.Tensor) -> torch.Tensor:
-        """Return :func:`pressure_mask` of ``gray`` with the stored arguments."""
+        """Return :func:`pressure_mask` of ``gray`` with the stored arguments.
+
+        Parameters
+        ----------
+        gray : tensor of shape (B, T, H, W), floating in [0, 1]
+
+        Returns
+        -------
+        tensor of shape (B, T, H, W)
+            The dtype of ``gray``. Errors as :func:`pressure_mask`.
+        """
         return pressure_mask(gray, self.threshold, temperature=self.temperature)
 
 
@@ -88,7 +108,17 @@ class Erode(nn.Module):
         self.temperature = temperature
 
     def forward(self, mask: torch.Tensor) -> torch.Tensor:
-        """Return :func:`erode` of ``mask`` with the stored arguments."""
+        """Return :func:`erode` of ``mask`` with the stored arguments.
+
+        Parameters
+        ----------
+        mask : tensor of shape (..., H, W), floating
+
+        Returns
+        -------
+        tensor of shape (..., H, W)
+            The dtype of ``mask``. Errors as :func:`erode`.
+        """
         return erode(mask, self.size, temperature=self.temperature)
 
 
@@ -115,7 +145,17 @@ class SobelEdges(nn.Module):
         self.temperature = temperature
 
     def forward(self, mask: torch.Tensor) -> torch.Tensor:
-        """Return :func:`sobel_edges` of ``mask`` with the stored arguments."""
+        """Return :func:`sobel_edges` of ``mask`` with the stored arguments.
+
+        Parameters
+        ----------
+        mask : tensor of shape (..., H, W), floating
+
+        Returns
+        -------
+        tensor of shape (..., H, W)
+            The dtype of ``mask``. Errors as :func:`sobel_edges`.
+        """
         return sobel_edges(mask, self.edge_threshold, temperature=self.temperature)
 
 
@@ -138,7 +178,17 @@ class FuseEdges(nn.Module):
         self.soft = soft
 
     def forward(self, edges: torch.Tensor) -> torch.Tensor:
-        """Return :func:`fuse_edges` of ``edges`` with the stored arguments."""
+        """Return :func:`fuse_edges` of ``edges`` with the stored arguments.
+
+        Parameters
+        ----------
+        edges : tensor of shape (B, T, H, W), floating
+
+        Returns
+        -------
+        tensor of shape (B, H, W)
+            The dtype of ``edges``. Errors as :func:`fuse_edges`.
+        """
         return fuse_edges(edges, soft=self.soft)
 
 
@@ -162,7 +212,17 @@ class Gradient(nn.Module):
         self.soft = soft
 
     def forward(self, image: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        """Return :func:`gradient` of ``image``: ``(magnitude, direction)``."""
+        """Return :func:`gradient` of ``image``: ``(magnitude, direction)``.
+
+        Parameters
+        ----------
+        image : tensor of shape (..., H, W), floating
+
+        Returns
+        -------
+        magnitude, direction : tensors of shape (..., H, W)
+            The dtype of ``image``. Errors as :func:`gradient`.
+        """
         return gradient(image, soft=self.soft)
 
 
@@ -176,7 +236,17 @@ class GradientStatistics(nn.Module):
     """
 
     def forward(self, image: torch.Tensor) -> torch.Tensor:
-        """Return :func:`gradient_statistics` of ``image``."""
+        """Return :func:`gradient_statistics` of ``image``.
+
+        Parameters
+        ----------
+        image : tensor of shape (..., H, W), floating
+
+        Returns
+        -------
+        tensor of shape (..., 6)
+            The dtype of ``image``. Errors as :func:`gradient_statistics`.
+        """
         return gradient_statistics(image)
 
 
@@ -230,7 +300,17 @@ class ExplorationFeatures(nn.Module):
         self.frames_per_chunk = frames_per_chunk
 
     def forward(self, frames: torch.Tensor) -> torch.Tensor:
-        """Return :func:`exploration_features` of ``frames`` with the stored arguments."""
+        """Return :func:`exploration_features` of ``frames`` with the stored arguments.
+
+        Parameters
+        ----------
+        frames : tensor of shape (B, T, 3, H, W), uint8 or floating
+
+        Returns
+        -------
+        tensor of shape (B, 12), or (B, T * 12) with ``fuse=False``
+            Float32 for uint8 frames, else their dtype. Errors as :func:`exploration_features`.
+        """
         return exploration_features(
             frames,
             fuse=self.fuse,

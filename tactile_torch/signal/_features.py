@@ -337,7 +337,18 @@ class WindowFeatures(nn.Module):
         self.window_size = window_size
 
     def forward(self, windows: torch.Tensor) -> torch.Tensor:
-        """Return :func:`window_features` of ``windows`` ``(B, 3, W)`` → ``(B, 21)``."""
+        """Return :func:`window_features` of ``windows`` ``(B, 3, W)`` → ``(B, 21)``.
+
+        Parameters
+        ----------
+        windows : Tensor, shape ``(B, 3, W)`` (``W = window_size`` if set), floating
+
+        Returns
+        -------
+        Tensor, shape ``(B, 21)``
+            The windows' dtype. Errors as :func:`window_features`, and a ``ValueError`` for another
+            ``W`` than ``window_size``.
+        """
         if self.window_size is not None and not values_unavailable():
             check_shape(check_tensor(windows, "windows"), "windows", ["*", 3, self.window_size])
         return window_features(windows)

@@ -55,6 +55,15 @@ def clustering_features(features: torch.Tensor, *, eps: float = 1e-6) -> torch.T
     Returns
     -------
     Tensor, shape ``(B, 12)``
+        The features' dtype.
+
+    Raises
+    ------
+    TypeError
+        If ``features`` is not a floating tensor or ``eps`` not a number.
+    ValueError
+        If ``features`` is not ``(B, 21)``, not finite, has a negative var, tv, cross or hf column,
+        or ``eps`` is not > 0. (Skipped while torch records the ops: see docs/vibration.md.)
 
     Examples
     --------
@@ -142,6 +151,17 @@ class ScaleFeatures(nn.Module):
         self.register_buffer("scale", torch.as_tensor(scale))
 
     def forward(self, features: torch.Tensor) -> torch.Tensor:
+        """Return ``(features - mean) / scale``.
+
+        Parameters
+        ----------
+        features : Tensor, shape ``(B, F)``, floating
+
+        Returns
+        -------
+        Tensor, shape ``(B, F)``
+            The features' dtype (no check: the module runs inside exported graphs).
+        """
         return _scale(features, self.mean, self.scale)
 
 
@@ -187,7 +207,22 @@ class FeatureScaler(OneToOneFeatureMixin, TransformerMixin, BaseEstimator):
 
     @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X, y=None) -> FeatureScaler:
-        """Fit the scale on ``X`` ``(n, F)``, ``n >= 2`` finite rows (tensor or array); return ``self``."""
+        """Fit the scale on ``X`` ``(n, F)``, ``n >= 2`` finite rows (tensor or array); return ``self``.
+
+        Parameters
+        ----------
+        X : tensor, array or DataFrame of shape (n, F)
+        y : ignored
+
+        Returns
+        -------
+        self : FeatureScaler
+
+        Raises
+        ------
+        ValueError
+            If ``X`` is not 2-D, has fewer than 2 rows or a NaN/inf value (scikit-learn's messages).
+        """
         X, _ = _validate_features(self, X, reset=True)
         X = X.astype(np.float64, copy=False)
         std = X.std(axis=0, ddof=1)
@@ -196,14 +231,42 @@ class FeatureScaler(OneToOneFeatureMixin, TransformerMixin, BaseEstimator):
         return self
 
     def transform(self, X):
-        """Return ``(X - mean_) / scale_``, shape ``(B, F)``: a tensor for a tensor, else an array."""
+        """Return ``(X - mean_) / scale_``, shape ``(B, F)``: a tensor for a tensor, else an array.
+
+        Parameters
+        ----------
+        X : tensor, array or DataFrame of shape (B, F)
+
+        Returns
+        -------
+        tensor or ndarray of shape (B, F)
+            A tensor of ``X``'s dtype (differentiable) for a tensor, else a float64 array.
+
+        Raises
+        ------
+        sklearn.exceptions.NotFittedError
+            Before :meth:`fit`.
+        ValueError
+            If ``X`` has another number of features than in ``fit`` or a NaN/inf value.
+        """
         check_is_fitted(self)
         validated, is_tensor = _validate_features(self, X, reset=False)
         x = _as_tensor(X, validated, is_tensor)
         return _returned(_scale(x, torch.from_numpy(self.mean_), torch.from_numpy(self.scale_)), is_tensor)
 
     def to_module(self) -> ScaleFeatures:
-        """Return the fitted scaling as a :class:`ScaleFeatures` module (float64 buffers)."""
+        """Return the fitted scaling as a :class:`ScaleFeatures` module (float64 buffers).
+
+        Returns
+        -------
+        ScaleFeatures
+            ``(B, F)`` → ``(B, F)``, the input's dtype kept.
+
+        Raises
+        ------
+        sklearn.exceptions.NotFittedError
+            Before :meth:`fit`.
+        """
         check_is_fitted(self)
         return ScaleFeatures(torch.tensor(self.mean_), torch.tensor(self.scale_))
 
@@ -241,6 +304,12 @@ class ClusteringProjection(nn.Module):
         Offset of :func:`clustering_features`.
     features : {"window", "passthrough"}, default "window"
         As in :class:`ClusteringTransform`.
+
+    Examples
+    --------
+    >>> projection = ClusteringProjection(torch.zeros(2), torch.ones(2), torch.eye(2)[:1], features="passthrough")
+    >>> projection(torch.tensor([[3.0, 4.0]]))
+    tensor([[3.]])
     """
 
     def __init__(
@@ -260,6 +329,17 @@ class ClusteringProjection(nn.Module):
         self.features = features
 
     def forward(self, features: torch.Tensor) -> torch.Tensor:
+        """Return the principal components of ``features``.
+
+        Parameters
+        ----------
+        features : Tensor, shape ``(B, 21)`` (``"window"``) or ``(B, D)`` (``"passthrough"``), floating
+
+        Returns
+        -------
+        Tensor, shape ``(B, n_components)``
+            The features' dtype (no check: the module runs inside exported graphs).
+        """
         return _project(
             features, self.mean, self.scale, self.components, eps=self.eps, window=self.features == "window"
         )
@@ -336,7 +416,24 @@ class ClusteringTransform(ClassNamePrefixFeaturesOutMixin, TransformerMixin, Bas
     @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X, y=None) -> ClusteringTransform:
         """Fit the standardisation and the PCA on ``X`` ``(n, 21)`` (or ``(n, D)``), ``n >= 2``; return
-        ``self``."""
+        ``self``.
+
+        Parameters
+        ----------
+        X : tensor, array or DataFrame of shape (n, 21), or (n, D) with ``features="passthrough"``
+        y : ignored
+
+        Returns
+        -------
+        self : ClusteringTransform
+
+        Raises
+        ------
+        ValueError
+            If ``X`` is not 2-D, has fewer than 2 rows or a NaN/inf value, is not 21 window features
+            (``features="window"``; a negative var, tv, cross or hf column too), or
+            ``n_components`` exceeds the rows or mapped features.
+        """
         X, _ = _validate_features(self, X, reset=True)
         x = tensor_from_array(X.astype(np.float64, copy=False))
         if self.features == "window":
@@ -372,7 +469,25 @@ class ClusteringTransform(ClassNamePrefixFeaturesOutMixin, TransformerMixin, Bas
 
     def transform(self, X):
         """Return the principal components of ``X`` ``(B, 21)`` → ``(B, n_components)``: a tensor for
-        a tensor, else an array."""
+        a tensor, else an array.
+
+        Parameters
+        ----------
+        X : tensor, array or DataFrame of shape (B, 21), or (B, D) with ``features="passthrough"``
+
+        Returns
+        -------
+        tensor or ndarray of shape (B, n_components)
+            A tensor of ``X``'s dtype (differentiable) for a tensor, else a float64 array.
+
+        Raises
+        ------
+        sklearn.exceptions.NotFittedError
+            Before :meth:`fit`.
+        ValueError
+            If ``X`` has another number of features than in ``fit``, a NaN/inf value or (window
+            features) a negative var, tv, cross or hf column.
+        """
         check_is_fitted(self)
         validated, is_tensor = _validate_features(self, X, reset=False)
         if self.features == "window":
@@ -383,7 +498,18 @@ class ClusteringTransform(ClassNamePrefixFeaturesOutMixin, TransformerMixin, Bas
         return _returned(projected, is_tensor)
 
     def to_module(self) -> ClusteringProjection:
-        """Return the fitted projection as a :class:`ClusteringProjection` module (float64 buffers)."""
+        """Return the fitted projection as a :class:`ClusteringProjection` module (float64 buffers).
+
+        Returns
+        -------
+        ClusteringProjection
+            ``(B, 21)`` (or ``(B, D)``) → ``(B, n_components)``, the input's dtype kept.
+
+        Raises
+        ------
+        sklearn.exceptions.NotFittedError
+            Before :meth:`fit`.
+        """
         check_is_fitted(self)
         mean, scale, components = (torch.tensor(a) for a in (self.mean_, self.scale_, self.components_))
         return ClusteringProjection(mean, scale, components, eps=self.eps, features=self.features)
@@ -413,6 +539,11 @@ def fit_clustering_transform(features, n_components: int = 3, *, fit_rows=None):
     -------
     transform : ClusteringTransform
     components : ndarray of shape (n, n_components)
+
+    Raises
+    ------
+    ValueError
+        As :meth:`ClusteringTransform.fit` (on the ``fit_rows``) and ``transform``.
 
     Examples
     --------

@@ -260,6 +260,27 @@ class SVC(_KernelMachine):
 
         With ``probability=True`` (a model fitted with ``probability=True``), its scores are
         :meth:`predict_proba`'s probabilities instead of the decision values.
+
+        Parameters
+        ----------
+        dtype : torch.dtype, default torch.float64
+            Dtype of the module's support vectors, coefficients and intercepts.
+        probability : bool, default False
+            Scores are the class probabilities instead of the decision values.
+
+        Returns
+        -------
+        SVMInference
+            ``module(x)`` with ``x`` of shape (B, n_features_in_) returns ``(labels, scores)``:
+            int64 labels of shape (B,) and scores of shape (B, n_classes) (``[-f, f]`` for two
+            classes); exports to ONNX (``tactile_torch.export.export_onnx``).
+
+        Raises
+        ------
+        sklearn.exceptions.NotFittedError
+            Before :meth:`fit`.
+        ValueError
+            With ``probability=True`` for a model fitted with ``probability=False``.
         """
         check_is_fitted(self)
         mode = self._mode()
@@ -531,6 +552,37 @@ class HierarchicalSVC(_KernelMachine):
 
         With ``probability=True`` (a model fitted with ``probability=True``), its scores are
         :meth:`predict_proba`'s probabilities (the product of the branch probabilities down the tree).
+
+        Parameters
+        ----------
+        dtype : torch.dtype, default torch.float64
+            Dtype of the module's support vectors, coefficients and intercepts (float32 for a
+            smaller export; float64 reproduces :meth:`decision_function` to rounding).
+        probability : bool, default False
+            Scores are the class probabilities instead of the path scores.
+
+        Returns
+        -------
+        SVMInference
+            ``module(x)`` with ``x`` of shape (B, n_features_in_) returns ``(labels, scores)``:
+            int64 labels of shape (B,) (indices into ``classes_``) and scores of shape
+            (B, n_classes); exports to ONNX (``tactile_torch.export.export_onnx``).
+
+        Raises
+        ------
+        sklearn.exceptions.NotFittedError
+            Before :meth:`fit`.
+        ValueError
+            With ``probability=True`` for a model fitted with ``probability=False``.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> X = np.random.default_rng(0).normal(size=(30, 2)) + np.repeat(np.eye(3, 2) * 4, 10, 0)
+        >>> y = np.repeat([0, 1, 2], 10)
+        >>> labels, scores = HierarchicalSVC(random_state=0).fit(X, y).to_module()(torch.tensor(X[:4]))
+        >>> labels.shape, scores.shape
+        (torch.Size([4]), torch.Size([4, 3]))
         """
         sv, coef, intercept = self._module_tensors(dtype)
         return SVMInference(

@@ -243,3 +243,16 @@ def test_adam_trains_every_soft_parameter_end_to_end(source, shared_data):
     assert losses[-1] < losses[0]
     for name in ("threshold", "log_edge_threshold", "log_temperature"):
         assert not torch.equal(getattr(model, name).detach(), start[name]), name
+
+
+@pytest.mark.parametrize(
+    ("height", "width", "error", "message"),
+    [
+        (0, 5, ValueError, "height must be > 0, got 0"),
+        (5, -1, ValueError, "width must be > 0, got -1"),
+        (5.0, 5, TypeError, "height must be an integer, got 5.0"),
+    ],
+)
+def test_relative_erosion_names_a_bad_frame_size(height, width, error, message):
+    with pytest.raises(error, match=f"^{message}$"):
+        image.relative_erosion(height, width)
