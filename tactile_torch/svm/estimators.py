@@ -226,7 +226,24 @@ class SVC(_KernelMachine):
     def decision_function(self, X: object) -> np.ndarray:
         """Return the decision values: shape (n,) for two classes (> 0: ``classes_[1]``); with more
         classes (n, n_classes) (one-vs-rest, or one-vs-one with ``decision_function_shape="ovr"``)
-        or (n, n_pairs) (one-vs-one with ``"ovo"``: > 0 votes for the pair's first class)."""
+        or (n, n_pairs) (one-vs-one with ``"ovo"``: > 0 votes for the pair's first class).
+
+        Parameters
+        ----------
+        X : array, tensor or DataFrame of shape (n, n_features_in_)
+
+        Returns
+        -------
+        ndarray of shape (n,), (n, n_classes) or (n, n_pairs), float64
+            As above.
+
+        Raises
+        ------
+        sklearn.exceptions.NotFittedError
+            Before :meth:`fit`.
+        ValueError
+            If ``X`` is not 2-D, has another number of features than in ``fit`` or a NaN/inf value.
+        """
         X = self._check_predict_input(X)
         mode = self._mode()
         if mode != "ovo":
@@ -239,7 +256,24 @@ class SVC(_KernelMachine):
 
     def predict(self, X: object) -> np.ndarray:
         """Return the predicted class of each sample, shape (n,) (one-vs-one: libsvm's vote, ties to
-        the first class)."""
+        the first class).
+
+        Parameters
+        ----------
+        X : array, tensor or DataFrame of shape (n, n_features_in_)
+
+        Returns
+        -------
+        ndarray of shape (n,)
+            Labels from ``classes_``.
+
+        Raises
+        ------
+        sklearn.exceptions.NotFittedError
+            Before :meth:`fit`.
+        ValueError
+            If ``X`` is not 2-D, has another number of features than in ``fit`` or a NaN/inf value.
+        """
         X = self._check_predict_input(X)
         mode = self._mode()
         if mode == "ovo":
@@ -499,20 +533,71 @@ class HierarchicalSVC(_KernelMachine):
         return np.where(sign[None, :, :] != 0, signed, np.inf).min(axis=2)
 
     def node_decision_function(self, X: object) -> np.ndarray:
-        """Return every internal node's margin, shape (n, n_nodes) (columns: ``TreeNode.column``)."""
+        """Return every internal node's margin, shape (n, n_nodes) (columns: ``TreeNode.column``).
+
+        Parameters
+        ----------
+        X : array, tensor or DataFrame of shape (n, n_features_in_)
+
+        Returns
+        -------
+        ndarray of shape (n, n_nodes), float64
+            Column ``j``: the margin of the node whose ``TreeNode.column`` is ``j``.
+
+        Raises
+        ------
+        sklearn.exceptions.NotFittedError
+            Before :meth:`fit`.
+        ValueError
+            If ``X`` is not 2-D, has another number of features than in ``fit`` or a NaN/inf value.
+        """
         return self._dense_margins(self._check_predict_input(X))
 
     def decision_function(self, X: object) -> np.ndarray:
         """Return per-class scores, shape (n, n_classes): the smallest signed node margin on the path
         to each class (:func:`~tactile_torch.svm.inference.path_scores`), ``>= 0`` only for the class
-        descent reaches. Two classes: the root's margin, shape (n,) (> 0: ``classes_[1]``)."""
+        descent reaches. Two classes: the root's margin, shape (n,) (> 0: ``classes_[1]``).
+
+        Parameters
+        ----------
+        X : array, tensor or DataFrame of shape (n, n_features_in_)
+
+        Returns
+        -------
+        ndarray of shape (n, n_classes), or (n,) for two classes, float64
+            As above.
+
+        Raises
+        ------
+        sklearn.exceptions.NotFittedError
+            Before :meth:`fit`.
+        ValueError
+            If ``X`` is not 2-D, has another number of features than in ``fit`` or a NaN/inf value.
+        """
         margins = self.node_decision_function(X)
         if self.classes_.shape[0] == 2:
             return margins[:, 0]
         return self._path_scores(margins)
 
     def predict(self, X: object) -> np.ndarray:
-        """Return the class reached by descending the tree, shape (n,)."""
+        """Return the class reached by descending the tree, shape (n,).
+
+        Parameters
+        ----------
+        X : array, tensor or DataFrame of shape (n, n_features_in_)
+
+        Returns
+        -------
+        ndarray of shape (n,)
+            Labels from ``classes_``.
+
+        Raises
+        ------
+        sklearn.exceptions.NotFittedError
+            Before :meth:`fit`.
+        ValueError
+            If ``X`` is not 2-D, has another number of features than in ``fit`` or a NaN/inf value.
+        """
         margins = self.node_decision_function(X)
         # The class descent reaches is the argmax of the path scores; only a margin of exactly 0
         # can make them differ, so such rows descend.
@@ -533,7 +618,18 @@ class HierarchicalSVC(_KernelMachine):
         return self.classes_[labels]
 
     def describe(self) -> str:
-        """Return the tree as text (one line per node; ``-``/``+``: negative/positive side)."""
+        """Return the tree as text (one line per node; ``-``/``+``: negative/positive side).
+
+        Returns
+        -------
+        str
+            A head line (classes, depth, support vectors, kernel, C, gamma), then one line per node.
+
+        Raises
+        ------
+        sklearn.exceptions.NotFittedError
+            Before :meth:`fit`.
+        """
         check_is_fitted(self, "tree_")
         head = (
             f"HierarchicalSVC: {self.classes_.shape[0]} classes, depth {self.depth_}, "

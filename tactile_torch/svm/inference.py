@@ -49,6 +49,12 @@ def svm_margins(
     -------
     tensor of shape (B, K), dtype of ``support_vectors``.
 
+    Raises
+    ------
+    RuntimeError
+        torch's, where shapes disagree: no check of its own (a step of the exported inference
+        graph, which cannot raise; the estimators validate their input before calling it).
+
     Examples
     --------
     >>> sv = torch.tensor([[0.0], [2.0]])
@@ -87,6 +93,19 @@ def tree_descent(
     Returns
     -------
     int64 tensor of shape (B,)
+
+    Raises
+    ------
+    RuntimeError
+        torch's, where shapes disagree: no check of its own (a step of the exported inference
+        graph, which cannot raise; the estimators validate their input before calling it).
+
+    Examples
+    --------
+    >>> left, right = torch.tensor([1, 1, 2]), torch.tensor([2, 1, 2])  # root 0, leaves 1 and 2
+    >>> column, leaf_label = torch.tensor([0, 0, 0]), torch.tensor([0, 0, 1])
+    >>> tree_descent(torch.tensor([[-1.0], [3.0]]), left, right, column, leaf_label, depth=1)
+    tensor([0, 1])
     """
     node = torch.zeros(margins.shape[0], dtype=torch.long, device=margins.device)
     for _ in range(depth):
@@ -112,6 +131,18 @@ def path_scores(margins: torch.Tensor, path_sign: torch.Tensor) -> torch.Tensor:
     Returns
     -------
     tensor of shape (B, C)
+
+    Raises
+    ------
+    RuntimeError
+        torch's, where shapes disagree: no check of its own (a step of the exported inference
+        graph, which cannot raise; the estimators validate their input before calling it).
+
+    Examples
+    --------
+    >>> path_scores(torch.tensor([[2.0], [-0.5]]), torch.tensor([[-1], [1]]))  # one node, two classes
+    tensor([[-2.0000,  2.0000],
+            [ 0.5000, -0.5000]])
     """
     signed = margins[:, None, :] * path_sign[None, :, :].to(margins.dtype)
     inf = torch.tensor(float("inf"), dtype=margins.dtype, device=margins.device)
@@ -147,6 +178,20 @@ def ovo_decisions(
     Returns
     -------
     tensor of shape (B, P): > 0 votes for the pair's first class.
+
+    Raises
+    ------
+    RuntimeError
+        torch's, where shapes disagree: no check of its own (a step of the exported inference
+        graph, which cannot raise; the estimators validate their input before calling it).
+
+    Examples
+    --------
+    >>> # two classes, one support vector each (coefficients +1 and -1), one pair (0, 1)
+    >>> class_index, class_coef = torch.tensor([[0], [1]]), torch.tensor([[[1.0]], [[-1.0]]])
+    >>> pair_index = torch.tensor([[0], [0], [1], [0]])
+    >>> ovo_decisions(torch.tensor([[0.9, 0.1]]), class_index, class_coef, pair_index, torch.zeros(1))
+    tensor([[0.8000]])
     """
     blocks = kernel_values[:, class_index].transpose(0, 1)  # (K, B, M)
     terms = torch.matmul(blocks, class_coef).transpose(0, 1)  # (B, K, K - 1)
@@ -171,6 +216,19 @@ def ovo_votes(decisions: torch.Tensor, pair_classes: torch.Tensor) -> tuple[torc
     -------
     labels : int64 tensor of shape (B,)
     scores : tensor of shape (B, K)
+
+    Raises
+    ------
+    RuntimeError
+        torch's, where shapes disagree: no check of its own (a step of the exported inference
+        graph, which cannot raise; the estimators validate their input before calling it).
+
+    Examples
+    --------
+    >>> pair_classes = torch.tensor([[[1.0, 0.0]], [[0.0, 1.0]]])  # one pair: classes 0 and 1
+    >>> labels, scores = ovo_votes(torch.tensor([[0.5], [-2.0]]), pair_classes)
+    >>> labels, scores.shape
+    (tensor([0, 1]), torch.Size([2, 2]))
     """
     first, second = pair_classes[0], pair_classes[1]
     wins = (decisions > 0).to(decisions.dtype)
@@ -280,6 +338,21 @@ class SVMInference(torch.nn.Module):
         Depth of the tree (``tree`` mode).
     tree : dict, optional
         Former name of ``tables``, still accepted.
+
+    Raises
+    ------
+    ValueError
+        If ``mode`` is not one of the four, or a table the mode needs is missing.
+
+    Examples
+    --------
+    >>> # a linear binary SVM f(x) = x_0 - x_1, from its two support vectors
+    >>> module = SVMInference(
+    ...     torch.eye(2), torch.tensor([[1.0, -1.0]]), torch.zeros(1), kernel="linear", gamma=1.0, mode="binary"
+    ... )
+    >>> labels, scores = module(torch.tensor([[2.0, 0.0], [0.0, 1.0]]))
+    >>> labels.tolist(), scores.tolist()
+    ([1, 0], [[-2.0, 2.0], [1.0, -1.0]])
     """
 
     TABLES: ClassVar[dict[str, tuple[str, ...]]] = {
@@ -325,7 +398,27 @@ class SVMInference(torch.nn.Module):
     def from_state(
         cls, state: dict[str, torch.Tensor], *, mode: str, kernel: str, gamma: float, depth: int = 0
     ) -> SVMInference:
-        """Rebuild a module from its ``state_dict()`` and its ``mode``, ``kernel``, ``gamma``, ``depth``."""
+        """Rebuild a module from its ``state_dict()`` and its ``mode``, ``kernel``, ``gamma``, ``depth``.
+
+        Parameters
+        ----------
+        state : dict of str to tensor
+            A module's ``state_dict()`` (the persistent buffers: the one-vs-one tables derived from
+            ``n_support`` are rebuilt).
+        mode, kernel, gamma, depth
+            As in the constructor.
+
+        Returns
+        -------
+        SVMInference
+
+        Raises
+        ------
+        KeyError
+            If ``state`` lacks ``support_vectors``, ``dual_coef`` or ``intercept``.
+        ValueError
+            As the constructor (an unknown mode, a missing table).
+        """
         names = cls.TABLES.get(mode, ()) + cls.PROBABILITY_TABLES
         tables = {name: state[name] for name in names if name in state}
         return cls(
@@ -340,6 +433,20 @@ class SVMInference(torch.nn.Module):
         )
 
     def forward(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """Return the labels and the per-class scores of ``x``.
+
+        Parameters
+        ----------
+        x : tensor of shape (B, F)
+            Cast to the module's dtype.
+
+        Returns
+        -------
+        labels : int64 tensor of shape (B,)
+            Indices into the estimator's ``classes_``.
+        scores : tensor of shape (B, n_classes)
+            The mode's scores (see the class), or the probabilities; the module's dtype.
+        """
         x = x.to(self.support_vectors.dtype)
         if self.mode == "ovo":
             values = kernel_matrix(x, self.support_vectors, kernel=self.kernel, gamma=self.gamma)

@@ -43,6 +43,12 @@ def kernel_matrix(
     -------
     tensor of shape (N, M), dtype of the inputs.
 
+    Raises
+    ------
+    RuntimeError
+        torch's, where shapes disagree: no check of its own (a step of the exported inference
+        graph, which cannot raise; the estimators validate their input before calling it).
+
     Examples
     --------
     >>> kernel_matrix(torch.zeros(2, 3), torch.ones(1, 3), gamma=0.5)
@@ -59,6 +65,21 @@ def kernel_matrix(
 
 def scale_gamma(X: np.ndarray) -> float:
     """Return scikit-learn's ``gamma="scale"``: ``1 / (n_features * X.var())`` (1.0 if ``X.var() == 0``).
+
+    Parameters
+    ----------
+    X : array of shape (n, F)
+        Training features (all of them, unweighted, as scikit-learn's ``SVC``).
+
+    Returns
+    -------
+    float > 0
+
+    Raises
+    ------
+    ValueError
+        If ``X`` cannot be converted to float64 (numpy's message); no other check of its own: the
+        estimators validate ``X`` before calling it.
 
     Examples
     --------

@@ -40,6 +40,12 @@ def split_classes(means: np.ndarray, *, n_init: int = 10, random_state: RandomSt
     -------
     bool array of shape (K,): True for the second group. With two classes, ``[False, True]``.
 
+    Raises
+    ------
+    TypeError
+        If ``random_state`` is not a seed or generator (:func:`~tactile_torch.validation.numpy_rng`);
+        no other check of its own (:class:`HierarchicalSVC` validates its classes before calling it).
+
     Examples
     --------
     >>> split_classes(np.array([[0.0], [0.1], [5.0], [5.2]]), random_state=0).tolist()
@@ -152,6 +158,14 @@ class TreeNode:
         Column of this node in ``HierarchicalSVC.node_decision_function`` (-1 for a leaf).
     members : ndarray or None
         Indices of ``classes`` in the estimator's ``classes_``.
+
+    Examples
+    --------
+    >>> from tactile_torch.svm import HierarchicalSVC
+    >>> X = np.random.default_rng(0).normal(size=(30, 2)) + np.repeat(np.eye(3, 2) * 4, 10, 0)
+    >>> tree = HierarchicalSVC(random_state=0).fit(X, np.repeat([0, 1, 2], 10)).tree_
+    >>> [(node.index, node.classes, node.is_leaf) for node in tree.nodes()][0]
+    (0, (0, 1, 2), False)
     """
 
     index: int
@@ -169,14 +183,25 @@ class TreeNode:
         return self.left is None
 
     def copy(self) -> TreeNode:
-        """Return a copy of the subtree's structure, without fitted SVMs."""
+        """Return a copy of the subtree's structure, without fitted SVMs.
+
+        Returns
+        -------
+        TreeNode
+            The same indices, classes, depths, sample counts and members; ``svc`` None.
+        """
         twin = TreeNode(self.index, self.classes, self.depth, self.n_samples, members=self.members)
         if not self.is_leaf:
             twin.left, twin.right = self.left.copy(), self.right.copy()
         return twin
 
     def nodes(self) -> list[TreeNode]:
-        """Return this node and every node below it, in preorder."""
+        """Return this node and every node below it, in preorder.
+
+        Returns
+        -------
+        list of TreeNode
+        """
         out = [self]
         for child in (self.left, self.right):
             if child is not None:
@@ -184,7 +209,20 @@ class TreeNode:
         return out
 
     def describe(self, indent: str = "", sign: str = "") -> str:
-        """Return the subtree as indented text: ``-`` marks the negative side, ``+`` the positive."""
+        """Return the subtree as indented text: ``-`` marks the negative side, ``+`` the positive.
+
+        Parameters
+        ----------
+        indent : str
+            Prefix of this node's line (children are indented 3 more spaces).
+        sign : str
+            ``"- "`` or ``"+ "``: the side of its parent this node is on (``""`` for the root).
+
+        Returns
+        -------
+        str
+            One line per node.
+        """
         names = ", ".join(str(c) for c in self.classes)
         if self.is_leaf:
             return f"{indent}{sign}leaf {self.index}: {names} ({self.n_samples} samples)"

@@ -1,11 +1,12 @@
 """Every public name's docstring has numpydoc's sections (issue 43, point 6).
 
 Walks the public API as users see it: every name in the ``__all__`` of every public package and the
-public methods its classes define themselves (not those inherited from scikit-learn or torch;
-properties and torch's ``extra_repr`` hook aside), and
+public methods of its classes written here (theirs and their tactile_torch bases', not those
+inherited from scikit-learn or torch; properties and torch's ``extra_repr`` hook aside), and
 asks of each numpydoc docstring (class docstring and ``__init__`` docstring together for a class):
 
-- ``Parameters`` when it takes any argument (``self``/``cls`` aside);
+- ``Parameters`` when it takes any argument (``self``/``cls`` aside; a dataclass's ``Attributes``
+  are its parameters);
 - ``Returns`` (or ``Yields``) for a function or method that returns something (no ``-> None``),
   naming the shape of a returned tensor or array (a ``(``) when it is annotated as one;
 - ``Raises`` for a public function that takes an argument (validation at the entry names it);
@@ -18,6 +19,7 @@ until the list says so, and a new name with a gap fails it too.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import importlib
 import inspect
@@ -93,20 +95,25 @@ def _function_gaps(function, *, public: bool) -> list[str]:
 
 
 def _own_methods(cls) -> dict[str, object]:
+    """Public methods written in tactile_torch: the class's and its (private) tactile_torch bases'."""
     methods = {}
-    for name, value in vars(cls).items():
-        # properties read as attributes (documented by their one line); extra_repr is torch's print hook
-        if name.startswith("_") or isinstance(value, property) or name == "extra_repr":
+    for owner in cls.__mro__:
+        if not owner.__module__.startswith("tactile_torch"):
             continue
-        function = value
-        function = getattr(function, "__func__", function)  # classmethod / staticmethod
-        if inspect.isfunction(function) and function.__module__.startswith("tactile_torch"):
-            methods[name] = function
+        for name, value in vars(owner).items():
+            # properties read as attributes (documented by their one line); extra_repr is torch's hook
+            if name in methods or name.startswith("_") or isinstance(value, property) or name == "extra_repr":
+                continue
+            function = getattr(value, "__func__", value)  # classmethod / staticmethod
+            if inspect.isfunction(function) and function.__module__.startswith("tactile_torch"):
+                methods[name] = function
     return methods
 
 
 def _class_gaps(cls) -> list[str]:
     have = _sections(cls.__doc__) | _sections(vars(cls).get("__init__", object).__doc__)
+    if dataclasses.is_dataclass(cls) and "Attributes" in have:
+        have.add("Parameters")  # a dataclass's fields are its parameters
     wanted = ["Examples"]
     # the constructor users call: the first __init__ up the MRO, if one of ours (nn.Module's
     # *args/**kwargs are no settings)
