@@ -108,6 +108,22 @@ def rhat(draws: object) -> float:
     every chain is the same value (K constant, for instance) the chains agree exactly and the result
     is 1.0 (ArviZ returns ``nan`` there: 0/0).
 
+    Parameters
+    ----------
+    draws : array-like of shape (n_chains, n_draws), or (n_draws,) for one chain
+        A scalar quantity's draws (K, a log-likelihood), one row per chain.
+
+    Returns
+    -------
+    float
+        >= 1 in practice; above 1.01 flags chains that disagree. ``nan`` as above, or for a NaN/inf
+        draw.
+
+    Raises
+    ------
+    ValueError
+        If ``draws`` is not 1-D or 2-D, or not convertible to float (numpy's message).
+
     Examples
     --------
     >>> rng = np.random.default_rng(0)
@@ -126,7 +142,29 @@ def rhat(draws: object) -> float:
 
 
 def ess_bulk(draws: object) -> float:
-    """Return the bulk effective sample size of draws (n_chains, n_draws): ESS of rank-normalised split chains."""
+    """Return the bulk effective sample size of draws (n_chains, n_draws): ESS of rank-normalised split chains.
+
+    Parameters
+    ----------
+    draws : array-like of shape (n_chains, n_draws), or (n_draws,) for one chain
+        A scalar quantity's draws (K, a log-likelihood), one row per chain.
+
+    Returns
+    -------
+    float
+        About ``n_chains * n_draws`` for independent draws, less for autocorrelated ones; ``nan``
+        with fewer than 4 draws or a NaN/inf draw.
+
+    Raises
+    ------
+    ValueError
+        If ``draws`` is not 1-D or 2-D, or not convertible to float (numpy's message).
+
+    Examples
+    --------
+    >>> ess_bulk(np.random.default_rng(0).normal(size=(4, 500))) > 1500  # 2000 independent draws
+    True
+    """
     x = _as_chains(draws)
     if x.shape[1] < 4 or not np.isfinite(x).all():
         return float("nan")
@@ -134,7 +172,30 @@ def ess_bulk(draws: object) -> float:
 
 
 def ess_tail(draws: object, prob: tuple[float, float] = (0.05, 0.95)) -> float:
-    """Return the tail effective sample size: the smaller ESS of the indicators ``x <= q`` at the 5 % and 95 % quantiles."""
+    """Return the tail effective sample size: the smaller ESS of the indicators ``x <= q`` at the 5 % and 95 % quantiles.
+
+    Parameters
+    ----------
+    draws : array-like of shape (n_chains, n_draws), or (n_draws,) for one chain
+        A scalar quantity's draws (K, a log-likelihood), one row per chain.
+    prob : (float, float)
+        The two quantiles.
+
+    Returns
+    -------
+    float
+        ``nan`` with fewer than 4 draws or a NaN/inf draw.
+
+    Raises
+    ------
+    ValueError
+        If ``draws`` is not 1-D or 2-D, or not convertible to float (numpy's message).
+
+    Examples
+    --------
+    >>> ess_tail(np.random.default_rng(0).normal(size=(4, 500))) > 1500  # 2000 independent draws
+    True
+    """
     x = _as_chains(draws)
     if x.shape[1] < 4 or not np.isfinite(x).all():
         return float("nan")

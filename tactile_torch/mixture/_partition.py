@@ -39,6 +39,25 @@ def pitman_yor_prior_k(n: int, alpha: float, discount: float) -> np.ndarray:
     Chinese-restaurant recursion: customer ``m + 1`` opens a new table with probability
     ``(alpha + K d) / (alpha + m)``. Entry ``k`` of the result (length ``n + 1``) is ``P(K = k)``.
 
+    Parameters
+    ----------
+    n : int >= 1
+        Number of points.
+    alpha : float > -discount
+        Concentration.
+    discount : float in [0, 1)
+        Discount (0: a Dirichlet process).
+
+    Returns
+    -------
+    ndarray of shape (n + 1,)
+        ``P(K = k)`` for ``k = 0 .. n`` (entry 0 is 0); sums to 1.
+
+    Raises
+    ------
+    ValueError
+        If ``discount`` is not in [0, 1) or ``alpha <= -discount``.
+
     Examples
     --------
     >>> p = pitman_yor_prior_k(3, 1.0, 0.0)  # DP, alpha = 1: P(K=1) = 1/3, P(K=3) = 1/6
@@ -348,6 +367,13 @@ def posterior_similarity(samples: object) -> np.ndarray:
     ndarray of shape (n_points, n_points)
         Symmetric, ones on the diagonal.
 
+    Raises
+    ------
+    ValueError
+        If ``samples`` is not 2-D with at least one row and one point.
+    TypeError
+        If ``samples`` does not hold integers.
+
     Examples
     --------
     >>> posterior_similarity([[0, 0, 1], [3, 4, 4]]).tolist()
@@ -362,6 +388,25 @@ def variation_of_information(a: object, b: object) -> float:
     ``VI(a, b) = H(a) + H(b) - 2 I(a, b)`` (Meilă 2007): 0 for the same partition, at most
     ``log2 n``.
 
+    Parameters
+    ----------
+    a, b : array-like of int, shape (n,)
+        Label vectors of the same points (only equality of labels matters).
+
+    Returns
+    -------
+    float >= 0
+        In bits.
+
+    Raises
+    ------
+    ValueError
+        If ``a`` and ``b`` are not 1-D of the same length >= 1.
+    TypeError
+        If ``a`` or ``b`` does not hold integers.
+
+    Examples
+    --------
     >>> round(variation_of_information([0, 0, 1, 1], [0, 0, 0, 0]), 12)  # one bit: which half
     1.0
     """
@@ -370,6 +415,9 @@ def variation_of_information(a: object, b: object) -> float:
         raise ValueError(
             f"a and b must be label vectors of the same length >= 1, got {a.shape} and {b.shape}"
         )
+    for name, labels in (("a", a), ("b", b)):
+        if not np.issubdtype(labels.dtype, np.integer):
+            raise InputTypeError(f"{name} must hold integer labels, got dtype {labels.dtype}")
     return float(_vi_objective(_check_samples(b[None]), _compact(a))) / _LOG2
 
 
@@ -380,6 +428,36 @@ def expected_loss(
 
     ``loss="vi"``: mean Variation of Information in bits; ``"binder"``: Binder's loss with equal
     costs as the expected share of misclassified point pairs (``1 -`` expected pairwise accuracy).
+
+    Parameters
+    ----------
+    labels : array-like of int, shape (n_points,)
+        The partition whose loss is estimated.
+    samples : array-like of int, shape (n_samples, n_points)
+        Saved partitions (post burn-in).
+    loss : {"vi", "binder"}
+    similarity : ndarray of shape (n_points, n_points), optional
+        :func:`posterior_similarity` of ``samples``, if already computed (``"binder"`` only).
+
+    Returns
+    -------
+    float >= 0
+        VI in bits, or Binder's as a share of pairs.
+
+    Raises
+    ------
+    ValueError
+        If ``samples`` is not 2-D with at least one row and one point.
+    TypeError
+        If ``samples`` does not hold integers.
+    ValueError
+        If ``loss`` is neither.
+
+    Examples
+    --------
+    >>> samples = [[0, 0, 1], [0, 1, 1]]
+    >>> round(expected_loss([0, 0, 1], samples), 4), round(expected_loss([0, 0, 1], samples, "binder"), 4)
+    (0.6667, 0.3333)
     """
     c = _compact(labels)
     if loss == "vi":
@@ -424,6 +502,21 @@ def minimize_expected_loss(
         Numbered 0 .. K-1 by decreasing cluster size.
     loss : float
         Its expected loss (VI in bits, or Binder's as a share of pairs).
+
+    Raises
+    ------
+    ValueError
+        If ``samples`` is not 2-D with at least one row and one point.
+    TypeError
+        If ``samples`` does not hold integers.
+    ValueError
+        If ``loss`` is neither.
+
+    Examples
+    --------
+    >>> labels, loss = minimize_expected_loss([[0, 0, 1], [0, 0, 1], [0, 1, 1]])
+    >>> labels.tolist(), round(loss, 4)
+    ([0, 0, 1], 0.4444)
     """
     from scipy.cluster.hierarchy import fcluster, linkage
     from scipy.spatial.distance import squareform

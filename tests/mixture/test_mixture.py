@@ -187,6 +187,14 @@ def test_variation_of_information_matches_scikit_learn_entropies():
     assert variation_of_information(a, a + 7) == 0.0
 
 
+@pytest.mark.parametrize("name", ["a", "b"])
+def test_variation_of_information_names_float_labels(name):
+    labels = {"a": np.array([0, 1]), "b": np.array([0, 1])}
+    labels[name] = labels[name] + 0.5
+    with pytest.raises(TypeError, match=f"^{name} must hold integer labels, got dtype float64$"):
+        variation_of_information(labels["a"], labels["b"])
+
+
 def _partitions(n):
     if n == 0:
         yield []
