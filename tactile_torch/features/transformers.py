@@ -97,6 +97,12 @@ class ImageFeatureTransformer(TransformerMixin, BaseEstimator):
     threshold_ : float
     erosion_ : int
     frame_shape_ : tuple (T, 3, H, W)
+
+    Examples
+    --------
+    >>> frames = np.random.default_rng(0).integers(0, 256, (2, 3, 3, 16, 16), dtype=np.uint8)
+    >>> ImageFeatureTransformer(erosion=3).fit(frames).transform(frames).shape
+    (2, 12)
     """
 
     _parameter_constraints: ClassVar[dict] = {
@@ -121,6 +127,23 @@ class ImageFeatureTransformer(TransformerMixin, BaseEstimator):
 
     @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X: object, y: object = None) -> ImageFeatureTransformer:
+        """Learn the frames' shape, the erosion and, with ``threshold="otsu"``, Otsu's threshold; return ``self``.
+
+        Parameters
+        ----------
+        X : array or tensor of shape (N, T, 3, H, W)
+            RGB frames, uint8 or floating in [0, 1].
+        y : ignored
+
+        Returns
+        -------
+        self : ImageFeatureTransformer
+
+        Raises
+        ------
+        ValueError
+            If ``X`` is not ``(N, T, 3, H, W)`` with ``N >= 1``, or a parameter is out of its range.
+        """
         X = _as_array(X)
         _check_ndim(X, 5, "(N, T, 3, H, W)")
         if X.shape[2] != 3:
@@ -137,6 +160,24 @@ class ImageFeatureTransformer(TransformerMixin, BaseEstimator):
         return self
 
     def transform(self, X: object) -> np.ndarray:
+        """Return the method-1 features of ``X``.
+
+        Parameters
+        ----------
+        X : array or tensor of shape (N, T, 3, H, W)
+
+        Returns
+        -------
+        ndarray of shape (N, 12), or (N, T * 12) with ``fuse=False``, float64
+
+        Raises
+        ------
+        sklearn.exceptions.NotFittedError
+            Before :meth:`fit`.
+        ValueError, TypeError
+            As :func:`~tactile_torch.image.exploration_features` (shape, dtype, range), naming
+            ``frames``.
+        """
         check_is_fitted(self, "erosion_")
         frames = tensor_from_array(np.ascontiguousarray(_as_array(X)))
         return (
@@ -146,7 +187,18 @@ class ImageFeatureTransformer(TransformerMixin, BaseEstimator):
         )
 
     def to_module(self) -> nn.Module:
-        """Return the fitted step as :class:`~tactile_torch.image.ExplorationFeatures`."""
+        """Return the fitted step as :class:`~tactile_torch.image.ExplorationFeatures`.
+
+        Returns
+        -------
+        ExplorationFeatures
+            ``(B, T, 3, H, W)`` → ``(B, 12)`` (or ``(B, T * 12)``), float32.
+
+        Raises
+        ------
+        sklearn.exceptions.NotFittedError
+            Before :meth:`fit`.
+        """
         check_is_fitted(self, "erosion_")
         return ExplorationFeatures(fuse=self.fuse, threshold=self.threshold_, erosion=self.erosion_)
 
@@ -277,6 +329,24 @@ class PressureImageFeatures(TransformerMixin, BaseEstimator):
 
     @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X: object, y: object = None) -> PressureImageFeatures:
+        """Fit the contact direction, resting levels, pressure scale and pressed level; return ``self``.
+
+        Parameters
+        ----------
+        X : array or tensor of shape (N, T, H, W)
+            Raw pressure maps (any unit).
+        y : ignored
+
+        Returns
+        -------
+        self : PressureImageFeatures
+
+        Raises
+        ------
+        ValueError
+            If ``X`` is not ``(N, T, H, W)``, the maps never rise above their resting level with
+            this ``contact``, ``threshold="otsu"`` finds no split, or a parameter is out of its range.
+        """
         X = _as_array(X)
         _check_ndim(X, 4, "(N, T, H, W)")
         threshold = self.threshold
@@ -318,9 +388,30 @@ class PressureImageFeatures(TransformerMixin, BaseEstimator):
         return PressedFrames(torch.from_numpy(self.resting_), self.sign_, self.level_, self.factor_)
 
     def transform(self, X: object) -> np.ndarray:
+        """Return the method-1 features of the pressed regions of ``X``.
+
+        Parameters
+        ----------
+        X : array or tensor of shape (N, T, H, W)
+
+        Returns
+        -------
+        ndarray of shape (N, 12), or (N, T * 12) with ``fuse=False``, float64
+
+        Raises
+        ------
+        sklearn.exceptions.NotFittedError
+            Before :meth:`fit`.
+        ValueError
+            If ``X`` is not ``(N, T, H, W)`` or its maps are not the fitted size.
+        """
         check_is_fitted(self, "level_")
         X = _as_array(X)
         _check_ndim(X, 4, "(N, T, H, W)")
+        if X.shape[2:] != self.resting_.shape:
+            raise ValueError(
+                f"X must hold maps of the fitted size {self.resting_.shape}, got shape {X.shape}"
+            )
         with torch.no_grad():
             frames = self._pressed()(tensor_from_array(np.ascontiguousarray(X, dtype=np.float32)))
         return (
@@ -330,7 +421,18 @@ class PressureImageFeatures(TransformerMixin, BaseEstimator):
         )
 
     def to_module(self) -> nn.Module:
-        """Return :class:`PressedFrames` followed by :class:`~tactile_torch.image.ExplorationFeatures`."""
+        """Return :class:`PressedFrames` followed by :class:`~tactile_torch.image.ExplorationFeatures`.
+
+        Returns
+        -------
+        nn.Sequential
+            ``(B, T, H, W)`` → ``(B, 12)`` (or ``(B, T * 12)``), float32.
+
+        Raises
+        ------
+        sklearn.exceptions.NotFittedError
+            Before :meth:`fit`.
+        """
         check_is_fitted(self, "level_")
         return nn.Sequential(
             self._pressed(), ExplorationFeatures(fuse=self.fuse, threshold=0.5, erosion=self.erosion_)
@@ -389,10 +491,32 @@ class TaxelFeatureTransformer(_ShapeOnly):
     Takes raw pressure maps ``(N, T, H, W)`` or RGB frames ``(N, T, 3, H, W)`` (then ``1 - gray``).
     Gives ``(N, H * W * 7)`` features; meant for small arrays (at most :data:`MAX_TAXELS` taxels).
     Nothing is learnt.
+
+    Examples
+    --------
+    >>> maps = np.random.default_rng(0).poisson(3.0, (2, 6, 4, 4)).astype(float)
+    >>> TaxelFeatureTransformer().fit(maps).transform(maps).shape  # 16 taxels x 7
+    (2, 112)
     """
 
     @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X: object, y: object = None) -> TaxelFeatureTransformer:
+        """Learn whether ``X`` holds RGB frames and its shape; return ``self``.
+
+        Parameters
+        ----------
+        X : array or tensor of shape (N, T, H, W) or (N, T, 3, H, W)
+        y : ignored
+
+        Returns
+        -------
+        self : TaxelFeatureTransformer
+
+        Raises
+        ------
+        ValueError
+            If ``X`` is neither shape, has no sample or fewer than 2 frames.
+        """
         X = _as_array(X)
         if X.ndim not in (4, 5) or X.shape[0] == 0 or X.shape[1] < 2:
             raise ValueError(
@@ -403,6 +527,23 @@ class TaxelFeatureTransformer(_ShapeOnly):
         return self
 
     def transform(self, X: object) -> np.ndarray:
+        """Return the 7 features of every taxel's series.
+
+        Parameters
+        ----------
+        X : array or tensor of shape (N, T, H, W) or (N, T, 3, H, W), as in ``fit``
+
+        Returns
+        -------
+        ndarray of shape (N, H * W * 7), float64
+
+        Raises
+        ------
+        sklearn.exceptions.NotFittedError
+            Before :meth:`fit`.
+        ValueError
+            As :func:`~tactile_torch.signal.window_features`, on the taxels' series.
+        """
         check_is_fitted(self, "rgb_")
         X = np.ascontiguousarray(_as_array(X))
         raw = tensor_from_array(X if X.dtype == np.uint8 else X.astype(np.float32))
@@ -410,45 +551,152 @@ class TaxelFeatureTransformer(_ShapeOnly):
             return TaxelFeatures(self.rgb_)(raw).double().numpy()
 
     def to_module(self) -> nn.Module:
+        """Return the fitted step as a :class:`TaxelFeatures` module.
+
+        Returns
+        -------
+        TaxelFeatures
+            ``(B, T, H, W)`` (or RGB ``(B, T, 3, H, W)``) → ``(B, H * W * 7)``, float32.
+
+        Raises
+        ------
+        sklearn.exceptions.NotFittedError
+            Before :meth:`fit`.
+        """
         check_is_fitted(self, "rgb_")
         return TaxelFeatures(self.rgb_)
 
 
 class WindowFeatureTransformer(_ShapeOnly):
-    """The 21 vibration features of windows ``(N, 3, W)`` (:func:`~tactile_torch.signal.window_features`)."""
+    """The 21 vibration features of windows ``(N, 3, W)`` (:func:`~tactile_torch.signal.window_features`).
+
+    Examples
+    --------
+    >>> windows = np.random.default_rng(0).normal(size=(2, 3, 64))
+    >>> WindowFeatureTransformer().fit(windows).transform(windows).shape
+    (2, 21)
+    """
 
     @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X: object, y: object = None) -> WindowFeatureTransformer:
+        """Learn the window length; return ``self``.
+
+        Parameters
+        ----------
+        X : array or tensor of shape (N, 3, W)
+        y : ignored
+
+        Returns
+        -------
+        self : WindowFeatureTransformer
+
+        Raises
+        ------
+        ValueError
+            If ``X`` is not ``(N, 3, W)`` with ``N >= 1``.
+        """
         X = _as_array(X)
         _check_ndim(X, 3, "(N, 3, W)")
         self.window_size_ = int(X.shape[-1])
         return self
 
     def transform(self, X: object) -> np.ndarray:
+        """Return the 21 window features of ``X``.
+
+        Parameters
+        ----------
+        X : array or tensor of shape (N, 3, W)
+
+        Returns
+        -------
+        ndarray of shape (N, 21), float64
+
+        Raises
+        ------
+        sklearn.exceptions.NotFittedError
+            Before :meth:`fit`.
+        ValueError, TypeError
+            As :func:`~tactile_torch.signal.window_features` (shape, finite values).
+        """
         check_is_fitted(self, "window_size_")
         X = np.ascontiguousarray(_as_array(X))
         return window_features(tensor_from_array(X.astype(np.float32, copy=False))).double().numpy()
 
     def to_module(self) -> nn.Module:
+        """Return the fitted step as a :class:`~tactile_torch.signal.WindowFeatures` module.
+
+        Returns
+        -------
+        WindowFeatures
+            ``(B, 3, W)`` → ``(B, 21)``, ``W`` the fitted length.
+
+        Raises
+        ------
+        sklearn.exceptions.NotFittedError
+            Before :meth:`fit`.
+        """
         check_is_fitted(self, "window_size_")
         return WindowFeatures(self.window_size_)
 
 
 class FeaturePassthrough(_ShapeOnly):
-    """A feature matrix ``(N, F)`` passed through unchanged (the ``features`` step of a feature file)."""
+    """A feature matrix ``(N, F)`` passed through unchanged (the ``features`` step of a feature file).
+
+    Examples
+    --------
+    >>> X = np.ones((3, 2))
+    >>> FeaturePassthrough().fit(X).transform(X).shape
+    (3, 2)
+    """
 
     @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X: object, y: object = None) -> FeaturePassthrough:
+        """Learn the number of features; return ``self``.
+
+        Parameters
+        ----------
+        X : array, tensor or DataFrame of shape (N, F)
+        y : ignored
+
+        Returns
+        -------
+        self : FeaturePassthrough
+
+        Raises
+        ------
+        ValueError
+            If ``X`` is not 2-D, empty or not finite (scikit-learn's messages).
+        """
         validate_data(self, _from_torch(X), dtype=np.float64)  # 2-D, finite, real: sets n_features_in_
         return self
 
     def transform(self, X: object) -> np.ndarray:
-        """Return ``X`` as float64 ``(N, F)``; once fitted, ``F`` must be the width seen by ``fit``."""
+        """Return ``X`` as float64 ``(N, F)``; once fitted, ``F`` must be the width seen by ``fit``.
+
+        Parameters
+        ----------
+        X : array, tensor or DataFrame of shape (N, F)
+
+        Returns
+        -------
+        ndarray of shape (N, F), float64
+
+        Raises
+        ------
+        ValueError
+            If ``X`` is not 2-D, not finite or (fitted) of another width.
+        """
         return validate_data(self, _from_torch(X), dtype=np.float64, reset=False)
 
     def to_module(self) -> nn.Module:
         """Return the graph's front end: the features cast to float32, the dtype every head is exported for
-        (the other fronts compute float32 features; a float64 file fed to a float32 head fails to load)."""
+        (the other fronts compute float32 features; a float64 file fed to a float32 head fails to load).
+
+        Returns
+        -------
+        ToFloat32
+            ``(B, F)`` → ``(B, F)``, float32.
+        """
         return ToFloat32()
 
 
@@ -459,17 +707,53 @@ class FeaturePassthrough(_ShapeOnly):
 # dtype, and its class is what marks a candidate as learned (tradeoff.learned.is_learned). One class with a
 # mode would branch on the mode in all three methods and in is_learned.
 class RawInput(_ShapeOnly):
-    """The raw input unchanged (the ``features`` step of a learned candidate); nothing is learnt."""
+    """The raw input unchanged (the ``features`` step of a learned candidate); nothing is learnt.
+
+    Examples
+    --------
+    >>> RawInput().fit(np.zeros((2, 3, 8))).transform(np.zeros((2, 3, 8))).shape
+    (2, 3, 8)
+    """
 
     @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X: object, y: object = None) -> RawInput:
+        """Record the shape of one sample; return ``self``.
+
+        Parameters
+        ----------
+        X : array-like of shape (N, ...)
+            Windows, frames or pressure maps.
+        y : ignored
+
+        Returns
+        -------
+        self : RawInput
+        """
         self.input_shape_ = tuple(np.shape(X)[1:])
         return self
 
     def transform(self, X: object) -> np.ndarray:
+        """Return ``X`` as an array, unchanged.
+
+        Parameters
+        ----------
+        X : array-like of shape (N, ...)
+
+        Returns
+        -------
+        ndarray of shape (N, ...)
+            ``np.asarray(X)``: the network that follows validates it.
+        """
         return np.asarray(X)
 
     def to_module(self) -> object:
+        """Return the identity module of the exported graph.
+
+        Returns
+        -------
+        torch.nn.Identity
+            ``(B, ...)`` → the same tensor.
+        """
         from torch import nn
 
         return nn.Identity()
@@ -525,6 +809,13 @@ class RankedFeatureSelector(TransformerMixin, BaseEstimator):
     scores_ : ndarray of shape (F,)
     columns_ : ndarray of shape (k,)
         The kept columns, best first.
+
+    Examples
+    --------
+    >>> X = np.array([[0, 5, 0], [1, 3, 0], [0, 4, 0], [1, 5, 1], [0, 3, 1], [1, 4, 1]], dtype=float)
+    >>> y = np.array([0, 0, 0, 1, 1, 1])  # the third column separates the classes
+    >>> RankedFeatureSelector(k=1).fit(X, y).columns_
+    array([2])
     """
 
     _parameter_constraints: ClassVar[dict] = {"k": [Interval(Integral, 1, None, closed="left")]}
@@ -534,6 +825,24 @@ class RankedFeatureSelector(TransformerMixin, BaseEstimator):
 
     @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X: object, y: object) -> RankedFeatureSelector:
+        """Score every column alone and keep the ``k`` best; return ``self``.
+
+        Parameters
+        ----------
+        X : array, tensor or DataFrame of shape (N, F)
+        y : array-like of shape (N,)
+            Class labels.
+
+        Returns
+        -------
+        self : RankedFeatureSelector
+
+        Raises
+        ------
+        ValueError
+            If ``X`` is not 2-D or not finite, ``y`` of another length (scikit-learn's messages),
+            or ``k`` exceeds the number of features.
+        """
         X, y = validate_data(self, _from_torch(X), y, dtype=np.float64)  # sets n_features_in_
         if self.k > X.shape[1]:  # the table checked that k is an integer >= 1
             raise ValueError(
@@ -544,10 +853,39 @@ class RankedFeatureSelector(TransformerMixin, BaseEstimator):
         return self
 
     def transform(self, X: object) -> np.ndarray:
+        """Return the kept columns of ``X``, best first.
+
+        Parameters
+        ----------
+        X : array, tensor or DataFrame of shape (N, F)
+
+        Returns
+        -------
+        ndarray of shape (N, k), float64
+
+        Raises
+        ------
+        sklearn.exceptions.NotFittedError
+            Before :meth:`fit`.
+        ValueError
+            If ``X`` is not 2-D, not finite or of another width than in ``fit``.
+        """
         check_is_fitted(self, "columns_")
         return validate_data(self, _from_torch(X), dtype=np.float64, reset=False)[:, self.columns_]
 
     def to_module(self) -> nn.Module:
+        """Return the fitted selection as a :class:`ColumnSelect` module.
+
+        Returns
+        -------
+        ColumnSelect
+            ``(B, F)`` → ``(B, k)``.
+
+        Raises
+        ------
+        sklearn.exceptions.NotFittedError
+            Before :meth:`fit`.
+        """
         check_is_fitted(self, "columns_")
         return ColumnSelect(self.columns_)
 

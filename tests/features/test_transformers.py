@@ -56,3 +56,7 @@ def test_pressure_maps_scale_with_the_array_and_the_data():
     with pytest.raises(ValueError, match="contact: the pressure maps never rise"):
         PressureImageFeatures().fit(np.full((3, 4, 4, 4), 7.0))
     assert isinstance(t.to_module()[0], PressedFrames)
+    with pytest.raises(
+        ValueError, match=r"^X must hold maps of the fitted size \(4, 4\), got shape \(6, 5, 3, 4\)$"
+    ):
+        t.transform(maps[:, :, :3])  # torch's broadcasting error before
