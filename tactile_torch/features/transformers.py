@@ -303,6 +303,14 @@ class PressureImageFeatures(TransformerMixin, BaseEstimator):
         At ``fit``, naming the parameter to set, when the data cannot decide it: the readings never
         leave their resting level, or (``contact="auto"``) their skewness does not say which way
         contact moves them.
+
+    Examples
+    --------
+    >>> maps = 500.0 + np.random.default_rng(0).normal(0, 1, size=(4, 5, 4, 4))  # raw counts, 4 x 4 taxels
+    >>> maps[:, 3:, 1:3, 1:3] += 80.0  # a press in the middle, last two frames
+    >>> features = PressureImageFeatures().fit(maps)
+    >>> features.factor_, features.transform(maps).shape  # shown as 48 x 48 frames
+    (12, (4, 12))
     """
 
     _parameter_constraints: ClassVar[dict] = {
