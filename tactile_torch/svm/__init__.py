@@ -12,8 +12,8 @@ One file per part:
 - :mod:`~tactile_torch.svm.tree`: the 2-means class tree of the HM-SVM;
 - :mod:`~tactile_torch.svm._base`: what the two estimators share (validation, the solve along C,
   decision values on threads, ``predict_proba``);
-- :mod:`~tactile_torch.svm.estimators`: :class:`SVC` and :class:`HierarchicalSVC` (written in
-  :mod:`~tactile_torch.svm._hierarchical`);
+- :mod:`~tactile_torch.svm.estimators`: :class:`SVC` (written in :mod:`~tactile_torch.svm._svc`) and
+  :class:`HierarchicalSVC`;
 - :mod:`~tactile_torch.svm.probability`: Platt scaling by internal cross-validation and the
   combination of binary probabilities (``probability=True``, ``predict_proba``);
 - :mod:`~tactile_torch.svm.inference`: the inference graph (:class:`SVMInference`, exports to ONNX).
