@@ -15,12 +15,12 @@ from collections.abc import Iterator
 def recordings_line(data, args) -> str:
     """What the command reads from vibration recordings: how many, the sample rate and where it comes
     from, the sessions and where they come from (``"24 recordings at 800 Hz (from the time stamps;
-    --rate states it), 4 sessions (from their folders)"``)."""
+    --rate states it), 4 sessions (folder per session)"``)."""
     from pathlib import Path
 
     import numpy as np
 
-    from ..robot.files.naming import session_source
+    from ._options import data_layout
 
     paths = [Path(p) for p in args.data]
     from_file = len(paths) == 1 and paths[0].suffix.lower() == ".npz"
@@ -32,10 +32,9 @@ def recordings_line(data, args) -> str:
     if data.session is None:
         return line + ", no sessions (each recording its own)"
     n = len(np.unique(np.asarray(data.session).astype(str)))
-    where = (
-        "the file's session array" if from_file else session_source(paths, index=getattr(args, "index", None))
-    )
-    return line + f", {n} session{'s' if n != 1 else ''} (from {where})"
+    names = None if from_file else data_layout(args)
+    where = "the file's session array" if from_file else "the file's name" if names is None else names.layout
+    return line + f", {n} session{'s' if n != 1 else ''} ({where})"
 
 
 def print_class_report(rep) -> None:

@@ -10,6 +10,7 @@ from ._options import (
     Number,
     add_allow_pickle,
     add_data_options,
+    announce_layout,
     data_name,
     declare_range,
     read_data_arg,
@@ -85,6 +86,7 @@ def run_train(args: argparse.Namespace) -> int:
     from ..features.files import load_features
     from ..training import save_model, train_classifier
 
+    announce_layout(args, print)  # before any file is read: a tree read the wrong way costs nothing
     data = read_data_arg(args)
     if data.kind == "vibration":
         print(f"{data_name(args.data)}: {recordings_line(data, args)}")

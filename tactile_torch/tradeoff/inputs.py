@@ -141,7 +141,6 @@ def load_tradeoff_data(
     *,
     frame_rate_hz: float | None = None,
     allow_pickle: bool = False,
-    csv_session: str = "number",
     options=None,
     name: str | None = None,
 ) -> TradeoffData:
@@ -159,10 +158,6 @@ def load_tradeoff_data(
         Frames per second of explorations (default 10, the study's).
     allow_pickle : bool
         Legacy vibration files that pickled recordings of different lengths (trusted files only).
-    csv_session : {"number", "file"}
-        CSV logs: the session of each file. ``"number"`` (default): the trailing number of its name
-        (``felt_3.csv`` and ``cork_3.csv`` are session ``3``), or the file itself when a name has
-        none; ``"file"``: every file is its own session (recording).
     options : DataOptions, optional
         Columns, units, time unit, topic ... (:class:`tactile_torch.robot.files.data_sources.DataOptions`).
     name : str, optional
@@ -184,8 +179,6 @@ def load_tradeoff_data(
         or frame_rate_hz <= 0
     ):
         raise ValueError(f"frame_rate_hz must be a finite number of frames/s > 0, got {frame_rate_hz!r}")
-    if csv_session not in ("number", "file"):
-        raise ValueError(f"csv_session must be 'number' or 'file', got {csv_session!r}")
     if hasattr(paths, "kind"):
         data, where = paths, name or "data"
     else:
@@ -195,10 +188,6 @@ def load_tradeoff_data(
         where = name or data_name(paths)
     name = Path(where).name
     if data.kind == "vibration":
-        if csv_session == "file" and not hasattr(paths, "kind") and _all_csv(paths):
-            # the naming rule (robot.files.naming) gave each log the trailing number of its name as session
-            files = [paths] if isinstance(paths, str | Path) else list(paths)
-            data.session = np.array([Path(p).stem for p in files])
         return vibration_data(data, name)
     if data.kind == "image":
         notes = []
@@ -235,17 +224,6 @@ def load_tradeoff_data(
         labels=data.labels,
         groups=getattr(data, "groups", None),
     )
-
-
-def _all_csv(paths: str | Path | Sequence[str | Path]) -> bool:
-    paths = [paths] if isinstance(paths, str | Path) else list(paths)
-    return all(Path(p).suffix.lower() == ".csv" for p in paths)
-
-
-def _trailing_number(stem: str) -> str:
-    """``"felt_3"`` -> ``"3"``; a stem without a trailing ``_<number>`` is its own session."""
-    base, _, tail = str(stem).rpartition("_")
-    return str(int(tail)) if base and tail.isdigit() else str(stem)
 
 
 def vibration_data(recordings: object, name: str) -> TradeoffData:

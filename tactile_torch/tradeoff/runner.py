@@ -148,7 +148,6 @@ def plan_tradeoff(
     learned: bool = True,
     random_state: int = 0,
     allow_pickle: bool = False,
-    csv_session: str = "number",
     exact_folds: bool = False,
     tune: bool = True,
     progress: bool = True,
@@ -188,9 +187,6 @@ def plan_tradeoff(
         Add the learned models on the raw input (:mod:`.learned`; ``False``: the classical ones only).
     random_state : int
     allow_pickle : bool
-    csv_session : {"number", "file"}
-        CSV logs: session from the file name's trailing number, or one per file
-        (:func:`~.inputs.load_tradeoff_data`).
     exact_folds : bool
         Raise ``ValueError`` when the data allow fewer than ``n_folds`` folds (default: use fewer,
         said in the split's description).
@@ -240,9 +236,7 @@ def plan_tradeoff(
             f"frame_rate_hz must be a positive finite number of frames per second, got {frame_rate_hz!r}"
         )
     if not isinstance(data, TradeoffData):
-        data = load_tradeoff_data(
-            data, frame_rate_hz=frame_rate_hz, allow_pickle=allow_pickle, csv_session=csv_session
-        )
+        data = load_tradeoff_data(data, frame_rate_hz=frame_rate_hz, allow_pickle=allow_pickle)
     check_two_classes(data)
     check_finite(data)
     cap = MAX_PER_CLASS["quick" if quick else "full"] if max_per_class == "auto" else max_per_class

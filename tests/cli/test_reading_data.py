@@ -74,8 +74,11 @@ def test_the_users_logs_train_at_800_hz_by_day_without_warnings(user, tmp_path, 
     assert status == 0 and err == ""  # no "time steps vary" warnings, one per file
     first = f"{paths[0]} (and 3 more)"
     assert (
-        f"{first}: 4 recordings at 800 Hz (from the time stamps; --rate states it), 2 sessions (from their folders)\n"
+        f"{first}: 4 recordings at 800 Hz (from the time stamps; --rate states it), 2 sessions (folder per session)\n"
         in out
+    )
+    assert out.startswith(
+        f"{first}: 4 files read as folder per session (the folder names (day1, day2) look like "
     )
     assert "2 folds grouped by session (none on both sides), stratified; 2 sessions: day1, day2\n" in out
     from tactile_torch.robot.files.model_file import load_model_file
@@ -114,7 +117,7 @@ def test_the_users_logs_train_at_800_hz_by_day_without_warnings(user, tmp_path, 
 def test_a_wrong_time_unit_or_rate_is_one_line(user, capsys, option, says):
     _, paths, _ = user
     status, out, err = _run(["train", "--data", *paths, *USER_COLUMNS, *option], capsys)
-    assert status == BAD_INPUT_EXIT and out == ""
+    assert status == BAD_INPUT_EXIT and out.count("\n") == 1 and "4 files read as folder per session" in out
     assert err == f"tactile-torch train: {paths[0]}: {says}\n"
 
 

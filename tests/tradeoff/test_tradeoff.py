@@ -612,7 +612,9 @@ def test_csv_sessions_come_from_the_trailing_number(tmp_path):
 
     with pytest.raises(ValueError, match=r"n_folds: 4 folds asked, but the data allow 3"):
         plan_tradeoff(paths, n_folds=4, exact_folds=True, windows=[100], log=lambda s: None)
-    by_file = load_tradeoff_data(paths, csv_session="file")
+    from tactile_torch.robot.files.data_sources import DataOptions
+
+    by_file = load_tradeoff_data(paths, options=DataOptions(session_from="recording"))
     assert sorted(by_file.recordings.session.tolist())[0] == "cork_1"
 
 

@@ -22,7 +22,7 @@ from ...validation import FLOAT32_MAX
 from ..contract import DEFAULT_RANGE_G
 from ..ros2.bags import MAX_BAG_MESSAGES, is_bag, read_bag
 from .csv_logs import STANDARD_GRAVITY, UNITS
-from .naming import names_for
+from .naming import recording_names
 from .sample_times import RATE_TOLERANCE, describe_timing, time_base
 
 PathLike = str | os.PathLike
@@ -63,7 +63,13 @@ class DataOptions:
     frames : int, optional
         Bags of pressure maps: frames per exploration (default: the shortest recording's length).
     index : path, optional
-        A CSV ``file,class[,session]`` giving each file's class and session (else the naming rule).
+        A CSV ``file,class[,session]`` giving each file's class and session (else the files' layout).
+    class_from : {"folder", "file"}, optional
+        Each file's class from its folder or its file name (default: the tree decides,
+        :func:`tactile_torch.robot.files.naming.recording_names`).
+    session_from : {"folder", "file", "recording"}, optional
+        Each file's session from its folder, its file name, or the file itself (default: the other
+        level than the class's).
     sensor_range_g : float
         Samples beyond ±this are refused (``inf``: no check).
     max_messages : int
@@ -87,6 +93,8 @@ class DataOptions:
     msg_defs: tuple = ()
     frames: int | None = None
     index: PathLike | None = None
+    class_from: str | None = None
+    session_from: str | None = None
     sensor_range_g: float = DEFAULT_RANGE_G
     max_messages: int = MAX_BAG_MESSAGES
     allow_pickle: bool = False
@@ -140,6 +148,8 @@ def read_source(paths: PathLike | Sequence[PathLike], options: DataOptions | Non
         data = read_csv_recordings(
             paths,
             index=options.index,
+            class_from=options.class_from,
+            session_from=options.session_from,
             columns=options.columns,
             scale=options.scale,
             units=units,
@@ -216,7 +226,10 @@ def read_bag_topic(path: PathLike, options: DataOptions):
 def _read_bags(paths: list[Path], options: DataOptions):
     from .formats import RecordingArrays
 
-    classes, sessions = names_for(paths, index=options.index)
+    names = recording_names(
+        paths, index=options.index, class_from=options.class_from, session_from=options.session_from
+    )
+    classes, sessions = names.classes, names.sessions
     topics = [read_bag_topic(p, options) for p in paths]
     kinds = {t.kind for t in topics}
     if len(kinds) > 1:

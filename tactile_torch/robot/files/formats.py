@@ -48,8 +48,8 @@ from pathlib import Path
 import numpy as np
 
 from ...validation import saturate_float32
-from .csv_logs import integer_counts_message, read_timed_csv_log
-from .naming import check_class_names, names_for
+from .csv_logs import integer_counts_message, read_csv_log
+from .naming import check_class_names, recording_names
 from .npz import PathLike, read_npz, write_npz
 from .sample_times import describe_timing
 
@@ -424,6 +424,8 @@ def read_csv_recordings(
     class_names: Sequence[str] | None = None,
     sessions: Sequence[str] | None = None,
     index: PathLike | None = None,
+    class_from: str | None = None,
+    session_from: str | None = None,
     columns: str | Sequence[str | int] | None = None,
     scale: float | None = None,
     units: str = "g",
@@ -432,24 +434,28 @@ def read_csv_recordings(
 ) -> RecordingArrays:
     """Read CSV logs (one recording each) sharing one sample rate as :class:`RecordingArrays`.
 
-    Each file's class and session come from ``class_names``/``sessions``, else an ``index`` CSV
-    (``file,class[,session]``), else the naming rule (``felt_3.csv`` → class ``felt``, session
-    ``3``; ``day2/felt.csv`` → session ``day2`` when the files lie in several folders;
-    :func:`tactile_torch.robot.files.naming.names_for`). Labels index the sorted distinct classes.
-    ``columns``, ``scale``, ``units``, ``time_unit``, ``sample_rate_hz``: see
-    :func:`~tactile_torch.robot.files.csv_logs.read_csv_log`. The files must share one sample rate within
-    0.1 % (:meth:`tactile_torch.data.VibrationRecordings.resample` converts). Gaps in the time stamps
-    are kept in ``gaps`` (no window spans one); gaps and irregular steps give one warning each for
-    all the files (:func:`tactile_torch.robot.files.sample_times.describe_timing`), not one per file.
+    The one reader of several CSV logs (every ``--data``, the data sets' loaders, Python). Classes and
+    sessions: ``class_names``/``sessions``, an ``index`` CSV, or the files' layout with ``class_from`` /
+    ``session_from`` (:func:`tactile_torch.robot.files.naming.recording_names`); labels index the sorted
+    classes. ``columns`` ... ``sample_rate_hz``: :func:`~tactile_torch.robot.files.csv_logs.read_csv_log`.
+    One sample rate within 0.1 % (resample others alone: ``VibrationRecordings.resample``); gaps kept in
+    ``gaps``; one warning per finding for all the files (``sample_times.describe_timing``).
     """
     import warnings
 
     paths = [Path(p) for p in paths]
     if not paths:
         raise ValueError("paths must name at least one CSV file, got none")
-    names, session = names_for(paths, class_names=class_names, sessions=sessions, index=index)
+    names = recording_names(
+        paths,
+        class_names=class_names,
+        sessions=sessions,
+        index=index,
+        class_from=class_from,
+        session_from=session_from,
+    )
     logs = [
-        read_timed_csv_log(
+        read_csv_log(
             p, columns=columns, scale=scale, units=units, time_unit=time_unit, sample_rate_hz=sample_rate_hz
         )
         for p in paths
@@ -459,19 +465,20 @@ def read_csv_recordings(
         odd = int(np.argmax(np.abs(rates / rates[0] - 1)))
         raise ValueError(
             f"the files have different sample rates ({paths[0]}: {rates[0]:g} Hz, {paths[odd]}: "
-            f"{rates[odd]:g} Hz); resample them to a common rate (load_vibration_csv(..., rate_hz=))"
+            f"{rates[odd]:g} Hz); resample them to a common rate first (each file read alone, "
+            "tactile_torch.data.VibrationRecordings.resample)"
         )
     for line in describe_timing(
         [(str(p), log.timing, log.seconds) for p, log in zip(paths, logs, strict=True)]
     ):
         warnings.warn(line, stacklevel=2)
-    classes = check_class_names(sorted(set(names)), "class names (of the CSV files)")
+    classes = check_class_names(sorted(set(names.classes)), "class names (of the CSV files)")
     return RecordingArrays(
         signals=[log.signal for log in logs],
-        labels=np.array([classes.index(n) for n in names], dtype=np.int64),
+        labels=np.array([classes.index(n) for n in names.classes], dtype=np.int64),
         class_names=classes,
         rate_hz=float(rates[0]),
-        session=np.array(session),
+        session=np.array(names.sessions),
         gaps=[log.gaps for log in logs] if any(log.gaps.size for log in logs) else None,
     )
 

@@ -163,7 +163,7 @@ def read_frame_recording(
     path = Path(path)
     if is_bag(path):
         from .data_sources import DataOptions, read_bag_topic
-        from .naming import names_for
+        from .naming import recording_names
 
         options = options or DataOptions()
         topic = read_bag_topic(path, options)
@@ -172,7 +172,7 @@ def read_frame_recording(
                 f"{topic.name} holds {topic.msgtype}, not frames (Float32MultiArray, Image, TactileState, or a "
                 "field= of numbers)"
             )
-        classes, _ = names_for([path], index=getattr(options, "index", None))
+        classes = recording_names([path], index=getattr(options, "index", None)).classes
         labels = np.zeros(len(topic.values), dtype=np.int64)
         return _check(FrameRecording(topic.values, topic.stamps_s, labels, (classes[0],), topic.name))
     arrays = read_npz(path, what="frame recording (.npz of frames and t)")
