@@ -41,6 +41,7 @@ import math
 import time
 from collections.abc import Callable, Iterator, Sequence
 
+from ..files.sample_times import describe_duration
 from ..stream.port_lines import StreamDisconnected, StreamEvent, StreamTimeout
 from ..stream.source import (
     RECONNECT,
@@ -206,7 +207,9 @@ class Ros2Source:
         bound = max(MIN_MESSAGE_BOUND, 16 * 8 * size)
         frame_shape = shape[:2]
         check, in_range = spec.checks_range, spec.in_range
-        last_item = clock()  # time counts from when the reader is there, as from a port's opening
+        last_item = first_item = (
+            clock()
+        )  # time counts from when the reader is there, as from a port's opening
         silent = had_publisher = False
         fresh = False  # readings since the last break: a break with none is no news to the segmenter
         gone_at: float | None = None
@@ -245,8 +248,9 @@ class Ros2Source:
                     continue
                 if silent or not counts.items:
                     waited = now - last_item
+                    first_item = now if not counts.items else first_item
                     if silent and counts.items:
-                        emit("resumed", f"{self.item}s again after {waited:.1f} s of silence")
+                        emit("resumed", f"{self.item}s again after {describe_duration(waited)} of silence")
                     elif waited >= self.silence_s:
                         emit("first", f"first {self.item} after {waited:.1f} s")
                     silent = False
@@ -311,8 +315,8 @@ class Ros2Source:
                 if counts.items:
                     emit(
                         "silence",
-                        f"no {self.item} for {waited:.1f} s after {counts.items} {self.item}s; waiting "
-                        f"({_giving_up(limit)})",
+                        f"no {self.item} for {describe_duration(waited)} after {counts.items} {self.item}s, "
+                        f"{describe_duration(last_item - first_item)} into the stream; waiting ({_giving_up(limit)})",
                     )
                     if fresh:
                         fresh = False

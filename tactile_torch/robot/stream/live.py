@@ -225,7 +225,9 @@ class LiveStream:
         if segment == "touches" and not frames:
             raise ValueError(f"segment: touches are cut from frames; {pipe.path} takes vibration windows")
         self.segment = segment
-        self.sequencer = Sequencer(spec.rate_hz, item=spec.kind, on_event=on_event, clock=clock)
+        self.sequencer = Sequencer(
+            spec.rate_hz, item=spec.kind, name=source.name, on_event=on_event, clock=clock
+        )
         self.levels, self.rule = None, None
         size = (
             int(pipe.input_shape[1])

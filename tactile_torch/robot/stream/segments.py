@@ -24,7 +24,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..files.sample_times import GAP_TOLERANCE, RATE_TOLERANCE  # one rule for files and the live stream
+from ..files.sample_times import (  # one rule for files and the live stream, one wording
+    GAP_TOLERANCE,
+    RATE_TOLERANCE,
+    describe_duration,
+    describe_gap,
+)
 from .port_lines import StreamEvent
 from .source import FRAME, RECONNECT, SAMPLE, Break, EventEmitter, ItemSpec, Reading, Source
 from .touches import END, SHORT, START, TouchLevels, TouchTracker, fit_frames
@@ -49,6 +54,10 @@ class Sequencer:
         The expected rate; without it only ``t`` going back is a gap.
     item : str
         What an item is called in messages (``"sample"``, ``"frame"``).
+    name : str
+        What the stream reads, for messages (the port, the topic, the file): a gap is said as people
+        read it, ``a 0.4 s gap 12.3 s into /dev/ttyUSB0`` (:func:`~tactile_torch.robot.files.sample_times.describe_gap`),
+        never as two epoch times.
     on_event, clock
         Events ``"gap"`` (rate-limited) and ``"rate"``.
 
@@ -65,11 +74,13 @@ class Sequencer:
         rate_hz: float | None = None,
         *,
         item: str = "sample",
+        name: str = "the stream",
         on_event: Callable[[StreamEvent], None] | None = None,
         clock: Callable[[], float] = time.monotonic,
     ) -> None:
         self.rate_hz = rate_hz
-        self.item = item
+        self.item, self.name = item, name
+        self._first_t: float | None = None
         self.gaps = self.lost = 0
         self._period = None if rate_hz is None else 1.0 / rate_hz
         self._prev_t: float | None = None
@@ -87,6 +98,8 @@ class Sequencer:
         the last ``t`` before it counts the items lost meanwhile): the gap is not counted again.
         """
         prev, self._prev_t = self._prev_t, t
+        if self._first_t is None:
+            self._first_t = t
         if prev is None:
             return False
         dt = t - prev
@@ -103,10 +116,14 @@ class Sequencer:
             missing = max(1, round(ratio) - 1)
             self.lost += missing
             what = f"{missing} {self.item}(s) missing" + ("" if in_segment else " across the reconnection")
+            message = f"{describe_gap(dt, prev - self._first_t, self.name)}: {what}"
         else:
-            what = "t went back (a spliced recording or a sensor reset)"
+            message = (
+                f"{describe_duration(prev - self._first_t)} into {self.name}, t went back by "
+                f"{describe_duration(-dt)} (a spliced recording or a sensor reset)"
+            )
         self.gaps += in_segment
-        self._events.emit("gap", f"gap in t from {prev:.6g} to {t:.6g} s: {what}", repeated=True)
+        self._events.emit("gap", message, repeated=True)
         return True
 
     def _learn_rate(self, dt: float) -> None:
@@ -533,23 +550,26 @@ class Segments:
     def __init__(self, source: Source, segmenter, sequencer: Sequencer | None = None) -> None:
         self.source = source
         self.segmenter = segmenter
-        self.sequencer = sequencer or Sequencer(source.spec.rate_hz, item=source.spec.kind)
+        self.sequencer = sequencer or Sequencer(source.spec.rate_hz, item=source.spec.kind, name=source.name)
         segmenter.totals.counts = source.counts
         segmenter.totals.sequencer = self.sequencer
 
     def __iter__(self) -> Iterator[Window | TouchSegment]:
         segmenter, sequencer = self.segmenter, self.sequencer
         push, gap = segmenter.push, sequencer.gap
+        broken = False  # a break cut a segment: a gap once items follow (the end of the input is none)
         for reading in self.source.readings():
             if reading.__class__ is Break:
-                if segmenter.pending:
-                    sequencer.gaps += 1
+                broken = broken or segmenter.pending > 0
                 if reading.kind != RECONNECT:  # after a reconnection, t's next step counts what was lost
                     sequencer.reset()
                 out = segmenter.cut(reading.kind, reading.at)
                 if out is not None:
                     yield out
                 continue
+            if broken:
+                sequencer.gaps += 1
+                broken = False
             t = reading.t
             if t is not None and gap(t, segmenter.pending > 0):
                 out = segmenter.cut(GAP, reading.read_at)

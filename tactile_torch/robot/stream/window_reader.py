@@ -194,7 +194,9 @@ class WindowReader:
         self.window_size = window_size
         self.time_unit = time_unit
         self.units, self.scale = self.source.units, self.source.scale
-        self.sequencer = Sequencer(self.rate_hz, item="sample", on_event=on_event, clock=clock)
+        self.sequencer = Sequencer(
+            self.rate_hz, item="sample", name=self.source.name, on_event=on_event, clock=clock
+        )
         self.segmenter = SlidingWindows(spec, window_size, self.step)
 
     # what the reader counted, from its stages
