@@ -218,7 +218,8 @@ def add_data_options(
         "--frames",
         type=Number(int, low=1),
         default=None,
-        help="ROS 2 bags of pressure maps: frames per exploration (default: the shortest bag's)",
+        help="ROS 2 bags of pressure maps: frames per exploration (default: the shortest bag's); frame recordings: "
+        "frames each touch is brought to (default: the median touch's)",
     )
     g.add_argument(
         "--max-messages",

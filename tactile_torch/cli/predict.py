@@ -60,8 +60,9 @@ def register(sub) -> None:
     p.add_argument(
         "--frame-rate",
         type=Number(float, low=0, open_low=True, high=1e6),
-        default=10.0,
-        help="--touches on explorations: frames per second (default: 10, the study's)",
+        default=None,
+        help="--touches on explorations: frames per second (default: the file's frame_rate_hz; explorations "
+        "that state none need it)",
     )
     p.add_argument("--json", action="store_true", help="--touches: one JSON object per touch on stdout")
     add_touch_options(p)
@@ -269,7 +270,9 @@ def predict_touches(args: argparse.Namespace, pipe) -> int:
         from dataclasses import replace
 
         options = replace(options, shape=tuple(int(d) for d in pipe.input_shape[-2:]))
-    recording = read_frame_recording(args.data[0], rate_hz=args.frame_rate, rest_s=args.rest, options=options)
+    recording = read_frame_recording(
+        args.data[0], frame_rate_hz=args.frame_rate, rest_s=args.rest, options=options
+    )
 
     def say(event) -> None:
         print(f"tactile-torch predict: {event.message}", file=sys.stderr)

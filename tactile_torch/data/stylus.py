@@ -22,12 +22,16 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, fields, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..exceptions import InputTypeError
-from ..validation import RandomState, check_positive, numpy_rng
+from ..validation import check_positive, numpy_rng
 from .vibration import QUANTUM_G, RANGE_G, SAMPLE_RATE_HZ, VibrationRecordings, VibrationWindows
+
+if TYPE_CHECKING:  # the generator itself is torch-free: simulate-sensor plays it on the robot
+    from ..validation import RandomState
 
 SPEED_M_S = 0.589  # turntable speed under the stylus, 58.9 cm/s
 

@@ -192,6 +192,7 @@ def live_metadata(result: object, name: str, model: object) -> tuple[dict, list[
         contact=contact,
         sign=sign,
         rest=rest,
+        levels=result.data.touch_levels,  # a hand's recordings: the levels their touches were cut at
     )
     notes = [note] if note else []
     curve = result.touch_time.get(name)

@@ -123,7 +123,7 @@ def test_late_sensor_and_pause_are_waited_for_and_reported(model, sensor_pty, op
         r"no sample for 0\.\d+ s after 40 samples, \d+ ms into the stream; waiting \(giving up after 10 s\)",
         messages[2],
     )
-    assert re.search(r"samples again after [12]\.\d+ s of silence", messages[3])  # the 2 s pause
+    assert re.search(r"samples again after [12](\.\d+)? s of silence", messages[3])  # the 2 s pause
     assert "80 samples read, 8 windows, 0 lines skipped" in err.splitlines()[-1]
 
 

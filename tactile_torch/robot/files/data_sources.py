@@ -107,15 +107,29 @@ def _kind_of(path: Path) -> str:
     return "csv" if path.suffix.lower() == ".csv" else "npz"
 
 
+def _frame_recording(path: Path) -> bool:
+    """Whether one ``.npz`` is a frame recording (``frames`` and ``t``), from its member names only."""
+    import zipfile
+
+    try:
+        with zipfile.ZipFile(path) as archive:
+            members = set(archive.namelist())
+    except (OSError, zipfile.BadZipFile):
+        return False  # the reader says what is wrong with it
+    return {"frames.npy", "t.npy"} <= members
+
+
 def read_source(paths: PathLike | Sequence[PathLike], options: DataOptions | None = None):
     """Read ``paths`` (one ``.npz``, CSV logs, or ROS 2 bags) with ``options``; return its arrays.
 
     Returns
     -------
-    ExplorationArrays, RecordingArrays or FeatureArrays
-        As :func:`tactile_torch.robot.files.formats.read_data` (``.kind`` says which). Vibration recordings are
+    ExplorationArrays, RecordingArrays, FeatureArrays or FrameRecordings
+        As :func:`tactile_torch.robot.files.formats.read_data` (``.kind`` says which); frame recordings
+        (``.npz`` of ``frames`` and ``t``, one or several) as
+        :func:`~tactile_torch.robot.files.frame_recordings.read_frame_recordings`. Vibration recordings are
         in g and have passed :func:`check_recordings`; ``RecordingArrays.session`` is set from the
-        naming rule or the index.
+        files' layout or the index.
 
     Raises
     ------
@@ -131,11 +145,20 @@ def read_source(paths: PathLike | Sequence[PathLike], options: DataOptions | Non
     if not paths:
         raise ValueError("data must name a .npz file, CSV logs or ROS 2 bags, got none")
     kinds = {_kind_of(p) for p in paths}
-    if len(kinds) > 1 or (kinds == {"npz"} and len(paths) > 1):
+    if len(kinds) > 1:
         raise ValueError(
-            f"data must be one .npz file, or CSV logs, or ROS 2 bags (one kind), got {[str(p) for p in paths]}"
+            f"data must be one .npz file, frame recordings, CSV logs or ROS 2 bags (one kind), got {[str(p) for p in paths]}"
         )
     kind = kinds.pop()
+    if kind == "npz" and (len(paths) > 1 or _frame_recording(paths[0])):
+        from .frame_recordings import read_frame_recordings
+
+        arrays = [read_npz(p, what="data file (.npz of docs/formats.md)") for p in paths]
+        if len(paths) > 1 and not all("frames" in a and "t" in a for a in arrays):
+            raise ValueError(
+                f"data must be one .npz file, or frame recordings (frames and t), got {[str(p) for p in paths]}"
+            )
+        return read_frame_recordings(paths, options, arrays=arrays)
     units = options.units or "g"
     if units not in UNITS:
         raise ValueError(f"units must be one of {list(UNITS)}, got {units!r}")
@@ -299,8 +322,9 @@ def _explorations(topics, labels: np.ndarray, names: tuple[str, ...], frames: in
         parts.append(t.values[: n * frames].reshape(n, frames, *t.values.shape[1:]))
         y += [label] * n
         groups += [g] * n
+    rate = float(np.median([t.rate_hz for t in topics]))  # the stamps' rate: a bag states its frame rate
     return ExplorationArrays(
-        None, np.concatenate(parts), np.array(y, np.int64), names, np.array(groups, np.int64)
+        None, np.concatenate(parts), np.array(y, np.int64), names, np.array(groups, np.int64), rate
     )
 
 

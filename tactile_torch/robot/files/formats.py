@@ -12,7 +12,7 @@ format                     contents
 =========================  =====================================================================
 image explorations .npz    ``frames`` uint8 ``(N, T, H, W, 3)`` RGB (or float pressure maps
                            ``(N, T, H, W)``), ``labels`` int ``(N,)``, ``class_names`` str ``(C,)``,
-                           optional ``groups`` int ``(N,)``
+                           optional ``groups`` int ``(N,)`` and ``frame_rate_hz`` float
 vibration recordings .npz  ``signals`` float in g: ``(R, n, 3)`` when the recordings are equally
                            long, else all samples concatenated ``(sum n_i, 3)`` with ``lengths``
                            int ``(R,)``; ``labels`` int ``(R,)``, ``class_names`` str ``(C,)``,
@@ -70,6 +70,8 @@ class ExplorationArrays:
     labels : ndarray (N,) int64
     class_names : tuple of str
     groups : ndarray (N,) int64, or None
+    frame_rate_hz : float or None
+        Frames per second, when the file states it (``None``: it does not; it is never assumed).
     """
 
     frames: np.ndarray | None
@@ -77,6 +79,7 @@ class ExplorationArrays:
     labels: np.ndarray
     class_names: tuple[str, ...]
     groups: np.ndarray | None = None
+    frame_rate_hz: float | None = None
     kind = "image"
 
     def __len__(self) -> int:
@@ -253,7 +256,10 @@ def _explorations(arrays: dict[str, np.ndarray], path: Path) -> ExplorationArray
     groups = arrays.get("groups")
     if groups is not None:
         groups = _int_vector(groups, path, "groups", n)
-    return ExplorationArrays(frames, pressure, labels, names, groups)
+    rate = arrays.get("frame_rate_hz")
+    if rate is not None and not (rate.shape == () and rate.dtype.kind in "fiu" and np.isfinite(rate) and rate > 0):
+        raise ValueError(f"{path}: frame_rate_hz must be one number of frames/s > 0, got {rate.dtype} {rate!r}")
+    return ExplorationArrays(frames, pressure, labels, names, groups, None if rate is None else float(rate))
 
 
 def write_explorations(path: PathLike, data: ExplorationArrays) -> Path:
@@ -272,6 +278,8 @@ def write_explorations(path: PathLike, data: ExplorationArrays) -> Path:
     }
     if data.groups is not None:
         arrays["groups"] = np.asarray(data.groups, dtype=np.int64)
+    if data.frame_rate_hz is not None:
+        arrays["frame_rate_hz"] = np.float64(data.frame_rate_hz)
     path = _data_path(path)
     _explorations(arrays, path)  # refuse to write what would not read back
     return write_npz(path, arrays)
@@ -549,14 +557,8 @@ def read_data(
 ) -> ExplorationArrays | RecordingArrays | FeatureArrays:
     """Read one data file of any kind, or CSV logs; return its arrays (``.kind`` says which).
 
-    Parameters
-    ----------
-    paths : path or sequence of paths
-        One ``.npz`` (image explorations, vibration recordings or a feature matrix, told apart by
-        ``frames``, ``signals`` or ``features``), or one or more ``.csv`` logs (one recording each,
-        class from the file name, see :func:`read_csv_recordings`).
-    allow_pickle : bool
-        Vibration files only: read the legacy pickled object array of a trusted file.
+    ``paths``: one ``.npz`` (explorations, recordings or features: ``frames``, ``signals``, ``features``), or
+    ``.csv`` logs (:func:`read_csv_recordings`). ``allow_pickle``: a trusted legacy vibration file only.
     """
     paths = [Path(paths)] if isinstance(paths, str | os.PathLike) else [Path(p) for p in paths]
     if not paths:

@@ -14,8 +14,11 @@ Layout (format version 1, ``docs/formats.md``):
     ``pyp``), ``class_names``
     (in the order of the head's labels), ``source`` (how the raw input becomes features: ``kind``
     ``"vibration"`` with ``window``, ``step``, ``rate_hz``; ``"image"`` with ``fuse``,
-    ``frame_shape`` ``[T, 3, H, W]`` and optionally ``threshold`` (gray level, default 240/255) and
-    ``erosion`` (pixels, default 10); ``"features"`` with ``n_features``), ``head`` (its ``type``
+    ``frame_shape`` ``[T, 3, H, W]`` and optionally ``threshold`` (gray level, default 240/255),
+    ``erosion`` (pixels, default 10) and ``features`` (``"per-taxel"``: each pixel's time series, instead
+    of the image features); ``"pressure"`` (raw pressure maps) with ``frame_shape`` ``[T, H, W]`` and
+    ``features`` ``"per-taxel"``; frame sources also keep what the live stream needs: ``frame_rate_hz``,
+    ``touch_levels``, ``value_range``, ``early_decision``; ``"features"`` with ``n_features``), ``head`` (its ``type``
     and settings), optional ``transform``, ``params`` (hyper-parameters), ``test_accuracy``,
     ``summary``; classifiers: ``ood`` (``type`` ``"mahalanobis"``, ``quantile``, ``threshold``: the
     out-of-distribution distance of :mod:`tactile_torch.ood`); clusterings: ``per_session`` (bool,
@@ -71,9 +74,10 @@ from .naming import check_class_names
 from .npz import MAX_READ_ENV, PathLike, max_read_bytes, read_npz, write_npz
 
 FORMAT = "tactile-torch/model"
-FORMAT_VERSION = 2
-"""Newest layout read and written here (2: ``center``, ``select``, ``linear`` and ``neighbours`` heads;
-files without them are written as version 1); files of a newer version are refused with a clear message."""
+FORMAT_VERSION = 3
+"""Newest layout read and written here (2: ``center``, ``select``, ``linear`` and ``neighbours`` heads; 3:
+per-taxel sources, ``source.features`` and the ``pressure`` kind; files without them are written as the
+oldest version that holds them); files of a newer version are refused with a clear message."""
 MODEL_KINDS = ("classifier", "clustering")
 HEADER = "header"
 
@@ -161,6 +165,7 @@ DIMENSIONS = {
 METHODS = {"classifier": ("hmsvm", "svm", "lda", "knn", "ncm"), "clustering": ("pyp",)}
 VIBRATION_FEATURES = 21  # window_features: 7 per axis
 IMAGE_FEATURES = 12  # exploration_features per fused image (or per frame without fusion)
+TAXEL_FEATURES = 7  # window features of one taxel's time series (per-taxel features)
 
 
 @dataclass(frozen=True)
@@ -220,9 +225,11 @@ def save_model_file(path: PathLike, header: Mapping, arrays: Mapping[str, np.nda
     # Version 2 added what a version-1 reader would misread or refuse (centring, column selection, the
     # linear and nearest-neighbour heads); files without them stay version 1, readable by older versions.
     newer = "center" in arrays_given or "select" in arrays_given or head_type in ("linear", "neighbours")
+    source = header.get("source") if isinstance(header.get("source"), dict) else {}
+    taxels = "features" in source or source.get("kind") == "pressure"  # a version-2 reader would misread these
     header = {
         "format": FORMAT,
-        "format_version": FORMAT_VERSION if newer else 1,
+        "format_version": 3 if taxels else 2 if newer else 1,
         "library_version": __version__,
         **dict(header),
     }
@@ -354,7 +361,25 @@ def _check_source(where: str, source: object) -> int | None:
                 where, f"source must have step in 1 .. {MAX_WINDOW:,} and a finite rate_hz > 0, got {source}"
             )
         return VIBRATION_FEATURES
-    if kind == "image":
+    if kind == "image" or kind == "pressure":
+        return _check_frame_source(where, source)
+    if kind == "features":
+        _check_type(where, "source.n_features", source.get("n_features"), int)
+        if source["n_features"] < 1:
+            _fail(where, f"source.n_features must be >= 1, got {source['n_features']}")
+        return source["n_features"]
+    _fail(where, f"source.kind must be 'vibration', 'image', 'pressure' or 'features', got {kind!r}")
+    return None
+
+
+def _check_frame_source(where: str, source: dict) -> int:
+    """Validate an ``image`` or ``pressure`` source; return the number of features its front end makes."""
+    rgb = source["kind"] == "image"
+    features = source.get("features", "per-taxel" if not rgb else None)
+    if features not in ((None, "per-taxel") if rgb else ("per-taxel",)):
+        want = "absent (image features) or 'per-taxel'" if rgb else "'per-taxel'"
+        _fail(where, f"source.features must be {want} for {source['kind']} input, got {features!r:.40}")
+    if rgb:
         _check_type(where, "source.fuse", source.get("fuse"), bool)
         if "threshold" in source:
             _check_type(where, "source.threshold", source["threshold"], float)
@@ -364,28 +389,27 @@ def _check_source(where: str, source: object) -> int | None:
             _check_type(where, "source.erosion", source["erosion"], int)
             if source["erosion"] < 1:
                 _fail(where, f"source.erosion must be >= 1 pixel, got {source['erosion']!r}")
-        shape = source.get("frame_shape")
-        if not (
-            isinstance(shape, list)
-            and len(shape) == 4
-            and all(isinstance(v, int) and not isinstance(v, bool) and v >= 1 for v in shape)
-            and shape[1] == 3
-        ):
-            _fail(where, f"source.frame_shape must be [T, 3, H, W], got {shape!r:.80}")
-        if 4 * math.prod(shape) > max_read_bytes():  # one float32 exploration: checked before any allocation
-            _fail(
-                where,
-                f"source.frame_shape {shape} makes one exploration of {4 * math.prod(shape):,} bytes, more than the "
-                f"read limit of {max_read_bytes():,} bytes (raise it with {MAX_READ_ENV}=MB if the file is trusted)",
-            )
-        return IMAGE_FEATURES if source["fuse"] else IMAGE_FEATURES * shape[0]
-    if kind == "features":
-        _check_type(where, "source.n_features", source.get("n_features"), int)
-        if source["n_features"] < 1:
-            _fail(where, f"source.n_features must be >= 1, got {source['n_features']}")
-        return source["n_features"]
-    _fail(where, f"source.kind must be 'vibration', 'image' or 'features', got {kind!r}")
-    return None
+    shape = source.get("frame_shape")
+    if not (
+        isinstance(shape, list)
+        and len(shape) == (4 if rgb else 3)
+        and all(isinstance(v, int) and not isinstance(v, bool) and v >= 1 for v in shape)
+        and (shape[1] == 3 or not rgb)
+    ):
+        _fail(
+            where, f"source.frame_shape must be {'[T, 3, H, W]' if rgb else '[T, H, W]'}, got {shape!r:.80}"
+        )
+    if 4 * math.prod(shape) > max_read_bytes():  # one float32 exploration: checked before any allocation
+        _fail(
+            where,
+            f"source.frame_shape {shape} makes one exploration of {4 * math.prod(shape):,} bytes, more than the "
+            f"read limit of {max_read_bytes():,} bytes (raise it with {MAX_READ_ENV}=MB if the file is trusted)",
+        )
+    if features == "per-taxel":
+        if shape[0] < 2:
+            _fail(where, f"source.frame_shape must have T >= 2 frames for per-taxel features, got {shape}")
+        return TAXEL_FEATURES * shape[-2] * shape[-1]
+    return IMAGE_FEATURES if source["fuse"] else IMAGE_FEATURES * shape[0]
 
 
 def validate_model(header: object, arrays: Mapping[str, np.ndarray], *, where: str = "model") -> None:
