@@ -20,7 +20,7 @@ import numpy as np
 
 from ...validation import FLOAT32_MAX
 from ..contract import DEFAULT_RANGE_G
-from ..ros2.bags import MAX_BAG_MESSAGES, is_bag, read_bag
+from ..ros2.bags import MAX_BAG_MESSAGES, is_bag, read_bag_topic
 from .csv_logs import STANDARD_GRAVITY, UNITS
 from .naming import recording_names
 from .sample_times import RATE_TOLERANCE, describe_timing, time_base
@@ -233,19 +233,6 @@ def _check_stated(stated: float, found: float, what: str) -> None:
         )
 
 
-def read_bag_topic(path: PathLike, options: DataOptions):
-    """Read the topic of the bag ``path`` that ``options`` name (:func:`tactile_torch.robot.ros2.bags.read_bag`)."""
-    return read_bag(
-        path,
-        options.topic,
-        shape=options.shape,
-        field=options.field,
-        sensor=options.sensor,
-        msg_defs=options.msg_defs,
-        max_messages=options.max_messages,
-    )
-
-
 def _read_bags(paths: list[Path], options: DataOptions):
     from .formats import RecordingArrays
 
@@ -386,4 +373,4 @@ def check_recordings(
             )
 
 
-__all__ = ["GRAVITY_BAND_G", "DataOptions", "check_recordings", "read_bag_topic", "read_source"]
+__all__ = ["GRAVITY_BAND_G", "DataOptions", "check_recordings", "read_source"]

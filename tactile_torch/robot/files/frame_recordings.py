@@ -183,10 +183,9 @@ def read_frame_recording(
 
     path = Path(path)
     if is_bag(path):
-        from .data_sources import DataOptions, read_bag_topic
+        from ..ros2.bags import read_bag_topic
         from .naming import recording_names
 
-        options = options or DataOptions()
         topic = read_bag_topic(path, options)
         if topic.kind != "frame":
             raise ValueError(

@@ -55,9 +55,8 @@ class Sequencer:
     item : str
         What an item is called in messages (``"sample"``, ``"frame"``).
     name : str
-        What the stream reads, for messages (the port, the topic, the file): a gap is said as people
-        read it, ``a 0.4 s gap 12.3 s into /dev/ttyUSB0`` (:func:`~tactile_torch.robot.files.sample_times.describe_gap`),
-        never as two epoch times.
+        What the stream reads (port, topic, file), for messages: ``a 0.4 s gap 12.3 s into /dev/ttyUSB0``
+        (:func:`~tactile_torch.robot.files.sample_times.describe_gap`), never two epoch times.
     on_event, clock
         Events ``"gap"`` (rate-limited) and ``"rate"``.
 
