@@ -134,8 +134,15 @@ def held_out_folds(features: FeatureSet, n_folds: int = 5, *, random_state: Rand
             split += f"; {_listing(np.unique(session.astype(str)), 'session')}"
         return keep, folds, f"{len(keep)} windows; {split}"
     what = "samples" if features.source.get("kind") == "features" else "explorations"
+    what = "touches" if features.group_label == "session" else what
     folds, split = sample_folds(
-        features.y, features.groups, n_folds=n_folds, names=names, what=what, random_state=random_state
+        features.y,
+        features.groups,
+        n_folds=n_folds,
+        names=names,
+        what=what,
+        group_label=features.group_label,
+        random_state=random_state,
     )
     return np.arange(len(features.y)), folds, f"{len(features.y)} {what}; {split}"
 

@@ -385,13 +385,11 @@ def data_layout(args: argparse.Namespace):
     """Return how ``--data`` of several files gives classes and sessions (:class:`~tactile_torch.robot.files.naming.RecordingNames`),
     ``None`` for one file (its classes are its own). Decided from the paths alone, before any file is read:
     an ambiguous tree is refused here, in one line naming ``--class-from`` and ``--index``."""
-    from ..robot.files.naming import recording_names
+    from ..robot.files.frame_recordings import labelled_recordings, recordings_layout
 
     if len(args.data) < 2:
         return None
-    return recording_names(
-        args.data, index=args.index, class_from=args.class_from, session_from=args.session_from
-    )
+    return recordings_layout(args.data, data_options(args), labelled=labelled_recordings(args.data))
 
 
 def announce_layout(args: argparse.Namespace, log) -> None:

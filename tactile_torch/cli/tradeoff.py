@@ -87,7 +87,7 @@ def register(sub) -> None:
         "--frame-rate",
         type=Number(low=0, open_low=True),
         default=None,
-        help="explorations: frames/s (default: file or 10)",
+        help="explorations: frames/s (default: the file's frame_rate_hz; frame recordings: from t; never assumed)",
     )
     p.add_argument(
         "--threshold",

@@ -45,6 +45,8 @@ class FeatureSet:
         ``(N, T, H, W, 3)`` RGB, for the early-decision rule's prefixes of each touch.
     notes : list of str
         What was decided on the way (the touches cut from recordings, the frame rate), one line each.
+    group_label : str
+        What ``groups`` are, in words (``"session"`` for the touches of a hand's recordings).
     """
 
     X: np.ndarray
@@ -56,6 +58,7 @@ class FeatureSet:
     position: np.ndarray | None = None
     raw: np.ndarray | None = field(default=None, repr=False)
     notes: list[str] = field(default_factory=list)
+    group_label: str = "the file's groups"
 
 
 def load_features(
@@ -228,12 +231,12 @@ def _frame_features(
     from ..robot.stream.touches import frame_metadata
     from .transformers import MAX_TAXELS
 
-    notes, levels = [], None
+    notes, levels, unit = [], None, "the file's groups"
     if data.kind == "frame recording":
         from ..robot.stream.recorded_touches import recorded_touches
 
         touches = recorded_touches(data, n_frames=getattr(options, "frames", None))
-        data, levels, notes = touches.explorations, touches.levels, list(touches.notes)
+        data, levels, notes, unit = touches.explorations, touches.levels, list(touches.notes), "session"
     rgb = data.frames is not None
     raw = data.frames if rgb else data.pressure
     taxels = raw.shape[2] * raw.shape[3]
@@ -269,7 +272,9 @@ def _frame_features(
             "stream's shortest touch is 2 frames"
         )
     notes += [note] if note else []
-    return FeatureSet(X, data.labels, data.class_names, source, groups=data.groups, raw=raw, notes=notes)
+    return FeatureSet(
+        X, data.labels, data.class_names, source, groups=data.groups, raw=raw, notes=notes, group_label=unit
+    )
 
 
 __all__ = ["FRAME_FEATURES", "FeatureSet", "frame_features", "load_features"]

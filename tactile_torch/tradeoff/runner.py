@@ -168,7 +168,7 @@ def plan_tradeoff(
         Vibration: the reference window (default: the study's 800 samples, or the largest allowed
         below it); ``windows`` overrides the list of sizes tried (default 200, 400, 800, 1600).
     frame_rate_hz : float, optional
-        Explorations: frames per second (default 10, the study's).
+        Explorations: frames per second (default: the file's ``frame_rate_hz``; refused when it states none).
     threshold : "auto", "otsu", "display" or float
         Image pipeline's pressed threshold. RGB frames: ``"auto"`` takes the study's 240/255 for
         displays with a white background, Otsu's threshold of each training fold's histogram

@@ -257,8 +257,12 @@ def _explorations(arrays: dict[str, np.ndarray], path: Path) -> ExplorationArray
     if groups is not None:
         groups = _int_vector(groups, path, "groups", n)
     rate = arrays.get("frame_rate_hz")
-    if rate is not None and not (rate.shape == () and rate.dtype.kind in "fiu" and np.isfinite(rate) and rate > 0):
-        raise ValueError(f"{path}: frame_rate_hz must be one number of frames/s > 0, got {rate.dtype} {rate!r}")
+    if rate is not None and not (
+        rate.shape == () and rate.dtype.kind in "fiu" and np.isfinite(rate) and rate > 0
+    ):
+        raise ValueError(
+            f"{path}: frame_rate_hz must be one number of frames/s > 0, got {rate.dtype} {rate!r}"
+        )
     return ExplorationArrays(frames, pressure, labels, names, groups, None if rate is None else float(rate))
 
 

@@ -248,6 +248,52 @@ class FrameRecordings:
         return len(self.recordings)
 
 
+def labelled_recordings(paths) -> bool:
+    """Whether every path is a frame recording ``.npz`` that labels its frames (``t`` and ``labels``), from the
+    archives' member names (nothing is read)."""
+    import zipfile
+
+    try:
+        for path in paths:
+            with zipfile.ZipFile(path) as archive:
+                if not {"frames.npy", "t.npy", "labels.npy"} <= set(archive.namelist()):
+                    return False
+    except (OSError, zipfile.BadZipFile):
+        return False
+    return bool(paths)
+
+
+def recordings_layout(paths, options=None, *, labelled: bool):
+    """Return the classes and sessions frame recordings get from their files (:class:`~.naming.RecordingNames`).
+
+    Files that label their frames take only their sessions from the layout: their folder when they lie in
+    several, else their name (``session_from`` or an index to say otherwise); the others take their class
+    and session as any recording file (:func:`~.naming.recording_names`).
+    """
+    from .naming import FRAME_LABELS, RecordingNames, folder_names, recording_names
+
+    index, class_from, session_from = (
+        getattr(options, k, None) for k in ("index", "class_from", "session_from")
+    )
+    if not labelled:
+        return recording_names(paths, index=index, class_from=class_from, session_from=session_from)
+    several = folder_names(paths) is not None
+    names = recording_names(
+        paths,
+        index=index,
+        class_from=None if index else "file",
+        session_from=None if index else session_from or ("folder" if several else "file"),
+    )
+    return RecordingNames(
+        ("(their frames' labels)",) * len(paths),
+        names.sessions,
+        FRAME_LABELS,
+        "the labels give the classes; "
+        + ("the folders" if several and not index else "the index" if index else "the file names")
+        + " the sessions",
+    )
+
+
 def read_frame_recordings(paths, options=None, *, arrays: list | None = None) -> FrameRecordings:
     """Read frame recording ``.npz`` files (``frames`` and ``t``) for training; return :class:`FrameRecordings`.
 
@@ -263,7 +309,7 @@ def read_frame_recordings(paths, options=None, *, arrays: list | None = None) ->
         One line naming the file: not a frame recording, malformed fields, frames of different shapes,
         some files labelled and others not.
     """
-    from .naming import check_class_names, folder_names, recording_names
+    from .naming import check_class_names
 
     paths = [Path(p) for p in paths]
     arrays = arrays or [read_npz(p, what="frame recording (.npz of frames and t)") for p in paths]
@@ -279,22 +325,13 @@ def read_frame_recordings(paths, options=None, *, arrays: list | None = None) ->
             f"the recordings hold frames of different shapes ({sorted(shapes)}); give those of one sensor"
         )
     labelled = [r.labels is not None for r in recs]
-    index, class_from, session_from = (
-        getattr(options, k, None) for k in ("index", "class_from", "session_from")
-    )
     if any(labelled) and not all(labelled):
         odd = paths[labelled.index(not labelled[0])]
         raise ValueError(
             f"{odd}: the frame recordings must all label their frames (labels, class_names) or none"
         )
+    names = recordings_layout(paths, options, labelled=all(labelled))
     if all(labelled):
-        several = folder_names(paths) is not None
-        names = recording_names(
-            paths,
-            index=index,
-            class_from=None if index else "file",
-            session_from=None if index else session_from or ("folder" if several else "file"),
-        )
         classes = check_class_names(
             sorted({c for r in recs for c in r.class_names}), "class names (of the recordings)"
         )
@@ -302,7 +339,6 @@ def read_frame_recordings(paths, options=None, *, arrays: list | None = None) ->
             lookup = np.array([classes.index(c) for c in r.class_names] + [-1], dtype=np.int64)
             r.labels, r.class_names = lookup[r.labels], classes
         return FrameRecordings(recs, classes, None, np.array(names.sessions))
-    names = recording_names(paths, index=index, class_from=class_from, session_from=session_from)
     classes = check_class_names(sorted(set(names.classes)), "class names (of the recordings)")
     file_labels = np.array([classes.index(c) for c in names.classes], dtype=np.int64)
     return FrameRecordings(recs, classes, file_labels, np.array(names.sessions))
@@ -333,8 +369,10 @@ __all__ = [
     "DEFAULT_REST_S",
     "FrameRecording",
     "FrameRecordings",
+    "labelled_recordings",
     "read_frame_recording",
     "read_frame_recordings",
+    "recordings_layout",
     "touch_labels",
     "write_frame_recording",
 ]

@@ -226,7 +226,9 @@ def save_model_file(path: PathLike, header: Mapping, arrays: Mapping[str, np.nda
     # linear and nearest-neighbour heads); files without them stay version 1, readable by older versions.
     newer = "center" in arrays_given or "select" in arrays_given or head_type in ("linear", "neighbours")
     source = header.get("source") if isinstance(header.get("source"), dict) else {}
-    taxels = "features" in source or source.get("kind") == "pressure"  # a version-2 reader would misread these
+    taxels = (
+        "features" in source or source.get("kind") == "pressure"
+    )  # a version-2 reader would misread these
     header = {
         "format": FORMAT,
         "format_version": 3 if taxels else 2 if newer else 1,

@@ -104,7 +104,9 @@ CLASS_SOURCES = ("folder", "file")
 SESSION_SOURCES = ("folder", "file", "recording")
 """Where ``session_from`` (``--session-from``) takes each file's session: its folder, its file name, or
 the file itself (``recording``: every file its own session)."""
-LAYOUTS = ("file names", "folder per class", "folder per session", "index", "given")
+FRAME_LABELS = "frame recordings labelled frame by frame"
+"""The layout of frame recordings whose frames carry their classes: the files give their sessions only."""
+LAYOUTS = ("file names", "folder per class", "folder per session", "index", "given", FRAME_LABELS)
 """How :func:`recording_names` told classes and sessions apart (:attr:`RecordingNames.layout`)."""
 
 _SESSION_WORDS = (
@@ -212,9 +214,10 @@ class RecordingNames:
         """
         classes, sessions = sorted(set(self.classes)), sorted(set(self.sessions))
         n, c, s = len(self.classes), len(classes), len(sessions)
+        these = "" if self.layout == FRAME_LABELS else f"{c} class{'es' * (c != 1)} ({name_list(classes)}), "
         line = (
-            f"{n} file{'s' * (n != 1)} read as {self.layout} ({self.reason}): {c} class{'es' * (c != 1)} "
-            f"({name_list(classes)}), {s} session{'s' * (s != 1)} ({name_list(sessions)})"
+            f"{n} file{'s' * (n != 1)} read as {self.layout} ({self.reason}): {these}"
+            f"{s} session{'s' * (s != 1)} ({name_list(sessions)})"
         )
         return line + (f"; {self.other_way} reads them the other way" if self.other_way else "")
 
@@ -462,6 +465,7 @@ def slug(name: str) -> str:
 
 __all__ = [
     "CLASS_SOURCES",
+    "FRAME_LABELS",
     "INDEX_COLUMNS",
     "LAYOUTS",
     "SESSION_SOURCES",
