@@ -74,7 +74,7 @@ class RecordedTouches:
     explorations : ExplorationArrays
         One exploration of ``n_frames`` frames per touch (``pressure`` ``(N, T, H, W)``, or RGB
         ``frames`` ``(N, T, H, W, 3)``), its label, the class names, each touch's session as ``groups``
-        and the frame rate.
+        (``None`` when the recordings are one session) and the frame rate.
     levels : TouchLevels
         The levels the touches were cut at (what the bundle records for the stream).
     rate_hz : float
@@ -245,7 +245,9 @@ def recorded_touches(
         None if recs[0].rgb else x.astype(np.float32, copy=False),
         np.array([label for _, _, label in kept], dtype=np.int64),
         tuple(data.class_names),
-        session_ids[recording].astype(np.int64),
+        session_ids[recording].astype(np.int64)
+        if session_ids.max(initial=0) > 0
+        else None,  # one session: none
         rate,
     )
     notes = [
