@@ -285,29 +285,12 @@ def run_simulate_sensor(args: argparse.Namespace) -> int:
         else:
             port, name = stack.enter_context(serial.serial_for_url(args.port, baudrate=args.baud)), args.port
         stamps = "their own t" if timestamps and play.t is not None else "t from 0" if timestamps else "no t"
-        if play.kind == "frames":
-            h, w = play.values.shape[1:3]
-            print(
-                f"writing {len(play.values)} frames of {h} x {w} at {play.rate_hz:.4g} frames/s ({what}; {stamps}) "
-                f"to {name}",
-                flush=True,
-            )
-            n = simulate_frames(
-                port,
-                play.values,
-                t=play.t,
-                rate_hz=play.rate_hz,
-                pace=play.pace,
-                realtime=not args.fast,
-                timestamps=timestamps,
-            )
-            print(f"{n} frames written")
-            return 0
-        print(
-            f"writing {len(play.values)} samples at {play.rate_hz:g} Hz ({what}; {stamps}) to {name}",
-            flush=True,
-        )
-        n = simulate_sensor(
+        frames = play.kind == "frames"
+        unit = "frames" if frames else "samples"
+        shape = f" of {play.values.shape[1]} x {play.values.shape[2]}" if frames else ""
+        rate = f"{play.rate_hz:.4g} frames/s" if frames else f"{play.rate_hz:g} Hz"
+        print(f"writing {len(play.values)} {unit}{shape} at {rate} ({what}; {stamps}) to {name}", flush=True)
+        n = (simulate_frames if frames else simulate_sensor)(
             port,
             play.values,
             rate_hz=play.rate_hz,
@@ -316,5 +299,5 @@ def run_simulate_sensor(args: argparse.Namespace) -> int:
             realtime=not args.fast,
             timestamps=timestamps,
         )
-    print(f"{n} samples written")
+    print(f"{n} {unit} written")
     return 0

@@ -178,30 +178,22 @@ def wait_for_reader(
 
 def _play(
     sink: _Sink,
-    lines: Callable[[int, float | None], bytes],
+    line: Callable[[int, float | None], bytes],
     n: int,
     *,
+    rate_hz: float,
     t: np.ndarray | None,
-    pace: np.ndarray,
+    pace: np.ndarray | None,
+    timestamps: bool,
     realtime: bool,
     sleep: Callable[[float], None],
+    t0: float = 0.0,
 ) -> int:
-    """Write ``lines(i, t[i])`` for ``i`` in ``0 .. n-1``, item ``i`` at ``pace[i]`` seconds after the first."""
-    start = time.perf_counter()
-    for i in range(n):
-        if realtime:
-            lag = start + pace[i] - time.perf_counter()
-            if lag > 0:
-                sleep(lag)
-        sink.write(lines(i, None if t is None else float(t[i])))
-    return n
+    """Write ``line(i, stamp)`` for ``i`` in ``0 .. n-1``; return ``n`` (:func:`simulate_sensor`, :func:`simulate_frames`).
 
-
-def _times(
-    n: int, rate_hz: float, t: np.ndarray | None, pace: np.ndarray | None, timestamps: bool, t0: float = 0.0
-) -> tuple[np.ndarray | None, np.ndarray]:
-    """The stamps written (``None``: none) and when each item is written, for :func:`simulate_sensor` and
-    :func:`simulate_frames`."""
+    The stamps are ``t`` (the recording's own), else ``t0 + i / rate_hz``; written only with
+    ``timestamps``. Item ``i`` goes out ``pace[i]`` seconds after the first (default: its stamp's offset).
+    """
     if t is not None:
         t = np.asarray(t, dtype=np.float64)
         if t.shape != (n,) or not np.isfinite(t).all():
@@ -209,11 +201,17 @@ def _times(
     elif not rate_hz > 0:
         raise ValueError(f"rate_hz must be > 0, got {rate_hz}")
     own = t if t is not None else t0 + np.arange(n) / float(rate_hz)
-    if pace is None:
-        pace = own - own[0] if n else own
-    elif np.shape(pace) != (n,):
-        raise ValueError(f"pace must hold {n} times in seconds, got shape {np.shape(pace)}")
-    return (own if timestamps else None), np.asarray(pace, dtype=np.float64)
+    pace = own - own[0] if pace is None and n else own if pace is None else np.asarray(pace, dtype=np.float64)
+    if pace.shape != (n,):
+        raise ValueError(f"pace must hold {n} times in seconds, got shape {pace.shape}")
+    start = time.perf_counter()
+    for i in range(n):
+        if realtime:
+            lag = start + pace[i] - time.perf_counter()
+            if lag > 0:
+                sleep(lag)
+        sink.write(line(i, float(own[i]) if timestamps else None))
+    return n
 
 
 def simulate_sensor(
@@ -242,16 +240,9 @@ def simulate_sensor(
         raise ValueError(f"recording must have shape (n, 3), got {recording.shape}")
     if not np.isfinite(recording).all():
         raise ValueError("recording must be finite, got NaN or inf samples")
-    stamps, pace = _times(len(recording), rate_hz, t, pace, timestamps, t0)
-    return _play(
-        sink,
-        lambda i, ti: format_sample(recording[i], ti),
-        len(recording),
-        t=stamps,
-        pace=pace,
-        realtime=realtime,
-        sleep=sleep,
-    )
+    fmt = format_sample
+    return _play(sink, lambda i, ti: fmt(recording[i], ti), len(recording), rate_hz=rate_hz, t=t, pace=pace,
+                 timestamps=timestamps, realtime=realtime, sleep=sleep, t0=t0)  # fmt: skip
 
 
 def simulate_frames(
@@ -276,16 +267,9 @@ def simulate_frames(
         raise ValueError(f"frames must have shape (n, H, W) or (n, H, W, 3) with n >= 1, got {frames.shape}")
     if not np.isfinite(frames).all():
         raise ValueError("frames must be finite, got NaN or inf values")
-    stamps, pace = _times(len(frames), rate_hz, t, pace, timestamps)
-    return _play(
-        sink,
-        lambda i, ti: format_frame(frames[i], ti),
-        len(frames),
-        t=stamps,
-        pace=pace,
-        realtime=realtime,
-        sleep=sleep,
-    )
+    fmt = format_frame
+    return _play(sink, lambda i, ti: fmt(frames[i], ti), len(frames), rate_hz=rate_hz, t=t, pace=pace,
+                 timestamps=timestamps, realtime=realtime, sleep=sleep)  # fmt: skip
 
 
 __all__ = [
