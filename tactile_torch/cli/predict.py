@@ -237,16 +237,30 @@ def _touch_data(args: argparse.Namespace, pipe) -> bool:
         return False
     if args.touches:
         return True
-    if len(args.data) != 1:
-        return False
     from ..robot.ros2.bags import is_bag
 
-    if is_bag(args.data[0]):
+    if len(args.data) == 1 and is_bag(args.data[0]):
         return True
     from ..robot.files.npz import read_npz
 
-    arrays = read_npz(args.data[0], what="data file (.npz of docs/formats.md)")
-    return "frames" in arrays and "t" in arrays
+    return all(
+        {"frames", "t"} <= set(read_npz(path, what="data file (.npz of docs/formats.md)"))
+        for path in args.data
+    )
+
+
+def _labelled_recordings(paths: list, options) -> list:
+    """Frame recordings read together, each frame labelled with its class (its own label, or its file's)."""
+    import numpy as np
+
+    from ..robot.files.frame_recordings import read_frame_recordings
+
+    data = read_frame_recordings(paths, options)
+    for i, rec in enumerate(data.recordings):
+        if data.file_labels is not None:  # one class per file (its layout): every frame of it
+            rec.labels = np.full(len(rec), int(data.file_labels[i]), dtype=np.int64)
+        rec.class_names = data.class_names
+    return data.recordings
 
 
 def predict_touches(args: argparse.Namespace, pipe) -> int:
@@ -257,8 +271,6 @@ def predict_touches(args: argparse.Namespace, pipe) -> int:
     from ..robot.files.frame_recordings import read_frame_recording, touch_labels
     from ..robot.stream.output import result_json, result_text
 
-    if len(args.data) != 1:
-        raise UsageError(f"--data: touches are cut from one recording at a time, got {len(args.data)} files")
     if args.range is not None:
         raise UsageError(
             "--range: frames out of the bundle's value_range are rejected as in stream; --range is for windows"
@@ -270,27 +282,35 @@ def predict_touches(args: argparse.Namespace, pipe) -> int:
         from dataclasses import replace
 
         options = replace(options, shape=tuple(int(d) for d in pipe.input_shape[-2:]))
-    recording = read_frame_recording(
-        args.data[0], frame_rate_hz=args.frame_rate, rest_s=args.rest, options=options
-    )
+    if len(args.data) == 1:
+        recordings = [
+            read_frame_recording(
+                args.data[0], frame_rate_hz=args.frame_rate, rest_s=args.rest, options=options
+            )
+        ]
+    else:  # a day's logs, one after another; their classes from their labels or the files' layout
+        recordings = _labelled_recordings(args.data, options)
 
     def say(event) -> None:
         print(f"tactile-torch predict: {event.message}", file=sys.stderr)
 
-    results, live = classify_recording(pipe, recording, touch_options(args, segment="touches"), on_event=say)
-    touches = [r for r in results if r.kind == "touch"]
     write = result_json if args.json else result_text
-    if not args.json:
-        print(f"{pipe!r}: {len(recording)} frames of {recording.name}")
-    for result in touches:
-        print(write(result))
+    touches, truth = [], []
+    for recording in recordings:
+        results, live = classify_recording(
+            pipe, recording, touch_options(args, segment="touches"), on_event=say
+        )
+        mine = [r for r in results if r.kind == "touch"]
+        if not args.json:
+            print(f"{pipe!r}: {len(recording)} frames of {recording.name}")
+        for result in mine:
+            print(write(result))
+        print(live.summary(), file=sys.stderr if args.json else sys.stdout)
+        touches += mine
+        truth += [touch_labels(recording, r.segment.start_item, r.segment.frames) for r in mine]
     if args.json:
-        print(live.summary(), file=sys.stderr)
         return 0
-    print(live.summary())
-    truth = np.array(
-        [touch_labels(recording, r.segment.start_item, r.segment.frames) for r in touches], dtype=np.int64
-    )
+    truth = np.array(truth, dtype=np.int64)
     decided = np.array(
         [-2 if r.decision.label is None else r.decision.label for r in touches], dtype=np.int64
     )
@@ -319,7 +339,7 @@ def predict_touches(args: argparse.Namespace, pipe) -> int:
         }
         write_npz(args.out, arrays, inputs=[*args.data, args.model])
         print(f"touches written to {args.out}")
-    if recording.labels is None or not (truth >= 0).any():
+    if recordings[0].labels is None or not (truth >= 0).any():
         return 0
     names = list(recording.class_names or ())
     index = {name: i for i, name in enumerate(pipe.class_names)}

@@ -155,3 +155,25 @@ def test_train_export_predict_and_tradeoff_on_a_hands_logs(logs, tmp_path, capsy
     assert study.source["kind"] == "pressure" and study.source[TOUCH_LEVELS_KEY]["onset"] == pytest.approx(
         levels.onset
     )
+
+
+def test_predict_cuts_the_touches_of_a_days_logs_each_of_its_files_class(tmp_path, capsys):
+    """Several frame recordings at once, one class per file from the layout (folder per class)."""
+    from tests.stream_helpers import frame_bundle
+
+    weights = np.zeros((4, 4, 3), np.float32)
+    for c, region in enumerate(REGIONS):
+        weights[..., c][region[1:]] = 1.0  # the mean pressure over each object's taxels
+    levels = {"onset": 40.0, "release": 20.0, "min_frames": 2, "rest": 10.0}
+    model = frame_bundle(tmp_path / "m.onnx", weights, n_frames=4, class_names=list(NAMES), metadata={
+        "frame_rate_hz": 20.0, TOUCH_LEVELS_KEY: levels})  # fmt: skip
+    paths = []
+    for c, name in enumerate(NAMES):
+        log = hand_log(9, seed=c)
+        keep = np.isin(log.labels, [-1, c])  # this object's grasps and the rest between them
+        one = FrameRecording(log.frames[keep], 1.76e9 + np.arange(keep.sum()) / 20)
+        paths.append(write_frame_recording(tmp_path / name / "2026-11-02.npz", one))
+    status, out, err = _run(["predict", "--model", model, "--data", *paths], capsys)
+    assert status == 0, err
+    assert "3 files read as folder per class" in err.splitlines()[0]
+    assert out.count(" frames read, 3 touches") == 3 and "overall accuracy 1.0000" in out
