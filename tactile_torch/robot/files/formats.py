@@ -70,8 +70,7 @@ class ExplorationArrays:
     labels : ndarray (N,) int64
     class_names : tuple of str
     groups : ndarray (N,) int64, or None
-    frame_rate_hz : float or None
-        Frames per second, when the file states it (``None``: it does not; it is never assumed).
+    frame_rate_hz : float or None (frames per second, when the file states it; never assumed)
     """
 
     frames: np.ndarray | None
@@ -257,12 +256,8 @@ def _explorations(arrays: dict[str, np.ndarray], path: Path) -> ExplorationArray
     if groups is not None:
         groups = _int_vector(groups, path, "groups", n)
     rate = arrays.get("frame_rate_hz")
-    if rate is not None and not (
-        rate.shape == () and rate.dtype.kind in "fiu" and np.isfinite(rate) and rate > 0
-    ):
-        raise ValueError(
-            f"{path}: frame_rate_hz must be one number of frames/s > 0, got {rate.dtype} {rate!r}"
-        )
+    if rate is not None and not (rate.shape == () and rate.dtype.kind in "fiu" and 0 < rate < np.inf):
+        raise ValueError(f"{path}: frame_rate_hz must be a number of frames/s > 0, got {rate!r}")
     return ExplorationArrays(frames, pressure, labels, names, groups, None if rate is None else float(rate))
 
 
