@@ -18,7 +18,7 @@ DATES = ("2026-11-02", "2026-11-03", "2026-11-05")
 def trees(tmp_path_factory):
     """3 surfaces of the stylus generator x 3 days, as <surface>/<date>.csv and as <date>/<surface>.csv."""
     root = tmp_path_factory.mktemp("trees")
-    rec = make_vibration_recordings(3, duration_s=1.5, n_sessions=3, random_state=0)
+    rec = make_vibration_recordings(3, duration_s=1.0, n_sessions=3, random_state=0)
     per_class, per_session = [], []
     for signal, label, session in zip(rec.signals, rec.labels, rec.session, strict=True):
         date, surface = DATES[int(session.rsplit("/", 1)[1])], rec.class_names[label]
