@@ -241,8 +241,9 @@ def recording_names(
       reads as dates or sessions (:func:`looks_like_sessions`), say which level names the classes:
       ``<class>/<date>.csv`` is a folder per class, ``<day>/<class>.csv`` a folder per session; files
       all named ``<class>_<n>`` keep the naming rule (their folder is the session when it reads as one);
-      folders whose file names never repeat are a folder per class. A tree where both levels read as
-      sessions, or neither does while the names repeat, is refused with the fix.
+      folders whose file names never repeat are a folder per class (unless each holds one file: the file
+      names then give the classes). A tree where both levels read as sessions, or neither does while the
+      names repeat, is refused with the fix.
 
     ``class_from`` (``"folder"`` or ``"file"``) and ``session_from`` (``"folder"``, ``"file"`` or
     ``"recording"``: every file its own session) override the tree; the one not given follows (the
@@ -347,6 +348,16 @@ def _from_tree(paths: list, folders: list[str] | None) -> RecordingNames:
     by_file = f"the file names ({name_list(sorted(set(stems)), 3)})"
     if file_sessions and folder_sessions:
         raise _ambiguous(paths, folders, f"{by_folder} and {by_file} both look like dates or sessions")
+    grouped = len(set(folders)) < len(folders)  # some folder holds several files
+    if not (file_sessions or folder_sessions or grouped):  # a file per folder: the folders group nothing
+        return RecordingNames(
+            tuple(c for c, _ in named),
+            tuple(s if c != s else f for (c, s), f in zip(named, folders, strict=True)),
+            "file names",
+            "each folder holds one file, so the file names give the classes (felt_3.csv: class felt, "
+            "session 3; glass.csv: its folder is its session)",
+            "class_from='folder'",
+        )
     if file_sessions or not (folder_sessions or _repeats(named, folders)):
         why = (
             f"{by_file} look like dates or sessions, {by_folder} do not"

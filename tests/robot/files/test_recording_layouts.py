@@ -127,7 +127,8 @@ def test_overrides_that_cannot_hold_are_one_line(tmp_path):
             ("felt", "day1"),
         ),
         (["c/cork/cork_1.csv", "c/cork/cork_2.csv", "c/felt/felt_1.csv"], "file names", ("cork", "1")),
-        (["o/cork/a.csv", "o/felt/b.csv"], "folder per class", ("cork", "a")),
+        (["o/cork/a.csv", "o/cork/b.csv", "o/felt/c.csv"], "folder per class", ("cork", "a")),
+        (["logs/cork_9.csv", "other/day2/felt.csv"], "file names", ("cork", "9")),  # a file per folder
         (
             ["b/ASPHALT/imu_00.csv", "b/ASPHALT/imu_02.csv", "b/ICE/imu_00.csv"],
             "folder per class",
