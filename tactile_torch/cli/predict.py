@@ -9,6 +9,7 @@ import argparse
 import sys
 
 from ._options import (
+    CPUS,
     Number,
     UsageError,
     add_allow_pickle,
@@ -36,7 +37,10 @@ def register(sub) -> None:
         "--batch", type=Number(int, low=1), default=256, help="samples per onnxruntime call (default: 256)"
     )
     p.add_argument(
-        "--threads", type=Number(int, low=0), default=1, help="onnxruntime intra-op threads (default: 1)"
+        "--threads",
+        type=Number(int, low=0, high=CPUS),
+        default=1,
+        help=f"onnxruntime intra-op threads, at most this machine's {CPUS} CPUs (0: onnxruntime's choice; default: 1)",
     )
     p.add_argument(
         "--range",

@@ -280,7 +280,7 @@ def _refuse_torch_save(path: Path) -> None:
     try:
         with zipfile.ZipFile(path) as z:
             pickled = any(name.endswith("data.pkl") for name in z.namelist())
-    except (zipfile.BadZipFile, OSError, ValueError):
+    except (zipfile.BadZipFile, OSError, ValueError, NotImplementedError, RuntimeError):
         return  # read_npz gives the precise reason
     if pickled:
         raise ValueError(

@@ -47,8 +47,10 @@ import numpy as np
 from ..files.formats import ExplorationArrays
 from ..files.frame_recordings import FrameRecording, touch_labels
 from ..files.sample_times import rate_hz, time_base
-from .segments import RELEASE, Segments, Sequencer, TouchSegment, TouchSegmenter
+from .segments import RELEASE, Segments
+from .sequencer import Sequencer
 from .source import FRAME, ArraySource, ItemSpec
+from .touch_segments import TouchSegment, TouchSegmenter
 from .touches import (
     DEAD_BAND,
     GRAY,
@@ -176,9 +178,7 @@ def _touches(rec: FrameRecording, levels: TouchLevels, rate: float) -> tuple[lis
         segmenter,
         Sequencer(rate, item=FRAME, name=rec.name),
     )
-    ends = list(segments)
-    last = segments.finish()
-    return ends + ([last] if last is not None else []), segmenter.short
+    return list(segments) + segments.finish(), segmenter.short
 
 
 def recorded_touches(

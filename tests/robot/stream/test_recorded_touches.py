@@ -14,8 +14,10 @@ import pytest
 from tactile_torch.robot.files.data_sources import read_source
 from tactile_torch.robot.files.frame_recordings import FrameRecording, write_frame_recording
 from tactile_torch.robot.stream.recorded_touches import recorded_touches
-from tactile_torch.robot.stream.segments import Segments, Sequencer, TouchSegmenter
+from tactile_torch.robot.stream.segments import Segments
+from tactile_torch.robot.stream.sequencer import Sequencer
 from tactile_torch.robot.stream.source import FRAME, ArraySource, ItemSpec
+from tactile_torch.robot.stream.touch_segments import TouchSegmenter
 
 CLASSES = ("denim", "felt", "silk")
 RATE = 50.0
