@@ -261,9 +261,7 @@ def test_data_faults_never_reach_a_window(model, sensor_pty, opened, capsys):
     assert "out of the sensor's range ±5 g was rejected: (1e+30, 0, 1)" in err
     assert "a 2.5 ms gap 55 ms into " in err and ": 1 sample(s) missing" in err  # the ERR line's sample
     assert "a 38.8 ms gap 86.2 ms into " in err and ": 30 sample(s) missing" in err
-    assert (
-        "0.224 s into " in err and ", t went back by 0.224 s: a spliced recording or a sensor reset" in err
-    )
+    assert "0.224 s into " in err and ", t went back by 0.224 s: a spliced recording or a sensor reset" in err
     assert "208 samples read, 20 windows, 7 lines skipped, 1 samples out of range" in err.splitlines()[-1]
 
 

@@ -164,7 +164,9 @@ def test_one_corrupted_stamp_in_a_serial_line_is_corrected_not_a_crash(bad):
     windows = list(reader)
     assert reader.lost == 0 and reader.samples == n and reader.skipped == 0
     assert len(windows) == _windows(n, 64, 32) and reader.sequencer.corrected == 1
-    assert [e.kind for e in events] == ["stamp"] and "taken at its due time, 0.5 s into the port" in events[0].message
+    assert [e.kind for e in events] == ["stamp"] and "taken at its due time, 0.5 s into the port" in events[
+        0
+    ].message
 
 
 @pytest.mark.parametrize(("what", "t"), [("ms given as s", 1e3), ("100 Hz data", 8.0)])
