@@ -42,7 +42,7 @@ class _HandEncoder:
         return encode_sensors(self.store, list(zip(self.names, values, strict=True)), stamp_ns)
 
 
-def main(argv: list[str] | None = None) -> int:
+def main(argv: list[str] | None = None) -> int:  # noqa: PLR0915
     p = argparse.ArgumentParser(prog="python -m tests.ros2_publisher")
     p.add_argument("--domain-id", type=int, required=True)
     p.add_argument("--topic", required=True)

@@ -291,7 +291,7 @@ def _describe(args, pipe, live, spec) -> str:
     return f"{pipe!r}: reading {where}, {cut}, range {spec.describe_range()}"
 
 
-def _stream_until_stopped(args: argparse.Namespace) -> int:
+def _stream_until_stopped(args: argparse.Namespace) -> int:  # noqa: C901, PLR0915
     from ..robot.contract import SAMPLE_RATE_KEY, WINDOW_SIZE_KEY
     from ..robot.runtime import OnnxPipeline
     from ..robot.stream.live import LiveStream, frame_bundle, item_spec

@@ -120,12 +120,8 @@ class Prediction:
     scores: np.ndarray
     distance: np.ndarray
     reasons: list[str | None]
+    causes: list[str | None]
     novel: np.ndarray | None = None
-    causes: list[str | None] | None = None
-
-    def __post_init__(self) -> None:
-        if self.causes is None:
-            self.causes = [None] * len(self.reasons)
 
 
 class NonFiniteScoresError(ValueError):
@@ -401,11 +397,11 @@ class OnnxPipeline:
         """Return the :class:`Prediction` of each sample, with ``-1`` ("unknown") and its reason where due.
 
         A sample is unknown when (checked in this order) it holds a value beyond ``±range_g`` (vibration
-        windows; default :attr:`range_g`, the bundle's ``sensor_range_g``; ``math.inf``: no check),
-        when it is a vibration window constant on every axis (no vibration to classify), when the graph's scores for it are not finite, or when its features lie further from the
-        training data than the bundle's ``ood_threshold`` (bundles exported from model files written
-        since the distance exists; :mod:`tactile_torch.ood`). Samples beyond the range are not run
-        through the graph: their scores and distance are NaN.
+        windows; default :attr:`range_g`, the bundle's ``sensor_range_g``; ``math.inf``: no check), when
+        it is a vibration window constant on every axis (no vibration to classify), when the graph's scores
+        for it are not finite, or when its features lie further from the training data than the bundle's
+        ``ood_threshold`` (bundles of model files written since the distance exists; :mod:`tactile_torch.ood`).
+        Samples beyond the range are not run through the graph: their scores and distance are NaN.
         """
         x = self.validate(raw)
         limit = self.range_g if range_g is None else float(range_g)
@@ -459,7 +455,7 @@ class OnnxPipeline:
                         f"out of distribution: distance {distance[i]:.3g} to the training data > {threshold:.3g}"
                     )
                     causes[i] = OUT_OF_DISTRIBUTION
-        return Prediction(labels, scores, distance, reasons, novel, causes)
+        return Prediction(labels, scores, distance, reasons, causes, novel)
 
     def _raise_non_finite(self, prediction: Prediction) -> None:
         bad = np.array([c == NOT_FINITE for c in prediction.causes])
@@ -541,8 +537,7 @@ class OnnxPipeline:
                     f"{where}: frames must be pressure maps (N, T, H, W) for this {self.pipeline} bundle, got "
                     f"RGB frames {data.frames.shape}"
                 )
-            raw, note = fit_explorations(data.pressure, self.input_shape[1])
-            labels = data.labels
+            (raw, note), labels = fit_explorations(data.pressure, self.input_shape[1]), data.labels
         elif data.kind == "vibration" and layout == WINDOWS_LAYOUT:
             if WINDOW_SIZE_KEY not in self.metadata:
                 raise ValueError(f"{self.path}: no {WINDOW_SIZE_KEY} in the bundle's metadata")

@@ -414,7 +414,7 @@ def _check_frame_source(where: str, source: dict) -> int:
     return IMAGE_FEATURES if source["fuse"] else IMAGE_FEATURES * shape[0]
 
 
-def validate_model(header: object, arrays: Mapping[str, np.ndarray], *, where: str = "model") -> None:
+def validate_model(header: object, arrays: Mapping[str, np.ndarray], *, where: str = "model") -> None:  # noqa: C901, PLR0915
     """Raise ``ValueError`` (``"<where>: <what is wrong>"``) unless header and arrays form a valid model."""
     if not isinstance(header, dict) or header.get("format") != FORMAT:
         got = header.get("format") if isinstance(header, dict) else type(header).__name__

@@ -125,7 +125,7 @@ class Ros2Source:
         The clock when the reader joined the topic (what the sequencer bounds losses by).
     """
 
-    def __init__(
+    def __init__(  # noqa: PLR0913
         self,
         topic: str,
         spec: ItemSpec,

@@ -266,7 +266,7 @@ class PortLines:
 
     # -- iteration ------------------------------------------------------------------------------
 
-    def _lines(self) -> Iterator[tuple[bytes | None, float]]:
+    def _lines(self) -> Iterator[tuple[bytes | None, float]]:  # noqa: PLR0915
         """Yield ``(line, read time)`` from the port; ``(None, time)`` marks a break (silence, reconnection).
 
         Owns the port: reads what has arrived, keeps the partial line, reports silence, raises

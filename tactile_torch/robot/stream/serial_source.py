@@ -25,7 +25,7 @@ from ..files.csv_logs import STANDARD_GRAVITY, UNITS
 from ..files.data_sources import GRAVITY_BAND_G
 from ..files.sample_times import describe_duration
 from .port_lines import PortLines, ReadablePort, StreamEvent
-from .source import FORMAT, RECONNECT, REJECTED, SAMPLE, SILENCE, Break, ItemSpec, Reading, SourceCounts
+from .source import FORMAT, RECONNECT, REJECTED, SAMPLE, SILENCE, Break, ItemSpec, Reading
 from .wire import parse_line
 
 TIME_UNITS = ("s", "ms", "us", "samples")
@@ -81,12 +81,6 @@ class _PortCounts:
     format_switches = property(lambda self: self._source.format_switches)
     lost = property(lambda self: self._source.lost_on_reconnect)
 
-    def snapshot(self) -> SourceCounts:
-        """The counts now, as a plain :class:`SourceCounts`."""
-        return SourceCounts(
-            self.items, self.skipped, self.rejected, self.reconnects, self.format_switches, self.lost
-        )
-
 
 class SerialSource(PortLines):
     """Samples or frames from a serial line (a :class:`~tactile_torch.robot.stream.source.Source`).
@@ -127,7 +121,7 @@ class SerialSource(PortLines):
         With ``all_sensors``: the sensors' names once the first line has said how many there are.
     """
 
-    def __init__(
+    def __init__(  # noqa: PLR0913
         self,
         source: ReadablePort | Callable[[], ReadablePort],
         spec: ItemSpec,
@@ -241,7 +235,7 @@ class SerialSource(PortLines):
 
         return frames if self.all_sensors else frame
 
-    def readings(self) -> Iterator[Reading | Break]:
+    def readings(self) -> Iterator[Reading | Break]:  # noqa: C901, PLR0915
         """Yield a :class:`Reading` per accepted line and a :class:`Break` where continuity is lost."""
         spec = self.spec
         sample = spec.kind == SAMPLE

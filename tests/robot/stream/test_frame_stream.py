@@ -102,7 +102,7 @@ def test_touches_live_over_a_pty_equal_the_touches_offline(bundle):
         source = SerialSource(port, item_spec(bundle), idle_timeout_s=2.0, silence_s=0.5)
         live = LiveStream(bundle, source, LiveOptions(max_results=3))
         writer = threading.Thread(
-            target=simulate_frames, args=(sensor, frames), kwargs={"t": t, "timestamps": True}
+            target=simulate_frames, args=(sensor, frames), kwargs={"t": t, "timestamps": True}, daemon=True
         )
         writer.start()
         got = [result_record(r) for r in live]
