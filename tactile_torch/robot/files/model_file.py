@@ -6,24 +6,23 @@ headers and copies numbers, so a crafted file cannot run code (``torch.load`` un
 its ``weights_only=True`` mode runs an unpickler over the file; this format has none). This module
 needs NumPy only, so a robot can read and check a model file's header without torch.
 
-Layout (format version 1, ``docs/formats.md``):
+Layout (``docs/formats.md``; the versions: :data:`FORMAT_VERSION`):
 
 ``header`` (JSON)
     ``format`` = ``"tactile-torch/model"``, ``format_version``, ``library_version``, ``kind``
     (``"classifier"`` or ``"clustering"``), ``method`` (``hmsvm``, ``svm``, ``lda``, ``knn``, ``ncm``,
-    ``pyp``), ``class_names``
-    (in the order of the head's labels), ``source`` (how the raw input becomes features: ``kind``
-    ``"vibration"`` with ``window``, ``step``, ``rate_hz``; ``"image"`` with ``fuse``,
-    ``frame_shape`` ``[T, 3, H, W]`` and optionally ``threshold`` (gray level, default 240/255),
-    ``erosion`` (pixels, default 10) and ``features`` (``"per-taxel"``: each pixel's time series, instead
-    of the image features); ``"pressure"`` (raw pressure maps) with ``frame_shape`` ``[T, H, W]`` and
-    ``features`` ``"per-taxel"``; frame sources also keep what the live stream needs: ``frame_rate_hz``,
-    ``touch_levels``, ``value_range``, ``early_decision``; ``"features"`` with ``n_features``), ``head`` (its ``type``
-    and settings), optional ``transform``, ``params`` (hyper-parameters), ``test_accuracy``,
-    ``summary``; classifiers: ``ood`` (``type`` ``"mahalanobis"``, ``quantile``, ``threshold``: the
-    out-of-distribution distance of :mod:`tactile_torch.ood`); clusterings: ``per_session`` (bool,
-    optional: fitted to features standardised per session; not exportable), ``novelty``
-    (optional: ``false_alarm``, ``calibration_rows``: how ``head.novelty_thresholds`` were set).
+    ``pyp``), ``class_names`` (in the order of the head's labels), ``source`` (how the raw input becomes
+    features: ``kind`` ``"vibration"`` with ``window``, ``step``, ``rate_hz``; ``"image"`` with ``fuse``,
+    ``frame_shape`` ``[T, 3, H, W]`` and optionally ``threshold`` (gray level, default 240/255), ``erosion``
+    (pixels, default 10) and ``features`` (``"per-taxel"``: each pixel's time series, instead of the image
+    features); ``"pressure"`` (raw pressure maps) with ``frame_shape`` ``[T, H, W]`` and ``features``
+    ``"per-taxel"``; frame sources also keep what the live stream needs: ``frame_rate_hz``, ``touch_levels``,
+    ``value_range``, ``early_decision``; ``"features"`` with ``n_features``), ``head`` (its ``type`` and
+    settings), optional ``transform``, ``params`` (hyper-parameters), ``test_accuracy``, ``summary``;
+    classifiers: ``ood`` (``type`` ``"mahalanobis"``, ``quantile``, ``threshold``: the out-of-distribution
+    distance of :mod:`tactile_torch.ood`); clusterings: ``per_session`` (bool, optional: fitted to features
+    standardised per session; not exportable), ``novelty`` (optional: ``false_alarm``, ``calibration_rows``:
+    how ``head.novelty_thresholds`` were set).
 ``scale`` ``(F,)``
     classifiers: the training standard deviation each feature is divided by.
 ``center`` ``(F,)`` (optional)
@@ -32,16 +31,15 @@ Layout (format version 1, ``docs/formats.md``):
     classifiers: the columns of the front end's features the head takes (best-ranked subsets),
     applied before ``center`` and ``scale``.
 ``head.<name>``
-    the head's arrays: an SVM's ``support_vectors`` ``(S, F)``, ``dual_coef`` ``(M, S)``,
-    ``intercept`` ``(M,)`` (and the tree tables of a hierarchical SVM); a linear head's (LDA, nearest
-    class mean) ``coef`` ``(M, F)``, ``intercept`` ``(M,)``; a nearest-neighbour head's training
-    ``samples`` ``(T, F)`` and ``labels`` ``(T,)``; a mixture's ``means``
-    ``(K, D)``, ``precisions_cholesky`` ``(K, D, D)``, ``log_weights`` ``(K,)`` and optionally
-    ``novelty_thresholds`` ``(W,)`` (the calibrated threshold of the mean novelty score over
-    N = 1 … W windows; empty: not calibrated) and the new-component density (``novelty_means``, ...);
-    with the head's ``cluster_features`` K (< F): ``means`` ``(C, K)`` on the first K features and the
-    novelty density over all F, ``density_means`` ``(Q, F)``, ``density_precisions_cholesky``
-    ``(Q, F, F)``, ``density_log_weights`` ``(Q,)``.
+    the head's arrays: an SVM's ``support_vectors`` ``(S, F)``, ``dual_coef`` ``(M, S)``, ``intercept``
+    ``(M,)`` (and the tree tables of a hierarchical SVM); a linear head's (LDA, nearest class mean) ``coef``
+    ``(M, F)``, ``intercept`` ``(M,)``; a nearest-neighbour head's training ``samples`` ``(T, F)`` and
+    ``labels`` ``(T,)``; a mixture's ``means`` ``(K, D)``, ``precisions_cholesky`` ``(K, D, D)``,
+    ``log_weights`` ``(K,)`` and optionally ``novelty_thresholds`` ``(W,)`` (the calibrated threshold of the
+    mean novelty score over N = 1 … W windows; empty: not calibrated) and the new-component density
+    (``novelty_means``, ...); with the head's ``cluster_features`` K (< F): ``means`` ``(C, K)`` on the first
+    K features and the novelty density over all F, ``density_means`` ``(Q, F)``,
+    ``density_precisions_cholesky`` ``(Q, F, F)``, ``density_log_weights`` ``(Q,)``.
 ``ood.means`` ``(C, F)``, ``ood.precision_cholesky`` ``(F, F)``, ``ood.offset`` ``(F,)``, and the second view ``ood.floor`` ``(F,)``, ``ood.log_means``, ``ood.log_precision_cholesky``, ``ood.norm`` ``(2,)``
     classifiers: the statistics of the out-of-distribution distance (:mod:`tactile_torch.ood`; older
     files lack them, or the offset and the second view).
@@ -49,13 +47,12 @@ Layout (format version 1, ``docs/formats.md``):
     clusterings of vibration windows: the fitted attributes of the
     :class:`~tactile_torch.signal.ClusteringTransform` (``mean_``, ``scale_``, ``components_``, ...).
 
-:func:`load_model_file` validates all of it against :data:`HEADS` and :data:`TRANSFORMS` (field
-types, shapes that agree with each other, finite values, indices in range) and refuses anything else
-with one line naming the file and the field. What the arrays mean is the business of
-:mod:`tactile_torch.training` (classifiers) and :mod:`tactile_torch.clustering_model` (clusterings),
-which build their kind's header and arrays and write them through :func:`save_model_file`, the one
-writer; :func:`load_model_file` is the one reader, used by every command. Building the torch pipeline
-from any model file is :mod:`tactile_torch.export.model_graph`'s.
+:func:`load_model_file` validates all of it against :data:`HEADS` and :data:`TRANSFORMS` (field types, shapes
+that agree with each other, finite values, indices in range) and refuses anything else with one line naming
+the file and the field. What the arrays mean is the business of :mod:`tactile_torch.training` (classifiers)
+and :mod:`tactile_torch.clustering_model` (clusterings), which build their kind's header and arrays and write
+them through :func:`save_model_file`, the one writer; :func:`load_model_file` is the one reader, used by every
+command. Building the torch pipeline from any model file is :mod:`tactile_torch.export.model_graph`'s.
 """
 
 from __future__ import annotations
@@ -220,22 +217,20 @@ def save_model_file(path: PathLike, header: Mapping, arrays: Mapping[str, np.nda
     """
     from ... import __version__
 
-    arrays_given = {k: np.asarray(v) for k, v in arrays.items()}
+    arrays = {k: np.asarray(v) for k, v in arrays.items()}
     head_type = (header.get("head") or {}).get("type") if isinstance(header.get("head"), dict) else None
-    # Version 2 added what a version-1 reader would misread or refuse (centring, column selection, the
-    # linear and nearest-neighbour heads); files without them stay version 1, readable by older versions.
-    newer = "center" in arrays_given or "select" in arrays_given or head_type in ("linear", "neighbours")
+    # Each version adds what the previous one's reader would misread or refuse (2: centring, column selection,
+    # the linear and nearest-neighbour heads; 3: per-taxel and pressure sources); a file is written as the
+    # oldest version that holds it, readable by older versions of tactile-torch.
+    newer = "center" in arrays or "select" in arrays or head_type in ("linear", "neighbours")
     source = header.get("source") if isinstance(header.get("source"), dict) else {}
-    taxels = (
-        "features" in source or source.get("kind") == "pressure"
-    )  # a version-2 reader would misread these
+    taxels = "features" in source or source.get("kind") == "pressure"
     header = {
         "format": FORMAT,
         "format_version": 3 if taxels else 2 if newer else 1,
         "library_version": __version__,
         **dict(header),
     }
-    arrays = {k: np.asarray(v) for k, v in arrays.items()}
     if HEADER in arrays:
         raise ValueError(f"arrays must not be named {HEADER!r} (the JSON header)")
     validate_model(header, arrays, where="model")
@@ -350,9 +345,8 @@ def _check_source(where: str, source: object) -> int | None:
     if kind == "vibration":
         for name, want in (("window", int), ("step", int), ("rate_hz", float)):
             _check_type(where, f"source.{name}", source.get(name), want)
-        if (
-            not MIN_WINDOW <= source["window"] <= MAX_WINDOW
-        ):  # what train makes; checked before any allocation
+        # what train makes; checked before any allocation
+        if not MIN_WINDOW <= source["window"] <= MAX_WINDOW:
             _fail(
                 where,
                 f"source.window must be a number of samples in {MIN_WINDOW} .. {MAX_WINDOW:,} (what train makes), "
@@ -414,29 +408,9 @@ def _check_frame_source(where: str, source: dict) -> int:
     return IMAGE_FEATURES if source["fuse"] else IMAGE_FEATURES * shape[0]
 
 
-def validate_model(header: object, arrays: Mapping[str, np.ndarray], *, where: str = "model") -> None:  # noqa: C901, PLR0915
+def validate_model(header: object, arrays: Mapping[str, np.ndarray], *, where: str = "model") -> None:
     """Raise ``ValueError`` (``"<where>: <what is wrong>"``) unless header and arrays form a valid model."""
-    if not isinstance(header, dict) or header.get("format") != FORMAT:
-        got = header.get("format") if isinstance(header, dict) else type(header).__name__
-        _fail(where, f"not a tactile-torch model file (header format must be {FORMAT!r}, got {got!r})")
-    version = header.get("format_version")
-    if not isinstance(version, int) or isinstance(version, bool) or version < 1:
-        _fail(where, f"format_version must be an int >= 1, got {version!r}")
-    if version > FORMAT_VERSION:
-        _fail(
-            where,
-            f"written by a newer tactile-torch ({header.get('library_version')}, model format version "
-            f"{version}); this one ({FORMAT_VERSION}) cannot read it: upgrade tactile-torch",
-        )
-    kind = header.get("kind")
-    if kind not in MODEL_KINDS:
-        _fail(where, f"kind must be one of {MODEL_KINDS}, got {kind!r}")
-    if header.get("method") not in METHODS[kind]:
-        _fail(where, f"method of a {kind} must be one of {METHODS[kind]}, got {header.get('method')!r}")
-    names = header.get("class_names")
-    if not isinstance(names, list) or not names or not all(isinstance(c, str) for c in names):
-        _fail(where, f"class_names must be a non-empty list of strings, got {names!r:.80}")
-    check_class_names(names, f"{where}: class_names")
+    kind, names = _check_identity(where, header)
     n_features = _check_source(where, header.get("source"))
     dims: dict[str, int] = {"C": len(names)}
     head = _check_settings(where, "head", {}, header.get("head"), HEADS)
@@ -477,12 +451,46 @@ def validate_model(header: object, arrays: Mapping[str, np.ndarray], *, where: s
     if head["type"] == "gaussian-mixture":
         head_arrays = _mixture_arrays(where, head, head_arrays, arrays, dims)
     _check_arrays(where, "head", head_arrays, arrays, dims)
+    if kind == "classifier" and header.get("ood") is not None:
+        _check_ood(where, header["ood"], arrays, dims)
+    if kind == "clustering":
+        _check_novelty(where, header, arrays)
+    _check_head_values(where, head, arrays, dims)
+
+
+def _check_identity(where: str, header: object) -> tuple[str, list[str]]:
+    """Check what a model file says it is (format, version, kind, method, class names); return kind and names."""
+    if not isinstance(header, dict) or header.get("format") != FORMAT:
+        got = header.get("format") if isinstance(header, dict) else type(header).__name__
+        _fail(where, f"not a tactile-torch model file (header format must be {FORMAT!r}, got {got!r})")
+    version = header.get("format_version")
+    if not isinstance(version, int) or isinstance(version, bool) or version < 1:
+        _fail(where, f"format_version must be an int >= 1, got {version!r}")
+    if version > FORMAT_VERSION:
+        _fail(
+            where,
+            f"written by a newer tactile-torch ({header.get('library_version')}, model format version "
+            f"{version}); this one ({FORMAT_VERSION}) cannot read it: upgrade tactile-torch",
+        )
+    kind = header.get("kind")
+    if kind not in MODEL_KINDS:
+        _fail(where, f"kind must be one of {MODEL_KINDS}, got {kind!r}")
+    if header.get("method") not in METHODS[kind]:
+        _fail(where, f"method of a {kind} must be one of {METHODS[kind]}, got {header.get('method')!r}")
+    names = header.get("class_names")
+    if not isinstance(names, list) or not names or not all(isinstance(c, str) for c in names):
+        _fail(where, f"class_names must be a non-empty list of strings, got {names!r:.80}")
+    check_class_names(names, f"{where}: class_names")
+    return kind, names
+
+
+def _check_head_values(
+    where: str, head: dict, arrays: Mapping[str, np.ndarray], dims: dict[str, int]
+) -> None:
+    """What a head's shapes do not say: a neighbours head's settings and labels, an SVM's tree or pairs."""
     if head["type"] == "neighbours":
-        if (
-            head["weights"] not in ("uniform", "distance")
-            or head["p"] not in (1, 2)
-            or head["n_neighbors"] < 1
-        ):
+        settings_ok = head["weights"] in ("uniform", "distance") and head["p"] in (1, 2)
+        if not settings_ok or head["n_neighbors"] < 1:
             _fail(
                 where,
                 "head must have weights 'uniform' or 'distance', p 1 or 2 and n_neighbors >= 1, got "
@@ -491,10 +499,6 @@ def validate_model(header: object, arrays: Mapping[str, np.ndarray], *, where: s
         labels = arrays["head.labels"]
         if labels.size and (labels.min() < 0 or labels.max() >= dims["C"]):
             _fail(where, f"head.labels must lie in 0..{dims['C'] - 1}, got {labels.min()}..{labels.max()}")
-    if kind == "classifier" and header.get("ood") is not None:
-        _check_ood(where, header["ood"], arrays, dims)
-    if kind == "clustering":
-        _check_novelty(where, header, arrays)
     if head["type"] == "svm" and head["mode"] == "tree":
         _check_tree(where, arrays, dims, head["depth"])
     if head["type"] == "svm" and head["mode"] == "ovo":
