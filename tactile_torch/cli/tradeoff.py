@@ -47,6 +47,14 @@ REPRODUCED = (
 line's order."""
 
 
+def _classifier_names() -> list[str]:
+    """The ``--classifiers`` help's list: the catalogue's classical classifiers, by display name
+    (:mod:`tactile_torch.catalogue` imports no torch, so the robot's parser builds it too)."""
+    from ..catalogue import CLASSIFIERS, display_name
+
+    return [display_name(key) for key in CLASSIFIERS]
+
+
 def register(sub) -> None:
     """Add the ``tradeoff`` command to the subparsers ``sub``."""
     p = sub.add_parser(
@@ -113,7 +121,11 @@ def register(sub) -> None:
         default=None,
         help="samples kept per class (default: 60 quick, 300)",
     )
-    p.add_argument("--classifiers", default=None, help="comma-separated subset of HM-SVM,SVC,LDA,kNN,NCM")
+    p.add_argument(
+        "--classifiers",
+        default=None,
+        help=f"comma-separated subset of {','.join(_classifier_names())} (names or keys)",
+    )
     p.add_argument(
         "--features", default=None, help="comma-separated feature-set name prefixes (e.g. fused,top)"
     )
