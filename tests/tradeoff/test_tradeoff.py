@@ -393,6 +393,7 @@ def test_tradeoff_on_small_taxel_arrays(tmp_path, monkeypatch):
         frames=200.0 + data.pressure.numpy(),
         labels=data.labels.numpy(),
         class_names=np.array(data.class_names),
+        frame_rate_hz=10.0,  # explorations state their rate: it is never assumed (issue 42)
     )
     cwd = tmp_path / "cwd"
     cwd.mkdir()
