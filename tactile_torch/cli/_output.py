@@ -38,14 +38,9 @@ def recordings_line(data, args) -> str:
 
 
 def print_class_report(rep) -> None:
-    """Print a :class:`tactile_torch.metrics.ClassReport` as a table, then the overall accuracy."""
-    print(f"{'class':<24} {'samples':>7} {'accuracy':>9} {'type I':>8} {'type II':>8}")
-    for row in rep.rows():
-        print(
-            f"{row['class']:<24} {row['samples']:>7} {row['accuracy']:>9.4f} "
-            f"{row['type I error']:>8.4f} {row['type II error']:>8.4f}"
-        )
-    print(f"overall accuracy {rep.overall_accuracy:.4f}")
+    """Print a :class:`tactile_torch.metrics.ClassReport` as a table, then the overall accuracy ("n/a"
+    where a rate is undefined, e.g. a class of the model with no sample in the data: never "nan")."""
+    print(rep)
 
 
 @contextlib.contextmanager
