@@ -32,6 +32,8 @@ WARM_UP_SWEEPS = 0
 # Algorithm 8's auxiliary means are drawn afresh every this many points, reused in between (None: once
 # per sweep, Favaro & Teh's "ReUse"; 1: before every point, as in Neal's algorithm 8).
 AUX_REFRESH = None
+# Starting value of lambda, the variance ratio of the session effects: its prior median.
+SESSION_SCALE_START = 1.0
 
 
 def split_merge_moves(n_split_merge: int | str, n: int) -> int:
@@ -55,6 +57,20 @@ class PitmanYorGMM(PredictionMixin, PosteriorMixin, ClusterMixin, BaseEstimator)
         S_j                ~ Wishart(beta, (beta W)^{-1})  (so E[S_j] = W^{-1})
         xi ~ N(0, I),  R ~ Wishart(D, I/D),  W ~ Wishart(D, I/D) restricted to W >= 1e-10 I
         1/(beta - D + 1) ~ Gamma(shape 1/2, rate D/2),  1/alpha ~ Gamma(shape 1/2, rate 1/2),  d ~ U(0, 1)
+
+    **Sessions** (``fit(X, sessions=...)``, at least two): a point of session s in component j is
+    ``z = mu_j + b_(s,j) + e`` with a random effect ``b_(s,j) ~ N(0, lambda S_j^{-1})`` per
+    (component, session) and ``e ~ N(0, S_j^{-1})``: a surface may move a little from one day to
+    the next, in the shape of its own spread, and K counts surfaces rather than surface-by-day blobs.
+    ``lambda / (1 + lambda) ~ U(0, 1)`` (the share of a window's deviation that its session
+    shares) is sampled. The effects are integrated out given ``(mu_j, S_j, lambda)`` (the group of a
+    session is matrix normal with row covariance ``I + lambda 1 1^T``), so every step of the sampler
+    stays exact with the same conditionally conjugate prior; the component updates see effective
+    statistics, a point's weight is its predictive given the other points of its session in the
+    component (``tactile_torch/mixture/_gibbs/sessions.py``). Two blobs within one session cannot
+    be one component, which is what tells two surfaces from one surface on two days. Prediction,
+    the point estimate's components and the exported graph treat a new window as one of a new
+    session: covariance ``(1 + lambda) S_j^{-1}``.
 
     ``Wishart(nu, V)`` has scale matrix ``V`` and mean ``nu V`` (``scipy.stats.wishart(df=nu,
     scale=V)``); ``Gamma(shape, rate)`` has mean shape/rate. On whitened data ``N(0, I)``,
@@ -227,7 +243,13 @@ class PitmanYorGMM(PredictionMixin, PosteriorMixin, ClusterMixin, BaseEstimator)
     map_labels_, map_n_clusters_, map_chain_, map_sweep_, map_log_posterior_
         The MAP sample: labels (0 … K-1 by decreasing size), K, chain, sweep, log joint density.
     means_, covariances_ : ndarray of shape (K, D), (K, D, D)
-        The point estimate's components in the original coordinates (posterior means given ``labels_``).
+        The point estimate's components in the original coordinates (posterior means given
+        ``labels_``); with sessions, the covariance of a window of a new session, ``(1 + lambda) S^{-1}``.
+    n_sessions_ : int
+        Sessions given to ``fit`` (1: none, or one: no session effects).
+    session_scale_ : float or None
+        Posterior mean of lambda, the variance of a session's effect relative to a component's
+        covariance (None without sessions); ``session_scale_samples_`` its post-burn-in draws.
     precisions_cholesky_ : ndarray of shape (K, D, D)
         Upper-triangular ``U_k`` with precision ``U_k U_k^T`` (scikit-learn's convention).
     weights_ : ndarray of shape (K,)
@@ -241,7 +263,7 @@ class PitmanYorGMM(PredictionMixin, PosteriorMixin, ClusterMixin, BaseEstimator)
         rule: a new component more probable than every cluster).
     alpha_, discount_ : float
         Posterior means given the point estimate.
-    n_clusters_samples_, alpha_samples_, discount_samples_, beta_samples_, log_posterior_samples_ : ndarray
+    n_clusters_samples_, alpha_samples_, discount_samples_, beta_samples_, log_posterior_samples_, session_scale_samples_ : ndarray
         Post-burn-in values of every sweep, chains concatenated (chain-major), shape
         ``(n_chains * (n_iter - burn_in),)``.
     trace_ : dict of ndarray of shape (n_chains, n_iter)
@@ -430,14 +452,39 @@ class PitmanYorGMM(PredictionMixin, PosteriorMixin, ClusterMixin, BaseEstimator)
             _, labels = kmeans2(Xw, k, iter=20, minit="++", seed=rng)
         return np.unique(labels, return_inverse=True)[1].astype(np.int64)
 
+    def _session_ids(self, sessions: object, n: int) -> np.ndarray | None:
+        """Sessions as integers 0 .. S-1 (n,), or None for none or a single one; refuse what cannot be combined."""
+        if sessions is None:
+            return None
+        labels = np.asarray(_as_array(sessions))
+        if labels.shape != (n,):
+            raise ValueError(f"sessions must have shape ({n},) like X's rows, got {labels.shape}")
+        if labels.dtype.kind not in "iubUSO":
+            raise ValueError(f"sessions must hold labels (integers or strings), got dtype {labels.dtype}")
+        ids = np.unique(labels.astype(str) if labels.dtype.kind == "O" else labels, return_inverse=True)[1]
+        ids = ids.astype(np.int64).reshape(n)
+        if ids.max(initial=0) < 1:
+            return None
+        if self.coarsen is not None:
+            raise ValueError(
+                f"coarsen cannot be combined with sessions (the session effects are integrated out under the "
+                f"standard likelihood), got coarsen={self.coarsen}; pass coarsen=None or no sessions"
+            )
+        if self.split_merge != "sequential":
+            raise ValueError(f"sessions need split_merge='sequential', got split_merge={self.split_merge!r}")
+        return ids
+
     # ------------------------------------------------------------------------------------------
     # fit
     # ------------------------------------------------------------------------------------------
     @_fit_context(prefer_skip_nested_validation=True)
-    def fit(self, X: object, y: object = None) -> PitmanYorGMM:
+    def fit(self, X: object, y: object = None, sessions: object = None) -> PitmanYorGMM:
         """Run the chains on ``X`` of shape (n_samples, n_features); return ``self``.
 
         ``X`` is an array-like or a tensor; ``y`` is ignored (present for scikit-learn pipelines).
+        ``sessions`` (n_samples,): the recording session (day) of every row, any labels; with two
+        or more, each component's location may move from session to session by a random effect
+        (see *Sessions* above). ``None`` or a single session: no session effects.
         """
         t_fit = time.perf_counter()
         self._check_params()
@@ -459,6 +506,7 @@ class PitmanYorGMM(PredictionMixin, PosteriorMixin, ClusterMixin, BaseEstimator)
         X = validate_data(self, _as_array(X), dtype=np.float64)
         rng = numpy_rng(self.random_state)
         n, F = X.shape
+        session_ids = self._session_ids(sessions, n)
         D = F if self.cluster_features is None else int(self.cluster_features)
         if D > F:
             raise ValueError(
@@ -498,12 +546,16 @@ class PitmanYorGMM(PredictionMixin, PosteriorMixin, ClusterMixin, BaseEstimator)
             near=float(self.near_pairs if self.near_pairs is not None else (0.9 if mfm else 0.0)),
             sequential=self.split_merge == "sequential",
             refresh=max(1, n) if AUX_REFRESH is None else AUX_REFRESH,
+            fit_lambda=session_ids is not None,
         )
         nbr = neighbours(Xw) if cfg.near > 0 and cfg.n_split_merge > 0 else np.zeros((n, 0), dtype=np.int64)
         chain_rngs = rng.spawn(n_chains)
         states = []
         for c in range(n_chains):
-            st = g.new_state(self._initial_labels(Xw, chain_rngs[c]), D, alpha0, d0, zeta, gamma, lv)
+            st = g.new_state(
+                self._initial_labels(Xw, chain_rngs[c]), D, alpha0, d0, zeta, gamma, lv,
+                sessions=session_ids, lam=0.0 if session_ids is None else SESSION_SCALE_START,
+            )  # fmt: skip
             g.init_components(Xw, st, cfg.use_lik, chain_rngs[c])
             warm_up(Xw, st, cfg, chain_rngs[c], WARM_UP_SWEEPS)
             states.append(st)
@@ -527,12 +579,16 @@ class PitmanYorGMM(PredictionMixin, PosteriorMixin, ClusterMixin, BaseEstimator)
             self.stopped_by_ = "n_iter"
             self.budget_exhausted_ = not targets_met(runs, burn_in, quantities)
         self.n_features_in_ = F
+        self.n_sessions_ = 1 if session_ids is None else int(session_ids.max()) + 1
         self.data_mean_, self.data_scale_ = mean, scale
         self.n_iter_ = n_iter
         for name, value in chain_attributes(
             runs, snap_sweeps, burn_in, self.alpha is None and not mfm, self.discount is None and not mfm
         ).items():
             setattr(self, name, value)
+        self.session_scale_ = None if session_ids is None else float(np.mean(self.session_scale_samples_))
+        if session_ids is None:
+            self.session_scale_samples_ = None
         self._store_point_estimate(Xw, runs, cfg, rng, X if D < F else None)
         self._pred = pack_predictive(runs, n, self.labels_, rng, float(self.k_prior_mean))
         self.sweep_seconds_ = float(np.mean([r["seconds"] for r in runs]) / n_iter)
@@ -542,6 +598,6 @@ class PitmanYorGMM(PredictionMixin, PosteriorMixin, ClusterMixin, BaseEstimator)
             warnings.warn(warning, RuntimeWarning, stacklevel=2)
         return self
 
-    def fit_predict(self, X: object, y: object = None) -> np.ndarray:
+    def fit_predict(self, X: object, y: object = None, sessions: object = None) -> np.ndarray:
         """Fit and return ``labels_`` (the point estimate of the training points' partition)."""
-        return self.fit(X).labels_
+        return self.fit(X, sessions=sessions).labels_

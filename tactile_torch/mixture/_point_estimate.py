@@ -51,10 +51,11 @@ def wishart_cholesky(rng: np.random.Generator, dof: float, scale_chol: np.ndarra
     return scale_chol @ A
 
 
-def new_component_gaussian(xi, GR, GW, beta, rng) -> tuple[np.ndarray, np.ndarray]:
+def new_component_gaussian(xi, GR, GW, beta, rng, scale: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
     """One Gaussian of the Monte Carlo prior predictive of a new component (whitened): (mean, covariance).
 
-    ``x | S ~ N(xi, S^{-1} + R^{-1})`` with ``mu`` integrated out, ``S ~ Wishart(beta, (beta W)^{-1})``.
+    ``x | S ~ N(xi, c S^{-1} + R^{-1})`` with ``mu`` integrated out, ``S ~ Wishart(beta, (beta W)^{-1})``
+    and ``c = scale`` (``1 + lambda`` with session effects: a window of a new session; else 1).
     With ``beta W = F F^T`` (``F = sqrt(beta) GW``) and ``A`` a Bartlett factor of ``Wishart(beta, I)``,
     ``S = F^{-T} A A^T F^{-1}``, so ``S^{-1} = M^T M`` with ``M = A^{-1} F^T``: no inverse of a
     possibly ill-conditioned ``W`` is formed.
@@ -64,7 +65,7 @@ def new_component_gaussian(xi, GR, GW, beta, rng) -> tuple[np.ndarray, np.ndarra
     # (scipy.linalg.solve_triangular took milliseconds per 3 x 3 call on a busy machine; numpy does not)
     M = np.linalg.solve(A, math.sqrt(beta) * GW.T)
     N = np.linalg.inv(GR)  # R^{-1} = N^T N
-    return xi.copy(), M.T @ M + N.T @ N
+    return xi.copy(), scale * (M.T @ M) + N.T @ N
 
 
 def precision_cholesky(cov: np.ndarray) -> np.ndarray:
@@ -97,6 +98,10 @@ def partition_components(
 ) -> Components:
     """Return the components of the partition ``labels``: posterior means from a fixed-partition Gibbs run.
 
+    With session effects (``map_state.sc[5] > 0``, the points' sessions in ``map_state.sess``) the
+    covariances are those of a window of a *new* session, ``(1 + lambda) S^{-1}`` (its effect
+    integrated out), averaged over the run as lambda is sampled; so are the novelty Gaussians.
+
     The run starts from the MAP sample's hyperparameters (``same_features``; otherwise, for
     features other than the chains', from the prior's centre: ``xi = 0``, ``R = W = I``, ``beta =
     D``, the partition prior's parameters kept) and uses the sampler's own component and
@@ -111,12 +116,12 @@ def partition_components(
     K = int(labels.max()) + 1
     NO_NEIGHBOURS = np.zeros((n, 0), dtype=np.int64)  # no split-merge moves: the partition is fixed
     NO_SNAPSHOTS, NO_LABELS = np.zeros(0, dtype=np.int64), np.zeros((0, n), dtype=np.int32)
-    st = g.new_state(labels, D, float(map_state.sc[0]), float(map_state.sc[1]))
+    st = g.new_state(labels, D, float(map_state.sc[0]), float(map_state.sc[1]), sessions=map_state.sess)
     if same_features:
         for name in ("sc", "xi", "R", "GR", "W", "GW"):  # lv is not used: the partition is fixed
             np.copyto(getattr(st, name), getattr(map_state, name))
     else:
-        for k in (0, 1, 3, 4):  # alpha, d, zeta, gamma; beta stays at D
+        for k in (0, 1, 3, 4, 5):  # alpha, d, zeta, gamma, lambda; beta stays at D
             st.sc[k] = map_state.sc[k]
     fixed = cfg._replace(allocate=False, burn_in=_FIXED_SWEEPS)
     g.init_components(Xw, st, fixed.use_lik, rng)
@@ -132,11 +137,12 @@ def partition_components(
         if s < _FIXED_SWEEPS - kept:
             continue
         Linv = np.linalg.inv(st.L[:K])  # S^{-1} = L^{-T} L^{-1}
+        new_session = 1.0 + st.sc[5]  # 1 without session effects
         mus += st.mu[:K]
-        covs += np.swapaxes(Linv, 1, 2) @ Linv
+        covs += new_session * (np.swapaxes(Linv, 1, 2) @ Linv)
         scs += st.sc
         if len(novelty) < _NOVELTY_DRAWS and (s % max(1, kept // _NOVELTY_DRAWS) == 0):
-            novelty.append(new_component_gaussian(st.xi, st.GR, st.GW, st.sc[2], rng))
+            novelty.append(new_component_gaussian(st.xi, st.GR, st.GW, st.sc[2], rng, new_session))
     mus /= kept
     covs /= kept
     scs /= kept

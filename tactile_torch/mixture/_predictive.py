@@ -62,6 +62,9 @@ def log_gauss_upper(X: np.ndarray, means: np.ndarray, U: np.ndarray) -> np.ndarr
 def pack_predictive(runs, n, labels, rng, k_mean: float = 10.0) -> dict:
     """Pack the components of (at most ``_PREDICTIVE_SAMPLES`` per chain) saved sweeps for prediction.
 
+    With session effects a new point is taken to come from a new session: every component's
+    covariance is ``(1 + lambda) S^{-1}`` (the session's effect integrated out).
+
     ``runs``: the chains' saved samples (after the burn-in, each with its sweep's partition);
     ``labels``: the point estimate, onto whose clusters every
     sample's components are mapped. One Gaussian of the new component's prior predictive is drawn
@@ -76,19 +79,20 @@ def pack_predictive(runs, n, labels, rng, k_mean: float = 10.0) -> dict:
         )
         for k in pick:
             smp = run["samples"][k]
-            alpha, d, beta, _, gamma = smp["sc"]
+            alpha, d, beta, _, gamma, lam = smp["sc"]
             Ks = smp["cnt"].size
             log_join, log_new = predictive_weights(n, smp["cnt"], alpha, d, gamma, k_mean)
             s = len(new_logw)
+            # a new point is of a new session: its effect integrated out, covariance (1 + lambda) S^{-1}
             mus.append(smp["mu"])
-            Ls.append(smp["L"])
-            ldets.append(smp["ldet"])
+            Ls.append(smp["L"] / math.sqrt(1.0 + lam))
+            ldets.append(smp["ldet"] - D * math.log1p(lam))
             logw.append(log_join)
             table = np.zeros((Ks, K))
             np.add.at(table, (smp["labels"], labels), 1.0)
             share.append(table / table.sum(axis=1, keepdims=True))
             owner.append(np.full(Ks, s))
-            xi, cov = new_component_gaussian(smp["xi"], smp["GR"], smp["GW"], beta, rng)
+            xi, cov = new_component_gaussian(smp["xi"], smp["GR"], smp["GW"], beta, rng, 1.0 + lam)
             U = precision_cholesky(cov)  # upper, U U^T = cov^{-1}
             new_mu.append(xi)
             new_prec.append(U)

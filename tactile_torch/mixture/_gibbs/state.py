@@ -7,10 +7,14 @@ the active ones listed in ``act[:ist[0]]``):
 - ``mu[j]`` component mean, ``L[j]`` lower Cholesky factor of its *precision* ``S_j = L_j L_j^T``,
   ``ldet[j] = log|S_j|`` (kept from the log-domain draw, so that it stays finite when a factor underflows);
 - ``pos[j]`` position of slot ``j`` in ``act`` (-1 if free); ``fre[:ist[1]]`` stack of free slots;
-- ``ist = [K, number of free slots]``; ``sc = [alpha, d, beta, zeta, gamma]``: the Pitman-Yor
-  parameters, beta, the power ``zeta`` of the likelihood (1: the standard posterior; < 1 the
-  coarsened posterior) and ``gamma`` (0: Pitman-Yor prior on the partition; > 0: the mixture of
-  finite mixtures, whose weights are ``n_j + gamma``, stored as ``d = -gamma``);
+- ``ist = [K, number of free slots]``; ``sc = [alpha, d, beta, zeta, gamma, lambda]``: the
+  Pitman-Yor parameters, beta, the power ``zeta`` of the likelihood (1: the standard posterior; < 1
+  the coarsened posterior), ``gamma`` (0: Pitman-Yor prior on the partition; > 0: the mixture of
+  finite mixtures, whose weights are ``n_j + gamma``, stored as ``d = -gamma``) and ``lambda``,
+  the variance ratio of the session effects (0: no sessions);
+- ``sess[i]``: session of point ``i`` (0 .. S - 1; all 0 without sessions). With ``lambda > 0`` a
+  point of session s in component j is ``mu_j + b_(s,j) + e``, ``b_(s,j) ~ N(0, lambda S_j^{-1})``,
+  ``e ~ N(0, S_j^{-1})``; the effects ``b`` are integrated out (:mod:`.sessions`);
 - ``lv`` (n + 2,): ``log V_n(t)`` of the mixture of finite mixtures for t = 0 .. n + 1 (unused
   under the Pitman-Yor prior);
 - ``xi`` (D,), ``R``, ``W`` (D, D) and ``GR``/``GW`` their lower Cholesky factors.
@@ -30,6 +34,7 @@ from numba import njit, types
 from .conditionals import base_logpdf
 from .densities import _log_prior_alpha, _log_prior_beta, log_eppf, log_eppf_mfm, wishart_logpdf
 from .linalg import A1, A2, A3, I1, LOG2PI, _logdet_chol, _quad_rows
+from .sessions import log_prior_lambda, n_sessions, session_table
 
 
 class ChainState(NamedTuple):
@@ -51,9 +56,10 @@ class ChainState(NamedTuple):
     W: np.ndarray
     GW: np.ndarray
     lv: np.ndarray
+    sess: np.ndarray
 
 
-STATE = types.NamedTuple((I1, I1, A2, A3, A1, I1, I1, I1, I1, A1, A1, A2, A2, A2, A2, A1), ChainState)
+STATE = types.NamedTuple((I1, I1, A2, A3, A1, I1, I1, I1, I1, A1, A1, A2, A2, A2, A2, A1, I1), ChainState)
 """numba type of :class:`ChainState`."""
 
 
@@ -65,11 +71,15 @@ def new_state(
     zeta: float = 1.0,
     gamma: float = 0.0,
     lv: np.ndarray | None = None,
+    sessions: np.ndarray | None = None,
+    lam: float = 0.0,
 ) -> ChainState:
     """Return a state with the partition ``z`` (labels ``0 .. K-1``), identity hyperparameters, beta = D.
 
     ``gamma > 0`` selects the mixture of finite mixtures (then ``discount`` must be ``-gamma`` and
-    ``lv`` its ``log V_n(t)``, shape (n + 2,)); ``zeta`` is the power of the likelihood. Component
+    ``lv`` its ``log V_n(t)``, shape (n + 2,)); ``zeta`` is the power of the likelihood.
+    ``sessions`` (n,) int, 0 .. S - 1, with ``lam > 0``: the session of every point and the
+    starting variance ratio of the session effects (``lam = 0``: no session effects). Component
     parameters are left at zero: the caller draws them (``init_components``).
     """
     n = z.shape[0]
@@ -94,13 +104,16 @@ def new_state(
         pos=pos,
         fre=fre,
         ist=np.array([K, free_slots.size], dtype=np.int64),
-        sc=np.array([alpha, discount, float(D), zeta, gamma]),
+        sc=np.array([alpha, discount, float(D), zeta, gamma, lam]),
         xi=np.zeros(D),
         R=np.eye(D),
         GR=np.eye(D),
         W=np.eye(D),
         GW=np.eye(D),
         lv=np.zeros(n + 2) if lv is None else np.ascontiguousarray(lv, dtype=np.float64),
+        sess=np.zeros(n, dtype=np.int64)
+        if sessions is None
+        else np.ascontiguousarray(sessions, dtype=np.int64),
     )
 
 
@@ -123,6 +136,7 @@ def copy_state(src, dst):
     dst.W[:] = src.W
     dst.GW[:] = src.GW
     dst.lv[:] = src.lv
+    dst.sess[:] = src.sess
 
 
 # --------------------------------------------------------------------------------------------------
@@ -163,16 +177,40 @@ def pop_free(st):
 # --------------------------------------------------------------------------------------------------
 @njit(cache=True)
 def log_joint(X, st, use_lik):
-    """Unnormalised log density of the whole state (labels, components, hyperparameters) given X."""
+    """Unnormalised log density of the whole state (labels, components, hyperparameters) given X.
+
+    With session effects (``sc[5] = lambda > 0``) the likelihood is the one with the effects
+    integrated out (:mod:`.sessions`): per (component, session) group of ``m`` points with residual
+    sum ``r``, ``- D/2 log(1 + lambda m) + lambda / (2 (1 + lambda m)) r^T S r`` on top of the
+    plain terms.
+    """
     n, D = X.shape
     z, L, mu, ldet = st.z, st.L, st.mu, st.ldet
-    zeta = st.sc[3]
+    zeta, lam = st.sc[3], st.sc[5]
     out = 0.0
     if use_lik:
         half = 0.5 * D * LOG2PI
         for i in range(n):
             j = z[i]
             out += zeta * (0.5 * ldet[j] - half - 0.5 * _quad_rows(L, j, mu, j, X, i))
+        if lam > 0.0:
+            K = st.ist[0]
+            S = n_sessions(st.sess)
+            nts = np.zeros((K, S), dtype=np.int64)
+            sts = np.zeros((K, S, D))
+            session_table(X, z, st.sess, st.pos, K, nts, sts)
+            r = np.empty((1, D))
+            zero = np.zeros((1, D))
+            for t in range(K):
+                j = st.act[t]
+                for s in range(S):
+                    m = nts[t, s]
+                    if m == 0:
+                        continue
+                    for a in range(D):
+                        r[0, a] = sts[t, s, a] - m * mu[j, a]
+                    q = _quad_rows(L, j, zero, 0, r, 0)
+                    out += -0.5 * D * math.log1p(lam * m) + 0.5 * lam / (1.0 + lam * m) * q
     return out + log_prior_terms(st)
 
 
@@ -205,4 +243,6 @@ def log_prior_terms(st):
     out += _log_prior_beta(beta, D)
     if alpha > 0.0:
         out += _log_prior_alpha(alpha)
+    if st.sc[5] > 0.0:
+        out += log_prior_lambda(st.sc[5])
     return out
