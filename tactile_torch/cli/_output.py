@@ -20,8 +20,6 @@ def recordings_line(data, args) -> str:
 
     import numpy as np
 
-    from ..robot.csv_logs import session_source
-
     paths = [Path(p) for p in args.data]
     from_file = len(paths) == 1 and paths[0].suffix.lower() == ".npz"
     if getattr(args, "sample_rate_hz", None) is not None:
@@ -32,10 +30,19 @@ def recordings_line(data, args) -> str:
     if data.session is None:
         return line + ", no sessions (each recording its own)"
     n = len(np.unique(np.asarray(data.session).astype(str)))
-    where = (
-        "the file's session array" if from_file else session_source(paths, index=getattr(args, "index", None))
-    )
-    return line + f", {n} session{'s' if n != 1 else ''} (from {where})"
+    return line + f", {n} session{'s' if n != 1 else ''} (from {session_origin(args)})"
+
+
+def session_origin(args) -> str:
+    """Where the sessions of ``args.data`` come from: ``"the file's session array"``, ``"their folders"``, ..."""
+    from pathlib import Path
+
+    from ..robot.csv_logs import session_source
+
+    paths = [Path(p) for p in args.data]
+    if len(paths) == 1 and paths[0].suffix.lower() == ".npz":
+        return "the file's session array"
+    return session_source(paths, index=getattr(args, "index", None))
 
 
 def print_class_report(rep) -> None:
