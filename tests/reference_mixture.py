@@ -7,12 +7,14 @@ hyperparameter updates with ``numpy.linalg``; slice sampling for beta, alpha and
 independently of :mod:`tactile_torch.mixture._gibbs`, it serves the tests as an independent check of the
 posterior and the benchmark as the baseline whose per-sweep time is compared.
 
-With ``sessions``: the random effect ``b_(s,k) ~ N(0, lambda S_k^{-1})`` of every (component,
-session) group, integrated out given ``(mu_k, S_k, lambda)`` the plain way: a point's weight is the
-Gaussian conditional of its row given the other rows of its group (row covariance ``I + lambda 1
-1^T`` built as a matrix), the component updates use ``sum_s R_s^T A_s^{-1} R_s`` with ``A_s``
-inverted by ``numpy.linalg.inv``, and lambda is slice-sampled on ``log lambda`` (standard logistic
-prior) from the groups' matrix-normal log densities.
+With ``sessions``: the session offsets ``c_s ~ N(0, omega I)`` and the random effect ``b_(s,k) ~
+N(0, lambda S_k^{-1})`` of every (component, session) group, the latter integrated out given
+``(mu_k, S_k, lambda)`` the plain way: a point's weight is the Gaussian conditional of its row (minus
+its session's offset) given the other rows of its group (row covariance ``I + lambda 1 1^T`` built
+as a matrix), the component updates use ``sum_s R_s^T A_s^{-1} R_s`` with ``A_s`` inverted by
+``numpy.linalg.inv``, the offsets are drawn from their normal conditional written with the same
+matrices, lambda is slice-sampled on ``log lambda`` (standard logistic prior) from the groups'
+matrix-normal log densities and omega on ``log omega`` (half-Cauchy on its square root).
 """
 
 from __future__ import annotations
@@ -104,10 +106,17 @@ def reference_gibbs(
     mus = np.array([X[z == k].mean(axis=0) for k in range(K)])
     Ls = wishart_rvs_chol(rng, beta, np.linalg.inv(beta * W), K)
     ldets = _chol_logdet(Ls)
-    trace = {k: np.zeros(n_iter) for k in ("n_clusters", "alpha", "discount", "beta", "session_scale")}
+    trace = {
+        k: np.zeros(n_iter)
+        for k in ("n_clusters", "alpha", "discount", "beta", "session_scale", "offset_variance")
+    }
     half = 0.5 * D * math.log(2 * math.pi)
     sess = None if sessions is None else np.asarray(sessions)
     lam = 0.0 if sess is None else (1.0 if session_scale is None else float(session_scale))
+    X_raw = X.copy()
+    if sess is not None:
+        offsets = np.zeros((int(sess.max()) + 1, D))
+        omega = lam
     for sweep in range(n_iter):
         # ---- Neal's algorithm 8 (auxiliary precisions integrated out: Student-t weights)
         R_inv_chol = np.linalg.cholesky(np.linalg.inv(R))
@@ -135,7 +144,7 @@ def reference_gibbs(
                     y = np.einsum("kab,ka->kb", Ls, X[i] - mus)
                     old = np.log(counts - d) + 0.5 * ldets - half - 0.5 * (y * y).sum(1)
                 else:
-                    others = (np.arange(n) != i) & (sess == sess[i])
+                    others = (np.arange(n) != i) & (sess == sess[i])  # X holds x - c_s (below)
                     old = np.log(counts - d) + np.array(
                         [_row_given_group(X[i], X[others & (z == k)], mus[k], Ls[k], lam) for k in range(K)]
                     ).reshape(K)
@@ -159,6 +168,31 @@ def reference_gibbs(
                 counts = np.concatenate([counts, [1]])
                 z[i] = K
                 K += 1
+        # ---- session offsets c_s | rest, then omega (sampled with lambda)
+        if sess is not None and session_scale is None:
+            for s_ in range(offsets.shape[0]):
+                prec = np.eye(D) / omega
+                h = np.zeros(D)
+                for k in range(K if not prior_only else 0):
+                    g = X_raw[(z == k) & (sess == s_)]
+                    if not len(g):
+                        continue
+                    S = Ls[k] @ Ls[k].T
+                    w = np.linalg.inv(_row_covariance(len(g), lam)).sum(0)  # A^{-1} 1
+                    prec += w.sum() * S
+                    h += S @ (w @ (g - mus[k]))
+                cov = np.linalg.inv(prec)
+                offsets[s_] = cov @ h + np.linalg.cholesky(cov) @ rng.standard_normal(D)
+
+            ss_off = float((offsets**2).sum())
+
+            def log_omega(u, ss=ss_off, m=offsets.size):
+                if abs(u) > 30:
+                    return -np.inf
+                return -math.log1p(math.exp(u)) + 0.5 * u - 0.5 * m * u - 0.5 * ss / math.exp(u)
+
+            omega = math.exp(_slice(rng, log_omega, math.log(omega)))
+            X = X_raw - offsets[sess]
         # ---- components: S | mu, then mu | S
         for k in range(K):
             pts = X[z == k] if not prior_only else X[:0]
@@ -253,6 +287,7 @@ def reference_gibbs(
         trace["discount"][sweep] = d
         trace["beta"][sweep] = beta
         trace["session_scale"][sweep] = lam
+        trace["offset_variance"][sweep] = omega if sess is not None else 0.0
         if on_sweep is not None:
             on_sweep(sweep, z)
     return {**trace, "labels": z.copy()}

@@ -436,6 +436,7 @@ def chain_attributes(
     out["beta_samples_"] = post["beta"].ravel()
     out["log_posterior_samples_"] = post["log_posterior"].ravel()
     out["session_scale_samples_"] = post["session_scale"].ravel()
+    out["offset_variance_samples_"] = post["offset_variance"].ravel()
     out["labels_samples_"] = np.stack([r["labels"] for r in runs])
     out["labels_sweeps_"] = snap_sweeps
     out["_burn_in"] = burn_in

@@ -59,18 +59,21 @@ class PitmanYorGMM(PredictionMixin, PosteriorMixin, ClusterMixin, BaseEstimator)
         1/(beta - D + 1) ~ Gamma(shape 1/2, rate D/2),  1/alpha ~ Gamma(shape 1/2, rate 1/2),  d ~ U(0, 1)
 
     **Sessions** (``fit(X, sessions=...)``, at least two): a point of session s in component j is
-    ``z = mu_j + b_(s,j) + e`` with a random effect ``b_(s,j) ~ N(0, lambda S_j^{-1})`` per
-    (component, session) and ``e ~ N(0, S_j^{-1})``: a surface may move a little from one day to
-    the next, in the shape of its own spread, and K counts surfaces rather than surface-by-day blobs.
-    ``lambda / (1 + lambda) ~ U(0, 1)`` (the share of a window's deviation that its session
-    shares) is sampled. The effects are integrated out given ``(mu_j, S_j, lambda)`` (the group of a
-    session is matrix normal with row covariance ``I + lambda 1 1^T``), so every step of the sampler
-    stays exact with the same conditionally conjugate prior; the component updates see effective
-    statistics, a point's weight is its predictive given the other points of its session in the
-    component (``tactile_torch/mixture/_gibbs/sessions.py``). Two blobs within one session cannot
-    be one component, which is what tells two surfaces from one surface on two days. Prediction,
-    the point estimate's components and the exported graph treat a new window as one of a new
-    session: covariance ``(1 + lambda) S_j^{-1}``.
+    ``z = mu_j + c_s + b_(s,j) + e``: an offset ``c_s ~ N(0, omega I)`` that moves every component
+    of the session alike (a re-mounted sensor's gain), a random effect ``b_(s,j) ~ N(0, lambda
+    S_j^{-1})`` per (component, session) (pressure, speed, wear: each surface moves a little from
+    one day to the next, in the shape of its own spread) and ``e ~ N(0, S_j^{-1})``; K counts
+    surfaces rather than surface-by-day blobs. ``lambda / (1 + lambda) ~ U(0, 1)`` (the share of a
+    window's deviation that its session shares) and ``sqrt(omega) ~ half-Cauchy(0, 1)`` are
+    sampled. The effects ``b`` are integrated out given ``(mu_j, S_j, lambda)`` (the group of a
+    session is matrix normal with row covariance ``I + lambda 1 1^T``) and the offsets drawn from
+    their normal conditionals, so every step of the sampler stays exact with the same
+    conditionally conjugate prior; the component updates see effective statistics, a point's
+    weight is its predictive given the other points of its session in the component
+    (``tactile_torch/mixture/_gibbs/sessions.py``). Two blobs within one session cannot be one
+    component, which is what tells two surfaces from one surface on two days. Prediction, the
+    point estimate's components and the exported graph treat a new window as one of a new
+    session, its offset and effect unknown: covariance ``(1 + lambda) S_j^{-1} + omega I``.
 
     ``Wishart(nu, V)`` has scale matrix ``V`` and mean ``nu V`` (``scipy.stats.wishart(df=nu,
     scale=V)``); ``Gamma(shape, rate)`` has mean shape/rate. On whitened data ``N(0, I)``,
@@ -250,6 +253,10 @@ class PitmanYorGMM(PredictionMixin, PosteriorMixin, ClusterMixin, BaseEstimator)
     session_scale_ : float or None
         Posterior mean of lambda, the variance of a session's effect relative to a component's
         covariance (None without sessions); ``session_scale_samples_`` its post-burn-in draws.
+    session_offsets_ : ndarray of shape (S, D) or None
+        Posterior means of the sessions' offsets ``c_s`` in the original coordinates, from the
+        point estimate's fixed-partition run (None without sessions); ``offset_variance_samples_``:
+        the post-burn-in draws of omega (whitened units).
     precisions_cholesky_ : ndarray of shape (K, D, D)
         Upper-triangular ``U_k`` with precision ``U_k U_k^T`` (scikit-learn's convention).
     weights_ : ndarray of shape (K,)
@@ -588,7 +595,7 @@ class PitmanYorGMM(PredictionMixin, PosteriorMixin, ClusterMixin, BaseEstimator)
             setattr(self, name, value)
         self.session_scale_ = None if session_ids is None else float(np.mean(self.session_scale_samples_))
         if session_ids is None:
-            self.session_scale_samples_ = None
+            self.session_scale_samples_ = self.offset_variance_samples_ = None
         self._store_point_estimate(Xw, runs, cfg, rng, X if D < F else None)
         self._pred = pack_predictive(runs, n, self.labels_, rng, float(self.k_prior_mean))
         self.sweep_seconds_ = float(np.mean([r["seconds"] for r in runs]) / n_iter)

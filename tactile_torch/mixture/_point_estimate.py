@@ -68,6 +68,17 @@ def new_component_gaussian(xi, GR, GW, beta, rng, scale: float = 1.0) -> tuple[n
     return xi.copy(), scale * (M.T @ M) + N.T @ N
 
 
+def new_session_terms(sc: np.ndarray) -> tuple[float, float]:
+    """``(1 + lambda, omega)`` of a chain's scalars ``sc``: a window of a new session has covariance ``(1 + lambda) S^{-1} + omega I``.
+
+    Its session's offset (``N(0, omega I)``) and its effect in the component (``N(0, lambda
+    S^{-1})``) are unknown, so both are integrated out (whitened units); ``(1, 0)`` without sessions.
+    """
+    if sc[5] > 0.0:
+        return 1.0 + float(sc[5]), float(sc[6])
+    return 1.0, 0.0
+
+
 def precision_cholesky(cov: np.ndarray) -> np.ndarray:
     """Upper ``U`` with ``U U^T`` = ``cov^{-1}`` (scikit-learn's ``precisions_cholesky_``)."""
     D = cov.shape[0]
@@ -91,6 +102,8 @@ class Components(NamedTuple):
     discount: float
     novelty_means: np.ndarray
     novelty_precisions_cholesky: np.ndarray
+    offsets: np.ndarray | None = None
+    """Posterior means of the sessions' offsets (S, D), original coordinates; None without sessions."""
 
 
 def partition_components(
@@ -99,8 +112,9 @@ def partition_components(
     """Return the components of the partition ``labels``: posterior means from a fixed-partition Gibbs run.
 
     With session effects (``map_state.sc[5] > 0``, the points' sessions in ``map_state.sess``) the
-    covariances are those of a window of a *new* session, ``(1 + lambda) S^{-1}`` (its effect
-    integrated out), averaged over the run as lambda is sampled; so are the novelty Gaussians.
+    covariances are those of a window of a *new* session, ``(1 + lambda) S^{-1} + omega I`` (its
+    offset and effect integrated out, :func:`new_session_terms`), averaged over the run as lambda
+    and omega are sampled; so are the novelty Gaussians.
 
     The run starts from the MAP sample's hyperparameters (``same_features``; otherwise, for
     features other than the chains', from the prior's centre: ``xi = 0``, ``R = W = I``, ``beta =
@@ -121,13 +135,14 @@ def partition_components(
         for name in ("sc", "xi", "R", "GR", "W", "GW"):  # lv is not used: the partition is fixed
             np.copyto(getattr(st, name), getattr(map_state, name))
     else:
-        for k in (0, 1, 3, 4, 5):  # alpha, d, zeta, gamma, lambda; beta stays at D
+        for k in (0, 1, 3, 4, 5, 6):  # alpha, d, zeta, gamma, lambda, omega; beta stays at D
             st.sc[k] = map_state.sc[k]
     fixed = cfg._replace(allocate=False, burn_in=_FIXED_SWEEPS)
     g.init_components(Xw, st, fixed.use_lik, rng)
     trace = np.zeros((_FIXED_SWEEPS, len(g.TRACE_NAMES)))
     kept = _FIXED_SWEEPS - _FIXED_SWEEPS // 4
     mus, covs, scs, novelty = np.zeros((K, D)), np.zeros((K, D, D)), np.zeros(st.sc.size), []
+    offs = np.zeros_like(st.off)
     unused = g.ChainState(*(a.copy() for a in st))
     for s in range(_FIXED_SWEEPS):
         g.run_sweeps(
@@ -137,12 +152,14 @@ def partition_components(
         if s < _FIXED_SWEEPS - kept:
             continue
         Linv = np.linalg.inv(st.L[:K])  # S^{-1} = L^{-T} L^{-1}
-        new_session = 1.0 + st.sc[5]  # 1 without session effects
+        scale, offset = new_session_terms(st.sc)
         mus += st.mu[:K]
-        covs += new_session * (np.swapaxes(Linv, 1, 2) @ Linv)
+        offs += st.off
+        covs += scale * (np.swapaxes(Linv, 1, 2) @ Linv) + offset * np.eye(D)
         scs += st.sc
         if len(novelty) < _NOVELTY_DRAWS and (s % max(1, kept // _NOVELTY_DRAWS) == 0):
-            novelty.append(new_component_gaussian(st.xi, st.GR, st.GW, st.sc[2], rng, new_session))
+            xi, cov = new_component_gaussian(st.xi, st.GR, st.GW, st.sc[2], rng, scale)
+            novelty.append((xi, cov + offset * np.eye(D)))
     mus /= kept
     covs /= kept
     scs /= kept
@@ -169,6 +186,7 @@ def partition_components(
         discount=d,
         novelty_means=np.stack([m + A @ mu for mu, _ in novelty]),
         novelty_precisions_cholesky=np.stack([precision_cholesky(A @ c @ A.T) for _, c in novelty]),
+        offsets=(offs / kept) @ A.T if st.sc[5] > 0.0 else None,
     )
 
 

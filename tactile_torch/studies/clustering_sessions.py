@@ -59,9 +59,33 @@ def multi_day(
     day's signals scaled by a gain ``exp(N(0, gain_sd^2))``. 800-sample windows, the 21 features,
     the clustering transform (fitted on all windows) to ``components`` principal components.
     """
-    from ..data.stylus import SURFACES, make_vibration_recordings
     from ..data.vibration import VibrationRecordings
     from .clustering_k import _pca_features
+
+    rec = multi_day_recordings(
+        n_surfaces, n_days, seed, duration_s=duration_s, gain_sd=gain_sd, day_jitter=day_jitter
+    )
+    day = np.array([int(str(s)[3:]) for s in rec.session])
+    ds = VibrationRecordings(rec.signals, rec.labels, rec.class_names, rec.rate_hz, rec.session).windows(800)
+    X = _pca_features(ds.windows, components)
+    return X, ds.labels.numpy(), day[ds.recording.numpy()]
+
+
+def multi_day_recordings(
+    n_surfaces: int = 7,
+    n_days: int = 5,
+    seed: int = 0,
+    *,
+    duration_s: float = 30.0,
+    gain_sd: float = GAIN_SD,
+    day_jitter: float = DAY_JITTER,
+):
+    """Return the recordings of :func:`multi_day` as :class:`~tactile_torch.robot.formats.RecordingArrays`, session = ``"day<k>"``.
+
+    What ``tactile-torch cluster`` reads from a lab's day folders: one recording per (surface, day).
+    """
+    from ..data.stylus import SURFACES, make_vibration_recordings
+    from ..robot.formats import RecordingArrays
 
     rng = np.random.default_rng([seed, 38])
     pairs = [
@@ -73,9 +97,8 @@ def multi_day(
     alike = {i for p in pairs for i in p}
     others = [i for i in range(len(SURFACES)) if i not in alike]
     chosen = [pair[1], pair[0], *rng.choice(others, n_surfaces - 2, replace=False).tolist()]
-    table = [SURFACES[i] for i in chosen]
     rec = make_vibration_recordings(
-        surfaces=table,
+        surfaces=[SURFACES[i] for i in chosen],
         duration_s=duration_s,
         n_sessions=n_days,
         rate_hz=1000.0,
@@ -86,9 +109,78 @@ def multi_day(
     day = np.array([int(str(s).rsplit("/", 1)[1]) for s in rec.session])
     gains = np.exp(rng.normal(0.0, gain_sd, n_days))
     signals = [(s * np.float32(gains[k])).astype(np.float32) for s, k in zip(rec.signals, day, strict=True)]
-    ds = VibrationRecordings(signals, rec.labels, rec.class_names, rec.rate_hz, rec.session).windows(800)
-    X = _pca_features(ds.windows, components)
-    return X, ds.labels.numpy(), day[ds.recording.numpy()]
+    return RecordingArrays(
+        signals,
+        np.asarray(rec.labels),
+        tuple(rec.class_names),
+        rec.rate_hz,
+        np.array([f"day{k}" for k in day]),
+    )
+
+
+def held_back_day(
+    n_surfaces: int = 7,
+    n_days: int = 5,
+    seed: int = 2,
+    *,
+    sessions: str = "model",
+    random_state: int = 0,
+    **fit: Any,
+) -> dict[str, Any]:
+    """Fit ``tactile-torch cluster``'s workflow on every day but the last; score the last day as the robot would.
+
+    :func:`tactile_torch.clustering.fit_clustering` on the first ``n_days - 1`` days (``sessions``:
+    ``"model"`` or ``"none"``; the last third of each recording calibrates the novelty rule at 2 %),
+    then the held-back day's windows through the fitted transform and the point estimate's mixture
+    (``predict(using="point")``: the exported graph's labels) and the calibrated novelty rule
+    (``novel_after(X, 1)``: the graph's ``novel`` output, ``stream --discover 1``). Returns the
+    posterior of K, and on the held-back day the share of windows whose cluster maps (by its
+    training windows' majority surface) to their surface, the share flagged novel and the adjusted
+    Rand index of the clusters against the surfaces.
+    """
+    from sklearn.metrics import adjusted_rand_score
+
+    from ..clustering import fit_clustering
+    from ..robot.formats import RecordingArrays
+    from ..training import load_features
+
+    rec = multi_day_recordings(n_surfaces, n_days, seed)
+    last = f"day{n_days - 1}"
+    keep = np.asarray(rec.session) != last
+
+    def subset(mask):
+        idx = np.flatnonzero(mask)
+        return RecordingArrays(
+            [rec.signals[i] for i in idx], rec.labels[idx], rec.class_names, rec.rate_hz, rec.session[idx]
+        )
+
+    t0 = time.perf_counter()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        clustering = fit_clustering(
+            subset(keep), window=800, sessions=sessions, random_state=random_state, progress=False, **fit
+        )
+    seconds = time.perf_counter() - t0
+    model = clustering.mixture
+    truth = clustering.truth[clustering.fitted_rows]
+    majority = np.array([np.bincount(truth[model.labels_ == k]).argmax() for k in range(model.n_clusters_)])
+    test = load_features(subset(~keep), window=800, name=last)
+    X = np.asarray(clustering.transform.transform(test.X))
+    pred = model.predict(X, using="point")
+    mapped = np.where(pred >= 0, majority[np.maximum(pred, 0)], -1)
+    ks = model.n_clusters_summary_
+    return {
+        "surfaces": n_surfaces,
+        "training days": n_days - 1,
+        "sessions": sessions,
+        "K mode": int(ks["mode"]),
+        "K 95% interval": "[{}, {}]".format(*ks["interval"]),
+        "held-back day: windows": len(test.y),
+        "right surface": round(float(np.mean(mapped == test.y)), 3),
+        "novel (calibrated 2 %)": round(float(np.mean(model.novel_after(X, 1))), 3),
+        "ARI": round(float(adjusted_rand_score(test.y, pred)), 3),
+        "fit seconds": round(seconds, 1),
+    }
 
 
 def sessions_3x3(seed: int = 0, components: int = 3) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -226,9 +318,26 @@ def _main(argv: list[str] | None = None) -> None:
     parser.add_argument("--components", type=int, default=3, help="principal components (default: 3)")
     parser.add_argument("--max-seconds", type=float, default=300.0, help="wall-clock budget of n_iter='auto'")
     parser.add_argument("--seed", type=int, default=0, help="random_state of the fits (default: 0)")
+    parser.add_argument(
+        "--held-back-day",
+        action="store_true",
+        help="fit cluster's workflow on all days but the last of each multi-day source, score the last (robot side)",
+    )
     args = parser.parse_args(argv)
     refuse_unknown(parser, "--only", args.only, source_names())
     refuse_unknown(parser, "--ways", args.ways, WAYS)
+    if args.held_back_day:
+        for i, (s, d, seed) in enumerate(MULTI_DAY):
+            if args.only and f"days-{s}x{d}-seed{seed}" not in args.only:
+                continue
+            for mode in ("model", "none"):
+                row = {"source": f"days-{s}x{d}-seed{seed}"} | held_back_day(
+                    s, d, seed, sessions=mode, random_state=args.seed, max_seconds=args.max_seconds
+                )
+                if i == 0 and mode == "model":
+                    print("| " + " | ".join(row) + " |\n|" + " --- |" * len(row))
+                print("| " + " | ".join(str(v) for v in row.values()) + " |", flush=True)
+        return
     sources = session_sources(args.components, tuple(args.only) if args.only else None)
     for name in sorted(set(args.only or ()) - set(sources)):
         print(f"clustering_sessions: {name}: skipped, its data set is not found here", file=sys.stderr)

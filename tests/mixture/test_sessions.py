@@ -26,13 +26,16 @@ from tests.reference_mixture import reference_gibbs, whiten
 pytestmark = pytest.mark.filterwarnings("ignore:PitmanYorGMM. R-hat:RuntimeWarning")
 
 
-def shifted_sessions(n_sessions=4, per=15, shift=1.0, spread=0.4, centres=((0, 0), (4, 0), (2, 3.5)), seed=0):
-    """Clusters whose centre moves by N(0, shift^2) per (cluster, session): (X, labels, sessions)."""
+def shifted_sessions(
+    n_sessions=4, per=15, shift=1.0, spread=0.4, centres=((0, 0), (4, 0), (2, 3.5)), common=0.0, seed=0
+):
+    """Clusters whose centre moves by N(0, shift^2) per (cluster, session) and N(0, common^2) per session: (X, labels, sessions)."""
     rng = np.random.default_rng(seed)
     X, y, s = [], [], []
     for k in range(n_sessions):
+        offset = rng.normal(0.0, common, size=len(centres[0]))
         for c, centre in enumerate(centres):
-            moved = np.asarray(centre, dtype=float) + rng.normal(0.0, shift, size=len(centre))
+            moved = np.asarray(centre, dtype=float) + offset + rng.normal(0.0, shift, size=len(centre))
             X.append(rng.normal(moved, spread, size=(per, len(centre))))
             y += [c] * per
             s += [k] * per
@@ -83,9 +86,9 @@ def test_log_joint_of_the_map_state_is_the_tracked_density():
     np.testing.assert_allclose(log_joint(Xw, state, True), model.map_log_posterior_, rtol=1e-9)
 
 
-def test_prior_only_chain_samples_the_partition_prior_and_the_prior_of_lambda():
-    # the likelihood off: K follows the MFM prior (exact enumeration) with the moves on, and
-    # lambda / (1 + lambda) is uniform on (0, 1)
+def test_prior_only_chain_samples_the_partition_prior_and_the_priors_of_the_session_terms():
+    # the likelihood off: K follows the MFM prior (exact enumeration) with the moves on,
+    # lambda / (1 + lambda) is uniform on (0, 1) and sqrt(omega) half-Cauchy
     n = 8
     X = np.random.default_rng(0).normal(size=(n, 2))
     s = np.array([0, 0, 1, 1, 2, 2, 0, 1])
@@ -101,11 +104,14 @@ def test_prior_only_chain_samples_the_partition_prior_and_the_prior_of_lambda():
     assert_samples_prior_of_k(model, exact_mfm_prior_k(n, 1.0, 3.0))
     rho = model.session_scale_samples_ / (1.0 + model.session_scale_samples_)
     assert stats.kstest(rho[::20], "uniform").pvalue > 1e-3
+    # the offsets' variance: sqrt(omega) ~ half-Cauchy(0, 1)
+    assert stats.kstest(np.sqrt(model.offset_variance_samples_[::20]), stats.halfcauchy.cdf).pvalue > 1e-3
 
 
 def test_posterior_agrees_with_the_numpy_reference_with_sessions():
-    # single-site Gibbs (no split-merge moves) against the independent reference, lambda sampled
-    X, _, s = shifted_sessions(n_sessions=3, per=5, centres=((0, 0), (3, 0)), shift=0.8, seed=2)
+    # single-site Gibbs (no split-merge moves) against the independent reference, lambda and omega
+    # sampled; the sessions move both clusters alike (offsets) and each a little (effects)
+    X, _, s = shifted_sessions(n_sessions=3, per=5, centres=((0, 0), (3, 0)), shift=0.3, common=1.5, seed=2)
     common = dict(n_iter=4000, burn_in=300, n_chains=1, n_split_merge=0, progress=False)
     ours = PitmanYorGMM(random_state=3, model="pyp", discount=0.0, **common).fit(X, sessions=s)
     ref = reference_gibbs(X, n_iter=500, discount=0.0, random_state=4, sessions=s)
@@ -113,6 +119,8 @@ def test_posterior_agrees_with_the_numpy_reference_with_sessions():
     assert abs(ks.mean() - ks_ref.mean()) < 4 * math.hypot(batch_se(ks), batch_se(ks_ref, 20))
     ll, ll_ref = np.log(ours.session_scale_samples_), np.log(ref["session_scale"][100:])
     assert abs(ll.mean() - ll_ref.mean()) < 4 * math.hypot(batch_se(ll), batch_se(ll_ref, 20))
+    lo, lo_ref = np.log(ours.offset_variance_samples_), np.log(ref["offset_variance"][100:])
+    assert abs(lo.mean() - lo_ref.mean()) < 4 * math.hypot(batch_se(lo), batch_se(lo_ref, 20))
 
 
 def test_split_merge_moves_with_sessions_leave_the_posterior_unchanged():

@@ -20,6 +20,14 @@ point of: ``N(mu, (1 + lambda) S^{-1})``. With ``lambda = 0`` everything reduces
 
 The prior of lambda: the intra-group correlation ``lambda / (1 + lambda)`` is uniform on (0, 1), i.e.
 ``log lambda`` is standard logistic; lambda is slice-sampled on the log scale (:func:`update_lambda`).
+
+**Session offsets.** A session also moves *every* component by its offset ``c_s ~ N(0, omega I)``
+(whitened units: a re-mounted sensor's gain moves the log-amplitude features of every surface
+alike): ``x = mu_j + c_s + b_(s,j) + e``. The kernels see ``x - c_s`` (:func:`offset_data`); given
+the partition, the components and lambda, ``c_s`` is normal with precision ``I / omega + sum_j
+e_(s,j) S_j`` and mean ``precision^{-1} sum_j e_(s,j) S_j (mean_(s,j) - mu_j)`` (the effects ``b``
+still integrated out), and ``omega`` has a half-Cauchy(0, 1) prior on its square root (Gelman
+2006), slice-sampled on ``log omega`` (:func:`update_offsets`).
 """
 
 from __future__ import annotations
@@ -29,7 +37,8 @@ import math
 import numpy as np
 from numba import njit
 
-from .linalg import NEG_INF
+from .densities import _normal_draw_prec
+from .linalg import LOG2PI, NEG_INF, _cholesky, _solve_chol
 
 # log lambda is kept within these bounds (the logistic prior puts mass e^-30 beyond them).
 _LOG_LAMBDA_BOUND = 30.0
@@ -158,3 +167,118 @@ def update_lambda(lam, ms, qs, P, D, rng):
 def log_prior_lambda(lam):
     """Log prior density of lambda (``lambda / (1 + lambda) ~ U(0, 1)``): ``-2 log(1 + lambda)``."""
     return -2.0 * math.log1p(lam)
+
+
+@njit(cache=True)
+def offset_data(X, st):
+    """``X`` minus the offset of every point's session, ``X[i] - off[sess[i]]`` (a new array)."""
+    n, D = X.shape
+    out = np.empty((n, D))
+    for i in range(n):
+        s = st.sess[i]
+        for a in range(D):
+            out[i, a] = X[i, a] - st.off[s, a]
+    return out
+
+
+@njit(cache=True)
+def _omega_logp(u, ss, m):
+    """Log conditional density of ``u = log omega`` given ``ss = sum_s |c_s|^2`` of ``m`` offset coordinates."""
+    if u > _LOG_LAMBDA_BOUND or u < -_LOG_LAMBDA_BOUND:
+        return NEG_INF
+    w = math.exp(u)
+    # half-Cauchy(0, 1) on sqrt(omega), as a density of log omega: -log(1 + omega) + u / 2
+    return -math.log1p(w) + 0.5 * u - 0.5 * m * u - 0.5 * ss / w
+
+
+@njit(cache=True)
+def update_offsets(X, st, rng, use_lik):
+    """Gibbs update of every session's offset ``c_s`` (``st.off``), then a slice update of omega (``sc[6]``).
+
+    ``X``: the data *without* the offsets removed. See the module docstring for the conditionals
+    (with the likelihood off, the offsets' prior).
+    """
+    D = X.shape[1]
+    K = st.ist[0]
+    S = st.off.shape[0]
+    lam, omega = st.sc[5], st.sc[6]
+    nts = np.zeros((K, S), dtype=np.int64)
+    sts = np.zeros((K, S, D))
+    session_table(X, st.z, st.sess, st.pos, K, nts, sts)
+    P = np.empty((D, D))
+    h = np.empty(D)
+    G = np.empty((D, D))
+    m = np.empty(D)
+    dev = np.empty(D)
+    Sj = np.empty((D, D))
+    for s in range(S):
+        for a in range(D):
+            h[a] = 0.0
+            for b in range(D):
+                P[a, b] = (1.0 / omega) if a == b else 0.0
+        for t in range(K):
+            c = nts[t, s]
+            if c == 0 or not use_lik:
+                continue
+            j = st.act[t]
+            e = c / (1.0 + lam * c)
+            for a in range(D):
+                for b in range(a + 1):
+                    v = 0.0
+                    for k in range(b + 1):
+                        v += st.L[j, a, k] * st.L[j, b, k]
+                    Sj[a, b] = v
+                    Sj[b, a] = v
+                dev[a] = sts[t, s, a] / c - st.mu[j, a]
+            for a in range(D):
+                for b in range(D):
+                    P[a, b] += e * Sj[a, b]
+                    h[a] += e * Sj[a, b] * dev[b]
+        _cholesky(P, G)
+        _solve_chol(G, h, m)
+        _normal_draw_prec(rng, m, G, st.off[s])
+    ss = 0.0
+    for s in range(S):
+        for a in range(D):
+            ss += st.off[s, a] * st.off[s, a]
+    x0 = math.log(omega)
+    f0 = _omega_logp(x0, ss, S * D)
+    v = rng.random()
+    logy = f0 + math.log(v) if v > 0.0 else NEG_INF
+    left = x0 - rng.random()
+    right = left + 1.0
+    for _ in range(100):
+        if left <= -_LOG_LAMBDA_BOUND or _omega_logp(left, ss, S * D) <= logy:
+            break
+        left -= 1.0
+    for _ in range(100):
+        if right >= _LOG_LAMBDA_BOUND or _omega_logp(right, ss, S * D) <= logy:
+            break
+        right += 1.0
+    for _ in range(200):
+        x1 = left + (right - left) * rng.random()
+        if _omega_logp(x1, ss, S * D) > logy:
+            st.sc[6] = math.exp(x1)
+            return
+        if x1 < x0:
+            left = x1
+        else:
+            right = x1
+
+
+@njit(cache=True)
+def log_prior_offsets(off, omega):
+    """Log prior density of the offsets ``N(0, omega I)`` and of omega (half-Cauchy on its square root)."""
+    S, D = off.shape
+    ss = 0.0
+    for s in range(S):
+        for a in range(D):
+            ss += off[s, a] * off[s, a]
+    # p(omega) = 1 / (pi sqrt(omega) (1 + omega)) for sqrt(omega) ~ half-Cauchy(0, 1)
+    return (
+        -0.5 * S * D * (LOG2PI + math.log(omega))
+        - 0.5 * ss / omega
+        - math.log(math.pi)
+        - 0.5 * math.log(omega)
+        - math.log1p(omega)
+    )
