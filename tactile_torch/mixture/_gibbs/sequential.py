@@ -75,7 +75,9 @@ def _tables(n, d, D, ltab, lfac, hq):
 
 
 @njit(cache=True)
-def _allocate_sequentially(X, Y, idx, ns, i, j, order, tabs, use_lik, draw, lab, rng, mA, sA, mB, sB):
+def _allocate_sequentially(
+    X, Y, idx, ns, i, j, order, tabs, use_lik, draw, lab, rng, mA, sA, mB, sB, sess, lam, part_sums
+):
     """Visit ``idx[order[t]]`` in turn; put each in part A (0) or B (1); return (log probability, nA, nB).
 
     With ``draw`` the parts are sampled; otherwise ``lab`` holds the labels whose probability is
@@ -83,9 +85,22 @@ def _allocate_sequentially(X, Y, idx, ns, i, j, order, tabs, use_lik, draw, lab,
     then i, then j); ``tabs = (ltab, lfac, hq)`` of :func:`_tables`. On return ``mA, sA, mB, sB``
     are the parts' means and scatters in X's coordinates (i in A, j in B). A point joins A with
     probability ``1 / (1 + exp(lb - la))``: one exponential and one logarithm per point.
+
+    With session effects (``lam > 0``; ``sess`` the points' sessions) the part's predictive of a
+    point of session s follows the model's (:mod:`.sessions`): mean ``m + f (t_s - n_s m)``, covariance
+    ``(1 + 1/n + f) W`` with ``f = lam / (1 + lam n_s)``, ``n_s`` and ``t_s`` the part's points of
+    session s so far and their sum (``part_sums``: (2, S, D + 1) work array, whitened sums and
+    counts); so that a surface seen on several days is not proposed split along its days.
     """
     ltab, lfac, hq = tabs
     D = X.shape[1]
+    if lam > 0.0:
+        part_sums[:] = 0.0
+        for a in range(D):
+            part_sums[0, sess[i], a] = Y[ns, a]
+            part_sums[1, sess[j], a] = Y[ns + 1, a]
+        part_sums[0, sess[i], D] = 1.0
+        part_sums[1, sess[j], D] = 1.0
     yA = np.empty(D)
     yB = np.empty(D)
     for a in range(D):
@@ -103,7 +118,22 @@ def _allocate_sequentially(X, Y, idx, ns, i, j, order, tabs, use_lik, draw, lab,
         k = idx[t]
         la = ltab[nA]
         lb = ltab[nB]
-        if use_lik:
+        if use_lik and lam > 0.0:
+            s = sess[k]
+            cA = part_sums[0, s, D]
+            cB = part_sums[1, s, D]
+            fA = lam / (1.0 + lam * cA)
+            fB = lam / (1.0 + lam * cB)
+            qa = 0.0
+            qb = 0.0
+            for a in range(D):
+                qa += (Y[t, a] - yA[a] - fA * (part_sums[0, s, a] - cA * yA[a])) ** 2
+                qb += (Y[t, a] - yB[a] - fB * (part_sums[1, s, a] - cB * yB[a])) ** 2
+            vA = 1.0 + 1.0 / nA + fA
+            vB = 1.0 + 1.0 / nB + fB
+            la += -0.5 * D * math.log(vA) - 0.5 * qa / vA
+            lb += -0.5 * D * math.log(vB) - 0.5 * qb / vB
+        elif use_lik:
             qa = 0.0
             qb = 0.0
             for a in range(D):
@@ -117,6 +147,12 @@ def _allocate_sequentially(X, Y, idx, ns, i, j, order, tabs, use_lik, draw, lab,
         if draw:
             p_a = (e if v > 0.0 else 1.0) / (1.0 + e)
             lab[t] = 0 if rng.random() < p_a else 1
+        if lam > 0.0:
+            part = lab[t]
+            s = sess[k]
+            for a in range(D):
+                part_sums[part, s, a] += Y[t, a]
+            part_sums[part, s, D] += 1.0
         if lab[t] == 0:
             logq -= softplus
             nA += 1
@@ -225,6 +261,7 @@ def sequential_moves(n_moves, X, st, use_lik, rng, counters, nbr, near):
     newA_mu, newB_mu, newC_mu = np.empty(D), np.empty(D), np.empty(D)
     newA_L, newB_L, newC_L = np.empty((D, D)), np.empty((D, D)), np.empty((D, D))
     tabs = (np.empty(n + 1), np.empty(n + 1), np.empty(n + 1))
+    part_sums = np.zeros((2, S, D + 1))
     _tables(n, d, D, *tabs)
     for _move in range(n_moves):
         i = min(int(rng.random() * n), n - 1)
@@ -259,7 +296,7 @@ def sequential_moves(n_moves, X, st, use_lik, rng, counters, nbr, near):
                 lab[t] = 0 if z[idx[t]] == ci else 1
         # the split proposed (or, for a merge, the one it undoes): its log probability and the parts
         logq_split, nA, nB = _allocate_sequentially(
-            X, Y, idx, ns, i, j, order, tabs, use_lik, split, lab, rng, mA, sA, mB, sB
+            X, Y, idx, ns, i, j, order, tabs, use_lik, split, lab, rng, mA, sA, mB, sB, sess, lam, part_sums
         )
         nC = _pool(nA, mA, sA, nB, mB, sB, mC, sC)
         if lam > 0.0 and use_lik:
