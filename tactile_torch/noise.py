@@ -4,7 +4,7 @@ Method 1: white noise on features at a given SNR (:func:`awgn`) and Gaussian noi
 (:func:`gaussian_image_noise`); method 2: a sensor's additive Gaussian noise on raw signal windows
 (:func:`gaussian_noise`). Each takes an explicit ``generator`` (int seed, numpy or torch generator) so
 that trials are reproducible. The deterministic limits of a sensor (resolution, range, rate, grid,
-length) are in :mod:`tactile_torch.sensor_limits`; :mod:`tactile_torch.robustness` sweeps both.
+length) are in :mod:`tactile_torch.robustness.sensor_limits`; :mod:`tactile_torch.robustness` sweeps both.
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ import math
 
 import torch
 
-from ._checks import RandomState, check_finite, check_floating, check_tensor, torch_generator
+from .validation import RandomState, check_finite, check_floating, check_tensor, torch_generator
 
 
 def awgn(x: torch.Tensor, snr_db: float, *, generator: RandomState = None) -> torch.Tensor:

@@ -37,7 +37,7 @@ def session_origin(args) -> str:
     """Where the sessions of ``args.data`` come from: ``"the file's session array"``, ``"their folders"``, ..."""
     from pathlib import Path
 
-    from ..robot.csv_logs import session_source
+    from ..robot.files.naming import session_source
 
     paths = [Path(p) for p in args.data]
     if len(paths) == 1 and paths[0].suffix.lower() == ".npz":

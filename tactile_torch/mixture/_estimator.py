@@ -14,8 +14,7 @@ from sklearn.base import BaseEstimator, ClusterMixin, _fit_context
 from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import validate_data
 
-from .._constraints import RANDOM_STATE
-from ..robot.checks import numpy_rng
+from ..validation import RANDOM_STATE, numpy_rng
 from ._diagnostics import budget_warning
 from ._mfm import coarsening_power, k_ceiling, log_v
 from ._point_estimate import _whitening
@@ -32,8 +31,7 @@ WARM_UP_SWEEPS = 0
 # Algorithm 8's auxiliary means are drawn afresh every this many points, reused in between (None: once
 # per sweep, Favaro & Teh's "ReUse"; 1: before every point, as in Neal's algorithm 8).
 AUX_REFRESH = None
-# Starting value of lambda, the variance ratio of the session effects: its prior median.
-SESSION_SCALE_START = 1.0
+SESSION_SCALE_START = 1.0  # starting value of lambda (the session effects' variance ratio): its prior median
 
 
 def split_merge_moves(n_split_merge: int | str, n: int) -> int:
@@ -59,21 +57,14 @@ class PitmanYorGMM(PredictionMixin, PosteriorMixin, ClusterMixin, BaseEstimator)
         1/(beta - D + 1) ~ Gamma(shape 1/2, rate D/2),  1/alpha ~ Gamma(shape 1/2, rate 1/2),  d ~ U(0, 1)
 
     **Sessions** (``fit(X, sessions=...)``, at least two): a point of session s in component j is
-    ``z = mu_j + c_s + b_(s,j) + e``: an offset ``c_s ~ N(0, omega I)`` that moves every component
-    of the session alike (a re-mounted sensor's gain), a random effect ``b_(s,j) ~ N(0, lambda
-    S_j^{-1})`` per (component, session) (pressure, speed, wear: each surface moves a little from
-    one day to the next, in the shape of its own spread) and ``e ~ N(0, S_j^{-1})``; K counts
-    surfaces rather than surface-by-day blobs. ``lambda / (1 + lambda) ~ U(0, 1)`` (the share of a
-    window's deviation that its session shares) and ``sqrt(omega) ~ half-Cauchy(0, 1)`` are
-    sampled. The effects ``b`` are integrated out given ``(mu_j, S_j, lambda)`` (the group of a
-    session is matrix normal with row covariance ``I + lambda 1 1^T``) and the offsets drawn from
-    their normal conditionals, so every step of the sampler stays exact with the same
-    conditionally conjugate prior; the component updates see effective statistics, a point's
-    weight is its predictive given the other points of its session in the component
-    (``tactile_torch/mixture/_gibbs/sessions.py``). Two blobs within one session cannot be one
-    component, which is what tells two surfaces from one surface on two days. Prediction, the
-    point estimate's components and the exported graph treat a new window as one of a new
-    session, its offset and effect unknown: covariance ``(1 + lambda) S_j^{-1} + omega I``.
+    ``z = mu_j + c_s + b_(s,j) + e``: an offset ``c_s ~ N(0, omega I)`` moving every component of
+    the session alike (a sensor's gain), an effect ``b_(s,j) ~ N(0, lambda S_j^{-1})`` per
+    (component, session) (pressure, speed, wear) and ``e ~ N(0, S_j^{-1})``, so that K counts
+    surfaces rather than surface-by-day blobs; ``lambda / (1 + lambda) ~ U(0, 1)`` and ``sqrt(omega)
+    ~ half-Cauchy(0, 1)``. The ``b`` are integrated out given ``(mu_j, S_j, lambda)`` and the offsets
+    drawn from their normal conditionals: every step stays exact under the same prior
+    (``tactile_torch/mixture/_gibbs/sessions.py``, docs/mixture.md). A new window is taken to be of
+    a new session: covariance ``(1 + lambda) S_j^{-1} + omega I`` (prediction, export).
 
     ``Wishart(nu, V)`` has scale matrix ``V`` and mean ``nu V`` (``scipy.stats.wishart(df=nu,
     scale=V)``); ``Gamma(shape, rate)`` has mean shape/rate. On whitened data ``N(0, I)``,
@@ -489,9 +480,8 @@ class PitmanYorGMM(PredictionMixin, PosteriorMixin, ClusterMixin, BaseEstimator)
         """Run the chains on ``X`` of shape (n_samples, n_features); return ``self``.
 
         ``X`` is an array-like or a tensor; ``y`` is ignored (present for scikit-learn pipelines).
-        ``sessions`` (n_samples,): the recording session (day) of every row, any labels; with two
-        or more, each component's location may move from session to session by a random effect
-        (see *Sessions* above). ``None`` or a single session: no session effects.
+        ``sessions`` (n_samples,): the session (day) of every row, any labels (*Sessions* above);
+        ``None`` or a single session: no session effects.
         """
         t_fit = time.perf_counter()
         self._check_params()
@@ -559,10 +549,10 @@ class PitmanYorGMM(PredictionMixin, PosteriorMixin, ClusterMixin, BaseEstimator)
         chain_rngs = rng.spawn(n_chains)
         states = []
         for c in range(n_chains):
+            lam = 0.0 if session_ids is None else SESSION_SCALE_START
             st = g.new_state(
-                self._initial_labels(Xw, chain_rngs[c]), D, alpha0, d0, zeta, gamma, lv,
-                sessions=session_ids, lam=0.0 if session_ids is None else SESSION_SCALE_START,
-            )  # fmt: skip
+                self._initial_labels(Xw, chain_rngs[c]), D, alpha0, d0, zeta, gamma, lv, session_ids, lam
+            )
             g.init_components(Xw, st, cfg.use_lik, chain_rngs[c])
             warm_up(Xw, st, cfg, chain_rngs[c], WARM_UP_SWEEPS)
             states.append(st)
@@ -606,5 +596,5 @@ class PitmanYorGMM(PredictionMixin, PosteriorMixin, ClusterMixin, BaseEstimator)
         return self
 
     def fit_predict(self, X: object, y: object = None, sessions: object = None) -> np.ndarray:
-        """Fit and return ``labels_`` (the point estimate of the training points' partition)."""
+        """Fit (``sessions`` as :meth:`fit`'s) and return ``labels_``, the point estimate of the partition."""
         return self.fit(X, sessions=sessions).labels_

@@ -14,7 +14,8 @@ from typing import Any
 import numpy as np
 import torch
 
-from .. import noise, sensor_limits
+from .. import noise
+from . import sensor_limits
 
 INPUT_KINDS = ("image", "vibration", "features")
 """The kinds of raw input a degradation applies to (:attr:`Degradation.kinds`)."""

@@ -80,12 +80,12 @@ def multi_day_recordings(
     gain_sd: float = GAIN_SD,
     day_jitter: float = DAY_JITTER,
 ):
-    """Return the recordings of :func:`multi_day` as :class:`~tactile_torch.robot.formats.RecordingArrays`, session = ``"day<k>"``.
+    """Return the recordings of :func:`multi_day` as :class:`~tactile_torch.robot.files.formats.RecordingArrays`, session = ``"day<k>"``.
 
     What ``tactile-torch cluster`` reads from a lab's day folders: one recording per (surface, day).
     """
     from ..data.stylus import SURFACES, make_vibration_recordings
-    from ..robot.formats import RecordingArrays
+    from ..robot.files.formats import RecordingArrays
 
     rng = np.random.default_rng([seed, 38])
     pairs = [
@@ -141,8 +141,8 @@ def held_back_day(
     from sklearn.metrics import adjusted_rand_score
 
     from ..clustering import fit_clustering
-    from ..robot.formats import RecordingArrays
-    from ..training import load_features
+    from ..features import load_features
+    from ..robot.files.formats import RecordingArrays
 
     rec = multi_day_recordings(n_surfaces, n_days, seed)
     last = f"day{n_days - 1}"

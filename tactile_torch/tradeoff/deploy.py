@@ -7,17 +7,17 @@ inside it) on folds; what a robot runs is that procedure fitted once on all the 
 class does not apply: at most :data:`DEPLOY_MAX_PER_CLASS` per class and about :data:`DEPLOY_MAX_SAMPLES`
 in all, evenly spaced, said when it cuts), tunes
 the candidate as the folds did (its grid on inner folds of those samples,
-:meth:`tactile_torch.engine.CVResult.final_model`), fits it with the chosen parameters and writes
+:meth:`tactile_torch.model_selection.CVResult.final_model`), fits it with the chosen parameters and writes
 
 * ``<name>.onnx``: raw input → labels and scores, with the metadata ``tactile-torch predict`` and
   ``stream`` read (one file, onnxruntime only); an int8 variant is quantised as in the study (its float
   twin refitted, then quantised, calibrated on training samples). Every file carries the "unknown" rule
   of :mod:`tactile_torch.ood` (the ``ood_distance`` output and its threshold, fitted on the same samples
-  the same way as ``train`` + ``export``), as a float branch (:func:`tactile_torch.ood.add_distance`): a
+  the same way as ``train`` + ``export``), as a float branch (:func:`tactile_torch.export.ood_branch.add_distance`): a
   classical model's distance is on its own standardised features, a network's on the reference features
   of its raw input. Its labels are checked against the refitted pipeline's on up to
   :data:`CHECK_SAMPLES` samples;
-* ``<name>.npz``: the same (float) model as a model file (:mod:`tactile_torch.robot.model_file`, no
+* ``<name>.npz``: the same (float) model as a model file (:mod:`tactile_torch.robot.files.model_file`, no
   pickle) with the same rule, which ``tactile-torch export`` turns into the same graph, for the feature
   sets a model file describes (vibration windows, RGB explorations, feature matrices, with or without a
   best-ranked subset); raw pressure maps, per-taxel features and learned models have no model-file
@@ -48,7 +48,7 @@ from ..robot.contract import (
     STEP_KEY,
     WINDOW_SIZE_KEY,
 )
-from ..robot.naming import slug
+from ..robot.files.naming import slug
 
 CHECK_SAMPLES = 64
 """Samples on which the deployed ONNX file's labels are compared with the refitted pipeline's."""
@@ -62,8 +62,8 @@ on the bundled 28 surfaces (300 per class). The study's cap per class, when larg
 
 def _source(step: object, rate_hz: float | None) -> dict | None:
     """The model file's ``source`` of a fitted ``features`` step, or ``None`` when it has no model-file form."""
+    from ..features.transformers import FeaturePassthrough, ImageFeatureTransformer, WindowFeatureTransformer
     from ..image import DEFAULT_THRESHOLD
-    from .transformers import FeaturePassthrough, ImageFeatureTransformer, WindowFeatureTransformer
 
     if isinstance(step, WindowFeatureTransformer):
         return {
@@ -162,13 +162,13 @@ def live_metadata(result: object, name: str, model: object) -> tuple[dict, list[
     """Return what a deployed frame bundle records for the live stream (``stream`` on taxel frames) and notes.
 
     The frame rate, the value range and the touch levels of the training explorations
-    (:func:`tactile_torch.robot.touches.frame_metadata`; the contact direction and resting levels of a
-    fitted :class:`~.transformers.PressureImageFeatures` when the candidate has one), and the
+    (:func:`tactile_torch.robot.stream.touches.frame_metadata`; the contact direction and resting levels of a
+    fitted :class:`~tactile_torch.features.transformers.PressureImageFeatures` when the candidate has one), and the
     early-decision rule calibrated on the study's held-out touches (:mod:`.touch_time`). ``{}`` for
     vibration windows and feature matrices.
     """
-    from ..robot.touches import frame_metadata
-    from .transformers import PressureImageFeatures
+    from ..features.transformers import PressureImageFeatures
+    from ..robot.stream.touches import frame_metadata
 
     cand = result.result(name).candidate
     s = result.inputs[cand.input]
@@ -229,7 +229,7 @@ def deploy_candidate(
         ``available`` (samples the data hold), ``agreement`` (share of checked samples whose ONNX label
         equals the pipeline's), ``ood_threshold``, ``params``, ``notes``.
     """
-    from ..ood import add_distance
+    from ..export.ood_branch import add_distance
     from ..robot.runtime import OnnxPipeline
     from .learned import CALIBRATION_SAMPLES, is_learned
 
@@ -267,7 +267,7 @@ def deploy_candidate(
         path = _export_classical(result, cand, model, s, check, path, meta, pool)
     notes = list(live_notes)
     if variant.quantisation is not None:
-        from .int8 import CLASSIFIER_PREFIX, quantise_bundle
+        from ..export.int8 import CLASSIFIER_PREFIX, quantise_bundle
 
         calibration = OnnxPipeline(path).validate(
             np.ascontiguousarray(s.X[_evenly(len(s.y), CALIBRATION_SAMPLES)])
@@ -319,7 +319,7 @@ def deploy_candidate(
 
 def unknown_rule(result: object, cand: object, model: object, s: object, pool: object) -> tuple[dict, object]:
     """Fit the "unknown" rule of a deployed model on its training samples; return it and its ONNX branch
-    (raw input → ``ood_distance``, :func:`tactile_torch.ood.distance_graph`).
+    (raw input → ``ood_distance``, :func:`tactile_torch.export.ood_branch.distance_graph`).
 
     A classical model: on its own features, selected columns and standardisation (what its head takes,
     as ``train`` + ``export`` do). A learned model (no feature vector): on the reference feature set of
@@ -327,9 +327,10 @@ def unknown_rule(result: object, cand: object, model: object, s: object, pool: o
     feature graph is the study's (``pool``): exported once, shared with the classical candidates."""
     from sklearn.preprocessing import StandardScaler
 
-    from ..ood import DistanceHead, distance_graph, fit_rule
+    from ..export.ood_branch import distance_graph
+    from ..export.parts import export_front
+    from ..ood import DistanceHead, fit_rule
     from .evaluation import _stateless
-    from .export import export_front
     from .learned import is_learned
 
     if is_learned(model):
@@ -356,8 +357,16 @@ def unknown_rule(result: object, cand: object, model: object, s: object, pool: o
 
 def _export_classical(result, cand, model, s, check, path: Path, meta: dict, pool) -> Path:
     """Join the fitted model's feature graph and classifier graph (the study's export parts) into ``path``."""
+    from ..export.parts import (
+        bind_head,
+        export_fixed_head,
+        export_front,
+        export_head,
+        head_key,
+        head_modules,
+        join,
+    )
     from .evaluation import _stateless, features_key
-    from .export import bind_head, export_fixed_head, export_front, export_head, head_key, head_modules, join
 
     step = model.named_steps["features"]
     front = ("front", *features_key(cand))
@@ -389,8 +398,8 @@ def _export_classical(result, cand, model, s, check, path: Path, meta: dict, poo
 
 
 def _export_learned(result, model, check: np.ndarray, path: Path, meta: dict) -> Path:
-    """Export a learned candidate fitted on all the data (its own graph, :func:`tactile_torch.neural.export_classifier`)."""
-    from ..neural import export_classifier
+    """Export a learned candidate fitted on all the data (its own graph, :func:`tactile_torch.export.export_classifier`)."""
+    from ..export import export_classifier
 
     clf = model.steps[-1][1]
     names = [result.data.class_names[int(c)] for c in clf.classes_]

@@ -3,7 +3,7 @@
 Stages (each with a progress bar):
 
 1. **features** and 2. **cross-validation** run on the evaluation engine
-   (:func:`tactile_torch.engine.cross_validate`), one raw input at a time, on the backend the caller
+   (:func:`tactile_torch.model_selection.cross_validate`), one raw input at a time, on the backend the caller
    chose (in this process, joblib's workers or a Dask cluster). A ``features`` step that needs no fit
    (scikit-learn's ``requires_fit`` tag is False) gives the same features whichever fold it is fitted
    on, so they are computed once per feature set for all samples, and its time is shared out over the
@@ -12,7 +12,7 @@ Stages (each with a progress bar):
    training part (:attr:`~.candidates.Candidate.tuning`), refitted with the chosen parameters and
    scored on the test part. *Fit time* = the training samples' features + tuning + the final fit,
    averaged over folds; *tuning time* is shown on its own too.
-3. **ONNX**: the first fold's fitted pipeline is exported (:mod:`.export`); its
+3. **ONNX**: the first fold's fitted pipeline is exported (:mod:`~tactile_torch.export.parts`); its
    *latency* is the median time of ``OnnxPipeline.predict`` on one held-out sample (batch 1,
    onnxruntime on one thread, input validation included), its *size* the file's bytes, and its labels
    on the first fold's first :data:`PARITY_SAMPLES` test samples are compared with the pipeline's
@@ -27,8 +27,8 @@ import numpy as np
 from sklearn.base import clone
 from sklearn.pipeline import Pipeline
 
-from ..engine import Backend, CVResult, needs_fit, progress_bar, signature
-from ..engine import cross_validate as engine_cross_validate
+from ..model_selection import Backend, CVResult, needs_fit, progress_bar, signature
+from ..model_selection import cross_validate as engine_cross_validate
 from ..robot.contract import (
     CLASS_NAMES_KEY,
     INPUT_LAYOUT_KEY,
@@ -37,7 +37,7 @@ from ..robot.contract import (
     STEP_KEY,
     WINDOW_SIZE_KEY,
 )
-from ..robot.naming import slug
+from ..robot.files.naming import slug
 from .candidates import Candidate, CandidateResult
 from .inputs import Samples
 
@@ -71,9 +71,9 @@ def cross_validate(
     ``precomputed`` maps :func:`features_key` to ``(features of every sample, seconds they took)`` for
     steps that need no fit whose features are already known (e.g. computed by an earlier report
     section). ``backend``, ``n_jobs`` and ``scheduler`` say where the engine's tasks run
-    (:class:`tactile_torch.engine.Backend`); the results do not depend on them.
+    (:class:`tactile_torch.model_selection.Backend`); the results do not depend on them.
     """
-    from ..engine import as_backend
+    from ..model_selection import as_backend
 
     runner = as_backend(backend, n_jobs, scheduler)
     by_input: dict[str, list[Candidate]] = {}
@@ -134,7 +134,7 @@ def cross_validate(
 
 def submit_fronts(candidates: list[Candidate], samples: dict[str, Samples], pool: object) -> None:
     """Queue the export of every stateless feature graph (they do not depend on the folds) in ``pool``."""
-    from .export import export_front
+    from ..export.parts import export_front
 
     for cand in candidates:
         step = cand.estimator.named_steps["features"]
@@ -154,11 +154,19 @@ def export_and_time(
     progress: bool = True,
 ) -> int:
     """Stage 3 of the module notes; fills ``latency_ms``, ``size_bytes``, ``decision_s``,
-    ``onnx_agreement`` and ``onnx_file`` of every result. ``pool`` is an :class:`.export.ExportPool`.
+    ``onnx_agreement`` and ``onnx_file`` of every result. ``pool`` is an :class:`~tactile_torch.export.parts.ExportPool`.
     Returns the number of distinct exported parts the files join."""
+    from ..export.parts import (
+        bind_head,
+        export_fixed_head,
+        export_front,
+        export_head,
+        head_key,
+        head_modules,
+        join,
+    )
     from ..metrics import time_per_sample
     from ..robot.runtime import OnnxPipeline
-    from .export import bind_head, export_fixed_head, export_front, export_head, head_key, head_modules, join
     from .learned import export_learned, is_learned, n_parameters
 
     out_dir = Path(out_dir)
@@ -247,7 +255,7 @@ def classical_fold_file(
     """Return ``fold_file(model, path)``: writes a classical fold model of ``candidate`` to one ONNX file
     (its stateless feature graph from ``pool``, its head bound to the fold's tensors); ``None`` for a
     features step fitted per fold (its graph would be exported once per fold)."""
-    from .export import bind_head, export_head, head_key, head_modules, join
+    from ..export.parts import bind_head, export_head, head_key, head_modules, join
 
     def fold_file(model: Pipeline, path: Path) -> Path | None:
         step = model.named_steps["features"]
