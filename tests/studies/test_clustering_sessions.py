@@ -38,7 +38,10 @@ def test_rows_describe_the_fits_they_come_from():
     for r in rows:
         lo, hi = (int(v) for v in r["K 95% interval"].strip("[]").split(","))
         assert r["surfaces"] == 5 and r["n"] == len(y) and lo <= r["K mode"] <= hi
-        assert r["covers"] == ("yes" if lo <= 5 <= hi else ("yes, -1" if 4 in (lo, hi) else "no"))
+        assert r["covers"] == (
+            "yes" if lo <= 5 <= hi else ("K - 1 (a pair merged)" if lo <= 4 <= hi else "no")
+        )
+        assert r["within K +- 1"] == ("yes" if 4 <= lo and hi <= 6 else "no")
         assert 0.0 <= r["pairwise accuracy"] <= 1.0 and -1.0 <= r["ARI"] <= 1.0
     assert rows[0]["lambda"] is None and rows[2]["lambda"] > 0  # only the session effects have one
 
