@@ -233,6 +233,47 @@ def hapmat_days(
     )
 
 
+def sines_and_impulses(
+    n_surfaces: int = 5,
+    seed: int = 0,
+    *,
+    duration_s: float = 60.0,
+    rate_hz: float = 800.0,
+    components: int = 3,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Return (PCA features, labels) of surfaces made of sums of sines and impulses, one session (not the stylus model).
+
+    Each surface: 2-4 sines (frequencies 20-300 Hz, amplitudes 0.02-0.2 g, per axis), impulses at a
+    Poisson rate of 1-6 per second (0.2-1 g, decaying at 150 Hz), white noise of 5 mg; 800-sample
+    windows, the 21 features, the clustering transform. A window holds a few impulses or none, so a
+    surface's windows do not form one Gaussian blob in feature space (issue 38, point 6).
+    """
+    from ..data.vibration import VibrationRecordings
+    from .clustering_k import _pca_features
+
+    rng = np.random.default_rng([seed, 386])
+    n = int(duration_s * rate_hz)
+    t = np.arange(n) / rate_hz
+    signals = []
+    for _ in range(n_surfaces):
+        x = np.zeros((n, 3))
+        for axis in range(3):
+            for _ in range(int(rng.integers(2, 5))):
+                f, a = rng.uniform(20.0, 300.0), rng.uniform(0.02, 0.2)
+                x[:, axis] += a * np.sin(2 * np.pi * f * t + rng.uniform(0, 2 * np.pi))
+        hits = np.flatnonzero(rng.random(n) < rng.uniform(1.0, 6.0) / rate_hz)
+        kernel = np.exp(-150.0 * np.arange(int(0.05 * rate_hz)) / rate_hz)
+        pulse = np.zeros(n)
+        pulse[hits] = rng.uniform(0.2, 1.0, hits.size)
+        x += np.convolve(pulse, kernel)[:n, None] * rng.uniform(0.3, 1.0, 3)
+        x += rng.normal(0.0, 0.005, x.shape)
+        signals.append(x.astype(np.float32))
+    names = tuple(f"surface {k}" for k in range(n_surfaces))
+    rec = VibrationRecordings(signals, np.arange(n_surfaces), names, rate_hz, np.array(["one"] * n_surfaces))
+    ds = rec.windows(800)
+    return _pca_features(ds.windows, components), ds.labels.numpy()
+
+
 def session_sources(components: int = 3, only: tuple[str, ...] | None = None) -> dict[str, tuple]:
     """Return {name: (X, labels, sessions)} of every source available here (HapMat when present), or of ``only``."""
     from ..data import shared_data_dir
@@ -310,6 +351,39 @@ def session_rows(
     return rows
 
 
+BLOB_SETTINGS = {
+    "mfm": {},
+    "coarsen 3000": {"coarsen": 3000.0},
+    "coarsen 1000": {"coarsen": 1000.0},
+    "coarsen 300": {"coarsen": 300.0},
+}
+"""Settings of :func:`blob_rows`: the mixture of finite mixtures, exact and coarsened (Miller & Dunson 2018)."""
+
+
+def blob_rows(*, random_state: int = 0, **fit: Any) -> list[dict[str, Any]]:
+    """K within one session where surfaces are not Gaussian blobs: the exact and the coarsened posterior (point 6).
+
+    Sources: :func:`sines_and_impulses` (seeds 0 and 1) and HapMat's five recordings (one session,
+    2 s windows, when present).
+    """
+    from ..data import shared_data_dir
+    from ..mixture import PitmanYorGMM
+    from .clustering_k import real_set
+
+    sources = {f"sines and impulses, seed {k}": sines_and_impulses(5, k) for k in (0, 1)}
+    if shared_data_dir("hapmat_imu5") is not None:
+        sources["hapmat (one session)"] = real_set("hapmat_imu5", 60)
+    rows = []
+    for source, (X, y) in sources.items():
+        for name, kw in BLOB_SETTINGS.items():
+            t0 = time.perf_counter()
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)
+                model = PitmanYorGMM(random_state=random_state, progress=False, **kw, **fit).fit(X)
+            rows.append(session_row(source, y, name, model, time.perf_counter() - t0))
+    return rows
+
+
 def _main(argv: list[str] | None = None) -> None:
     import argparse
 
@@ -326,8 +400,19 @@ def _main(argv: list[str] | None = None) -> None:
         action="store_true",
         help="fit cluster's workflow on all days but the last of each multi-day source, score the last (robot side)",
     )
+    parser.add_argument(
+        "--blobs",
+        action="store_true",
+        help="K within one session on non-Gaussian surfaces: exact and coarsened posterior (blob_rows)",
+    )
     args = parser.parse_args(argv)
     refuse_unknown(parser, "--only", args.only, source_names())
+    if args.blobs:
+        rows = blob_rows(random_state=args.seed, max_seconds=args.max_seconds)
+        print("| " + " | ".join(rows[0]) + " |\n|" + " --- |" * len(rows[0]))
+        for r in rows:
+            print("| " + " | ".join(str(v) for v in r.values()) + " |", flush=True)
+        return
     refuse_unknown(parser, "--ways", args.ways, WAYS)
     if args.held_back_day:
         for i, (s, d, seed) in enumerate(MULTI_DAY):
