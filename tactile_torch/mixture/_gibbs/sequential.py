@@ -183,6 +183,33 @@ def _pool(nA, mA, sA, nB, mB, sB, mC, sC):
 
 
 @njit(cache=True)
+def _group_by_session(order, idx, ns, sess, S, rng, rank, start, work):
+    """Reorder ``order[:ns]`` (a uniform shuffle) session by session, the sessions in a uniformly random order.
+
+    Within a session the shuffled order is kept (a stable counting sort). The visiting order still
+    depends on the data's sessions and the random draws only, never on the partition, so a move and
+    its reverse share it; visiting a session's points together lets a part's predictive of the
+    session sharpen after its first points there (:func:`_allocate_sequentially`).
+    """
+    for s in range(S):
+        rank[s] = s
+    for s in range(S - 1, 0, -1):
+        r = min(int(rng.random() * (s + 1)), s)
+        rank[s], rank[r] = rank[r], rank[s]
+    start[:] = 0
+    for t in range(ns):
+        start[rank[sess[idx[order[t]]]] + 1] += 1
+    for s in range(S):
+        start[s + 1] += start[s]
+    for t in range(ns):
+        g = rank[sess[idx[order[t]]]]
+        work[start[g]] = order[t]
+        start[g] += 1
+    for t in range(ns):
+        order[t] = work[t]
+
+
+@njit(cache=True)
 def _session_sums(X, sess, idx, ns, i, j, lab, nsA, suA, nsB, suB):
     """Per-session counts and sums of part A (``i`` and the ``idx`` labelled 0) and part B (``j`` and those labelled 1)."""
     D = X.shape[1]
@@ -262,6 +289,9 @@ def sequential_moves(n_moves, X, st, use_lik, rng, counters, nbr, near):
     newA_L, newB_L, newC_L = np.empty((D, D)), np.empty((D, D)), np.empty((D, D))
     tabs = (np.empty(n + 1), np.empty(n + 1), np.empty(n + 1))
     part_sums = np.zeros((2, S, D + 1))
+    session_rank = np.empty(S, dtype=np.int64)
+    session_start = np.empty(S + 1, dtype=np.int64)
+    shuffled = np.empty(n, dtype=np.int64)
     _tables(n, d, D, *tabs)
     for _move in range(n_moves):
         i = min(int(rng.random() * n), n - 1)
@@ -283,6 +313,8 @@ def sequential_moves(n_moves, X, st, use_lik, rng, counters, nbr, near):
         for t in range(ns - 1, 0, -1):
             r = min(int(rng.random() * (t + 1)), t)
             order[t], order[r] = order[r], order[t]
+        if lam > 0.0 and use_lik:
+            _group_by_session(order, idx, ns, sess, S, rng, session_rank, session_start, shuffled)
         if use_lik:
             _whiten_rows(X, idx, ns, i, j, GW, Y)
         K = st.ist[0]
