@@ -422,9 +422,9 @@ def sessions_line(clustering: Clustering) -> str:
     if clustering.session_mode == "model":
         lam = clustering.mixture.session_scale_
         return (
-            f"{head}; K counts surfaces across them: each surface's location may move from session to "
-            f"session (a random effect whose variance is {lam:.3g} times the surface's spread, posterior "
-            "mean); a window of a new session is classified with its session's effect integrated out"
+            f"{head}; K counts surfaces across them: a session may move every surface by a common offset and "
+            f"each by its own effect (variance {lam:.3g} times the surface's spread, posterior mean); a window "
+            "of a new session is classified with its session's offset and effect integrated out"
         )
     if clustering.session_mode == "standardised":
         return f"{head}; the components were standardised within each session (not exportable)"
