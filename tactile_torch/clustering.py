@@ -300,6 +300,18 @@ def _session_mode(data, sessions: str, name: str) -> str:
     return "model"
 
 
+def _several_sessions(data, name: str, what: str) -> np.ndarray:
+    """The recordings' sessions as strings; ``ValueError`` (``"<name>: <what> recordings of at least two sessions ..."``) when fewer."""
+    session = None if data.session is None else np.asarray(data.session).astype(str)
+    if session is None or np.unique(session).size < 2:
+        raise ValueError(
+            f"{name}: {what} recordings of at least two sessions (a 'session' array, CSV logs named "
+            "<class>_<session>.csv, or one folder per session), got "
+            + ("none" if session is None else f"one ({session[0]!r})")
+        )
+    return session
+
+
 def check_session_effects(data, name: str = "data") -> None:
     """Refuse recordings whose sessions cannot inform session effects (``cluster --sessions model``), in one line.
 
@@ -313,13 +325,7 @@ def check_session_effects(data, name: str = "data") -> None:
     ValueError
         Naming the data and what its sessions hold.
     """
-    session = None if data.session is None else np.asarray(data.session).astype(str)
-    if session is None or np.unique(session).size < 2:
-        raise ValueError(
-            f"{name}: session effects need recordings of at least two sessions (a 'session' array, CSV logs "
-            "named <class>_<session>.csv, or one folder per session), got "
-            + ("none" if session is None else f"one ({session[0]!r})")
-        )
+    session = _several_sessions(data, name, "session effects need")
     labels = np.asarray(data.labels) if data.labels is not None else np.zeros(len(session), dtype=np.int64)
     several = np.unique(labels).size > 1
     shared = [
@@ -367,13 +373,7 @@ def check_sessions(data, name: str = "data") -> None:
     ValueError
         Naming the data, the session and what it holds.
     """
-    session = None if data.session is None else np.asarray(data.session).astype(str)
-    if session is None or np.unique(session).size < 2:
-        raise ValueError(
-            f"{name}: sessions needs recordings of at least two sessions (a 'session' array, CSV logs named "
-            "<class>_<session>.csv, or one folder per session), got "
-            + ("none" if session is None else f"one ({session[0]!r})")
-        )
+    session = _several_sessions(data, name, "sessions needs")
     if all(np.count_nonzero(session == s) == 1 for s in np.unique(session)):
         raise ValueError(
             f"{name}: every session holds one recording; standardising within it would remove what "

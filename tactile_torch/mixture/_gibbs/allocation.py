@@ -10,7 +10,7 @@ from numba import njit
 from .conditionals import _draw_mean, _draw_precision_given_point, component_step, group_loglik
 from .densities import log_new_weight, wishart_draw
 from .linalg import LOG2PI, LOGPI, NEG_INF, _quad_rows, _scale_factor, _tril_inverse
-from .sessions import effective_stats, n_sessions, session_table, update_lambda
+from .sessions import effective_stats, group_quadratics, n_sessions, session_table, update_lambda
 from .state import activate, deactivate, pop_free
 
 # Log weights this far below the largest are skipped: exp(-50) < 2e-22, which added to a total >= 1
@@ -109,6 +109,17 @@ def _likelihoods(packed, s, K, x, D, q, u, out):
             q[t] += u[t] * u[t]
     for t in range(K):
         out[t] = packed[s, _LNORM, t] - packed[s, _HZ, t] * q[t]
+
+
+@njit(cache=True)
+def _undo_removal(packed, s, own, saved, nts, sts, x, lam):
+    """Put a point of session ``s`` back into its component at position ``own`` (its removal undone; the count aside)."""
+    if lam > 0.0:
+        for r in range(saved.shape[0]):
+            packed[s, r, own] = saved[r]
+        nts[own, s] += 1
+        for a in range(x.shape[0]):
+            sts[own, s, a] += x[a]
 
 
 @njit(cache=True)
@@ -268,12 +279,7 @@ def allocate(X, st, m, use_lik, rng, refresh):
             lw[own] = w_own
             if u * (1.0 + (K - 1 + m) * math.exp(min(top - w_own, 700.0))) < 1.0:
                 cnt[c] += 1  # stays: undo the removal
-                if lam > 0.0:
-                    for r in range(rows):
-                        packed[s, r, own] = saved[r]
-                    nts[own, s] += 1
-                    for a in range(D):
-                        sts[own, s, a] += x[a]
+                _undo_removal(packed, s, own, saved, nts, sts, x, lam)
                 continue
             lcnt[own] = ltab[cnt[c]]
         top = NEG_INF
@@ -293,12 +299,7 @@ def allocate(X, st, m, use_lik, rng, refresh):
         if t == own:  # stays after all: undo the removal
             cnt[c] += 1
             lcnt[own] = ltab[cnt[c]]
-            if lam > 0.0:
-                for r in range(rows):
-                    packed[s, r, own] = saved[r]
-                nts[own, s] += 1
-                for a in range(D):
-                    sts[own, s, a] += x[a]
+            _undo_removal(packed, s, own, saved, nts, sts, x, lam)
         elif t < K:
             j = act[t]
             z[i] = j
@@ -397,33 +398,8 @@ def component_terms(X, st, K, means, scats, me, se, Es, pens):
 @njit(cache=True)
 def _update_lambda_given_components(X, st, K, rng):
     """Slice update of lambda (``sc[5]``) given the partition and the components (:func:`~.sessions.update_lambda`)."""
-    D = X.shape[1]
-    S = n_sessions(st.sess)
-    nts = np.zeros((K, S), dtype=np.int64)
-    sts = np.zeros((K, S, D))
-    session_table(X, st.z, st.sess, st.pos, K, nts, sts)
-    ms = np.empty(K * S)
-    qs = np.empty(K * S)
-    dev = np.empty(D)
-    P = 0
-    for t in range(K):
-        j = st.act[t]
-        for s in range(S):
-            m = nts[t, s]
-            if m == 0:
-                continue
-            for a in range(D):
-                dev[a] = sts[t, s, a] / m - st.mu[j, a]
-            q = 0.0
-            for e in range(D):
-                v = 0.0
-                for a in range(e, D):
-                    v += st.L[j, a, e] * dev[a]
-                q += v * v
-            ms[P] = m
-            qs[P] = q
-            P += 1
-    st.sc[5] = update_lambda(st.sc[5], ms, qs, P, D, rng)
+    ms, qs, P = group_quadratics(X, st, K)
+    st.sc[5] = update_lambda(st.sc[5], ms, qs, P, X.shape[1], rng)
 
 
 @njit(cache=True)

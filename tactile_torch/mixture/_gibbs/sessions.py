@@ -69,6 +69,41 @@ def session_table(X, z, sess, pos, K, nts, sts):
 
 
 @njit(cache=True)
+def group_quadratics(X, st, K):
+    """Return ``(ms, qs, P)``: count ``m`` and ``(mean - mu_j)^T S_j (mean - mu_j)`` of each of the ``P`` non-empty (component, session) groups.
+
+    ``X``: the data the components see (offsets removed); the groups of the ``K`` active components.
+    """
+    D = X.shape[1]
+    S = n_sessions(st.sess)
+    nts = np.zeros((K, S), dtype=np.int64)
+    sts = np.zeros((K, S, D))
+    session_table(X, st.z, st.sess, st.pos, K, nts, sts)
+    ms = np.empty(K * S)
+    qs = np.empty(K * S)
+    dev = np.empty(D)
+    P = 0
+    for t in range(K):
+        j = st.act[t]
+        for s in range(S):
+            m = nts[t, s]
+            if m == 0:
+                continue
+            for a in range(D):
+                dev[a] = sts[t, s, a] / m - st.mu[j, a]
+            q = 0.0
+            for e in range(D):
+                v = 0.0
+                for a in range(e, D):
+                    v += st.L[j, a, e] * dev[a]
+                q += v * v
+            ms[P] = m
+            qs[P] = q
+            P += 1
+    return ms, qs, P
+
+
+@njit(cache=True)
 def effective_stats(n, mean, scat, ns, sums, lam, mean_e, scat_e):
     """Return ``(E, pen)`` of a group and write its effective mean and scatter into ``mean_e``, ``scat_e``.
 

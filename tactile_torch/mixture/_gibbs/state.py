@@ -36,7 +36,7 @@ from numba import njit, types
 from .conditionals import base_logpdf
 from .densities import _log_prior_alpha, _log_prior_beta, log_eppf, log_eppf_mfm, wishart_logpdf
 from .linalg import A1, A2, A3, I1, LOG2PI, _logdet_chol, _quad_rows
-from .sessions import log_prior_lambda, log_prior_offsets, n_sessions, offset_data, session_table
+from .sessions import group_quadratics, log_prior_lambda, log_prior_offsets, offset_data
 
 
 class ChainState(NamedTuple):
@@ -201,24 +201,11 @@ def log_joint(X, st, use_lik):
         for i in range(n):
             j = z[i]
             out += zeta * (0.5 * ldet[j] - half - 0.5 * _quad_rows(L, j, mu, j, X, i))
-        if lam > 0.0:
-            K = st.ist[0]
-            S = n_sessions(st.sess)
-            nts = np.zeros((K, S), dtype=np.int64)
-            sts = np.zeros((K, S, D))
-            session_table(X, z, st.sess, st.pos, K, nts, sts)
-            r = np.empty((1, D))
-            zero = np.zeros((1, D))
-            for t in range(K):
-                j = st.act[t]
-                for s in range(S):
-                    m = nts[t, s]
-                    if m == 0:
-                        continue
-                    for a in range(D):
-                        r[0, a] = sts[t, s, a] - m * mu[j, a]
-                    q = _quad_rows(L, j, zero, 0, r, 0)
-                    out += -0.5 * D * math.log1p(lam * m) + 0.5 * lam / (1.0 + lam * m) * q
+        if lam > 0.0:  # each group's sum of residuals r = m (mean - mu): r^T S r = m^2 q
+            ms, qs, P = group_quadratics(X, st, st.ist[0])
+            for p in range(P):
+                m = ms[p]
+                out += -0.5 * D * math.log1p(lam * m) + 0.5 * lam * m * m / (1.0 + lam * m) * qs[p]
     return out + log_prior_terms(st)
 
 
