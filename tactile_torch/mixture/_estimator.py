@@ -124,8 +124,8 @@ class PitmanYorGMM(PredictionMixin, PosteriorMixin, ClusterMixin, BaseEstimator)
         Dirichlet(``weight_concentration``); its posterior of K is consistent for the number of
         components, the Pitman-Yor process's is not (Miller & Harrison 2014). Same sampler, weights
         ``n_j + gamma`` and ``gamma V_n(K + 1) / V_n(K)`` (``alpha`` and ``discount`` are unused).
-        ``"pyp"``: the study's Pitman-Yor process (with ``coarsen=None`` it reproduces the
-        study's results bit for bit on a seed).
+        ``"pyp"``: the study's Pitman-Yor process (with ``coarsen=None``, the study's model and
+        prior; the draws of a seed are not those of earlier versions).
     coarsen : float or None, default None
         Coarsened posterior (Miller & Dunson 2018): the likelihood is raised to
         ``zeta = coarsen / (coarsen + n)``, which asks the model to fit the data only up to a
