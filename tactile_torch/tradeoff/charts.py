@@ -100,7 +100,7 @@ def spread_sideways(x: np.ndarray, order: np.ndarray, *, log: bool) -> tuple[np.
     return (10.0**out if log else out), moved
 
 
-def draw_chart(
+def draw_chart(  # noqa: PLR0915
     rows: list[dict],
     which: str,
     path: str | Path,

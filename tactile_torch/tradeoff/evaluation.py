@@ -143,7 +143,7 @@ def submit_fronts(candidates: list[Candidate], samples: dict[str, Samples], pool
             pool.submit(("front", *features_key(cand)), export_front, clone(step).fit(X[:2]), X[:2])
 
 
-def export_and_time(
+def export_and_time(  # noqa: PLR0915
     results: list[CandidateResult],
     samples: dict[str, Samples],
     class_names: tuple[str, ...],
@@ -156,6 +156,7 @@ def export_and_time(
     """Stage 3 of the module notes; fills ``latency_ms``, ``size_bytes``, ``decision_s``,
     ``onnx_agreement`` and ``onnx_file`` of every result. ``pool`` is an :class:`~tactile_torch.export.parts.ExportPool`.
     Returns the number of distinct exported parts the files join."""
+    from ..export.fitted import n_parameters
     from ..export.parts import (
         bind_head,
         export_fixed_head,
@@ -167,7 +168,7 @@ def export_and_time(
     )
     from ..metrics import time_per_sample
     from ..robot.runtime import OnnxPipeline
-    from .learned import export_learned, is_learned, n_parameters
+    from .learned import export_learned, is_learned
 
     out_dir = Path(out_dir)
     plans, n_features_of, learned = [], {}, []

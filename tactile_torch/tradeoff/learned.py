@@ -119,20 +119,6 @@ def kind_of(key: str) -> str:
     return {"windows": "vibration", "frames": "image", "pressure": "pressure"}[raw]
 
 
-def n_parameters(model: object) -> int | None:
-    """Return the learned numbers of a fitted candidate: a network's trained scalars (plus the learned
-    front-end settings), or the numbers a classical head stores (support vectors, coefficients, means)."""
-    clf = model.steps[-1][1]
-    if hasattr(clf, "n_parameters_"):
-        return int(clf.n_parameters_)
-    from ..export.parts import head_modules
-
-    try:
-        return int(sum(b.numel() for m in head_modules(model) for b in m.buffers()))
-    except (TypeError, ValueError, KeyError):
-        return None
-
-
 def export_learned(res: object, samples: object, class_names: tuple, path: Path, metadata: dict) -> Path:
     """Export a learned candidate's first-fold model to ``path`` with the trade-off's metadata."""
     from ..export import export_classifier
@@ -312,5 +298,4 @@ __all__ = [
     "learned_candidates",
     "learned_keys",
     "measure_memory",
-    "n_parameters",
 ]

@@ -131,7 +131,7 @@ class TradeoffPlan:
     references: dict = field(default_factory=dict)
 
 
-def plan_tradeoff(
+def plan_tradeoff(  # noqa: PLR0913
     data: str | Path | Sequence[str | Path] | TradeoffData,
     *,
     quick: bool = False,

@@ -42,6 +42,7 @@ from tactile_torch.neural import (
     TaxelCNNClassifier,
     WindowCNNClassifier,
 )
+from tactile_torch.ood import MahalanobisNovelty
 from tactile_torch.signal import ClusteringTransform, FeatureScaler
 from tactile_torch.svm import SVC, HierarchicalSVC
 
@@ -65,6 +66,8 @@ MATRIX_ESTIMATORS = {
     "ClusteringTransform-window": ClusteringTransform(),
     "FeaturePassthrough": FeaturePassthrough(),
     "RankedFeatureSelector": RankedFeatureSelector(k=1),
+    "MahalanobisNovelty": MahalanobisNovelty(),
+    "MahalanobisNovelty-one-view": MahalanobisNovelty(two_views=False),
 }
 """Every estimator and transformer of the library that takes a feature matrix."""
 
