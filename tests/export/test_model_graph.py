@@ -170,8 +170,8 @@ def test_cli_cluster_export_predict_round_trip(tmp_path, vibration_npz, capsys):
     assert "pairwise accuracy" in capsys.readouterr().out
 
 
-@pytest.mark.slow  # an export: about 10 s on a quiet 2-core machine
-def test_a_model_fitted_with_sessions_exports_and_classifies_a_held_back_day(tmp_path):
+@pytest.mark.slow  # a fit, an export and a stream: about 20 s on a quiet 2-core machine
+def test_a_model_fitted_with_sessions_exports_and_classifies_a_held_back_day(tmp_path, monkeypatch, capsys):
     # 3 surfaces on 3 days, each day's gain its own: cluster (session effects) on days 0 and 1,
     # export, and classify day 2's windows on the robot's runtime: a new session, its offset and
     # effect integrated out (docs/mixture.md, "Sessions"); the bundle decides as the estimator does.
@@ -190,7 +190,7 @@ def test_a_model_fitted_with_sessions_exports_and_classifies_a_held_back_day(tmp
              session=np.array([f"day{k}" for k in day[day < 2]]), **arrays)  # fmt: skip
     np.savez(tmp_path / "day2.npz", signals=signals[day == 2], labels=rec.labels[day == 2], **arrays)
     clustering = fit_clustering(
-        read_source([tmp_path / "train.npz"]), window=400, n_iter=300, burn_in=100, n_chains=2, random_state=0,
+        read_source([tmp_path / "train.npz"]), window=400, random_state=0,
         progress=False,
     )  # fmt: skip
     assert clustering.session_mode == "model"
@@ -205,6 +205,22 @@ def test_a_model_fitted_with_sessions_exports_and_classifies_a_held_back_day(tmp
     decided = np.where(out["novel"], -1, out["labels"])  # the calibrated rule's novel windows: -1
     np.testing.assert_array_equal(decided, clustering.mixture.predict(X, using="point"))
     assert adjusted_rand_score(day2.y, decided) > 0.8
+    # and live: the held-back day's first recording over a serial line, `stream --discover 3`: the
+    # same decision per window as the bundle (no state kept for the new day), novel windows named
+    from tactile_torch.robot.stream.wire import format_sample
+
+    first = np.flatnonzero(day == 2)[0]
+    n = signals.shape[1] // 400
+    lines = b"".join(format_sample(s) for s in signals[first])
+    with monkeypatch.context() as patch:
+        patch.setattr(serial, "serial_for_url", lambda *a, **k: io.BytesIO(lines))
+        capsys.readouterr()
+        args = ["stream", "--model", str(tmp_path / "c.onnx"), "--port", "test://", "--step", "400"]
+        assert main([*args, "--max-windows", str(n), "--json", "--discover", "3"]) == 0
+    printed = capsys.readouterr().out.splitlines()
+    live = [json.loads(line) for line in printed if line.startswith("{")]
+    assert [r["label"] for r in live] == out["labels"][:n].tolist()
+    assert sum(line.startswith("  novel window") for line in printed) == int(out["novel"][:n].sum())
 
 
 def test_cli_predict_prints_a_class_report_without_torch(tmp_path, vibration_npz):
