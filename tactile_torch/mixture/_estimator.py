@@ -476,7 +476,7 @@ class PitmanYorGMM(PredictionMixin, PosteriorMixin, ClusterMixin, BaseEstimator)
     # fit
     # ------------------------------------------------------------------------------------------
     @_fit_context(prefer_skip_nested_validation=True)
-    def fit(self, X: object, y: object = None, sessions: object = None) -> PitmanYorGMM:  # noqa: PLR0915
+    def fit(self, X: object, y: object = None, sessions: object = None) -> PitmanYorGMM:
         """Run the chains on ``X`` of shape (n_samples, n_features); return ``self``.
 
         ``X`` is an array-like or a tensor; ``y`` is ignored (present for scikit-learn pipelines).
@@ -487,18 +487,7 @@ class PitmanYorGMM(PredictionMixin, PosteriorMixin, ClusterMixin, BaseEstimator)
         self._check_params()
         # the compiled kernels load here, at the first fit of a process, not at import
         from . import _gibbs as g
-        from ._chains import (
-            Chains,
-            RunLength,
-            auto_burn_in,
-            chain_attributes,
-            keep_after_burn_in,
-            neighbours,
-            run_chains,
-            run_chains_until,
-            targets_met,
-            warm_up,
-        )
+        from ._chains import Chains, chain_attributes, neighbours, run_to_targets, warm_up
 
         X = validate_data(self, _as_array(X), dtype=np.float64)
         rng = numpy_rng(self.random_state)
@@ -513,16 +502,8 @@ class PitmanYorGMM(PredictionMixin, PosteriorMixin, ClusterMixin, BaseEstimator)
         Xw = np.ascontiguousarray(np.linalg.solve(scale, (X[:, :D] - mean).T).T)
         mfm = self.model == "mfm"
         fit_alpha, fit_d = self.alpha is None and not mfm, self.discount is None and not mfm
-        d_low = max(0.0, -float(self.alpha)) if (not fit_alpha and fit_d) else 0.0
-        alpha0 = 1.0 if fit_alpha else float(self.alpha or 0.0)
-        d0 = (d_low + 0.5 * (1.0 - d_low) if d_low > 0 else 0.25) if fit_d else float(self.discount or 0.0)
-        gamma = float(self.weight_concentration) if mfm else 0.0
+        d_low, alpha0, d0, gamma, lv = self._prior_start(n, fit_alpha, fit_d)
         zeta = coarsening_power(self.coarsen, n)
-        if mfm:
-            alpha0, d0 = 0.0, -gamma
-            lv = log_v(n, gamma, float(self.k_prior_mean))
-        else:
-            lv = None
         self.zeta_ = zeta
         auto = self.n_iter == "auto"
         n_iter = int(self.max_iter) if auto else int(self.n_iter)
@@ -562,19 +543,10 @@ class PitmanYorGMM(PredictionMixin, PosteriorMixin, ClusterMixin, BaseEstimator)
         )
         chains = Chains(Xw, states, cfg, chain_rngs, nbr, workers, bool(self.progress))
         quantities = ("n_clusters",) + ("alpha",) * fit_alpha + ("discount",) * fit_d
-        self.stop_reason_ = None
-        if auto:
-            plan = RunLength(n_iter, self.max_seconds, burn_in, quantities, k_ceiling(n) if mfm else None)
-            runs, snap_sweeps, self.stopped_by_, diag = run_chains_until(chains, plan)
-            self.stop_reason_ = diag.get("reason")
-            n_iter = runs[0]["trace"].shape[0]
-            burn_in = auto_burn_in(n_iter, burn_in)
-            snap_sweeps = keep_after_burn_in(runs, snap_sweeps, burn_in)
-            self.budget_exhausted_ = self.stopped_by_ != "converged"
-        else:
-            runs = run_chains(chains, n_iter, snap_sweeps)
-            self.stopped_by_ = "n_iter"
-            self.budget_exhausted_ = not targets_met(runs, burn_in, quantities)
+        ceiling = k_ceiling(n) if mfm else None
+        runs, snap_sweeps, n_iter, burn_in, self.stopped_by_, self.stop_reason_, self.budget_exhausted_ = (
+            run_to_targets(chains, n_iter, burn_in, snap_sweeps, quantities, auto, self.max_seconds, ceiling)
+        )
         self.n_features_in_ = F
         self.n_sessions_ = 1 if session_ids is None else int(session_ids.max()) + 1
         self.data_mean_, self.data_scale_ = mean, scale
@@ -594,6 +566,17 @@ class PitmanYorGMM(PredictionMixin, PosteriorMixin, ClusterMixin, BaseEstimator)
         if warning:
             warnings.warn(warning, RuntimeWarning, stacklevel=2)
         return self
+
+    def _prior_start(self, n: int, fit_alpha: bool, fit_d: bool) -> tuple:
+        """(d_low, alpha0, d0, gamma, log V or None): the partition prior's bounds and the chains' start."""
+        mfm = self.model == "mfm"
+        d_low = max(0.0, -float(self.alpha)) if (not fit_alpha and fit_d) else 0.0
+        alpha0 = 1.0 if fit_alpha else float(self.alpha or 0.0)
+        d0 = (d_low + 0.5 * (1.0 - d_low) if d_low > 0 else 0.25) if fit_d else float(self.discount or 0.0)
+        gamma = float(self.weight_concentration) if mfm else 0.0
+        if mfm:
+            return d_low, 0.0, -gamma, gamma, log_v(n, gamma, float(self.k_prior_mean))
+        return d_low, alpha0, d0, gamma, None
 
     def fit_predict(self, X: object, y: object = None, sessions: object = None) -> np.ndarray:
         """Fit (``sessions`` as :meth:`fit`'s) and return ``labels_``, the point estimate of the partition."""

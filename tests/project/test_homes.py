@@ -327,7 +327,6 @@ SIZE_EXCEPTIONS = {
     "tactile_torch/cli/predict.py::run_predict": "to split: issue 42's command",
     "tactile_torch/cli/stream.py::_stream_until_stopped": "to split: issue 41's command",
     "tactile_torch/data/stylus.py::_simulate": "to split: issue 42's data layouts",
-    "tactile_torch/mixture/_estimator.py::fit": "to split: issue 38's mixture",
     "tactile_torch/robot/files/model_file.py::validate_model": "to split: issue 42's model files",
     "tactile_torch/robot/ros2/bags.py::read_bag": "to split: issue 41's ROS 2 side",
     "tactile_torch/robot/ros2/source.py::__init__": "to split: issue 41's options object",
