@@ -177,6 +177,7 @@ def cross_validate(
     progress: bool = False,
     desc: str = "",
     features_out: dict | None = None,
+    fold_ids: list[int] | None = None,
 ) -> dict[str, CVResult]:
     """Cross-validate raw-input models over ``folds``; return one :class:`CVResult` per model, in order.
 
@@ -206,7 +207,8 @@ def cross_validate(
         Models not named (or ``None``) run at their own parameters.
     cache : mapping, optional
         Whole-set features of steps that need no fit, by :func:`~tactile_torch.engine.signature`:
-        ``(Z, seconds)``; used instead of computing them.
+        ``(Z, seconds)``; used instead of computing them. A ``dict`` given is filled with those computed
+        here, so that a later call on other folds of the same samples reuses them.
     backend, n_jobs, scheduler
         Where the tasks run (:class:`~tactile_torch.engine.Backend`); results do not depend on them.
     random_state : int
@@ -219,6 +221,10 @@ def cross_validate(
     features_out : dict, optional
         Filled with the features by signature: per fold ``(fitted step, Z_train, Z_test)``, or the
         exception of a step that failed (for sweeps that reuse them).
+    fold_ids : list of int, optional
+        The number of each of ``folds`` in a larger set (default ``0 .. len(folds) - 1``): a caller that
+        runs the folds of one cross-validation a few at a time (to stop models early) gets the seeds,
+        and ``CVResult.fold``, of the whole run.
     """
     y = np.asarray(y)
     n = len(y)
@@ -228,7 +234,11 @@ def cross_validate(
     split = models if isinstance(models, Models) else Models(models)
     models = split.models
     tuning = dict(tuning or {})
+    filled = cache if isinstance(cache, dict) else None
     cache = dict(cache or {})
+    ids = list(range(len(folds))) if fold_ids is None else [int(k) for k in fold_ids]
+    if len(ids) != len(folds):
+        raise ValueError(f"fold_ids must name each of the {len(folds)} folds, got {len(ids)}")
     threads = 1 if runner.parallel else None
     with runner:
         # stage 1: features
@@ -254,6 +264,8 @@ def cross_validate(
                 whole[key] = (value[1], value[3])
             else:
                 per_fold.setdefault(key, [None] * len(folds))[k] = value
+        if filled is not None:
+            filled.update((key, value) for key, value in whole.items() if key not in filled)
 
         def fold_features(key: str, k: int) -> tuple[Any, Any, Any, float]:
             tr, te = folds[k]
@@ -282,7 +294,7 @@ def cross_validate(
             for k, (tr, _) in enumerate(folds):
                 _, Z_tr, Z_te, _ = fold_features(key, k)
                 g_tr = None if inner_groups is None else inner_groups[tr]
-                seed = seed_of(random_state, name, k)
+                seed = seed_of(random_state, name, ids[k])
                 tasks.append((split.rest[name], Z_tr, y[tr], g_tr, Z_te, tuning.get(name), seed, threads))
                 where.append((name, k))
         done = runner.map(_fit_task, tasks, desc=f"{desc}fit".strip(), progress=progress)
@@ -318,7 +330,7 @@ def cross_validate(
                 break
             fitted_step, _, _, feature_s = fold_features(key, k)
             res.predictions[te] = out["predicted"]
-            res.fold[te] = k
+            res.fold[te] = ids[k]
             res.fold_accuracy.append(float(np.mean(out["predicted"] == y[te])))
             res.feature_seconds.append(float(feature_s))
             res.tune_seconds.append(float(out["tune_s"]))

@@ -41,6 +41,7 @@ def export_classifier(
     *,
     class_names: Sequence[str] | None = None,
     metadata: dict[str, object] | None = None,
+    graph: torch.nn.Module | None = None,
 ) -> Path:
     """Write ``estimator``'s inference graph to the ONNX bundle ``path``; return the path.
 
@@ -56,6 +57,10 @@ def export_classifier(
         Name of each class of ``classes_`` (default: the classes as strings).
     metadata : dict, optional
         Further metadata (window size, sample rate ...); JSON for non-strings.
+    graph : torch.nn.Module, optional
+        The graph to export instead of ``estimator.to_module()`` (the same raw input; its outputs are
+        named by its ``output_names`` attribute when it has one, e.g. a third output for the "unknown"
+        rule, :class:`tactile_torch.tradeoff.unknown.EmbeddingGraph`).
     """
     from .. import __version__
 
@@ -74,12 +79,13 @@ def export_classifier(
             **(metadata or {}),
         }
     )
+    module = estimator.to_module() if graph is None else graph
     return export_onnx(
-        estimator.to_module(),
+        module,
         (torch.from_numpy(example),),
         path,
         input_names=[INPUT_NAME],
-        output_names=[LABELS_OUTPUT, SCORES_OUTPUT],
+        output_names=list(getattr(module, "output_names", (LABELS_OUTPUT, SCORES_OUTPUT))),
         metadata=meta,
     )
 

@@ -323,6 +323,17 @@ class CandidateResult:
         An int8 variant's quantisation (:mod:`.learned`); ``None`` for a float candidate.
     variant_of : str or None
         An int8 variant: the name of its float candidate.
+    stopped : str or None
+        Why the study stopped it early, before its last fold (:mod:`.stopping`); ``None`` when it ran
+        every fold. A stopped candidate's accuracy is over the units it was tested on, and it is not
+        chosen.
+    bare_file : Path or None
+        Its first-fold file without the "unknown" rule (what an int8 variant quantises, :mod:`.bundle`).
+    train_features : ndarray or None
+        The first fold's training features while its timing file is written (its "unknown" rule), then
+        ``None``.
+    distance : tuple or None
+        Its timing file's "unknown" rule: ``(rule, distance part, inputs)`` (:func:`~.bundle.finish_bundle`).
     """
 
     candidate: Candidate
@@ -345,6 +356,10 @@ class CandidateResult:
     quantisation: str | None = None
     family: str = "classical"
     variant_of: str | None = None
+    stopped: str | None = None
+    bare_file: object = field(default=None, repr=False)
+    train_features: object = field(default=None, repr=False)
+    distance: tuple | None = field(default=None, repr=False)
 
 
 __all__ = [

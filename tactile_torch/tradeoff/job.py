@@ -58,6 +58,9 @@ class TradeoffOptions:
         Tune each candidate inside each training fold (else the catalogue's defaults).
     breaking : bool
         Also sweep the breaking points of the recommended and the study's model.
+    exhaustive : bool
+        Evaluate every candidate on every fold (default: candidates that cannot be recommended stop
+        early, :mod:`tactile_torch.tradeoff.stopping`).
     """
 
     quick: bool = False
@@ -77,6 +80,7 @@ class TradeoffOptions:
     random_state: int = 0
     tune: bool = True
     breaking: bool = True
+    exhaustive: bool = False
 
     def __post_init__(self) -> None:
         if self.n_folds is not None and (
@@ -123,6 +127,7 @@ class TradeoffOptions:
             "csv_session": self.csv_session,
             "random_state": self.random_state,
             "tune": self.tune,
+            "exhaustive": self.exhaustive,
         }
 
 

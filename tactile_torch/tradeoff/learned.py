@@ -37,6 +37,7 @@ from sklearn.pipeline import Pipeline
 
 from .. import catalogue
 from ..robot.contract import CLASS_NAMES_KEY, PIPELINE_KEY, STEP_KEY, WINDOW_SIZE_KEY
+from ..robot.naming import slug
 
 QUICK_EPOCHS = 30
 """Epochs of the networks under ``quick`` (early stopping may end them sooner)."""
@@ -206,16 +207,21 @@ def add_int8_and_memory(
     out_dir: str | Path,
     *,
     fold_file,
+    pool: object,
     quick: bool,
     progress: bool = True,
     notes: list | None = None,
 ) -> list:
-    """Append the int8 variants to ``results`` and fill ``memory_mib`` (module notes); return ``results``.
+    """Append the int8 variants to ``results`` (module notes); return ``results``.
 
     ``notes`` receives one line naming the candidates that get no variant (nothing to quantise).
 
     ``fold_file(candidate, model, path)`` writes a classical fold model's file (the trade-off's export pool) and
-    returns its path, or ``None`` when it cannot (features fitted per fold).
+    returns its path, or ``None`` when it cannot (features fitted per fold). The variant's timing file is
+    its first fold's quantised file with its "unknown" rule (:func:`~.bundle.finish_bundle`: a classical
+    file keeps its float twin's rule, its features being float; a learned one's is fitted on the int8
+    embedding), timed as every other (:func:`~.evaluation.measure_file`). Candidates stopped early get
+    none.
     """
     import dataclasses
 
@@ -227,10 +233,14 @@ def add_int8_and_memory(
     out_dir = Path(out_dir)
     parts = out_dir / "parts-int8"
     added, unchanged = [], []
-    chosen = [r for r in results if r.onnx_file and (not quick or is_learned(r.model))]
+    chosen = [
+        r
+        for r in results
+        if r.onnx_file and r.bare_file and not r.stopped and (not quick or is_learned(r.model))
+    ]
     for res in progress_bar(chosen, "int8", progress):
         s = samples[res.candidate.input]
-        first = out_dir / res.onnx_file
+        first = Path(res.bare_file)
         fold_accuracy, q_first, agreement, mode = [], None, None, None
         predictions = np.full(len(s.y), -1, dtype=np.int64)
         try:
@@ -241,9 +251,7 @@ def add_int8_and_memory(
                 calibration = OnnxPipeline(path).validate(
                     np.ascontiguousarray(s.X[train[:CALIBRATION_SAMPLES]])
                 )
-                target = (
-                    out_dir / f"{first.stem}-int8.onnx" if k == 0 else parts / f"{first.stem}-int8-{k}.onnx"
-                )
+                target = parts / f"{first.stem}-int8-{k}.onnx"
                 # The networks get dynamic int8: static ranges from the calibration windows kept only
                 # 0.55-0.60 of their labels on two data sets (docs/neural.md), dynamic 0.91-0.94. A
                 # classical bundle quantises its classifier only: int8 activations of its feature graph
@@ -271,23 +279,34 @@ def add_int8_and_memory(
             lines = [line for line in str(err).splitlines() if line.strip()]
             res.notes.append(f"int8: {type(err).__name__}: {(lines or [''])[-1][:200]}")
             continue
-        from ..metrics import time_per_sample
+        from .bundle import finish_bundle
+        from .evaluation import measure_file
 
-        pipe = OnnxPipeline(q_first)
-        raw = np.ascontiguousarray(s.X[s.folds[0][1][:1]])
-        latency = 1e3 * time_per_sample(pipe.predict, raw)
+        train = s.folds[0][0]
+        try:
+            timing, _ = finish_bundle(
+                q_first,
+                out_dir / f"{slug(res.candidate.name)}-int8.onnx",
+                res.model,
+                s.X[train],
+                s.y[train],
+                pool,
+                distance=None if is_learned(res.model) else res.distance,
+            )
+        except Exception as err:
+            lines = [line for line in str(err).splitlines() if line.strip()]
+            res.notes.append(f"int8: {type(err).__name__}: {(lines or [''])[-1][:200]}")
+            continue
         cand = dataclasses.replace(res.candidate, name=f"{res.candidate.name} (int8)")
         variant = CandidateResult(
             cand,
             fold_accuracy,
             res.fit_s,
             None,
-            latency_ms=latency,
-            size_bytes=int(q_first.stat().st_size),
-            decision_s=s.acquisition_s + latency / 1e3,
             onnx_agreement=agreement,
-            onnx_file=q_first.name,
+            onnx_file=timing.name,
             notes=[f"int8 ({mode}) of {res.candidate.name}; onnx_agreement: with the float file, first fold"],
+            **measure_file(timing, np.ascontiguousarray(s.X[s.folds[0][1][:1]]), s.acquisition_s),
         )
         variant.predictions = predictions  # every sample's out-of-fold int8 label (per-unit intervals)
         variant.n_parameters = res.n_parameters

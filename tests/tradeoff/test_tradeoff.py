@@ -871,7 +871,37 @@ def test_charts_for_5_to_40_candidates(tmp_path, n):
             target=0.8,
         )
         assert path.read_bytes()[:4] == b"\x89PNG"
-    assert {feature_family(r["features"]).split(",")[0] for r in rows} <= {"all features", "top k"}
+    # every subset size has its own marker (top 3 and top 7 apart), windows apart
+    assert {feature_family(r["features"]).split(",")[0] for r in rows} <= {"all features", "top 7", "top 3"}
+
+
+def test_charts_draw_every_point_at_its_cost_and_zoom_into_dense_ranges(tmp_path, monkeypatch):
+    """Points are never moved: equal costs are shown side by side in a zoomed panel of their range."""
+    import matplotlib
+    import matplotlib.pyplot as plt
+
+    matplotlib.use("Agg")
+    from tactile_torch.tradeoff.charts import DENSE_MIN, dense_ranges, draw_chart
+
+    x = np.array([0.2001, 0.2003, 0.2002, 0.2004, 0.2005, 0.8001, 0.8002, 1.6])
+    ranges = dense_ranges(x, log=True)
+    assert [sorted(r.tolist()) for r in ranges] == [[0, 1, 2, 3, 4]]  # 0.8 s holds 2 < DENSE_MIN
+    assert dense_ranges(x[: DENSE_MIN - 1], log=False) == []
+    rows = _synthetic_rows(20)
+    kept = []
+    monkeypatch.setattr(plt, "close", kept.append)
+    draw_chart(rows, "decision", tmp_path / "d.png", recommended=rows[0]["name"], runner_up=rows[1]["name"])
+    fig = kept[-1]
+    main = fig.axes[0]
+    costs = {round(r["decision_s"], 9) for r in rows}
+    drawn = {
+        round(float(v), 9)
+        for line in main.get_lines()
+        if line.get_marker() not in ("None", "", None)
+        for v in line.get_xdata()
+    }
+    assert drawn <= costs  # every marker of the main panel sits at a measured cost
+    assert len(fig.axes) >= 2  # the three windows' candidates share a cost: zoomed, not spread
 
 
 def test_an_int8_variant_below_its_float_interval_is_flagged_in_rows_lines_and_chart(tmp_path, monkeypatch):

@@ -1,0 +1,171 @@
+"""The file a trade-off candidate is deployed as, written the same way for timing and for deployment.
+
+What a robot runs is what the study times: a candidate's timing file (its first fold's model) and its
+deployed file (refitted on all the data, ``recommended.onnx``) are written by the same two steps,
+
+1. :func:`bare_bundle`: the candidate's graph, raw input → labels and scores (a classical candidate's
+   feature graph joined to its classifier head, :mod:`.export`; a learned one exported whole with its
+   embedding as a third output, :class:`~.unknown.EmbeddingGraph`), with the bundle's metadata (frame
+   bundles: the live stream's touch levels and early-decision rule); an int8 variant quantises this
+   file (:func:`~.int8.quantise_bundle`);
+2. :func:`finish_bundle`: the "unknown" rule fitted on the model's training samples as the file computes
+   them, its distance part attached to the tensor it reads (:mod:`.unknown`), sealed and saved.
+
+So the latency, size and memory of a timing file are those of the deployed file of the same candidate
+up to the fitted values (the deployed model is fitted on more samples: a kNN's neighbours and an SVM's
+support vectors grow with them), and ``recommended.onnx`` is timed again when written
+(:func:`tactile_torch.tradeoff.deploy.deploy_candidate`).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..robot.contract import (
+    CLASS_NAMES_KEY,
+    FEATURES_NAME,
+    INPUT_LAYOUT_KEY,
+    INPUT_SHAPE_KEY,
+    OOD_OUTPUT,
+)
+
+RULE_SAMPLES = 2000
+"""At most this many training samples (evenly spaced) fit a timing file's "unknown" rule."""
+
+
+def evenly(n: int, k: int) -> np.ndarray:
+    """Return ``min(k, n)`` indices evenly spaced over ``0 .. n - 1``."""
+    return np.linspace(0, n - 1, min(k, n)).round().astype(int)
+
+
+def bare_bundle(
+    model: object,
+    example: np.ndarray,
+    path: str | Path,
+    metadata: dict,
+    pool: object,
+    *,
+    front: tuple,
+    class_names: tuple[str, ...],
+    layout: str,
+) -> Path:
+    """Write a fitted candidate's graph (no "unknown" rule yet) to ``path``; return it.
+
+    Parameters
+    ----------
+    model : Pipeline
+        A fitted candidate (``features``, ..., ``classifier``).
+    example : ndarray
+        At least two raw inputs (the export's example; the batch stays free).
+    metadata : dict
+        The bundle's metadata (pipeline, window, rate, touch levels ...).
+    pool : ExportPool
+        The study's exports (feature graphs and classifier structures, shared between candidates).
+    front : tuple
+        The pool key of the candidate's feature graph (submitted here when the step is fitted per fold).
+    class_names : tuple of str
+        The data's class names (labels index the classifier's ``classes_``).
+    layout : str
+        The raw input's layout (``"B,3,W"`` ...).
+    """
+    from sklearn.base import clone
+
+    from ..engine import needs_fit
+    from .export import bind_head, export_fixed_head, export_front, export_head, head_key, head_modules, join
+    from .learned import is_learned
+
+    path = Path(path)
+    example = np.ascontiguousarray(example[:2])
+    clf = model.steps[-1][1]
+    names = [class_names[int(c)] for c in clf.classes_]
+    if is_learned(model):
+        from ..neural import export_classifier
+        from .unknown import EmbeddingGraph
+
+        return export_classifier(
+            clf, path, example, class_names=names, metadata=metadata, graph=EmbeddingGraph(clf.to_module())
+        )
+    step = model.named_steps["features"]
+    if needs_fit(step):
+        pool.submit(front, export_front, step, example, background=False)
+    else:  # a no-op when already exported (the study submits every stateless front at its start)
+        pool.submit(front, export_front, clone(step).fit(example), example)
+    modules = head_modules(model)
+    n_features = int(step.transform(example[:1]).shape[1])
+    head = ("head", *head_key(modules, n_features))
+    pool.submit(head, export_head, modules, n_features, background=False)
+    try:
+        classifier = bind_head(pool.result(head), modules)
+    except Exception:  # a structure that cannot be exported with free sizes: this candidate alone
+        plain = ("plain head", path.name)
+        pool.submit(plain, export_fixed_head, modules, n_features, background=False)
+        classifier = pool.result(plain)
+    meta = {
+        **metadata,
+        INPUT_SHAPE_KEY: [None, *example.shape[1:]],
+        INPUT_LAYOUT_KEY: layout,
+        CLASS_NAMES_KEY: names,
+    }
+    return join(pool.result(front), classifier, path, meta)
+
+
+def _export_distance(part: object, n_inputs: int, path: Path) -> Path:
+    from .export import export_head
+
+    return export_head([part], n_inputs, path, output_names=(OOD_OUTPUT,))
+
+
+def finish_bundle(
+    bare: str | Path,
+    path: str | Path,
+    model: object,
+    X: np.ndarray,
+    y: np.ndarray,
+    pool: object,
+    *,
+    features: np.ndarray | None = None,
+    distance: tuple | None = None,
+) -> tuple[Path, tuple]:
+    """Fit the "unknown" rule of ``bare`` (a :func:`bare_bundle`, or its int8 copy) and write the bundle
+    with it to ``path``; return the path and ``(rule, distance part, its number of inputs)``.
+
+    The rule is fitted on the training raw input ``X`` and labels ``y`` of ``model`` (at most
+    :data:`RULE_SAMPLES`, evenly spaced): a classical model's on its features (``features``: the
+    ``features`` step's output for ``X`` when already known), a learned model's on the embedding the
+    file itself computes for ``X`` (an int8 file's own). ``distance``: a rule already fitted, ``(rule,
+    part, n_inputs)`` (a classical int8 file reads the same float features as its float twin).
+    """
+    import onnx
+
+    from .._onnx import save_onnx
+    from ..robot.runtime import OnnxPipeline
+    from .export import bind_head, head_key
+    from .learned import is_learned
+    from .unknown import EMBEDDING_NAME, attach_distance, classical_rule, embedding_rule
+
+    keep = evenly(len(y), RULE_SAMPLES)
+    X, y = X[keep], np.asarray(y)[keep]
+    learned = is_learned(model)
+    if distance is not None:
+        rule, part, n_inputs = distance
+        reads = EMBEDDING_NAME if learned else FEATURES_NAME
+    elif learned:
+        pipe = OnnxPipeline(bare)
+        E = np.concatenate([pipe.run(X[i : i + 256])[EMBEDDING_NAME] for i in range(0, len(X), 256)]).astype(
+            np.float64
+        )
+        rule, part = embedding_rule(E, y)
+        reads, n_inputs = EMBEDDING_NAME, E.shape[1]
+    else:
+        features = model.named_steps["features"].transform(X) if features is None else features[keep]
+        rule, part = classical_rule(model, features, y)
+        reads, n_inputs = FEATURES_NAME, int(np.shape(features)[1])
+    key = ("distance", *head_key([part], n_inputs))
+    pool.submit(key, _export_distance, part, n_inputs, background=False)
+    proto = attach_distance(onnx.load(str(bare)), bind_head(pool.result(key), [part]), reads, rule)
+    return save_onnx(proto, path), (rule, part, n_inputs)
+
+
+__all__ = ["RULE_SAMPLES", "bare_bundle", "evenly", "finish_bundle"]
