@@ -20,7 +20,7 @@ import torch
 
 from bench.common import threads, time_call
 from tactile_torch.default_bundles import build_default_bundles
-from tactile_torch.pipeline import compare_with_runtime
+from tactile_torch.export.model_graph import compare_with_runtime
 from tactile_torch.robot.runtime import OnnxPipeline
 
 TITLE = "Exported pipelines: onnxruntime vs eager torch (latency at batch 1, throughput)"

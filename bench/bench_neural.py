@@ -4,7 +4,7 @@ float against int8 (static and dynamic).
 Each network of :mod:`tactile_torch.neural` is trained on seeded synthetic data of its input (stylus
 windows of W = 800, bundled explorations of 100 frames of 96 x 96, their pressure maps on a 12 x 12
 array) for a fixed number of epochs (no early stopping: ``patience`` = epochs), exported, and quantised
-both ways (:func:`tactile_torch.tradeoff.int8.quantise_bundle`, static calibrated on 32 training samples).
+both ways (:func:`tactile_torch.export.int8.quantise_bundle`, static calibrated on 32 training samples).
 Rows: trained scalars, seconds per training epoch (the estimator's own thread setting: one intra-op
 thread), onnxruntime latency at batch 1 (median, one thread, input validation included), file size,
 peak memory of the session (:func:`tactile_torch.tradeoff.memory.peak_memory_mib`), and the share of
@@ -38,15 +38,11 @@ def _data(kind: str, quick: bool) -> tuple[np.ndarray, np.ndarray]:
 
 
 def run(quick: bool = False) -> dict:
+    from tactile_torch.export import export_classifier
+    from tactile_torch.export.int8 import quantise_bundle
     from tactile_torch.metrics import time_per_sample
-    from tactile_torch.neural import (
-        ExplorationCNNClassifier,
-        TaxelCNNClassifier,
-        WindowCNNClassifier,
-        export_classifier,
-    )
+    from tactile_torch.neural import ExplorationCNNClassifier, TaxelCNNClassifier, WindowCNNClassifier
     from tactile_torch.robot.runtime import OnnxPipeline
-    from tactile_torch.tradeoff.int8 import quantise_bundle
     from tactile_torch.tradeoff.memory import peak_memory_mib
 
     epochs = 3 if quick else 20

@@ -111,7 +111,7 @@ def run(quick: bool) -> dict:
 
 
 def _onnx_latency(quick: bool) -> dict:
-    from tactile_torch._onnx import export_onnx
+    from tactile_torch.export import export_onnx
 
     size = 800
     x = _windows(size, 2)

@@ -36,8 +36,9 @@ import serial
 from tactile_torch.data import make_vibration_recordings
 from tactile_torch.default_bundles import build_default_bundles
 from tactile_torch.robot.runtime import OnnxPipeline
-from tactile_torch.robot.stream import WindowReader, format_sample, pseudo_terminal, simulate_sensor
-from tactile_torch.robot.stream_output import classify_windows
+from tactile_torch.robot.stream.output import classify_windows
+from tactile_torch.robot.stream.window_reader import WindowReader
+from tactile_torch.robot.stream.wire import format_sample, pseudo_terminal, simulate_sensor
 from tests.conftest import _NO_TORCH  # the robot: importing torch fails
 
 TITLE = "Live stream: 10 minutes of an 800 Hz sensor through a pty (loss, memory, latency)"

@@ -79,9 +79,9 @@ def _classical(x, y, groups, names, tmp: str) -> tuple[str, str]:
 
 
 def _cnn(x, y, names, tmp: str) -> str:
-    from tactile_torch.neural import export_classifier
+    from tactile_torch.export import export_classifier
     from tactile_torch.neural.estimators import TaxelCNNClassifier
-    from tactile_torch.robot.touches import frame_metadata
+    from tactile_torch.robot.stream.touches import frame_metadata
 
     clf = TaxelCNNClassifier(max_epochs=5, progress=False, random_state=0).fit(x, y)
     meta, _ = frame_metadata(x, frame_rate_hz=PACED_HZ)
@@ -103,12 +103,12 @@ def _stream(bundle: str, frames: np.ndarray, *, paced: bool) -> dict:
     """Run one stream on a pty fed ``frames``; return frames/s and the touch-end latencies."""
     import serial
 
-    from tactile_torch.robot.live import LiveOptions, LiveStream, item_spec
-    from tactile_torch.robot.port_lines import StreamTimeout
     from tactile_torch.robot.runtime import OnnxPipeline
-    from tactile_torch.robot.serial_source import SerialSource
-    from tactile_torch.robot.stream_output import result_json
-    from tactile_torch.robot.wire import simulate_frames
+    from tactile_torch.robot.stream.live import LiveOptions, LiveStream, item_spec
+    from tactile_torch.robot.stream.output import result_json
+    from tactile_torch.robot.stream.port_lines import StreamTimeout
+    from tactile_torch.robot.stream.serial_source import SerialSource
+    from tactile_torch.robot.stream.wire import simulate_frames
     from tests.stream_helpers import PtySensor
 
     pipe = OnnxPipeline(bundle)
@@ -160,11 +160,11 @@ def _cpu(bundle: str, frames: np.ndarray) -> dict:
     in-memory port, and the median CPU milliseconds of ``classify`` on one touch's input."""
     import io
 
-    from tactile_torch.robot.live import LiveOptions, LiveStream, item_spec
     from tactile_torch.robot.runtime import OnnxPipeline
-    from tactile_torch.robot.serial_source import SerialSource
-    from tactile_torch.robot.stream_output import result_json
-    from tactile_torch.robot.wire import format_frame
+    from tactile_torch.robot.stream.live import LiveOptions, LiveStream, item_spec
+    from tactile_torch.robot.stream.output import result_json
+    from tactile_torch.robot.stream.serial_source import SerialSource
+    from tactile_torch.robot.stream.wire import format_frame
 
     pipe = OnnxPipeline(bundle)
     lines = b"".join(format_frame(f, i / PACED_HZ) for i, f in enumerate(frames))
@@ -188,7 +188,7 @@ def _readline_loop(bundle: str, frames: np.ndarray) -> float:
     import serial
 
     from tactile_torch.robot.runtime import OnnxPipeline
-    from tactile_torch.robot.wire import simulate_frames
+    from tactile_torch.robot.stream.wire import simulate_frames
     from tests.stream_helpers import PtySensor
 
     pipe = OnnxPipeline(bundle)

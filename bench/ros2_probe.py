@@ -21,10 +21,10 @@ import time
 
 import numpy as np
 
-from tactile_torch.robot.ros2_dds import DdsNode, DdsOptions, DdsTypes, TopicReader
-from tactile_torch.robot.ros2_publish import linger, wait_for_subscriber
-from tactile_torch.robot.ros_messages import MessageEncoder, TopicFields
-from tactile_torch.robot.ros_types import FLOAT_ARRAY_TYPE, STRING_TYPE, message_types
+from tactile_torch.robot.ros2.dds import DdsNode, DdsOptions, DdsTypes, TopicReader
+from tactile_torch.robot.ros2.message_types import FLOAT_ARRAY_TYPE, STRING_TYPE, message_types
+from tactile_torch.robot.ros2.messages import MessageEncoder, TopicFields
+from tactile_torch.robot.ros2.publish import linger, wait_for_subscriber
 
 
 def _reply_index(reply: dict) -> int | None:

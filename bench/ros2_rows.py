@@ -58,15 +58,15 @@ def _probe_result(publisher: subprocess.Popen) -> dict:
 
 def _stream(bundle: str, frames: np.ndarray, rate: float, tmp: str, qos: str = "sensor") -> dict:
     """Stream ``frames`` published at ``rate`` (0: as fast as possible) over DDS with ``qos`` on both sides."""
-    from tactile_torch.robot.live import LiveOptions, LiveStream, item_spec
-    from tactile_torch.robot.port_lines import StreamDisconnected, StreamTimeout
-    from tactile_torch.robot.ros2_dds import DdsOptions, DdsTypes
-    from tactile_torch.robot.ros2_publish import DecisionPublisher
-    from tactile_torch.robot.ros2_source import Ros2Source
-    from tactile_torch.robot.ros_messages import TopicFields
-    from tactile_torch.robot.ros_types import FLOAT_ARRAY_TYPE, message_types
+    from tactile_torch.robot.ros2.dds import DdsOptions, DdsTypes
+    from tactile_torch.robot.ros2.message_types import FLOAT_ARRAY_TYPE, message_types
+    from tactile_torch.robot.ros2.messages import TopicFields
+    from tactile_torch.robot.ros2.publish import DecisionPublisher
+    from tactile_torch.robot.ros2.source import Ros2Source
     from tactile_torch.robot.runtime import OnnxPipeline
-    from tactile_torch.robot.stream_output import result_json
+    from tactile_torch.robot.stream.live import LiveOptions, LiveStream, item_spec
+    from tactile_torch.robot.stream.output import result_json
+    from tactile_torch.robot.stream.port_lines import StreamDisconnected, StreamTimeout
 
     pipe = OnnxPipeline(bundle)
     domain = _domain()
@@ -143,8 +143,8 @@ def dds_rows(
 
 def echo_row(side: int, paced: np.ndarray, tmp: str) -> dict:
     """The floor: frames paced at 200 Hz over DDS, each answered at once by a DDS echo in this process."""
-    from tactile_torch.robot.ros2_dds import DdsNode, DdsOptions, DdsTypes, TopicReader
-    from tactile_torch.robot.ros_types import FLOAT_ARRAY_TYPE, STRING_TYPE, message_types
+    from tactile_torch.robot.ros2.dds import DdsNode, DdsOptions, DdsTypes, TopicReader
+    from tactile_torch.robot.ros2.message_types import FLOAT_ARRAY_TYPE, STRING_TYPE, message_types
 
     store = message_types()
     types = DdsTypes(store)

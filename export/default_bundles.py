@@ -16,7 +16,7 @@ import argparse
 import sys
 
 from tactile_torch.default_bundles import build_default_bundles
-from tactile_torch.pipeline import compare_with_runtime
+from tactile_torch.export.model_graph import compare_with_runtime
 from tactile_torch.robot.runtime import OnnxPipeline
 
 

@@ -1,6 +1,6 @@
 """Export a trained model to one ONNX bundle and check it against torch on a data file.
 
-Thin program over :mod:`tactile_torch.pipeline` (the same as ``tactile-torch export``, plus a parity
+Thin program over :mod:`tactile_torch.export.model_graph` (the same as ``tactile-torch export``, plus a parity
 check): the model file comes from ``tactile-torch train --out model.npz`` (SVMs) or
 ``tactile-torch cluster`` (``OUT/model.npz``).
 
@@ -14,8 +14,8 @@ from __future__ import annotations
 import argparse
 import sys
 
-from tactile_torch.pipeline import compare_with_runtime, export_pipeline, pipeline_from_model
-from tactile_torch.robot.model_file import load_model_file
+from tactile_torch.export.model_graph import compare_with_runtime, export_pipeline, pipeline_from_model
+from tactile_torch.robot.files.model_file import load_model_file
 from tactile_torch.robot.runtime import OnnxPipeline
 
 

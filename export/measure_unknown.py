@@ -2,7 +2,7 @@
 
 Trains an HM-SVM on the even windows of a data source, exports it, and prints the share of unknown
 (label -1) among the odd (held-in) windows and among 200 windows each of zeros, constants, white noise,
-pure tones and square waves (:func:`tactile_torch.ood.out_of_distribution_signals`; the numbers of
+pure tones and square waves (:func:`tactile_torch.data.out_of_distribution.out_of_distribution_signals`; the numbers of
 ``docs/export.md``, "Unknown as an answer").
 
 Examples
@@ -22,13 +22,14 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from tactile_torch.ood import out_of_distribution_signals
-from tactile_torch.pipeline import export_pipeline, pipeline_from_model
-from tactile_torch.robot.formats import read_csv_recordings
+from tactile_torch.data.out_of_distribution import out_of_distribution_signals
+from tactile_torch.export.model_graph import export_pipeline, pipeline_from_model
+from tactile_torch.features.files import FeatureSet
+from tactile_torch.robot.files.formats import read_csv_recordings
 from tactile_torch.robot.runtime import OnnxPipeline
-from tactile_torch.robot.windows import window_recordings
+from tactile_torch.robot.stream.windows import window_recordings
 from tactile_torch.signal import window_features
-from tactile_torch.training import FeatureSet, save_model, train_classifier
+from tactile_torch.training import save_model, train_classifier
 
 
 def main(argv: list[str] | None = None) -> int:

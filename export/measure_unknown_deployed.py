@@ -4,7 +4,7 @@ Runs the trade-off study on the first part of every recording (the rest is held 
 models never trained on), deploys every candidate of the chosen classifiers (classical, neural and their
 int8 variants, :func:`tactile_torch.tradeoff.deploy.deploy_candidate`), re-exports each model file
 (``tactile-torch export``'s path), and prints the share of held-in windows answered "unknown" and the
-share of 200 windows of each signal no surface gives (:func:`tactile_torch.ood.out_of_distribution_signals`:
+share of 200 windows of each signal no surface gives (:func:`tactile_torch.data.out_of_distribution.out_of_distribution_signals`:
 zeros, constants, white noise, tones, square waves, a still sensor) answered "unknown". The numbers of
 ``docs/export.md`` ("Unknown as an answer").
 
@@ -47,11 +47,11 @@ def _split(rec, share: float):
 
 
 def main(argv: list[str] | None = None) -> int:
-    from tactile_torch.ood import out_of_distribution_signals
-    from tactile_torch.pipeline import export_pipeline, pipeline_from_model
+    from tactile_torch.data.out_of_distribution import out_of_distribution_signals
+    from tactile_torch.export.model_graph import export_pipeline, pipeline_from_model
+    from tactile_torch.export.parts import ExportPool
     from tactile_torch.robot.runtime import OnnxPipeline
-    from tactile_torch.robot.windows import window_recordings
-    from tactile_torch.tradeoff.export import ExportPool
+    from tactile_torch.robot.stream.windows import window_recordings
     from tactile_torch.tradeoff.inputs import vibration_data
     from tactile_torch.tradeoff.runner import execute_plan, plan_tradeoff
 

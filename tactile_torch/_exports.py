@@ -18,11 +18,10 @@ the torch-free packages). ``__all__`` is exactly the mapping's names plus the ``
 public API of a package is one list, read in one place. A name that is not in the mapping is not
 public: import it from its submodule.
 
-A name that moved to another module keeps working from its old one for a release, as a deprecated
-alias (:func:`moved_names`): the old module's ``__getattr__`` imports the new one by name when the alias
-is asked for, with a ``DeprecationWarning``. Neither kind of lookup is an import of the module's code:
-a package's ``__init__`` does not import its submodules, and an alias does not make its old module
-depend on the new one (``tests/project/test_imports.py`` counts import statements only).
+A name that moves to another module is simply moved (nothing has been released): its callers are
+updated and ``CHANGELOG.md`` lists the move. The lookup of a lazy export is not an import of the
+module's code: a package's ``__init__`` does not import its submodules
+(``tests/project/test_imports.py`` counts import statements only).
 
 This module imports nothing but the standard library (the torch-free robot package uses it too).
 """
@@ -31,7 +30,6 @@ from __future__ import annotations
 
 import importlib
 import sys
-import warnings
 from collections.abc import Callable, Iterable, Mapping
 
 
@@ -98,45 +96,3 @@ def lazy_exports(
         return sorted({*vars(sys.modules[package]), *public})
 
     return __getattr__, __dir__, public
-
-
-def moved_names(module: str, moved: Mapping[str, str]) -> Callable[[str], object]:
-    """Return a module's ``__getattr__`` that serves the names moved out of it, as deprecated aliases.
-
-    Parameters
-    ----------
-    module : str
-        The old module's ``__name__``.
-    moved : mapping of str to str
-        Name -> the dotted module it now lives in (imported on first use).
-
-    Returns
-    -------
-    getattr : callable
-        ``getattr(name)`` warns (``DeprecationWarning`` naming the new home) and returns the attribute
-        of the new module; other names raise ``AttributeError``. Aliases are not stored, so every use
-        warns, and they are not part of the old module's ``__all__``.
-
-    Examples
-    --------
-    >>> import warnings
-    >>> getattr_ = moved_names("mymodule", {"JSONDecodeError": "json.decoder"})
-    >>> with warnings.catch_warnings(record=True) as caught:
-    ...     warnings.simplefilter("always")
-    ...     getattr_("JSONDecodeError").__name__, caught[0].category.__name__
-    ('JSONDecodeError', 'DeprecationWarning')
-    """
-
-    def __getattr__(name: str) -> object:
-        home = moved.get(name)
-        if home is None:
-            raise AttributeError(f"module {module!r} has no attribute {name!r}")
-        warnings.warn(
-            f"{module}.{name} moved to {home}.{name}; import it from there "
-            f"(the alias in {module} will be removed in a later release)",
-            DeprecationWarning,
-            stacklevel=2,
-        )
-        return getattr(importlib.import_module(home), name)
-
-    return __getattr__

@@ -96,7 +96,7 @@ class ClassifierEntry:
     needs_scaling : bool
         Whether it expects standardised features (a ``StandardScaler`` before it).
     exportable : bool
-        Whether a fitted one has an ONNX inference path (:func:`tactile_torch.classifier_inference.inference_module`
+        Whether a fitted one has an ONNX inference path (:func:`tactile_torch.export.classifier_inference.inference_module`
         or the SVMs' ``to_module``).
     aliases : tuple of str
         Other lower-case spellings that resolve to ``key``.

@@ -2,8 +2,8 @@
 
 The twin of :mod:`tactile_torch.training` for the unsupervised path (the clustering *study* of the
 report is :mod:`tactile_torch.studies.clustering`). :func:`fit_clustering` turns data read by
-:func:`tactile_torch.robot.data_sources.read_source` into what the mixture clusters (vibration recordings:
-windows, their features (:func:`tactile_torch.training.load_features`), then the fitted
+:func:`tactile_torch.robot.files.data_sources.read_source` into what the mixture clusters (vibration recordings:
+windows, their features (:func:`tactile_torch.features.files.load_features`), then the fitted
 :class:`~tactile_torch.signal.ClusteringTransform` and its principal components; a ``features``
 array as it is) and fits :class:`~tactile_torch.mixture.PitmanYorGMM` to it.
 
@@ -105,7 +105,7 @@ def holdout_rows(
     window of it), ordered by recording then position. Without, ``round(share * n_rows)`` rows drawn
     at random (``random_state``), sorted.
     """
-    from .robot.checks import numpy_rng
+    from .validation import numpy_rng
 
     if not (isinstance(share, int | float) and not isinstance(share, bool) and 0.0 < share < 1.0):
         raise ValueError(f"calibrate must be a share in (0, 1), got {share!r}")
@@ -142,7 +142,7 @@ def fit_clustering(
     Parameters
     ----------
     data : DataArrays
-        What :func:`tactile_torch.robot.data_sources.read_source` returned, of kind ``"vibration"``
+        What :func:`tactile_torch.robot.files.data_sources.read_source` returned, of kind ``"vibration"``
         (recordings) or ``"features"`` (a matrix ``(N, D)``, labels optional).
     window, step : int
         Vibration: window length and hop in samples (default hop: ``window``).
@@ -204,8 +204,8 @@ def fit_clustering(
         source = {"kind": "features", "n_features": int(X.shape[1])}
         rows = _holdout(len(X), calibrate, None, None, mixture_params.get("random_state"), name)
     elif data.kind == "vibration":
+        from .features.files import load_features
         from .signal import ClusteringTransform
-        from .training import load_features
 
         features = load_features(data, window=window, step=step, name=name)
         truth, source = features.y, dict(features.source)

@@ -2,9 +2,9 @@
 
 Classifiers are written by :func:`tactile_torch.training.save_model`; clusterings (``tactile-torch
 cluster``) by :func:`save_clustering_model` here. Both build their kind's header and arrays and write
-them through the one writer, :func:`tactile_torch.robot.model_file.save_model_file` (which validates
-them); every command reads them back through :func:`tactile_torch.robot.model_file.load_model_file`.
-:func:`tactile_torch.pipeline.pipeline_from_model` turns either into an inference graph.
+them through the one writer, :func:`tactile_torch.robot.files.model_file.save_model_file` (which validates
+them); every command reads them back through :func:`tactile_torch.robot.files.model_file.load_model_file`.
+:func:`tactile_torch.export.model_graph.pipeline_from_model` turns either into an inference graph.
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from pathlib import Path
 
 from torch import nn
 
-from .robot.model_file import save_model_file
+from .robot.files.model_file import save_model_file
 
 
 def save_clustering_model(
@@ -27,7 +27,7 @@ def save_clustering_model(
 ) -> Path:
     """Write a fitted :class:`~tactile_torch.mixture.PitmanYorGMM` (and the transform before it) to a model file.
 
-    The file (:mod:`tactile_torch.robot.model_file`, no pickle) holds the MAP mixture's arrays, the
+    The file (:mod:`tactile_torch.robot.files.model_file`, no pickle) holds the MAP mixture's arrays, the
     fitted transform's, ``source`` and the posterior summary.
 
     Parameters

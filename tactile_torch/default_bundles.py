@@ -4,7 +4,7 @@
 stream benchmark run: it trains (:mod:`tactile_torch.training`, the Pitman-Yor mixture), writes the
 model files (:func:`tactile_torch.training.save_model`,
 :func:`tactile_torch.clustering_model.save_clustering_model`) and exports them
-(:func:`tactile_torch.pipeline.export_pipeline`). Seeded: the same ``random_state`` gives the same
+(:func:`tactile_torch.export.model_graph.export_pipeline`). Seeded: the same ``random_state`` gives the same
 bundles.
 """
 
@@ -16,8 +16,8 @@ from pathlib import Path
 import numpy as np
 
 from .clustering_model import save_clustering_model
-from .pipeline import InferencePipeline, export_pipeline, pipeline_from_model
-from .robot.model_file import load_model_file
+from .export.model_graph import InferencePipeline, export_pipeline, pipeline_from_model
+from .robot.files.model_file import load_model_file
 
 
 @dataclass
@@ -59,14 +59,15 @@ def build_default_bundles(
     of 100 frames of 96 x 96, half held out. Writes ``<name>.npz`` (the model file) and
     ``<name>.onnx`` to ``out_dir``.
     """
-    from .training import FeatureSet, save_model, train_classifier
+    from .features.files import FeatureSet
+    from .training import save_model, train_classifier
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     built: dict[str, Bundle] = {}
     if any(k.startswith("vibration") for k in kinds):
         from .data.stylus import make_vibration_recordings
-        from .engine.folds import odd_even_split
+        from .model_selection import odd_even_split
         from .signal import window_features
 
         rec = make_vibration_recordings(28, duration_s=10 if quick else 60, random_state=random_state)

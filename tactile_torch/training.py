@@ -1,6 +1,6 @@
 """Train a classifier on a data file and save it: what ``tactile-torch train`` runs.
 
-:func:`load_features` reads a data file of ``docs/formats.md`` through :mod:`tactile_torch.robot.formats`
+:func:`~tactile_torch.features.load_features` reads a data file of ``docs/formats.md`` through :mod:`tactile_torch.robot.files.formats`
 (image explorations: ``frames``; vibration recordings: ``signals`` or CSV logs; a ready ``features``
 matrix) and computes its features (:func:`tactile_torch.image.exploration_features`, or windows and
 :func:`tactile_torch.signal.window_features`). :func:`train_classifier` reports the accuracy of a
@@ -9,7 +9,7 @@ with k = 3, city-block distance and inverse-distance weights, or nearest class m
 recording, session or time block (the trade-off's folds, :func:`held_out_folds`), then fits it on
 every sample, each feature scaled to unit standard deviation (as in the study; the scale is kept
 with the model); ``select`` keeps the best-ranked features only. :func:`save_model` writes the model
-file (:mod:`tactile_torch.robot.model_file`: plain arrays and a JSON header, no pickle) with everything the
+file (:mod:`tactile_torch.robot.files.model_file`: plain arrays and a JSON header, no pickle) with everything the
 export needs: the scale, the class names, how the features were made and the arrays of the SVM's
 inference module (:func:`classifier_head`).
 """
@@ -23,143 +23,13 @@ from pathlib import Path
 import numpy as np
 
 from . import catalogue
-from ._checks import RandomState, check_positive, numpy_rng
-from .robot.errors import InputTypeError
+from .exceptions import InputTypeError
+from .features.files import FeatureSet
+from .validation import RandomState, check_positive, numpy_rng
 
 METHODS = tuple(catalogue.choices())
 """Accepted ``method`` names: the catalogue's keys (:data:`tactile_torch.catalogue.CLASSIFIERS`) and
 ``"svm"``, an alias of ``"svc"`` (the one-vs-one SVM)."""
-MODEL_FORMAT = "tactile-torch/model"
-"""``format`` of model files (:data:`tactile_torch.robot.model_file.FORMAT`; kept for old imports)."""
-
-
-@dataclass
-class FeatureSet:
-    """Features of one data file.
-
-    Attributes
-    ----------
-    X : ndarray of shape (N, F), float64
-    y : ndarray of shape (N,), int64
-        Class index of each row.
-    class_names : tuple of str
-    source : dict
-        How the features were made (``kind`` = ``"image"``, ``"vibration"`` or ``"features"``, plus
-        the window size, step and sample rate, or the fusion flag and the frame shape ``(T, 3, H, W)``,
-        or the number of features).
-    groups : ndarray of shape (N,), optional
-        What must stay on one side of a held-out split: each window's recording session (the file's
-        ``session``, else its recording), or an exploration's ``groups``; ``None``: independent rows.
-    recording, position : ndarray of shape (N,), optional
-        Vibration windows: the recording each comes from and its index in it (time order).
-    """
-
-    X: np.ndarray
-    y: np.ndarray
-    class_names: tuple[str, ...]
-    source: dict = field(default_factory=dict)
-    groups: np.ndarray | None = None
-    recording: np.ndarray | None = None
-    position: np.ndarray | None = None
-
-
-def load_features(
-    path,
-    *,
-    window: int = 800,
-    step: int | None = None,
-    fuse: bool = True,
-    allow_pickle: bool = False,
-    options=None,
-    name: str | None = None,
-) -> FeatureSet:
-    """Read a data file (:func:`tactile_torch.robot.data_sources.read_source`) and return its features.
-
-    Parameters
-    ----------
-    path : path, sequence of paths, or arrays already read
-        Image explorations (``frames``), vibration recordings (``signals``) or a feature matrix
-        (``features``) in one ``.npz``, each with ``labels`` (and ``class_names``); CSV logs
-        (one recording each); ROS 2 bags. Class and session of logs and bags come from the naming
-        rule (``felt_3.csv``: class ``felt``, session ``3``) or an index. See ``docs/formats.md``.
-        Or what :func:`~tactile_torch.robot.data_sources.read_source` returned.
-    window, step : int
-        Vibration windows: length and hop in samples (default hop: ``window``, no overlap).
-    fuse : bool
-        Image explorations: fused (12) or per-frame (T x 12) features.
-    allow_pickle : bool
-        Only for vibration files written by tactile-torch 0.1 with recordings of different lengths
-        (a pickled object array): allow it only for files you trust.
-    options : DataOptions, optional
-        Columns, units, time unit, topic ... (:class:`tactile_torch.robot.data_sources.DataOptions`).
-    name : str, optional
-        How messages name the data (default: the file, or ``"data"`` for arrays already read).
-
-    Returns
-    -------
-    FeatureSet
-        With ``groups`` (and, for windows, ``recording`` and ``position``) for held-out splits.
-
-    Raises
-    ------
-    FileNotFoundError, ValueError
-        One line naming the file and the field (see :mod:`tactile_torch.robot.formats`), or the
-        recording and sample that the declared units make implausible; labels are required here.
-    """
-    from .robot.formats import data_name
-
-    if hasattr(path, "kind"):
-        data, where = path, name or "data"
-    else:
-        from .robot.data_sources import DataOptions, read_source
-
-        data = read_source(path, options or DataOptions(allow_pickle=allow_pickle))
-        where = name or data_name(path)
-    if data.kind == "features":
-        if data.labels is None:
-            raise ValueError(f"{where}: missing 'labels'; training needs labels (N,) next to 'features'")
-        source = {"kind": "features", "n_features": data.features.shape[1]}
-        return FeatureSet(data.features, data.labels, data.class_names, source)
-    if data.kind == "image":
-        from .data.images import explorations_from_arrays
-        from .image import exploration_features
-
-        images = explorations_from_arrays(data)
-        X = exploration_features(images.frames, fuse=fuse).double().numpy()
-        source = {"kind": "image", "fuse": fuse, "frame_shape": list(images.frames.shape[1:])}
-        source.update(_live_source(images.frames.numpy()))
-        return FeatureSet(X, data.labels, data.class_names, source, groups=data.groups)
-    import torch
-
-    from .robot.windows import check_window, window_recordings
-    from .signal import window_features
-
-    window = check_window(window)
-    gaps = getattr(data, "gaps", None)
-    _check_lengths(data, window, where)
-    try:
-        cut = window_recordings(data.signals, window, step, gaps=gaps)
-    except ValueError as err:
-        raise ValueError(f"{where}: {err}; pass a smaller window (window=)") from None
-    X = window_features(torch.from_numpy(cut.windows)).double().numpy()
-    overflow = ~np.isfinite(X).all(axis=1)
-    if overflow.any():  # e.g. a corrupted 1e30 sample: say so, rather than "X must be finite" later
-        first = int(np.argmax(overflow))
-        peak = float(np.abs(cut.windows[first]).max())
-        raise ValueError(
-            f"{where}: {int(overflow.sum())} window(s) hold samples out of range (window {first} of recording "
-            f"{int(cut.recording[first])} reaches {peak:.3g} g), whose features overflow; remove or clip them"
-        )
-    source = {"kind": "vibration", "window": window, "step": step or window, "rate_hz": data.rate_hz}
-    return FeatureSet(
-        X,
-        data.labels[cut.recording],
-        data.class_names,
-        source,
-        groups=None if data.session is None else np.asarray(data.session)[cut.recording],
-        recording=cut.recording,
-        position=cut.position,
-    )
 
 
 def make_classifier(
@@ -223,70 +93,16 @@ class TrainedModel:
         return self.estimator.predict(X / self.scale)
 
 
-def _check_lengths(data, window: int, where: str) -> None:
-    """Refuse a class none of whose recordings (or stretches between gaps) holds a window; warn about
-    recordings that give none (they are left out)."""
-    import warnings
-    from itertools import pairwise
-
-    gaps = getattr(data, "gaps", None)
-    longest = []
-    for i, signal in enumerate(data.signals):
-        bounds = [0, *(() if gaps is None else gaps[i].tolist()), len(signal)]
-        longest.append(max(b - a for a, b in pairwise(bounds)))
-    longest = np.array(longest)
-    short = np.flatnonzero(longest < window)
-    if not short.size:
-        return
-    files = getattr(data, "sources", None)
-
-    def name(i: int) -> str:
-        what = f"recording {i}" if files is None else files[i].removeprefix(f"{where}: ")
-        between = " between gaps" if gaps is not None and len(gaps[i]) else ""
-        return f"{what}, has {longest[i]} samples{between}"
-
-    labels = np.asarray(data.labels)
-    for c, class_name in enumerate(data.class_names):
-        mine = np.flatnonzero(labels == c)
-        if mine.size and (longest[mine] < window).all():
-            i = int(mine[np.argmax(longest[mine])])
-            raise ValueError(
-                f"{where}: every recording of class {class_name!r} is shorter than one window of {window} samples "
-                f"({window / data.rate_hz:.3g} s at {data.rate_hz:g} Hz); the longest, {name(i)}: pass a smaller "
-                "window (window=) or longer recordings"
-            )
-    warnings.warn(
-        f"{where}: {short.size} of {len(longest)} recordings are shorter than one window of {window} samples "
-        f"and give none; e.g. {name(int(short[0]))}",
-        stacklevel=3,
-    )
-
-
-def _live_source(frames: np.ndarray) -> dict:
-    """What a model file of RGB explorations keeps for the live stream: the frame rate and touch levels."""
-    from .robot.touches import touch_levels
-    from .tradeoff.inputs import DEFAULT_FRAME_RATE_HZ
-
-    live = {"frame_rate_hz": DEFAULT_FRAME_RATE_HZ}
-    try:
-        live["touch_levels"] = touch_levels(
-            frames, frame_rate_hz=DEFAULT_FRAME_RATE_HZ, rgb=True
-        ).to_metadata()
-    except ValueError:  # no pressure in the frames at all: the stream will need --onset
-        pass
-    return live
-
-
 def held_out_folds(features: FeatureSet, n_folds: int = 5, *, random_state: RandomState = None):
     """Return ``(keep, folds, split)``: the folds ``train`` reports on, those of the trade-off.
 
     Windows are grouped by session (or recording) when every class has two, else cut into
     consecutive time blocks of every recording with guard windows between blocks
-    (:func:`tactile_torch.engine.folds.window_folds`); explorations and feature rows are grouped
-    by ``groups`` when given, else stratified (:func:`~tactile_torch.engine.folds.sample_folds`).
+    (:func:`tactile_torch.model_selection.window_folds`); explorations and feature rows are grouped
+    by ``groups`` when given, else stratified (:func:`~tactile_torch.model_selection.sample_folds`).
     ``folds`` index ``keep``, the samples used; ``split`` names the split in words.
     """
-    from .engine.folds import sample_folds, window_folds
+    from .model_selection import sample_folds, window_folds
 
     names = features.class_names
     if features.recording is not None:
@@ -334,7 +150,7 @@ def _fit_scaled(method: str, X: np.ndarray, y: np.ndarray, seed: int, select: in
     """Return ``(fitted classifier, scale, selected columns or None)`` fitted on ``X``, ``y``."""
     columns = None
     if select is not None:
-        from .tradeoff.transformers import RankedFeatureSelector
+        from .features.transformers import RankedFeatureSelector
 
         columns = RankedFeatureSelector(select).fit(X, y).columns_
         X = X[:, columns]
@@ -365,7 +181,7 @@ def train_classifier(
     standard deviation (``ddof=1``) on the data a model is fitted on (1 for a constant feature);
     the final scale applies to any data the model classifies. ``select``: keep only the ``select``
     best-ranked features (the trade-off's "top k" feature sets,
-    :class:`~tactile_torch.tradeoff.transformers.RankedFeatureSelector`), ranked on the data each model
+    :class:`~tactile_torch.features.transformers.RankedFeatureSelector`), ranked on the data each model
     is fitted on.
 
     Parameters
@@ -430,7 +246,7 @@ def train_classifier(
 def classifier_head(estimator: object) -> tuple[str, dict, dict[str, np.ndarray]]:
     """Return ``(method, head settings, head arrays)`` of a fitted classifier for its model file.
 
-    The arrays are those of its torch inference module (:func:`tactile_torch.classifier_inference.inference_module`):
+    The arrays are those of its torch inference module (:func:`tactile_torch.export.classifier_inference.inference_module`):
     an SVM's support vectors, dual coefficients, intercepts (and tree tables); LDA's and the nearest
     class mean's linear scores ``coef`` ``(M, F)``, ``intercept`` ``(M,)``; kNN's training ``samples``
     and ``labels``.
@@ -443,7 +259,7 @@ def classifier_head(estimator: object) -> tuple[str, dict, dict[str, np.ndarray]
     from sklearn.discriminant_analysis import LinearDiscriminantAnalysis
     from sklearn.neighbors import KNeighborsClassifier, NearestCentroid
 
-    from .classifier_inference import inference_module
+    from .export.classifier_inference import inference_module
     from .svm import SVC, HierarchicalSVC
 
     module = inference_module(estimator)
@@ -494,11 +310,11 @@ def write_classifier_file(
     """Write a fitted classifier and its feature preprocessing to a model file (no pickle); return ``path``.
 
     ``class_names`` name the estimator's ``classes_`` in order; ``source`` says how raw input becomes
-    features (:mod:`tactile_torch.robot.model_file`); the head takes ``(features[:, select] - center) / scale``.
+    features (:mod:`tactile_torch.robot.files.model_file`); the head takes ``(features[:, select] - center) / scale``.
     ``ood``: the fitted "unknown" rule (:func:`tactile_torch.ood.fit_rule` on those features, classes in
     the head's order), written as the file's ``ood`` part.
     """
-    from .robot.model_file import save_model_file
+    from .robot.files.model_file import save_model_file
 
     method, head, head_arrays = classifier_head(estimator)
     params = {
@@ -537,7 +353,7 @@ def write_classifier_file(
 def save_model(path: str | Path, model: TrainedModel, features: FeatureSet) -> Path:
     """Write a trained classifier (any of :data:`METHODS`) to a model file; return ``path``.
 
-    The file (:mod:`tactile_torch.robot.model_file`, no pickle) holds the feature ``scale`` (and ``select``,
+    The file (:mod:`tactile_torch.robot.files.model_file`, no pickle) holds the feature ``scale`` (and ``select``,
     the kept columns), the class names in the order of the classifier's labels, how features are made
     (``source``), the hyper-parameters, the held-out accuracy and the arrays of the classifier's
     inference module (:func:`classifier_head`), which is what ``tactile-torch export`` turns into ONNX.
@@ -564,22 +380,20 @@ def save_model(path: str | Path, model: TrainedModel, features: FeatureSet) -> P
 
 
 def load_model(path: str | Path):
-    """Read and validate a classifier's model file (see :func:`tactile_torch.robot.model_file.load_model_file`).
+    """Read and validate a classifier's model file (see :func:`tactile_torch.robot.files.model_file.load_model_file`).
 
-    Returns a :class:`tactile_torch.robot.model_file.ModelFile`; nothing in it is unpickled.
+    Returns a :class:`tactile_torch.robot.files.model_file.ModelFile`; nothing in it is unpickled.
     """
-    from .robot.model_file import load_model_file
+    from .robot.files.model_file import load_model_file
 
     return load_model_file(path, kind="classifier")
 
 
 __all__ = [
     "METHODS",
-    "FeatureSet",
     "TrainedModel",
     "classifier_head",
     "held_out_folds",
-    "load_features",
     "load_model",
     "make_classifier",
     "save_model",

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tactile_torch.robot.formats import RecordingArrays
+from tactile_torch.robot.files.formats import RecordingArrays
 
 FIXTURES_ENV = "TACTILE_TORCH_TEST_FIXTURES"
 """Directory of the fixtures built beforehand (one subdirectory per :data:`BUILDERS` entry)."""

@@ -1,7 +1,7 @@
 """Test helpers for ROS 2: a free DDS domain per test, loopback-only configurations, a decision listener, bags.
 
 Network rule: every DDS participant the tests start (in the test process or in a subprocess) uses the
-loopback configuration the library ships (:func:`tactile_torch.robot.ros2_dds.loopback_config`), given
+loopback configuration the library ships (:func:`tactile_torch.robot.ros2.dds.loopback_config`), given
 explicitly; :func:`ros2_env` also removes ``CYCLONEDDS_URI`` and ``ROS_DOMAIN_ID`` from a subprocess's
 environment, so that a developer's own settings cannot send test traffic anywhere else.
 
@@ -19,7 +19,7 @@ import sys
 import time
 from pathlib import Path
 
-from tactile_torch.robot.ros2_dds import MAX_DOMAIN_ID, loopback_config
+from tactile_torch.robot.ros2.dds import MAX_DOMAIN_ID, loopback_config
 
 _PORT_BASE, _DOMAIN_GAIN = 7400, 250  # RTPS port mapping: a domain d uses ports 7400 + 250 d + [0, 250)
 _taken: set[int] = set()
@@ -85,8 +85,8 @@ class DecisionListener:
     """A DDS participant in the test process that collects the JSON decisions published on a topic."""
 
     def __init__(self, topic: str, domain_id: int, *, config: str = "loopback") -> None:
-        from tactile_torch.robot.ros2_dds import DdsNode, DdsOptions, DdsTypes, TopicReader
-        from tactile_torch.robot.ros_types import STRING_TYPE, message_types
+        from tactile_torch.robot.ros2.dds import DdsNode, DdsOptions, DdsTypes, TopicReader
+        from tactile_torch.robot.ros2.message_types import STRING_TYPE, message_types
 
         self.store = message_types()
         self.node = DdsNode(DdsOptions(domain_id=domain_id, config=config, qos="reliable"))
@@ -116,8 +116,8 @@ def write_frame_bag(
     """A rosbag2 of one frame per message, written with the same encoder simulate-sensor publishes with."""
     from rosbags.rosbag2 import StoragePlugin, Writer
 
-    from tactile_torch.robot.ros_messages import MessageEncoder
-    from tactile_torch.robot.ros_types import message_types
+    from tactile_torch.robot.ros2.message_types import message_types
+    from tactile_torch.robot.ros2.messages import MessageEncoder
 
     store = store or message_types()
     encoder = MessageEncoder(fields, store, encoding=encoding)

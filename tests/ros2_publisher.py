@@ -1,7 +1,7 @@
 """A ROS 2 publisher process for the tests: a recording, with pauses and departures, over loopback DDS.
 
 Run as ``python -m tests.ros2_publisher``; a real DDS participant in its own process (the library's
-:func:`tactile_torch.robot.ros2_publish.publish_recording`), on the loopback configuration:
+:func:`tactile_torch.robot.ros2.publish.publish_recording`), on the loopback configuration:
 
     python -m tests.ros2_publisher --domain-id 17 --topic /hand/tactile --type tactile_msgs/msg/TactileState \\
         --sensor index --values frames.npy --rate 100 --plan 0:20,pause=0.8,20:40,leave=1.0,40:60
@@ -20,10 +20,10 @@ import time
 
 import numpy as np
 
-from tactile_torch.robot.ros2_dds import DdsNode, DdsOptions, DdsTypes
-from tactile_torch.robot.ros2_publish import linger, publish_recording, wait_for_subscriber
-from tactile_torch.robot.ros_messages import MessageEncoder, TopicFields
-from tactile_torch.robot.ros_types import message_types
+from tactile_torch.robot.ros2.dds import DdsNode, DdsOptions, DdsTypes
+from tactile_torch.robot.ros2.message_types import message_types
+from tactile_torch.robot.ros2.messages import MessageEncoder, TopicFields
+from tactile_torch.robot.ros2.publish import linger, publish_recording, wait_for_subscriber
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from tactile_torch.robot.integrity import seal
-from tactile_torch.robot.stream import format_sample
+from tactile_torch.robot.stream.wire import format_sample
 
 
 class PtySensor:
@@ -277,10 +277,10 @@ def template_bundle(
     classifier). The bundle records what the exporters record: the frame rate, the value range, the touch
     levels of the training explorations, and an early-decision rule calibrated on held-out explorations
     (two folds: templates fitted on one half score the other at the rule's checkpoints, prefixes brought
-    to T by :func:`tactile_torch.robot.touches.fit_frames`).
+    to T by :func:`tactile_torch.robot.stream.touches.fit_frames`).
     """
-    from tactile_torch.robot.early_decision import calibrate_early_rule, checkpoints_for, score_margins
-    from tactile_torch.robot.touches import fit_frames, frame_metadata
+    from tactile_torch.robot.stream.early_decision import calibrate_early_rule, checkpoints_for, score_margins
+    from tactile_torch.robot.stream.touches import fit_frames, frame_metadata
 
     x = np.asarray(explorations, dtype=np.float64)
     y = np.asarray(labels)

@@ -7,7 +7,7 @@ import pytest
 
 from tactile_torch.clustering import clustering_summary, fit_clustering, write_clustering
 from tactile_torch.metrics import pairwise_accuracy
-from tactile_torch.robot.data_sources import read_source
+from tactile_torch.robot.files.data_sources import read_source
 
 FAST = {"n_iter": 40, "burn_in": 10, "n_chains": 1, "progress": False, "random_state": 0}
 
@@ -100,7 +100,7 @@ def test_holdout_rows_are_the_last_share_of_each_recording_or_a_random_share():
 
 def test_recordings_are_calibrated_on_their_last_windows_features_only_on_request(tmp_path):
     from tactile_torch.data.stylus import make_vibration_recordings
-    from tactile_torch.robot.model_file import load_model_file
+    from tactile_torch.robot.files.model_file import load_model_file
 
     rec = make_vibration_recordings(3, duration_s=8.0, random_state=0)
     data = read_source([rec.save(tmp_path / "rec.npz")])
@@ -125,7 +125,7 @@ def test_recordings_are_calibrated_on_their_last_windows_features_only_on_reques
     assert model.header["novelty"] == {"false_alarm": 0.02, "calibration_rows": 15}
     np.testing.assert_allclose(model.arrays["head.novelty_thresholds"], t, rtol=1e-6)
     # the head counts on 2 of the 5 components (issue 32, decision (a)); crafted shapes are refused
-    from tactile_torch.robot.model_file import validate_model
+    from tactile_torch.robot.files.model_file import validate_model
 
     assert model.header["head"]["cluster_features"] == 2 and model.arrays["head.means"].shape[1] == 2
     for change, message in (
@@ -151,8 +151,8 @@ def test_recordings_are_calibrated_on_their_last_windows_features_only_on_reques
 def test_per_session_models_are_recorded_and_not_exported(tmp_path, capsys):
     from tactile_torch.cli import BAD_INPUT_EXIT, main
     from tactile_torch.data.stylus import make_vibration_recordings
-    from tactile_torch.pipeline import pipeline_from_model
-    from tactile_torch.robot.model_file import load_model_file
+    from tactile_torch.export.model_graph import pipeline_from_model
+    from tactile_torch.robot.files.model_file import load_model_file
 
     rec = make_vibration_recordings(2, duration_s=4.0, n_sessions=2, random_state=0)
     arrays = dict(signals=np.stack(rec.signals), rate_hz=rec.rate_hz, labels=rec.labels)

@@ -4,15 +4,9 @@ import torch
 from sklearn.datasets import make_blobs
 
 from tactile_torch.cli import main
-from tactile_torch.pipeline import pipeline_from_model
-from tactile_torch.training import (
-    FeatureSet,
-    load_features,
-    load_model,
-    make_classifier,
-    save_model,
-    train_classifier,
-)
+from tactile_torch.export.model_graph import pipeline_from_model
+from tactile_torch.features.files import FeatureSet, load_features
+from tactile_torch.training import load_model, make_classifier, save_model, train_classifier
 
 
 @pytest.fixture

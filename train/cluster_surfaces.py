@@ -23,13 +23,13 @@ import sys
 
 import numpy as np
 
-from tactile_torch.report import Report
-from tactile_torch.robot.formats import read_features
+from tactile_torch.robot.files.formats import read_features
 from tactile_torch.studies.clustering_experiments import (
     cluster_and_compare,
     learning_curve,
     synthetic_clusters,
 )
+from tactile_torch.studies.report import Report
 
 
 def load_features(name: str, seed: int, quick: bool) -> tuple[np.ndarray, np.ndarray, str]:

@@ -69,8 +69,8 @@ DATASETS = (
 
 
 def _write(rec, keep: np.ndarray, where: Path, csv: bool) -> list[Path]:
-    from tactile_torch.robot.csv_logs import write_csv_recording
-    from tactile_torch.robot.formats import RecordingArrays, write_recordings
+    from tactile_torch.robot.files.csv_logs import write_csv_recording
+    from tactile_torch.robot.files.formats import RecordingArrays, write_recordings
 
     where.mkdir(parents=True, exist_ok=True)
     session = np.array([s.rsplit("/", 1)[1] for s in rec.session])

@@ -2,7 +2,7 @@
 
 Every session is held out in turn (leave-one-session-out); inside each training part the SVC (one-vs-one
 RBF, on the 21 standardised window features) is tuned on 3 inner folds grouped by session, as the
-trade-off tunes its candidates (:class:`tactile_torch.engine.Tuning`), over each grid below; the printed
+trade-off tunes its candidates (:class:`tactile_torch.model_selection.Tuning`), over each grid below; the printed
 accuracy is the mean over the held-out sessions. The grids: the catalogue's quick and full ones
 (:data:`tactile_torch.catalogue.SVM_QUICK_C_GRID`, ...), and the issue's reference (C = 2^0 .. 2^10,
 gamma 0.003 .. 0.3 in 7 log steps). A quick grid that loses more than about 3 points against the full
@@ -41,9 +41,9 @@ def main(argv: list[str] | None = None) -> int:
     from sklearn.preprocessing import StandardScaler
 
     from tactile_torch import catalogue
-    from tactile_torch.engine import Tuning, cross_validate
+    from tactile_torch.features.transformers import WindowFeatureTransformer
+    from tactile_torch.model_selection import Tuning, cross_validate
     from tactile_torch.tradeoff.inputs import vibration_samples
-    from tactile_torch.tradeoff.transformers import WindowFeatureTransformer
 
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--borealtc", help="the borealtc_imu data set's directory (runs as sessions)")

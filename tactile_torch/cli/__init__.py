@@ -100,7 +100,7 @@ def main(argv: list[str] | None = None) -> int:
 
     Bad input prints one line ``tactile-torch <command>: <file>: <what is wrong>`` on stderr and
     returns :data:`BAD_INPUT_EXIT`: the errors the library raises on purpose about its input
-    (:mod:`tactile_torch.robot.errors`), any ``ValueError`` (numpy and scikit-learn raise it for bad data),
+    (:mod:`tactile_torch.exceptions`), any ``ValueError`` (numpy and scikit-learn raise it for bad data),
     ``OSError`` (files, ports, disks) and a missing optional dependency; the argument names in the
     message become the options that set them (:func:`with_flags`). Any other exception is a bug: one
     line saying so, asking to report it, and :data:`INTERNAL_ERROR_EXIT`. ``--debug`` shows the
@@ -130,17 +130,17 @@ def _subparser(parser: argparse.ArgumentParser, command: str) -> argparse.Argume
 def is_user_error(err: BaseException) -> bool:
     """Return whether ``err`` is about the user's input (reported in one line, status 2), not a bug.
 
-    An :class:`~tactile_torch.robot.errors.InternalError` (an exception, of any class, that left a stage
-    running on input already accepted: :func:`~tactile_torch.robot.errors.internal_stage`) is a bug.
+    An :class:`~tactile_torch.exceptions.InternalError` (an exception, of any class, that left a stage
+    running on input already accepted: :func:`~tactile_torch.exceptions.internal_stage`) is a bug.
     """
-    from ..robot.errors import InputError, InternalError
+    from ..exceptions import InputError, InternalError
 
     return not isinstance(err, InternalError) and isinstance(err, InputError | ValueError | OSError)
 
 
 def internal_error_line(err: BaseException) -> str:
     """The line (without the command's prefix) that reports a bug: what failed, where, and what to do."""
-    from ..robot.errors import InternalError
+    from ..exceptions import InternalError
 
     where, cause = "", err
     if isinstance(err, InternalError):
@@ -186,7 +186,9 @@ def _run(args: argparse.Namespace, prefix: str, debug: bool, flags: dict[str, st
             return BAD_INPUT_EXIT
     stdout = guard_stdout()
     limit_before = os.environ.get(MAX_READ_ENV)
-    if getattr(args, "max_read_mb", None) is not None:  # read by every reader (robot.npz.max_read_bytes)
+    if (
+        getattr(args, "max_read_mb", None) is not None
+    ):  # read by every reader (robot.files.npz.max_read_bytes)
         os.environ[MAX_READ_ENV] = repr(float(args.max_read_mb))
     try:
         check_out(args)

@@ -40,7 +40,7 @@ EXIT_STATUSES = (
 """What ``tactile-torch --help`` says about exit statuses."""
 
 MAX_READ_ENV = "TACTILE_TORCH_MAX_READ_MB"
-"""Where ``--max-read-mb`` puts the read bound (:func:`tactile_torch.robot.npz.max_read_bytes` reads it)."""
+"""Where ``--max-read-mb`` puts the read bound (:func:`tactile_torch.robot.files.npz.max_read_bytes` reads it)."""
 
 ARGUMENT_FLAGS = {
     "n_folds": "--folds",

@@ -2,8 +2,8 @@
 
 - the data options (``--data`` and how to read it), shared by train, cluster, predict and tradeoff:
   :func:`add_data_options` declares them on a subcommand; :func:`data_options` turns the parsed
-  arguments into a :class:`tactile_torch.robot.data_sources.DataOptions`; :func:`read_data_arg` reads
-  ``--data`` with them (:func:`tactile_torch.robot.data_sources.read_source`);
+  arguments into a :class:`tactile_torch.robot.files.data_sources.DataOptions`; :func:`read_data_arg` reads
+  ``--data`` with them (:func:`tactile_torch.robot.files.data_sources.read_source`);
 - the value types of numeric options (:func:`at_least`, :func:`in_range`) and the sensor ranges in g
   (:func:`parse_range_g`, :func:`declare_range`);
 - the check of an ``--out`` file against the command's inputs (:func:`check_out`);
@@ -114,8 +114,8 @@ SEED = Number(int, low=0)
 
 
 def window_type() -> Number:
-    """``--window``: a number of samples in ``MIN_WINDOW .. MAX_WINDOW`` (:mod:`tactile_torch.robot.windows`)."""
-    from ..robot.windows import MAX_WINDOW, MIN_WINDOW
+    """``--window``: a number of samples in ``MIN_WINDOW .. MAX_WINDOW`` (:mod:`tactile_torch.robot.stream.windows`)."""
+    from ..robot.stream.windows import MAX_WINDOW, MIN_WINDOW
 
     return Number(int, low=MIN_WINDOW, high=MAX_WINDOW)
 
@@ -242,8 +242,8 @@ def add_msg_def(g) -> None:
 
 
 def message_definitions(args: argparse.Namespace) -> tuple:
-    """Return the :class:`~tactile_torch.robot.ros_messages.MessageDefinition` of every ``--msg-def``."""
-    from ..robot.ros_types import read_message_definition
+    """Return the :class:`~tactile_torch.robot.ros2.messages.MessageDefinition` of every ``--msg-def``."""
+    from ..robot.ros2.message_types import read_message_definition
 
     return tuple(read_message_definition(path) for path in getattr(args, "msg_defs", []))
 
@@ -284,8 +284,8 @@ def add_touch_options(p: argparse.ArgumentParser) -> None:
 
 
 def touch_options(args: argparse.Namespace, **more):
-    """Return the :class:`~tactile_torch.robot.live.LiveOptions` of the parsed touch options (and ``more``)."""
-    from ..robot.live import LiveOptions
+    """Return the :class:`~tactile_torch.robot.stream.live.LiveOptions` of the parsed touch options (and ``more``)."""
+    from ..robot.stream.live import LiveOptions
 
     return LiveOptions(
         early=not args.no_early,
@@ -298,9 +298,10 @@ def touch_options(args: argparse.Namespace, **more):
 
 
 def data_options(args: argparse.Namespace):
-    """Return the :class:`~tactile_torch.robot.data_sources.DataOptions` the parsed arguments declare."""
+    """Return the :class:`~tactile_torch.robot.files.data_sources.DataOptions` the parsed arguments declare."""
     from ..robot.contract import DEFAULT_RANGE_G
-    from ..robot.data_sources import MAX_BAG_MESSAGES, DataOptions
+    from ..robot.files.data_sources import DataOptions
+    from ..robot.ros2.bags import MAX_BAG_MESSAGES
 
     return DataOptions(
         columns=args.columns,
@@ -362,14 +363,14 @@ def data_option_words(args: argparse.Namespace) -> list[str]:
 
 def read_data_arg(args: argparse.Namespace):
     """Read ``--data`` with the declared options; return the arrays (``.kind`` says which)."""
-    from ..robot.data_sources import read_source
+    from ..robot.files.data_sources import read_source
 
     return read_source(args.data, data_options(args))
 
 
 def data_name(paths: str | Path | list) -> str:
     """Return how messages name ``--data`` (one file, or the first of several)."""
-    from ..robot.formats import data_name as name
+    from ..robot.files.formats import data_name as name
 
     return name(paths)
 
@@ -428,7 +429,7 @@ def check_out(args: argparse.Namespace) -> None:
     """Refuse an ``--out`` where nothing can be written (a read-only place), or one that is an input, a
     directory (a device, a symbolic link) where a file is expected: one line naming ``--out``, status 2,
     before any work."""
-    from ..robot.safe_write import check_output_dir, check_output_path
+    from ..robot.files.safe_write import check_output_dir, check_output_path
 
     out = getattr(args, "out", "")
     if args.command in WRITES_OUT_DIR and out:

@@ -20,7 +20,7 @@ def recordings_line(data, args) -> str:
 
     import numpy as np
 
-    from ..robot.csv_logs import session_source
+    from ..robot.files.naming import session_source
 
     paths = [Path(p) for p in args.data]
     from_file = len(paths) == 1 and paths[0].suffix.lower() == ".npz"

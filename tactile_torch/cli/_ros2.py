@@ -2,7 +2,7 @@
 
 Torch-free: the robot runs them with ``cyclonedds`` and ``rosbags`` (the extra ``ros2``), imported inside
 the functions. DDS stays on this machine's loopback unless ``--dds-config`` or ``CYCLONEDDS_URI`` says
-otherwise (:func:`tactile_torch.robot.ros2_dds.resolve_config`).
+otherwise (:func:`tactile_torch.robot.ros2.dds.resolve_config`).
 """
 
 from __future__ import annotations
@@ -72,8 +72,8 @@ def add_dds_options(p: argparse.ArgumentParser, *, reader: bool) -> argparse._Ar
 
 
 def dds_options(args: argparse.Namespace):
-    """Return the :class:`~tactile_torch.robot.ros2_dds.DdsOptions` the parsed arguments declare."""
-    from ..robot.ros2_dds import DEFAULT_DEPTH, DdsOptions
+    """Return the :class:`~tactile_torch.robot.ros2.dds.DdsOptions` the parsed arguments declare."""
+    from ..robot.ros2.dds import DEFAULT_DEPTH, DdsOptions
 
     return DdsOptions(
         domain_id=args.domain_id,
@@ -84,9 +84,9 @@ def dds_options(args: argparse.Namespace):
 
 
 def topic_fields(args: argparse.Namespace, msgtype: str):
-    """Return the :class:`~tactile_torch.robot.ros_messages.TopicFields` of ``msgtype`` and the options."""
-    from ..robot.ros_messages import TopicFields
-    from ..robot.ros_types import ros_type_name
+    """Return the :class:`~tactile_torch.robot.ros2.messages.TopicFields` of ``msgtype`` and the options."""
+    from ..robot.ros2.message_types import ros_type_name
+    from ..robot.ros2.messages import TopicFields
 
     return TopicFields(ros_type_name(msgtype), args.field, args.sensor)
 
@@ -110,7 +110,7 @@ def add_publisher_options(g: argparse._ArgumentGroup) -> None:
 
 def check_ros2_options(args: argparse.Namespace, what: str) -> None:
     """Refuse a bad ``--ros2-topic`` or ``--domain-id``, and a missing extra, before any work is done."""
-    from ..robot.ros2_dds import check_domain_id, cyclonedds_module, dds_topic_name
+    from ..robot.ros2.dds import check_domain_id, cyclonedds_module, dds_topic_name
 
     dds_topic_name(args.ros2_topic)
     if args.domain_id is not None:
@@ -123,10 +123,10 @@ def run_simulate_ros2(args: argparse.Namespace, values, rate_hz: float, kind: st
 
     ``t``: each item's time in seconds (a frame recording's), else ``i / rate_hz``.
     """
-    from ..robot.ros2_dds import DdsNode, DdsTypes, dds_type_name
-    from ..robot.ros2_publish import linger, publish_recording, wait_for_subscriber
-    from ..robot.ros_messages import MessageEncoder
-    from ..robot.ros_types import FLOAT_ARRAY_TYPE, IMU_TYPE, message_types
+    from ..robot.ros2.dds import DdsNode, DdsTypes, dds_type_name
+    from ..robot.ros2.message_types import FLOAT_ARRAY_TYPE, IMU_TYPE, message_types
+    from ..robot.ros2.messages import MessageEncoder
+    from ..robot.ros2.publish import linger, publish_recording, wait_for_subscriber
 
     msgtype = args.ros2_type or (IMU_TYPE if kind == "sample" else FLOAT_ARRAY_TYPE)
     fields = topic_fields(args, msgtype)
@@ -179,11 +179,11 @@ def add_subscriber_options(g: argparse._ArgumentGroup) -> None:
 
 
 def open_ros2_source(args: argparse.Namespace, spec, *, on_event, on_open):
-    """Return the :class:`~tactile_torch.robot.ros2_source.Ros2Source` of ``--ros2-topic`` (the stream's source)."""
+    """Return the :class:`~tactile_torch.robot.ros2.source.Ros2Source` of ``--ros2-topic`` (the stream's source)."""
     import math
 
-    from ..robot.ros2_source import Ros2Source
-    from ..robot.ros_messages import TopicFields
+    from ..robot.ros2.messages import TopicFields
+    from ..robot.ros2.source import Ros2Source
 
     check_ros2_options(args, "--ros2-topic")
     fields = None
@@ -208,7 +208,7 @@ def open_ros2_source(args: argparse.Namespace, spec, *, on_event, on_open):
 
 def decision_topic_of(args: argparse.Namespace) -> str | None:
     """Return the topic the decisions are published on (``None``: ``--decision-topic none``)."""
-    from ..robot.ros2_publish import decision_topic
+    from ..robot.ros2.publish import decision_topic
 
     topic = args.decision_topic or decision_topic(args.ros2_topic)
     return None if topic == "none" else topic
@@ -216,10 +216,10 @@ def decision_topic_of(args: argparse.Namespace) -> str | None:
 
 def decision_hook(args: argparse.Namespace, source) -> list:
     """Return the output hook that publishes each result on the decision topic (none with ``none``)."""
-    from ..robot.ros2_dds import DdsTypes
-    from ..robot.ros2_publish import DecisionPublisher
-    from ..robot.ros_types import message_types
-    from ..robot.stream_output import result_json
+    from ..robot.ros2.dds import DdsTypes
+    from ..robot.ros2.message_types import message_types
+    from ..robot.ros2.publish import DecisionPublisher
+    from ..robot.stream.output import result_json
 
     topic = decision_topic_of(args)
     if topic is None:

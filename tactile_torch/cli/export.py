@@ -1,5 +1,5 @@
 """``tactile-torch export``: a model file written by train or cluster -> one ONNX bundle
-(:func:`tactile_torch.pipeline.export_pipeline`)."""
+(:func:`tactile_torch.export.model_graph.export_pipeline`)."""
 
 from __future__ import annotations
 
@@ -31,8 +31,8 @@ def register(sub) -> None:
 
 def run_export(args: argparse.Namespace) -> int:
     """Export the model to ONNX and say what was written; return the exit status."""
-    from ..pipeline import export_pipeline, pipeline_from_model
-    from ..robot.model_file import load_model_file
+    from ..export.model_graph import export_pipeline, pipeline_from_model
+    from ..robot.files.model_file import load_model_file
 
     sensor_range = parse_range_g(args.sensor_range, "--sensor-range", off=False)
     with stage("export: building the pipeline"):

@@ -119,7 +119,7 @@ def run_predict(args: argparse.Namespace) -> int:
         )
     print(f"{pipe!r}: {len(labels)} samples of {where}")
     if args.out:
-        from ..robot.npz import write_npz
+        from ..robot.files.npz import write_npz
 
         names = np.array(
             [
@@ -197,7 +197,7 @@ def _print_novel(novel, pipe, data) -> None:
 
 def _touch_data(args: argparse.Namespace, pipe) -> bool:
     """Whether to cut touches: asked for, or a frame bundle given a frame recording or a bag of frames."""
-    from ..robot.live import frame_bundle
+    from ..robot.stream.live import frame_bundle
 
     if not frame_bundle(pipe):
         if args.touches:
@@ -209,11 +209,11 @@ def _touch_data(args: argparse.Namespace, pipe) -> bool:
         return True
     if len(args.data) != 1:
         return False
-    from ..robot.ros_bags import is_bag
+    from ..robot.ros2.bags import is_bag
 
     if is_bag(args.data[0]):
         return True
-    from ..robot.npz import read_npz
+    from ..robot.files.npz import read_npz
 
     arrays = read_npz(args.data[0], what="data file (.npz of docs/formats.md)")
     return "frames" in arrays and "t" in arrays
@@ -224,8 +224,8 @@ def predict_touches(args: argparse.Namespace, pipe) -> int:
     import numpy as np
 
     from ..metrics import class_report
-    from ..robot.frame_recordings import read_frame_recording, touch_labels
-    from ..robot.stream_output import result_json, result_text
+    from ..robot.files.frame_recordings import read_frame_recording, touch_labels
+    from ..robot.stream.output import result_json, result_text
 
     if len(args.data) != 1:
         raise UsageError(f"--data: touches are cut from one recording at a time, got {len(args.data)} files")
@@ -233,7 +233,7 @@ def predict_touches(args: argparse.Namespace, pipe) -> int:
         raise UsageError(
             "--range: frames out of the bundle's value_range are rejected as in stream; --range is for windows"
         )
-    from ..robot.live import classify_recording
+    from ..robot.stream.live import classify_recording
 
     options = data_options(args)
     if options.shape is None:  # bags of flat arrays (TactileState, a field): the bundle's frames
@@ -271,7 +271,7 @@ def predict_touches(args: argparse.Namespace, pipe) -> int:
             f"({live.rule.describe()})"
         )
     if args.out:
-        from ..robot.npz import write_npz
+        from ..robot.files.npz import write_npz
 
         arrays = {
             "start": np.array([r.segment.start_item for r in touches], dtype=np.int64),

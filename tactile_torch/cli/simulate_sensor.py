@@ -2,7 +2,7 @@
 
 Plays vibration recordings (``x,y,z`` lines, or a synthetic surface) and frame recordings (one frame per
 line: a frame recording ``.npz``, image explorations, or a ROS 2 bag of pressure maps,
-:mod:`tactile_torch.robot.frame_recordings`) in real time or as fast as the reader takes them.
+:mod:`tactile_torch.robot.files.frame_recordings`) in real time or as fast as the reader takes them.
 Torch-free with ``--data`` (the synthetic surface needs the training extra).
 """
 
@@ -89,13 +89,13 @@ def _frames_file(path: str) -> bool:
     """Whether ``--data`` holds frames (a frame recording, explorations, a bag of pressure maps)."""
     from pathlib import Path
 
-    from ..robot.ros_bags import is_bag
+    from ..robot.ros2.bags import is_bag
 
     if is_bag(path):
         return True
     if Path(path).suffix.lower() != ".npz":
         return False
-    from ..robot.npz import read_npz
+    from ..robot.files.npz import read_npz
 
     return "frames" in read_npz(path, what="data file (.npz of docs/formats.md)")
 
@@ -103,8 +103,8 @@ def _frames_file(path: str) -> bool:
 def _recording(args: argparse.Namespace):
     """Return ``("frames", FrameRecording)`` or ``("samples", (n, 3) samples, rate)`` for the options."""
     if args.data and _frames_file(args.data):
-        from ..robot.data_sources import DataOptions
-        from ..robot.frame_recordings import read_frame_recording
+        from ..robot.files.data_sources import DataOptions
+        from ..robot.files.frame_recordings import read_frame_recording
 
         shape = None
         if args.shape:
@@ -127,7 +127,7 @@ def _recording(args: argparse.Namespace):
         return "frames", rec
     recording = 0 if args.recording is None else args.recording
     if args.data.lower().endswith(".csv"):  # a logger's CSV, read as train reads it
-        from ..robot.data_sources import DataOptions, read_source
+        from ..robot.files.data_sources import DataOptions, read_source
 
         declared = {
             "columns": args.columns,
@@ -137,7 +137,7 @@ def _recording(args: argparse.Namespace):
         }
         data = read_source([args.data], DataOptions(**declared, sample_rate_hz=args.rate, check=False))
     elif args.data:  # any layout of docs/formats.md, incl. recordings of different lengths
-        from ..robot.formats import read_recordings
+        from ..robot.files.formats import read_recordings
 
         csv_only = [
             o for o, v in (("--columns", args.columns), ("--units", args.units), ("--scale", args.scale)) if v
@@ -161,7 +161,7 @@ def run_simulate_sensor(args: argparse.Namespace) -> int:
 
     import serial
 
-    from ..robot.wire import pseudo_terminal, simulate_frames, simulate_sensor
+    from ..robot.stream.wire import pseudo_terminal, simulate_frames, simulate_sensor
 
     if bool(args.port) + args.pty + bool(args.ros2_topic) != 1:
         print(

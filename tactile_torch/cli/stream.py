@@ -1,7 +1,7 @@
 """``tactile-torch stream``: classify a live serial sensor, an accelerometer or a taxel array, with a bundle.
 
-Torch-free, as on the robot: pyserial, numpy and onnxruntime (:mod:`tactile_torch.robot.live`, which
-assembles the stream's stages, :mod:`tactile_torch.robot.serial_source`,
+Torch-free, as on the robot: pyserial, numpy and onnxruntime (:mod:`tactile_torch.robot.stream.live`, which
+assembles the stream's stages, :mod:`tactile_torch.robot.stream.serial_source`,
 :class:`tactile_torch.robot.runtime.OnnxPipeline`). The source is built by :func:`open_source` (the
 place where other transports plug in) and every result goes to the output hooks of
 :func:`output_hooks`.
@@ -177,7 +177,7 @@ def _value_range(text: str | None) -> tuple[float, float] | None:
 
 
 def open_source(args: argparse.Namespace, spec, *, on_event, on_open):
-    """Return the stream's :class:`~tactile_torch.robot.stream_source.Source` for the command's options.
+    """Return the stream's :class:`~tactile_torch.robot.stream.source.Source` for the command's options.
 
     The serial port of ``--port`` (a pyserial URL), reopened by the source to reconnect; or the ROS 2
     topic of ``--ros2-topic`` over DDS (:func:`tactile_torch.cli._ros2.open_ros2_source`). Another
@@ -187,8 +187,8 @@ def open_source(args: argparse.Namespace, spec, *, on_event, on_open):
         from ._ros2 import open_ros2_source
 
         return open_ros2_source(args, spec, on_event=on_event, on_open=on_open)
-    from ..robot.port_lines import open_serial_port
-    from ..robot.serial_source import SerialSource
+    from ..robot.stream.port_lines import open_serial_port
+    from ..robot.stream.serial_source import SerialSource
 
     opened = []
 
@@ -219,7 +219,7 @@ def open_source(args: argparse.Namespace, spec, *, on_event, on_open):
 
 def output_hooks(args: argparse.Namespace, pipe, live, info) -> list:
     """Return the callables every result goes to: the printed line (text or JSON), surface discovery."""
-    from ..robot.stream_output import result_json, result_text
+    from ..robot.stream.output import result_json, result_text
     from ._output import stdout_closed
 
     write = result_json if args.json else result_text
@@ -233,10 +233,10 @@ def output_hooks(args: argparse.Namespace, pipe, live, info) -> list:
             raise _OutputClosed()
 
     hooks = [show]
-    if args.discover:  # new surfaces: N novel windows in a row (tactile_torch.robot.discovery)
+    if args.discover:  # new surfaces: N novel windows in a row (tactile_torch.robot.stream.discovery)
         if live.segment != "windows":
             raise UsageError("--discover proposes surfaces from vibration windows, not from touches")
-        from ..robot.discovery import stream_consumer
+        from ..robot.stream.discovery import stream_consumer
 
         hooks.append(stream_consumer(pipe, args.discover, sys.stderr if args.json else sys.stdout))
     if args.ros2_topic:  # each decision published back on a ROS 2 topic, as well as printed
@@ -277,9 +277,9 @@ def _describe(args, pipe, live, spec) -> str:
 
 def _stream_until_stopped(args: argparse.Namespace) -> int:
     from ..robot.contract import SAMPLE_RATE_KEY, WINDOW_SIZE_KEY
-    from ..robot.live import LiveStream, frame_bundle, item_spec
     from ..robot.runtime import OnnxPipeline
-    from ..robot.stream import StreamDisconnected, StreamTimeout
+    from ..robot.stream.live import LiveStream, frame_bundle, item_spec
+    from ..robot.stream.port_lines import StreamDisconnected, StreamTimeout
     from ._codes import ARGUMENT_FLAGS, with_flags
 
     if bool(args.port) == bool(args.ros2_topic):

@@ -81,8 +81,9 @@ def register(sub) -> None:
 
 def run_train(args: argparse.Namespace) -> int:
     """Train, print the class report, write the model file; return the exit status."""
-    from ..robot.errors import InputError, InputValueError
-    from ..training import load_features, save_model, train_classifier
+    from ..exceptions import InputError, InputValueError
+    from ..features.files import load_features
+    from ..training import save_model, train_classifier
 
     data = read_data_arg(args)
     if data.kind == "vibration":

@@ -8,8 +8,8 @@ Submodules (imported on demand, so that this package stays free of torch):
 
 What a ``--data`` argument names (``.npz``, CSV logs with declared columns, units and time unit,
 ROS 2 bags) is read by the robot side, which reads it too (``tactile-torch predict``):
-:mod:`tactile_torch.robot.data_sources`, :mod:`tactile_torch.robot.csv_logs`,
-:mod:`tactile_torch.robot.ros_bags` and :mod:`tactile_torch.robot.formats`.
+:mod:`tactile_torch.robot.files.data_sources`, :mod:`tactile_torch.robot.files.csv_logs`,
+:mod:`tactile_torch.robot.ros2.bags` and :mod:`tactile_torch.robot.files.formats`.
 
 Real data sets live outside the repository, in ``../shared/data/<name>/`` (each with a
 ``PROVENANCE.md``); :func:`shared_data_dir` finds them.

@@ -15,8 +15,8 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from .._checks import check_positive
-from ..robot.touches import fit_frames
+from ..robot.stream.touches import fit_frames
+from ..validation import check_positive
 from .images import SATURATION, ImageExplorations, render_pressure
 
 ICUB = "icub_grasp"
@@ -64,7 +64,7 @@ def load_icub_grasps(
     path : path, optional
         The data set's directory; default ``shared_data_dir("icub_grasp")``.
     n_frames : int
-        Slices kept per grasp, the last ones (the object held; :func:`tactile_torch.robot.touches.fit_frames`,
+        Slices kept per grasp, the last ones (the object held; :func:`tactile_torch.robot.stream.touches.fit_frames`,
         which the live stream brings a touch to the bundle's frames with); every grasp has at least 4.
     scale : int
         Display pixels per taxel.
@@ -131,7 +131,7 @@ def load_drimus_grasps(
     sensor : str
         Array name in the grasp files (``ts1_f1_proximal`` ... ``ts6_f3_distal``).
     n_frames : int
-        Frames kept per grasp, the last ones (the object held; :func:`tactile_torch.robot.touches.fit_frames`,
+        Frames kept per grasp, the last ones (the object held; :func:`tactile_torch.robot.stream.touches.fit_frames`,
         which the live stream brings a touch to the bundle's frames with); every grasp has at least 324.
     scale : int
         Display pixels per taxel.

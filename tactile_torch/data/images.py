@@ -44,7 +44,7 @@ import numpy as np
 import torch
 import torch.nn.functional as F
 
-from .._checks import RandomState, check_finite, check_positive, check_tensor, numpy_rng, torch_generator
+from ..validation import RandomState, check_finite, check_positive, check_tensor, numpy_rng, torch_generator
 
 CLASS_NAMES = ("dots", "dashes", "horizontal_lines", "grid")
 """The four texture classes of the study, in label order."""
@@ -478,10 +478,10 @@ def _simulate_pressure(
 def save_explorations(path: str | Path, data: ImageExplorations) -> Path:
     """Write ``data`` to ``path`` in the image ``.npz`` format (frames channels-last); return the path.
 
-    See :func:`tactile_torch.robot.formats.write_explorations` (``.npz`` is appended when missing, as
+    See :func:`tactile_torch.robot.files.formats.write_explorations` (``.npz`` is appended when missing, as
     :func:`numpy.savez` does).
     """
-    from ..robot.formats import ExplorationArrays, write_explorations
+    from ..robot.files.formats import ExplorationArrays, write_explorations
 
     arrays = ExplorationArrays(
         frames=data.frames.permute(0, 1, 3, 4, 2).contiguous().numpy(),
@@ -499,9 +499,9 @@ def load_explorations(path: str | Path, *, frame_size: int | None = None) -> Ima
     ``frames`` uint8 ``(N, T, H, W, 3)`` become ``(N, T, 3, H, W)``; raw pressure maps ``(N, T, H, W)``
     (float) are rendered with :func:`render_pressure` (to ``frame_size`` if given) and kept in
     ``pressure``. Raises ``ValueError`` naming the file and the key for a missing key or a wrong
-    shape or dtype (:func:`tactile_torch.robot.formats.read_explorations`).
+    shape or dtype (:func:`tactile_torch.robot.files.formats.read_explorations`).
     """
-    from ..robot.formats import read_explorations
+    from ..robot.files.formats import read_explorations
 
     return explorations_from_arrays(read_explorations(path), frame_size=frame_size)
 
@@ -509,7 +509,7 @@ def load_explorations(path: str | Path, *, frame_size: int | None = None) -> Ima
 def explorations_from_arrays(arrays, *, frame_size: int | None = None) -> ImageExplorations:
     """Return :class:`ImageExplorations` (tensors, channels first) of a file's validated arrays.
 
-    ``arrays`` is a :class:`tactile_torch.robot.formats.ExplorationArrays`; pressure maps are rendered
+    ``arrays`` is a :class:`tactile_torch.robot.files.formats.ExplorationArrays`; pressure maps are rendered
     with :func:`render_pressure` (to ``frame_size`` if given).
     """
     pressure = None

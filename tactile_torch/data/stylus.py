@@ -25,8 +25,8 @@ from dataclasses import dataclass, fields, replace
 
 import numpy as np
 
-from .._checks import RandomState, check_positive, numpy_rng
-from ..robot.errors import InputTypeError
+from ..exceptions import InputTypeError
+from ..validation import RandomState, check_positive, numpy_rng
 from .vibration import QUANTUM_G, RANGE_G, SAMPLE_RATE_HZ, VibrationRecordings, VibrationWindows
 
 SPEED_M_S = 0.589  # turntable speed under the stylus, 58.9 cm/s

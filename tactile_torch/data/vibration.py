@@ -3,8 +3,7 @@
 :class:`VibrationRecordings` holds recordings in the vibration format of docs/formats.md (``signals`` in g,
 ``labels``, ``class_names``, ``rate_hz``, optional ``session``); :meth:`~VibrationRecordings.windows`
 cuts them into the ``(N, 3, W)`` windows of :func:`tactile_torch.signal.window_features`. The
-seeded stylus simulator lives in :mod:`tactile_torch.data.stylus` (its names are still importable
-from here, as deprecated aliases). Files are read and written by :mod:`tactile_torch.robot.formats` (NumPy only; ``docs/formats.md``);
+seeded stylus simulator lives in :mod:`tactile_torch.data.stylus`. Files are read and written by :mod:`tactile_torch.robot.files.formats` (NumPy only; ``docs/formats.md``);
 the functions here turn them into :class:`VibrationRecordings`.
 
 Examples
@@ -25,10 +24,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .._checks import check_positive
-from .._exports import moved_names
-from ..robot.csv_logs import read_csv_recording, read_timed_csv_log
-from ..robot.errors import InputTypeError
+from ..exceptions import InputTypeError
+from ..robot.files.csv_logs import read_csv_recording, read_timed_csv_log
+from ..validation import check_positive
 
 if TYPE_CHECKING:
     import torch
@@ -61,7 +59,7 @@ class VibrationRecordings:
         Session (or source file) of each recording, for grouped splits.
     gaps : list of ndarray, optional
         Per recording, the samples that start a new stretch after a gap in its time stamps (CSV logs
-        and bags, :attr:`tactile_torch.robot.formats.RecordingArrays.gaps`): no window spans a gap.
+        and bags, :attr:`tactile_torch.robot.files.formats.RecordingArrays.gaps`): no window spans a gap.
     """
 
     signals: list[np.ndarray]
@@ -148,7 +146,7 @@ class VibrationRecordings:
         """
         import torch
 
-        from ..robot.windows import window_recordings
+        from ..robot.stream.windows import window_recordings
 
         check_positive(size, "size", integer=True)
         cut = window_recordings(self.signals, size, step, max_per_recording=max_per_recording, gaps=self.gaps)
@@ -226,9 +224,9 @@ def save_vibration_npz(path: str | Path, recordings: VibrationRecordings) -> Pat
 
     Equal-length recordings are stored as one float32 array ``signals`` ``(R, n, 3)``; recordings of
     different lengths as their samples concatenated ``(sum n_i, 3)`` plus ``lengths`` ``(R,)``: no
-    pickle either way (:func:`tactile_torch.robot.formats.write_recordings`, ``docs/formats.md``).
+    pickle either way (:func:`tactile_torch.robot.files.formats.write_recordings`, ``docs/formats.md``).
     """
-    from ..robot.formats import RecordingArrays, write_recordings
+    from ..robot.files.formats import RecordingArrays, write_recordings
 
     arrays = RecordingArrays(
         recordings.signals,
@@ -254,9 +252,9 @@ def load_vibration_npz(path: str | Path, *, allow_pickle: bool = False) -> Vibra
     ValueError
         One line naming the file and the field: a missing key, a wrong shape or dtype (integer
         counts where g are expected), NaN/inf, or a pickled array read without ``allow_pickle``
-        (:func:`tactile_torch.robot.formats.read_recordings`).
+        (:func:`tactile_torch.robot.files.formats.read_recordings`).
     """
-    from ..robot.formats import read_recordings
+    from ..robot.files.formats import read_recordings
 
     data = read_recordings(path, allow_pickle=allow_pickle)
     return VibrationRecordings(
@@ -286,7 +284,7 @@ def load_vibration_csv(
         Class and session of each file (same length as ``paths``); default from ``index``, else
         the naming rule: ``felt_3.csv`` → class ``felt``, session ``3``; ``day2/glass.csv`` → class
         ``glass``, session ``day2`` when the files lie in several folders, else ``glass``
-        (:func:`tactile_torch.robot.naming.names_for`, the rule of the command line). Labels index
+        (:func:`tactile_torch.robot.files.naming.names_for`, the rule of the command line). Labels index
         the sorted distinct classes.
     index : path, optional
         A CSV with columns ``file,class[,session]`` (files relative to it).
@@ -303,7 +301,7 @@ def load_vibration_csv(
     sample_rate_hz : float, optional
         The files' sample rate, stated (``--rate``); their time stamps must agree within 5 %. Default:
         each file's rate from its time stamps, robust to rounding and gaps
-        (:func:`tactile_torch.robot.sample_times.time_base`).
+        (:func:`tactile_torch.robot.files.sample_times.time_base`).
 
     Gaps in the time stamps are kept (``gaps``: no window spans one); gaps and irregular steps give
     one warning each for all the files.
@@ -311,7 +309,7 @@ def load_vibration_csv(
     Raises
     ------
     ValueError
-        One line naming the file (:func:`tactile_torch.robot.csv_logs.read_csv_log`).
+        One line naming the file (:func:`tactile_torch.robot.files.csv_logs.read_csv_log`).
 
     Examples
     --------
@@ -321,8 +319,8 @@ def load_vibration_csv(
     """
     import warnings
 
-    from ..robot.naming import names_for
-    from ..robot.sample_times import describe_timing
+    from ..robot.files.naming import names_for
+    from ..robot.files.sample_times import describe_timing
 
     paths = [paths] if isinstance(paths, str | Path) else list(paths)
     if not paths:
@@ -366,23 +364,6 @@ def load_vibration_csv(
         gaps=gaps if any(g.size for g in gaps) else None,
     )
 
-
-# The simulator's names, deprecated aliases here since the simulator moved to .stylus (which imports
-# this module: the aliases are looked up by name, on use, so that this module does not import it).
-__getattr__ = moved_names(
-    __name__,
-    {
-        name: "tactile_torch.data.stylus"
-        for name in (
-            "SPEED_M_S",
-            "SURFACES",
-            "Surface",
-            "make_vibration_dataset",
-            "make_vibration_recordings",
-            "surface_table",
-        )
-    },
-)
 
 __all__ = [
     "QUANTUM_G",

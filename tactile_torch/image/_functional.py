@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import torch
 
-from .._checks import check_floating, check_positive, check_tensor
+from ..validation import check_floating, check_positive, check_tensor
 from ._constants import DEFAULT_EDGE_THRESHOLD, DEFAULT_EROSION, DEFAULT_THRESHOLD
 from ._kernels import (
     _edges,

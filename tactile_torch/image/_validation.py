@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import torch
 
-from .._checks import check_finite, check_floating, check_positive, check_shape, check_tensor
-from ..robot.errors import InputTypeError
+from ..exceptions import InputTypeError
+from ..validation import check_finite, check_floating, check_positive, check_shape, check_tensor
 
 Threshold = float | torch.Tensor | str
 

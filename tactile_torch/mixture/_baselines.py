@@ -34,7 +34,7 @@ def baseline_clusterings(
     from sklearn.cluster import KMeans
     from sklearn.mixture import BayesianGaussianMixture, GaussianMixture
 
-    from .._checks import as_feature_matrix, numpy_rng
+    from ..validation import as_feature_matrix, numpy_rng
 
     X = as_feature_matrix(X)
     n = X.shape[0]

@@ -14,8 +14,7 @@ from sklearn.base import BaseEstimator, ClusterMixin, _fit_context
 from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import validate_data
 
-from .._constraints import RANDOM_STATE
-from ..robot.checks import numpy_rng
+from ..validation import RANDOM_STATE, numpy_rng
 from ._diagnostics import budget_warning
 from ._mfm import coarsening_power, k_ceiling, log_v
 from ._point_estimate import _whitening

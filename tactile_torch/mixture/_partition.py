@@ -24,7 +24,7 @@ import math
 import numpy as np
 from numba import njit, types
 
-from ..robot.errors import InputTypeError
+from ..exceptions import InputTypeError
 
 _I1 = types.Array(types.int64, 1, "C")
 _I2 = types.Array(types.int64, 2, "C")

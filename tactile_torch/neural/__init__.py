@@ -7,8 +7,9 @@
 * :mod:`.front_end` - method 1's soft preprocessing with its threshold and temperatures learned through
   the differentiable ops, under a multi-class hinge-loss head; :mod:`.cutoff` - method 2's spectral
   cut-off learned the same way;
-* :mod:`.comparison` - classical, learned and int8 models on the same grouped folds (the report section);
-* :mod:`.export` - their ONNX bundles (:func:`export_classifier`).
+Their comparison with the classical and int8 models on the same grouped folds is the trade-off's
+(:mod:`tactile_torch.tradeoff.comparison`), and their ONNX bundles the export package's
+(:func:`tactile_torch.export.export_classifier`).
 
 docs/neural.md says what they are for and what they showed.
 """
@@ -20,7 +21,6 @@ __getattr__, __dir__, __all__ = lazy_exports(
     {
         "cutoff": ("LearnedCutoffClassifier",),
         "estimators": ("ExplorationCNNClassifier", "TaxelCNNClassifier", "WindowCNNClassifier"),
-        "export": ("export_classifier",),
         "front_end": ("LearnedFrontEndClassifier",),
     },
 )

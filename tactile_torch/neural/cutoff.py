@@ -31,8 +31,7 @@ from sklearn.utils.multiclass import check_classification_targets
 from sklearn.utils.validation import check_is_fitted
 from torch import nn
 
-from .._checks import numpy_rng, torch_generator
-from .._constraints import RANDOM_STATE
+from ..validation import RANDOM_STATE, numpy_rng, torch_generator
 from .front_end import HardFrontEndGraph, _fit_standardised_head, crammer_singer_loss
 
 HF_COLUMNS = (6, 13, 20)

@@ -13,7 +13,7 @@ CPU. They follow scikit-learn's conventions (``clone``, ``get_params``, ``fit``/
   given to :meth:`fit`) is held out; training stops after ``patience`` epochs without a lower held-out
   cross-entropy and keeps the best epoch's weights;
 * **exportable**: :meth:`to_module` returns the inference graph (raw input → labels, softmax scores),
-  which :func:`tactile_torch.neural.export_classifier` writes to ONNX.
+  which :func:`tactile_torch.export.export_classifier` writes to ONNX.
 
 ``n_parameters_`` is the number of trained scalars.
 
@@ -40,9 +40,8 @@ from sklearn.utils.multiclass import check_classification_targets
 from sklearn.utils.validation import check_is_fitted
 from torch import nn
 
-from .._checks import numpy_rng, torch_generator
-from .._constraints import RANDOM_STATE
-from ..robot.errors import InputTypeError
+from ..exceptions import InputTypeError
+from ..validation import RANDOM_STATE, numpy_rng, torch_generator
 from .networks import (
     WINDOW_WIDTHS,
     ClassifierGraph,

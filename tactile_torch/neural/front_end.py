@@ -39,9 +39,8 @@ from sklearn.utils.multiclass import check_classification_targets
 from sklearn.utils.validation import check_is_fitted
 from torch import nn
 
-from .._checks import numpy_rng, torch_generator
-from .._constraints import RANDOM_STATE
-from ..robot.errors import InputTypeError
+from ..exceptions import InputTypeError
+from ..validation import RANDOM_STATE, numpy_rng, torch_generator
 
 INITIAL_TEMPERATURES = (0.02, 0.05, 0.5)
 """Starting temperatures of the soft threshold (gray levels on the 0-1 scale), the soft erosion and the
@@ -179,7 +178,7 @@ class LearnedFrontEndClassifier(ClassifierMixin, BaseEstimator):
         Hand-set Sobel edge threshold (0.5).
     erosion : int or "relative"
         Side of the erosion square; ``"relative"`` scales the study's 10 px of 96 px to the frame
-        (:func:`tactile_torch.tradeoff.transformers.relative_erosion`).
+        (:func:`tactile_torch.image.relative_erosion`).
     epochs, frames_per_step, batch_size, learning_rate
         Stage 1 (Adam on the soft pipeline).
     alpha : float
@@ -317,7 +316,7 @@ class LearnedFrontEndClassifier(ClassifierMixin, BaseEstimator):
         -------
         self
         """
-        from ..tradeoff.transformers import relative_erosion
+        from ..image import relative_erosion
 
         frames = self._frames(X)
         y = np.asarray(y)

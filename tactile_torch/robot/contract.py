@@ -1,7 +1,7 @@
 """The ONNX bundle contract: tensor names, metadata keys and the "unknown" label, in one place.
 
-Every exporter (:mod:`tactile_torch.inference_pipeline`, :mod:`tactile_torch.neural.export`,
-:mod:`tactile_torch.tradeoff.export`, :mod:`tactile_torch.ood`, the mixture's inference module) writes
+Every exporter (:mod:`tactile_torch.inference_pipeline`, :mod:`tactile_torch.export.neural`,
+:mod:`tactile_torch.export.parts`, :mod:`tactile_torch.ood`, the mixture's inference module) writes
 bundles with these names, and :class:`tactile_torch.robot.runtime.OnnxPipeline` reads them: import
 them from here rather than spelling them. A bundle is one ``.onnx`` file: input :data:`INPUT_NAME`, outputs
 :data:`LABELS_OUTPUT` and :data:`SCORES_OUTPUT` (then optionally :data:`OOD_OUTPUT` or
@@ -28,9 +28,9 @@ key                        value
 ``value_range``            frame bundles: JSON ``[low, high]``; a frame with a value outside is
                            rejected by ``stream``
 ``touch_levels``           frame bundles: JSON of the touch levels (onset, release, shortest
-                           touch, resting level: :class:`~tactile_torch.robot.touches.TouchLevels`)
+                           touch, resting level: :class:`~tactile_torch.robot.stream.touches.TouchLevels`)
 ``early_decision``         frame bundles: JSON of the calibrated early-decision rule
-                           (:class:`~tactile_torch.robot.early_decision.EarlyRule`)
+                           (:class:`~tactile_torch.robot.stream.early_decision.EarlyRule`)
 ``tactile_torch.sha256``   ``"sha256:<hex>"`` of the file without this property: checked on load
                            (:mod:`tactile_torch.robot.integrity`)
 =========================  ======================================================================
@@ -91,9 +91,9 @@ FRAME_RATE_KEY = "frame_rate_hz"
 VALUE_RANGE_KEY = "value_range"
 """Frame bundles: JSON ``[low, high]`` of the values a frame may hold (others are rejected live)."""
 TOUCH_LEVELS_KEY = "touch_levels"
-"""Frame bundles: JSON of the levels that cut touches from frames (:mod:`tactile_torch.robot.touches`)."""
+"""Frame bundles: JSON of the levels that cut touches from frames (:mod:`tactile_torch.robot.stream.touches`)."""
 EARLY_RULE_KEY = "early_decision"
-"""Frame bundles: JSON of the calibrated early-decision rule (:mod:`tactile_torch.robot.early_decision`)."""
+"""Frame bundles: JSON of the calibrated early-decision rule (:mod:`tactile_torch.robot.stream.early_decision`)."""
 
 # ------------------------------------------------------------------------------------ input layouts
 WINDOWS_LAYOUT = "B,3,W"

@@ -189,8 +189,8 @@ def seal_bundle(path: str | PathLike, out: str | PathLike) -> Path:
     (``ValueError``): export it again instead. ``out`` must not be ``path`` (inputs are never
     overwritten).
     """
-    from .npz import max_read_bytes
-    from .safe_write import write_atomic
+    from .files.npz import max_read_bytes
+    from .files.safe_write import write_atomic
 
     path = Path(path)
     if path.stat().st_size > max_read_bytes():

@@ -33,7 +33,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .checks import check_count
+from ..exceptions import InputTypeError
+from ..validation import check_count
 from .contract import (
     CLASS_NAMES_KEY,
     DEFAULT_RANGE_G,
@@ -57,9 +58,8 @@ from .contract import (
     WINDOW_SIZE_KEY,
     WINDOWS_LAYOUT,
 )
-from .errors import InputTypeError
+from .files.labelled import LabelledInput
 from .integrity import NotProtobufError, UnsealedBundleWarning, check_digest
-from .labelled import LabelledInput
 
 _KIND_KEYS = {"image": "frames", "vibration": "signals", "features": "features"}
 _WARNED_UNSEALED: set[str] = set()  # bundles without a digest already warned about (the warning only)
@@ -186,7 +186,7 @@ class OnnxPipeline:
             raise FileNotFoundError(
                 f"path must name an exported .onnx bundle, got {str(path)!r} (no such file)"
             )
-        from .npz import max_read_bytes
+        from .files.npz import max_read_bytes
 
         limit = max_read_bytes()
         if path.stat().st_size > limit:  # onnxruntime holds the whole file (and its weights) in memory
@@ -478,7 +478,7 @@ class OnnxPipeline:
     def read_npz(
         self, path: str | Path | Sequence[str | Path], *, allow_pickle: bool = False, options=None
     ) -> LabelledInput:
-        """Read a data file into this bundle's raw input (:func:`tactile_torch.robot.formats.read_data`).
+        """Read a data file into this bundle's raw input (:func:`tactile_torch.robot.files.formats.read_data`).
 
         Image explorations (``frames`` uint8 ``(N, T, H, W, 3)``) become ``(N, T, 3, H, W)``; vibration
         recordings (a ``.npz`` or CSV logs) are cut into windows of the bundle's ``window_size``
@@ -489,17 +489,17 @@ class OnnxPipeline:
 
         Raises ``ValueError`` naming the file when it does not fit the bundle (e.g. recordings for
         an image bundle, recordings shorter than one window) or breaks the format (see
-        ``docs/formats.md``). ``options`` (:class:`tactile_torch.robot.data_sources.DataOptions`, NumPy
+        ``docs/formats.md``). ``options`` (:class:`tactile_torch.robot.files.data_sources.DataOptions`, NumPy
         only) declares how CSV logs and ROS 2 bags are read (columns, units, time unit, topic).
         """
-        from .formats import data_name, read_data
-        from .touches import fit_explorations
-        from .windows import window_recordings
+        from .files.formats import data_name, read_data
+        from .stream.touches import fit_explorations
+        from .stream.windows import window_recordings
 
         if options is None:
             data = read_data(path, allow_pickle=allow_pickle)
         else:
-            from .data_sources import read_source
+            from .files.data_sources import read_source
 
             data = read_source(path, options)
         where = data_name(path)

@@ -1,6 +1,6 @@
 """The degradations, curves and bootstrap behind :func:`tactile_torch.robustness.sweeps.sweep` (internal).
 
-Built on the evaluation engine (:mod:`tactile_torch.engine`): models are split into shared ``features``
+Built on the evaluation engine (:mod:`tactile_torch.model_selection`): models are split into shared ``features``
 steps and per-model rests, so that models with the same features step share its fits and transforms, and
 a step that needs no fit is applied to the whole set once per data variant. Every evaluation pools one
 prediction per test sample; correct predictions are summed per group for the cluster bootstrap of the
@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 import torch
 
-from ..engine import Folds, Models, cross_validate, last_input, seed_of, take
+from ..model_selection import Folds, Models, cross_validate, last_input, seed_of, take
 
 
 def apply_raw(apply: Any, X: Any, level: Any, seed: int) -> Any:
@@ -30,7 +30,7 @@ def apply_raw(apply: Any, X: Any, level: Any, seed: int) -> Any:
 
 def fit_predict(models: Models, X: Any, y: np.ndarray, folds: Folds, clean: dict | None = None, backend=None):
     """Fit every model on each fold's training part of ``X`` and test on its test part (the engine's
-    :func:`~tactile_torch.engine.cross_validate`, untuned).
+    :func:`~tactile_torch.model_selection.cross_validate`, untuned).
 
     Returns ``(correct, fitted, feats)``: per model an array ``(N,)`` of 1/0 (NaN where untested) or
     the error message of a failed fit; per model the fitted rests by fold; the features by signature.

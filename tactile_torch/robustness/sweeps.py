@@ -13,8 +13,8 @@ from typing import Any
 import numpy as np
 import torch
 
-from .._checks import RandomState, check_positive, numpy_rng
-from ..robot.errors import InputTypeError
+from ..exceptions import InputTypeError
+from ..validation import RandomState, check_positive, numpy_rng
 from .degradations import (
     DEFAULT_TRIALS,
     DRIFT_SEGMENTS,
@@ -164,7 +164,7 @@ def sweep(
         A progress bar per factor (tqdm, on stderr).
     backend, n_jobs, scheduler
         Where the fits (model x fold, at every level that retrains) run: the evaluation engine's
-        :class:`tactile_torch.engine.Backend` (``"loky"``, ``"threading"``, ``"dask"`` with a scheduler
+        :class:`tactile_torch.model_selection.Backend` (``"loky"``, ``"threading"``, ``"dask"`` with a scheduler
         address ...); default in this process. Results do not depend on them.
 
     Returns
@@ -180,7 +180,7 @@ def sweep(
         For inputs of the wrong shape, fewer than 2 classes or groups per class, an unknown factor, or
         a model that cannot be fitted on the clean folds.
     """
-    from ..engine import Models, as_backend, make_folds
+    from ..model_selection import Models, as_backend, make_folds
     from . import _evaluation
 
     runner = as_backend(backend, n_jobs, scheduler)  # a Dask client opens for each stage's tasks
@@ -284,7 +284,7 @@ def _skip_reason(f: Degradation, s: _SweepState) -> str | None:
 
 def _applicable_models(f: Degradation, levels: tuple, s: _SweepState, result: SweepResult) -> list[str]:
     """The models factor ``f`` can degrade; each other one is listed in ``result.skipped`` with why."""
-    from ..engine import Models
+    from ..model_selection import Models
     from . import _evaluation
 
     names = list(s.base.names)

@@ -9,9 +9,9 @@ import numpy as np
 import torch
 from torch import nn
 
-from .._checks import check_finite, check_positive, check_shape, check_tensor
 from .._parallel import map_blocks, serial_torch_ops_in_this_thread
-from ..robot.errors import InputTypeError
+from ..exceptions import InputTypeError
+from ..validation import check_finite, check_positive, check_shape, check_tensor
 
 AXES = ("x", "y", "z")
 AXIS_FEATURES = ("var", "skew", "kurt", "m5", "tv", "cross", "hf")

@@ -19,7 +19,7 @@ from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted, validate_data
 from torch import nn
 
-from .._checks import check_finite, check_floating, check_positive, check_shape, check_tensor
+from ..validation import check_finite, check_floating, check_positive, check_shape, check_tensor
 from ._features import AXIS_FEATURES, CLUSTERING_FEATURE_NAMES, FEATURE_NAMES
 
 

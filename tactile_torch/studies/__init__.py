@@ -17,9 +17,9 @@ from pathlib import Path
 from typing import Any
 
 from .._exports import lazy_exports
-from ..report import Report
 from ._reproduce import report_command
 from ._seeds import study_seed
+from .report import Report
 
 # Report order. Each entry is a module of this package with TITLE and run(section, ctx).
 STUDIES: list[str] = [

@@ -4,13 +4,13 @@
 cross-validation folds, an estimator, a noise stream, a network's initialisation) asks for
 ``study_seed(S, study, purpose)``, named by the study that owns the draw and what it is for. Two draws
 with different names get independent seeds (numpy's ``SeedSequence`` over the root and the names,
-through the evaluation engine's :func:`~tactile_torch.engine.seed_of`), a study's draws do not depend on
+through the evaluation engine's :func:`~tactile_torch.model_selection.seed_of`), a study's draws do not depend on
 which other studies ran before it, and the same root seed gives the same report.
 """
 
 from __future__ import annotations
 
-from ..engine import seed_of
+from ..model_selection import seed_of
 
 SEED_BITS = 31  # every consumer accepts it: numpy, torch, and scikit-learn's RandomState (< 2**32)
 

@@ -121,7 +121,7 @@ def _predictions(fused, concat, y, groups, folds: int, ctx) -> tuple[dict, int]:
     from sklearn.pipeline import make_pipeline
     from sklearn.preprocessing import StandardScaler
 
-    from ..engine import fold_predictions, group_folds, stratified_folds
+    from ..model_selection import fold_predictions, group_folds, stratified_folds
     from ._models import IMAGE_SVM_C, classifiers
 
     n = int(min(folds, np.bincount(y)[np.unique(y)].min()))
@@ -308,7 +308,7 @@ def _time_split(rec, size: int):
     """Windows of ``size`` samples; train = first two thirds of every recording, test = the rest."""
     from fractions import Fraction
 
-    from ..engine.folds import time_holdout
+    from ..model_selection import time_holdout
     from ._models import vibration_features
 
     ds = rec.windows(size)

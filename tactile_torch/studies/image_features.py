@@ -70,7 +70,7 @@ def _accuracies(feats: dict, cv_seed: int) -> list[dict]:
     from sklearn.preprocessing import StandardScaler
     from sklearn.svm import SVC
 
-    from ..engine import fold_scores, group_folds, stratified_folds
+    from ..model_selection import fold_scores, group_folds, stratified_folds
 
     y, groups = feats["labels"], feats["groups"]
     n_splits = int(min(5, np.bincount(y).min(), len(np.unique(groups))))

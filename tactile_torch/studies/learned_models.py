@@ -3,7 +3,7 @@
 Classical models (the study's features with LDA, or with a hinge-loss linear head), small neural networks on the raw input
 (:mod:`tactile_torch.neural`), method 1's front end learned through the differentiable ops, and int8
 variants of exported models, evaluated on the same grouped folds by
-:func:`tactile_torch.neural.comparison.compare_models`: accuracy with a group-level 95 % interval, the
+:func:`tactile_torch.tradeoff.comparison.compare_models`: accuracy with a group-level 95 % interval, the
 learned numbers, ONNX latency at batch 1, file size and the peak memory of the onnxruntime session.
 
 Sizes: ``make run`` keeps this section small: the bundled vibration recordings only, 10 windows of 800
@@ -50,9 +50,9 @@ def _vibration_specs(ctx, full: bool) -> list:
     and learned spectral cut-off under the same hinge head."""
     from sklearn.discriminant_analysis import LinearDiscriminantAnalysis
 
+    from ..features.transformers import WindowFeatureTransformer
     from ..neural import LearnedCutoffClassifier, WindowCNNClassifier
-    from ..neural.comparison import ModelSpec
-    from ..tradeoff.transformers import WindowFeatureTransformer
+    from ..tradeoff.comparison import ModelSpec
 
     seed = ctx.seed("learned_models", "estimators")
     lda = _classical(WindowFeatureTransformer(), LinearDiscriminantAnalysis())
@@ -80,10 +80,10 @@ def _vibration_specs(ctx, full: bool) -> list:
 def _image_specs(ctx, erosion: int) -> list:
     from sklearn.discriminant_analysis import LinearDiscriminantAnalysis
 
+    from ..features.transformers import ImageFeatureTransformer
     from ..neural import ExplorationCNNClassifier
-    from ..neural.comparison import ModelSpec
     from ..neural.front_end import LearnedFrontEndClassifier
-    from ..tradeoff.transformers import ImageFeatureTransformer
+    from ..tradeoff.comparison import ModelSpec
 
     seed = ctx.seed("learned_models", "estimators")
     return [
@@ -116,9 +116,9 @@ def _image_specs(ctx, erosion: int) -> list:
 def _taxel_specs(ctx) -> list:
     from sklearn.discriminant_analysis import LinearDiscriminantAnalysis
 
+    from ..features.transformers import TaxelFeatureTransformer
     from ..neural import TaxelCNNClassifier
-    from ..neural.comparison import ModelSpec
-    from ..tradeoff.transformers import TaxelFeatureTransformer
+    from ..tradeoff.comparison import ModelSpec
 
     seed = ctx.seed("learned_models", "estimators")
     return [
@@ -161,8 +161,8 @@ def _bundled_vibration(ctx) -> list[dict]:
 
 
 def _bundled_images(ctx) -> list[dict]:
+    from ..image import relative_erosion
     from ..tradeoff.inputs import TradeoffData, exploration_samples
-    from ..tradeoff.transformers import relative_erosion
     from .image_features import dataset
 
     per_class, folds = _size(ctx)
@@ -212,8 +212,8 @@ def _drimus(ctx) -> list[dict]:
     import numpy as np
 
     from ..data import shared_data_dir
+    from ..image import relative_erosion
     from ..tradeoff.inputs import TradeoffData, exploration_samples
-    from ..tradeoff.transformers import relative_erosion
 
     if shared_data_dir("drimus_sdh_tactile") is None:
         return []
@@ -311,8 +311,8 @@ def _verdict(rows: list[dict]) -> str:
 def run(section, ctx) -> None:
     import json
 
-    from ..neural.comparison import compare_models
-    from ..robot.naming import slug
+    from ..robot.files.naming import slug
+    from ..tradeoff.comparison import compare_models
 
     mode = ctx.mode
     section.text(

@@ -68,9 +68,9 @@ SPLIT = (0.4, 0.2)
 def time_split(recording: np.ndarray, position: np.ndarray, split: tuple[float, float] = SPLIT) -> np.ndarray:
     """Return 0 (train), 1 (calibration) or 2 (test) per window: each recording cut in time order, shape (n,).
 
-    :func:`tactile_torch.engine.folds.time_holdout` with the shares ``split`` (rounded to the nearest window).
+    :func:`tactile_torch.model_selection.time_holdout` with the shares ``split`` (rounded to the nearest window).
     """
-    from ..engine.folds import time_holdout
+    from ..model_selection import time_holdout
 
     return time_holdout(recording, position, split)
 

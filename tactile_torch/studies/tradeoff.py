@@ -47,9 +47,8 @@ def _image_data(ctx):
     import numpy as np
 
     from ..data.images import FRAME_RATE_HZ
-    from ..image import DEFAULT_EROSION, exploration_features
+    from ..image import DEFAULT_EROSION, exploration_features, relative_erosion
     from ..tradeoff.inputs import TradeoffData
-    from ..tradeoff.transformers import relative_erosion
     from .image_features import dataset, features
 
     data = dataset(ctx)
@@ -115,9 +114,9 @@ def _show(section, ctx, title: str, result, out: Path, paths: dict) -> None:
 
 
 def run(section, ctx) -> None:
+    from ..export.parts import ExportPool
     from ..tradeoff import write_outputs
     from ..tradeoff.evaluation import submit_fronts
-    from ..tradeoff.export import ExportPool
     from ..tradeoff.runner import execute_plan, plan_tradeoff
 
     mode = ctx.mode

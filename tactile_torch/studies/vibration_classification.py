@@ -45,9 +45,8 @@ def scaled_features(windows, train: np.ndarray) -> np.ndarray:
 def run(section, ctx) -> None:
     from sklearn.svm import SVC as LibSVC
 
-    from ..engine.folds import odd_even_split
     from ..metrics import class_report
-    from ..model_selection import rank_feature_groups, stratified_grid_search
+    from ..model_selection import odd_even_split, rank_feature_groups, stratified_grid_search
     from ..signal import AXES, AXIS_FEATURES, FEATURE_NAMES
     from ..svm import SVC, HierarchicalSVC
     from .vibration_features import bundled_recordings
@@ -153,7 +152,7 @@ def _agreement(section, ctx, X_train, y_train, X_test) -> None:
     from sklearn.svm import SVC as LibSVC
 
     from ..data import shared_data_dir
-    from ..engine.folds import odd_even_split
+    from ..model_selection import odd_even_split
     from ..svm import SVC, scale_gamma
 
     sets = [("synthetic (bundled)", X_train, y_train, X_test, None)]

@@ -18,8 +18,7 @@ from sklearn.utils._param_validation import Interval, Options, StrOptions
 from sklearn.utils.multiclass import check_classification_targets
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-from .._checks import numpy_rng
-from .._constraints import RANDOM_STATE
+from ..validation import RANDOM_STATE, numpy_rng
 from . import _smo
 from .kernels import KERNELS, KernelData, scale_gamma
 from .probability import cross_val_decisions, platt_parameters

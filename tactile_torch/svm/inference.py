@@ -2,7 +2,7 @@
 (:class:`SVMInference`) that the estimators' ``to_module()`` returns and that exports to ONNX.
 
 Every step is a fixed sequence of tensor operations (no data-dependent loop), so the graph exports
-with the dynamo exporter (``tactile_torch._onnx.export_onnx``) and runs under onnxruntime. The
+with the dynamo exporter (``tactile_torch.export.export_onnx``) and runs under onnxruntime. The
 estimators' own ``predict`` and ``decision_function`` compute the same values with compiled
 kernels (:mod:`tactile_torch.svm._smo`); tests hold the two paths equal.
 """
@@ -260,7 +260,7 @@ class SVMInference(torch.nn.Module):
     (:func:`probabilities`) and the labels stay the ones above.
 
     The support vectors of every decision function are stored once. Exports to ONNX with
-    ``tactile_torch._onnx.export_onnx`` (gather/where steps, no loops in the graph). Build it with the
+    ``tactile_torch.export.export_onnx`` (gather/where steps, no loops in the graph). Build it with the
     estimators' ``to_module()``, or from saved buffers with :meth:`from_state`.
 
     Parameters

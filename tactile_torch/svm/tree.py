@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numba import njit, types
 
-from .._checks import RandomState, numpy_rng
+from ..validation import RandomState, numpy_rng
 
 if TYPE_CHECKING:  # the base class, not estimators.SVC: estimators imports this module
     from ._base import _KernelMachine

@@ -5,12 +5,12 @@ explorations, raw pressure maps from a small taxel array, vibration recordings o
 feature matrix), :func:`run_tradeoff` builds candidate models (:mod:`.candidates`: HM-SVM, SVC, LDA,
 kNN and nearest class mean on every feature set), cross-validates them with folds that keep related
 samples apart (:mod:`.inputs`), exports each to one ONNX file and times it under onnxruntime
-(:mod:`.evaluation`, :mod:`.export`), finds the Pareto front of accuracy against time to a decision
+(:mod:`.evaluation`, :mod:`tactile_torch.export.parts`), finds the Pareto front of accuracy against time to a decision
 and applies the one-standard-error rule (:mod:`.selection`); :func:`write_outputs` writes
 ``tradeoff.json``, ``tradeoff.md`` and the charts (:mod:`.output`).
 
 Every candidate is a scikit-learn ``Pipeline`` that takes the raw input, with a ``features`` step
-(:mod:`.transformers`) and a ``classifier`` step; ``sklearn.base.clone`` gives an unfitted copy.
+(:mod:`tactile_torch.features`) and a ``classifier`` step; ``sklearn.base.clone`` gives an unfitted copy.
 
 Examples
 --------

@@ -1,4 +1,4 @@
-"""The background export process of :class:`tactile_torch.tradeoff.export.ExportPool`.
+"""The background export process of :class:`tactile_torch.export.parts.ExportPool`.
 
 Started as ``python -m tactile_torch.tradeoff._worker`` (a plain subprocess, so that the caller's
 ``__main__`` is never re-imported, unlike ``multiprocessing``'s spawn). Reads one line per job from

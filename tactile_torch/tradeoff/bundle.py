@@ -4,10 +4,10 @@ What a robot runs is what the study times: a candidate's timing file (its first 
 deployed file (refitted on all the data, ``recommended.onnx``) are written by the same two steps,
 
 1. :func:`bare_bundle`: the candidate's graph, raw input → labels and scores (a classical candidate's
-   feature graph joined to its classifier head, :mod:`.export`; a learned one exported whole with its
+   feature graph joined to its classifier head, :mod:`~tactile_torch.export.parts`; a learned one exported whole with its
    embedding as a third output, :class:`~.unknown.EmbeddingGraph`), with the bundle's metadata (frame
    bundles: the live stream's touch levels and early-decision rule); an int8 variant quantises this
-   file (:func:`~.int8.quantise_bundle`);
+   file (:func:`~tactile_torch.export.int8.quantise_bundle`);
 2. :func:`finish_bundle`: the "unknown" rule fitted on the model's training samples as the file computes
    them, its distance part attached to the tensor it reads (:mod:`.unknown`), sealed and saved.
 
@@ -72,8 +72,16 @@ def bare_bundle(
     """
     from sklearn.base import clone
 
-    from ..engine import needs_fit
-    from .export import bind_head, export_fixed_head, export_front, export_head, head_key, head_modules, join
+    from ..export.parts import (
+        bind_head,
+        export_fixed_head,
+        export_front,
+        export_head,
+        head_key,
+        head_modules,
+        join,
+    )
+    from ..model_selection import needs_fit
     from .learned import is_learned
 
     path = Path(path)
@@ -81,7 +89,7 @@ def bare_bundle(
     clf = model.steps[-1][1]
     names = [class_names[int(c)] for c in clf.classes_]
     if is_learned(model):
-        from ..neural import export_classifier
+        from ..export import export_classifier
         from .unknown import EmbeddingGraph
 
         return export_classifier(
@@ -112,7 +120,7 @@ def bare_bundle(
 
 
 def _export_distance(part: object, n_inputs: int, path: Path) -> Path:
-    from .export import export_head
+    from ..export.parts import export_head
 
     return export_head([part], n_inputs, path, output_names=(OOD_OUTPUT,))
 
@@ -139,9 +147,9 @@ def finish_bundle(
     """
     import onnx
 
-    from .._onnx import save_onnx
+    from ..export import save_onnx
+    from ..export.parts import bind_head, head_key
     from ..robot.runtime import OnnxPipeline
-    from .export import bind_head, head_key
     from .learned import is_learned
     from .unknown import EMBEDDING_NAME, attach_distance, classical_rule, embedding_rule
 

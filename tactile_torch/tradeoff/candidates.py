@@ -9,7 +9,7 @@ Classifiers come from the catalogue (:mod:`tactile_torch.catalogue`: HM-SVM, SVC
 set of names and settings for the whole package). :data:`CLASSIFIERS` holds their display names, which
 candidate names and tables use; ``classifiers=`` takes keys (``"hmsvm"``) or display names.
 
-Tuning (nested, :class:`tactile_torch.engine.Tuning`): every candidate with hyper-parameters is tuned
+Tuning (nested, :class:`tactile_torch.model_selection.Tuning`): every candidate with hyper-parameters is tuned
 inside each outer training fold over the catalogue's grid (``quick``: the smaller grid) on 3 inner
 folds, grouped where the data's groups allow: the SVMs over C x gamma (the batched
 :class:`~tactile_torch.model_selection.SVMGridSearchCV`), kNN over k, LDA over shrinkage, NCM over its
@@ -21,8 +21,8 @@ the whole), method 1's protocol. ``tune=False`` runs every candidate at the cata
 
 Feature sets by input kind (:func:`feature_sets`): vibration: the 21 features at every allowed window
 size and the ``k`` best-ranked of the 21 at the reference window; RGB explorations: fused 12,
-per-frame ``T x 12`` and, for frames of at most :data:`~.transformers.MAX_TAXELS` pixels, per-taxel
-time series; raw pressure maps: the same three through :class:`~.transformers.PressureImageFeatures`;
+per-frame ``T x 12`` and, for frames of at most :data:`~tactile_torch.features.transformers.MAX_TAXELS` pixels, per-taxel
+time series; raw pressure maps: the same three through :class:`~tactile_torch.features.transformers.PressureImageFeatures`;
 a feature file: all columns and the ``k`` best-ranked.
 """
 
@@ -36,8 +36,7 @@ from sklearn.pipeline import Pipeline
 from sklearn.preprocessing import StandardScaler
 
 from .. import catalogue
-from ..engine import CVResult, Tuning
-from .transformers import (
+from ..features.transformers import (
     MAX_TAXELS,
     FeaturePassthrough,
     ImageFeatureTransformer,
@@ -46,6 +45,7 @@ from .transformers import (
     TaxelFeatureTransformer,
     WindowFeatureTransformer,
 )
+from ..model_selection import CVResult, Tuning
 
 CLASSIFIERS = tuple(catalogue.display_name(key) for key in catalogue.CLASSIFIERS)
 """Classifier display names, in report order (the catalogue's; its keys work too)."""
@@ -95,7 +95,7 @@ def candidate_tuning(
 class FeatureRecipe:
     """How one feature set of the study is made: the raw input it reads and the ``features`` step.
 
-    (Not the features themselves: those of a data file are a :class:`tactile_torch.training.FeatureSet`.)
+    (Not the features themselves: those of a data file are a :class:`tactile_torch.features.files.FeatureSet`.)
 
     Attributes
     ----------
@@ -185,7 +185,7 @@ def feature_sets(
     quick : bool
         Fewer best-ranked subsets.
     threshold, erosion, contact
-        The image pipeline's constants (see :mod:`.transformers`); ``threshold="auto"`` is decided by
+        The image pipeline's constants (see :mod:`~tactile_torch.features.transformers`); ``threshold="auto"`` is decided by
         the caller before (the study's 240/255 or ``"otsu"``); for pressure maps it means ``"display"``.
     """
     top_k = QUICK_TOP_K if quick else TOP_K

@@ -7,7 +7,7 @@ inside it) on folds; what a robot runs is that procedure fitted once on all the 
 class does not apply: at most :data:`DEPLOY_MAX_PER_CLASS` per class and about :data:`DEPLOY_MAX_SAMPLES`
 in all, evenly spaced, said when it cuts), tunes
 the candidate as the folds did (its grid on inner folds of those samples,
-:meth:`tactile_torch.engine.CVResult.final_model`), fits it with the chosen parameters and writes
+:meth:`tactile_torch.model_selection.CVResult.final_model`), fits it with the chosen parameters and writes
 
 * ``<name>.onnx``: raw input → labels and scores, with the metadata ``tactile-torch predict`` and
   ``stream`` read (one file, onnxruntime only), written as the study's timing files are
@@ -18,7 +18,7 @@ the candidate as the folds did (its grid on inner folds of those samples,
   standardised features, a learned model's on its embedding. Its labels are checked against the
   refitted pipeline's on up to :data:`CHECK_SAMPLES` samples, and it is timed again (latency, size,
   memory: what the recommendation line, ``tradeoff.json`` and the charts then show);
-* ``<name>.npz``: the same (float) model as a model file (:mod:`tactile_torch.robot.model_file`, no
+* ``<name>.npz``: the same (float) model as a model file (:mod:`tactile_torch.robot.files.model_file`, no
   pickle) with the same rule, which ``tactile-torch export`` turns into the same graph, for the feature
   sets a model file describes (vibration windows, RGB explorations, feature matrices, with or without a
   best-ranked subset); raw pressure maps, per-taxel features and learned models have no model-file
@@ -46,7 +46,7 @@ from ..robot.contract import (
     STEP_KEY,
     WINDOW_SIZE_KEY,
 )
-from ..robot.naming import slug
+from ..robot.files.naming import slug
 
 CHECK_SAMPLES = 64
 """Samples on which the deployed ONNX file's labels are compared with the refitted pipeline's."""
@@ -60,8 +60,8 @@ on the bundled 28 surfaces (300 per class). The study's cap per class, when larg
 
 def _source(step: object, rate_hz: float | None) -> dict | None:
     """The model file's ``source`` of a fitted ``features`` step, or ``None`` when it has no model-file form."""
+    from ..features.transformers import FeaturePassthrough, ImageFeatureTransformer, WindowFeatureTransformer
     from ..image import DEFAULT_THRESHOLD
-    from .transformers import FeaturePassthrough, ImageFeatureTransformer, WindowFeatureTransformer
 
     if isinstance(step, WindowFeatureTransformer):
         return {
@@ -160,13 +160,13 @@ def live_metadata(result: object, name: str, model: object) -> tuple[dict, list[
     """Return what a deployed frame bundle records for the live stream (``stream`` on taxel frames) and notes.
 
     The frame rate, the value range and the touch levels of the training explorations
-    (:func:`tactile_torch.robot.touches.frame_metadata`; the contact direction and resting levels of a
-    fitted :class:`~.transformers.PressureImageFeatures` when the candidate has one), and the
+    (:func:`tactile_torch.robot.stream.touches.frame_metadata`; the contact direction and resting levels of a
+    fitted :class:`~tactile_torch.features.transformers.PressureImageFeatures` when the candidate has one), and the
     early-decision rule calibrated on the study's held-out touches (:mod:`.touch_time`). ``{}`` for
     vibration windows and feature matrices.
     """
-    from ..robot.touches import frame_metadata
-    from .transformers import PressureImageFeatures
+    from ..features.transformers import PressureImageFeatures
+    from ..robot.stream.touches import frame_metadata
 
     cand = result.result(name).candidate
     s = result.inputs[cand.input]
@@ -274,7 +274,7 @@ def deploy_candidate(
     )
     notes = list(live_notes)
     if variant.quantisation is not None:
-        from .int8 import CLASSIFIER_PREFIX, quantise_bundle
+        from ..export.int8 import CLASSIFIER_PREFIX, quantise_bundle
 
         calibration = OnnxPipeline(bare).validate(
             np.ascontiguousarray(s.X[_evenly(len(s.y), CALIBRATION_SAMPLES)])
@@ -366,7 +366,7 @@ def window_metadata(samples: object, rate_hz: float | None) -> dict:
 
 
 def _stateless(model: object) -> bool:
-    from ..engine import needs_fit
+    from ..model_selection import needs_fit
 
     return not needs_fit(model.named_steps["features"])
 

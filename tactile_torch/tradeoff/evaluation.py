@@ -3,7 +3,7 @@
 Stages (each with a progress bar):
 
 1. **features** and 2. **cross-validation** run on the evaluation engine
-   (:func:`tactile_torch.engine.cross_validate`), one raw input at a time, on the backend the caller
+   (:func:`tactile_torch.model_selection.cross_validate`), one raw input at a time, on the backend the caller
    chose (in this process, joblib's workers or a Dask cluster). A ``features`` step that needs no fit
    (scikit-learn's ``requires_fit`` tag is False) gives the same features whichever fold it is fitted
    on, so they are computed once per feature set for all samples, and its time is shared out over the
@@ -12,7 +12,7 @@ Stages (each with a progress bar):
    training part (:attr:`~.candidates.Candidate.tuning`), refitted with the chosen parameters and
    scored on the test part. *Fit time* = the training samples' features + tuning + the final fit,
    averaged over folds; *tuning time* is shown on its own too.
-3. **ONNX**: the first fold's fitted pipeline is exported (:mod:`.export`); its
+3. **ONNX**: the first fold's fitted pipeline is exported (:mod:`~tactile_torch.export.parts`); its
    *latency* is the median time of ``OnnxPipeline.predict`` on one held-out sample (batch 1,
    onnxruntime on one thread, input validation included), its *size* the file's bytes, and its labels
    on the first fold's first :data:`PARITY_SAMPLES` test samples are compared with the pipeline's
@@ -27,10 +27,10 @@ import numpy as np
 from sklearn.base import clone
 from sklearn.pipeline import Pipeline
 
-from ..engine import Backend, CVResult, needs_fit, progress_bar, signature
-from ..engine import cross_validate as engine_cross_validate
+from ..model_selection import Backend, CVResult, needs_fit, progress_bar, signature
+from ..model_selection import cross_validate as engine_cross_validate
 from ..robot.contract import PIPELINE_KEY
-from ..robot.naming import slug
+from ..robot.files.naming import slug
 from .candidates import Candidate, CandidateResult
 from .inputs import Samples
 
@@ -81,7 +81,7 @@ class FoldwiseCV:
     recommended (:mod:`.stopping`) and estimate the time left (:mod:`.progress`).
 
     The results do not depend on how the folds are cut into calls (each task's seed comes from the
-    candidate's name and the fold's number, ``fold_ids`` of :func:`tactile_torch.engine.cross_validate`),
+    candidate's name and the fold's number, ``fold_ids`` of :func:`tactile_torch.model_selection.cross_validate`),
     nor on the backend.
 
     Parameters
@@ -106,7 +106,7 @@ class FoldwiseCV:
         backend: Backend | None = None,
         random_state: int = 0,
     ) -> None:
-        from ..engine import as_backend
+        from ..model_selection import as_backend
 
         self.candidates = list(candidates)
         self.samples = samples
@@ -211,10 +211,10 @@ def cross_validate(
 
     ``precomputed`` maps :func:`features_key` to ``(features of every sample, seconds they took)`` for
     steps that need no fit whose features are already known. ``backend``, ``n_jobs`` and ``scheduler``
-    say where the engine's tasks run (:class:`tactile_torch.engine.Backend`); the results do not depend
+    say where the engine's tasks run (:class:`tactile_torch.model_selection.Backend`); the results do not depend
     on them. (The study itself runs :class:`FoldwiseCV` fold by fold, to stop candidates early.)
     """
-    from ..engine import as_backend
+    from ..model_selection import as_backend
 
     runner = as_backend(backend, n_jobs, scheduler)
     with runner:
@@ -233,7 +233,7 @@ def cross_validate(
 
 def submit_fronts(candidates: list[Candidate], samples: dict[str, Samples], pool: object) -> None:
     """Queue the export of every stateless feature graph (they do not depend on the folds) in ``pool``."""
-    from .export import export_front
+    from ..export.parts import export_front
 
     for cand in candidates:
         step = cand.estimator.named_steps["features"]
@@ -266,7 +266,7 @@ def timing_metadata(cand: Candidate, s: Samples, rate_hz: float | None) -> dict:
 
     meta: dict = {PIPELINE_KEY: f"tradeoff: {cand.name}", **window_metadata(s, rate_hz)}
     if s.layout in (PRESSURE_LAYOUT, FRAMES_LAYOUT):
-        from ..robot.touches import frame_metadata
+        from ..robot.stream.touches import frame_metadata
 
         meta.update(frame_metadata(s.X, frame_rate_hz=rate_hz, rgb=s.layout == FRAMES_LAYOUT)[0])
     return meta

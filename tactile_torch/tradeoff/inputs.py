@@ -1,10 +1,9 @@
 """The data of a trade-off study: one data file read through the package's loaders, cut into the raw
 inputs the candidates take, with cross-validation folds that never put related samples on both sides.
 
-Folds (every candidate of one raw input sees the same folds; made by :mod:`tactile_torch.engine.folds`,
-whose :func:`~tactile_torch.engine.folds.sample_folds`, :func:`~tactile_torch.engine.folds.window_folds`,
-:func:`~tactile_torch.engine.folds.fold_units` and :func:`~tactile_torch.engine.folds.cap_per_class`
-are also importable from here):
+Folds (every candidate of one raw input sees the same folds; made by :mod:`tactile_torch.model_selection`,
+whose :func:`~tactile_torch.model_selection.sample_folds`, :func:`~tactile_torch.model_selection.window_folds`,
+and :func:`~tactile_torch.model_selection.fold_units`):
 
 * **Vibration windows** (non-overlapping, ``step = W``). When every class has at least two
   recordings (or sessions, when the file gives ``session``), folds are grouped by recording
@@ -27,20 +26,14 @@ from pathlib import Path
 
 import numpy as np
 
-from .._checks import RandomState
-from ..engine.folds import (
-    _group_ids,
-    cap_per_class,
-    fold_units,
-    sample_folds,
-    window_folds,
-)
+from ..image import DEFAULT_FRAME_RATE_HZ
+from ..model_selection import cap_per_class, fold_units, sample_folds, window_folds
+from ..model_selection._split import _group_ids
 from ..robot.contract import FEATURES_LAYOUT, FRAMES_LAYOUT, PRESSURE_LAYOUT, WINDOWS_LAYOUT
+from ..validation import RandomState
 
 WINDOW_SIZES = (200, 400, 800, 1600)
 """Window sizes the study tries (those the recordings allow), in samples."""
-DEFAULT_FRAME_RATE_HZ = 10.0
-"""Frames per second of an exploration file that does not say (the study's 10)."""
 
 Fold = tuple[np.ndarray, np.ndarray]
 
@@ -153,7 +146,7 @@ def load_tradeoff_data(
     name: str | None = None,
 ) -> TradeoffData:
     """Read a data file (or CSV logs, ROS 2 bags) for :func:`~tactile_torch.tradeoff.run_tradeoff`, with
-    :func:`tactile_torch.robot.data_sources.read_source` (docs/formats.md).
+    :func:`tactile_torch.robot.files.data_sources.read_source` (docs/formats.md).
 
     Parameters
     ----------
@@ -171,7 +164,7 @@ def load_tradeoff_data(
         (``felt_3.csv`` and ``cork_3.csv`` are session ``3``), or the file itself when a name has
         none; ``"file"``: every file is its own session (recording).
     options : DataOptions, optional
-        Columns, units, time unit, topic ... (:class:`tactile_torch.robot.data_sources.DataOptions`).
+        Columns, units, time unit, topic ... (:class:`tactile_torch.robot.files.data_sources.DataOptions`).
     name : str, optional
         How the description names the data (default: the file).
 
@@ -182,7 +175,7 @@ def load_tradeoff_data(
     FileNotFoundError
         If a path does not exist.
     """
-    from ..robot.formats import data_name
+    from ..robot.files.formats import data_name
 
     if frame_rate_hz is not None and (
         isinstance(frame_rate_hz, bool)
@@ -196,14 +189,14 @@ def load_tradeoff_data(
     if hasattr(paths, "kind"):
         data, where = paths, name or "data"
     else:
-        from ..robot.data_sources import DataOptions, read_source
+        from ..robot.files.data_sources import DataOptions, read_source
 
         data = read_source(paths, options or DataOptions(allow_pickle=allow_pickle))
         where = name or data_name(paths)
     name = Path(where).name
     if data.kind == "vibration":
         if csv_session == "file" and not hasattr(paths, "kind") and _all_csv(paths):
-            # the naming rule (robot.csv_logs) gave each log the trailing number of its name as session
+            # the naming rule (robot.files.naming) gave each log the trailing number of its name as session
             files = [paths] if isinstance(paths, str | Path) else list(paths)
             data.session = np.array([Path(p).stem for p in files])
         return vibration_data(data, name)
@@ -293,7 +286,7 @@ def vibration_samples(
                 f"{longest} samples = {longest / recordings.rate_hz:g} s at {recordings.rate_hz:g} Hz); "
                 "choose a shorter window (window=)"
             )
-    from ..robot.windows import window_recordings
+    from ..robot.stream.windows import window_recordings
 
     ds = window_recordings(recordings.signals, window, gaps=getattr(recordings, "gaps", None))
     X, recording, position = ds.windows, ds.recording, ds.position
@@ -386,17 +379,12 @@ def exploration_samples(
 
 
 __all__ = [
-    "DEFAULT_FRAME_RATE_HZ",
     "WINDOW_SIZES",
     "Samples",
     "TradeoffData",
     "allowed_windows",
-    "cap_per_class",
     "exploration_samples",
-    "fold_units",
     "load_tradeoff_data",
-    "sample_folds",
     "vibration_data",
     "vibration_samples",
-    "window_folds",
 ]

@@ -2,16 +2,16 @@
 
 * **Learned candidates** (:func:`learned_candidates`): the catalogue's learned models
   (:data:`tactile_torch.catalogue.LEARNED`) on the raw input they take, each a ``Pipeline`` whose
-  ``features`` step is :class:`RawInput` (the raw input itself: nothing to fit, so the engine passes it
+  ``features`` step is :class:`~tactile_torch.features.RawInput` (the raw input itself: nothing to fit, so the engine passes it
   on once for all folds) and whose ``classifier`` is the model. Default (full) set: vibration, the small
   and large 1-D CNN and the learned spectral cut-off on the reference window; image explorations, the
   exploration CNN and the learned method-1 front end; raw pressure maps, the temporal taxel CNN.
   ``quick``: none unless ``classifiers`` names them (then at most :data:`QUICK_EPOCHS` epochs): with
   the small CNN, ``tradeoff --quick`` on the bundled stylus recordings took 194 s, over its 2-minute
   budget. They are exported whole
-  (:func:`tactile_torch.neural.export_classifier`) and timed like the others.
+  (:func:`tactile_torch.export.export_classifier`) and timed like the others.
 * **int8** (:func:`add_int8_and_memory`): every exported candidate (``quick``: the learned ones) gets an
-  int8 variant (:func:`tactile_torch.tradeoff.int8.quantise_bundle`: static, calibrated on 32 samples of
+  int8 variant (:func:`tactile_torch.export.int8.quantise_bundle`: static, calibrated on 32 samples of
   each training fold; dynamic for the networks, whose labels static int8 kept only 0.55-0.60 of on the
   bundled and HapMat windows against 0.91-0.94 for dynamic; a classical bundle's classifier only, its
   feature graph staying in float, and none when that leaves nothing quantised, said in its notes), a
@@ -29,45 +29,20 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import ClassVar
 
 import numpy as np
-from sklearn.base import BaseEstimator, TransformerMixin, _fit_context
 from sklearn.pipeline import Pipeline
 
 from .. import catalogue
+from ..features.transformers import RawInput
 from ..robot.contract import CLASS_NAMES_KEY, PIPELINE_KEY, STEP_KEY, WINDOW_SIZE_KEY
-from ..robot.naming import slug
+from ..robot.files.naming import slug
 
 QUICK_EPOCHS = 30
 """Epochs of the networks under ``quick`` (early stopping may end them sooner)."""
 CALIBRATION_SAMPLES = 32
 """Training samples of each fold that calibrate its static int8 quantisation."""
 RAW_NAMES = {"windows": "raw window", "frames": "raw frames", "pressure": "raw maps"}
-
-
-class RawInput(TransformerMixin, BaseEstimator):
-    """The raw input unchanged (the ``features`` step of a learned candidate); nothing is learnt."""
-
-    _parameter_constraints: ClassVar[dict] = {}
-
-    @_fit_context(prefer_skip_nested_validation=True)
-    def fit(self, X: object, y: object = None) -> RawInput:
-        self.input_shape_ = tuple(np.shape(X)[1:])
-        return self
-
-    def transform(self, X: object) -> np.ndarray:
-        return np.asarray(X)
-
-    def to_module(self) -> object:
-        from torch import nn
-
-        return nn.Identity()
-
-    def __sklearn_tags__(self):
-        tags = super().__sklearn_tags__()
-        tags.requires_fit = False
-        return tags
 
 
 def is_learned(model: object) -> bool:
@@ -151,7 +126,7 @@ def n_parameters(model: object) -> int | None:
     clf = model.steps[-1][1]
     if hasattr(clf, "n_parameters_"):
         return int(clf.n_parameters_)
-    from .export import head_modules
+    from ..export.parts import head_modules
 
     try:
         return int(sum(b.numel() for m in head_modules(model) for b in m.buffers()))
@@ -161,7 +136,7 @@ def n_parameters(model: object) -> int | None:
 
 def export_learned(res: object, samples: object, class_names: tuple, path: Path, metadata: dict) -> Path:
     """Export a learned candidate's first-fold model to ``path`` with the trade-off's metadata."""
-    from ..neural import export_classifier
+    from ..export import export_classifier
 
     clf = res.model.steps[-1][1]
     s = samples
@@ -181,7 +156,7 @@ def _fold_file(res: object, k: int, first: Path, samples: object, parts: Path, f
     path = parts / f"{first.stem}-fold{k}.onnx"
     test = samples.folds[k][1]
     if is_learned(model):
-        from ..neural.comparison import rebind
+        from ..export.fitted import rebind
 
         clf = model.steps[-1][1]
         done = rebind(first, clf, np.ascontiguousarray(samples.X[test[:5]]), path)
@@ -190,7 +165,7 @@ def _fold_file(res: object, k: int, first: Path, samples: object, parts: Path, f
         import onnx
 
         meta = {p.key: p.value for p in onnx.load(str(first)).metadata_props}
-        from ..neural import export_classifier
+        from ..export import export_classifier
 
         names = __import__("json").loads(meta[CLASS_NAMES_KEY])
         return export_classifier(clf, path, np.ascontiguousarray(samples.X[test[:2]]), class_names=names)
@@ -225,10 +200,10 @@ def add_int8_and_memory(
     """
     import dataclasses
 
-    from ..engine import progress_bar
+    from ..export.int8 import CLASSIFIER_PREFIX, quantise_bundle, quantised_nodes
+    from ..model_selection import progress_bar
     from ..robot.runtime import OnnxPipeline
     from .candidates import CandidateResult
-    from .int8 import CLASSIFIER_PREFIX, quantise_bundle, quantised_nodes
 
     out_dir = Path(out_dir)
     parts = out_dir / "parts-int8"
@@ -331,7 +306,7 @@ def measure_memory(
     results: list, samples: dict, out_dir: str | Path, *, only: set[str] | None, progress: bool
 ) -> None:
     """Fill ``memory_mib`` of the results with a file (only those named in ``only`` when given)."""
-    from ..engine import progress_bar
+    from ..model_selection import progress_bar
     from ..robot.runtime import OnnxPipeline
     from .memory import peak_memory_mib
 
@@ -349,7 +324,6 @@ def measure_memory(
 __all__ = [
     "CALIBRATION_SAMPLES",
     "QUICK_EPOCHS",
-    "RawInput",
     "add_int8_and_memory",
     "export_learned",
     "is_learned",

@@ -9,10 +9,10 @@ from pathlib import Path
 
 import numpy as np
 
+from ..export.parts import ExportPool
 from ..robot.contract import SAMPLE_RATE_KEY
 from .candidates import build_candidates, feature_sets
 from .evaluation import export_and_time, submit_fronts
-from .export import ExportPool
 from .inputs import (
     WINDOW_SIZES,
     Samples,
@@ -175,7 +175,7 @@ def plan_tradeoff(
         Image pipeline's pressed threshold. RGB frames: ``"auto"`` takes the study's 240/255 for
         displays with a white background, Otsu's threshold of each training fold's histogram
         otherwise; a float is a gray level in (0, 1]. Raw pressure maps: ``"auto"`` is ``"display"``
-        (see :class:`~.transformers.PressureImageFeatures`); a float is a fraction of the pressure scale.
+        (see :class:`~tactile_torch.features.transformers.PressureImageFeatures`); a float is a fraction of the pressure scale.
     erosion : "relative" or int
     contact : {"raises", "lowers", "auto"}
         Raw pressure maps: which way contact moves a reading.
@@ -215,8 +215,8 @@ def plan_tradeoff(
         fewer samples, groups or time blocks), ``max_per_class`` below 2, ``frame_rate_hz`` not
         positive and finite, ``window`` not a positive integer; data of a single class.
     """
-    from .._checks import check_positive
-    from ..engine import needs_fit
+    from ..model_selection import needs_fit
+    from ..validation import check_positive
     from .evaluation import features_key
 
     start = time.perf_counter()
@@ -348,10 +348,10 @@ def execute_plan(
     not for deployment), and after each fold but the last the candidates that cannot be recommended
     stop (:mod:`.stopping`; ``exhaustive=True``: none). ``target``: the accuracy a deployment needs
     (:func:`~.selection.choose`). ``backend``, ``n_jobs`` and ``scheduler`` say where the
-    cross-validation tasks run (:class:`tactile_torch.engine.Backend`: ``"loky"``, ``"threading"``,
+    cross-validation tasks run (:class:`tactile_torch.model_selection.Backend`: ``"loky"``, ``"threading"``,
     ``"dask"`` with a scheduler address ...); the results do not depend on them.
     """
-    from ..engine import as_backend
+    from ..model_selection import as_backend
     from .evaluation import FoldwiseCV
     from .progress import RemainingTime, minutes
     from .stopping import EarlyStopping
@@ -613,7 +613,7 @@ def run_tradeoff(
     -------
     TradeoffResult
     """
-    from ..engine import Backend
+    from ..model_selection import Backend
 
     runner = Backend(backend, n_jobs, scheduler)  # checked before any work
     target = options.pop("target", None)
@@ -630,7 +630,7 @@ def run_tradeoff(
             f"deploy must name a candidate of this study, got {unknown[0]!r}; candidates: {known} "
             "(or their int8 variants, 'NAME (int8)')"
         )
-    from ..robot.errors import internal_stage
+    from ..exceptions import internal_stage
 
     # The input is accepted from here on: an error below is a bug (status 1), whatever its class.
     with ExportPool(Path(out_dir) / "timing" / "parts", background=background) as pool, runner:

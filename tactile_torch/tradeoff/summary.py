@@ -298,9 +298,9 @@ def summarise(
 
 def touch_ms(latency_ms: float, samples: Samples) -> float | None:
     """A frame candidate's inference per touch, at most: the end of the touch and every checkpoint of an
-    early-decision rule (:func:`tactile_torch.robot.early_decision.checkpoints_for`); ``None`` otherwise."""
+    early-decision rule (:func:`tactile_torch.robot.stream.early_decision.checkpoints_for`); ``None`` otherwise."""
     from ..robot.contract import FRAMES_LAYOUT, PRESSURE_LAYOUT
-    from ..robot.early_decision import checkpoints_for
+    from ..robot.stream.early_decision import checkpoints_for
 
     if samples.layout not in (PRESSURE_LAYOUT, FRAMES_LAYOUT):
         return None

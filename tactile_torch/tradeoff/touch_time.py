@@ -2,15 +2,15 @@
 
 For frame data (explorations of ``T`` frames: RGB images or pressure maps) every held-out exploration is
 a touch. Each fold's model (fitted without it) classifies the touch's first ``k`` frames at the
-checkpoints of :func:`tactile_torch.robot.early_decision.checkpoints_for` (in ``quick`` runs the
+checkpoints of :func:`tactile_torch.robot.stream.early_decision.checkpoints_for` (in ``quick`` runs the
 quarters), brought to ``T`` frames exactly as the live stream brings them
-(:func:`tactile_torch.robot.touches.fit_frames`), and the whole touch (the study's out-of-fold
+(:func:`tactile_torch.robot.stream.touches.fit_frames`), and the whole touch (the study's out-of-fold
 prediction). Per checkpoint the accuracy is summarised over the data's units with the study's
 interval (:func:`~.selection.unit_interval`: the 95 % prediction interval for a new unit, or the range
 over fewer than 5 units): :func:`accuracy_vs_time`, for the recommended candidate and the runner-up.
 
 The same held-out scores calibrate the deployed bundle's early-decision rule
-(:func:`tactile_torch.robot.early_decision.calibrate_early_rule`): the score margin of each touch at each
+(:func:`tactile_torch.robot.stream.early_decision.calibrate_early_rule`): the score margin of each touch at each
 checkpoint, and whether its label was right. The scores are the ones the exported graph gives
 (the candidate's features, then its head's torch inference modules: what the ONNX file computes).
 """
@@ -22,14 +22,14 @@ from pathlib import Path
 
 import numpy as np
 
-from ..robot.early_decision import (
+from ..robot.stream.early_decision import (
     DEFAULT_ERROR,
     EarlyRule,
     calibrate_early_rule,
     checkpoints_for,
     score_margins,
 )
-from ..robot.touches import fit_frames
+from ..robot.stream.touches import fit_frames
 
 QUICK_SHARES = (0.25, 0.5, 0.75)
 """Checkpoints of a ``quick`` study, as shares of ``T`` (the full rule's seven in a full study)."""
@@ -84,7 +84,7 @@ def fold_scores(
     import torch
     from torch import nn
 
-    from .export import head_modules
+    from ..export.parts import head_modules
     from .learned import is_learned
 
     with torch.no_grad():
@@ -131,7 +131,7 @@ def touch_time(
     ``cache``: features of prefixes by (features step, frames), shared between candidates whose
     ``features`` step needs no fit.
     """
-    from ..engine import needs_fit
+    from ..model_selection import needs_fit
     from .evaluation import features_key
     from .learned import is_learned
     from .selection import unit_accuracy, unit_interval

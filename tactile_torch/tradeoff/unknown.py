@@ -18,7 +18,7 @@ raw input:
 
 The distance part (selection, standardisation, :class:`~tactile_torch.ood.MahalanobisDistance`) is
 exported once per structure with its fitted arrays as inputs and bound per candidate
-(:func:`~.export.bind_head`), then attached to the bundle reading that tensor (:func:`attach_distance`):
+(:func:`~tactile_torch.export.parts.bind_head`), then attached to the bundle reading that tensor (:func:`attach_distance`):
 its nodes are prefixed ``ood.`` and stay in float in an int8 file (they are attached after
 quantisation).
 """
@@ -53,9 +53,9 @@ class DistancePart(nn.Module):
 
     def __init__(self, rule: dict, *, columns: object, center: object, scale: object) -> None:
         super().__init__()
+        from ..features.transformers import ColumnSelect
         from ..ood import distance_module
         from ..signal import ScaleFeatures
-        from .transformers import ColumnSelect
 
         self.select = ColumnSelect(columns)
         self.standardise = ScaleFeatures(
@@ -72,7 +72,7 @@ class EmbeddingGraph(nn.Module):
     """A learned graph (``embed`` and ``classify``) as raw input → ``(labels, scores, embedding)``.
 
     The graph's submodules and buffers are registered under their own names, so that the exported
-    weights are named as in the graph alone (:func:`tactile_torch.neural.comparison.rebind` binds another
+    weights are named as in the graph alone (:func:`tactile_torch.tradeoff.comparison.rebind` binds another
     fold's weights by those names).
     """
 
@@ -141,7 +141,7 @@ def attach_distance(model: object, part: object, reads: str, rule: dict) -> obje
     import onnx
     from onnx import compose
 
-    from .._onnx import unsealed
+    from ..export import unsealed
     from ..robot.contract import QUANTILE_KEY, THRESHOLD_KEY, metadata_strings
 
     side = compose.add_prefix(unsealed(part), "ood.", rename_outputs=False)

@@ -39,7 +39,7 @@ def test_cli_cluster_writes_the_clustering(tmp_path, capsys):
     summary = (out / "summary.txt").read_text()
     assert summary.splitlines()[1].startswith("K, posterior: mode 3")
     assert "pairwise accuracy: point estimate 1.0000" in summary
-    assert (out / "model.npz").is_file()  # for tactile-torch export (tests/test_pipeline.py)
+    assert (out / "model.npz").is_file()  # for tactile-torch export (tests/export/test_model_graph.py)
     np.savez(tmp_path / "bad.npz", X=X)
     assert main(["cluster", "--data", str(tmp_path / "bad.npz"), "--out", str(out)]) == 2
     assert "or a feature matrix ('features'), found keys ['X']" in capsys.readouterr().err
@@ -87,10 +87,10 @@ def test_cluster_export_predict_and_stream_share_the_calibrated_novelty_rule(tmp
 
     from tactile_torch.cli import main
     from tactile_torch.data.stylus import SURFACES, make_vibration_recordings
-    from tactile_torch.pipeline import pipeline_from_model
+    from tactile_torch.export.model_graph import pipeline_from_model
     from tactile_torch.robot.contract import NOVELTY_THRESHOLDS_KEY
-    from tactile_torch.robot.discovery import SurfaceDiscovery
     from tactile_torch.robot.runtime import OnnxPipeline
+    from tactile_torch.robot.stream.discovery import SurfaceDiscovery
 
     rec = make_vibration_recordings(
         surfaces=[SURFACES[0], SURFACES[5], SURFACES[7]], duration_s=10.0, random_state=0

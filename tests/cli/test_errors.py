@@ -385,8 +385,8 @@ def test_simulate_sensor_plays_any_layout(tmp_path, monkeypatch, capsys):
 
     import serial
 
-    from tactile_torch.robot.formats import RecordingArrays, write_recordings
-    from tactile_torch.robot.stream import parse_sample
+    from tactile_torch.robot.files.formats import RecordingArrays, write_recordings
+    from tactile_torch.robot.stream.wire import parse_sample
 
     rng = np.random.default_rng(0)
     signals = [rng.normal(0, 0.1, (n, 3)).astype(np.float32) for n in (300, 450)]
@@ -496,7 +496,7 @@ def test_a_header_only_csv_is_one_line_without_a_numpy_warning(tmp_path):
             "-W",
             "default",
             "-c",
-            f"from tactile_torch.robot.formats import read_data; read_data({[str(path)]!r})",
+            f"from tactile_torch.robot.files.formats import read_data; read_data({[str(path)]!r})",
         ],
         capture_output=True,
         text=True,
@@ -602,7 +602,7 @@ def test_an_out_where_nothing_can_be_written_is_refused_before_any_work(
     --out and the place, status 2. As root, permissions do not stop a write: access() is made to say so."""
     import os
 
-    import tactile_torch.robot.safe_write as safe_write
+    import tactile_torch.robot.files.safe_write as safe_write
 
     locked = tmp_path / "locked"
     locked.mkdir()
@@ -631,7 +631,7 @@ def test_an_out_where_nothing_can_be_written_is_refused_before_any_work(
 
 
 def test_write_atomic_leaves_no_partial_file(tmp_path):
-    from tactile_torch.robot.safe_write import write_atomic
+    from tactile_torch.robot.files.safe_write import write_atomic
 
     path = tmp_path / "out.bin"
     path.write_bytes(b"old")
@@ -708,7 +708,7 @@ def test_the_traceback_of_a_bug_is_shown_only_with_debug(files):
 
 def test_an_input_error_of_the_library_is_bad_input_whatever_its_base(files, monkeypatch, capsys):
     import tactile_torch.training as training
-    from tactile_torch.robot.errors import InputTypeError
+    from tactile_torch.exceptions import InputTypeError
 
     def refuse(*args, **kwargs):
         raise InputTypeError("labels must be integers, got float64")
@@ -723,8 +723,8 @@ def test_an_input_error_of_the_library_is_bad_input_whatever_its_base(files, mon
 
 
 def test_the_validation_helpers_raise_input_errors():
-    from tactile_torch._checks import check_positive, check_tensor
-    from tactile_torch.robot.errors import InputError, InputTypeError
+    from tactile_torch.exceptions import InputError, InputTypeError
+    from tactile_torch.validation import check_positive, check_tensor
 
     with pytest.raises(InputTypeError, match=r"frames must be a torch\.Tensor, got list"):
         check_tensor([1, 2], "frames")
@@ -742,7 +742,7 @@ def test_an_error_inside_a_stage_on_accepted_input_is_internal_whatever_its_clas
     accepted is a bug: status 1 "internal error in <stage>", never status 2 (bad input)."""
     import tactile_torch.tradeoff.runner as runner
     from tactile_torch.data.vibration import VibrationRecordings
-    from tactile_torch.robot.errors import InternalError, internal_stage
+    from tactile_torch.exceptions import InternalError, internal_stage
 
     with pytest.raises(InternalError) as caught, internal_stage("feature SNR"):
         raise ValueError("x must have shape (B, F), got (240, 3, 800)")

@@ -11,8 +11,8 @@ import pytest
 
 from tactile_torch.cli import BAD_INPUT_EXIT, main
 from tactile_torch.data import make_vibration_recordings
-from tactile_torch.robot.data_sources import DataOptions, read_source
-from tactile_torch.robot.windows import window_recordings
+from tactile_torch.robot.files.data_sources import DataOptions, read_source
+from tactile_torch.robot.stream.windows import window_recordings
 
 G = 9.80665
 USER_COLUMNS = ["--columns", "timestamp_ms,acc_x,acc_y,acc_z", "--units", "m/s2"]
@@ -78,7 +78,7 @@ def test_the_users_logs_train_at_800_hz_by_day_without_warnings(user, tmp_path, 
         in out
     )
     assert "2 folds grouped by session (none on both sides), stratified; 2 sessions: day1, day2\n" in out
-    from tactile_torch.robot.model_file import load_model_file
+    from tactile_torch.robot.files.model_file import load_model_file
 
     assert load_model_file(tmp_path / "m.npz").header["source"]["rate_hz"] == 800.0
     stated = read_source(
@@ -120,7 +120,7 @@ def test_a_wrong_time_unit_or_rate_is_one_line(user, capsys, option, says):
 
 def _logs(folder: Path, rec, *, rows=None) -> list[Path]:
     """``<class>_<n>.csv`` logs (t in s, g) of ``rec``; ``rows`` (index -> text) replaces lines of the first."""
-    from tactile_torch.robot.csv_logs import write_csv_recording
+    from tactile_torch.robot.files.csv_logs import write_csv_recording
 
     folder.mkdir(parents=True, exist_ok=True)
     paths = [
@@ -170,7 +170,7 @@ def test_a_recording_shorter_than_a_window_is_named(small, tmp_path, capsys):
     with pytest.warns(
         UserWarning, match=r"1 of 3 recordings are shorter than one window of 800 samples and give none"
     ):
-        from tactile_torch.training import load_features
+        from tactile_torch.features.files import load_features
 
         load_features(read_source([glass_0, aluminium_0, aluminium_1]), window=800)
 
@@ -268,8 +268,9 @@ def test_a_byte_flipped_inside_a_compressed_member_is_one_line(tmp_path, capsys)
 
 @pytest.mark.parametrize("window", [5, 2 * 10**12])
 def test_a_model_header_declaring_a_window_train_never_makes_is_refused(tmp_path, capsys, window):
-    from tactile_torch.robot.model_file import HEADER
-    from tactile_torch.training import load_features, save_model, train_classifier
+    from tactile_torch.features.files import load_features
+    from tactile_torch.robot.files.model_file import HEADER
+    from tactile_torch.training import save_model, train_classifier
 
     rec = make_vibration_recordings(2, duration_s=2.0, n_sessions=2, random_state=0)
     features = load_features(read_source(_logs(tmp_path / "logs", rec)), window=200)
@@ -289,7 +290,7 @@ def test_a_model_header_declaring_a_window_train_never_makes_is_refused(tmp_path
 
 
 def test_cluster_refuses_sessions_of_one_surface_before_any_work(tmp_path, capsys, monkeypatch):
-    import tactile_torch.training
+    import tactile_torch.features.files
 
     rec = make_vibration_recordings(2, duration_s=2.0, n_sessions=2, random_state=0)
     session = np.array([rec.class_names[label] for label in rec.labels])  # every session one surface
@@ -305,7 +306,7 @@ def test_cluster_refuses_sessions_of_one_surface_before_any_work(tmp_path, capsy
     def no_work(*args, **kwargs):
         raise AssertionError("features were computed before the sessions were checked")
 
-    monkeypatch.setattr(tactile_torch.training, "load_features", no_work)
+    monkeypatch.setattr(tactile_torch.features.files, "load_features", no_work)
     status, _out, err = _run(
         ["cluster", "--data", tmp_path / "s.npz", "--sessions", "--out", tmp_path / "k"], capsys
     )
@@ -318,7 +319,8 @@ def test_cluster_refuses_sessions_of_one_surface_before_any_work(tmp_path, capsy
 
 
 def test_a_time_block_split_says_why_in_words_the_data_bear_out():
-    from tactile_torch.training import FeatureSet, held_out_folds
+    from tactile_torch.features.files import FeatureSet
+    from tactile_torch.training import held_out_folds
 
     # 2 classes, each 2 recordings of one session ("a", "b"): not a single recording per class
     recording = np.repeat(np.arange(4), 10)
@@ -343,7 +345,7 @@ def test_simulate_sensor_plays_the_users_csv_at_its_rate(user, monkeypatch, caps
 
     import serial
 
-    from tactile_torch.robot.stream import parse_sample
+    from tactile_torch.robot.stream.wire import parse_sample
 
     _, paths, rec = user
     wire = io.BytesIO()

@@ -16,7 +16,7 @@ import pytest
 import serial
 
 from tactile_torch.cli import STREAM_DISCONNECTED_EXIT, STREAM_NO_DATA_EXIT, STREAM_OUTPUT_CLOSED_EXIT, main
-from tactile_torch.robot.stream import format_sample, parse_line
+from tactile_torch.robot.stream.wire import format_sample, parse_line
 from tests.conftest import _NO_TORCH
 from tests.stream_helpers import PtySensor, axis_recording, energy_bundle, expected_axis
 

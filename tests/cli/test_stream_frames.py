@@ -16,12 +16,12 @@ import serial
 
 from tactile_torch.cli import main
 from tactile_torch.cli.simulate_sensor import MAX_SIMULATED_S
-from tactile_torch.robot.frame_recordings import FrameRecording, write_frame_recording
-from tactile_torch.robot.live import LiveOptions, LiveStream, item_spec
+from tactile_torch.robot.files.frame_recordings import FrameRecording, write_frame_recording
 from tactile_torch.robot.runtime import OnnxPipeline
-from tactile_torch.robot.serial_source import SerialSource
-from tactile_torch.robot.stream_output import result_record
-from tactile_torch.robot.wire import simulate_frames
+from tactile_torch.robot.stream.live import LiveOptions, LiveStream, item_spec
+from tactile_torch.robot.stream.output import result_record
+from tactile_torch.robot.stream.serial_source import SerialSource
+from tactile_torch.robot.stream.wire import simulate_frames
 from tests.stream_helpers import PtySensor, template_bundle
 
 PAUSE_S = 0.7  # the sensor stops this long inside the last touch (the stream's silence is 0.5 s)
@@ -116,7 +116,7 @@ def test_stream_json_and_simulate_sensor_as_commands(tmp_path, capsys):
     the summary); ``simulate-sensor`` plays the frame recording on a pty as frame lines."""
     import signal
 
-    from tactile_torch.robot.serial_source import parse_values
+    from tactile_torch.robot.stream.serial_source import parse_values
 
     x, y, names, rate, replay = _grasps("synthetic", None)
     bundle = template_bundle(tmp_path / "grasp.onnx", x, y, names, frame_rate_hz=rate)

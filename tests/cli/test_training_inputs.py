@@ -1,6 +1,6 @@
-"""What the training commands read: recordings through the robot's readers (tactile_torch.robot.data_sources,
+"""What the training commands read: recordings through the robot's readers (tactile_torch.robot.files.data_sources,
 whose own tests, torch-free, are in tests/robot/), the held-out split of ``train`` on them, and model files
-(tactile_torch.robot.model_file) at ``export``. These need the training extra, so they are not robot tests."""
+(tactile_torch.robot.files.model_file) at ``export``. These need the training extra, so they are not robot tests."""
 
 from __future__ import annotations
 
@@ -10,9 +10,10 @@ import torch
 
 from tactile_torch.cli import BAD_INPUT_EXIT, main
 from tactile_torch.data import load_hapmat_imu5, load_vibration_csv, make_vibration_recordings
-from tactile_torch.robot.data_sources import DataOptions, read_source
-from tactile_torch.robot.model_file import FORMAT, load_model_file
-from tactile_torch.training import held_out_folds, load_features, train_classifier
+from tactile_torch.features.files import load_features
+from tactile_torch.robot.files.data_sources import DataOptions, read_source
+from tactile_torch.robot.files.model_file import FORMAT, load_model_file
+from tactile_torch.training import held_out_folds, train_classifier
 from tests.robot_data import write_logs as _logs
 
 G = 9.80665
@@ -74,7 +75,7 @@ def test_cli_reads_m_s2_logs_in_ms_with_options(tmp_path, rec, capsys):
     assert main([*argv, "--time-unit", "ms", "--units", "m/s2", "--out", str(out)]) == 0
     text = capsys.readouterr().out
     assert "grouped by session" in text and "overall accuracy" in text
-    from tactile_torch.robot.model_file import load_model_file
+    from tactile_torch.robot.files.model_file import load_model_file
 
     assert load_model_file(out).header["source"]["rate_hz"] == 800.0
 
@@ -102,8 +103,8 @@ def test_train_holds_out_whole_sessions_or_time_blocks(tmp_path, rec):
 
 
 def test_declared_sensor_range_reaches_the_exported_bundle(tmp_path, rec, capsys):
-    from tactile_torch.pipeline import pipeline_from_model
-    from tactile_torch.robot.model_file import load_model_file
+    from tactile_torch.export.model_graph import pipeline_from_model
+    from tactile_torch.robot.files.model_file import load_model_file
 
     paths = _logs(tmp_path, rec)
     table = np.loadtxt(paths[0], delimiter=",", skiprows=1)
@@ -121,7 +122,7 @@ def test_declared_sensor_range_reaches_the_exported_bundle(tmp_path, rec, capsys
 
 
 def test_cli_trains_on_bags_written_outside(tmp_path, rec, capsys):
-    from tests.robot.test_ros_bags import write_imu_bag  # skips without the extra 'ros'
+    from tests.robot.ros2.test_bags import write_imu_bag  # skips without the extra 'ros'
 
     bags = []
     for k, (signal, label) in enumerate(zip(rec.signals, rec.labels, strict=True)):

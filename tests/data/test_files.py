@@ -1,5 +1,5 @@
-"""The data package's loaders and savers go through the robot's formats (tactile_torch.robot.formats, whose own
-tests, torch-free, are in tests/robot/test_formats.py): image explorations, the torch sliding windows, and the
+"""The data package's loaders and savers go through the robot's formats (tactile_torch.robot.files.formats, whose own
+tests, torch-free, are in tests/robot/files/test_formats.py): image explorations, the torch sliding windows, and the
 real recordings and grasps round-tripped."""
 
 import numpy as np
@@ -9,8 +9,13 @@ import torch
 from tactile_torch.data import load_borealtc_imu, load_vibration_npz
 from tactile_torch.data.grasps import load_drimus_grasps
 from tactile_torch.data.images import load_explorations, save_explorations
-from tactile_torch.robot.formats import ExplorationArrays, read_data, read_explorations, write_explorations
-from tactile_torch.robot.windows import window_recordings
+from tactile_torch.robot.files.formats import (
+    ExplorationArrays,
+    read_data,
+    read_explorations,
+    write_explorations,
+)
+from tactile_torch.robot.stream.windows import window_recordings
 from tactile_torch.signal import sliding_windows
 from tests.conftest import require_shared_data
 

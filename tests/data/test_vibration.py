@@ -21,7 +21,8 @@ from tactile_torch.data import (
     save_vibration_npz,
 )
 from tactile_torch.data.stylus import SURFACES, Surface
-from tactile_torch.data.vibration import QUANTUM_G, read_csv_recording
+from tactile_torch.data.vibration import QUANTUM_G
+from tactile_torch.robot.files.csv_logs import read_csv_recording
 from tactile_torch.signal import clustering_features, window_features
 from tests.conftest import require_shared_data
 
@@ -455,17 +456,3 @@ def test_study_quick(tmp_path):
     accuracy = next(t for t in tables if "SVC accuracy" in (t["caption"] or ""))
     assert [row["W"] for row in accuracy["rows"]] == [200, 400, 800, 1600]
     assert all(0.5 < row["acc (gamma 0.0186, C 1000)"] <= 1.0 for row in accuracy["rows"])
-
-
-def test_simulator_names_are_deprecated_aliases_in_vibration():
-    """The simulator moved to data.stylus; its names still resolve from data.vibration, with a warning."""
-    from tactile_torch.data import stylus, vibration
-
-    for name in ("SURFACES", "make_vibration_dataset", "make_vibration_recordings"):
-        with pytest.warns(
-            DeprecationWarning, match=rf"vibration\.{name} moved to tactile_torch\.data\.stylus"
-        ):
-            assert getattr(vibration, name) is getattr(stylus, name)
-        assert name not in vibration.__all__
-    with pytest.raises(AttributeError, match="no attribute 'nothing'"):
-        vibration.nothing  # noqa: B018

@@ -14,8 +14,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from tactile_torch import image
-from tactile_torch._onnx import export_onnx, run_onnx
 from tactile_torch.data.images import make_explorations
+from tactile_torch.export import export_onnx, run_onnx
 from tactile_torch.image import _integer_cut, _kernels, _scheduler
 from tests import reference_image as ref
 

@@ -2,7 +2,7 @@
 estimates, posterior predictive, diagnostics against ArviZ, scikit-learn conventions and errors.
 
 The compiled Gibbs sampler is tested in tests/mixture/test_sampler.py, the clustering report section in
-tests/studies/test_clustering.py, the cluster command in tests/cli/test_cluster.py, novelty discovery in tests/robot/test_discovery.py."""
+tests/studies/test_clustering.py, the cluster command in tests/cli/test_cluster.py, novelty discovery in tests/robot/stream/test_discovery.py."""
 
 from __future__ import annotations
 
@@ -292,7 +292,7 @@ def test_map_and_binder_point_estimates_are_available():
 
 @pytest.mark.slow  # 10 s on a quiet 2-core machine: keeps the default run under 10 minutes
 def test_map_component_module_exports_to_onnx(tmp_path):
-    from tactile_torch._onnx import export_onnx, run_onnx
+    from tactile_torch.export import export_onnx, run_onnx
 
     X, _ = blobs(n_clusters=3, per=20, dim=3, spread=0.5, box=5.0)
     model = PitmanYorGMM(n_iter=60, burn_in=20, n_chains=2, random_state=0, progress=False).fit(X)

@@ -10,7 +10,7 @@ import torch
 
 from tactile_torch.mixture import PitmanYorGMM
 from tactile_torch.mixture._novelty import calibrate_thresholds, novel_after, window_means
-from tactile_torch.robot.discovery import SurfaceDiscovery
+from tactile_torch.robot.stream.discovery import SurfaceDiscovery
 
 
 def _three_known_one_new(seed=0, per=60):
@@ -61,7 +61,7 @@ def test_calibrated_rule_sets_the_false_alarms_and_finds_the_new_cluster(fitted)
 
 
 def test_graph_onnx_and_stream_make_the_estimators_decision(fitted, tmp_path):
-    from tactile_torch._onnx import export_onnx, run_onnx
+    from tactile_torch.export import export_onnx, run_onnx
 
     model, X, y, first = fitted
     calibration = (y < 3) & ~first
@@ -131,7 +131,7 @@ def test_novelty_study_reports_every_rule_on_the_bundled_data():
 
 def test_calibrated_thresholds_travel_through_the_model_file_to_the_bundle(fitted, tmp_path):
     from tactile_torch.clustering_model import save_clustering_model
-    from tactile_torch.pipeline import export_pipeline, pipeline_from_model
+    from tactile_torch.export.model_graph import export_pipeline, pipeline_from_model
     from tactile_torch.robot.contract import NOVELTY_THRESHOLDS_KEY
     from tactile_torch.robot.runtime import OnnxPipeline
 
@@ -184,7 +184,7 @@ def test_counting_on_leading_columns_and_scoring_novelty_on_all_of_them(tmp_path
         model.predict(X5[known], using="point"), model.predict(shifted, using="point")
     )
     assert model.novelty_score(X5[y == 3]).mean() > model.novelty_score(X5[known]).mean() + 10
-    # the torch graph (what export traces; ONNX parity of the sliced input: tests/test_pipeline.py's round trip)
+    # the torch graph (what export traces; ONNX parity of the sliced input: tests/export/test_model_graph.py's round trip)
     rows = X5[known][::5]
     labels, _, _, score = model.to_module().double()(torch.as_tensor(rows))
     np.testing.assert_allclose(score.numpy(), model.novelty_score(rows), rtol=1e-6, atol=1e-6)

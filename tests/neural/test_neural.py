@@ -14,17 +14,13 @@ import torch
 from sklearn.base import clone
 from sklearn.exceptions import NotFittedError
 
-from tactile_torch.neural import (
-    ExplorationCNNClassifier,
-    TaxelCNNClassifier,
-    WindowCNNClassifier,
-    export_classifier,
-)
+from tactile_torch.export import export_classifier
+from tactile_torch.export.int8 import quantise_bundle
+from tactile_torch.neural import ExplorationCNNClassifier, TaxelCNNClassifier, WindowCNNClassifier
 from tactile_torch.neural.front_end import LearnedFrontEndClassifier, SoftFrontEnd, crammer_singer_loss
 from tactile_torch.neural.networks import WINDOW_WIDTHS, WindowCNN, build, count_parameters
 from tactile_torch.neural.training import inner_split
 from tactile_torch.robot.runtime import OnnxPipeline
-from tactile_torch.tradeoff.int8 import quantise_bundle
 from tactile_torch.tradeoff.memory import peak_memory_mib
 
 FAST = {"max_epochs": 3, "progress": False, "random_state": 0}
@@ -287,7 +283,8 @@ def test_learned_cutoff_moves_and_exports(tmp_path):
 
 def test_comparison_scores_every_group_once_and_rebinds_the_folds(tmp_path):
     from tactile_torch.data.stylus import make_vibration_recordings
-    from tactile_torch.neural.comparison import ModelSpec, compare_models, rebind
+    from tactile_torch.export.fitted import rebind
+    from tactile_torch.tradeoff.comparison import ModelSpec, compare_models
     from tactile_torch.tradeoff.inputs import vibration_samples
 
     rec = make_vibration_recordings(3, duration_s=6, random_state=0)
@@ -313,7 +310,7 @@ def test_comparison_scores_every_group_once_and_rebinds_the_folds(tmp_path):
 def test_int8_accepts_a_joined_model_listing_its_opset_twice(tmp_path):
     from onnx import TensorProto, helper, numpy_helper
 
-    from tactile_torch._onnx import save_onnx
+    from tactile_torch.export import save_onnx
 
     weight = numpy_helper.from_array(np.random.default_rng(0).normal(size=(4, 3)).astype(np.float32), "w")
     graph = helper.make_graph(
@@ -331,7 +328,7 @@ def test_int8_accepts_a_joined_model_listing_its_opset_twice(tmp_path):
     )
     model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", 20), helper.make_opsetid("", 20)])
     model.ir_version = 10
-    save_onnx(model, tmp_path / "joined.onnx")  # as tradeoff.export.join writes a merged front and head
+    save_onnx(model, tmp_path / "joined.onnx")  # as export.parts.join writes a merged front and head
     X = np.random.default_rng(1).normal(size=(20, 4)).astype(np.float32)
     out, mode = quantise_bundle(tmp_path / "joined.onnx", tmp_path / "q.onnx", calibration=X[:8])
     assert mode == "static"

@@ -24,6 +24,15 @@ import pytest
 from sklearn.utils import estimator_checks
 from sklearn.utils.estimator_checks import estimator_checks_generator
 
+from tactile_torch.features.transformers import (
+    FeaturePassthrough,
+    ImageFeatureTransformer,
+    PressureImageFeatures,
+    RankedFeatureSelector,
+    RawInput,
+    TaxelFeatureTransformer,
+    WindowFeatureTransformer,
+)
 from tactile_torch.mixture import PitmanYorGMM
 from tactile_torch.model_selection import SVMGridSearchCV
 from tactile_torch.neural import (
@@ -35,15 +44,6 @@ from tactile_torch.neural import (
 )
 from tactile_torch.signal import ClusteringTransform, FeatureScaler
 from tactile_torch.svm import SVC, HierarchicalSVC
-from tactile_torch.tradeoff.learned import RawInput
-from tactile_torch.tradeoff.transformers import (
-    FeaturePassthrough,
-    ImageFeatureTransformer,
-    PressureImageFeatures,
-    RankedFeatureSelector,
-    TaxelFeatureTransformer,
-    WindowFeatureTransformer,
-)
 
 _PROBA_DISAGREES = (
     "predict_proba's sigmoids come from an internal cross-validation while predict keeps the decision "

@@ -1,4 +1,4 @@
-"""``engine/`` is the one evaluation home: no module outside it builds scikit-learn's splitters or calls its
+"""``model_selection/`` is the one evaluation home: no module outside it builds scikit-learn's splitters or calls its
 ``cross_val_*``.
 
 Read from the source, nothing imported: the import statements of every module of the library and of
@@ -7,9 +7,9 @@ statement per line, a fraction of a second). A module that imports a splitter (`
 ``StratifiedKFold``, ``GroupKFold``, ``StratifiedGroupKFold``, ``LeaveOneGroupOut``, any
 ``*ShuffleSplit``, ``TimeSeriesSplit`` ...), ``cross_val_score`` / ``cross_validate`` /
 ``cross_val_predict``, ``train_test_split``, or ``sklearn.model_selection`` itself (whose attributes it
-could then use) makes folds outside the engine: it must call :mod:`tactile_torch.engine.folds` (the
-folds) and :mod:`tactile_torch.engine` (``fold_predictions``, ``fold_scores``, ``cross_validate``)
-instead. The ones that still do are :data:`ALLOWED`, each with its reason: the list may only shrink (an
+could then use) makes folds outside the evaluation package: it must call
+:mod:`tactile_torch.model_selection` (the folds; ``fold_predictions``, ``fold_scores``,
+``cross_validate``) instead. The ones that still do are :data:`ALLOWED`, each with its reason: the list may only shrink (an
 entry that no longer imports one fails too, so that it is crossed off).
 """
 
@@ -23,14 +23,14 @@ from tests.project.test_imports import import_statements
 
 ROOT = Path(__file__).resolve().parents[2]
 SCANNED = ("tactile_torch", "train", "export", "bench")
-ENGINE = "tactile_torch/engine/"
+HOME = "tactile_torch/model_selection/"
 
 SPLITTERS = re.compile(
     r"^(?:\w*KFold|\w*ShuffleSplit|LeaveOne\w*Out|LeaveP\w*Out|TimeSeriesSplit|PredefinedSplit"
     r"|cross_val_score|cross_validate|cross_val_predict|train_test_split|\*)$"
 )
 
-# Module outside engine/ (path from the repository root) -> why it still makes its own folds.
+# Module outside model_selection/ (path from the repository root) -> why it still makes its own folds.
 ALLOWED = {
     "bench/bench_svm.py": "the benchmark times scikit-learn's own GridSearchCV against SVMGridSearchCV "
     "on the same StratifiedKFold: the reference it measures against, not an evaluation of the library",
@@ -53,13 +53,13 @@ def fold_imports(source: str) -> list[str]:
     return found
 
 
-def outside_engine(root: Path) -> dict[str, list[str]]:
-    """Module (path from ``root``) outside ``engine/`` -> the fold makers it imports (modules that import none left out)."""
+def outside_model_selection(root: Path) -> dict[str, list[str]]:
+    """Module (path from ``root``) outside ``model_selection/`` -> the fold makers it imports (modules that import none left out)."""
     hits = {}
     for top in SCANNED:
         for path in sorted((root / top).rglob("*.py")):
             rel = path.relative_to(root).as_posix()
-            if rel.startswith(ENGINE) or "/.venv/" in f"/{rel}":
+            if rel.startswith(HOME) or "/.venv/" in f"/{rel}":
                 continue
             names = fold_imports(path.read_text())
             if names:
@@ -67,19 +67,19 @@ def outside_engine(root: Path) -> dict[str, list[str]]:
     return hits
 
 
-def test_no_module_outside_the_engine_makes_folds():
-    hits = outside_engine(ROOT)
+def test_no_module_outside_model_selection_makes_folds():
+    hits = outside_model_selection(ROOT)
     new = {path: names for path, names in hits.items() if path not in ALLOWED}
     assert new == {}, (
-        "make the folds in tactile_torch/engine (engine.folds, engine.fold_predictions/fold_scores)"
+        "make the folds in tactile_torch/model_selection (its splitters, fold_predictions, fold_scores)"
     )
     assert sorted(set(ALLOWED) - set(hits)) == [], "no longer makes folds: cross it off ALLOWED"
 
 
 def test_the_check_finds_every_way_of_importing_a_splitter(tmp_path):
-    (tmp_path / "tactile_torch" / "engine").mkdir(parents=True)
+    (tmp_path / "tactile_torch" / "model_selection").mkdir(parents=True)
     (tmp_path / "tactile_torch" / "studies").mkdir()
-    (tmp_path / "tactile_torch" / "engine" / "folds.py").write_text(
+    (tmp_path / "tactile_torch" / "model_selection" / "_split.py").write_text(
         "from sklearn.model_selection import StratifiedKFold\n"
     )
     (tmp_path / "tactile_torch" / "studies" / "a.py").write_text(
@@ -93,9 +93,9 @@ def test_the_check_finds_every_way_of_importing_a_splitter(tmp_path):
     )
     (tmp_path / "tactile_torch" / "ok.py").write_text(
         "from sklearn.model_selection import GridSearchCV, ParameterGrid, check_cv\n"
-        "from ..engine import cross_validate\n"
+        "from ..model_selection import cross_validate\n"
     )
-    assert outside_engine(tmp_path) == {
+    assert outside_model_selection(tmp_path) == {
         "tactile_torch/b.py": ["sklearn.model_selection"],
         "tactile_torch/c.py": ["sklearn.model_selection"],
         "tactile_torch/d.py": ["TimeSeriesSplit", "LeaveOneGroupOut"],

@@ -57,6 +57,17 @@ def test_solver_internals_are_not_public():
         ("import tactile_torch", ("torch", "numpy", "sklearn", "numba")),
         ("import tactile_torch._exports", ("torch", "numpy", "sklearn", "numba")),
         ("import tactile_torch.data", ("torch", "sklearn", "numba")),
+        # floor 0: the exceptions and the torch-free checks serve the robot side
+        ("import tactile_torch.exceptions", ("torch", "numpy", "sklearn", "numba")),
+        ("from tactile_torch.validation import check_count, numpy_rng", ("torch", "sklearn", "numba")),
+        (
+            "import tactile_torch.robot.files, tactile_torch.robot.stream, tactile_torch.robot.ros2",
+            ("torch", "sklearn", "numba"),
+        ),
+        (
+            "import tactile_torch.features, tactile_torch.ood, tactile_torch.export, tactile_torch.model_selection",
+            ("torch", "sklearn", "numba"),
+        ),
         ("import tactile_torch.mixture", ("torch", "sklearn", "numba")),
         ("from tactile_torch.mixture import GaussianMixtureClassifier", ("sklearn", "numba")),
         ("import tactile_torch.svm, tactile_torch.image, tactile_torch.signal", ("torch",)),

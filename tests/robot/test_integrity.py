@@ -1,7 +1,7 @@
 """Bundle digests (tactile_torch.robot.integrity): every exporter seals, every load checks, no onnx needed.
 
 Runs on the robot install: the bundle is the hand-encoded energy bundle of ``tests.stream_helpers``
-(the exporters' own bundles are checked where they are tested: tests/test_pipeline.py,
+(the exporters' own bundles are checked where they are tested: tests/export/test_model_graph.py,
 tests/neural/, tests/tradeoff/, tests/test_clustering.py)."""
 
 import hashlib

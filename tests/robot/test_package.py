@@ -10,6 +10,7 @@ tactile-torch`` (numpy, onnxruntime, pyserial) is installed. The modules are dis
 
 from __future__ import annotations
 
+import importlib
 import json
 import pkgutil
 import subprocess
@@ -21,6 +22,13 @@ import tactile_torch.robot
 BLOCKED = ("torch", "sklearn", "scipy", "numba")
 DEFERRED = ("onnxruntime", "serial", "cyclonedds", "rosbags")
 """Packages the robot side uses only inside the functions that need them (an extra may be missing)."""
+FLOOR_0 = (
+    "tactile_torch._exports",
+    "tactile_torch.exceptions",
+    "tactile_torch.validation",
+    "tactile_torch.validation._scalars",
+)
+"""The library's modules below the robot side that it may import (floor 0's helpers, torch-free)."""
 
 _GUARD = f"""
 import sys
@@ -59,10 +67,15 @@ def _robot_modules() -> list[str]:
 
 def test_every_robot_module_is_discovered():
     modules = _robot_modules()
-    assert "tactile_torch.robot.runtime" in modules and "tactile_torch.robot.stream" in modules
-    # every public name of the package resolves, without torch (the subprocess test below imports them)
-    for name in tactile_torch.robot.__all__:
-        assert getattr(tactile_torch.robot, name) is not None
+    assert "tactile_torch.robot.runtime" in modules and "tactile_torch.robot.stream.window_reader" in modules
+    assert {"tactile_torch.robot.files", "tactile_torch.robot.stream", "tactile_torch.robot.ros2"} <= set(
+        modules
+    )
+    # every public name of the packages resolves, without torch (the subprocess test below imports them)
+    for name in modules:
+        package = importlib.import_module(name)
+        for public in getattr(package, "__all__", ()) if hasattr(package, "__path__") else ():
+            assert getattr(package, public) is not None
 
 
 def test_robot_modules_import_without_training_dependencies():
@@ -81,12 +94,10 @@ def test_robot_modules_import_without_training_dependencies():
     assert out["result"]["loaded"] == []
     assert out["result"]["deferred"] == [], "importing the robot side loaded optional packages"
     assert set(modules) <= set(out["result"]["imported"])
-    # the robot side is the bottom floor: importing it loads nothing else of the library but the
-    # standard-library helper of every package's __init__ (tactile_torch._exports)
+    # the robot side is the bottom floor: importing it loads nothing else of the library but floor 0's
+    # helpers (the lazy exports of every __init__, the exceptions, the torch-free checks)
     others = [
-        m
-        for m in out["result"]["imported"]
-        if not m.startswith("tactile_torch.robot") and m != "tactile_torch._exports"
+        m for m in out["result"]["imported"] if not m.startswith("tactile_torch.robot") and m not in FLOOR_0
     ]
     assert others == [], f"robot modules imported {others}"
 
@@ -118,7 +129,7 @@ def test_guard_catches_a_module_that_imports_torch():
     out = _run_blocked(
         """
         try:
-            import tactile_torch._checks  # imports torch
+            import tactile_torch.validation._tensors  # imports torch
             result["imported"] = True
         except ImportError as err:
             result["imported"] = False

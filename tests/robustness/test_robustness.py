@@ -14,7 +14,7 @@ from sklearn.neighbors import KNeighborsClassifier, NearestCentroid
 from sklearn.pipeline import Pipeline
 from sklearn.preprocessing import FunctionTransformer, StandardScaler
 
-from tactile_torch import engine
+from tactile_torch import model_selection as engine
 from tactile_torch.robustness import _evaluation
 from tactile_torch.robustness.charts import plot_factor, plot_factors, plot_grid
 from tactile_torch.robustness.degradations import FACTORS, Degradation, factor, factors_for

@@ -437,7 +437,7 @@ class _Inference(torch.nn.Module):
 def test_onnx_parity(surfaces, tmp_path):
     import onnx
 
-    from tactile_torch._onnx import export_onnx, run_onnx
+    from tactile_torch.export import export_onnx, run_onnx
 
     size = 400
     x = torch.from_numpy(_test_windows(surfaces, size, np.float32))

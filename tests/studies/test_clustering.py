@@ -62,9 +62,9 @@ def test_real_accelerometer_sets_go_through_the_clustering_study(shared_data, tm
     # real-data counterpart of test_clustering_study_quick_mode_writes_its_section (synthetic data)
     if not have_vibration_features():
         pytest.skip("tactile_torch.signal (the vibration features) is not installed")
-    from tactile_torch.report import Report
     from tactile_torch.studies import RunContext
     from tactile_torch.studies.clustering import real_data
+    from tactile_torch.studies.report import Report
 
     shared_data("hapmat_imu5")
     section = Report(tmp_path).section("real")

@@ -7,9 +7,9 @@ import pytest
 from sklearn.neighbors import NearestCentroid
 
 from tactile_torch.data.vibration import VibrationRecordings
-from tactile_torch.report import Report
 from tactile_torch.robustness.sweeps import sweep
 from tactile_torch.studies import breaking_points, claims, run_report
+from tactile_torch.studies.report import Report
 
 
 def test_breaking_points_results_go_into_a_section(tmp_path):

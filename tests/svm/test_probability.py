@@ -12,7 +12,7 @@ from sklearn.base import clone
 from sklearn.datasets import make_blobs
 from sklearn.svm import SVC as LibSVC
 
-from tactile_torch._onnx import export_onnx, run_onnx
+from tactile_torch.export import export_onnx, run_onnx
 from tactile_torch.metrics import class_report
 from tactile_torch.svm import SVC, HierarchicalSVC, SVMInference
 from tactile_torch.svm.inference import ovo_tables

@@ -12,7 +12,7 @@ from sklearn.exceptions import ConvergenceWarning, NotFittedError
 from sklearn.model_selection import GridSearchCV, cross_val_score
 from sklearn.svm import SVC as LibSVC
 
-from tactile_torch._onnx import export_onnx, run_onnx
+from tactile_torch.export import export_onnx, run_onnx
 from tactile_torch.svm import (
     SVC,
     HierarchicalSVC,
@@ -515,7 +515,7 @@ def test_one_vs_one_graph_exported_with_free_sizes_serves_another_number_of_clas
     import onnx
     import onnxruntime as ort
 
-    from tactile_torch.tradeoff.export import bind_head, export_head
+    from tactile_torch.export.parts import bind_head, export_head
 
     Xa, ya = make_blobs(240, centers=6, n_features=4, random_state=0)
     Xb, yb = make_blobs(120, centers=3, n_features=4, random_state=1)

@@ -52,7 +52,7 @@ def test_a_cnn_recommended_is_swept_and_a_late_failure_keeps_the_outputs(tmp_pat
     import tactile_torch.robustness._evaluation as evaluation
     import tactile_torch.tradeoff.learned as learned
     from tactile_torch.cli import main
-    from tactile_torch.ood import out_of_distribution_signals
+    from tactile_torch.data.out_of_distribution import out_of_distribution_signals
     from tactile_torch.robot.runtime import OnnxPipeline
 
     monkeypatch.setattr(learned, "QUICK_EPOCHS", 6)
@@ -136,7 +136,7 @@ def test_the_default_tradeoff_end_to_end_where_the_cnn_wins(tmp_path, capsys):
     """Issue 34's run: the default (full) trade-off, the CNN recommended, breaking points of every factor,
     status 0, and a deployed network that answers "unknown" to a still sensor."""
     from tactile_torch.cli import main
-    from tactile_torch.ood import out_of_distribution_signals
+    from tactile_torch.data.out_of_distribution import out_of_distribution_signals
     from tactile_torch.robot.runtime import OnnxPipeline
 
     path = sawtooth_recordings(3.0).save(tmp_path / "saw.npz")

@@ -63,8 +63,8 @@ def test_the_library_notes_name_arguments_and_the_command_prints_options(tmp_pat
     from tactile_torch.cli import main
     from tactile_torch.cli.tradeoff import with_flags
     from tactile_torch.data.images import make_explorations, save_explorations
+    from tactile_torch.image import DEFAULT_FRAME_RATE_HZ as RATE
     from tactile_torch.tradeoff import load_tradeoff_data
-    from tactile_torch.tradeoff.inputs import DEFAULT_FRAME_RATE_HZ as RATE
     from tactile_torch.tradeoff.output import COST, INTERVAL, RULE
 
     path = save_explorations(

@@ -1,4 +1,4 @@
-"""tactile_torch.tradeoff and tactile_torch.classifier_inference: candidates, folds, parsimony rule, ONNX, command."""
+"""tactile_torch.tradeoff and tactile_torch.export.classifier_inference: candidates, folds, parsimony rule, ONNX, command."""
 
 import json
 
@@ -12,11 +12,11 @@ from sklearn.base import clone
 from sklearn.discriminant_analysis import LinearDiscriminantAnalysis
 from sklearn.neighbors import KNeighborsClassifier, NearestCentroid
 
-from tactile_torch.classifier_inference import inference_module
 from tactile_torch.cli import main
 from tactile_torch.data import make_vibration_recordings
 from tactile_torch.data.images import make_explorations
-from tactile_torch.signal import window_features
+from tactile_torch.export.classifier_inference import inference_module
+from tactile_torch.export.parts import Standardize, bind_head, export_head, head_key
 from tactile_torch.tradeoff import (
     build_candidates,
     feature_sets,
@@ -26,16 +26,7 @@ from tactile_torch.tradeoff import (
     pareto_front,
 )
 from tactile_torch.tradeoff.evaluation import cross_validate
-from tactile_torch.tradeoff.export import Standardize, bind_head, export_head, head_key
 from tactile_torch.tradeoff.inputs import TradeoffData, exploration_samples, vibration_samples
-from tactile_torch.tradeoff.transformers import (
-    PressedFrames,
-    PressureImageFeatures,
-    RankedFeatureSelector,
-    TaxelFeatureTransformer,
-    relative_erosion,
-    taxel_features,
-)
 from tests.conftest import require_shared_data
 
 
@@ -90,8 +81,8 @@ def test_inference_module_errors():
 
 def test_head_template_binds_other_fits_and_runs_at_another_batch(tmp_path):
     """One exported head structure, bound to two fits of different sizes, equals the eager modules."""
-    from tactile_torch._onnx import run_onnx
-    from tactile_torch.tradeoff.transformers import ColumnSelect
+    from tactile_torch.export import run_onnx
+    from tactile_torch.features.transformers import ColumnSelect
 
     def head(seed, n, f, c):
         X, y = _blobs(n, f, c, seed)
@@ -118,7 +109,7 @@ def test_bound_one_vs_one_head_keeps_only_what_the_graph_reads(tmp_path):
     """The one-vs-one SVM's n_support (a buffer for its model file) is not bound into the ONNX head."""
     import onnx
 
-    from tactile_torch._onnx import run_onnx
+    from tactile_torch.export import run_onnx
     from tactile_torch.svm import SVC
 
     X, y = _blobs(40, 4, 3, 0)
@@ -251,7 +242,7 @@ def test_bad_input_gets_one_clear_line(tmp_path, recordings, capsys):
         ValueError, match=r"holds a single class \('glass'\); comparing classifiers needs .* two"
     ):
         plan_tradeoff(one.save(tmp_path / "one.npz"), log=lambda s: None)
-    from tactile_torch.robot.formats import RecordingArrays
+    from tactile_torch.robot.files.formats import RecordingArrays
     from tactile_torch.tradeoff.inputs import vibration_data
 
     signals = [np.array(s, copy=True) for s in recordings.signals]
@@ -276,50 +267,6 @@ def test_bad_input_gets_one_clear_line(tmp_path, recordings, capsys):
         r"axis z: 1e\+30; .* beyond 1e\+15 g",
     ):
         plan_tradeoff(vibration_data(huge, "logs"), log=lambda s: None)
-
-
-# ---------------------------------------------------------------------------------------- transformers
-def test_taxel_features_are_each_taxels_window_features():
-    rng = np.random.default_rng(0)
-    maps = torch.from_numpy(rng.normal(size=(3, 20, 2, 5)))  # 10 taxels: padding to 12
-    got = taxel_features(maps)
-    series = maps.reshape(3, 20, 10).transpose(1, 2)  # (B, taxel, T)
-    for j in range(10):
-        triple = torch.stack([series[:, j], series[:, j], series[:, j]], 1)
-        np.testing.assert_allclose(got[:, 7 * j : 7 * j + 7], window_features(triple)[:, :7], rtol=1e-12)
-    assert TaxelFeatureTransformer().fit_transform(maps.numpy()).shape == (3, 70)
-
-
-def test_ranked_selector_keeps_the_informative_columns():
-    rng = np.random.default_rng(1)
-    y = np.arange(90) % 3
-    X = rng.normal(size=(90, 6))
-    X[:, 4] += 3 * y
-    X[:, 1] += 1.5 * y
-    sel = RankedFeatureSelector(2).fit(X, y)
-    assert sel.columns_.tolist() == [4, 1]
-    with pytest.raises(ValueError, match="k must be an integer"):
-        RankedFeatureSelector(7).fit(X, y)
-
-
-def test_pressure_maps_scale_with_the_array_and_the_data():
-    assert (relative_erosion(96, 96), relative_erosion(4, 4)) == (10, 1)
-    rng = np.random.default_rng(2)
-    maps = 500.0 + rng.normal(0, 1, size=(6, 5, 4, 4))  # 4 x 4 array, raw counts around 500
-    maps[:, 3:, 1:3, 1:3] += 80.0  # contact in the middle in the last two frames
-    t = PressureImageFeatures().fit(maps)
-    assert t.sign_ == 1.0 and t.factor_ == 12 and t.erosion_ == 5  # 48 x 48 display, erosion relative to it
-    assert 0 < t.level_ < 80
-    frames = t._pressed()(torch.from_numpy(maps.astype(np.float32)))
-    assert frames.shape == (6, 5, 3, 48, 48) and 0 < float((frames == 0).float().mean()) < 0.5
-    lowered = PressureImageFeatures(contact="lowers").fit(1000.0 - maps)  # iCub-like: contact lowers it
-    np.testing.assert_allclose(lowered.transform(1000.0 - maps), t.transform(maps), atol=1e-5)
-    assert PressureImageFeatures(contact="auto").fit(1000.0 - maps).sign_ == -1.0
-    with pytest.raises(ValueError, match="contact: the readings do not show"):
-        PressureImageFeatures(contact="auto").fit(np.full((4, 5, 4, 4), 3.0))
-    with pytest.raises(ValueError, match="contact: the pressure maps never rise"):
-        PressureImageFeatures().fit(np.full((3, 4, 4, 4), 7.0))
-    assert isinstance(t.to_module()[0], PressedFrames)
 
 
 # ---------------------------------------------------------------------------------------- the study
@@ -482,9 +429,9 @@ def test_tradeoff_on_small_taxel_arrays(tmp_path, monkeypatch):
 def _check_touch_time_and_live_metadata(result, out):
     """Frame data: accuracy against time into the touch (held-out prefixes brought to T frames as the
     stream brings them), and the deployed bundle's touch levels, frame rate, value range and early rule."""
-    from tactile_torch.robot.early_decision import EarlyRule
     from tactile_torch.robot.runtime import OnnxPipeline
-    from tactile_torch.robot.touches import TouchLevels, fit_frames
+    from tactile_torch.robot.stream.early_decision import EarlyRule
+    from tactile_torch.robot.stream.touches import TouchLevels, fit_frames
     from tactile_torch.tradeoff.touch_time import (
         draw_touch_time,
         fold_scores,
@@ -559,7 +506,7 @@ def _tiny_model(value: float, path):
 
 
 def test_export_pool_runs_jobs_once_and_survives_a_dead_background_process(tmp_path):
-    from tactile_torch.tradeoff.export import ExportPool
+    from tactile_torch.export.parts import ExportPool
 
     calls = []
 
@@ -644,7 +591,7 @@ def test_baseline_and_the_choice_with_and_without_a_target():
 
 
 def test_csv_sessions_come_from_the_trailing_number(tmp_path):
-    from tactile_torch.robot.csv_logs import write_csv_recording
+    from tactile_torch.robot.files.csv_logs import write_csv_recording
 
     rng = np.random.default_rng(0)
     paths = [
@@ -809,8 +756,9 @@ def test_no_adequate_candidate_recommends_nothing(tmp_path, capsys):
     ],
 )
 def test_train_writes_every_catalogue_method_and_export_reproduces_it(tmp_path, capsys, method):
+    from tactile_torch.features.files import load_features
     from tactile_torch.robot.runtime import OnnxPipeline
-    from tactile_torch.training import load_features, load_model, train_classifier
+    from tactile_torch.training import load_model, train_classifier
 
     X, y = _blobs(60, 6, 3, seed=5)
     data = tmp_path / "feat.npz"
