@@ -85,7 +85,14 @@ def lab_logs(out_dir: str | Path, *, scale: int = 1, random_state: int = 39) -> 
     return sorted(files)
 
 
-def fingertip_explorations(*, scale: int = 1, random_state: int = 39) -> dict[str, np.ndarray]:
+def fingertip_explorations(
+    *,
+    scale: int = 1,
+    random_state: int = 39,
+    n_frames: int = FINGERTIP_FRAMES,
+    sessions: int = FINGERTIP_SESSIONS,
+    total: int = FINGERTIP_EXPLORATIONS,
+) -> dict[str, np.ndarray]:
     """Return the fingertip set as the ``.npz`` arrays of raw pressure maps (docs/formats.md).
 
     ``frames`` float32 ``(N, T, 4, 4)``, ``labels`` ``(N,)``, ``class_names`` ``(7,)``, ``groups``
@@ -97,8 +104,8 @@ def fingertip_explorations(*, scale: int = 1, random_state: int = 39) -> dict[st
     from tactile_torch.data.images import DEFAULT_CONTACT_MM, OBJECTS, make_explorations
 
     rng = np.random.default_rng(random_state)
-    sessions = FINGERTIP_SESSIONS * scale
-    per_session = -(-FINGERTIP_EXPLORATIONS // (FINGERTIP_FABRICS * FINGERTIP_SESSIONS))  # 5
+    per_session = -(-total // (FINGERTIP_FABRICS * sessions))  # 5
+    sessions *= scale
     fabrics = [OBJECTS[i] for i in FABRICS]
     frames, labels, groups = [], [], []
     for session in range(sessions):
@@ -112,7 +119,7 @@ def fingertip_explorations(*, scale: int = 1, random_state: int = 39) -> dict[st
             objects = tuple(chunk + [next(o for o in fill if o.pattern == p) for p in _missing(patterns)])
             data = make_explorations(
                 per_session,
-                n_frames=FINGERTIP_FRAMES,
+                n_frames=n_frames,
                 frame_size=16,
                 sensels=4,
                 objects=objects,
@@ -129,7 +136,7 @@ def fingertip_explorations(*, scale: int = 1, random_state: int = 39) -> dict[st
                 groups.append(np.full(len(rows), session))
     frames, labels, groups = (np.concatenate(a) for a in (frames, labels, groups))
     # 186 of 210 (x scale): 27 of the first four fabrics, 26 of the others, evenly over the sessions
-    total = FINGERTIP_EXPLORATIONS * scale
+    total *= scale
     counts = np.full(FINGERTIP_FABRICS, total // FINGERTIP_FABRICS)
     counts[: total % FINGERTIP_FABRICS] += 1
     keep = np.zeros(len(labels), dtype=bool)

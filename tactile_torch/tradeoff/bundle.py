@@ -5,7 +5,7 @@ deployed file (refitted on all the data, ``recommended.onnx``) are written by th
 
 1. :func:`bare_bundle`: the candidate's graph, raw input → labels and scores (a classical candidate's
    feature graph joined to its classifier head, :mod:`~tactile_torch.export.parts`; a learned one exported whole with its
-   embedding as a third output, :class:`~.unknown.EmbeddingGraph`), with the bundle's metadata (frame
+   embedding as a third output, :class:`~tactile_torch.export.neural.EmbeddingGraph`), with the bundle's metadata (frame
    bundles: the live stream's touch levels and early-decision rule); an int8 variant quantises this
    file (:func:`~tactile_torch.export.int8.quantise_bundle`);
 2. :func:`finish_bundle`: the "unknown" rule fitted on the model's training samples as the file computes
@@ -25,11 +25,19 @@ import numpy as np
 
 from ..robot.contract import (
     CLASS_NAMES_KEY,
+    DEFAULT_RANGE_G,
     FEATURES_NAME,
     INPUT_LAYOUT_KEY,
     INPUT_SHAPE_KEY,
     OOD_OUTPUT,
+    PIPELINE_KEY,
+    RANGE_METADATA_KEY,
+    SAMPLE_RATE_KEY,
+    STEP_KEY,
+    WINDOW_SIZE_KEY,
 )
+from .candidates import Candidate, is_learned
+from .inputs import Samples
 
 RULE_SAMPLES = 2000
 """At most this many training samples (evenly spaced) fit a timing file's "unknown" rule."""
@@ -82,15 +90,13 @@ def bare_bundle(
         join,
     )
     from ..model_selection import needs_fit
-    from .learned import is_learned
 
     path = Path(path)
     example = np.ascontiguousarray(example[:2])
     clf = model.steps[-1][1]
     names = [class_names[int(c)] for c in clf.classes_]
     if is_learned(model):
-        from ..export import export_classifier
-        from .unknown import EmbeddingGraph
+        from ..export.neural import EmbeddingGraph, export_classifier
 
         return export_classifier(
             clf, path, example, class_names=names, metadata=metadata, graph=EmbeddingGraph(clf.to_module())
@@ -148,32 +154,97 @@ def finish_bundle(
     import onnx
 
     from ..export import save_onnx
+    from ..export.neural import EMBEDDING_OUTPUT
+    from ..export.ood_branch import attach_distance
     from ..export.parts import bind_head, head_key
     from ..robot.runtime import OnnxPipeline
-    from .learned import is_learned
-    from .unknown import EMBEDDING_NAME, attach_distance, classical_rule, embedding_rule
+    from .unknown import classical_rule, embedding_rule
 
     keep = evenly(len(y), RULE_SAMPLES)
     X, y = X[keep], np.asarray(y)[keep]
     learned = is_learned(model)
     if distance is not None:
         rule, part, n_inputs = distance
-        reads = EMBEDDING_NAME if learned else FEATURES_NAME
+        reads = EMBEDDING_OUTPUT if learned else FEATURES_NAME
     elif learned:
         pipe = OnnxPipeline(bare)
-        E = np.concatenate([pipe.run(X[i : i + 256])[EMBEDDING_NAME] for i in range(0, len(X), 256)]).astype(
-            np.float64
-        )
+        E = np.concatenate(
+            [pipe.run(X[i : i + 256])[EMBEDDING_OUTPUT] for i in range(0, len(X), 256)]
+        ).astype(np.float64)
         rule, part = embedding_rule(E, y)
-        reads, n_inputs = EMBEDDING_NAME, E.shape[1]
+        reads, n_inputs = EMBEDDING_OUTPUT, E.shape[1]
     else:
         features = model.named_steps["features"].transform(X) if features is None else features[keep]
         rule, part = classical_rule(model, features, y)
         reads, n_inputs = FEATURES_NAME, int(np.shape(features)[1])
     key = ("distance", *head_key([part], n_inputs))
     pool.submit(key, _export_distance, part, n_inputs, background=False)
-    proto = attach_distance(onnx.load(str(bare)), bind_head(pool.result(key), [part]), reads, rule)
+    proto = attach_distance(onnx.load(str(bare)), bind_head(pool.result(key), [part]), rule, reads=reads)
     return save_onnx(proto, path), (rule, part, n_inputs)
 
 
-__all__ = ["RULE_SAMPLES", "bare_bundle", "evenly", "finish_bundle"]
+def measure_file(path: str | Path, raw: np.ndarray, acquisition_s: float) -> dict:
+    """The study's timing harness: ``latency_ms`` (median time of ``OnnxPipeline.predict`` on one raw input,
+    batch 1, input validation and the "unknown" rule included), ``size_bytes`` and ``decision_s``
+    (``acquisition_s`` + latency) of the bundle ``path``."""
+    from ..metrics import time_per_sample
+    from ..robot.runtime import OnnxPipeline
+
+    pipe = OnnxPipeline(path)
+    latency = 1e3 * time_per_sample(pipe.predict, np.ascontiguousarray(raw[:1]))
+    return {
+        "latency_ms": latency,
+        "size_bytes": int(Path(path).stat().st_size),
+        "decision_s": acquisition_s + latency / 1e3,
+    }
+
+
+def timing_metadata(cand: Candidate, s: Samples, rate_hz: float | None) -> dict:
+    """The metadata a candidate's file carries (as its deployed file: window, rate, range; frame bundles'
+    touch levels), but for the early-decision rule, calibrated only for what is deployed."""
+    from ..robot.contract import FRAMES_LAYOUT, PRESSURE_LAYOUT
+    from .bundle import window_metadata
+
+    meta: dict = {PIPELINE_KEY: f"tradeoff: {cand.name}", **window_metadata(s, rate_hz)}
+    if s.layout in (PRESSURE_LAYOUT, FRAMES_LAYOUT):
+        from ..robot.stream.touches import frame_metadata
+
+        meta.update(frame_metadata(s.X, frame_rate_hz=rate_hz, rgb=s.layout == FRAMES_LAYOUT)[0])
+    return meta
+
+
+def window_metadata(samples: object, rate_hz: float | None) -> dict:
+    """The metadata of a vibration bundle's windows (window, step, sample rate, sensor range); ``{}`` otherwise."""
+    if samples.window is None:
+        return {}
+    return {
+        WINDOW_SIZE_KEY: samples.window,
+        STEP_KEY: samples.window,
+        SAMPLE_RATE_KEY: rate_hz,
+        RANGE_METADATA_KEY: DEFAULT_RANGE_G,
+    }
+
+
+def touch_cost(latency_ms: float, early_rule: dict | None, samples: object) -> float | None:
+    """Milliseconds of inference one touch costs a frame bundle at most: the end of the touch and, with an
+    early-decision rule that can decide, each of its checkpoints (``None`` for windows and features)."""
+    from ..robot.contract import FRAMES_LAYOUT, PRESSURE_LAYOUT
+
+    if samples.layout not in (PRESSURE_LAYOUT, FRAMES_LAYOUT):
+        return None
+    checkpoints = 0
+    if early_rule is not None and early_rule.get("threshold") is not None:
+        checkpoints = len(early_rule.get("checkpoints") or ())
+    return latency_ms * (1 + checkpoints)
+
+
+__all__ = [
+    "RULE_SAMPLES",
+    "bare_bundle",
+    "evenly",
+    "finish_bundle",
+    "measure_file",
+    "timing_metadata",
+    "touch_cost",
+    "window_metadata",
+]

@@ -42,6 +42,7 @@ from ..features.transformers import (
     ImageFeatureTransformer,
     PressureImageFeatures,
     RankedFeatureSelector,
+    RawInput,
     TaxelFeatureTransformer,
     WindowFeatureTransformer,
 )
@@ -303,7 +304,7 @@ class CandidateResult:
     notes : list of str
         Warnings raised while fitting, export errors.
     parity_predictions : ndarray or None
-        The first fold's predictions of its first :data:`.evaluation.PARITY_SAMPLES` test samples (what the
+        The first fold's predictions of its test samples (what the
         exported file must reproduce).
     predictions : ndarray of shape (N,) or None
         Out-of-fold prediction of every sample of the candidate's raw input (``-1`` if never tested),
@@ -362,6 +363,18 @@ class CandidateResult:
     distance: tuple | None = field(default=None, repr=False)
 
 
+def features_key(candidate: Candidate) -> tuple:
+    """What the candidate's features depend on: its raw input and its ``features`` step (type, parameters)."""
+    step = candidate.estimator.named_steps["features"]
+    return candidate.input, type(step).__name__, repr(sorted(step.get_params().items()))
+
+
+def is_learned(model: object) -> bool:
+    """Return whether a candidate's (fitted or not) pipeline is a learned model on the raw input."""
+    steps = getattr(model, "steps", None)
+    return bool(steps) and isinstance(steps[0][1], RawInput)
+
+
 __all__ = [
     "CLASSIFIERS",
     "TOP_K",
@@ -372,5 +385,7 @@ __all__ = [
     "build_pipeline",
     "candidate_tuning",
     "feature_sets",
+    "features_key",
+    "is_learned",
     "make_classifier",
 ]

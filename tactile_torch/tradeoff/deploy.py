@@ -35,18 +35,14 @@ import numpy as np
 from sklearn.base import clone
 
 from ..robot.contract import (
-    DEFAULT_RANGE_G,
     EARLY_RULE_KEY,
     FRAMES_LAYOUT,
     LABELS_OUTPUT,
     PIPELINE_KEY,
     PRESSURE_LAYOUT,
-    RANGE_METADATA_KEY,
-    SAMPLE_RATE_KEY,
-    STEP_KEY,
-    WINDOW_SIZE_KEY,
 )
 from ..robot.files.naming import slug
+from .bundle import touch_cost, window_metadata
 
 CHECK_SAMPLES = 64
 """Samples on which the deployed ONNX file's labels are compared with the refitted pipeline's."""
@@ -231,8 +227,8 @@ def deploy_candidate(
     """
     from ..robot.runtime import OnnxPipeline
     from .bundle import bare_bundle, finish_bundle
-    from .evaluation import features_key
-    from .learned import CALIBRATION_SAMPLES, is_learned
+    from .candidates import features_key, is_learned
+    from .learned import CALIBRATION_SAMPLES
 
     names = [r.candidate.name for r in result.results]
     if name not in names:
@@ -316,7 +312,7 @@ def deploy_candidate(
             f"{stem}.npz holds the float model ({cand.name}): tactile-torch export writes its float graph; "
             f"{stem}.onnx is the int8 file"
         )
-    from .evaluation import measure_file
+    from .bundle import measure_file
     from .memory import peak_memory_mib
 
     cost = measure_file(path, check[:1], s.acquisition_s)  # the study's harness, on the file written
@@ -340,31 +336,6 @@ def deploy_candidate(
     }
 
 
-def touch_cost(latency_ms: float, early_rule: dict | None, samples: object) -> float | None:
-    """Milliseconds of inference one touch costs a frame bundle at most: the end of the touch and, with an
-    early-decision rule that can decide, each of its checkpoints (``None`` for windows and features)."""
-    from ..robot.contract import FRAMES_LAYOUT, PRESSURE_LAYOUT
-
-    if samples.layout not in (PRESSURE_LAYOUT, FRAMES_LAYOUT):
-        return None
-    checkpoints = 0
-    if early_rule is not None and early_rule.get("threshold") is not None:
-        checkpoints = len(early_rule.get("checkpoints") or ())
-    return latency_ms * (1 + checkpoints)
-
-
-def window_metadata(samples: object, rate_hz: float | None) -> dict:
-    """The metadata of a vibration bundle's windows (window, step, sample rate, sensor range); ``{}`` otherwise."""
-    if samples.window is None:
-        return {}
-    return {
-        WINDOW_SIZE_KEY: samples.window,
-        STEP_KEY: samples.window,
-        SAMPLE_RATE_KEY: rate_hz,
-        RANGE_METADATA_KEY: DEFAULT_RANGE_G,
-    }
-
-
 def _stateless(model: object) -> bool:
     from ..model_selection import needs_fit
 
@@ -378,7 +349,5 @@ __all__ = [
     "deploy_candidate",
     "deployment_samples",
     "live_metadata",
-    "touch_cost",
-    "window_metadata",
     "write_model_file",
 ]

@@ -15,8 +15,8 @@ Stages (each with a progress bar):
 3. **ONNX**: the first fold's fitted pipeline is exported (:mod:`~tactile_torch.export.parts`); its
    *latency* is the median time of ``OnnxPipeline.predict`` on one held-out sample (batch 1,
    onnxruntime on one thread, input validation included), its *size* the file's bytes, and its labels
-   on the first fold's first :data:`PARITY_SAMPLES` test samples are compared with the pipeline's
-   (``onnx_agreement``).
+   on every test sample of the first fold are compared with the fold model's (``onnx_agreement``; the
+   tests require every candidate's to be 1 on three data sets).
 """
 
 from __future__ import annotations
@@ -31,21 +31,13 @@ from ..model_selection import Backend, CVResult, needs_fit, progress_bar, signat
 from ..model_selection import cross_validate as engine_cross_validate
 from ..robot.contract import PIPELINE_KEY
 from ..robot.files.naming import slug
-from .candidates import Candidate, CandidateResult
+from .bundle import measure_file, timing_metadata
+from .candidates import Candidate, CandidateResult, features_key
 from .inputs import Samples
-
-PARITY_SAMPLES = 8
-"""Held-out samples on which each exported file's labels are compared with the pipeline's."""
 
 
 def _stateless(step: object) -> bool:
     return not needs_fit(step)
-
-
-def features_key(candidate: Candidate) -> tuple:
-    """What the candidate's features depend on: its raw input and its ``features`` step (type, parameters)."""
-    step = candidate.estimator.named_steps["features"]
-    return candidate.input, type(step).__name__, repr(sorted(step.get_params().items()))
 
 
 def _merge(into: CVResult, more: CVResult) -> None:
@@ -187,7 +179,7 @@ class FoldwiseCV:
         if into is None:
             test = self.samples[cand.input].folds[0][1]
             into = CandidateResult(cand, [], 0.0, res.models[0], cv=res)
-            into.parity_predictions = res.predictions[test[:PARITY_SAMPLES]]
+            into.parity_predictions = res.predictions[test]
             into.train_features = self.train_features.pop(cand.name, None)
         into.fold_accuracy = list(res.fold_accuracy)
         into.fit_s, into.tune_s, into.params = res.fit_s, res.tune_s, list(res.params)
@@ -242,36 +234,6 @@ def submit_fronts(candidates: list[Candidate], samples: dict[str, Samples], pool
             pool.submit(("front", *features_key(cand)), export_front, clone(step).fit(X[:2]), X[:2])
 
 
-def measure_file(path: str | Path, raw: np.ndarray, acquisition_s: float) -> dict:
-    """The study's timing harness: ``latency_ms`` (median time of ``OnnxPipeline.predict`` on one raw input,
-    batch 1, input validation and the "unknown" rule included), ``size_bytes`` and ``decision_s``
-    (``acquisition_s`` + latency) of the bundle ``path``."""
-    from ..metrics import time_per_sample
-    from ..robot.runtime import OnnxPipeline
-
-    pipe = OnnxPipeline(path)
-    latency = 1e3 * time_per_sample(pipe.predict, np.ascontiguousarray(raw[:1]))
-    return {
-        "latency_ms": latency,
-        "size_bytes": int(Path(path).stat().st_size),
-        "decision_s": acquisition_s + latency / 1e3,
-    }
-
-
-def timing_metadata(cand: Candidate, s: Samples, rate_hz: float | None) -> dict:
-    """The metadata a candidate's file carries (as its deployed file: window, rate, range; frame bundles'
-    touch levels), but for the early-decision rule, calibrated only for what is deployed."""
-    from ..robot.contract import FRAMES_LAYOUT, PRESSURE_LAYOUT
-    from .deploy import window_metadata
-
-    meta: dict = {PIPELINE_KEY: f"tradeoff: {cand.name}", **window_metadata(s, rate_hz)}
-    if s.layout in (PRESSURE_LAYOUT, FRAMES_LAYOUT):
-        from ..robot.stream.touches import frame_metadata
-
-        meta.update(frame_metadata(s.X, frame_rate_hz=rate_hz, rgb=s.layout == FRAMES_LAYOUT)[0])
-    return meta
-
-
 def export_and_time(
     results: list[CandidateResult],
     samples: dict[str, Samples],
@@ -290,7 +252,8 @@ def export_and_time(
     fold's training samples); the file without the rule stays in ``out_dir / "parts"`` for the int8
     variants (:func:`~.learned.add_int8_and_memory`). Returns the number of distinct exported parts."""
     from .bundle import bare_bundle, finish_bundle
-    from .learned import is_learned, n_parameters
+    from .candidates import is_learned
+    from .learned import n_parameters
 
     out_dir = Path(out_dir)
     parts = out_dir / "parts"
@@ -312,7 +275,7 @@ def export_and_time(
         cand, model = res.candidate, res.model
         s = samples[cand.input]
         train, test = s.folds[0]
-        raw = np.ascontiguousarray(s.X[test[:PARITY_SAMPLES]])
+        raw = np.ascontiguousarray(s.X[test[:2]])
         front = ("front", *features_key(cand))
         if needs_fit(model.named_steps["features"]):
             front = (*front, "fold 1")
@@ -332,7 +295,7 @@ def export_and_time(
                 features=res.train_features,
             )  # fmt: skip
             res.bare_file = bare
-            res.onnx_agreement = agreement(path, model, raw, res.parity_predictions)
+            res.onnx_agreement = agreement(path, model, s.X[test], res.parity_predictions)
             for key, value in measure_file(path, raw, s.acquisition_s).items():
                 setattr(res, key, value)
             res.onnx_file = path.name
@@ -343,6 +306,10 @@ def export_and_time(
     return pool.exports - before
 
 
+AGREEMENT_BATCH = 32
+"""Samples per run when a file's labels are compared with its model's."""
+
+
 def agreement(path: str | Path, model: Pipeline, raw: np.ndarray, expected: np.ndarray) -> float:
     """Return the share of ``raw`` on which the bundle's labels equal ``expected`` (the fitted model's)."""
     from ..robot.contract import LABELS_OUTPUT
@@ -350,7 +317,14 @@ def agreement(path: str | Path, model: Pipeline, raw: np.ndarray, expected: np.n
 
     pipe = OnnxPipeline(path)
     classes = model.steps[-1][1].classes_
-    labels = np.asarray(pipe.run(pipe.validate(raw))[LABELS_OUTPUT], dtype=np.int64)
+    labels = np.concatenate(
+        [
+            np.asarray(
+                pipe.run(pipe.validate(np.ascontiguousarray(raw[i : i + AGREEMENT_BATCH])))[LABELS_OUTPUT]
+            )
+            for i in range(0, len(raw), AGREEMENT_BATCH)
+        ]
+    ).astype(np.int64)
     return float(np.mean(classes[labels] == expected))
 
 
@@ -381,15 +355,12 @@ def classical_fold_file(
 
 
 __all__ = [
-    "PARITY_SAMPLES",
+    "AGREEMENT_BATCH",
     "CandidateResult",
     "FoldwiseCV",
     "agreement",
     "classical_fold_file",
     "cross_validate",
     "export_and_time",
-    "features_key",
-    "measure_file",
     "submit_fronts",
-    "timing_metadata",
 ]

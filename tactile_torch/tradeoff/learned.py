@@ -37,18 +37,13 @@ from .. import catalogue
 from ..features.transformers import RawInput
 from ..robot.contract import CLASS_NAMES_KEY, PIPELINE_KEY, STEP_KEY, WINDOW_SIZE_KEY
 from ..robot.files.naming import slug
+from .candidates import is_learned
 
 QUICK_EPOCHS = 30
 """Epochs of the networks under ``quick`` (early stopping may end them sooner)."""
 CALIBRATION_SAMPLES = 32
 """Training samples of each fold that calibrate its static int8 quantisation."""
 RAW_NAMES = {"windows": "raw window", "frames": "raw frames", "pressure": "raw maps"}
-
-
-def is_learned(model: object) -> bool:
-    """Return whether a candidate's (fitted or not) pipeline is a learned model on the raw input."""
-    steps = getattr(model, "steps", None)
-    return bool(steps) and isinstance(steps[0][1], RawInput)
 
 
 def learned_keys(kind: str, *, quick: bool) -> list[str]:
@@ -254,8 +249,7 @@ def add_int8_and_memory(
             lines = [line for line in str(err).splitlines() if line.strip()]
             res.notes.append(f"int8: {type(err).__name__}: {(lines or [''])[-1][:200]}")
             continue
-        from .bundle import finish_bundle
-        from .evaluation import measure_file
+        from .bundle import finish_bundle, measure_file
 
         train = s.folds[0][0]
         try:
@@ -326,7 +320,6 @@ __all__ = [
     "QUICK_EPOCHS",
     "add_int8_and_memory",
     "export_learned",
-    "is_learned",
     "kind_of",
     "learned_candidates",
     "learned_keys",

@@ -217,7 +217,7 @@ def plan_tradeoff(
     """
     from ..model_selection import needs_fit
     from ..validation import check_positive
-    from .evaluation import features_key
+    from .candidates import features_key
 
     start = time.perf_counter()
     check_positive(n_folds, "n_folds", integer=True)
@@ -415,6 +415,10 @@ def execute_plan(
                 )
                 for res in firsts:
                     stopping.set_cost(res.candidate.name, res.decision_s if res.model is not None else None)
+                    stop = stopping.stopped.get(res.candidate.name)
+                    if stop is not None and res.model is not None:
+                        res.stopped = stop.reason
+                        clock.drop([(res.candidate.name, j) for j in range(1, n_folds)])
                 export_seconds = time.perf_counter() - stage
                 clock.finish(("exports",), export_seconds)
             if k < n_folds - 1:

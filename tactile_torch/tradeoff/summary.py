@@ -235,7 +235,7 @@ def summarise(
                     for i, a, k in zip(u.units, u.accuracy, u.count, strict=True)
                 ],
             )
-            if c.input in baselines:
+            if c.input in baselines and not res.stopped:  # a stopped one was tested on some units only
                 base = baselines[c.input]
                 significant, p = above_baseline(u, base["_units"])
                 row.update(baseline_accuracy=base["accuracy"], above_baseline=bool(significant), baseline_p=p)

@@ -85,7 +85,7 @@ def fold_scores(
     from torch import nn
 
     from ..export.parts import head_modules
-    from .learned import is_learned
+    from .candidates import is_learned
 
     with torch.no_grad():
         if is_learned(model):
@@ -132,8 +132,7 @@ def touch_time(
     ``features`` step needs no fit.
     """
     from ..model_selection import needs_fit
-    from .evaluation import features_key
-    from .learned import is_learned
+    from .candidates import features_key, is_learned
     from .selection import unit_accuracy, unit_interval
 
     cv = result.cv
