@@ -90,7 +90,13 @@ def main(argv: list[str] | None = None) -> int:
     with tempfile.TemporaryDirectory() as tmp, ExportPool(Path(tmp) / "parts", background=False) as pool:
         out = Path(tmp)
         result = execute_plan(
-            plan, pool, out_dir=out, progress=False, log=lambda s: None, random_state=args.seed
+            plan,
+            pool,
+            out_dir=out,
+            progress=False,
+            log=lambda s: None,
+            random_state=args.seed,
+            exhaustive=True,
         )
         from tactile_torch.tradeoff.deploy import deploy_candidate
 

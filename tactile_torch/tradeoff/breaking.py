@@ -46,7 +46,7 @@ def plausibility_notes(curves: list, X: object) -> list[str]:
         if own is None:
             x = np.abs(np.asarray(X, dtype=np.float64))
             own = float(np.quantile(x, 0.99))
-        for level, acc in zip(c.levels, c.accuracy, strict=False):
+        for level, acc in reversed(list(zip(c.levels, c.accuracy, strict=False))):  # the harshest first
             if level < own and acc >= c.clean_low:
                 clipped = (np.abs(np.asarray(X, dtype=np.float64)) > level).mean(axis=(0, 2))
                 axes = ", ".join(f"{a}: {v:.0%}" for a, v in zip("xyz", clipped, strict=False))

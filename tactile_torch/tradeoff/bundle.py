@@ -131,6 +131,24 @@ def _export_distance(part: object, n_inputs: int, path: Path) -> Path:
     return export_head([part], n_inputs, path, output_names=(OOD_OUTPUT,))
 
 
+def _rule_key(model: object, features: np.ndarray, y: np.ndarray) -> str:
+    """What a classical rule depends on, as a digest: features, labels, selected columns, standardisation."""
+    import hashlib
+
+    steps = model.named_steps
+    digest = hashlib.sha256()
+    for part in (
+        np.ascontiguousarray(features, dtype=np.float64),
+        np.asarray(y),
+        np.asarray(steps["select"].columns_ if "select" in steps else []),
+        np.asarray(steps["scale"].mean_),
+        np.asarray(steps["scale"].scale_),
+    ):
+        digest.update(str(part.shape).encode())
+        digest.update(np.ascontiguousarray(part).tobytes())
+    return digest.hexdigest()
+
+
 def finish_bundle(
     bare: str | Path,
     path: str | Path,
@@ -141,6 +159,7 @@ def finish_bundle(
     *,
     features: np.ndarray | None = None,
     distance: tuple | None = None,
+    rules: dict | None = None,
 ) -> tuple[Path, tuple]:
     """Fit the "unknown" rule of ``bare`` (a :func:`bare_bundle`, or its int8 copy) and write the bundle
     with it to ``path``; return the path and ``(rule, distance part, its number of inputs)``.
@@ -150,6 +169,9 @@ def finish_bundle(
     ``features`` step's output for ``X`` when already known), a learned model's on the embedding the
     file itself computes for ``X`` (an int8 file's own). ``distance``: a rule already fitted, ``(rule,
     part, n_inputs)`` (a classical int8 file reads the same float features as its float twin).
+    ``rules``: a dict the caller keeps across calls, holding the classical rules fitted so far by what
+    they depend on (features, labels, selected columns, standardisation): candidates that differ only
+    in their classifier share one (a rule on 2400 per-frame features costs seconds to fit).
     """
     import onnx
 
@@ -175,7 +197,13 @@ def finish_bundle(
         reads, n_inputs = EMBEDDING_OUTPUT, E.shape[1]
     else:
         features = model.named_steps["features"].transform(X) if features is None else features[keep]
-        rule, part = classical_rule(model, features, y)
+        known = _rule_key(model, features, y) if rules is not None else None
+        if known is not None and known in rules:
+            rule, part = rules[known]
+        else:
+            rule, part = classical_rule(model, features, y)
+            if known is not None:
+                rules[known] = (rule, part)
         reads, n_inputs = FEATURES_NAME, int(np.shape(features)[1])
     key = ("distance", *head_key([part], n_inputs))
     pool.submit(key, _export_distance, part, n_inputs, background=False)

@@ -271,6 +271,7 @@ def export_and_time(
     # background process
     chosen.sort(key=lambda r: is_learned(r.model))
     before = pool.exports
+    rules: dict = {}  # candidates that differ only in their classifier share their "unknown" rule
     for res in progress_bar(chosen, "ONNX export + latency", progress):
         cand, model = res.candidate, res.model
         s = samples[cand.input]
@@ -292,7 +293,7 @@ def export_and_time(
             )
             path, res.distance = finish_bundle(
                 bare, out_dir / f"{slug(cand.name)}.onnx", model, s.X[train], s.y[train], pool,
-                features=res.train_features,
+                features=res.train_features, rules=rules,
             )  # fmt: skip
             res.bare_file = bare
             res.onnx_agreement = agreement(path, model, s.X[test], res.parity_predictions)

@@ -86,3 +86,43 @@ def test_bad_arguments_give_one_line_naming_them(tmp_path, recordings, capsys):
         errors = capsys.readouterr().err.strip().splitlines()
         assert len(errors) == 1 and errors[0].startswith("tactile-torch tradeoff: "), errors
         assert "internal error" not in errors[0]
+
+
+def test_fold_by_fold_gives_the_one_call_results(tmp_path):
+    """The study runs the folds one at a time (to stop candidates early): the seeds, predictions, fold
+    numbers and tuned parameters are those of one cross-validation over every fold."""
+    from tactile_torch.model_selection import cross_validate as engine_cross_validate
+
+    path = _features_file(tmp_path / "feat.npz", seed=2)
+    _, results, plan = _run(path)
+    s = plan.inputs["features"]
+    once = engine_cross_validate(
+        {c.name: c.estimator for c in plan.candidates}, s.X, s.y, s.folds, groups=s.groups,
+        tuning={c.name: c.tuning for c in plan.candidates},
+    )  # fmt: skip
+    for name, res in results.items():
+        np.testing.assert_array_equal(res.cv.predictions, once[name].predictions)
+        np.testing.assert_array_equal(res.cv.fold, once[name].fold)
+        assert res.cv.params == once[name].params and res.fold_accuracy == once[name].fold_accuracy
+
+
+def test_the_runner_up_is_another_model_never_the_recommended_ones_int8_copy(tmp_path):
+    import dataclasses
+
+    path = _features_file(tmp_path / "feat.npz", seed=3)
+    _, results, plan = _run(path)
+    ordered = list(results.values())
+    for i, res in enumerate(ordered):
+        res.latency_ms, res.size_bytes, res.decision_s = 0.1 + i, 1000 + i, 0.1 + i
+    first = summarise(ordered, plan.inputs)[1]
+    best = results[first]
+    copy = dataclasses.replace(
+        best,
+        candidate=dataclasses.replace(best.candidate, name=f"{first} (int8)"),
+        latency_ms=0.05,
+        decision_s=0.05,
+    )
+    copy.variant_of, copy.quantisation = first, "dynamic"
+    rows, recommended, runner_up = summarise([*ordered, copy], plan.inputs)
+    assert recommended == f"{first} (int8)"  # cheaper, as accurate
+    assert runner_up is not None and runner_up not in (first, f"{first} (int8)")
