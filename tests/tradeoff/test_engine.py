@@ -123,6 +123,6 @@ def test_the_runner_up_is_another_model_never_the_recommended_ones_int8_copy(tmp
         decision_s=0.05,
     )
     copy.variant_of, copy.quantisation = first, "dynamic"
-    rows, recommended, runner_up = summarise([*ordered, copy], plan.inputs)
+    _, recommended, runner_up = summarise([*ordered, copy], plan.inputs)
     assert recommended == f"{first} (int8)"  # cheaper, as accurate
     assert runner_up is not None and runner_up not in (first, f"{first} (int8)")
