@@ -29,6 +29,8 @@ from pathlib import Path
 TITLE = "Default trade-off study as the data grow: time, early stops, deployed cost (lab logs, 4x4 fingertip)"
 
 CNN = "temporal CNN | raw maps"
+KEEP_ENV = "TACTILE_TORCH_BENCH_KEEP"
+"""A directory to keep the studies' outputs in (default: a temporary one, removed)."""
 
 
 def _cpu() -> float:
@@ -108,8 +110,9 @@ def run(quick: bool) -> dict:
 
     rows, notes = [], []
     scales = (1,) if quick else (1, 4)
-    with tempfile.TemporaryDirectory(prefix="bench-tradeoff-") as tmp:
-        tmp = Path(tmp)
+    keep = os.environ.get(KEEP_ENV)  # the studies' outputs (charts, tradeoff.md) kept to be looked at
+    with tempfile.TemporaryDirectory(prefix="bench-tradeoff-") as scratch:
+        tmp = Path(keep) if keep else Path(scratch)
         datasets = []
         for scale in scales:
             datasets.append(("lab logs", scale, lab_logs(tmp / f"lab-{scale}", scale=scale), {}))

@@ -16,9 +16,11 @@ from ..robot.contract import FEATURES_NAME
 def attach_distance(model: object, part: object, rule: dict, *, reads: str) -> object:
     """Return ``model`` (an ONNX ``ModelProto``) with the distance ``part`` reading its tensor ``reads``.
 
-    ``part`` is an exported :class:`tactile_torch.ood.DistanceHead` (input ``features``, output
-    ``ood_distance``); its input becomes the tensor ``reads`` of ``model`` (which stops being an output
-    when it was one), and the rule's threshold and quantile go into the metadata
+    ``part`` is a graph with one input and the output ``ood_distance``: an exported
+    :class:`tactile_torch.ood.DistanceHead` (input ``features``), or a feature graph joined to one (input
+    ``raw``: a rule measured on features the bundle does not compute, :func:`distance_branch`). Its input
+    becomes the tensor ``reads`` of ``model`` (an input, or a tensor a node writes, which stops being an
+    output when it was one), and the rule's threshold and quantile go into the metadata
     (:data:`~tactile_torch.robot.contract.THRESHOLD_KEY`, :data:`~tactile_torch.robot.contract.QUANTILE_KEY`),
     which :class:`tactile_torch.robot.runtime.OnnxPipeline` reads to answer "unknown" beyond the
     threshold. ``model`` is changed in place (its digest dropped: save it with
@@ -35,7 +37,9 @@ def attach_distance(model: object, part: object, rule: dict, *, reads: str) -> o
     from ..robot.contract import QUANTILE_KEY, THRESHOLD_KEY, metadata_strings
     from ._onnx import unsealed
 
-    written = {name for node in model.graph.node for name in node.output}
+    written = {name for node in model.graph.node for name in node.output} | {
+        i.name for i in model.graph.input
+    }
     if reads not in written:
         raise ValueError(f"reads must name a tensor the bundle computes, got {reads!r}")
     kept = [(p.key, p.value) for p in unsealed(model).metadata_props]
@@ -45,7 +49,7 @@ def attach_distance(model: object, part: object, rule: dict, *, reads: str) -> o
         if versions.get(entry.domain, entry.version) != entry.version:
             side = onnx.version_converter.convert_version(side, versions[entry.domain])
             break
-    source = f"ood.{FEATURES_NAME}"
+    source = f"ood.{part.graph.input[0].name}"
     for node in side.graph.node:
         node.input[:] = [reads if name == source else name for name in node.input]
     graph = model.graph
@@ -67,4 +71,16 @@ def attach_distance(model: object, part: object, rule: dict, *, reads: str) -> o
     return model
 
 
-__all__ = ["attach_distance"]
+def distance_branch(front: object, part: object) -> object:
+    """Return a feature graph ``front`` (input ``raw``, output ``features``:
+    :func:`tactile_torch.export.parts.export_front`) joined to a distance ``part`` (input ``features``): the
+    rule of a model measured on features its own graph does not compute, for :func:`attach_distance`."""
+    from onnx import compose
+
+    from ._onnx import unsealed
+
+    tail = compose.add_prefix(unsealed(part), "head.", rename_outputs=False)
+    return compose.merge_models(unsealed(front), tail, io_map=[(FEATURES_NAME, f"head.{FEATURES_NAME}")])
+
+
+__all__ = ["attach_distance", "distance_branch"]

@@ -214,16 +214,22 @@ def fit_rule(
 
 
 def _gaussian(u: np.ndarray, labels: np.ndarray, n_classes: int) -> tuple[np.ndarray, np.ndarray]:
-    """Class means ``(C, F)`` and the tied precision's Cholesky factor ``(F, F)`` of signed-log features ``u``."""
+    """Class means ``(C, F)`` and a factor ``L`` ``(F, F)`` of the tied precision (``L L^T = S^-1``) of
+    signed-log features ``u``: ``L = C^-T`` for the covariance's Cholesky factor ``C`` (one factorisation
+    and one triangular inverse, where inverting ``S`` first cost twice as much on 2400 features)."""
+    from scipy.linalg import solve_triangular
+
     means = np.stack([u[labels == c].mean(axis=0) for c in range(n_classes)])
     residual = u - means[labels]
     cov = residual.T @ residual / max(len(u) - n_classes, 1)
     cov += RIDGE * max(float(np.trace(cov)) / len(cov), 1e-12) * np.eye(len(cov))
-    return means, np.linalg.cholesky(np.linalg.inv(cov))
+    factor = np.linalg.cholesky(cov)
+    return means, solve_triangular(factor, np.eye(len(cov)), lower=True).T
 
 
 def _distance(u: np.ndarray, means: np.ndarray, precision_cholesky: np.ndarray) -> np.ndarray:
-    diff = (u[:, None, :] - means[None]) @ precision_cholesky  # (B, C, F)
+    # (u - m_c) L = u L - m_c L: one (F, F) product per sample, not one per class
+    diff = (u @ precision_cholesky)[:, None, :] - (means @ precision_cholesky)[None]  # (B, C, F)
     return np.sqrt((diff**2).sum(axis=-1).min(axis=1))
 
 

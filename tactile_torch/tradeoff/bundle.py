@@ -125,13 +125,15 @@ def bare_bundle(
     return join(pool.result(front), classifier, path, meta)
 
 
-def _export_distance(part: object, n_inputs: int, path: Path) -> Path:
+def export_distance_part(part: object, n_inputs: int, path: Path) -> Path:
+    """Export a distance part (:class:`tactile_torch.ood.DistanceHead`) for ``n_inputs`` features, its fitted
+    arrays as inputs of dynamic size (:func:`tactile_torch.export.parts.export_head`); return ``path``."""
     from ..export.parts import export_head
 
     return export_head([part], n_inputs, path, output_names=(OOD_OUTPUT,))
 
 
-def _rule_key(model: object, features: np.ndarray, y: np.ndarray) -> str:
+def rule_key(model: object, features: np.ndarray, y: np.ndarray) -> str:
     """What a classical rule depends on, as a digest: features, labels, selected columns, standardisation."""
     import hashlib
 
@@ -160,35 +162,44 @@ def finish_bundle(
     features: np.ndarray | None = None,
     distance: tuple | None = None,
     rules: dict | None = None,
+    reference: object = None,
 ) -> tuple[Path, tuple]:
     """Fit the "unknown" rule of ``bare`` (a :func:`bare_bundle`, or its int8 copy) and write the bundle
-    with it to ``path``; return the path and ``(rule, distance part, its number of inputs)``.
+    with it to ``path``; return the path and the rule's ``(rule, distance part, its number of inputs,
+    the tensor it reads, the pool key of its own feature graph or None)``.
 
     The rule is fitted on the training raw input ``X`` and labels ``y`` of ``model`` (at most
-    :data:`RULE_SAMPLES`, evenly spaced): a classical model's on its features (``features``: the
-    ``features`` step's output for ``X`` when already known), a learned model's on the embedding the
-    file itself computes for ``X`` (an int8 file's own). ``distance``: a rule already fitted, ``(rule,
-    part, n_inputs)`` (a classical int8 file reads the same float features as its float twin).
-    ``rules``: a dict the caller keeps across calls, holding the classical rules fitted so far by what
-    they depend on (features, labels, selected columns, standardisation): candidates that differ only
-    in their classifier share one (a rule on 2400 per-frame features costs seconds to fit).
+    :data:`RULE_SAMPLES`, evenly spaced), on what the file computes (:mod:`.unknown`): a classical model's
+    features (``features``: the ``features`` step's output for ``X`` when already known), a learned
+    model's embedding as the file itself computes it for ``X`` (an int8 file's own), a 1-D CNN's
+    ``reference`` features (a :class:`~.candidates.FeatureRecipe`: their graph, the study's, joins the
+    file). ``distance``: a rule already fitted (an int8 file whose rule reads float features: its float
+    twin's). ``rules``: a dict the caller keeps across calls, holding the classical rules fitted so far by
+    what they depend on (features, labels, selected columns, standardisation): candidates that differ
+    only in their classifier share one (a rule on 2400 per-frame features costs seconds to fit).
     """
     import onnx
 
     from ..export import save_onnx
     from ..export.neural import EMBEDDING_OUTPUT
-    from ..export.ood_branch import attach_distance
-    from ..export.parts import bind_head, head_key
+    from ..export.ood_branch import attach_distance, distance_branch
+    from ..export.parts import bind_head, export_front, head_key
+    from ..robot.contract import INPUT_NAME
     from ..robot.runtime import OnnxPipeline
-    from .unknown import classical_rule, embedding_rule
+    from .unknown import classical_rule, embedding_rule, on_reference_features, reference_rule
 
     keep = evenly(len(y), RULE_SAMPLES)
     X, y = X[keep], np.asarray(y)[keep]
-    learned = is_learned(model)
+    front = None
     if distance is not None:
-        rule, part, n_inputs = distance
-        reads = EMBEDDING_OUTPUT if learned else FEATURES_NAME
-    elif learned:
+        rule, part, n_inputs, reads, front = distance
+    elif is_learned(model) and reference is not None and on_reference_features(model):
+        step = reference.make().fit(X, y)
+        rule, part, ref = reference_rule(step, X, y)
+        front = ("front", reference.input, type(step).__name__, repr(sorted(step.get_params().items())))
+        pool.submit(front, export_front, step, np.ascontiguousarray(X[:2]))  # the study's: already there
+        reads, n_inputs = INPUT_NAME, ref.shape[1]
+    elif is_learned(model):
         pipe = OnnxPipeline(bare)
         E = np.concatenate(
             [pipe.run(X[i : i + 256])[EMBEDDING_OUTPUT] for i in range(0, len(X), 256)]
@@ -197,7 +208,7 @@ def finish_bundle(
         reads, n_inputs = EMBEDDING_OUTPUT, E.shape[1]
     else:
         features = model.named_steps["features"].transform(X) if features is None else features[keep]
-        known = _rule_key(model, features, y) if rules is not None else None
+        known = rule_key(model, features, y) if rules is not None else None
         if known is not None and known in rules:
             rule, part = rules[known]
         else:
@@ -206,9 +217,12 @@ def finish_bundle(
                 rules[known] = (rule, part)
         reads, n_inputs = FEATURES_NAME, int(np.shape(features)[1])
     key = ("distance", *head_key([part], n_inputs))
-    pool.submit(key, _export_distance, part, n_inputs, background=False)
-    proto = attach_distance(onnx.load(str(bare)), bind_head(pool.result(key), [part]), rule, reads=reads)
-    return save_onnx(proto, path), (rule, part, n_inputs)
+    pool.submit(key, export_distance_part, part, n_inputs, background=False)
+    bound = bind_head(pool.result(key), [part])
+    if front is not None:
+        bound = distance_branch(pool.result(front), bound)
+    proto = attach_distance(onnx.load(str(bare)), bound, rule, reads=reads)
+    return save_onnx(proto, path), (rule, part, n_inputs, reads, front)
 
 
 def measure_file(path: str | Path, raw: np.ndarray, acquisition_s: float) -> dict:
@@ -270,8 +284,10 @@ __all__ = [
     "RULE_SAMPLES",
     "bare_bundle",
     "evenly",
+    "export_distance_part",
     "finish_bundle",
     "measure_file",
+    "rule_key",
     "timing_metadata",
     "touch_cost",
     "window_metadata",

@@ -285,7 +285,9 @@ def deploy_candidate(
             bare.unlink(missing_ok=True)
         bare = quantised
     try:
-        path, (rule, _, _) = finish_bundle(bare, path, model, s.X, s.y, pool)
+        path, (rule, *_) = finish_bundle(
+            bare, path, model, s.X, s.y, pool, reference=result.references.get(cand.input)
+        )
     finally:
         bare.unlink(missing_ok=True)
     pipe = OnnxPipeline(path)

@@ -242,6 +242,7 @@ def export_and_time(
     pool: object,
     *,
     rate_hz: float | None = None,
+    references: dict | None = None,
     progress: bool = True,
 ) -> int:
     """Stage 3 of the module notes; fills ``latency_ms``, ``size_bytes``, ``decision_s``,
@@ -250,7 +251,8 @@ def export_and_time(
     Each timing file is what deploying the candidate's first-fold model would write
     (:func:`~.bundle.bare_bundle`, then :func:`~.bundle.finish_bundle`: its "unknown" rule fitted on the
     fold's training samples); the file without the rule stays in ``out_dir / "parts"`` for the int8
-    variants (:func:`~.learned.add_int8_and_memory`). Returns the number of distinct exported parts."""
+    variants (:func:`~.learned.add_int8_and_memory`). ``references``: per raw input, its reference feature
+    set (the rule of a 1-D CNN on windows, :mod:`.unknown`). Returns the number of distinct exported parts."""
     from .bundle import bare_bundle, finish_bundle
     from .candidates import is_learned
     from .learned import n_parameters
@@ -272,6 +274,7 @@ def export_and_time(
     chosen.sort(key=lambda r: is_learned(r.model))
     before = pool.exports
     rules: dict = {}  # candidates that differ only in their classifier share their "unknown" rule
+    ready = queue_classical_parts([r for r in chosen if not is_learned(r.model)], samples, pool, rules)
     for res in progress_bar(chosen, "ONNX export + latency", progress):
         cand, model = res.candidate, res.model
         s = samples[cand.input]
@@ -293,7 +296,8 @@ def export_and_time(
             )
             path, res.distance = finish_bundle(
                 bare, out_dir / f"{slug(cand.name)}.onnx", model, s.X[train], s.y[train], pool,
-                features=res.train_features, rules=rules,
+                features=res.train_features, rules=rules, reference=(references or {}).get(cand.input),
+                distance=ready.get(cand.name),
             )  # fmt: skip
             res.bare_file = bare
             res.onnx_agreement = agreement(path, model, s.X[test], res.parity_predictions)
@@ -305,6 +309,44 @@ def export_and_time(
             res.notes.append(f"ONNX export failed: {type(err).__name__}: {(lines or [''])[-1][:200]}")
         res.train_features = None  # what the rule needed: not kept
     return pool.exports - before
+
+
+def queue_classical_parts(results: list, samples: dict, pool: object, rules: dict) -> dict:
+    """Fit the "unknown" rule of every classical first-fold model and queue the export of every distinct
+    classifier head and distance part, every other one to the pool's background process, so that the two
+    processes export side by side (a dynamo export costs seconds; they were made one after another).
+    Returns each candidate's rule as :func:`~.bundle.finish_bundle` takes it (``distance``); a candidate
+    whose parts cannot be made is left to the per-candidate path, which says why in its notes."""
+    from ..export.parts import export_head, head_key, head_modules
+    from ..robot.contract import FEATURES_NAME
+    from .bundle import RULE_SAMPLES, evenly, export_distance_part, rule_key
+    from .unknown import classical_rule
+
+    jobs: dict = {}
+    ready = {}
+    for res in results:
+        model = res.model
+        s = samples[res.candidate.input]
+        train = s.folds[0][0]
+        try:
+            keep = evenly(len(train), RULE_SAMPLES)
+            features = res.train_features
+            features = model.named_steps["features"].transform(s.X[train]) if features is None else features
+            features, y = np.asarray(features)[keep], s.y[train][keep]
+            known = rule_key(model, features, y)
+            if known not in rules:
+                rules[known] = classical_rule(model, features, y)
+            rule, part = rules[known]
+            modules = head_modules(model)
+        except Exception:  # said by the per-candidate path
+            continue
+        n = int(features.shape[1])
+        jobs.setdefault(("head", *head_key(modules, n)), (export_head, modules, n))
+        jobs.setdefault(("distance", *head_key([part], n)), (export_distance_part, part, n))
+        ready[res.candidate.name] = (rule, part, n, FEATURES_NAME, None)
+    for i, (key, (fn, *args)) in enumerate(jobs.items()):
+        pool.submit(key, fn, *args, background=i % 2 == 1)
+    return ready
 
 
 AGREEMENT_BATCH = 32

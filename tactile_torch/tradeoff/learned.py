@@ -249,6 +249,7 @@ def add_int8_and_memory(
             lines = [line for line in str(err).splitlines() if line.strip()]
             res.notes.append(f"int8: {type(err).__name__}: {(lines or [''])[-1][:200]}")
             continue
+        from ..export.neural import EMBEDDING_OUTPUT
         from .bundle import finish_bundle, measure_file
 
         train = s.folds[0][0]
@@ -260,7 +261,10 @@ def add_int8_and_memory(
                 s.X[train],
                 s.y[train],
                 pool,
-                distance=None if is_learned(res.model) else res.distance,
+                # a rule on the embedding is fitted again on the int8 file's own; one on float features kept
+                distance=None
+                if res.distance is None or res.distance[3] == EMBEDDING_OUTPUT
+                else res.distance,
             )
         except Exception as err:
             lines = [line for line in str(err).splitlines() if line.strip()]

@@ -51,11 +51,15 @@ def test_a_networks_rule_reads_its_embedding_and_adds_no_feature_graph(tmp_path)
             model, X[:2], tmp_path / "bare.onnx", {}, pool, front=("front", "raw"), class_names=("a", "b", "c"),
             layout=PRESSURE_LAYOUT,
         )  # fmt: skip
-        path, (rule, part, n_inputs) = finish_bundle(bare, tmp_path / "cnn.onnx", model, X, y, pool)
+        path, (rule, part, n_inputs, reads, front) = finish_bundle(
+            bare, tmp_path / "cnn.onnx", model, X, y, pool
+        )
     graph = onnx.load(str(path)).graph
     assert [o.name for o in graph.output] == ["labels", "scores", OOD_OUTPUT]  # the embedding is inner
     assert {o.name for o in onnx.load(str(bare)).graph.output} >= {EMBEDDING_OUTPUT}
-    assert n_inputs == 2 * 32  # TaxelCNN's embedding: each channel's mean and maximum over time
+    assert (
+        n_inputs == 2 * 32 and reads == EMBEDDING_OUTPUT and front is None
+    )  # TaxelCNN: mean and max per channel
     added = len(_ops(path)) - len(_ops(bare))
     assert 0 < added < 40 and "Conv" not in _ops(path)[len(_ops(bare)) :]
     pipe = OnnxPipeline(path)
@@ -87,7 +91,7 @@ def test_a_classical_rule_reads_the_features_its_head_reads_and_equals_the_numpy
         bare = bare_bundle(
             model, X[:2], tmp_path / "bare.onnx", {}, pool, front=key, class_names=("a", "b", "c"), layout=PRESSURE_LAYOUT
         )  # fmt: skip
-        path, (rule, _, _) = finish_bundle(bare, tmp_path / "lda.onnx", model, X, y, pool)
+        path, (rule, *_) = finish_bundle(bare, tmp_path / "lda.onnx", model, X, y, pool)
     ops = _ops(path)
     assert ops.count("ReduceMean") == _ops(bare).count("ReduceMean")  # one feature graph, read twice
     pipe = OnnxPipeline(path)
