@@ -14,7 +14,8 @@ from typing import Any
 import numpy as np
 import torch
 
-from . import noise, sensor_limits
+from .. import noise
+from . import sensor_limits
 
 INPUT_KINDS = ("image", "vibration", "features")
 """The kinds of raw input a degradation applies to (:attr:`Degradation.kinds`)."""
@@ -22,7 +23,7 @@ STAGES = ("features", "test", "retrain", "train", "parameter", "time")
 
 
 def _image_noise(frames: torch.Tensor, level: tuple[float, float], generator: int) -> torch.Tensor:
-    """:func:`tactile_torch.robustness.noise.gaussian_image_noise`, rounded back to uint8 for uint8 frames
+    """:func:`tactile_torch.noise.gaussian_image_noise`, rounded back to uint8 for uint8 frames
     (like MATLAB's ``imnoise`` on a uint8 image)."""
     mean, var = level
     noisy = noise.gaussian_image_noise(frames, mean, var, generator=generator)

@@ -4,7 +4,7 @@ Method 1, the tactile images: a shorter exploration (:func:`keep_frames`) and a 
 (:func:`coarsen_grid`). Method 2, raw signal windows: quantisation to a step (:func:`quantize`),
 saturation at a range (:func:`saturate`), a shorter window (:func:`crop_windows`) and a lower sample
 rate (:func:`downsample`). None of them draws random numbers; the random perturbations (additive
-noise) are in :mod:`tactile_torch.robustness.noise`. :mod:`tactile_torch.robustness` sweeps both.
+noise) are in :mod:`tactile_torch.noise`. :mod:`tactile_torch.robustness` sweeps both.
 """
 
 from __future__ import annotations

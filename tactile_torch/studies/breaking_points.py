@@ -222,7 +222,7 @@ def _fig4(section, frames, ctx) -> None:
     import torch
 
     from .. import image
-    from ..robustness.noise import gaussian_image_noise
+    from ..noise import gaussian_image_noise
 
     one = frames[:1]
     gray = image.to_grayscale(one)

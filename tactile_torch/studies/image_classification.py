@@ -196,7 +196,7 @@ def _feature_noise(section, ctx, fitted, X_test, y_test) -> None:
     import matplotlib.pyplot as plt
     import torch
 
-    from ..robustness.noise import awgn
+    from ..noise import awgn
 
     trials = 3 if ctx.quick else 10
     snrs = SNR_DB[::4] if ctx.quick else SNR_DB
@@ -220,7 +220,7 @@ def _feature_noise(section, ctx, fitted, X_test, y_test) -> None:
     section.table(
         rows,
         caption=f"Accuracy with white Gaussian noise added to the standardised fused features of the round-1 "
-        f"test fold (tactile_torch.robustness.noise.awgn, signal power measured per sample, {trials} trials per SNR)",
+        f"test fold (tactile_torch.noise.awgn, signal power measured per sample, {trials} trials per SNR)",
     )
     fig, ax = plt.subplots(figsize=(6, 3.5))
     for name in fitted:
@@ -250,7 +250,7 @@ def _feature_noise(section, ctx, fitted, X_test, y_test) -> None:
 
 def _image_noise(section, ctx, model, frames, y_test) -> None:
     from ..image import exploration_features
-    from ..robustness.noise import gaussian_image_noise
+    from ..noise import gaussian_image_noise
 
     levels = IMAGE_NOISE[::2] if ctx.quick else IMAGE_NOISE
     rows = []
@@ -272,6 +272,6 @@ def _image_noise(section, ctx, model, frames, y_test) -> None:
     section.table(
         rows,
         caption="HM-SVM (round-1 model, trained on clean data) on the round-1 test explorations with Gaussian "
-        "noise added to the raw frames (0-1 scale, clipped; tactile_torch.robustness.noise.gaussian_image_noise), fused "
+        "noise added to the raw frames (0-1 scale, clipped; tactile_torch.noise.gaussian_image_noise), fused "
         "features recomputed",
     )

@@ -45,6 +45,7 @@ FLOORS = {
     "image": ("image", 1),
     "signal": ("signal", 1),
     "metrics": ("metrics", 1),
+    "noise": ("noise", 1),
     "features": ("features", 2),
     "svm": ("svm", 3),
     "mixture": ("mixture", 3),

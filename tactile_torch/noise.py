@@ -13,7 +13,7 @@ import math
 
 import torch
 
-from ..validation import RandomState, check_finite, check_floating, check_tensor, torch_generator
+from .validation import RandomState, check_finite, check_floating, check_tensor, torch_generator
 
 
 def awgn(x: torch.Tensor, snr_db: float, *, generator: RandomState = None) -> torch.Tensor:

@@ -6,7 +6,7 @@ from hypothesis import strategies as st
 from sklearn.metrics import rand_score
 
 from tactile_torch.metrics import pairwise_accuracy
-from tactile_torch.robustness.noise import awgn, gaussian_image_noise, gaussian_noise
+from tactile_torch.noise import awgn, gaussian_image_noise, gaussian_noise
 
 
 @settings(max_examples=60, deadline=None)
