@@ -278,7 +278,10 @@ def add_int8_and_memory(
             None,
             onnx_agreement=agreement,
             onnx_file=timing.name,
-            notes=[f"int8 ({mode}) of {res.candidate.name}; onnx_agreement: with the float file, first fold"],
+            notes=[
+                f"int8 ({mode}) copy of {res.candidate.name}; its agreement is with the float file's labels on "
+                "the first fold"
+            ],
             **measure_file(timing, np.ascontiguousarray(s.X[s.folds[0][1][:1]]), s.acquisition_s),
         )
         variant.predictions = predictions  # every sample's out-of-fold int8 label (per-unit intervals)
