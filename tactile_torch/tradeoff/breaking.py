@@ -22,6 +22,20 @@ a cluster-bootstrap interval of that mean), not the study's accuracy (mean over 
 interval for a new unit), so the two differ."""
 
 
+def refits(kind: str, *, quick: bool) -> int:
+    """Return about how many times a sweep of one model refits it (the estimate of the time the breaking
+    points take, :mod:`.progress`): per factor, every level that retrains, on every fold; one fit per fold
+    for the factors that only degrade the test input."""
+    from ..robustness.degradations import QUICK_LEVELS, factors_for
+
+    splits = QUICK_SPLITS if quick else FULL_SPLITS
+    total = 0
+    for f in factors_for(kind):
+        levels = QUICK_LEVELS.get(f.name, f.levels) if quick else f.levels
+        total += splits * (1 if f.stage == "test" else len(levels))
+    return total
+
+
 def plausibility_notes(curves: list, X: object) -> list[str]:
     """Notes on results a reader should doubt: a degradation that improves accuracy beyond its interval,
     and a sensor range below the data's own level (gravity) that costs nothing. Each says what the sweep
@@ -140,4 +154,4 @@ def add_breaking_points(
     return summary
 
 
-__all__ = ["add_breaking_points"]
+__all__ = ["add_breaking_points", "plausibility_notes", "refits"]

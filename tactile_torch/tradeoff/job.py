@@ -129,6 +129,7 @@ class TradeoffOptions:
             "random_state": self.random_state,
             "tune": self.tune,
             "exhaustive": self.exhaustive,
+            "estimate_breaking": self.breaking,
         }
 
 

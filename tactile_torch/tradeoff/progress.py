@@ -11,7 +11,8 @@ estimates each task still to run from the tasks like it that have run:
 2. a task still to run is estimated at the seconds per weight of its group when one of the group's
    tasks has run, else of its family, else the mean over every finished task times the family's prior
    :data:`PRIORS` (what a task of that family costs against the average one, measured on the bench's
-   studies);
+   studies), or the seconds the caller expects of it (a stage after the cross-validation: the breaking
+   points refit the recommended model about as many times as :func:`~.breaking.refits` says);
 3. the study runs the first fold of every candidate before any second fold, and of each family one
    task first (:func:`probe_first`), so that every group's estimate comes from its own measurement after
    the first fold, about a fifth of the cross-validation with 5 folds.
@@ -53,12 +54,17 @@ class Task:
         A key of :data:`PRIORS` (or any other name: prior 1).
     weight : float
         Expected cost relative to the family's other tasks (> 0).
+    expected : float or None
+        Seconds expected before any task of its group or family has run (a stage after the
+        cross-validation, estimated from the folds' times: the deployment, the breaking points); ``None``:
+        the prior.
     """
 
     key: object
     group: str
     family: str
     weight: float = 1.0
+    expected: float | None = None
 
 
 @dataclass
@@ -112,6 +118,8 @@ class RemainingTime:
             return groups[task.group] * task.weight
         if task.family in families:
             return families[task.family] * task.weight
+        if task.expected is not None:
+            return task.expected
         return mean * PRIORS.get(task.family, 1.0)
 
     def remaining(self) -> float:

@@ -340,6 +340,7 @@ def execute_plan(
     scheduler: str | None = None,
     random_state: int = 0,
     exhaustive: bool = False,
+    breaking: bool = False,
 ) -> TradeoffResult:
     """Cross-validate, export and time the candidates of ``plan`` (fronts already submitted to ``pool``).
 
@@ -349,7 +350,8 @@ def execute_plan(
     stop (:mod:`.stopping`; ``exhaustive=True``: none). ``target``: the accuracy a deployment needs
     (:func:`~.selection.choose`). ``backend``, ``n_jobs`` and ``scheduler`` say where the
     cross-validation tasks run (:class:`tactile_torch.model_selection.Backend`: ``"loky"``, ``"threading"``,
-    ``"dask"`` with a scheduler address ...); the results do not depend on them.
+    ``"dask"`` with a scheduler address ...); the results do not depend on them. ``breaking``: the
+    breaking points follow (only the estimate of the time left counts them).
     """
     from ..model_selection import as_backend
     from .evaluation import FoldwiseCV
@@ -425,6 +427,7 @@ def execute_plan(
                 for name, stop in stopping.check(k + 1).items():
                     results[name].stopped = stop.reason
                     clock.drop([(name, j) for j in range(k + 1, n_folds)])
+            clock.plan(_later_stages(plan, results, breaking=breaking, exhaustive=exhaustive))
             log(
                 f"[tradeoff] fold {k + 1} of {n_folds}: {len(running)} candidates tested, "
                 f"{len(stopping.stopped)} stopped early so far; {minutes(clock.remaining())} left"
@@ -513,6 +516,31 @@ def execute_plan(
         result.touch_time = accuracy_vs_time(result, quick=plan.quick, log=log)
         result.seconds += time.perf_counter() - stage
     return result
+
+
+def _later_stages(plan: TradeoffPlan, results: dict, *, breaking: bool, exhaustive: bool) -> list:
+    """The stages after the cross-validation, as tasks whose seconds come from the folds so far: the
+    deployment (tuning and a fit on all the data: about two folds of the leading candidate) and the
+    breaking points (:func:`~.breaking.refits` fits of the leader and of the study's model)."""
+    from ..robustness.sweeps import infer_kind
+    from .breaking import refits
+    from .progress import Task
+
+    done = [r for r in results.values() if r.fold_accuracy and r.model is not None and not r.stopped]
+    if not done:
+        return []
+    leader = max(done, key=lambda r: float(np.mean(r.fold_accuracy)))
+
+    def fit(res: object) -> float:
+        return float(np.mean(res.cv.fit_seconds)) if res is not None and res.cv.fit_seconds else 0.0
+
+    tasks = [Task(("deploy",), "deploy", "deploy", expected=2.0 * fit(leader))]
+    if breaking:
+        study = results.get(plan.candidates[0].name) if plan.candidates else None
+        kind = infer_kind(plan.inputs[leader.candidate.input].X)
+        n = refits(kind, quick=plan.quick or not exhaustive)
+        tasks.append(Task(("breaking",), "breaking", "breaking", expected=n * (fit(leader) + fit(study))))
+    return tasks
 
 
 def _planned_tasks(plan: TradeoffPlan) -> list:
@@ -610,8 +638,10 @@ def run_tradeoff(
         ``backend="dask"``: the address of a running ``dask.distributed`` scheduler; ``None`` starts a
         local cluster for the run. Results do not depend on the backend or the number of workers.
     **options
-        See :func:`plan_tradeoff`, ``target`` (the accuracy a deployment needs, in (0, 1]) and
-        ``exhaustive`` (evaluate every candidate on every fold: no early stops, :mod:`.stopping`).
+        See :func:`plan_tradeoff`, ``target`` (the accuracy a deployment needs, in (0, 1]),
+        ``exhaustive`` (evaluate every candidate on every fold: no early stops, :mod:`.stopping`) and
+        ``estimate_breaking`` (the breaking points follow, :func:`~.job.run_tradeoff_job`: the estimate
+        of the time left counts them).
 
     Returns
     -------
@@ -623,6 +653,7 @@ def run_tradeoff(
     target = options.pop("target", None)
     check_target(target)
     exhaustive = bool(options.pop("exhaustive", False))
+    breaking = bool(options.pop("estimate_breaking", False))
     plan = plan_tradeoff(data, log=log, progress=progress, **options)
     seed = int(options.get("random_state", 0))
     wanted = [deploy] if isinstance(deploy, str) else list(deploy or ())
@@ -649,6 +680,7 @@ def run_tradeoff(
                 backend=runner,
                 random_state=seed,
                 exhaustive=exhaustive,
+                breaking=breaking,
             )
         names = [result.recommended if d == "recommended" else d for d in wanted]
         measured = {r.candidate.name for r in result.results}
