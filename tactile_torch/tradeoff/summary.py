@@ -69,7 +69,7 @@ class TradeoffResult:
         is still written; ``tradeoff.json`` and ``tradeoff.md`` say what is missing, and the command
         ends with status 1 (:meth:`mark_incomplete`).
     references : dict of str to FeatureRecipe
-        Per raw input, its reference feature set (:class:`~.runner.TradeoffPlan`).
+        Per raw input, its reference feature set (:class:`~.execution.TradeoffPlan`).
     touch_time : dict of str to TouchTime
         Frame data: accuracy against time into the touch of the recommended candidate and the
         runner-up, with the early-decision rule their held-out touches calibrate (:mod:`.touch_time`).

@@ -126,3 +126,25 @@ def test_the_runner_up_is_another_model_never_the_recommended_ones_int8_copy(tmp
     _, recommended, runner_up = summarise([*ordered, copy], plan.inputs)
     assert recommended == f"{first} (int8)"  # cheaper, as accurate
     assert runner_up is not None and runner_up not in (first, f"{first} (int8)")
+
+
+@pytest.mark.slow  # two studies with their exports (one head and one distance part each): 15 s loaded
+def test_early_stops_recommend_what_the_exhaustive_study_does(tmp_path):
+    """A study on features where a costlier candidate is clearly worse: it stops after a few folds, and the
+    recommendation is the exhaustive study's."""
+    from tactile_torch.export.parts import ExportPool
+    from tactile_torch.tradeoff.execution import execute_plan
+
+    path = _features_file(tmp_path / "feat.npz", seed=4, n=120)
+    chosen = {}
+    for exhaustive in (False, True):
+        plan = plan_tradeoff(path, classifiers=["lda", "knn"], features=["all"], log=lambda s: None)
+        out = tmp_path / f"out-{exhaustive}"
+        with ExportPool(out / "parts", background=False) as pool:
+            result = execute_plan(
+                plan, pool, out_dir=out, progress=False, log=lambda s: None, exhaustive=exhaustive
+            )
+        chosen[exhaustive] = result.recommended
+        stopped = [r for r in result.rows if r["stopped"]]
+        assert not stopped if exhaustive else all(r["folds"] < 5 for r in stopped)
+    assert chosen[False] == chosen[True] is not None
