@@ -160,7 +160,7 @@ def draw_chart(
     fig, axes = plt.subplots(
         1,
         1 + len(zooms),
-        figsize=(5.6 + 2.6 * len(zooms), 5.0),
+        figsize=(5.6 + 2.6 * len(zooms) if zooms else 8.0, 5.0),
         sharey=True,
         width_ratios=widths,
         squeeze=False,
