@@ -8,7 +8,7 @@ STAMP  := $(VENV)/.installed
 TORCH  := torch==2.13.0
 OUT    ?= runs/latest
 
-.PHONY: install run test test-all bench lint format clean
+.PHONY: install run test test-slow test-all bench lint format clean
 
 install: $(STAMP)
 
@@ -29,6 +29,11 @@ run: $(STAMP)
 
 test: $(STAMP)
 	$(PY) -m pytest
+
+# The slow experiments alone (end-to-end trade-offs, export round trips, long chains): CI runs them after
+# `make test`, the lint and the robot job; the ten longest are listed at the end.
+test-slow: $(STAMP)
+	$(PY) -m pytest -m slow --durations=10
 
 test-all: $(STAMP)
 	$(PY) -m pytest -m ''

@@ -14,7 +14,7 @@ Rows:
   data-dependent number).
 - ``cli, real time``: the same at 800 Hz real-time pacing (30 s), for the latency at the real rate.
 - ``reader / readline loop``: in this process, 10 s of samples through a pty, our
-  ``WindowReader`` + ``classify_windows`` against the loop a user would write with pyserial
+  ``SerialSource`` + ``LiveStream`` (the stream's one assembly) against the loop a user would write with pyserial
   (``port.readline()``, a deque of the last W samples, one ``predict_scores`` per window), samples
   per second at one onnxruntime thread (and ours at onnxruntime's default), with the ratio.
 """
@@ -36,8 +36,8 @@ import serial
 from tactile_torch.data import make_vibration_recordings
 from tactile_torch.default_bundles import build_default_bundles
 from tactile_torch.robot.runtime import OnnxPipeline
-from tactile_torch.robot.stream.output import classify_windows
-from tactile_torch.robot.stream.window_reader import WindowReader
+from tactile_torch.robot.stream.live import LiveOptions, LiveStream, item_spec
+from tactile_torch.robot.stream.serial_source import SerialSource
 from tactile_torch.robot.stream.wire import format_sample, pseudo_terminal, simulate_sensor
 from tests.conftest import _NO_TORCH  # the robot: importing torch fails
 
@@ -193,11 +193,11 @@ def _in_process(model: str, samples: np.ndarray, threads: int, reader: str) -> d
         writer = threading.Thread(target=sink.write, args=(data,), daemon=True)
         start = time.perf_counter()
         writer.start()
-        if reader == "WindowReader":
-            stream = WindowReader(port, window_size=W, step=STEP, rate_hz=RATE, max_windows=n_windows)
-            for _ in classify_windows(stream, pipe):
+        if reader == "LiveStream":
+            source = SerialSource(port, item_spec(pipe))
+            for _ in LiveStream(pipe, source, LiveOptions(step=STEP, max_results=n_windows)):
                 pass
-            read = stream.samples
+            read = source.counts.items
         else:
             read = _readline_loop(port, pipe, n_windows)
         wall = time.perf_counter() - start
@@ -229,7 +229,7 @@ def run(quick: bool) -> dict:
         rows.append(_cli_run(model, samples[:paced], surface[:paced], names, realtime=True))
         short = samples[: W + int((5 if quick else 10) * RATE) // STEP * STEP]
         ref = _in_process(model, short, 1, "readline loop")
-        ours = [_in_process(model, short, t, "WindowReader") for t in (1, 0)]
+        ours = [_in_process(model, short, t, "LiveStream") for t in (1, 0)]
         for row in ours:
             row["ratio vs readline loop (1 thr)"] = round(row["samples/s"] / ref["samples/s"], 1)
         rows += [ref, *ours]
@@ -248,7 +248,7 @@ def run(quick: bool) -> dict:
         "window / vote accuracy: windows (votes of the last 5 windows) lying within one surface, against the "
         "surface played; synthetic data (stylus generator seed 1, bundle trained on seed 0), a data-dependent "
         "number, not a claim about real sensors.",
-        "readline loop: port.readline() reads one byte per system call in pyserial; WindowReader reads what "
+        "readline loop: port.readline() reads one byte per system call in pyserial; the stream reads what "
         "has arrived (in_waiting) in one call. Same data, same pty, same bundle, same process. The stream's "
         "default is one onnxruntime thread (--threads 1): a single window is too small to share.",
     ]

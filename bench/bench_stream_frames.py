@@ -260,9 +260,16 @@ def run(quick: bool) -> dict:
 
                     rows += dds_rows(bundle, model, side, frames, paced, tmp)
             if dds:
-                from bench.ros2_rows import echo_row
+                from bench.ros2_rows import echo_row, hand_row
 
                 rows.append(echo_row(side, paced, tmp))
+                if side == 16:  # a hand: 5 arrays of 16 x 16 at 1 kHz, one process (issue 41)
+                    for model, bundle in (
+                        (f"classical: {name}", classical),
+                        ("CNN: temporal taxel CNN", cnn),
+                    ):
+                        rows.append(hand_row(bundle, model, x, tmp, seconds=3.0 if quick else 10.0))
+                        rows.append(hand_row(bundle, model, x, tmp, seconds=2.0 if quick else 5.0, rate=0.0))
     notes += [
         "Machine shared with other developers' jobs (2 cores): rates and latencies carry their load; compare "
         "within a run.",
@@ -282,9 +289,9 @@ def run(quick: bool) -> dict:
         "fault handling): what a user would write; same pty, same bundle, same process.",
     ]
     if dds:
-        from bench.ros2_rows import NOTES
+        from bench.ros2_rows import HAND_NOTE, NOTES
 
-        notes += NOTES
+        notes += [*NOTES, HAND_NOTE]
     else:
         notes.append("No ROS 2 rows: the extra ros2 (cyclonedds, rosbags) is not installed.")
     return {"rows": rows, "notes": notes}

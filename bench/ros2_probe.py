@@ -21,10 +21,11 @@ import time
 
 import numpy as np
 
-from tactile_torch.robot.ros2.dds import DdsNode, DdsOptions, DdsTypes, TopicReader
+from tactile_torch.robot.ros2.dds import DdsNode, DdsOptions, DdsTypes
 from tactile_torch.robot.ros2.message_types import FLOAT_ARRAY_TYPE, STRING_TYPE, message_types
 from tactile_torch.robot.ros2.messages import MessageEncoder, TopicFields
 from tactile_torch.robot.ros2.publish import linger, wait_for_subscriber
+from tactile_torch.robot.ros2.reader import TopicReader
 
 
 def _reply_index(reply: dict) -> int | None:

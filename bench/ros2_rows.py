@@ -5,11 +5,10 @@
 and a DDS domain of its own, the stream in this process (``Ros2Source`` -> ``LiveStream``, a JSON line
 per result to ``/dev/null``, each decision published back as ``std_msgs/msg/String``):
 
-- ``frames/s``: the publisher writes as fast as its writer takes the messages (15,000-57,000 frames/s
-  here), reliable on both sides (``--qos reliable``); both histories keep the last 1000, so the writer
-  does not wait for a slower reader and a flood still loses frames (``frames lost``; at the sensor QoS,
-  best effort, as many). frames/s is what the stream sustained: frames read / time from the first
-  touch's first frame to the last touch's result;
+- ``frames/s``: the publisher writes as fast as its writer takes the messages, lossless on both sides
+  (``--qos lossless``: reliable, keep all up to 1000 queued, so the writer waits for a slower reader and
+  no frame is lost: ``frames lost`` says so); frames/s is what the stream sustained: frames read / time
+  from the first touch's first frame to the last touch's result;
 - ``touch-end latency``: paced at 200 frames/s, from taking the frame that ended a touch off the DDS
   reader to its JSON line printed (the serial rows' definition), median and 99th percentile; and to
   its decision published on the decision topic (written to the DDS writer);
@@ -119,9 +118,9 @@ def dds_rows(
     bundle: str, model: str, side: int, frames: np.ndarray, paced: np.ndarray, tmp: str
 ) -> list[dict]:
     """One row: ``bundle`` streamed over DDS (frames/s on ``frames``, latencies on ``paced`` at 200 Hz)."""
-    # as fast as possible, reliable (keep-last 1000 on both sides: a flood still drops what the stream
-    # cannot take; frames/s is what it sustained)
-    fast = _stream(bundle, frames, 0.0, tmp, qos="reliable")
+    # as fast as possible, lossless (reliable, keep all: the publisher waits for the stream; frames/s is
+    # what the stream sustained)
+    fast = _stream(bundle, frames, 0.0, tmp, qos="lossless")
     slow = _stream(bundle, paced, PACED_HZ, tmp)
     return [
         {
@@ -143,8 +142,9 @@ def dds_rows(
 
 def echo_row(side: int, paced: np.ndarray, tmp: str) -> dict:
     """The floor: frames paced at 200 Hz over DDS, each answered at once by a DDS echo in this process."""
-    from tactile_torch.robot.ros2.dds import DdsNode, DdsOptions, DdsTypes, TopicReader
+    from tactile_torch.robot.ros2.dds import DdsNode, DdsOptions, DdsTypes
     from tactile_torch.robot.ros2.message_types import FLOAT_ARRAY_TYPE, STRING_TYPE, message_types
+    from tactile_torch.robot.ros2.reader import TopicReader
 
     store = message_types()
     types = DdsTypes(store)
@@ -175,11 +175,95 @@ def echo_row(side: int, paced: np.ndarray, tmp: str) -> dict:
     }
 
 
+HAND_SENSORS = ("thumb", "index", "middle", "ring", "palm")
+HAND_HZ = 1000.0
+
+
+def hand_row(
+    bundle: str, model: str, x: np.ndarray, tmp: str, *, seconds: float, rate: float = HAND_HZ, on_event=None
+) -> dict:
+    """A hand: ``TactileState`` messages of 5 sensors of ``x``'s array, at ``rate`` (0: a flood), read with every
+    sensor cut into touches of its own (``sensor="all"``) and decided by one bundle, in this process."""
+    from bench.bench_stream_frames import T
+    from tactile_torch.robot.ros2.dds import DdsOptions
+    from tactile_torch.robot.ros2.message_types import TACTILE_STATE_TYPE
+    from tactile_torch.robot.ros2.messages import TopicFields
+    from tactile_torch.robot.ros2.source import Ros2Source
+    from tactile_torch.robot.runtime import OnnxPipeline
+    from tactile_torch.robot.stream.live import LiveOptions, LiveStream, item_spec
+    from tactile_torch.robot.stream.output import result_json
+    from tactile_torch.robot.stream.port_lines import StreamDisconnected, StreamTimeout
+
+    n = int(seconds * (rate or HAND_HZ))
+    side = x.shape[-1]
+    slow = 5  # an exploration of T frames held 5 times longer: a touch of 0.2 s at 1 kHz
+    rest = np.zeros((slow * T // 2, side, side), np.float32)
+    hand = np.zeros((n, len(HAND_SENSORS), side, side), np.float32)
+    touches = [np.concatenate([np.repeat(x[i % len(x)], slow, axis=0), rest]) for i in range(len(x))]
+    for k in range(len(HAND_SENSORS)):  # each sensor's touches, shifted: they start and end at other times
+        part = np.concatenate([touches[(i + k) % len(x)] for i in range(n // len(touches[0]) + 2)])
+        hand[:, k] = np.roll(part, k * 37, axis=0)[:n]
+    values = os.path.join(tmp, f"hand-{side}.npy")
+    np.save(values, hand)
+    pipe = OnnxPipeline(bundle)
+    domain = _domain()
+    source = Ros2Source(
+        "/bench/hand",
+        item_spec(pipe),
+        fields=TopicFields(TACTILE_STATE_TYPE, sensor="all"),
+        dds=DdsOptions(domain_id=domain, config="loopback"),
+        silence_s=1.0,
+        idle_timeout_s=3.0,
+        start_timeout_s=60.0,
+        on_event=on_event,
+    )
+    live = LiveStream(pipe, source, LiveOptions(), on_event=on_event)
+    live.warm_up()
+    env = {k: v for k, v in os.environ.items() if k not in ("CYCLONEDDS_URI", "ROS_DOMAIN_ID")}
+    argv = [
+        sys.executable,
+        "-m",
+        "tests.ros2_publisher",
+        "--domain-id",
+        str(domain),
+        "--topic",
+        "/bench/hand",
+    ]
+    argv += ["--type", TACTILE_STATE_TYPE, "--values", values, "--rate", str(rate or HAND_HZ)]
+    argv += ["--sensors", ",".join(HAND_SENSORS), *(["--fast"] if not rate else [])]
+    publisher = subprocess.Popen(argv, stdout=subprocess.PIPE, text=True, env=env)
+    decisions, first, last = 0, None, None
+    cpu0 = time.process_time()
+    with open(os.devnull, "w") as sink, contextlib.suppress(StreamTimeout, StreamDisconnected):
+        for result in live:
+            print(result_json(result), file=sink, flush=True)
+            first = first or result.segment.started_at
+            decisions += result.kind == "touch"
+            last = time.monotonic()
+    cpu = time.process_time() - cpu0
+    publisher.communicate(timeout=120)
+    source.close()
+    read = source.counts.items
+    return {
+        "array": f"{len(HAND_SENSORS)} x {side}x{side} (TactileState)",
+        "model": model,
+        "path": f"ROS 2 hand, {'a flood' if not rate else f'{rate:g} Hz'}",
+        "frames/s (1 thread)": round(read / (last - first))
+        if first is not None and last is not None
+        else None,
+        "frames lost": len(hand) * len(HAND_SENSORS) - read,
+        "frames known lost": live.lost,
+        "touches (early)": f"{decisions} ({live.early})",
+        "frames per CPU-s": round(read / cpu) if cpu > 0 else None,
+    }
+
+
 NOTES = [
     "ROS 2 rows: the frames are published by another process (python -m bench.ros2_probe) as "
     "std_msgs/msg/Float32MultiArray over Cyclone DDS (loopback only, a DDS domain of their own; "
-    "frames/s: a flood (the publisher's rate in its column), reliable with keep-last 1000, so frames the stream "
-    "cannot take are lost and frames/s is what it sustained; the latency rows: best effort at 200 frames/s); "
+    "frames/s: a flood (the publisher's rate in its column), lossless (reliable, keep all: the publisher waits for "
+    "the stream, nothing is lost; at --qos sensor a flood loses what the stream cannot take, counted), and "
+    "frames/s is what the stream sustained; the latency rows: best effort at 200 frames/s); "
     "the stream runs in the benchmark's process (Ros2Source -> LiveStream), publishes each decision back as "
     "std_msgs/msg/String JSON, and the publisher times each round trip on its own clock: from writing the frame "
     "that ended a touch to the decision's arrival. The echo row answers every frame at once, no stages, no "
@@ -187,7 +271,15 @@ NOTES = [
 ]
 
 
-__all__ = ["NOTES", "PACED_HZ", "dds_rows", "echo_row"]
+HAND_NOTE = (
+    f"Hand rows: TactileState messages of {len(HAND_SENSORS)} sensors ({', '.join(HAND_SENSORS)}) of the array, "
+    f"published by another process (python -m tests.ros2_publisher --sensors ...) at {HAND_HZ:g} Hz (paced), or as "
+    "fast as it writes (a flood), best effort; the stream reads every sensor (sensor='all': one sequencer and "
+    "touch segmenter per sensor, one bundle) in this process; frames/s counts every sensor's frames (5 per "
+    "message); frames lost = sent - read, which the stream counted itself (frames known lost: DDS's statuses)."
+)
+
+__all__ = ["HAND_NOTE", "NOTES", "PACED_HZ", "dds_rows", "echo_row", "hand_row"]
 
 
 def main() -> None:

@@ -72,6 +72,10 @@ LDA_SHRINKAGE_GRID = ("auto", 0.1, 0.3, 0.6, 0.9)
 LDA_QUICK_SHRINKAGE_GRID = ("auto",)
 NCM_SHRINK_GRID = (None, 0.1, 0.3, 1.0)
 NCM_QUICK_SHRINK_GRID = (None, 0.3)
+KERNEL_CLASSIFIERS = ("hmsvm", "svc")
+"""The SVMs: the keys that take ``C``, ``gamma`` and ``kernel``."""
+SCALINGS = ("standard", "unit", "unit-population", None)
+"""The feature scalings of :func:`classifier_pipeline`."""
 
 
 @dataclass(frozen=True)
@@ -339,7 +343,9 @@ def choices() -> list[str]:
     return [*CLASSIFIERS, *(a for e in ENTRIES.values() for a in e.aliases)]
 
 
-def make_classifier(key: str, *, random_state: int | None = None, **params: Any) -> Any:
+def make_classifier(
+    key: str, *, random_state: int | None = None, n_features: int | None = None, **params: Any
+) -> Any:
     """Return an unfitted classifier of the catalogue with its default settings, overridden by ``params``.
 
     Parameters
@@ -348,10 +354,74 @@ def make_classifier(key: str, *, random_state: int | None = None, **params: Any)
         A key, alias or display name (:func:`resolve`).
     random_state : int or None
         For the estimators that draw random numbers (the SVMs); ignored by the others.
+    n_features : int, optional
+        For the SVMs (:data:`KERNEL_CLASSIFIERS`): ``gamma = 1 / n_features`` (scikit-learn's
+        ``"scale"`` on standardised features), unless ``params`` set ``gamma``; ignored by the others.
     **params
         Estimator parameters (``C=4.0``, ``n_neighbors=5`` ...).
     """
+    key = resolve(key)
+    if n_features is not None and key in KERNEL_CLASSIFIERS:
+        params = {"gamma": 1.0 / n_features, **params}
     return entry(key).build(random_state, **params)
+
+
+def classifier_pipeline(
+    classifier: str | Any,
+    features: Any = None,
+    *,
+    select: int | None = None,
+    scaling: str | None = "standard",
+    random_state: int | None = None,
+    n_features: int | None = None,
+    **params: Any,
+) -> Any:
+    """Return the unfitted ``Pipeline`` ``features -> [select] -> scale -> classifier``: the one recipe.
+
+    Steps, by name: ``features`` (when given: a transformer from raw input to features),
+    ``select`` (when ``select`` is set: the ``select`` best-ranked features,
+    :class:`~tactile_torch.features.transformers.RankedFeatureSelector`), ``scale`` (unless
+    ``scaling`` is ``None``) and ``classifier`` (tuning grids address it as ``classifier__<name>``).
+
+    Parameters
+    ----------
+    classifier : str or estimator
+        A catalogue key, alias or display name (made by :func:`make_classifier` with ``random_state``,
+        ``n_features`` and ``params``), or an unfitted estimator used as it is.
+    features : transformer, optional
+    select : int, optional
+    scaling : {"standard", "unit", "unit-population"} or None, default "standard"
+        ``"standard"``: centred, unit variance (scikit-learn's ``StandardScaler``; the trade-off's
+        candidates and method 1's studies). ``"unit"``: unit standard deviation (``ddof=1``), not
+        centred (:class:`~tactile_torch.signal.FeatureScaler`; method 2's study, and the scale ``train``
+        keeps in a model file). ``"unit-population"``: the same with the population standard deviation
+        (``StandardScaler(with_mean=False)``; the breaking-point and claims sections' method-2 models).
+
+    Examples
+    --------
+    >>> classifier_pipeline("knn", select=7, scaling="unit").named_steps.keys()
+    dict_keys(['select', 'scale', 'classifier'])
+    """
+    if scaling not in SCALINGS:
+        raise ValueError(f"scaling must be one of {list(SCALINGS)}, got {scaling!r}")
+    from sklearn.pipeline import Pipeline
+
+    if isinstance(classifier, str):
+        classifier = make_classifier(classifier, random_state=random_state, n_features=n_features, **params)
+    steps = [] if features is None else [("features", features)]
+    if select is not None:
+        from .features.transformers import RankedFeatureSelector
+
+        steps.append(("select", RankedFeatureSelector(select)))
+    if scaling == "unit":
+        from .signal import FeatureScaler
+
+        steps.append(("scale", FeatureScaler()))
+    elif scaling is not None:
+        from sklearn.preprocessing import StandardScaler
+
+        steps.append(("scale", StandardScaler(with_mean=scaling == "standard")))
+    return Pipeline([*steps, ("classifier", classifier)])
 
 
 def param_grid(key: str, n_features: int, *, quick: bool = False) -> dict | list:
@@ -375,9 +445,12 @@ def prefixed(grid: dict | list, prefix: str) -> dict | list:
 __all__ = [
     "CLASSIFIERS",
     "ENTRIES",
+    "KERNEL_CLASSIFIERS",
     "LEARNED",
+    "SCALINGS",
     "ClassifierEntry",
     "choices",
+    "classifier_pipeline",
     "display_name",
     "entry",
     "make_classifier",

@@ -205,7 +205,7 @@ def fit_clustering(
         rows = _holdout(len(X), calibrate, None, None, mixture_params.get("random_state"), name)
     elif data.kind == "vibration":
         from .features.files import load_features
-        from .signal import ClusteringTransform
+        from .signal import fit_clustering_transform
 
         features = load_features(data, window=window, step=step, name=name)
         truth, source = features.y, dict(features.source)
@@ -215,8 +215,7 @@ def fit_clustering(
         rows = _holdout(len(features.X), share, features.recording, features.position, None, name)
         # the novelty rule's components where the data afford them (min(rows, 12 mapped features))
         width = max(components, min(novelty_components or components, len(rows[0]), 12))
-        transform = ClusteringTransform(width).fit(features.X[rows[0]])
-        X = np.asarray(transform.transform(features.X))
+        transform, X = fit_clustering_transform(features.X, width, fit_rows=rows[0])
         if width > components:
             mixture_params = {"cluster_features": components} | mixture_params
         if sessions:

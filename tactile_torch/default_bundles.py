@@ -83,10 +83,9 @@ def build_default_bundles(
             built["vibration-hmsvm"] = Bundle(pipeline_from_model(load_model_file(path)), path, raw, labels)
         if "vibration-pyp" in kinds:
             from .mixture import PitmanYorGMM
-            from .signal import ClusteringTransform
+            from .signal import fit_clustering_transform
 
-            transform = ClusteringTransform(3).fit(X[fit_on])
-            pcs = transform.transform(X[fit_on])
+            transform, pcs = fit_clustering_transform(X[fit_on], 3)
             sweeps = 40 if quick else 300
             mixture = PitmanYorGMM(
                 n_iter=sweeps, burn_in=sweeps // 4, random_state=random_state, progress=False

@@ -11,7 +11,7 @@ every sample, each feature scaled to unit standard deviation (as in the study; t
 with the model); ``select`` keeps the best-ranked features only. :func:`save_model` writes the model
 file (:mod:`tactile_torch.robot.files.model_file`: plain arrays and a JSON header, no pickle) with everything the
 export needs: the scale, the class names, how the features were made and the arrays of the SVM's
-inference module (:func:`classifier_head`).
+inference module (:func:`tactile_torch.export.classifier_inference.encode_classifier`).
 """
 
 from __future__ import annotations
@@ -23,31 +23,12 @@ from pathlib import Path
 import numpy as np
 
 from . import catalogue
-from .exceptions import InputTypeError
 from .features.files import FeatureSet
 from .validation import RandomState, check_positive, numpy_rng
 
 METHODS = tuple(catalogue.choices())
 """Accepted ``method`` names: the catalogue's keys (:data:`tactile_torch.catalogue.CLASSIFIERS`) and
 ``"svm"``, an alias of ``"svc"`` (the one-vs-one SVM)."""
-
-
-def make_classifier(
-    method: str,
-    *,
-    C: float = 16.0,
-    gamma: str | float = "scale",
-    kernel: str = "rbf",
-    random_state: RandomState = None,
-):
-    """Return an unfitted classifier of the catalogue (:mod:`tactile_torch.catalogue`): ``hmsvm``,
-    ``svc`` (or ``svm``, one-vs-one), ``lda``, ``knn`` or ``ncm``, at its defaults; ``C``, ``gamma`` and
-    ``kernel`` apply to the SVMs only."""
-    if method not in METHODS:
-        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
-    key = catalogue.resolve(method)
-    params = {"C": C, "gamma": gamma, "kernel": kernel} if key in ("hmsvm", "svc") else {}
-    return catalogue.make_classifier(key, random_state=random_state, **params)
 
 
 @dataclass
@@ -147,16 +128,14 @@ def _listing(names: Sequence[str], what: str, limit: int = 8) -> str:
 
 
 def _fit_scaled(method: str, X: np.ndarray, y: np.ndarray, seed: int, select: int | None, **params):
-    """Return ``(fitted classifier, scale, selected columns or None)`` fitted on ``X``, ``y``."""
-    columns = None
-    if select is not None:
-        from .features.transformers import RankedFeatureSelector
-
-        columns = RankedFeatureSelector(select).fit(X, y).columns_
-        X = X[:, columns]
-    std = X.std(axis=0, ddof=1)
-    scale = np.where(std > 0, std, 1.0)
-    return make_classifier(method, random_state=seed, **params).fit(X / scale, y), scale, columns
+    """Return ``(fitted classifier, scale, selected columns or None)`` fitted on ``X``, ``y``: the catalogue's
+    pipeline (:func:`tactile_torch.catalogue.classifier_pipeline`) with the study's unit-std scaling."""
+    key = catalogue.resolve(method)
+    params = params if key in catalogue.KERNEL_CLASSIFIERS else {}
+    pipe = catalogue.classifier_pipeline(key, select=select, scaling="unit", random_state=seed, **params)
+    pipe.fit(X, y)
+    columns = pipe.named_steps["select"].columns_ if select is not None else None
+    return pipe.named_steps["classifier"], pipe.named_steps["scale"].scale_, columns
 
 
 def train_classifier(
@@ -193,6 +172,8 @@ def train_classifier(
     """
     from .metrics import class_report
 
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
     if test_size is not None:
         if not 0.0 < test_size < 1.0:
             raise ValueError(f"test_size must be in (0, 1), got {test_size!r}")
@@ -243,57 +224,6 @@ def train_classifier(
     )
 
 
-def classifier_head(estimator: object) -> tuple[str, dict, dict[str, np.ndarray]]:
-    """Return ``(method, head settings, head arrays)`` of a fitted classifier for its model file.
-
-    The arrays are those of its torch inference module (:func:`tactile_torch.export.classifier_inference.inference_module`):
-    an SVM's support vectors, dual coefficients, intercepts (and tree tables); LDA's and the nearest
-    class mean's linear scores ``coef`` ``(M, F)``, ``intercept`` ``(M,)``; kNN's training ``samples``
-    and ``labels``.
-
-    Raises
-    ------
-    TypeError
-        For a classifier without an inference module.
-    """
-    from sklearn.discriminant_analysis import LinearDiscriminantAnalysis
-    from sklearn.neighbors import KNeighborsClassifier, NearestCentroid
-
-    from .export.classifier_inference import inference_module
-    from .svm import SVC, HierarchicalSVC
-
-    module = inference_module(estimator)
-    buffers = {name: buf.numpy() for name, buf in module.named_buffers()}
-    if isinstance(estimator, HierarchicalSVC | SVC):
-        method = "hmsvm" if isinstance(estimator, HierarchicalSVC) else "svm"
-        head = {
-            "type": "svm",
-            "mode": module.mode,
-            "kernel": module.kernel,
-            "gamma": float(module.gamma),
-            "depth": int(module.depth),
-        }
-        return method, head, buffers
-    if isinstance(estimator, LinearDiscriminantAnalysis | NearestCentroid):
-        method = "lda" if isinstance(estimator, LinearDiscriminantAnalysis) else "ncm"
-        mode = "binary" if buffers["coef"].shape[0] == 1 else "multiclass"
-        return (
-            method,
-            {"type": "linear", "mode": mode},
-            {"coef": buffers["coef"], "intercept": buffers["intercept"]},
-        )
-    if isinstance(estimator, KNeighborsClassifier):
-        head = {
-            "type": "neighbours",
-            "n_neighbors": module.n_neighbors,
-            "weights": module.weights,
-            "p": module.p,
-        }
-        labels = buffers["votes"].argmax(1).astype(np.int64)
-        return "knn", head, {"samples": buffers["samples"], "labels": labels}
-    raise InputTypeError(f"estimator has no model-file form: {type(estimator).__name__}")
-
-
 def write_classifier_file(
     path: str | Path,
     estimator: object,
@@ -314,9 +244,10 @@ def write_classifier_file(
     ``ood``: the fitted "unknown" rule (:func:`tactile_torch.ood.fit_rule` on those features, classes in
     the head's order), written as the file's ``ood`` part.
     """
+    from .export.classifier_inference import encode_classifier
     from .robot.files.model_file import save_model_file
 
-    method, head, head_arrays = classifier_head(estimator)
+    method, head, head_arrays = encode_classifier(estimator)
     params = {
         k: v
         for k, v in estimator.get_params().items()
@@ -356,7 +287,8 @@ def save_model(path: str | Path, model: TrainedModel, features: FeatureSet) -> P
     The file (:mod:`tactile_torch.robot.files.model_file`, no pickle) holds the feature ``scale`` (and ``select``,
     the kept columns), the class names in the order of the classifier's labels, how features are made
     (``source``), the hyper-parameters, the held-out accuracy and the arrays of the classifier's
-    inference module (:func:`classifier_head`), which is what ``tactile-torch export`` turns into ONNX.
+    inference module (:func:`~tactile_torch.export.classifier_inference.encode_classifier`), which is what
+    ``tactile-torch export`` turns into ONNX.
     """
     from .ood import fit_rule
 
@@ -392,10 +324,8 @@ def load_model(path: str | Path):
 __all__ = [
     "METHODS",
     "TrainedModel",
-    "classifier_head",
     "held_out_folds",
     "load_model",
-    "make_classifier",
     "save_model",
     "train_classifier",
     "write_classifier_file",

@@ -85,11 +85,12 @@ class DecisionListener:
     """A DDS participant in the test process that collects the JSON decisions published on a topic."""
 
     def __init__(self, topic: str, domain_id: int, *, config: str = "loopback") -> None:
-        from tactile_torch.robot.ros2.dds import DdsNode, DdsOptions, DdsTypes, TopicReader
+        from tactile_torch.robot.ros2.dds import DdsNode, DdsOptions, DdsTypes
         from tactile_torch.robot.ros2.message_types import STRING_TYPE, message_types
+        from tactile_torch.robot.ros2.reader import TopicReader
 
         self.store = message_types()
-        self.node = DdsNode(DdsOptions(domain_id=domain_id, config=config, qos="reliable"))
+        self.node = DdsNode(DdsOptions(domain_id=domain_id, config=config, qos="lossless"))
         self.reader = TopicReader(self.node, topic, STRING_TYPE, DdsTypes(self.store))
         self.decisions: list[dict] = []
 
@@ -128,6 +129,21 @@ def write_frame_bag(
             stamp = 2 * 10**9 + i * 66_000_000 if stamps_ns is None else stamps_ns[i]
             writer.write(conn, 10**9 + i * 10**7, encoder.encode(frame, stamp))
     return path
+
+
+def start_publisher(tmp_path, values, rate, topic, domain, msgtype, *extra):
+    """Start ``python -m tests.ros2_publisher`` publishing ``values`` (saved in ``tmp_path``); return the process."""
+    import subprocess
+
+    import numpy as np
+
+    path = Path(tmp_path) / f"values-{domain}.npy"
+    np.save(path, values)
+    argv = [
+        sys.executable, "-m", "tests.ros2_publisher", "--domain-id", str(domain), "--topic", topic,
+        "--type", msgtype, "--values", str(path), "--rate", str(rate), *extra,
+    ]  # fmt: skip
+    return subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=ros2_env())
 
 
 def cli(*args: str) -> list[str]:

@@ -309,3 +309,56 @@ def template_bundle(
     return frame_bundle(
         path, fit(np.arange(n)).astype(np.float32), n_frames=t, class_names=class_names, metadata=meta
     )
+
+
+_BUNDLES: dict[tuple, Path] = {}
+
+
+class SerialWindows:
+    """The windows a vibration stream cuts from a serial source: the one stream assembly on a tiny bundle.
+
+    For the tests of the serial side (faults, gaps, reconnections): a :class:`SerialSource` on ``port``
+    through :class:`~tactile_torch.robot.stream.live.LiveStream` with an :func:`energy_bundle` of
+    ``window_size`` samples at ``rate_hz`` (``None``: a bundle that states no rate); iterating gives each
+    result's :class:`~tactile_torch.robot.stream.segments.Window`. ``range_g``: the accepted range
+    (default: the bundle's, 5 g); ``source``: :class:`SerialSource`'s other arguments.
+    """
+
+    def __init__(
+        self, port, *, window_size, step=None, rate_hz=800.0, range_g=None, max_windows=None, **source
+    ) -> None:
+        import tempfile
+
+        from tactile_torch.robot.runtime import OnnxPipeline
+        from tactile_torch.robot.stream.live import LiveOptions, LiveStream, item_spec
+        from tactile_torch.robot.stream.serial_source import SerialSource
+
+        key = (int(window_size), rate_hz)
+        if key not in _BUNDLES:
+            path = Path(tempfile.mkdtemp(prefix="serial-windows-")) / "energy.onnx"
+            drop = ("sample_rate_hz",) if rate_hz is None else ()
+            _BUNDLES[key] = energy_bundle(path, window=int(window_size), rate_hz=rate_hz or 800.0, drop=drop)
+        self.pipe = OnnxPipeline(_BUNDLES[key])
+        self.source = SerialSource(port, item_spec(self.pipe, range_g=range_g), **source)
+        options = LiveOptions(step=window_size if step is None else step, max_results=max_windows)
+        self.live = LiveStream(
+            self.pipe,
+            self.source,
+            options,
+            on_event=source.get("on_event"),
+            clock=source.get("clock", time.monotonic),
+        )
+
+    def __iter__(self):
+        for result in self.live:
+            yield result.window
+
+    samples = property(lambda self: self.source.counts.items)
+    skipped = property(lambda self: self.source.counts.skipped)
+    rejected = property(lambda self: self.source.counts.rejected)
+    reconnects = property(lambda self: self.source.counts.reconnects)
+    format_switches = property(lambda self: self.source.counts.format_switches)
+    gaps = property(lambda self: self.live.sequencer.gaps)
+    lost = property(lambda self: self.live.lost)
+    windows = property(lambda self: self.live.segmenter.windows)
+    sequencer = property(lambda self: self.live.sequencer)

@@ -53,8 +53,8 @@ def test_knn_has_the_studys_settings_everywhere():
     knn = catalogue.make_classifier("knn")
     assert (knn.n_neighbors, knn.metric, knn.weights) == (3, "cityblock", "distance")
     same = [
-        training.make_classifier("knn"),
-        candidates.make_classifier("kNN", 21),
+        catalogue.make_classifier("kNN", n_features=21),
+        catalogue.classifier_pipeline("knn", scaling="unit").named_steps["classifier"],
         classifiers(0)["kNN"],
         image_classifiers(0)["kNN"][-1],
     ]
@@ -70,11 +70,11 @@ def test_training_trade_off_and_cli_read_the_catalogue():
     train = build_parser()._subparsers._group_actions[0].choices["train"]
     method = next(a for a in train._actions if a.dest == "method")
     assert list(method.choices) == catalogue.choices()
-    svm = training.make_classifier("svm", C=4.0)
-    assert type(svm).__name__ == "SVC" and svm.C == 4.0
-    assert type(training.make_classifier("ncm")).__name__ == "NearestCentroid"
-    with pytest.raises(ValueError, match="method must be one of"):
-        training.make_classifier("forest")
+    svm = catalogue.make_classifier("svm", C=4.0, n_features=8)
+    assert type(svm).__name__ == "SVC" and (svm.C, svm.gamma) == (4.0, 1 / 8)
+    assert type(catalogue.make_classifier("ncm", n_features=8)).__name__ == "NearestCentroid"
+    with pytest.raises(ValueError, match="classifier must be one of"):
+        catalogue.make_classifier("forest")
 
 
 def test_candidates_take_keys_or_names_and_are_tuned_by_default():

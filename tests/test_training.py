@@ -6,7 +6,7 @@ from sklearn.datasets import make_blobs
 from tactile_torch.cli import main
 from tactile_torch.export.model_graph import pipeline_from_model
 from tactile_torch.features.files import FeatureSet, load_features
-from tactile_torch.training import load_model, make_classifier, save_model, train_classifier
+from tactile_torch.training import load_model, save_model, train_classifier
 
 
 @pytest.fixture
@@ -51,9 +51,9 @@ def test_save_model_writes_every_method_and_train_needs_two_samples_per_class(fe
     ]  # (labels, scores, distance)
     np.testing.assert_array_equal(labels.numpy(), lda.estimator.predict(features.X / lda.scale))
     with pytest.raises(TypeError, match="estimator must be a fitted tactile_torch SVM"):
-        from tactile_torch.training import classifier_head
+        from tactile_torch.export.classifier_inference import encode_classifier
 
-        classifier_head(object())
+        encode_classifier(object())
     y = features.y.copy()
     y[y == 2] = 1
     y[0] = 2  # class 'glass' keeps a single sample
@@ -82,7 +82,7 @@ def test_training_errors(tmp_path, feature_npz):
     with pytest.raises(ValueError, match=r"expected image explorations .*found keys \['something'\]"):
         load_features(bad)
     with pytest.raises(ValueError, match="method must be one of"):
-        make_classifier("forest")
+        train_classifier(load_features(feature_npz[0]), "forest")
     with pytest.raises(ValueError, match="test_size must be in \\(0, 1\\)"):
         train_classifier(load_features(feature_npz[0]), test_size=1.5)
     not_model = tmp_path / "x.npz"

@@ -88,6 +88,10 @@ ARGUMENT_FLAGS = {
     "min_frames": "--min-frames",
     "touch_signal": "--touch-signal",
     "segment": "--segment",
+    "msgtype": "--ros2-type",
+    "qos": "--qos",
+    "on_partial": "--on-partial",
+    "all_sensors": "--sensor all",
     MAX_READ_ENV: "--max-read-mb",
 }
 """The library's argument names and the options that set them: the one place where an error message

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -49,6 +50,14 @@ def _shape(text: str) -> tuple[int, int]:
     return int(parts[0]), int(parts[1])
 
 
+CPUS = os.cpu_count() or 1
+"""This machine's CPUs: the most threads an option asks for (more only make the threads wait for each other)."""
+INT_CAP = 2**31 - 1
+"""The largest whole number an option takes when it declares no ``high`` (what C libraries take as an int)."""
+FLOAT_CAP = 1e12
+"""The largest number an option takes when it declares no ``high`` (``allow_inf`` options: ``inf`` too)."""
+
+
 @dataclass(frozen=True)
 class Number:
     """An argparse type for a numeric option: a finite number of ``kind`` within bounds, or one of ``words``.
@@ -56,7 +65,8 @@ class Number:
     Every numeric option of every command is declared with one (``tests/cli/test_options.py`` checks it),
     so a value that is not a number, NaN, or out of range is refused by the parser in one line that
     names the option, before any work: ``tactile-torch train: argument --gamma: expected 'scale' or a
-    number > 0, got 'abc'``.
+    number > 0, got 'abc'``. Without a ``high``, a number is at most :data:`INT_CAP` (whole numbers) or
+    :data:`FLOAT_CAP`: no option passes 1e300 on to a library that would overflow on it.
 
     >>> Number(int, low=1)("3"), Number(float, low=0, open_low=True, words=("scale",))("scale")
     (3, 'scale')
@@ -106,6 +116,11 @@ class Number:
             value = value if (value < self.high if self.open_high else value <= self.high) else None
         if value is None:
             raise argparse.ArgumentTypeError(f"expected {self.expected()}, got {text!r}")
+        cap = INT_CAP if self.kind is int else FLOAT_CAP
+        if self.high is None and value != math.inf and abs(value) > cap:
+            raise argparse.ArgumentTypeError(
+                f"expected {self.expected()}, at most {cap:g} in size, got {text!r}"
+            )
         return value
 
 
@@ -281,6 +296,14 @@ def add_touch_options(p: argparse.ArgumentParser) -> None:
         action="store_true",
         help="decide at the end of each touch only, not early with the bundle's calibrated rule",
     )
+    g.add_argument(
+        "--on-partial",
+        default="withhold",
+        choices=["withhold", "decide"],
+        help="a touch cut by a pause, a gap, a disconnection or the end (or the rest after such a cut): "
+        "withhold its decision unless the bundle's early rule is sure of it (default), or decide anyway; "
+        "either way it says partial: true",
+    )
 
 
 def touch_options(args: argparse.Namespace, **more):
@@ -293,6 +316,7 @@ def touch_options(args: argparse.Namespace, **more):
         release=args.release,
         min_frames=args.min_frames,
         touch_signal=args.touch_signal,
+        on_partial=args.on_partial,
         **more,
     )
 

@@ -46,7 +46,12 @@ def add_dds_options(p: argparse.ArgumentParser, *, reader: bool) -> argparse._Ar
         default=None,
         metavar="NAME",
         help="tactile_msgs/msg/TactileState: the sensor (channel) "
-        + ("to read (default: the only one)" if reader else "to publish (default: tactile)"),
+        + (
+            "to read (default: the only one); all: every sensor of the hand, each cut into touches of its own "
+            "(and, with --port, a line that holds the frames of several arrays)"
+            if reader
+            else "to publish (default: tactile)"
+        ),
     )
     add_msg_def(g)
     g.add_argument(
@@ -65,8 +70,10 @@ def add_dds_options(p: argparse.ArgumentParser, *, reader: bool) -> argparse._Ar
     g.add_argument(
         "--qos",
         default="sensor",
-        choices=["sensor", "reliable"],
-        help="reliability: sensor (best effort, ROS 2's sensor-data profile) or reliable (default: sensor)",
+        choices=["sensor", "lossless"],
+        help="sensor: best effort, ROS 2's sensor-data profile (what the stream cannot take is lost, counted and "
+        "said); lossless: reliable, keep all (a publisher the stream cannot keep up with is held back; at most "
+        "--qos-depth messages queued) (default: sensor)",
     )
     return g
 
@@ -228,12 +235,21 @@ def decision_hook(args: argparse.Namespace, source) -> list:
 
 
 def describe_ros2_source(args: argparse.Namespace, source) -> str:
-    """What the stream's ``reading`` line says it reads: the topic, its type, the DDS domain and network."""
+    """What the stream's ``reading`` line says it reads: the topic, its type, the DDS domain and network, the QoS."""
+    from ..robot.ros2.source import message_bound
+
     topic = decision_topic_of(args)
     decisions = "not published" if topic is None else f"published on {topic} (std_msgs/msg/String, JSON)"
+    depth, bound = source.dds.depth, message_bound(source.spec)
+    queue = f"up to {depth} messages queued: {depth * bound / 2**20:.3g} MiB at most of messages up to {bound // 1024} KiB"
+    qos = (
+        f"qos lossless (reliable, keep all: a publisher the stream cannot keep up with is held back; {queue})"
+        if args.qos == "lossless"
+        else f"qos sensor (best effort; {queue}, what finds the queue full is lost, counted and said)"
+    )
     return (
         f"ROS 2 topic {source.name} ({source.fields.describe()}, domain {source.domain_id}, "
-        f"{source.config_description}, qos {args.qos}; decisions {decisions})"
+        f"{source.config_description}, {qos}; decisions {decisions})"
     )
 
 

@@ -9,6 +9,7 @@ import argparse
 import sys
 
 from ._options import (
+    CPUS,
     Number,
     UsageError,
     add_allow_pickle,
@@ -35,7 +36,10 @@ def register(sub) -> None:
         "--batch", type=Number(int, low=1), default=256, help="samples per onnxruntime call (default: 256)"
     )
     p.add_argument(
-        "--threads", type=Number(int, low=0), default=1, help="onnxruntime intra-op threads (default: 1)"
+        "--threads",
+        type=Number(int, low=0, high=CPUS),
+        default=1,
+        help=f"onnxruntime intra-op threads, at most this machine's {CPUS} CPUs (0: onnxruntime's choice; default: 1)",
     )
     p.add_argument(
         "--range",
@@ -68,7 +72,7 @@ def register(sub) -> None:
     p.set_defaults(handler=run_predict)
 
 
-def run_predict(args: argparse.Namespace) -> int:
+def run_predict(args: argparse.Namespace) -> int:  # noqa: PLR0915
     """Classify the data file with the bundle and print the labels or a class report; return the exit status."""
     # torch-free: onnxruntime and numpy only, as on the robot.
     import numpy as np

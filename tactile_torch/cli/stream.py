@@ -20,6 +20,7 @@ from ._codes import (
     STREAM_STOPPED_EXIT,
 )
 from ._options import (
+    CPUS,
     Number,
     UsageError,
     add_touch_options,
@@ -70,7 +71,10 @@ def register(sub) -> None:
         help="stop after this many windows or touches (default: no limit)",
     )
     p.add_argument(
-        "--threads", type=at_least(0, int), default=1, help="onnxruntime intra-op threads (default: 1)"
+        "--threads",
+        type=Number(int, low=0, high=CPUS),
+        default=1,
+        help=f"onnxruntime intra-op threads, at most this machine's {CPUS} CPUs (0: onnxruntime's choice; default: 1)",
     )
     p.add_argument(
         "--json", action="store_true", help="one JSON object per result on stdout (docs/stream.md)"
@@ -201,9 +205,14 @@ def open_source(args: argparse.Namespace, spec, *, on_event, on_open):
         opened.append(args.port)
         return port
 
+    if args.sensor not in (None, "all"):
+        raise UsageError(
+            "--sensor with --port: 'all' reads the frames of several arrays on one line (or give none)"
+        )
     return SerialSource(
         open_port,
         spec,
+        all_sensors=args.sensor == "all",
         time_unit=args.time_unit,
         units=args.units,
         scale=args.scale,
@@ -262,20 +271,27 @@ def _describe(args, pipe, live, spec) -> str:
             f"{pipe!r}: reading {where}, windows of {live.size} samples every {live.segmenter.step}, "
             f"range {spec.describe_range()}"
         )
+    if args.sensor == "all":
+        where += ", every sensor (each cut on its own)"
     h, w = spec.shape[:2]
     if live.segment == "windows":
         cut = f"windows of {live.size} frames of {h} x {w} every {live.segmenter.step}"
     else:
         lv = live.levels
         early = live.rule.describe() if live.rule is not None else "decisions at the end of each touch"
+        partial = (
+            "decisions of cut touches withheld unless the rule is sure"
+            if live.options.on_partial == "withhold"
+            else "cut touches decided"
+        )
         cut = (
             f"touches of {h} x {w} frames ({lv.signal} pressure onset {lv.onset:.4g}, release {lv.release:.4g}, "
-            f"at least {lv.min_frames} frames: {lv.source}; {live.size} frames per decision; {early})"
+            f"at least {lv.min_frames} frames: {lv.source}; {live.size} frames per decision; {early}; {partial})"
         )
     return f"{pipe!r}: reading {where}, {cut}, range {spec.describe_range()}"
 
 
-def _stream_until_stopped(args: argparse.Namespace) -> int:
+def _stream_until_stopped(args: argparse.Namespace) -> int:  # noqa: C901, PLR0915
     from ..robot.contract import SAMPLE_RATE_KEY, WINDOW_SIZE_KEY
     from ..robot.runtime import OnnxPipeline
     from ..robot.stream.live import LiveStream, frame_bundle, item_spec
@@ -321,8 +337,9 @@ def _stream_until_stopped(args: argparse.Namespace) -> int:
         )
         return 2
     info = sys.stderr  # stdout holds the decisions (text or JSON), stderr everything else
-    # the reader names its arguments (pass units='m/s2'): show the options that set them
-    flags = {**{k: ARGUMENT_FLAGS[k] for k in ("units", "scale", "time_unit")}, "range_g": "--range"}
+    # the sources name their arguments (pass units='m/s2', sensor=NAME): show the options that set them
+    named = ("units", "scale", "time_unit", "sensor", "field", "msgtype", "qos", "msg_defs", "domain_id")
+    flags = {**{k: ARGUMENT_FLAGS[k] for k in named}, "range_g": "--range"}
 
     def say(message: str) -> None:
         print(f"tactile-torch stream: {with_flags(message, flags)}", file=sys.stderr, flush=True)

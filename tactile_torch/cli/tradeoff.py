@@ -91,13 +91,13 @@ def register(sub) -> None:
     )
     p.add_argument(
         "--threshold",
-        type=Number(words=("auto", "otsu", "display")),
+        type=Number(low=0, open_low=True, words=("auto", "otsu", "display")),
         default=None,
         help="image threshold: auto (default), otsu, display or a number",
     )
     p.add_argument(
         "--erosion",
-        type=Number(words=("relative",)),
+        type=Number(int, low=1, high=4096, words=("relative",)),
         default=None,
         help="erosion in pixels, or relative (default)",
     )

@@ -319,7 +319,7 @@ def _lowpass_noise(
     return x / np.maximum(x.std(axis=-1, keepdims=True), 1e-12)
 
 
-def _simulate(
+def _simulate(  # noqa: PLR0915
     surface: Surface,
     jitter: np.ndarray,
     n: int,

@@ -8,6 +8,11 @@ features ``(B, F)`` to ``(labels (B,) int64, scores (B, C))`` with labels indexi
 ONNX file (:mod:`tactile_torch.export.model_graph`). :func:`inference_module` picks the module of any fitted
 classifier of the package.
 
+Each family's knowledge is one :class:`ClassifierCodec` of the registry :data:`CODECS` (skl2onnx's one
+converter per operator family is the model): fitted estimator → torch module → the arrays of a model
+file (:func:`encode_classifier`, what ``train`` writes) → the module again (:func:`decode_classifier`,
+what ``export`` builds from a model file). A new family of classifier is one codec here.
+
 ==============================================  ============================================================
 estimator                                       module
 ==============================================  ============================================================
@@ -39,6 +44,9 @@ Examples
 """
 
 from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 import torch
@@ -172,12 +180,161 @@ def _neighbours_module(est: object, dtype: torch.dtype) -> NeighboursInference:
     )
 
 
+def _svm_classes() -> tuple[type, ...]:
+    from ..svm import SVC, HierarchicalSVC
+
+    return (HierarchicalSVC, SVC)
+
+
+def _linear_classes() -> tuple[type, ...]:
+    from sklearn.discriminant_analysis import LinearDiscriminantAnalysis
+    from sklearn.neighbors import NearestCentroid
+
+    return (LinearDiscriminantAnalysis, NearestCentroid)
+
+
+def _neighbours_classes() -> tuple[type, ...]:
+    from sklearn.neighbors import KNeighborsClassifier
+
+    return (KNeighborsClassifier,)
+
+
+def _svm_module(est: object, dtype: torch.dtype) -> nn.Module:
+    return est.to_module(dtype)
+
+
+def _svm_head(est: object, module: nn.Module) -> tuple[str, dict, dict[str, np.ndarray]]:
+    from ..svm import HierarchicalSVC
+
+    head = {
+        "type": "svm",
+        "mode": module.mode,
+        "kernel": module.kernel,
+        "gamma": float(module.gamma),
+        "depth": int(module.depth),
+    }
+    buffers = {name: buf.numpy() for name, buf in module.named_buffers()}
+    return ("hmsvm" if isinstance(est, HierarchicalSVC) else "svm"), head, buffers
+
+
+def _svm_from_head(settings: dict, arrays: dict[str, np.ndarray], n_classes: int) -> nn.Module:
+    from ..svm import SVMInference
+
+    tensors = {name: torch.from_numpy(np.array(value)) for name, value in arrays.items()}
+    core = ("support_vectors", "dual_coef", "intercept")
+    return SVMInference(
+        *(tensors.pop(name) for name in core),
+        kernel=settings["kernel"],
+        gamma=settings["gamma"],
+        mode=settings["mode"],
+        tree=tensors or None,
+        depth=settings["depth"],
+    )
+
+
+def _linear_module(est: object, dtype: torch.dtype) -> nn.Module:
+    from sklearn.discriminant_analysis import LinearDiscriminantAnalysis
+
+    if isinstance(est, LinearDiscriminantAnalysis):
+        return LinearInference(est.coef_, est.intercept_, dtype=dtype)
+    if est.metric != "euclidean":
+        raise ValueError(f"a NearestCentroid exports with metric='euclidean' only, got {est.metric!r}")
+    means = np.asarray(est.centroids_, dtype=np.float64)
+    # argmin ||x - m_c|| = argmax (2 x . m_c - ||m_c||^2): the nearest-mean rule is linear.
+    return LinearInference(2.0 * means, -(means * means).sum(1), dtype=dtype)
+
+
+def _linear_head(est: object, module: nn.Module) -> tuple[str, dict, dict[str, np.ndarray]]:
+    from sklearn.discriminant_analysis import LinearDiscriminantAnalysis
+
+    coef, intercept = module.coef.numpy(), module.intercept.numpy()
+    mode = "binary" if coef.shape[0] == 1 else "multiclass"
+    method = "lda" if isinstance(est, LinearDiscriminantAnalysis) else "ncm"
+    return method, {"type": "linear", "mode": mode}, {"coef": coef, "intercept": intercept}
+
+
+def _linear_from_head(settings: dict, arrays: dict[str, np.ndarray], n_classes: int) -> nn.Module:
+    return LinearInference(arrays["coef"], arrays["intercept"])
+
+
+def _neighbours_head(est: object, module: nn.Module) -> tuple[str, dict, dict[str, np.ndarray]]:
+    head = {"type": "neighbours", "n_neighbors": module.n_neighbors, "weights": module.weights, "p": module.p}
+    labels = module.votes.numpy().argmax(1).astype(np.int64)
+    return "knn", head, {"samples": module.samples.numpy(), "labels": labels}
+
+
+def _neighbours_from_head(settings: dict, arrays: dict[str, np.ndarray], n_classes: int) -> nn.Module:
+    return NeighboursInference(
+        arrays["samples"],
+        arrays["labels"],
+        n_classes,
+        n_neighbors=settings["n_neighbors"],
+        weights=settings["weights"],
+        p=settings["p"],
+    )
+
+
+@dataclass(frozen=True)
+class ClassifierCodec:
+    """One family of fitted classifiers: estimator -> torch module -> a model file's arrays -> module.
+
+    Attributes
+    ----------
+    head_type : str
+        The model file's ``head["type"]`` (``"svm"``, ``"linear"``, ``"neighbours"``).
+    classes : callable
+        ``classes()`` returns the estimator classes of the family (imported on first use).
+    module : callable
+        ``module(estimator, dtype)``: the fitted estimator's inference module.
+    head : callable
+        ``head(estimator, module)``: ``(method, head settings, head arrays)`` of its model file.
+    from_head : callable
+        ``from_head(settings, arrays, n_classes)``: the inference module again, from a model file.
+    """
+
+    head_type: str
+    classes: Callable[[], tuple[type, ...]]
+    module: Callable[[object, torch.dtype], nn.Module]
+    head: Callable[[object, nn.Module], tuple[str, dict, dict[str, np.ndarray]]]
+    from_head: Callable[[dict, dict[str, np.ndarray], int], nn.Module]
+
+
+CODECS: dict[str, ClassifierCodec] = {
+    c.head_type: c
+    for c in (
+        ClassifierCodec("svm", _svm_classes, _svm_module, _svm_head, _svm_from_head),
+        ClassifierCodec("linear", _linear_classes, _linear_module, _linear_head, _linear_from_head),
+        ClassifierCodec(
+            "neighbours", _neighbours_classes, _neighbours_module, _neighbours_head, _neighbours_from_head
+        ),
+    )
+}
+"""The registry: one codec per family (skl2onnx's one converter per operator family), by head type."""
+
+
+def codec_of(estimator: object) -> ClassifierCodec:
+    """Return the :class:`ClassifierCodec` of a classifier's family.
+
+    Raises
+    ------
+    TypeError
+        (:class:`~tactile_torch.exceptions.InputTypeError`) For a classifier of no registered family.
+    """
+    for codec in CODECS.values():
+        if isinstance(estimator, codec.classes()):
+            return codec
+    raise InputTypeError(
+        "estimator must be a fitted tactile_torch SVM, LinearDiscriminantAnalysis, KNeighborsClassifier or "
+        f"NearestCentroid, got {type(estimator).__name__}"
+    )
+
+
 def inference_module(estimator: object, *, dtype: torch.dtype = torch.float64) -> nn.Module:
     """Return the torch inference module of a fitted classifier: features ``(B, F)`` → ``(labels, scores)``.
 
     Labels index ``estimator.classes_``. Supported: the package's SVMs (``to_module()``),
     scikit-learn's ``LinearDiscriminantAnalysis``, ``KNeighborsClassifier`` (city-block or Euclidean,
-    uniform or distance weights) and ``NearestCentroid`` (Euclidean).
+    uniform or distance weights) and ``NearestCentroid`` (Euclidean): :data:`CODECS`.
 
     Raises
     ------
@@ -188,31 +345,44 @@ def inference_module(estimator: object, *, dtype: torch.dtype = torch.float64) -
     sklearn.exceptions.NotFittedError
         If the estimator is not fitted.
     """
-    from sklearn.discriminant_analysis import LinearDiscriminantAnalysis
-    from sklearn.neighbors import KNeighborsClassifier, NearestCentroid
     from sklearn.utils.validation import check_is_fitted
 
     if hasattr(estimator, "to_module"):
         return estimator.to_module(dtype)
-    if isinstance(estimator, LinearDiscriminantAnalysis):
-        check_is_fitted(estimator)
-        return LinearInference(estimator.coef_, estimator.intercept_, dtype=dtype)
-    if isinstance(estimator, KNeighborsClassifier):
-        check_is_fitted(estimator)
-        return _neighbours_module(estimator, dtype)
-    if isinstance(estimator, NearestCentroid):
-        check_is_fitted(estimator)
-        if estimator.metric != "euclidean":
-            raise ValueError(
-                f"a NearestCentroid exports with metric='euclidean' only, got {estimator.metric!r}"
-            )
-        means = np.asarray(estimator.centroids_, dtype=np.float64)
-        # argmin ||x - m_c|| = argmax (2 x . m_c - ||m_c||^2): the nearest-mean rule is linear.
-        return LinearInference(2.0 * means, -(means * means).sum(1), dtype=dtype)
-    raise InputTypeError(
-        "estimator must be a fitted tactile_torch SVM, LinearDiscriminantAnalysis, KNeighborsClassifier or "
-        f"NearestCentroid, got {type(estimator).__name__}"
-    )
+    codec = codec_of(estimator)
+    check_is_fitted(estimator)
+    return codec.module(estimator, dtype)
 
 
-__all__ = ["LinearInference", "NeighboursInference", "inference_module"]
+def encode_classifier(estimator: object) -> tuple[str, dict, dict[str, np.ndarray]]:
+    """Return ``(method, head settings, head arrays)`` of a fitted classifier for its model file.
+
+    The arrays are those of its inference module (:func:`inference_module`): an SVM's support vectors,
+    dual coefficients, intercepts (and tree tables); LDA's and the nearest class mean's linear scores
+    ``coef`` ``(M, F)``, ``intercept`` ``(M,)``; kNN's training ``samples`` and ``labels``.
+    :func:`decode_classifier` makes the module again.
+
+    Raises
+    ------
+    TypeError
+        For a classifier without an inference module.
+    """
+    codec = codec_of(estimator)
+    return codec.head(estimator, inference_module(estimator))
+
+
+def decode_classifier(settings: dict, arrays: dict[str, np.ndarray], n_classes: int) -> nn.Module:
+    """Return the inference module of a model file's classifier ``head`` settings and arrays."""
+    return CODECS[settings["type"]].from_head(settings, arrays, n_classes)
+
+
+__all__ = [
+    "CODECS",
+    "ClassifierCodec",
+    "LinearInference",
+    "NeighboursInference",
+    "codec_of",
+    "decode_classifier",
+    "encode_classifier",
+    "inference_module",
+]

@@ -40,14 +40,19 @@ def model_classes(model: object) -> np.ndarray:
     return np.asarray(model.classes_ if hasattr(model, "classes_") else model.steps[-1][1].classes_)
 
 
-def n_parameters(model: object) -> int:
-    """Return the learned numbers of a fitted model: a network's trained scalars (plus its learned
-    front-end settings), or the numbers a classical model's classifier stores."""
-    if hasattr(model, "n_parameters_"):
-        return int(model.n_parameters_)
+def n_parameters(model: object) -> int | None:
+    """Return the learned numbers of a fitted model or ``Pipeline``: a network's trained scalars (plus its
+    learned front-end settings), or the numbers a classical classifier stores (support vectors,
+    coefficients, class means ...); ``None`` for a classifier with no inference graph to count."""
+    classifier = model.steps[-1][1] if hasattr(model, "steps") else model
+    if hasattr(classifier, "n_parameters_"):
+        return int(classifier.n_parameters_)
     from .parts import head_modules
 
-    return int(sum(b.numel() for m in head_modules(model) for b in m.buffers()))
+    try:
+        return int(sum(b.numel() for m in head_modules(model) for b in m.buffers()))
+    except (TypeError, ValueError, KeyError):
+        return None
 
 
 def export_model(model: object, path: str | Path, example: np.ndarray, class_names: list[str]) -> Path:

@@ -268,7 +268,9 @@ def pipeline_from_model(
 
         modules.append(ColumnSelect(model.arrays["select"]))
     front = nn.Sequential(*modules, _scaler(model.arrays["scale"], model.arrays.get("center")))
-    classifier = _classifier_head(head, model.part("head"), len(model.class_names))
+    from .classifier_inference import decode_classifier
+
+    classifier = decode_classifier(head, model.part("head"), len(model.class_names))
     ood = model.header.get("ood")
     if ood is not None:  # "unknown" as an answer: the graph also gives the distance to training
         from ..ood import WithDistance, distance_module
@@ -284,40 +286,6 @@ def pipeline_from_model(
         input_layout=layout,
         class_names=model.class_names,
         metadata=meta,
-    )
-
-
-def _classifier_head(settings: dict, arrays: dict[str, np.ndarray], n_classes: int) -> nn.Module:
-    """The classifier's inference module from a model file's ``head`` (SVM, linear or nearest neighbours)."""
-    from .classifier_inference import LinearInference, NeighboursInference
-
-    if settings["type"] == "linear":
-        return LinearInference(arrays["coef"], arrays["intercept"])
-    if settings["type"] == "neighbours":
-        return NeighboursInference(
-            arrays["samples"],
-            arrays["labels"],
-            n_classes,
-            n_neighbors=settings["n_neighbors"],
-            weights=settings["weights"],
-            p=settings["p"],
-        )
-    return _svm_head(settings, arrays)
-
-
-def _svm_head(settings: dict, arrays: dict[str, np.ndarray]) -> nn.Module:
-    """The SVM's inference module from a model file's ``head`` settings and arrays."""
-    from ..svm import SVMInference
-
-    tensors = {name: torch.from_numpy(np.array(value)) for name, value in arrays.items()}
-    core = ("support_vectors", "dual_coef", "intercept")
-    return SVMInference(
-        *(tensors.pop(name) for name in core),
-        kernel=settings["kernel"],
-        gamma=settings["gamma"],
-        mode=settings["mode"],
-        tree=tensors or None,
-        depth=settings["depth"],
     )
 
 

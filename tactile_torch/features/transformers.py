@@ -354,6 +354,18 @@ def taxel_features(signals: torch.Tensor) -> torch.Tensor:
     return per_taxel.reshape(batch, n * len(AXIS_FEATURES))
 
 
+class _ShapeOnly(TransformerMixin, BaseEstimator):
+    """A ``features`` step with no parameter whose ``fit`` learns the input's shape only: scikit-learn's
+    ``requires_fit`` is off, so the evaluation computes its features once for all folds."""
+
+    _parameter_constraints: ClassVar[dict] = {}
+
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        tags.requires_fit = False
+        return tags
+
+
 class TaxelFeatures(nn.Module):
     """Module form of :func:`taxel_features`; RGB frames ``(B, T, 3, H, W)`` are first turned into
     ``1 - gray`` (pressure-like: 0 on the white background)."""
@@ -370,20 +382,13 @@ class TaxelFeatures(nn.Module):
         return taxel_features(raw.to(torch.float32))
 
 
-class TaxelFeatureTransformer(TransformerMixin, BaseEstimator):
+class TaxelFeatureTransformer(_ShapeOnly):
     """Per-taxel time-series features: the 7 vibration features of every taxel's signal over the exploration.
 
     Takes raw pressure maps ``(N, T, H, W)`` or RGB frames ``(N, T, 3, H, W)`` (then ``1 - gray``).
     Gives ``(N, H * W * 7)`` features; meant for small arrays (at most :data:`MAX_TAXELS` taxels).
     Nothing is learnt.
     """
-
-    def __sklearn_tags__(self):
-        tags = super().__sklearn_tags__()
-        tags.requires_fit = False  # fit learns the input's shape only: features once for all folds
-        return tags
-
-    _parameter_constraints: ClassVar[dict] = {}
 
     @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X: object, y: object = None) -> TaxelFeatureTransformer:
@@ -408,15 +413,8 @@ class TaxelFeatureTransformer(TransformerMixin, BaseEstimator):
         return TaxelFeatures(self.rgb_)
 
 
-class WindowFeatureTransformer(TransformerMixin, BaseEstimator):
+class WindowFeatureTransformer(_ShapeOnly):
     """The 21 vibration features of windows ``(N, 3, W)`` (:func:`~tactile_torch.signal.window_features`)."""
-
-    def __sklearn_tags__(self):
-        tags = super().__sklearn_tags__()
-        tags.requires_fit = False  # fit learns the input's shape only: features once for all folds
-        return tags
-
-    _parameter_constraints: ClassVar[dict] = {}
 
     @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X: object, y: object = None) -> WindowFeatureTransformer:
@@ -435,15 +433,8 @@ class WindowFeatureTransformer(TransformerMixin, BaseEstimator):
         return WindowFeatures(self.window_size_)
 
 
-class FeaturePassthrough(TransformerMixin, BaseEstimator):
+class FeaturePassthrough(_ShapeOnly):
     """A feature matrix ``(N, F)`` passed through unchanged (the ``features`` step of a feature file)."""
-
-    def __sklearn_tags__(self):
-        tags = super().__sklearn_tags__()
-        tags.requires_fit = False  # fit learns the input's shape only: features once for all folds
-        return tags
-
-    _parameter_constraints: ClassVar[dict] = {}
 
     @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X: object, y: object = None) -> FeaturePassthrough:
@@ -460,13 +451,14 @@ class FeaturePassthrough(TransformerMixin, BaseEstimator):
         return ToFloat32()
 
 
-# RawInput and FeaturePassthrough are both the identity `features` step, but not the same thing yet:
-# FeaturePassthrough validates a 2-D float feature matrix and exports a float32 cast, RawInput takes any
-# raw input (windows, frames) as is and exports nn.Identity. Merging them is issue 40's later step.
-class RawInput(TransformerMixin, BaseEstimator):
+# RawInput and FeaturePassthrough are both an identity `features` step, but two jobs, kept as two classes
+# (issue 40 looked at merging them): FeaturePassthrough is a feature matrix, validated as one (2-D, finite,
+# float64) and exported as the float32 cast every classical head is exported for; RawInput is a network's
+# raw input (windows, frames, pressure maps of any shape), passed as it is to a network that owns its
+# dtype, and its class is what marks a candidate as learned (tradeoff.learned.is_learned). One class with a
+# mode would branch on the mode in all three methods and in is_learned.
+class RawInput(_ShapeOnly):
     """The raw input unchanged (the ``features`` step of a learned candidate); nothing is learnt."""
-
-    _parameter_constraints: ClassVar[dict] = {}
 
     @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X: object, y: object = None) -> RawInput:
@@ -480,11 +472,6 @@ class RawInput(TransformerMixin, BaseEstimator):
         from torch import nn
 
         return nn.Identity()
-
-    def __sklearn_tags__(self):
-        tags = super().__sklearn_tags__()
-        tags.requires_fit = False
-        return tags
 
 
 class ToFloat32(nn.Module):

@@ -78,6 +78,7 @@ __getattr__, __dir__, __all__ = lazy_exports(
             "fuse_edges",
             "gradient",
             "gradient_statistics",
+            "learnable_exploration_features",
             "otsu_threshold",
             "pressure_mask",
             "sobel_edges",

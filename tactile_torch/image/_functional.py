@@ -3,6 +3,8 @@ arguments once and calls the kernels."""
 
 from __future__ import annotations
 
+import math
+
 import torch
 
 from ..validation import check_floating, check_positive, check_tensor
@@ -12,6 +14,7 @@ from ._kernels import (
     _erode,
     _gradient,
     _gray,
+    _image_features,
     _level_histogram,
     _or_accumulate,
     _or_finish,
@@ -331,3 +334,47 @@ def exploration_features(
         temperature=temperature,
         frames_per_chunk=frames_per_chunk,
     )
+
+
+def learnable_exploration_features(
+    frames: torch.Tensor,
+    threshold: torch.Tensor,
+    edge_threshold: torch.Tensor,
+    temperatures: tuple[torch.Tensor, float, torch.Tensor],
+    erosion: int,
+) -> torch.Tensor:
+    """Return the 12 fused method-1 features of explorations with every setting a tensor (the soft ops).
+
+    The graph of :class:`tactile_torch.neural.LearnedFrontEndClassifier`: grayscale (float32), soft
+    pressed region, soft erosion, soft edges and noisy-OR fusion over the frames, then the gradient
+    statistics, with ``threshold``, ``edge_threshold`` and the mask and edge temperatures as tensors,
+    so that gradients reach them. No check and no blocks: a training step's batch is small, and the
+    caller (a module's ``forward``) owns its arguments.
+
+    Parameters
+    ----------
+    frames : tensor of shape (B, T, 3, H, W)
+    threshold, edge_threshold : tensors of shape ()
+    temperatures : (mask temperature, erosion temperature, edge temperature)
+        Tensors of shape () but the erosion's, a float.
+    erosion : int >= 1
+
+    Returns
+    -------
+    tensor of shape (B, 12), float32.
+
+    Examples
+    --------
+    >>> t = torch.tensor(0.05)
+    >>> frames = torch.randint(0, 256, (2, 3, 3, 16, 16), dtype=torch.uint8)
+    >>> learnable_exploration_features(frames, torch.tensor(0.9), torch.tensor(0.5), (t, 0.05, t), 3).shape
+    torch.Size([2, 12])
+    """
+    t_mask, t_erosion, t_edge = temperatures
+    gray = _gray(frames, torch.float32)
+    mask = _pressure(gray, threshold, t_mask)
+    eroded = _erode(mask, erosion, t_erosion)
+    edges = _edges(eroded, edge_threshold, t_edge)
+    below = edges < 1.0  # noisy-OR over the frames, as fuse_edges(soft=True), an edge of 1 kept exact
+    log_not = torch.where(below, torch.log1p(-torch.where(below, edges, 0.0)), -math.inf).sum(1)
+    return _image_features(-torch.expm1(log_not))

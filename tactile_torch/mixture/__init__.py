@@ -39,5 +39,6 @@ __getattr__, __dir__, __all__ = lazy_exports(
             "variation_of_information",
         ),
         "_inference": ("GaussianMixtureClassifier", "gaussian_mixture_scores"),
+        "_novelty": ("window_means",),
     },
 )

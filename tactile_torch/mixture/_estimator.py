@@ -330,7 +330,7 @@ class PitmanYorGMM(PredictionMixin, PosteriorMixin, ClusterMixin, BaseEstimator)
         "progress": ["boolean"],
     }
 
-    def __init__(
+    def __init__(  # noqa: PLR0913
         self,
         model: str = "mfm",
         coarsen: float | None = None,
@@ -433,7 +433,7 @@ class PitmanYorGMM(PredictionMixin, PosteriorMixin, ClusterMixin, BaseEstimator)
     # fit
     # ------------------------------------------------------------------------------------------
     @_fit_context(prefer_skip_nested_validation=True)
-    def fit(self, X: object, y: object = None) -> PitmanYorGMM:
+    def fit(self, X: object, y: object = None) -> PitmanYorGMM:  # noqa: PLR0915
         """Run the chains on ``X`` of shape (n_samples, n_features); return ``self``.
 
         ``X`` is an array-like or a tensor; ``y`` is ignored (present for scikit-learn pipelines).

@@ -66,6 +66,7 @@ __getattr__, __dir__, __all__ = lazy_exports(
             "cap_per_class",
             "fold_units",
             "group_folds",
+            "group_ids",
             "odd_even_split",
             "rotating_splits",
             "sample_folds",

@@ -423,17 +423,3 @@ def rank_feature_groups(
         accuracy = float(np.mean(model.predict(X[test][:, cols]) == y[test]))
         rows.append({"features": name, "columns": len(cols), "accuracy": accuracy})
     return sorted(rows, key=lambda r: -r["accuracy"])
-
-
-__all__ = [
-    "VIBRATION_STUDY_C",
-    "VIBRATION_STUDY_GAMMA",
-    "ProtocolResult",
-    "SVMGridSearchCV",
-    "grid_search_validation",
-    "parameter_grid",
-    "rank_feature_groups",
-    "run_holdout_protocol",
-    "stratified_grid_search",
-    "supports_batched_search",
-]

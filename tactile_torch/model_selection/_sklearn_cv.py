@@ -42,6 +42,3 @@ def fold_scores(model: object, X: np.ndarray, y: np.ndarray, folds: Sequence[Fol
     from sklearn.model_selection import cross_val_score
 
     return cross_val_score(model, X, y, cv=list(folds))
-
-
-__all__ = ["fold_predictions", "fold_scores"]

@@ -36,7 +36,12 @@ from ..validation import RandomState, numpy_rng
 Fold = tuple[np.ndarray, np.ndarray]
 
 
-def _group_ids(values: np.ndarray) -> np.ndarray:
+def group_ids(values: np.ndarray) -> np.ndarray:
+    """Return an integer id per value, ``0 .. n_groups - 1`` in the sorted order of the values as strings.
+
+    >>> group_ids(np.array(["day2", "day1", "day2"])).tolist()
+    [1, 0, 1]
+    """
     return np.unique(np.asarray(values).astype(str), return_inverse=True)[1]
 
 
@@ -76,7 +81,7 @@ def sample_folds(
         raise ValueError(f"data: at least 2 classes are needed, got only {_class_name(names, classes[0])!r}")
     note = ""
     if groups is not None:
-        gid = _group_ids(groups)
+        gid = group_ids(groups)
         per_class = np.array([len(np.unique(gid[y == c])) for c in classes])
         k = min(n_folds, int(per_class.min()))
         if k >= 2:
@@ -163,7 +168,7 @@ def window_folds(
     split : str
         How the folds were made, in words.
     """
-    group = _group_ids(np.asarray(session))[recording]
+    group = group_ids(np.asarray(session))[recording]
     per_class = np.array([len(np.unique(group[y == c])) for c in np.unique(y)])
     if per_class.min() >= 2:
         keep = cap_per_class(y, max_per_class)
@@ -417,21 +422,3 @@ def time_holdout(
             part[idx[start:end]] = k
             start = max(start, end)
     return part
-
-
-__all__ = [
-    "Fold",
-    "Split",
-    "cap_per_class",
-    "fold_units",
-    "group_folds",
-    "labels_1d",
-    "odd_even_split",
-    "rotating_splits",
-    "sample_folds",
-    "single_group",
-    "stratified_folds",
-    "stratified_splitter",
-    "time_holdout",
-    "window_folds",
-]

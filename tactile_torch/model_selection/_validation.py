@@ -160,7 +160,7 @@ def _fit_task(rest, Z_train, y_train, g_train, Z_test, tuning, seed, threads):
     return out
 
 
-def cross_validate(
+def cross_validate(  # noqa: PLR0913
     models: Mapping[str, Any],
     X: Any,
     y: Any,
@@ -227,128 +227,148 @@ def cross_validate(
         and ``CVResult.fold``, of the whole run.
     """
     y = np.asarray(y)
-    n = len(y)
-    group_ids = np.arange(n) if groups is None else np.asarray(groups)
-    inner_groups = None if groups is None else group_ids
+    group_ids = np.arange(len(y)) if groups is None else np.asarray(groups)
     runner = as_backend(backend, n_jobs, scheduler)
     split = models if isinstance(models, Models) else Models(models)
-    models = split.models
     tuning = dict(tuning or {})
-    filled = cache if isinstance(cache, dict) else None
-    cache = dict(cache or {})
     ids = list(range(len(folds))) if fold_ids is None else [int(k) for k in fold_ids]
     if len(ids) != len(folds):
         raise ValueError(f"fold_ids must name each of the {len(folds)} folds, got {len(ids)}")
-    threads = 1 if runner.parallel else None
     with runner:
-        # stage 1: features
+        features = _FoldFeatures(split, X, y, folds)
+        features.compute(runner, dict(cache or {}), desc, progress)
+        if isinstance(cache, dict):  # the caller's cache gains the features computed on all samples
+            cache.update((key, value) for key, value in features.whole.items() if key not in cache)
+        if features_out is not None:
+            features_out.update(features.export())
+        by_model = _fit_stage(
+            split, features, y, folds, groups, tuning, runner, random_state, desc, progress, ids
+        )
+    return {
+        name: _result(
+            name, split, features, by_model.get(name, {}), X, y, folds, group_ids, tuning, keep_models, ids
+        )
+        for name in split.names
+    }
+
+
+class _FoldFeatures:
+    """Stage 1 of :func:`cross_validate`: the features of every distinct ``features`` step, per fold."""
+
+    def __init__(self, split: Models, X: Any, y: np.ndarray, folds: Folds) -> None:
+        self.split, self.X, self.y, self.folds = split, X, y, folds
+        self.whole: dict[str, Any] = {}
+        self.per_fold: dict[str, list] = {}
+        self.failed: dict[str, str] = {}
+
+    def compute(self, runner: Backend, cache: dict, desc: str, progress: bool) -> None:
+        """Fit or compute every step not in ``cache`` (once on all samples when it needs no fit)."""
         tasks, where = [], []
-        for key, step in split.steps.items():
+        for key, step in self.split.steps.items():
             if step is None or key in cache:
                 continue
             if needs_fit(step):
-                for k, (tr, te) in enumerate(folds):
-                    tasks.append((step, X, y, tr, te))
+                for k, (tr, te) in enumerate(self.folds):
+                    tasks.append((step, self.X, self.y, tr, te))
                     where.append((key, k))
             else:
-                tasks.append((step, X, y, None, None))
+                tasks.append((step, self.X, self.y, None, None))
                 where.append((key, None))
         done = runner.map(_features_task, tasks, desc=f"{desc}features".strip(), progress=progress)
-        whole: dict[str, Any] = dict(cache)
-        per_fold: dict[str, list] = {}
-        failed: dict[str, str] = {}
+        self.whole = dict(cache)
         for (key, k), value in zip(where, done, strict=True):
             if isinstance(value, Exception):
-                failed[key] = f"features: {type(value).__name__}: {value}"
+                self.failed[key] = f"features: {type(value).__name__}: {value}"
             elif k is None:
-                whole[key] = (value[1], value[3])
+                self.whole[key] = (value[1], value[3])
             else:
-                per_fold.setdefault(key, [None] * len(folds))[k] = value
-        if filled is not None:
-            filled.update((key, value) for key, value in whole.items() if key not in filled)
+                self.per_fold.setdefault(key, [None] * len(self.folds))[k] = value
 
-        def fold_features(key: str, k: int) -> tuple[Any, Any, Any, float]:
-            tr, te = folds[k]
-            step = split.steps[key]
-            if step is None:
-                return None, take(X, tr), take(X, te), 0.0
-            if key in whole:
-                Z, seconds = whole[key]
-                return step, take(Z, tr), take(Z, te), seconds * len(tr) / n
-            fitted, Z_tr, Z_te, seconds = per_fold[key][k]
-            return fitted, Z_tr, Z_te, seconds
+    def fold(self, key: str, k: int) -> tuple[Any, Any, Any, float]:
+        """``(fitted step, Z_train, Z_test, seconds)`` of step ``key`` on fold ``k``."""
+        tr, te = self.folds[k]
+        step = self.split.steps[key]
+        if step is None:
+            return None, take(self.X, tr), take(self.X, te), 0.0
+        if key in self.whole:
+            Z, seconds = self.whole[key]
+            return step, take(Z, tr), take(Z, te), seconds * len(tr) / len(self.y)
+        return self.per_fold[key][k]
 
-        if features_out is not None:
-            for key in split.steps:
-                if key in failed:
-                    features_out[key] = failed[key]
-                else:
-                    features_out[key] = [fold_features(key, k)[:3] for k in range(len(folds))]
+    def export(self) -> dict:
+        """Per step: per fold ``(fitted step, Z_train, Z_test)``, or the error of a step that failed."""
+        return {
+            key: self.failed[key]
+            if key in self.failed
+            else [self.fold(key, k)[:3] for k in range(len(self.folds))]
+            for key in self.split.steps
+        }
 
-        # stage 2: tune, fit and test every model on every fold
-        tasks, where = [], []
-        for name in split.names:
-            if name in split.errors or split.signature[name] in failed:
-                continue
-            key = split.signature[name]
-            for k, (tr, _) in enumerate(folds):
-                _, Z_tr, Z_te, _ = fold_features(key, k)
-                g_tr = None if inner_groups is None else inner_groups[tr]
-                seed = seed_of(random_state, name, ids[k])
-                tasks.append((split.rest[name], Z_tr, y[tr], g_tr, Z_te, tuning.get(name), seed, threads))
-                where.append((name, k))
-        done = runner.map(_fit_task, tasks, desc=f"{desc}fit".strip(), progress=progress)
+
+def _fit_stage(split, features, y, folds, groups, tuning, runner, random_state, desc, progress, ids) -> dict:
+    """Stage 2 of :func:`cross_validate`: tune, fit and test every model on every fold; ``{name: {k: out}}``."""
+    threads = 1 if runner.parallel else None
+    inner_groups = None if groups is None else np.asarray(groups)
+    tasks, where = [], []
+    for name in split.names:
+        if name in split.errors or split.signature[name] in features.failed:
+            continue
+        for k, (tr, _) in enumerate(folds):
+            _, Z_tr, Z_te, _ = features.fold(split.signature[name], k)
+            g_tr = None if inner_groups is None else inner_groups[tr]
+            seed = seed_of(random_state, name, ids[k])
+            tasks.append((split.rest[name], Z_tr, y[tr], g_tr, Z_te, tuning.get(name), seed, threads))
+            where.append((name, k))
+    done = runner.map(_fit_task, tasks, desc=f"{desc}fit".strip(), progress=progress)
     by_model: dict[str, dict[int, dict]] = {}
     for (name, k), value in zip(where, done, strict=True):
         by_model.setdefault(name, {})[k] = value
+    return by_model
+
+
+def _result(name, split, features, outs, X, y, folds, group_ids, tuning, keep_models, ids) -> CVResult:
+    """Stage 3 of :func:`cross_validate`: one model's :class:`CVResult` from its folds' outputs."""
     missing = -1 if np.issubdtype(y.dtype, np.integer) else None
-    results = {}
-    for name in split.names:
-        res = CVResult(
-            name=name,
-            estimator=models[name],
-            tuning=tuning.get(name),
-            predictions=np.full(n, missing, dtype=y.dtype if missing is not None else object),
-            fold=np.full(n, -1, dtype=np.int64),
-            groups=group_ids,
-        )
-        results[name] = res
-        if name in split.errors:
-            res.error = split.errors[name]
-            continue
-        key = split.signature[name]
-        if key in failed:
-            res.error = failed[key]
-            continue
-        outs = by_model[name]
-        notes: set[str] = set()
-        for k, (_, te) in enumerate(folds):
-            out = outs[k]
-            notes.update(out["notes"])
-            if "error" in out:
-                res.error = out["error"]
-                break
-            fitted_step, _, _, feature_s = fold_features(key, k)
-            res.predictions[te] = out["predicted"]
-            res.fold[te] = ids[k]
-            res.fold_accuracy.append(float(np.mean(out["predicted"] == y[te])))
-            res.feature_seconds.append(float(feature_s))
-            res.tune_seconds.append(float(out["tune_s"]))
-            res.fit_seconds.append(float(feature_s + out["tune_s"] + out["fit_s"]))
-            res.params.append(dict(out["params"]))
-            res.tuning_notes.append(out["how"])
-            if keep_models:
-                rest = out["model"]
-                if fitted_step is None:
-                    res.models.append(rest)
-                else:
-                    if not needs_fit(fitted_step):
-                        fitted_step = clone(fitted_step).fit(take(X, te[:2]))  # learns the shapes only
-                    res.models.append(Pipeline([("features", fitted_step), *rest.steps]))
-        if res.error is not None:
-            res.fold_accuracy, res.fit_seconds, res.tune_seconds, res.models = [], [], [], []
-            res.feature_seconds, res.params, res.tuning_notes = [], [], []
-            res.predictions[:] = missing
-            res.fold[:] = -1
-        res.notes = sorted(notes)
-    return results
+    res = CVResult(
+        name=name,
+        estimator=split.models[name],
+        tuning=tuning.get(name),
+        predictions=np.full(len(y), missing, dtype=y.dtype if missing is not None else object),
+        fold=np.full(len(y), -1, dtype=np.int64),
+        groups=group_ids,
+    )
+    key = split.signature.get(name)
+    res.error = split.errors.get(name) or features.failed.get(key)
+    if res.error is not None:
+        return res
+    notes: set[str] = set()
+    for k, (_, te) in enumerate(folds):
+        out = outs[k]
+        notes.update(out["notes"])
+        if "error" in out:
+            res.error = out["error"]
+            break
+        fitted_step, _, _, feature_s = features.fold(key, k)
+        res.predictions[te] = out["predicted"]
+        res.fold[te] = ids[k]
+        res.fold_accuracy.append(float(np.mean(out["predicted"] == y[te])))
+        res.feature_seconds.append(float(feature_s))
+        res.tune_seconds.append(float(out["tune_s"]))
+        res.fit_seconds.append(float(feature_s + out["tune_s"] + out["fit_s"]))
+        res.params.append(dict(out["params"]))
+        res.tuning_notes.append(out["how"])
+        if keep_models:
+            rest = out["model"]
+            if fitted_step is None:
+                res.models.append(rest)
+            else:
+                if not needs_fit(fitted_step):
+                    fitted_step = clone(fitted_step).fit(take(X, te[:2]))  # learns the shapes only
+                res.models.append(Pipeline([("features", fitted_step), *rest.steps]))
+    if res.error is not None:
+        res.fold_accuracy, res.fit_seconds, res.tune_seconds, res.models = [], [], [], []
+        res.feature_seconds, res.params, res.tuning_notes = [], [], []
+        res.predictions[:] = missing
+        res.fold[:] = -1
+    res.notes = sorted(notes)
+    return res

@@ -25,14 +25,13 @@ from typing import ClassVar
 
 import numpy as np
 import torch
-from sklearn.base import BaseEstimator, ClassifierMixin, _fit_context
+from sklearn.base import _fit_context
 from sklearn.utils._param_validation import Interval
-from sklearn.utils.multiclass import check_classification_targets
 from sklearn.utils.validation import check_is_fitted
 from torch import nn
 
 from ..validation import RANDOM_STATE, numpy_rng, torch_generator
-from .front_end import HardFrontEndGraph, _fit_standardised_head, crammer_singer_loss
+from .front_end import HardFrontEndGraph, _HingeHeadClassifier, crammer_singer_loss
 
 HF_COLUMNS = (6, 13, 20)
 """Columns of ``hf`` among the 21 features (axis-major order)."""
@@ -77,7 +76,7 @@ class CutoffWindowFeatures(nn.Module):
         return torch.stack(columns, dim=-1)
 
 
-class LearnedCutoffClassifier(ClassifierMixin, BaseEstimator):
+class LearnedCutoffClassifier(_HingeHeadClassifier):
     """The 21 window features with a learned spectral cut-off and a hinge-loss linear head.
 
     Parameters
@@ -100,6 +99,7 @@ class LearnedCutoffClassifier(ClassifierMixin, BaseEstimator):
         Stage 1: cut-off and mean hinge loss after each epoch.
     """
 
+    _n_learned = 2
     _parameter_constraints: ClassVar[dict] = {
         "learn": ["boolean"],
         "cutoff": [Interval(Real, 0, 1, closed="neither")],
@@ -189,12 +189,7 @@ class LearnedCutoffClassifier(ClassifierMixin, BaseEstimator):
         from .._parallel import serial_torch_ops_in_this_thread
 
         windows = self._windows(X)
-        y = np.asarray(y)
-        if y.shape != (len(windows),):
-            raise ValueError(f"y must have shape ({len(windows)},), got {y.shape}")
-        check_classification_targets(y)
-        self.classes_, encoded = np.unique(y, return_inverse=True)
-        targets = torch.from_numpy(encoded.astype(np.int64))
+        targets = self._targets(len(windows), y)
         self.input_shape_ = tuple(int(s) for s in windows.shape[1:])
         generator = torch_generator(self.random_state)
         numpy_rng(generator)
@@ -202,12 +197,7 @@ class LearnedCutoffClassifier(ClassifierMixin, BaseEstimator):
         with serial_torch_ops_in_this_thread():
             if self.learn:
                 self._learn(windows, targets, generator)
-            self.feature_mean_, self.feature_scale_, self.linear_ = _fit_standardised_head(
-                self._features(windows), targets, len(self.classes_), self.alpha, self.head_steps, generator
-            )
-        self.n_parameters_ = int(self.linear_.weight.numel() + self.linear_.bias.numel()) + (
-            2 if self.learn else 0
-        )
+            self._fit_head(self._features(windows), targets, generator)
         return self
 
     def _features(self, windows: torch.Tensor) -> torch.Tensor:
@@ -224,17 +214,9 @@ class LearnedCutoffClassifier(ClassifierMixin, BaseEstimator):
         """Return the linear scores ``(N, C)``."""
         check_is_fitted(self)
         windows = self._windows(X)
-        if tuple(windows.shape[1:]) != self.input_shape_:
-            raise ValueError(
-                f"windows must have shape (N, {self.input_shape_}) as in fit, got {tuple(windows.shape)}"
-            )
+        self._check_shape(windows, "windows")
         with torch.no_grad():
             return self.to_module()(windows)[1].double().numpy()
-
-    def predict(self, X: object) -> np.ndarray:
-        """Return the class of each window (largest score)."""
-        scores = self.decision_function(X)
-        return self.classes_[scores.argmax(1)]
 
     def learned_settings(self) -> dict[str, object]:
         """Return ``{"cutoff": (hand-set, used), "temperature": (initial, learned)}``."""

@@ -96,18 +96,16 @@ class SoftFrontEnd(nn.Module):
             }
 
     def forward(self, frames: torch.Tensor) -> torch.Tensor:
-        from ..image._kernels import _edges, _erode, _gray, _image_features, _pressure
+        from ..image import learnable_exploration_features
 
-        threshold = torch.sigmoid(self.threshold_logit)
         t_mask, t_edge = self.log_temperatures.exp().unbind()
-        gray = _gray(frames, torch.float32)
-        mask = _pressure(gray, threshold, t_mask)
-        eroded = _erode(mask, self.erosion, self.erosion_temperature)
-        edges = _edges(eroded, self.log_edge_threshold.exp(), t_edge)
-        below = edges < 1.0  # noisy-OR over the frames, as tactile_torch.image's soft fusion
-        log_not = torch.where(below, torch.log1p(-torch.where(below, edges, 0.0)), -math.inf).sum(1)
-        fused = -torch.expm1(log_not)
-        return _image_features(fused)
+        return learnable_exploration_features(
+            frames,
+            torch.sigmoid(self.threshold_logit),
+            self.log_edge_threshold.exp(),
+            (t_mask, self.erosion_temperature, t_edge),
+            self.erosion,
+        )
 
 
 class HardFrontEndGraph(nn.Module):
@@ -163,7 +161,39 @@ def _fit_standardised_head(
         return mean, scale, _train_head((F - mean) / scale, y, n_classes, alpha, steps, generator)
 
 
-class LearnedFrontEndClassifier(ClassifierMixin, BaseEstimator):
+class _HingeHeadClassifier(ClassifierMixin, BaseEstimator):
+    """What the learned front ends share: the targets, the hinge head on their hard features, predict."""
+
+    _n_learned = 0
+    """Settings the front end learns (counted in ``n_parameters_`` when ``learn``)."""
+
+    def _targets(self, n: int, y: object) -> torch.Tensor:
+        y = np.asarray(y)
+        if y.shape != (n,):
+            raise ValueError(f"y must have shape ({n},), got {y.shape}")
+        check_classification_targets(y)
+        self.classes_, encoded = np.unique(y, return_inverse=True)
+        return torch.from_numpy(encoded.astype(np.int64))
+
+    def _fit_head(self, features: torch.Tensor, targets: torch.Tensor, generator: torch.Generator) -> None:
+        self.feature_mean_, self.feature_scale_, self.linear_ = _fit_standardised_head(
+            features, targets, len(self.classes_), self.alpha, self.head_steps, generator
+        )
+        head = self.linear_.weight.numel() + self.linear_.bias.numel()
+        self.n_parameters_ = int(head) + (self._n_learned if self.learn else 0)
+
+    def _check_shape(self, inputs: torch.Tensor, name: str) -> None:
+        if tuple(inputs.shape[1:]) != self.input_shape_:
+            raise ValueError(
+                f"{name} must have shape (N, {self.input_shape_}) as in fit, got {tuple(inputs.shape)}"
+            )
+
+    def predict(self, X: object) -> np.ndarray:
+        """Return the class of each input (largest score)."""
+        return self.classes_[self.decision_function(X).argmax(1)]
+
+
+class LearnedFrontEndClassifier(_HingeHeadClassifier):
     """Method 1 with its front-end settings learned through the soft ops and a hinge-loss linear head.
 
     See the module notes for the two stages.
@@ -201,6 +231,7 @@ class LearnedFrontEndClassifier(ClassifierMixin, BaseEstimator):
         Stage 1: the settings and the mean hinge loss after each epoch.
     """
 
+    _n_learned = 4
     _parameter_constraints: ClassVar[dict] = {
         "learn": ["boolean"],
         "threshold": [Interval(Real, 0, 1, closed="neither")],
@@ -319,12 +350,7 @@ class LearnedFrontEndClassifier(ClassifierMixin, BaseEstimator):
         from ..image import relative_erosion
 
         frames = self._frames(X)
-        y = np.asarray(y)
-        if y.shape != (len(frames),):
-            raise ValueError(f"y must have shape ({len(frames)},), got {y.shape}")
-        check_classification_targets(y)
-        self.classes_, encoded = np.unique(y, return_inverse=True)
-        targets = torch.from_numpy(encoded.astype(np.int64))
+        targets = self._targets(len(frames), y)
         self.input_shape_ = tuple(int(s) for s in frames.shape[1:])
         height, width = frames.shape[-2:]
         self.erosion_ = relative_erosion(height, width) if self.erosion == "relative" else int(self.erosion)
@@ -335,12 +361,7 @@ class LearnedFrontEndClassifier(ClassifierMixin, BaseEstimator):
         self.history_ = []
         if self.learn:
             self._learn_front_end(frames, targets, generator)
-        self.feature_mean_, self.feature_scale_, self.linear_ = _fit_standardised_head(
-            self._hard_features(frames), targets, len(self.classes_), self.alpha, self.head_steps, generator
-        )
-        self.n_parameters_ = int(self.linear_.weight.numel() + self.linear_.bias.numel()) + (
-            4 if self.learn else 0
-        )
+        self._fit_head(self._hard_features(frames), targets, generator)
         return self
 
     def to_module(self) -> nn.Module:
@@ -357,18 +378,10 @@ class LearnedFrontEndClassifier(ClassifierMixin, BaseEstimator):
         """Return the linear scores ``(N, C)`` of the head on the standardised hard features."""
         check_is_fitted(self)
         frames = self._frames(X)
-        if tuple(frames.shape[1:]) != self.input_shape_:
-            raise ValueError(
-                f"frames must have shape (N, {self.input_shape_}) as in fit, got {tuple(frames.shape)}"
-            )
+        self._check_shape(frames, "frames")
         with torch.no_grad():
             scores = self.linear_((self._hard_features(frames) - self.feature_mean_) / self.feature_scale_)
         return scores.double().numpy()
-
-    def predict(self, X: object) -> np.ndarray:
-        """Return the class of each exploration (largest score)."""
-        scores = self.decision_function(X)
-        return self.classes_[scores.argmax(1)]
 
     def learned_settings(self) -> dict[str, object]:
         """Return the settings used next to the hand-set ones: ``{"threshold": (hand-set, used), ...}``."""

@@ -90,7 +90,7 @@ def _mean_loss(network: nn.Module, loss_fn: Callable, X: torch.Tensor, y: torch.
 
 
 @serial_torch_ops_in_this_thread()  # a fresh context per call (contextlib's decorator form)
-def train_network(
+def train_network(  # noqa: PLR0913
     network: nn.Module,
     X: torch.Tensor,
     y: torch.Tensor,

@@ -16,6 +16,7 @@ __getattr__, __dir__, __all__ = lazy_exports(
             "DistanceHead",
             "LOG_FLOOR_QUANTILE",
             "MahalanobisDistance",
+            "MahalanobisNovelty",
             "OOD_ARRAYS",
             "WithDistance",
             "distance_module",

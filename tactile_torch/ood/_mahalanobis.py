@@ -50,8 +50,14 @@ samples and adversarial attacks," NeurIPS 2018.
 
 from __future__ import annotations
 
+from numbers import Real
+from typing import ClassVar
+
 import numpy as np
 import torch
+from sklearn.base import BaseEstimator, OutlierMixin, _fit_context
+from sklearn.utils._param_validation import Interval
+from sklearn.utils.validation import check_is_fitted, validate_data
 from torch import nn
 
 from ..robot.contract import LABELS_OUTPUT, OOD_OUTPUT, SCORES_OUTPUT
@@ -206,11 +212,113 @@ def fit_rule(
     """
     features = np.asarray(features, dtype=np.float64)
     scale = np.asarray(scale, dtype=np.float64)
-    z = features / scale
-    encoded = np.unique(np.asarray(labels), return_inverse=True)[1]
-    state = fit_ood(z, encoded, quantile=quantile, floor=log_floor(z))
+    state = MahalanobisNovelty(quantile=quantile).fit(features / scale, labels).state()
     offset = np.zeros(len(scale)) if center is None else np.asarray(center, dtype=np.float64) / scale
     return {**state, "offset": offset, "quantile": float(quantile)}
+
+
+_STATE_KEYS = ("means", "precision_cholesky", "log_means", "log_precision_cholesky", "floor", "norm")
+
+
+class MahalanobisNovelty(OutlierMixin, BaseEstimator):
+    """The "unknown" rule as a scikit-learn novelty detector: class-conditional Mahalanobis distance.
+
+    Shaped as scikit-learn's :class:`~sklearn.covariance.EllipticEnvelope`: ``fit`` learns the class
+    means and the tied covariance of the signed-log features (:func:`signed_log`; two views with
+    ``two_views``, the second's floors from :func:`log_floor` of the training features) and the
+    ``quantile`` of the training rows' out-of-fold distances (:func:`fit_ood`, the module notes);
+    :meth:`mahalanobis` is the distance, :meth:`score_samples` its negative, :meth:`decision_function`
+    ``score_samples - offset_`` (``offset_ = -threshold_``: >= 0 within the threshold) and
+    :meth:`predict` ``1`` for a known sample, ``-1`` for an unknown one.
+
+    Parameters
+    ----------
+    quantile : float in [0.5, 1], default 0.995
+        Share of the training rows (out of fold) within the threshold.
+    two_views : bool, default True
+        Also measure the distance on the floored log scale (what every deployed graph does).
+
+    Attributes
+    ----------
+    classes_ : ndarray of shape (C,)
+        The labels ``fit`` saw (one class, 0, when fitted without ``y``).
+    means_ : ndarray of shape (C, F)
+    precision_cholesky_ : ndarray of shape (F, F)
+        ``L`` with ``L L^T = S^-1``, ``S`` the pooled within-class covariance plus the ridge.
+    floor_, log_means_, log_precision_cholesky_, norm_ : ndarray
+        The second view's (``two_views``); else ``None``.
+    threshold_ : float
+        The distance beyond which a sample is unknown.
+    offset_ : float
+        ``-threshold_`` (scikit-learn's convention: ``decision_function = score_samples - offset_``).
+    n_features_in_ : int
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> X, y = rng.normal(size=(200, 4)), np.repeat([0, 1], 100)
+    >>> rule = MahalanobisNovelty().fit(X, y)
+    >>> rule.predict(np.vstack([X[:3], [[50.0, 50.0, 50.0, 50.0]]])).tolist()
+    [1, 1, 1, -1]
+
+    References
+    ----------
+    K. Lee, K. Lee, H. Lee and J. Shin, "A simple unified framework for detecting out-of-distribution
+    samples and adversarial attacks," NeurIPS 2018.
+    """
+
+    _parameter_constraints: ClassVar[dict] = {
+        "quantile": [Interval(Real, 0.5, 1.0, closed="both")],
+        "two_views": ["boolean"],
+    }
+
+    def __init__(self, quantile: float = DEFAULT_QUANTILE, *, two_views: bool = True) -> None:
+        self.quantile = quantile
+        self.two_views = two_views
+
+    @_fit_context(prefer_skip_nested_validation=True)
+    def fit(self, X: object, y: object = None) -> MahalanobisNovelty:
+        """Fit on features ``X`` ``(N, F)`` (standardised as the classifier takes them) of classes ``y``
+        (any labels; none: one class); return ``self``."""
+        if y is None:
+            X = validate_data(self, X, dtype=np.float64, ensure_min_samples=2)
+            y = np.zeros(len(X), dtype=np.int64)
+        else:
+            X, y = validate_data(self, X, y, dtype=np.float64, ensure_min_samples=2)
+        self.classes_, codes = np.unique(y, return_inverse=True)
+        state = fit_ood(X, codes, quantile=self.quantile, floor=log_floor(X) if self.two_views else None)
+        self.threshold_ = float(state.pop("threshold"))
+        self.offset_ = -self.threshold_
+        for key in _STATE_KEYS:
+            setattr(self, f"{key}_", state.get(key))
+        return self
+
+    def state(self) -> dict[str, np.ndarray]:
+        """Return the fitted arrays as :func:`fit_ood` returns them (a model file's ``ood`` part holds them)."""
+        check_is_fitted(self)
+        keys = _STATE_KEYS if self.floor_ is not None else _STATE_KEYS[:2]
+        return {
+            **{k: getattr(self, f"{k}_") for k in keys},
+            "threshold": np.asarray(np.float64(self.threshold_)),
+        }
+
+    def mahalanobis(self, X: object) -> np.ndarray:
+        """Return the distance of each row of ``X`` ``(B, F)`` to the training classes, ``(B,)``."""
+        state = self.state()
+        del state["threshold"]
+        return ood_distance(validate_data(self, X, dtype=np.float64, reset=False), **state)
+
+    def score_samples(self, X: object) -> np.ndarray:
+        """Return minus the distance (higher: more like the training data), ``(B,)``."""
+        return -self.mahalanobis(X)
+
+    def decision_function(self, X: object) -> np.ndarray:
+        """Return ``threshold_ - distance``: >= 0 for a known sample, ``(B,)``."""
+        return self.score_samples(X) - self.offset_
+
+    def predict(self, X: object) -> np.ndarray:
+        """Return ``1`` (known) or ``-1`` (unknown) per row of ``X``, ``(B,)`` int64."""
+        return np.where(self.decision_function(X) >= 0, 1, -1).astype(np.int64)
 
 
 def _gaussian(u: np.ndarray, labels: np.ndarray, n_classes: int) -> tuple[np.ndarray, np.ndarray]:
@@ -380,19 +488,3 @@ class DistanceHead(nn.Module):
 
     def forward(self, features: torch.Tensor) -> torch.Tensor:
         return self.distance(self.standardise(features.index_select(1, self.select).to(torch.float32)))
-
-
-__all__ = [
-    "DEFAULT_QUANTILE",
-    "LOG_FLOOR_QUANTILE",
-    "OOD_ARRAYS",
-    "DistanceHead",
-    "MahalanobisDistance",
-    "WithDistance",
-    "distance_module",
-    "fit_ood",
-    "fit_rule",
-    "log_floor",
-    "ood_distance",
-    "signed_log",
-]

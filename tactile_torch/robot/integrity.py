@@ -13,9 +13,11 @@ the file (about 1 GB/s).
 
 Policy (docs/export.md, "Integrity"): a bundle whose digest does not match, that holds two digests,
 or whose digest entry was damaged (its key or value is found in the file, but not as the digest
-property) is refused with one line; a bundle without a digest (exported before digests existed, or
-by another tool) loads with a warning (:class:`UnsealedBundleWarning`, once per file), since its
-integrity cannot be checked: export it again, or :func:`seal_bundle` a copy you trust.
+property) is refused with one line; so is a bundle without a digest (exported before digests
+existed, by another tool, or with its digest stripped), whose integrity cannot be checked: export it
+again, or :func:`seal_bundle` a copy you trust (``OnnxPipeline(..., allow_unsealed=True)`` loads one
+with a warning, :class:`UnsealedBundleWarning`). The digest guards against damage, not against
+someone who can write the file (they can seal what they changed).
 
 Examples
 --------
@@ -30,8 +32,10 @@ ValueError: empty.onnx: the bundle's digest does not match its content (...): ..
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import re
+from collections.abc import Iterator
 from os import PathLike
 from pathlib import Path
 
@@ -159,19 +163,65 @@ def check_digest(data: bytes, where: str | PathLike) -> bool:
         after export), the file holds two digests, or a digest's key or value is in the file but not as
         the digest property (its entry was damaged).
     """
+    view = memoryview(data)
+    return _verify(data, len(data), lambda start, end: (view[start:end],), where)
+
+
+_CHUNK = 1 << 20
+
+
+def check_file_digest(file, where: str | PathLike) -> bool:
+    """Check the digest of the bundle in the open binary ``file`` (seekable); as :func:`check_digest`, reading it
+    in chunks of 1 MiB rather than whole: what a bundle's check costs in memory does not grow with it.
+
+    Returns ``True`` when the bundle has a digest (and it matches), ``False`` when it has none.
+    """
+    import mmap
+
+    size = file.seek(0, 2)
+    if size == 0:
+        return check_digest(b"", where)
+    buffer = bytearray(_CHUNK)
+
+    def chunks(start: int, end: int):
+        file.seek(start)
+        while start < end:
+            n = file.readinto(memoryview(buffer)[: min(_CHUNK, end - start)])
+            if not n:
+                return
+            yield memoryview(buffer)[:n]
+            start += n
+
+    # the top level's tags and the small metadata entries are read through a map; the graph is hashed in chunks
+    with mmap.mmap(file.fileno(), 0, access=mmap.ACCESS_READ) as view:
+        return _verify(view, size, chunks, where)
+
+
+def _verify(view, size: int, chunks, where: str | PathLike) -> bool:
+    """The check of :func:`check_digest`: ``view`` is read for the top-level fields, ``chunks(start, end)``
+    yields the bytes of ``[start, end)`` that are hashed (and searched for a damaged digest entry)."""
     try:
-        entries = _digest_entries(data)
+        entries = _digest_entries(view)
     except _Corrupt as err:
         raise NotProtobufError(where, f"its protobuf is corrupt or truncated ({err})") from None
     stored = [value for _, _, value in entries]
     again = "the file was changed or corrupted after export: export it again"
     if len(stored) > 1:
         raise ValueError(f"{where}: the bundle holds {len(stored)} digests ({DIGEST_KEY}); {again}")
+    digest, damaged, tail, key, pos = hashlib.sha256(), False, b"", DIGEST_KEY.encode(), 0
+    for start, end in [*((s, e) for s, e, _ in entries), (size, size)]:
+        for chunk in chunks(pos, start):
+            digest.update(chunk)
+            if not stored:  # a damaged digest entry: its key or value in the bytes, but not as the property
+                window = tail + bytes(chunk)
+                damaged = damaged or key in window or _DIGEST_VALUE.search(window) is not None
+                tail = window[-80:]
+        pos = end
     if not stored:
-        if DIGEST_KEY.encode() in data or _DIGEST_VALUE.search(data):
+        if damaged:
             raise ValueError(f"{where}: the bundle's digest entry ({DIGEST_KEY}) is damaged; {again}")
         return False
-    expected = _sha256(_without(data, entries))
+    expected = DIGEST_PREFIX + digest.hexdigest()
     if stored[0] != expected.encode():
         shown = stored[0][:80].decode("ascii", "replace")
         raise ValueError(
@@ -179,6 +229,34 @@ def check_digest(data: bytes, where: str | PathLike) -> bool:
             f"{again}"
         )
     return True
+
+
+@contextlib.contextmanager
+def checked_bundle(path: str | PathLike, *, allow_unsealed: bool = False) -> Iterator[tuple[str, bool]]:
+    """Check the bundle ``path`` against its digest; yield ``(what to load, sealed)``; refuse it if it changed.
+
+    What to load is the open file that was checked (``/proc/self/fd/N`` on Linux, else the path), so that
+    a file swapped after the check is not the one loaded; a bundle whose size or modification time
+    changed while it was in use is refused on exit. A bundle without a digest is refused unless
+    ``allow_unsealed`` (``sealed`` is then ``False``).
+    """
+    import os
+
+    path = Path(path)
+    with open(path, "rb") as file:
+        before = os.fstat(file.fileno())
+        sealed = check_file_digest(file, path)
+        if not sealed and not allow_unsealed:
+            raise ValueError(
+                f"{path}: the bundle has no digest (exported before tactile-torch wrote one, by another tool, "
+                "or stripped): its integrity cannot be checked; export it again, or seal a copy you trust "
+                "(tactile_torch.robot.integrity.seal_bundle)"
+            )
+        same = f"/proc/self/fd/{file.fileno()}"
+        yield (same if os.path.exists(same) else str(path)), sealed
+        after = os.fstat(file.fileno())
+    if (after.st_size, after.st_mtime_ns) != (before.st_size, before.st_mtime_ns):
+        raise ValueError(f"{path}: the bundle changed while it was loaded: load it again")
 
 
 def seal_bundle(path: str | PathLike, out: str | PathLike) -> Path:
@@ -206,6 +284,8 @@ __all__ = [
     "NotProtobufError",
     "UnsealedBundleWarning",
     "check_digest",
+    "check_file_digest",
+    "checked_bundle",
     "seal",
     "seal_bundle",
 ]

@@ -97,12 +97,15 @@ def takes_feature_rows(base: Models, fitted: dict, feats: dict) -> dict[str, tup
     return shapes
 
 
-def evaluate(
-    f, level, base, fitted, feats, whole, X, y, folds, context, n_trials, seed, backend=None, names=None
-) -> dict:
+def evaluate(f, level, state, n_trials: int, names=None) -> dict:
     """Per model: correct (1/0) per sample at one level of ``f``, averaged over trials, or an error.
 
-    ``names``: the models to evaluate (default: every model of ``base``)."""
+    ``state``: the sweep's shared state (models ``base``, their clean ``fitted`` folds and ``feats``,
+    ``whole``, ``X``, ``y``, ``folds``, ``context``, ``seed``, the backend ``runner``). ``names``: the
+    models to evaluate (default: every model of ``base``)."""
+    base, fitted, feats, whole = state.base, state.fitted, state.feats, state.whole
+    X, y, folds, context = state.X, state.y, state.folds, state.context
+    seed, backend = state.seed, state.runner
     names = base.names if names is None else list(names)
     trials = n_trials if f.random else 1
     total: dict[str, Any] = {}

@@ -108,7 +108,7 @@ def _allowed_levels(f: Degradation, X: Any, y: np.ndarray, folds: list) -> tuple
     return tuple(v for v in f.levels if v <= top)
 
 
-def sweep(
+def sweep(  # noqa: PLR0913
     models: Mapping[str, Any] | Any,
     X: torch.Tensor | np.ndarray,
     y: object,
@@ -334,22 +334,7 @@ def _sweep_factor(f: Degradation, s: _SweepState, result: SweepResult) -> None:
         bar = tqdm(total=len(levels), desc=f.name, disable=not s.progress or not names, leave=False)
         for level in levels if names else ():
             n = s.trials.get(f.name, s.default_trials)
-            got = _evaluation.evaluate(
-                f,
-                level,
-                s.base,
-                s.fitted,
-                s.feats,
-                s.whole,
-                s.X,
-                s.y,
-                s.folds,
-                s.context,
-                n,
-                s.seed,
-                backend=s.runner,
-                names=names,
-            )
+            got = _evaluation.evaluate(f, level, s, n, names)
             for m in rows:
                 if not isinstance(rows[m][-1], str):
                     rows[m].append(got[m])

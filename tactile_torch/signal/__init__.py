@@ -92,6 +92,7 @@ __getattr__, __dir__, __all__ = lazy_exports(
             "FeatureScaler",
             "ScaleFeatures",
             "clustering_features",
+            "fit_clustering_transform",
         ),
     },
 )

@@ -382,3 +382,40 @@ class ClusteringTransform(ClassNamePrefixFeaturesOutMixin, TransformerMixin, Bas
         tags = super().__sklearn_tags__()
         tags.transformer_tags.preserves_dtype = ["float64", "float32"]
         return tags
+
+
+def fit_clustering_transform(features, n_components: int = 3, *, fit_rows=None):
+    """Return ``(transform, components)``: a :class:`ClusteringTransform` fitted on the rows ``fit_rows`` of
+    window ``features`` (every row by default) and the components of every row, a float64 array.
+
+    The one recipe "window features -> principal components" of the unsupervised path (``cluster``, the
+    default bundles and the clustering, novelty and feature sections).
+
+    Parameters
+    ----------
+    features : tensor or array of shape (n, 21)
+        :func:`window_features` of the windows.
+    n_components : int, default 3
+    fit_rows : boolean mask or indices, optional
+        The rows the transform is fitted on (the training part); all of them by default.
+
+    Returns
+    -------
+    transform : ClusteringTransform
+    components : ndarray of shape (n, n_components)
+
+    Examples
+    --------
+    >>> from tactile_torch.signal import window_features
+    >>> feats = window_features(torch.randn(40, 3, 200, dtype=torch.float64))
+    >>> transform, X = fit_clustering_transform(feats, 3, fit_rows=np.arange(30))
+    >>> X.shape, transform.n_features_in_
+    ((40, 3), 21)
+    """
+    fitted_on = features if fit_rows is None else features[_row_index(features, fit_rows)]
+    transform = ClusteringTransform(n_components=n_components).fit(fitted_on)
+    return transform, np.asarray(transform.transform(features))
+
+
+def _row_index(features, rows):
+    return torch.as_tensor(rows) if isinstance(features, torch.Tensor) else np.asarray(rows)

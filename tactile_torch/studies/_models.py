@@ -1,6 +1,7 @@
 """The candidate models of the breaking-point and claims sections, on raw input.
 
-Each is a scikit-learn :class:`~sklearn.pipeline.Pipeline` ``features → scaler → classifier`` whose
+Each is a scikit-learn :class:`~sklearn.pipeline.Pipeline` ``features → scale → classifier``
+(:func:`tactile_torch.catalogue.classifier_pipeline`) whose
 ``features`` step is a :class:`~sklearn.preprocessing.FunctionTransformer` around the method's
 features (:func:`tactile_torch.image.exploration_features`,
 :func:`tactile_torch.signal.window_features`), so that :mod:`tactile_torch.robustness` can degrade the
@@ -35,16 +36,6 @@ def erosion_for(frames) -> int:
     return max(1, round(10 * min(frames.shape[-2:]) / STUDY_FRAME_PX))
 
 
-def _pipeline(features, classifier, *, scale: bool = True):
-    from sklearn.pipeline import Pipeline
-    from sklearn.preprocessing import StandardScaler
-
-    steps = [("features", features)]
-    if scale:
-        steps.append(("scaler", StandardScaler()))
-    return Pipeline([*steps, ("classifier", classifier)])
-
-
 def classifiers(random_state: int, *, svm_c: float = 10.0, svm_gamma="scale") -> dict:
     """The study's classifiers from the catalogue (:mod:`tactile_torch.catalogue`): HM-SVM, LDA, kNN
     (k = 3, city-block, inverse-distance weights, searched in a ball tree), by display name."""
@@ -74,9 +65,11 @@ def image_candidates(random_state: int, *, erosion: int = 10, names: tuple[str, 
     def clf():
         return classifiers(random_state, svm_c=IMAGE_SVM_C)
 
-    models = {f"fused + {name}": _pipeline(features(True), model) for name, model in clf().items()}
-    models["concatenated + LDA"] = _pipeline(features(False), clf()["LDA"])
-    models["concatenated + HM-SVM"] = _pipeline(features(False), clf()["HM-SVM"])
+    from ..catalogue import classifier_pipeline
+
+    models = {f"fused + {name}": classifier_pipeline(model, features(True)) for name, model in clf().items()}
+    models["concatenated + LDA"] = classifier_pipeline(clf()["LDA"], features(False))
+    models["concatenated + HM-SVM"] = classifier_pipeline(clf()["HM-SVM"], features(False))
     return {k: v for k, v in models.items() if names is None or k in names}
 
 
@@ -85,15 +78,17 @@ def vibration_candidates(random_state: int, *, names: tuple[str, ...] | None = N
     study's RBF SVM (C = 16, gamma = 0.0186; libsvm's one-vs-one, which the ``vibration_classification``
     section shows to be as accurate as our HM-SVM on these features and which fits many times faster),
     LDA and kNN."""
-    from sklearn.preprocessing import FunctionTransformer, StandardScaler
+    from sklearn.preprocessing import FunctionTransformer
     from sklearn.svm import SVC
+
+    from ..catalogue import classifier_pipeline
 
     clf = classifiers(random_state)
     clf["HM-SVM"] = SVC(C=16.0, gamma=0.0186)
     models = {}
     for name, model in clf.items():
-        pipe = _pipeline(FunctionTransformer(vibration_features), model)
-        pipe.set_params(scaler=StandardScaler(with_mean=False))  # the study's unit-std scaling
+        # the study's unit-std scaling, not centred
+        pipe = classifier_pipeline(model, FunctionTransformer(vibration_features), scaling="unit-population")
         models[f"21 features + {'RBF SVM' if name == 'HM-SVM' else name}"] = pipe
     return {k: v for k, v in models.items() if names is None or k in names}
 

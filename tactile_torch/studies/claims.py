@@ -118,9 +118,7 @@ def image_sources(ctx) -> list[dict]:
 def _predictions(fused, concat, y, groups, folds: int, ctx) -> tuple[dict, int]:
     """Cross-validated predictions ``{(scheme, classifier, features): labels}``: stratified folds, and
     folds grouped by ``groups`` (unseen objects) when given; seeded from ``ctx``."""
-    from sklearn.pipeline import make_pipeline
-    from sklearn.preprocessing import StandardScaler
-
+    from ..catalogue import classifier_pipeline
     from ..model_selection import fold_predictions, group_folds, stratified_folds
     from ._models import IMAGE_SVM_C, classifiers
 
@@ -134,7 +132,7 @@ def _predictions(fused, concat, y, groups, folds: int, ctx) -> tuple[dict, int]:
             if ctx.quick and clf_name == "HM-SVM":
                 continue  # the quick sets have too few explorations per class to train it
             for feats, X in (("fused", fused), ("concatenated", concat)):
-                model = make_pipeline(StandardScaler(), clf)
+                model = classifier_pipeline(clf)
                 preds[scheme, clf_name, feats] = fold_predictions(model, X, y, cv)
     return preds, n
 
@@ -322,10 +320,9 @@ def _svm_accuracy(
 ) -> tuple[float, np.ndarray]:
     """Test accuracy and predictions of libsvm's SVC or our HM-SVM (seeded by ``random_state``; libsvm's
     SVC draws nothing) trained on ``train``."""
-    from sklearn.pipeline import make_pipeline
-    from sklearn.preprocessing import StandardScaler
     from sklearn.svm import SVC
 
+    from ..catalogue import classifier_pipeline
     from ..svm import HierarchicalSVC
 
     clf = (
@@ -333,7 +330,7 @@ def _svm_accuracy(
         if model == "libsvm"
         else HierarchicalSVC(C=C, gamma=gamma, random_state=random_state)
     )
-    pipe = make_pipeline(StandardScaler(with_mean=False), clf).fit(X[train], y[train])
+    pipe = classifier_pipeline(clf, scaling="unit-population").fit(X[train], y[train])
     pred = pipe.predict(X[~train])
     return float(np.mean(pred == y[~train])), pred
 

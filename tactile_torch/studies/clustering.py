@@ -83,7 +83,7 @@ def study_windows(ctx) -> dict[str, Any]:
     import torch
 
     from ..data.stylus import make_vibration_recordings, surface_table
-    from ..signal import ClusteringTransform, window_features
+    from ..signal import fit_clustering_transform, window_features
     from .vibration_features import bundled_recordings
 
     sz = _sizes(ctx)
@@ -96,8 +96,7 @@ def study_windows(ctx) -> dict[str, Any]:
         feats = window_features(ds.windows[torch.as_tensor(keep)].to(torch.float64))
         train = pos < sz["train"]
         # 5 components, as tactile-torch cluster's graph: K and clusters on the first 3, novelty on all 5
-        transform = ClusteringTransform(n_components=NOVELTY_COMPONENTS).fit(feats[torch.as_tensor(train)])
-        X5 = np.asarray(transform.transform(feats))
+        transform, X5 = fit_clustering_transform(feats, NOVELTY_COMPONENTS, fit_rows=train)
         X = X5[:, :3]
         block = (pos - sz["train"]) // sz["test"]
         worn = [
@@ -455,14 +454,14 @@ def _window_sizes(section, ctx, sz: dict) -> None:
     """K and pairwise accuracy for several window sizes W (the study: K = 28 found for W >= 400)."""
     import torch
 
-    from ..signal import ClusteringTransform, window_features
+    from ..signal import fit_clustering_transform, window_features
     from .vibration_features import bundled_recordings
 
     rows = []
     for size in (200, 400, 800, 1600):
         ds = bundled_recordings(ctx).windows(size, max_per_recording=50)
         feats = window_features(ds.windows.to(torch.float64))
-        X = np.asarray(ClusteringTransform(n_components=3).fit_transform(feats))
+        _, X = fit_clustering_transform(feats, 3)
         y = ds.labels.numpy()
         model = PitmanYorGMM(
             **STUDY,

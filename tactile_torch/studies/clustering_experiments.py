@@ -15,8 +15,7 @@ from typing import Any
 import numpy as np
 
 from ..metrics import pairwise_accuracy
-from ..mixture import PitmanYorGMM, baseline_clusterings
-from ..mixture._novelty import window_means
+from ..mixture import PitmanYorGMM, baseline_clusterings, window_means
 
 STUDY = {"model": "pyp", "coarsen": None}
 """The study's Pitman-Yor mixture (``PitmanYorGMM``'s defaults are the mixture of finite mixtures)."""
@@ -261,7 +260,7 @@ def real_windows(name: str, per: int, components: int = 3) -> tuple[np.ndarray, 
     import torch
 
     from ..data.recordings import load_borealtc_imu, load_hapmat_imu5
-    from ..signal import ClusteringTransform, window_features
+    from ..signal import fit_clustering_transform, window_features
 
     rec = {"hapmat_imu5": load_hapmat_imu5, "borealtc_imu": load_borealtc_imu}[name]()
     ds = rec.windows(int(2 * rec.rate_hz))  # 2 s windows at the native rate
@@ -273,5 +272,5 @@ def real_windows(name: str, per: int, components: int = 3) -> tuple[np.ndarray, 
         ]
     )
     feats = window_features(ds.windows[torch.as_tensor(keep)].to(torch.float64))
-    X = np.asarray(ClusteringTransform(n_components=components).fit_transform(feats))
+    _, X = fit_clustering_transform(feats, components)
     return X, labels[keep], ds.position.numpy()[keep], len(rec.class_names)

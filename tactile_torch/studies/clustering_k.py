@@ -57,10 +57,9 @@ def gaussian_three(seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
 def _pca_features(windows, components: int = 3) -> np.ndarray:
     import torch
 
-    from ..signal import ClusteringTransform, window_features
+    from ..signal import fit_clustering_transform, window_features
 
-    feats = window_features(windows.to(torch.float64))
-    return np.asarray(ClusteringTransform(n_components=components).fit_transform(feats))
+    return fit_clustering_transform(window_features(windows.to(torch.float64)), components)[1]
 
 
 def bundled_28(seed: int = 0, components: int = 3) -> tuple[np.ndarray, np.ndarray]:

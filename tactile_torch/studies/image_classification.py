@@ -27,13 +27,10 @@ IMAGE_NOISE = ((0.1, 0.01), (0.2, 0.03), (0.3, 0.05), (0.4, 0.07), (0.5, 0.09)) 
 def classifiers(random_state: int) -> dict:
     """The three classifiers of the study (the catalogue's, :mod:`tactile_torch.catalogue`), each behind a
     standard scaler fitted on training data."""
-    from sklearn.pipeline import make_pipeline
-    from sklearn.preprocessing import StandardScaler
-
     from .. import catalogue
 
     return {
-        name: make_pipeline(StandardScaler(), catalogue.make_classifier(key, random_state=random_state))
+        name: catalogue.classifier_pipeline(key, random_state=random_state)
         for key, name in (("hmsvm", "HM-SVM"), ("lda", "LDA"), ("knn", "kNN"))
     }
 
@@ -42,7 +39,7 @@ def svm_grid(n_features: int, quick: bool) -> dict:
     """C and gamma candidates; gamma relative to 1 / n_features (``"scale"`` on standardised data)."""
     cs = [1.0, 100.0] if quick else [1.0, 10.0, 100.0, 1000.0]
     rel = [1.0] if quick else [0.25, 1.0, 4.0]
-    return {"hierarchicalsvc__C": cs, "hierarchicalsvc__gamma": [r / n_features for r in rel]}
+    return {"classifier__C": cs, "classifier__gamma": [r / n_features for r in rel]}
 
 
 def _data(ctx):
@@ -121,8 +118,8 @@ def run(section, ctx) -> None:
                         {
                             "features": feature_set,
                             "round": k + 1,
-                            "C": params["hierarchicalsvc__C"],
-                            "gamma": params["hierarchicalsvc__gamma"],
+                            "C": params["classifier__C"],
+                            "gamma": params["classifier__gamma"],
                             "validation accuracy": max(
                                 s["validation accuracy"] for s in res.validation_scores[k]
                             ),

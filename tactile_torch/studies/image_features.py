@@ -66,10 +66,9 @@ def features(ctx):
 def _accuracies(feats: dict, cv_seed: int) -> list[dict]:
     """5-fold CV accuracy (stratified, and grouped by object) of LDA and an RBF SVC on each feature set."""
     from sklearn.discriminant_analysis import LinearDiscriminantAnalysis
-    from sklearn.pipeline import make_pipeline
-    from sklearn.preprocessing import StandardScaler
     from sklearn.svm import SVC
 
+    from ..catalogue import classifier_pipeline
     from ..model_selection import fold_scores, group_folds, stratified_folds
 
     y, groups = feats["labels"], feats["groups"]
@@ -79,8 +78,8 @@ def _accuracies(feats: dict, cv_seed: int) -> list[dict]:
         "5-fold, unseen objects": group_folds(y, groups, n_splits),
     }
     classifiers = {
-        "LDA": lambda: make_pipeline(StandardScaler(), LinearDiscriminantAnalysis()),
-        "SVC (RBF, C=10)": lambda: make_pipeline(StandardScaler(), SVC(C=10.0)),
+        "LDA": lambda: classifier_pipeline(LinearDiscriminantAnalysis()),
+        "SVC (RBF, C=10)": lambda: classifier_pipeline(SVC(C=10.0)),
     }
     rows = []
     for fused in (True, False):

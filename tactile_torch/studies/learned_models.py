@@ -39,10 +39,9 @@ COLUMNS = [
 
 
 def _classical(features: object, classifier: object):
-    from sklearn.pipeline import Pipeline
-    from sklearn.preprocessing import StandardScaler
+    from ..catalogue import classifier_pipeline
 
-    return Pipeline([("features", features), ("scale", StandardScaler()), ("classifier", classifier)])
+    return classifier_pipeline(classifier, features)
 
 
 def _vibration_specs(ctx, full: bool) -> list:

@@ -39,7 +39,7 @@ from typing import Any
 
 import numpy as np
 
-from ..mixture._novelty import window_means
+from ..mixture import window_means
 
 SHIPPED = "calibrated mean log density (PitmanYorGMM.calibrate_novelty, novel_after)"
 """The rule the estimator, the exported graph and ``stream --discover`` use."""
@@ -249,7 +249,7 @@ def novelty_rows(
     ``fit``: keyword arguments of :class:`~tactile_torch.mixture.PitmanYorGMM` (``n_iter``, ...).
     """
     from ..mixture import PitmanYorGMM
-    from ..signal import ClusteringTransform
+    from ..signal import fit_clustering_transform
 
     data = source_windows(name, seed)
     y, rec, pos = data["labels"], data["recording"], data["position"]
@@ -263,12 +263,7 @@ def novelty_rows(
         train = (part == 0) & ~new
         calibration = (part == 1) & ~new
         test = part == 2
-        import torch
-
-        transform = ClusteringTransform(n_components=n_components).fit(
-            data["features"][torch.as_tensor(train)]
-        )
-        X = np.asarray(transform.transform(data["features"]))
+        _, X = fit_clustering_transform(data["features"], n_components, fit_rows=train)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)
             model = PitmanYorGMM(random_state=seed, progress=False, **fit).fit(X[train])

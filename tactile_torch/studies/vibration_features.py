@@ -169,10 +169,9 @@ def _feature_distributions(section, ds, feats) -> None:
 def _clustering_scatter(section, ds, feats) -> None:
     import matplotlib.pyplot as plt
 
-    from ..signal import ClusteringTransform
+    from ..signal import fit_clustering_transform
 
-    transform = ClusteringTransform(n_components=3).fit(feats)
-    comps = transform.transform(feats).numpy()
+    transform, comps = fit_clustering_transform(feats, 3)
     labels = ds.labels.numpy()
     ratio = transform.explained_variance_ratio_
     fig, ax = plt.subplots(figsize=(8.5, 5.5))

@@ -33,7 +33,6 @@ __getattr__, __dir__, __all__ = lazy_exports(
             "FeatureRecipe",
             "build_candidates",
             "feature_sets",
-            "make_classifier",
         ),
         "inputs": ("Samples", "TradeoffData", "load_tradeoff_data"),
         "output": ("summary_lines", "write_outputs"),

@@ -33,7 +33,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from sklearn.pipeline import Pipeline
-from sklearn.preprocessing import StandardScaler
 
 from .. import catalogue
 from ..features.transformers import (
@@ -41,7 +40,6 @@ from ..features.transformers import (
     FeaturePassthrough,
     ImageFeatureTransformer,
     PressureImageFeatures,
-    RankedFeatureSelector,
     RawInput,
     TaxelFeatureTransformer,
     WindowFeatureTransformer,
@@ -64,14 +62,6 @@ STUDY_INNER_FOLDS = {"quick": 3, "full": 10}
 STUDY_VALIDATION_FOLDS = 4
 """Explorations: the study's model is tuned on one of 4 inner folds of an 80 % training part (20 % of
 the whole) after training on the other three (60 %): method 1's 60/20/20 protocol."""
-
-
-def make_classifier(name: str, n_features: int, random_state: int = 0) -> object:
-    """Return an unfitted classifier of the catalogue at its defaults for ``n_features`` standardised
-    features (the SVMs' ``gamma = 1 / n_features``, scikit-learn's ``"scale"`` on standardised features)."""
-    key = catalogue.resolve(name)
-    params = {"gamma": 1.0 / n_features} if key in ("hmsvm", "svc") else {}
-    return catalogue.make_classifier(key, random_state=random_state, **params)
 
 
 def candidate_tuning(
@@ -146,18 +136,6 @@ class Candidate:
     estimator: Pipeline
     key: str = ""
     tuning: Tuning | None = None
-
-
-def build_pipeline(features: FeatureRecipe, classifier: str, random_state: int = 0) -> Pipeline:
-    """Return the unfitted ``Pipeline`` of ``classifier`` (a catalogue key or name) on ``features``."""
-    steps = [("features", features.make())]
-    if features.select is not None:
-        steps.append(("select", RankedFeatureSelector(features.select)))
-    steps += [
-        ("scale", StandardScaler()),
-        ("classifier", make_classifier(classifier, features.n_features, random_state)),
-    ]
-    return Pipeline(steps)
 
 
 def feature_sets(
@@ -280,7 +258,9 @@ def build_candidates(
                     study = "vibration" if fs.input.startswith("windows") else "exploration"
                     study = None if fs.input == "features" else study
                 tuning = candidate_tuning(key, fs.n_features, quick=quick, study=study)
-            pipe = build_pipeline(fs, clf, random_state)
+            pipe = catalogue.classifier_pipeline(
+                clf, fs.make(), select=fs.select, random_state=random_state, n_features=fs.n_features
+            )
             out.append(Candidate(f"{clf} | {fs.name}", clf, fs.name, fs.input, pipe, key, tuning))
     return out
 
@@ -382,10 +362,8 @@ __all__ = [
     "CandidateResult",
     "FeatureRecipe",
     "build_candidates",
-    "build_pipeline",
     "candidate_tuning",
     "feature_sets",
     "features_key",
     "is_learned",
-    "make_classifier",
 ]

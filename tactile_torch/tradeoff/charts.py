@@ -112,7 +112,7 @@ def dense_ranges(x: np.ndarray, *, log: bool) -> list[np.ndarray]:
     return out
 
 
-def draw_chart(
+def draw_chart(  # noqa: PLR0915
     rows: list[dict],
     which: str,
     path: str | Path,

@@ -199,6 +199,24 @@ def live_metadata(result: object, name: str, model: object) -> tuple[dict, list[
     return meta, notes
 
 
+def _quantised_bare(bare: Path, quantised: Path, s: object, mode: str, learned: bool) -> Path:
+    """Quantise the deployed file without its rule ``bare`` into ``quantised`` as the study did (its mode; a
+    classical file's classifier only), calibrated on evenly spaced samples of ``s``; ``bare`` is removed."""
+    from ..export.int8 import CLASSIFIER_PREFIX, quantise_bundle
+    from ..robot.runtime import OnnxPipeline
+    from .learned import CALIBRATION_SAMPLES
+
+    calibration = OnnxPipeline(bare).validate(
+        np.ascontiguousarray(s.X[_evenly(len(s.y), CALIBRATION_SAMPLES)])
+    )
+    prefix = None if learned else CLASSIFIER_PREFIX  # as in the study (tactile_torch.tradeoff.learned)
+    try:
+        quantise_bundle(bare, quantised, calibration=calibration, mode=mode, only_prefix=prefix)
+    finally:
+        bare.unlink(missing_ok=True)
+    return quantised
+
+
 def deploy_candidate(
     result: object, name: str, out_dir: str | Path, pool: object, *, random_state: int = 0
 ) -> dict:
@@ -228,7 +246,6 @@ def deploy_candidate(
     from ..robot.runtime import OnnxPipeline
     from .bundle import bare_bundle, finish_bundle
     from .candidates import features_key, is_learned
-    from .learned import CALIBRATION_SAMPLES
 
     names = [r.candidate.name for r in result.results]
     if name not in names:
@@ -270,20 +287,7 @@ def deploy_candidate(
     )
     notes = list(live_notes)
     if variant.quantisation is not None:
-        from ..export.int8 import CLASSIFIER_PREFIX, quantise_bundle
-
-        calibration = OnnxPipeline(bare).validate(
-            np.ascontiguousarray(s.X[_evenly(len(s.y), CALIBRATION_SAMPLES)])
-        )
-        prefix = None if learned else CLASSIFIER_PREFIX  # as in the study (tactile_torch.tradeoff.learned)
-        quantised = out / f".{stem}.bare-int8.onnx"
-        try:
-            quantise_bundle(
-                bare, quantised, calibration=calibration, mode=variant.quantisation, only_prefix=prefix
-            )
-        finally:
-            bare.unlink(missing_ok=True)
-        bare = quantised
+        bare = _quantised_bare(bare, out / f".{stem}.bare-int8.onnx", s, variant.quantisation, learned)
     try:
         path, (rule, *_) = finish_bundle(
             bare, path, model, s.X, s.y, pool, reference=result.references.get(cand.input)

@@ -246,16 +246,16 @@ def export_and_time(
     progress: bool = True,
 ) -> int:
     """Stage 3 of the module notes; fills ``latency_ms``, ``size_bytes``, ``decision_s``,
-    ``onnx_agreement`` and ``onnx_file`` of every result. ``pool`` is an :class:`.export.ExportPool`.
+    ``onnx_agreement`` and ``onnx_file`` of every result. ``pool`` is an :class:`~tactile_torch.export.parts.ExportPool`.
 
     Each timing file is what deploying the candidate's first-fold model would write
     (:func:`~.bundle.bare_bundle`, then :func:`~.bundle.finish_bundle`: its "unknown" rule fitted on the
     fold's training samples); the file without the rule stays in ``out_dir / "parts"`` for the int8
     variants (:func:`~.learned.add_int8_and_memory`). ``references``: per raw input, its reference feature
     set (the rule of a 1-D CNN on windows, :mod:`.unknown`). Returns the number of distinct exported parts."""
+    from ..export.fitted import n_parameters
     from .bundle import bare_bundle, finish_bundle
     from .candidates import is_learned
-    from .learned import n_parameters
 
     out_dir = Path(out_dir)
     parts = out_dir / "parts"

@@ -127,23 +127,7 @@ def execute_plan(
             cv_seconds += time.perf_counter() - stage
             if k == 0:
                 stage = time.perf_counter()
-                meta_rate = data.rate_hz if data.kind in ("vibration", "image", "pressure") else None
-                firsts = [results[c.name] for c in plan.candidates if c.name in results]
-                parts = export_and_time(
-                    firsts,
-                    inputs,
-                    data.class_names,
-                    Path(out_dir) / "timing",
-                    pool,
-                    rate_hz=meta_rate,
-                    progress=progress,
-                )
-                for res in firsts:
-                    stopping.set_cost(res.candidate.name, res.decision_s if res.model is not None else None)
-                    stop = stopping.stopped.get(res.candidate.name)
-                    if stop is not None and res.model is not None:
-                        res.stopped = stop.reason
-                        clock.drop([(res.candidate.name, j) for j in range(1, n_folds)])
+                parts = _export_first_folds(plan, results, pool, stopping, clock, out_dir, progress)
                 export_seconds = time.perf_counter() - stage
                 clock.finish(("exports",), export_seconds)
             if k < n_folds - 1:
@@ -156,59 +140,14 @@ def execute_plan(
                 f"{len(stopping.stopped)} stopped early so far; {minutes(clock.remaining())} left"
             )
         # a candidate stopped by one that did not end above the baseline runs its other folds after all
-        while True:
-            rows, _, _ = summarise(
-                [results[c.name] for c in plan.candidates if c.name in results], inputs, target=target
-            )
-            adequate = {r["name"]: bool(r["adequate"]) for r in rows if not r.get("stopped")}
-            resume = stopping.to_resume(adequate)
-            if not resume:
-                break
-            log(
-                f"[tradeoff] {len(resume)} candidate(s) stopped early by one that ended below the baseline: running their other folds"
-            )
-            for name in resume:
-                results[name].stopped = None
-            for k in range(1, n_folds):
-                for name in folds.run_fold(k, resume):
-                    results[name] = folds.result(by_name[name], results[name])
+        _resume_stopped(plan, results, folds, stopping, target, log)
     ordered = [results[c.name] for c in plan.candidates if c.name in results]
     log(
         f"[tradeoff] cross-validation: {cv_seconds:.1f} s; ONNX export and timing of the first folds' models "
         f'(written as deployed, with their "unknown" rule): {export_seconds:.1f} s ({parts} exported parts)'
     )
     stage = time.perf_counter()
-    from .evaluation import classical_fold_file
-    from .learned import add_int8_and_memory, measure_memory
-
-    meta = {SAMPLE_RATE_KEY: data.rate_hz} if data.kind == "vibration" else {}
-
-    def fold_file(cand, model, path):
-        return classical_fold_file(pool, cand, inputs[cand.input], data.class_names, meta)(model, path)
-
-    models_dir = Path(out_dir) / "timing"
-    add_int8_and_memory(
-        ordered,
-        inputs,
-        models_dir,
-        fold_file=fold_file,
-        pool=pool,
-        quick=plan.quick,
-        progress=progress,
-        notes=plan.notes,
-    )
-    rows, recommended, runner_up = summarise(ordered, inputs, target=target)
-    only = {r["name"] for r in rows if not r.get("stopped")}
-    if plan.quick:  # a child process per file: the front, the learned and the int8 ones
-        only = {
-            r["name"]
-            for r in rows
-            if r["name"] in only and (r["pareto"] or r["family"] != "classical" or r["quantisation"])
-        }
-    measure_memory(ordered, inputs, models_dir, only=only, progress=progress)
-    memory = {res.candidate.name: res.memory_mib for res in ordered}
-    for row in rows:
-        row["memory_mib"] = memory.get(row["name"])
+    rows, recommended, runner_up = _int8_and_memory(plan, ordered, pool, out_dir, target, progress)
     log(f"[tradeoff] int8 variants and memory: {time.perf_counter() - stage:.1f} s")
     baselines = baseline_rows(inputs)
     for b in baselines.values():
@@ -239,6 +178,89 @@ def execute_plan(
         result.touch_time = accuracy_vs_time(result, quick=plan.quick, log=log)
         result.seconds += time.perf_counter() - stage
     return result
+
+
+def _export_first_folds(plan, results, pool, stopping, clock, out_dir, progress) -> int:
+    """Write and time every candidate's first-fold model as deployed (:func:`~.evaluation.export_and_time`),
+    give the stopping rule their costs and stop the ones it stops; return the number of exported parts."""
+    data, n_folds = plan.data, stopping.folds
+    meta_rate = data.rate_hz if data.kind in ("vibration", "image", "pressure") else None
+    firsts = [results[c.name] for c in plan.candidates if c.name in results]
+    parts = export_and_time(
+        firsts,
+        plan.inputs,
+        data.class_names,
+        Path(out_dir) / "timing",
+        pool,
+        rate_hz=meta_rate,
+        progress=progress,
+    )
+    for res in firsts:
+        stopping.set_cost(res.candidate.name, res.decision_s if res.model is not None else None)
+        stop = stopping.stopped.get(res.candidate.name)
+        if stop is not None and res.model is not None:
+            res.stopped = stop.reason
+            clock.drop([(res.candidate.name, j) for j in range(1, n_folds)])
+    return parts
+
+
+def _resume_stopped(plan, results, folds, stopping, target, log) -> None:
+    """Run the other folds of a candidate stopped by one that did not end above the baseline."""
+    by_name = {c.name: c for c in plan.candidates}
+    while True:
+        rows, _, _ = summarise(
+            [results[c.name] for c in plan.candidates if c.name in results], plan.inputs, target=target
+        )
+        adequate = {r["name"]: bool(r["adequate"]) for r in rows if not r.get("stopped")}
+        resume = stopping.to_resume(adequate)
+        if not resume:
+            return
+        log(
+            f"[tradeoff] {len(resume)} candidate(s) stopped early by one that ended below the baseline: running their other folds"
+        )
+        for name in resume:
+            results[name].stopped = None
+        for k in range(1, stopping.folds):
+            for name in folds.run_fold(k, resume):
+                results[name] = folds.result(by_name[name], results[name])
+
+
+def _int8_and_memory(plan, ordered, pool, out_dir, target, progress) -> tuple:
+    """The int8 variants and the memory of the files to show; return :func:`~.summary.summarise`'s
+    ``(rows, recommended, runner_up)`` with each row's ``memory_mib``."""
+    from .evaluation import classical_fold_file
+    from .learned import add_int8_and_memory, measure_memory
+
+    data, inputs = plan.data, plan.inputs
+    meta = {SAMPLE_RATE_KEY: data.rate_hz} if data.kind == "vibration" else {}
+
+    def fold_file(cand, model, path):
+        return classical_fold_file(pool, cand, inputs[cand.input], data.class_names, meta)(model, path)
+
+    models_dir = Path(out_dir) / "timing"
+    add_int8_and_memory(
+        ordered,
+        inputs,
+        models_dir,
+        fold_file=fold_file,
+        pool=pool,
+        quick=plan.quick,
+        progress=progress,
+        notes=plan.notes,
+    )
+    rows, recommended, runner_up = summarise(ordered, inputs, target=target)
+    only = {r["name"] for r in rows if not r.get("stopped")}
+    if plan.quick:  # a child process per file: the front, the learned and the int8 ones
+        only = {
+            r["name"]
+            for r in rows
+            if r["name"] in only and (r["pareto"] or r["family"] != "classical" or r["quantisation"])
+        }
+    measure_memory(ordered, inputs, models_dir, only=only, progress=progress)
+    memory = {res.candidate.name: res.memory_mib for res in ordered}
+    for row in rows:
+        row["memory_mib"] = memory.get(row["name"])
+    return rows, recommended, runner_up
 
 
 def _later_stages(plan: TradeoffPlan, results: dict, *, breaking: bool, exhaustive: bool) -> list:

@@ -27,8 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from ..image import DEFAULT_FRAME_RATE_HZ
-from ..model_selection import cap_per_class, fold_units, sample_folds, window_folds
-from ..model_selection._split import _group_ids
+from ..model_selection import cap_per_class, fold_units, group_ids, sample_folds, window_folds
 from ..robot.contract import FEATURES_LAYOUT, FRAMES_LAYOUT, PRESSURE_LAYOUT, WINDOWS_LAYOUT
 from ..validation import RandomState
 
@@ -97,7 +96,7 @@ class Samples:
 
 
 def _names_of(values: np.ndarray) -> tuple[str, ...]:
-    """The names of the ids :func:`_group_ids` gives ``values``, in id order."""
+    """The names of the ids :func:`group_ids` gives ``values``, in id order."""
     return tuple(str(v) for v in np.unique(np.asarray(values).astype(str)))
 
 
@@ -242,12 +241,6 @@ def _all_csv(paths: str | Path | Sequence[str | Path]) -> bool:
     return all(Path(p).suffix.lower() == ".csv" for p in paths)
 
 
-def _trailing_number(stem: str) -> str:
-    """``"felt_3"`` -> ``"3"``; a stem without a trailing ``_<number>`` is its own session."""
-    base, _, tail = str(stem).rpartition("_")
-    return str(int(tail)) if base and tail.isdigit() else str(stem)
-
-
 def vibration_data(recordings: object, name: str) -> TradeoffData:
     """Wrap recordings (``signals``, ``labels``, ``class_names``, ``rate_hz``, ``session``) for the study."""
     lengths = [len(s) for s in recordings.signals]
@@ -294,7 +287,7 @@ def vibration_samples(
     rate = float(recordings.rate_hz)
     session = recordings.session if recordings.session is not None else np.arange(len(recordings))
     unit = "session" if recordings.session is not None else "recording"
-    by_session = _group_ids(np.asarray(session))[recording]
+    by_session = group_ids(np.asarray(session))[recording]
     grouped = all(len(np.unique(by_session[y == c])) >= 2 for c in np.unique(y))
     group, keep, folds, split = window_folds(
         recording,
@@ -360,7 +353,7 @@ def exploration_samples(
     key = {"image": "frames", "pressure": "pressure", "features": "features"}[data.kind]
     acquisition = 0.0 if data.kind == "features" else X.shape[1] / float(data.rate_hz)
     grouped = groups is not None and "grouped" in split
-    units = _group_ids(groups) if grouped else fold_units(folds, len(y))
+    units = group_ids(groups) if grouped else fold_units(folds, len(y))
     split = f"{len(keep)} {what}; {split}"
     return Samples(
         key,

@@ -115,20 +115,6 @@ def kind_of(key: str) -> str:
     return {"windows": "vibration", "frames": "image", "pressure": "pressure"}[raw]
 
 
-def n_parameters(model: object) -> int | None:
-    """Return the learned numbers of a fitted candidate: a network's trained scalars (plus the learned
-    front-end settings), or the numbers a classical head stores (support vectors, coefficients, means)."""
-    clf = model.steps[-1][1]
-    if hasattr(clf, "n_parameters_"):
-        return int(clf.n_parameters_)
-    from ..export.parts import head_modules
-
-    try:
-        return int(sum(b.numel() for m in head_modules(model) for b in m.buffers()))
-    except (TypeError, ValueError, KeyError):
-        return None
-
-
 def export_learned(res: object, samples: object, class_names: tuple, path: Path, metadata: dict) -> Path:
     """Export a learned candidate's first-fold model to ``path`` with the trade-off's metadata."""
     from ..export import export_classifier
@@ -171,6 +157,47 @@ class _NothingToQuantise(Exception):
     """The quantiser left a bundle as it was: no int8 variant to measure."""
 
 
+def _quantised_folds(res: object, s: object, parts: Path, fold_file) -> tuple:
+    """Quantise ``res``'s file of every fold and test it: ``(fold accuracies, the first fold's int8 file,
+    its agreement with the float file, the mode, every sample's out-of-fold label)``; raises
+    :class:`_NothingToQuantise` when the quantiser left the first fold's file as it was."""
+    from ..export.int8 import CLASSIFIER_PREFIX, quantise_bundle, quantised_nodes
+    from ..robot.runtime import OnnxPipeline
+
+    first = Path(res.bare_file)
+    fold_accuracy, q_first, agreement, mode = [], None, None, None
+    predictions = np.full(len(s.y), -1, dtype=np.int64)
+    for k, (train, test) in enumerate(s.folds):
+        path = _fold_file(res, k, first, s, parts, fold_file)
+        if path is None:
+            raise ValueError("features fitted per fold: no int8 variant (one feature graph per fold)")
+        calibration = OnnxPipeline(path).validate(
+            np.ascontiguousarray(s.X[train[:CALIBRATION_SAMPLES]])
+        )
+        target = parts / f"{first.stem}-int8-{k}.onnx"
+        # The networks get dynamic int8: static ranges from the calibration windows kept only
+        # 0.55-0.60 of their labels on two data sets (docs/neural.md), dynamic 0.91-0.94. A
+        # classical bundle quantises its classifier only: int8 activations of its feature graph
+        # (a window's spectrum) lost the small vibration the features measure.
+        mode = "dynamic" if res.family == "neural" else "static"
+        prefix = None if is_learned(res.model) else CLASSIFIER_PREFIX
+        q_path, mode = quantise_bundle(
+            path, target, calibration=calibration, mode=mode, only_prefix=prefix
+        )
+        if k == 0 and not quantised_nodes(q_path):
+            q_path.unlink()
+            raise _NothingToQuantise()
+        q = OnnxPipeline(q_path)
+        labels = q.predict(s.X[test])
+        classes = res.cv.models[k].steps[-1][1].classes_
+        predictions[test] = classes[labels]
+        fold_accuracy.append(float(np.mean(classes[labels] == s.y[test])))
+        if k == 0:
+            q_first = q_path
+            agreement = float(np.mean(labels == OnnxPipeline(path).predict(s.X[test])))
+    return fold_accuracy, q_first, agreement, mode, predictions
+
+
 def add_int8_and_memory(
     results: list,
     samples: dict,
@@ -195,9 +222,7 @@ def add_int8_and_memory(
     """
     import dataclasses
 
-    from ..export.int8 import CLASSIFIER_PREFIX, quantise_bundle, quantised_nodes
     from ..model_selection import progress_bar
-    from ..robot.runtime import OnnxPipeline
     from .candidates import CandidateResult
 
     out_dir = Path(out_dir)
@@ -210,38 +235,8 @@ def add_int8_and_memory(
     ]
     for res in progress_bar(chosen, "int8", progress):
         s = samples[res.candidate.input]
-        first = Path(res.bare_file)
-        fold_accuracy, q_first, agreement, mode = [], None, None, None
-        predictions = np.full(len(s.y), -1, dtype=np.int64)
         try:
-            for k, (train, test) in enumerate(s.folds):
-                path = _fold_file(res, k, first, s, parts, fold_file)
-                if path is None:
-                    raise ValueError("features fitted per fold: no int8 variant (one feature graph per fold)")
-                calibration = OnnxPipeline(path).validate(
-                    np.ascontiguousarray(s.X[train[:CALIBRATION_SAMPLES]])
-                )
-                target = parts / f"{first.stem}-int8-{k}.onnx"
-                # The networks get dynamic int8: static ranges from the calibration windows kept only
-                # 0.55-0.60 of their labels on two data sets (docs/neural.md), dynamic 0.91-0.94. A
-                # classical bundle quantises its classifier only: int8 activations of its feature graph
-                # (a window's spectrum) lost the small vibration the features measure.
-                mode = "dynamic" if res.family == "neural" else "static"
-                prefix = None if is_learned(res.model) else CLASSIFIER_PREFIX
-                q_path, mode = quantise_bundle(
-                    path, target, calibration=calibration, mode=mode, only_prefix=prefix
-                )
-                if k == 0 and not quantised_nodes(q_path):
-                    q_path.unlink()
-                    raise _NothingToQuantise()
-                q = OnnxPipeline(q_path)
-                labels = q.predict(s.X[test])
-                classes = res.cv.models[k].steps[-1][1].classes_
-                predictions[test] = classes[labels]
-                fold_accuracy.append(float(np.mean(classes[labels] == s.y[test])))
-                if k == 0:
-                    q_first = q_path
-                    agreement = float(np.mean(labels == OnnxPipeline(path).predict(s.X[test])))
+            fold_accuracy, q_first, agreement, mode, predictions = _quantised_folds(res, s, parts, fold_file)
         except _NothingToQuantise:
             unchanged.append(res.candidate.name)
             continue
@@ -331,5 +326,4 @@ __all__ = [
     "learned_candidates",
     "learned_keys",
     "measure_memory",
-    "n_parameters",
 ]

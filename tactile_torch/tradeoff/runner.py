@@ -102,7 +102,7 @@ def _vibration_inputs(
     return chosen, inputs
 
 
-def plan_tradeoff(
+def plan_tradeoff(  # noqa: PLR0913
     data: str | Path | Sequence[str | Path] | TradeoffData,
     *,
     quick: bool = False,

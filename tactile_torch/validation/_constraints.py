@@ -13,5 +13,3 @@ RANDOM_STATE: list = ["random_state", np.random.Generator, HasMethods(["manual_s
 """The ``random_state`` entry of every estimator: scikit-learn's ``"random_state"`` (``None``, an int
 seed in ``[0, 2**32 - 1]`` or a ``numpy.random.RandomState``), a ``numpy.random.Generator``, or a
 ``torch.Generator``. :func:`tactile_torch.validation.numpy_rng` turns any of them into a NumPy generator."""
-
-__all__ = ["RANDOM_STATE"]

@@ -99,6 +99,3 @@ def numpy_rng(random_state: object) -> np.random.Generator:
         "random_state must be None, an int, a numpy.random.Generator, a numpy.random.RandomState or a "
         f"torch.Generator, got {type(random_state).__name__}"
     )
-
-
-__all__ = ["FLOAT32_MAX", "check_count", "check_number", "check_positive", "numpy_rng", "saturate_float32"]

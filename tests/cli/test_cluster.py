@@ -103,8 +103,10 @@ def test_cluster_export_predict_and_stream_share_the_calibrated_novelty_rule(tmp
     assert main(["export", "--model", str(out / "model.npz"), "--out", str(onnx)]) == 0
     res = np.load(out / "clustering.npz")
     thresholds = res["novelty_thresholds"]
+    held_out = res["calibration_rows"].size  # a third of each recording's windows (cluster's default)
+    assert held_out == 21
     assert (
-        f"exceeds {thresholds[0]:.4g}, set for 2.0% false alarms on 12 held-out windows"
+        f"exceeds {thresholds[0]:.4g}, set for 2.0% false alarms on {held_out} held-out windows"
         in capsys.readouterr().out
     )
     bundle = OnnxPipeline(onnx)
@@ -121,7 +123,7 @@ def test_cluster_export_predict_and_stream_share_the_calibrated_novelty_rule(tmp
         np.testing.assert_allclose(novelty, t_novelty.numpy(), rtol=1e-4, atol=1e-3)
         np.testing.assert_array_equal(novel, t_novel.numpy())
     np.testing.assert_array_equal(novel, novelty > np.float32(thresholds[0]))
-    # the held-out windows decide as calibrated: at most 2 % of them novel (of 12: none)
+    # the held-out windows decide as calibrated: at most 2 % of them novel (of 21: none)
     assert not novel[res["calibration_rows"]].any()
     # predict reports the graph's novel windows; a new surface is flagged
     unseen = make_vibration_recordings(surfaces=[SURFACES[27]], duration_s=4.0, random_state=1)

@@ -103,8 +103,8 @@ def test_late_sensor_and_pause_are_waited_for_and_reported(model, sensor_pty, op
         opened(1)
         time.sleep(1.0)  # the stream started before the sensor
         sensor_pty.write_samples(rec[:40], _t(0, 40))
-        time.sleep(2.0)  # the sensor pauses
-        sensor_pty.write_samples(rec[40:], _t(40, 40))
+        time.sleep(2.0)  # the sensor pauses: its clock runs on
+        sensor_pty.write_samples(rec[40:], _t(40 + 2 * RATE, 40))
 
     writer = _Writer(sensor)
     status = _stream(model, sensor_pty, "--max-windows", "8", "--idle-timeout", "10")
@@ -114,7 +114,7 @@ def test_late_sensor_and_pause_are_waited_for_and_reported(model, sensor_pty, op
     records = _records(out)
     # two segments of 40 samples: windows at 16, 24, 32, 40 samples of each, none across the pause
     assert [r["sample"] for r in records] == [16, 24, 32, 40, 56, 64, 72, 80]
-    _check_windows(records, rec)
+    _check_windows(records, np.concatenate([rec[:40], np.zeros((2 * int(RATE), 3)), rec[40:]]))
     assert [r["gaps"] for r in records] == [0, 0, 0, 0, 1, 0, 0, 0]
     messages = [line for line in err.splitlines() if line.startswith("tactile-torch stream: ")]
     assert re.search(r"no data yet on \S+ after 0\.\d s \(giving up after 60 s\)", messages[0])
@@ -229,9 +229,14 @@ def test_data_faults_never_reach_a_window(model, sensor_pty, opened, capsys):
     ]
     second, _ = axis_recording("zx", 30, random_state=1)
     splice = [format_sample(s, t) for s, t in zip(second, _t(0, 60), strict=True)]
-    stream = b"".join(lines[:60] + garbage + lines[60:] + splice)
 
-    writer = _Writer(lambda: (opened(1), sensor_pty.write(stream)))
+    def sensor():  # each part once the sensor has had the time to send it (lost samples included)
+        opened(1)
+        for part, n in ((lines[:60] + garbage, 60), (lines[60:], 120), (splice, 60)):
+            time.sleep(n / RATE)
+            sensor_pty.write(b"".join(part))
+
+    writer = _Writer(sensor)
     status = _stream(model, sensor_pty, "--idle-timeout", "1")
     writer.finish()
     out, err = capsys.readouterr()

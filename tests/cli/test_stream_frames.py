@@ -80,10 +80,10 @@ def test_live_touches_equal_predict_on_the_same_touches(source, shared_data, tmp
 
         def play():
             simulate_frames(sensor, recording.frames[:cut], t=recording.t[:cut], timestamps=True)
-            time.sleep(PAUSE_S)
-            simulate_frames(sensor, recording.frames[cut:], t=recording.t[cut:], timestamps=True)
+            time.sleep(PAUSE_S)  # the sensor pauses: its clock runs on
+            simulate_frames(sensor, recording.frames[cut:], t=recording.t[cut:] + PAUSE_S, timestamps=True)
 
-        writer = threading.Thread(target=play)
+        writer = threading.Thread(target=play, daemon=True)
         writer.start()
         got = [result_record(r) for r in live]
         writer.join()

@@ -220,6 +220,7 @@ def test_cli_stream_classifies_a_simulated_sensor(tmp_path, vibration_npz, capsy
         target=simulate_sensor,
         args=(io.FileIO(master, "wb", closefd=False), recording[:1000]),
         kwargs={"realtime": False},
+        daemon=True,
     )
     writer.start()
     status = main(["stream", "--model", str(onnx_path), "--port", "/dev/robot-imu", "--max-windows", "4"])
@@ -352,7 +353,11 @@ def test_out_of_distribution_windows_are_unknown_in_predict_and_stream(tmp_path,
     assert (np.load(tmp_path / "p.npz")["labels"] == -1).all()
     sensor = PtySensor()
     try:
-        writer = threading.Thread(target=sensor.write, args=(b"".join(format_sample(s) for s in tone),))
+        # daemon: once the stream has its 5 windows nobody reads the pty, and a writer blocked on the full
+        # pty (a close from another thread does not wake it) kept pytest from exiting after the last test
+        writer = threading.Thread(
+            target=sensor.write, args=(b"".join(format_sample(s) for s in tone),), daemon=True
+        )
         opened = threading.Event()
         real = serial.serial_for_url
 
@@ -363,7 +368,7 @@ def test_out_of_distribution_windows_are_unknown_in_predict_and_stream(tmp_path,
 
         serial.serial_for_url, restore = serial_for_url, serial.serial_for_url
         try:
-            threading.Thread(target=lambda: (opened.wait(30), writer.start())).start()
+            threading.Thread(target=lambda: (opened.wait(30), writer.start()), daemon=True).start()
             argv = [
                 "stream",
                 "--model",

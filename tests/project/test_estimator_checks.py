@@ -43,6 +43,7 @@ from tactile_torch.neural import (
     TaxelCNNClassifier,
     WindowCNNClassifier,
 )
+from tactile_torch.ood import MahalanobisNovelty
 from tactile_torch.signal import ClusteringTransform, FeatureScaler
 from tactile_torch.svm import SVC, HierarchicalSVC
 
@@ -67,6 +68,8 @@ MATRIX_ESTIMATORS = {
     "FeaturePassthrough": FeaturePassthrough(),
     "RankedFeatureSelector": RankedFeatureSelector(k=1),
     "StableKNeighborsClassifier": StableKNeighborsClassifier(3, metric="cityblock", weights="distance"),
+    "MahalanobisNovelty": MahalanobisNovelty(),
+    "MahalanobisNovelty-one-view": MahalanobisNovelty(two_views=False),
 }
 """Every estimator and transformer of the library that takes a feature matrix."""
 

@@ -98,16 +98,22 @@ def test_a_flipped_bit_is_one_line_and_status_2(bundle, tmp_path, capsys, where,
     )
 
 
-def test_an_unsealed_bundle_loads_with_one_warning(tmp_path):
+def test_an_unsealed_bundle_is_refused_unless_allowed(tmp_path, capsys):
+    # issue 41: a bundle whose digest was stripped loaded behind one warning (and, its class names swapped,
+    # predicted wrong names): its integrity cannot be checked, so it is refused in one line
     old = energy_bundle(tmp_path / "old.onnx", window=16, sealed=False)
+    with pytest.raises(ValueError, match=r"old\.onnx: the bundle has no digest .*integrity\.seal_bundle"):
+        OnnxPipeline(old)
+    assert main(["predict", "--model", str(old), "--data", str(old)]) == BAD_INPUT_EXIT
+    assert capsys.readouterr().err.count("\n") == 1
     with pytest.warns(
         UnsealedBundleWarning, match=r"old\.onnx: the bundle has no digest .*integrity\.seal_bundle"
     ):
-        pipe = OnnxPipeline(old)
+        pipe = OnnxPipeline(old, allow_unsealed=True)
     assert not pipe.sealed and DIGEST_KEY not in pipe.metadata
     with warnings.catch_warnings():  # once per file: not again
         warnings.simplefilter("error")
-        OnnxPipeline(old)
+        OnnxPipeline(old, allow_unsealed=True)
     # a copy you trust gets its digest
     sealed = seal_bundle(old, tmp_path / "sealed.onnx")
     with warnings.catch_warnings():

@@ -67,7 +67,7 @@ def _robot_modules() -> list[str]:
 
 def test_every_robot_module_is_discovered():
     modules = _robot_modules()
-    assert "tactile_torch.robot.runtime" in modules and "tactile_torch.robot.stream.window_reader" in modules
+    assert "tactile_torch.robot.runtime" in modules and "tactile_torch.robot.stream.live" in modules
     assert {"tactile_torch.robot.files", "tactile_torch.robot.stream", "tactile_torch.robot.ros2"} <= set(
         modules
     )

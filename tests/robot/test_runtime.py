@@ -53,7 +53,9 @@ def test_bad_input_is_named(bundle, raw, err, match):
 
 
 def test_bad_construction(tmp_path, bundle):
-    with pytest.raises(FileNotFoundError, match=r"path must name an exported \.onnx bundle"):
+    with pytest.raises(
+        FileNotFoundError, match=r"missing\.onnx: no such file, expected an exported \.onnx bundle"
+    ):
         OnnxPipeline(tmp_path / "missing.onnx")
     with pytest.raises(ValueError, match="intra_op_threads must be an int >= 0, got -1"):
         OnnxPipeline(bundle, intra_op_threads=-1)

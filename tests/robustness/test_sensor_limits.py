@@ -1,6 +1,6 @@
 """The sensor limits of tactile_torch.robustness.sensor_limits (breaking points), against NumPy/SciPy references.
 
-(The random noise of ``tactile_torch.noise`` is tested in ``tests/robustness/test_noise.py``.)
+(The random noise of ``tactile_torch.noise`` is tested in ``tests/test_noise.py``.)
 """
 
 import numpy as np

@@ -271,7 +271,7 @@ def _refuse_torch_save(path: Path) -> None:
     try:
         with zipfile.ZipFile(path) as z:
             pickled = any(name.endswith("data.pkl") for name in z.namelist())
-    except (zipfile.BadZipFile, OSError, ValueError):
+    except (zipfile.BadZipFile, OSError, ValueError, NotImplementedError, RuntimeError):
         return  # read_npz gives the precise reason
     if pickled:
         raise ValueError(
@@ -388,7 +388,7 @@ def _check_source(where: str, source: object) -> int | None:
     return None
 
 
-def validate_model(header: object, arrays: Mapping[str, np.ndarray], *, where: str = "model") -> None:
+def validate_model(header: object, arrays: Mapping[str, np.ndarray], *, where: str = "model") -> None:  # noqa: C901, PLR0915
     """Raise ``ValueError`` (``"<where>: <what is wrong>"``) unless header and arrays form a valid model."""
     if not isinstance(header, dict) or header.get("format") != FORMAT:
         got = header.get("format") if isinstance(header, dict) else type(header).__name__

@@ -37,11 +37,35 @@ NPZ_MAGIC = b"PK"
 NPY_MAGIC = b"\x93NUMPY"
 
 
+def check_file(path: PathLike, what: str = "a file") -> Path:
+    """Return ``path`` if it names a regular file, else raise one line saying what it is.
+
+    ``FileNotFoundError`` when nothing is there; ``ValueError`` for a directory, a FIFO, a device or a
+    socket (which a reader would block on or read without end), naming ``what`` was expected.
+    """
+    import stat
+
+    path = Path(path)
+    try:
+        mode = path.stat().st_mode
+    except FileNotFoundError:
+        raise FileNotFoundError(f"{path}: no such file, expected {what}") from None
+    if stat.S_ISDIR(mode):
+        raise ValueError(f"{path}: is a directory, expected {what}")
+    if not stat.S_ISREG(mode):
+        kind = (
+            "a FIFO"
+            if stat.S_ISFIFO(mode)
+            else "a device"
+            if stat.S_ISCHR(mode) or stat.S_ISBLK(mode)
+            else "not a regular file"
+        )
+        raise ValueError(f"{path}: is {kind}, expected {what}")
+    return path
+
+
 def _check_exists(path: Path) -> None:
-    if not path.exists():
-        raise FileNotFoundError(f"{path}: no such file")
-    if path.is_dir():
-        raise ValueError(f"{path}: is a directory, expected a file")
+    check_file(path)
 
 
 # ------------------------------------------------------------------------------------ read limits
@@ -124,7 +148,9 @@ def check_npz_size(path: PathLike, *, max_bytes: int | None = None, what: str = 
                         f"holds {info.file_size:,} bytes: a crafted or truncated {what}"
                     )
                 needed += size
-    except (zipfile.BadZipFile, zlib.error, EOFError, OSError) as err:
+    # a damaged header: zipfile says NotImplementedError (an unknown compression method or version) or
+    # RuntimeError (an encryption flag) where it means "not an archive I can read"
+    except (zipfile.BadZipFile, zlib.error, EOFError, OSError, NotImplementedError, RuntimeError) as err:
         raise _corrupt(path, name, what, err) from None
     if needed > limit:
         raise _too_large(path, f"the {what}'s arrays", needed, limit)
@@ -168,17 +194,21 @@ def read_npz(
                     if stream.read(1):  # reading to the end checks the member's CRC-32
                         raise ValueError(f"{path}: {member} holds more bytes than its header declares")
                 arrays[key] = value
-    except (zipfile.BadZipFile, zlib.error, EOFError, OSError) as err:
+    # a damaged header: zipfile says NotImplementedError (an unknown compression method or version) or
+    # RuntimeError (an encryption flag) where it means "not an archive I can read"
+    except (zipfile.BadZipFile, zlib.error, EOFError, OSError, NotImplementedError, RuntimeError) as err:
         raise _corrupt(path, member, what, err) from None
     return arrays
 
 
 def _corrupt(path: Path, member: str, what: str, err: Exception) -> ValueError:
     """The one line for a damaged archive: the member whose data do not decompress or check, if known."""
+    detail = " ".join(str(err).split())
+    detail = detail if len(detail) <= 120 else detail[:117] + "..."
     if not member:
-        return ValueError(f"{path}: truncated or corrupt {what} ({err})")
+        return ValueError(f"{path}: truncated or corrupt {what} ({detail})")
     return ValueError(
-        f"{path}: {member} is corrupt ({err}): the {what} was damaged (a flipped bit, a cut copy); "
+        f"{path}: {member} is corrupt ({detail}): the {what} was damaged (a flipped bit, a cut copy); "
         "copy or write it again"
     )
 
@@ -225,6 +255,7 @@ def write_npz(
 __all__ = [
     "DEFAULT_MAX_READ_MB",
     "MAX_READ_ENV",
+    "check_file",
     "check_npz_size",
     "max_read_bytes",
     "read_npz",

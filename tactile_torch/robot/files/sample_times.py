@@ -7,7 +7,7 @@ time stamps:
 
 - **gaps**: a step longer than ``(1 + GAP_TOLERANCE)`` sample periods plus the time stamps'
   resolution is a gap (at least one sample lost). :data:`GAP_TOLERANCE` is the rule of the live
-  stream too (:mod:`tactile_torch.robot.stream.window_reader`), so a file and a serial line split at the same
+  stream too (:mod:`tactile_torch.robot.stream.sequencer`), so a file and a serial line split at the same
   steps; no window ever spans a gap;
 - **the period**: the slope of ``t`` against the sample index, fitted by least squares within the
   stretches between gaps (one slope shared by all stretches), so that neither the rounding of the

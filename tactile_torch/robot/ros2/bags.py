@@ -41,7 +41,6 @@ import numpy as np
 
 from ..files.sample_times import TimeBase, rate_hz, time_base
 from .message_types import (
-    FLOAT_ARRAY_TYPE,
     IMU_TYPE,
     ROS_EXTRA,
     STANDARD_TYPES,
@@ -56,8 +55,6 @@ from .messages import MessageDecoder, TopicFields
 
 PathLike = str | os.PathLike
 
-PRESSURE_TYPE = FLOAT_ARRAY_TYPE
-"""The first pressure-map message read from bags (kept for callers of earlier versions)."""
 READABLE_TYPES = STANDARD_TYPES
 """Topic types read without ``field=``."""
 BAG_SUFFIXES = (".db3", ".mcap")
@@ -184,7 +181,7 @@ def _map_shape(path: Path, topic: str, given, shape: tuple[int, int] | None, siz
     return shape
 
 
-def read_bag(
+def read_bag(  # noqa: PLR0915
     path: PathLike,
     topic: str | None = None,
     *,
@@ -305,7 +302,6 @@ __all__ = [
     "IMU_TYPE",
     "MAX_BAG_BYTES",
     "MAX_BAG_MESSAGES",
-    "PRESSURE_TYPE",
     "READABLE_TYPES",
     "BagTopic",
     "MissingExtraError",

@@ -21,8 +21,6 @@ from __future__ import annotations
 
 import os
 import sys
-import time
-from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -36,10 +34,19 @@ MAX_DOMAIN_ID = 232
 """The largest DDS domain id (its ports must fit below 65536); ROS 2 uses 0-101 and 215-232 on Linux."""
 LOOPBACK_PARTICIPANTS = 32
 """DDS participants (processes) one domain of the loopback configuration holds on this machine."""
-QOS_PROFILES = ("sensor", "reliable")
-"""Reader QoS: ``"sensor"`` (best effort, as ROS 2's sensor-data profile), or ``"reliable"``."""
+QOS_PROFILES = ("sensor", "lossless")
+"""Reader (and publisher) QoS: ``"sensor"`` (best effort, as ROS 2's sensor-data profile; a message the
+reader has no room for is lost and counted) or ``"lossless"`` (reliable, keep all: a publisher that the
+reader cannot keep up with is held back, nothing is lost while its own history lasts)."""
+WRITER_PROFILES = (*QOS_PROFILES, "reliable")
+"""Writer QoS: those of :data:`QOS_PROFILES`, and ``"reliable"`` (keep the last ``depth``: the decisions)."""
 DEFAULT_DEPTH = 1000
-"""Messages the reader keeps until they are taken (keep-last history): about 1 s of a 1 kHz array."""
+"""Messages the reader queues until the stream takes them: about 1 s of a 1 kHz array."""
+DEFAULT_LEASE_S = 10.0
+"""A DDS participant's lease when its publisher does not say (Cyclone DDS's default, and ROS 2's with it):
+a publisher that was killed is seen to leave when its lease ends."""
+LOSSLESS_BLOCKING_S = 10.0
+"""How long a ``"lossless"`` publisher waits for room in its readers' queues before a write fails."""
 DECISION_DEPTH = 100
 """Decisions the decision writer keeps for late acknowledgements (reliable, keep last)."""
 MAX_CONFIG_BYTES = 1 << 20
@@ -274,23 +281,31 @@ def _no_key(cls, data, has_header=True, use_version_2=None) -> None:
 
 
 def qos(profile: str = "sensor", depth: int = DEFAULT_DEPTH):
-    """Return the Cyclone DDS QoS of a reader or writer: ``"sensor"`` (best effort) or ``"reliable"``.
+    """Return the Cyclone DDS QoS of a reader or writer (volatile, as ROS 2's profiles are).
 
-    Both keep the last ``depth`` samples and are volatile, as ROS 2's sensor-data and default
-    profiles are (ROS 2's sensor-data profile keeps 5: a classifier needs every frame, so the
-    reader keeps more, which changes nothing on the wire).
+    ``"sensor"``: best effort, keep all up to ``depth`` messages (a reader's queue that is full
+    rejects the newest, which Cyclone counts: the stream reports them as lost, where a keep-last
+    queue would overwrite the oldest unsaid). ``"lossless"``: reliable, keep all up to ``depth``
+    messages: a full reader's queue holds the publisher back (its writes wait up to
+    :data:`LOSSLESS_BLOCKING_S`). ``"reliable"`` (writers): reliable, keep the last ``depth``.
+    ROS 2's sensor-data profile keeps 5: a classifier needs every frame, so the reader keeps more,
+    which changes nothing on the wire.
     """
     from cyclonedds.core import Policy, Qos
     from cyclonedds.util import duration
 
-    if profile not in QOS_PROFILES:
+    if profile not in WRITER_PROFILES:
         raise ValueError(f"qos must be one of {QOS_PROFILES}, got {profile!r}")
-    reliability = (
-        Policy.Reliability.BestEffort
-        if profile == "sensor"
-        else Policy.Reliability.Reliable(max_blocking_time=duration(milliseconds=100))
-    )
-    return Qos(reliability, Policy.History.KeepLast(int(depth)), Policy.Durability.Volatile)
+    depth = int(depth)
+    if profile == "sensor":
+        reliability = Policy.Reliability.BestEffort
+    else:
+        blocking = LOSSLESS_BLOCKING_S if profile == "lossless" else 0.1
+        reliability = Policy.Reliability.Reliable(max_blocking_time=duration(seconds=blocking))
+    if profile == "reliable":
+        return Qos(reliability, Policy.History.KeepLast(depth), Policy.Durability.Volatile)
+    limits = Policy.ResourceLimits(max_samples=depth, max_instances=-1, max_samples_per_instance=depth)
+    return Qos(reliability, Policy.History.KeepAll, limits, Policy.Durability.Volatile)
 
 
 @dataclass(frozen=True)
@@ -304,10 +319,10 @@ class DdsOptions:
     config : str or None
         ``"loopback"``, an XML file or XML text; ``None``: ``CYCLONEDDS_URI``, else loopback
         (:func:`resolve_config`).
-    qos : {"sensor", "reliable"}
-        Reliability of the data reader or writer.
+    qos : {"sensor", "lossless"}
+        Reliability of the data reader or writer (:func:`qos`).
     depth : int
-        History kept (keep last).
+        Messages a reader queues until they are taken (a writer keeps as many).
     """
 
     domain_id: int | None = None
@@ -383,150 +398,93 @@ class DdsNode:
 
     def publications(self, topic: str) -> list[str]:
         """Return the DDS type names of the publications of ``topic`` this participant has discovered."""
-        from cyclonedds.builtin import BuiltinDataReader, BuiltinTopicDcpsPublication
+        return sorted({p.type_name for p in self.publishers(topic)})
+
+    def publishers(self, topic: str) -> list[Publication]:
+        """Return the publications of ``topic`` this participant has discovered (alive now), with their lease."""
+        from cyclonedds.builtin import (
+            BuiltinDataReader,
+            BuiltinTopicDcpsParticipant,
+            BuiltinTopicDcpsPublication,
+        )
+        from cyclonedds.core import InstanceState, Policy
 
         if not hasattr(self, "_publications"):
             self._publications = BuiltinDataReader(self.participant, BuiltinTopicDcpsPublication)
+            self._participants = BuiltinDataReader(self.participant, BuiltinTopicDcpsParticipant)
             self._known: dict = {}
-        from cyclonedds.core import InstanceState
-
+            self._leases: dict = {}
+        for sample in self._participants.take(64):
+            info, qos_ = getattr(sample, "sample_info", None), getattr(sample, "qos", None)
+            if info is not None and info.instance_state == InstanceState.Alive and qos_ is not None:
+                try:
+                    self._leases[sample.key] = qos_[Policy.Liveliness].lease_duration * 1e-9
+                except (KeyError, AttributeError):  # a participant that states no lease: Cyclone's default
+                    self._leases[sample.key] = DEFAULT_LEASE_S
         for sample in self._publications.take(64):
             info = getattr(sample, "sample_info", None)
-            key = getattr(sample, "key", None)
             if info is not None and info.instance_state != InstanceState.Alive:
                 self._known.pop(info.instance_handle, None)
-            elif key is not None:
-                self._known[sample.sample_info.instance_handle] = (sample.topic_name, sample.type_name)
+            elif getattr(sample, "key", None) is not None:
+                self._known[info.instance_handle] = (
+                    sample.topic_name,
+                    sample.type_name,
+                    sample.participant_key,
+                )
         name = dds_topic_name(topic)
-        return sorted({t for n, t in self._known.values() if n == name})
+        return [
+            Publication(instance_handle(handle), type_name, self._leases.get(key, DEFAULT_LEASE_S))
+            for handle, (topic_name, type_name, key) in self._known.items()
+            if topic_name == name
+        ]
+
+
+def instance_handle(handle: int) -> int:
+    """A DDS instance handle as one number (Cyclone gives the same handle signed or unsigned, by the call)."""
+    return int(handle) % 2**64
 
 
 @dataclass(frozen=True)
-class Received:
-    """One message taken from a topic.
+class Publication:
+    """A publication (a data writer) of a topic, as DDS discovery describes it.
 
     Attributes
     ----------
-    cdr : bytes
-        The message's CDR bytes, with their 4-byte encapsulation header (decode them with
-        :meth:`tactile_torch.robot.ros2.messages.MessageDecoder.decode`).
-    source_ns : int
-        When the publisher wrote it (its clock, Unix nanoseconds).
-    publisher : int
-        The handle of the writer that sent it.
+    handle : int
+        Its instance handle: the ``publisher`` of the messages it sends (:attr:`Received.publisher`).
+    type_name : str
+        Its DDS type name (``ros_type_of`` gives the ROS 2 message type).
+    lease_s : float
+        Its participant's lease: a publisher whose process was killed is seen to leave this long after.
     """
 
-    cdr: bytes
-    source_ns: int
-    publisher: int
-
-
-class TopicReader:
-    """Read one ROS 2 topic of a :class:`DdsNode`: the messages as they arrive, and who publishes them.
-
-    Parameters
-    ----------
-    node : DdsNode
-    topic : str
-        The ROS 2 topic, e.g. ``/hand/tactile``.
-    msgtype : str
-        Its message type (:func:`discover_type` finds it from a publisher).
-    types : DdsTypes
-    profile : {"sensor", "reliable"}, optional
-        The reader's QoS (default: the node's).
-    """
-
-    def __init__(
-        self, node: DdsNode, topic: str, msgtype: str, types: DdsTypes, *, profile: str | None = None
-    ) -> None:
-        from cyclonedds.core import InstanceState, ReadCondition, SampleState, ViewState, WaitSet
-        from cyclonedds.sub import DataReader
-
-        self.topic = topic
-        self.msgtype = msgtype
-        self.reader = DataReader(
-            node.participant,
-            node.topic(topic, msgtype, types),
-            qos=qos(profile or node.options.qos, node.options.depth),
-        )
-        self._waitset = WaitSet(node.participant)
-        self._condition = ReadCondition(self.reader, SampleState.Any | ViewState.Any | InstanceState.Any)
-        self._waitset.attach(self._condition)
-        self._incompatible = 0
-        node._entities.insert(0, self.reader)
-
-    def take(self, timeout_s: float, max_messages: int = 256) -> list[Received]:
-        """Return the messages that arrived, waiting up to ``timeout_s`` for the first one."""
-        from cyclonedds.util import duration
-
-        samples = self.reader.take(max_messages)
-        if not samples and timeout_s > 0:
-            self._waitset.wait(duration(seconds=timeout_s))
-            samples = self.reader.take(max_messages)
-        return [
-            Received(s.cdr, s.sample_info.source_timestamp, s.sample_info.publication_handle)
-            for s in samples
-            if isinstance(s, CdrSample)  # not the notices of a writer that left (no data)
-        ]
-
-    def publishers(self) -> int:
-        """Return how many publishers of the topic are matched now."""
-        return int(self.reader.get_subscription_matched_status().current_count)
-
-    def incompatible_qos(self) -> bool:
-        """Return whether a publisher was refused for its QoS since the last call (e.g. best effort for reliable)."""
-        total = int(self.reader.get_requested_incompatible_qos_status().total_count)
-        new, self._incompatible = total > self._incompatible, total
-        return new
-
-
-def discover_type(
-    node: DdsNode,
-    topic: str,
-    *,
-    timeout_s: float,
-    clock: Callable[[], float] = time.monotonic,
-    sleep: Callable[[float], None] = time.sleep,
-) -> str | None:
-    """Return the ROS 2 message type of the first publication of ``topic`` seen within ``timeout_s``, else ``None``.
-
-    Raises ``ValueError`` when the topic's publications are not ROS 2 messages or disagree.
-    """
-    deadline = clock() + timeout_s
-    while True:
-        names = node.publications(topic)
-        if names:
-            types = {ros_type_of(n) for n in names}
-            if None in types or len(types) > 1:
-                raise ValueError(
-                    f"the publishers of {topic} offer the DDS types {', '.join(names)}, not one ROS 2 message type"
-                )
-            return types.pop()
-        if clock() >= deadline:
-            return None
-        sleep(0.05)
+    handle: int
+    type_name: str
+    lease_s: float
 
 
 __all__ = [
     "DECISION_DEPTH",
     "DEFAULT_DEPTH",
+    "DEFAULT_LEASE_S",
     "LOOPBACK",
     "LOOPBACK_PARTICIPANTS",
+    "LOSSLESS_BLOCKING_S",
     "MAX_DOMAIN_ID",
     "QOS_PROFILES",
     "ROS2_EXTRA",
+    "WRITER_PROFILES",
     "CdrSample",
     "DdsNode",
     "DdsOptions",
     "DdsTypes",
-    "Received",
-    "TopicReader",
+    "Publication",
     "check_domain_id",
     "cyclonedds_module",
     "dds_topic_name",
     "dds_type_name",
     "default_domain_id",
-    "discover_type",
+    "instance_handle",
     "loopback_config",
     "loopback_interface",
     "qos",

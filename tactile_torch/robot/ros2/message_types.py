@@ -12,6 +12,7 @@ layer (:mod:`tactile_torch.robot.ros2.dds`) turns its definitions into Cyclone D
 
 from __future__ import annotations
 
+import keyword
 import os
 import re
 from collections.abc import Sequence
@@ -45,8 +46,17 @@ sensor_msgs/ChannelFloat32[] sensors
 
 MAX_MSG_DEF_BYTES = 64 * 1024
 """Largest ``.msg`` file read (a message definition is a few hundred bytes)."""
+MAX_MESSAGE_DEPTH = 32
+"""Deepest nesting of message types read (a message holding a message holding ...): ROS's own reach 5."""
 
 _TYPE_NAME = re.compile(r"^([A-Za-z][A-Za-z0-9_]*)/(?:msg/)?([A-Za-z][A-Za-z0-9_]*)$")
+_IDENTIFIER = r"[A-Za-z][A-Za-z0-9_]*"
+_MSG_LINE = re.compile(
+    rf"^\s*(?:{_IDENTIFIER}/)*{_IDENTIFIER}(?:<=\d+)?(?:\[(?:<=)?\d*\])?\s+({_IDENTIFIER})\s*(?:=.*|\s.*)?$"
+)
+"""A field or constant line of a ``.msg`` definition: ``TYPE NAME``, ``TYPE NAME DEFAULT``, ``TYPE NAME=VALUE``."""
+_SEPARATOR = re.compile(r"^(?:=+|MSG: \S+)\s*$")
+"""The lines between the definitions of a message and the ones it uses (as ``rosbag2`` stores them)."""
 
 
 class MissingExtraError(ImportError, ValueError):
@@ -119,14 +129,17 @@ def read_message_definition(path: PathLike, name: str | None = None) -> MessageD
     FileNotFoundError
         If the file does not exist.
     ValueError
-        A file larger than :data:`MAX_MSG_DEF_BYTES`, not UTF-8 text, or a bad ``name``.
+        A directory, FIFO or device; a file larger than :data:`MAX_MSG_DEF_BYTES`, not UTF-8 text, or a bad ``name``.
     """
+    from ..files.npz import check_file
+
     text_path = str(path)
     if name is None and "=" in text_path and not Path(text_path).exists():
         name, text_path = text_path.split("=", 1)
     file = Path(text_path)
-    if not file.is_file():
+    if not file.exists():
         raise FileNotFoundError(f"{file}: no such message definition (.msg) file")
+    check_file(file, "a message definition (.msg) file")
     size = file.stat().st_size
     if size > MAX_MSG_DEF_BYTES:
         raise ValueError(f"{file}: {size} bytes, more than the {MAX_MSG_DEF_BYTES} of a message definition")
@@ -136,7 +149,59 @@ def read_message_definition(path: PathLike, name: str | None = None) -> MessageD
         raise ValueError(f"{file}: a message definition must be UTF-8 text") from None
     if name is None and file.parent.name == "msg" and file.suffix == ".msg":
         name = f"{file.parent.parent.name}/msg/{file.stem}"
-    return MessageDefinition(text, None if name is None else ros_type_name(name), str(file))
+    definition = MessageDefinition(text, None if name is None else ros_type_name(name), str(file))
+    _check_text(definition)  # refused as soon as it is read, before anything is built from it
+    return definition
+
+
+def _check_text(definition: MessageDefinition) -> None:
+    """Refuse a definition whose lines are not fields, constants or separators, or that names a field or a
+    type with a Python keyword (the DDS and decoding types are built from the names): one line, quoting
+    at most the offending line."""
+    for number, raw in enumerate(definition.text.splitlines(), start=1):
+        line = raw.split("#", 1)[0].strip()
+        if not line or _SEPARATOR.match(line):
+            continue
+        match = _MSG_LINE.match(line)
+        shown = raw.strip()[:80] + ("..." if len(raw.strip()) > 80 else "")
+        if match is None:
+            raise ValueError(
+                f"{definition.source} line {number}: not a field of a message definition (TYPE NAME): {shown!r}"
+            )
+        names = [match[1], *re.findall(_IDENTIFIER, line.split()[0])]
+        keywords = [n for n in names if keyword.iskeyword(n)]
+        if keywords:
+            raise ValueError(
+                f"{definition.source} line {number}: {keywords[0]!r} is a Python keyword, which the message "
+                f"types cannot be built with (rename the field or type): {shown!r}"
+            )
+
+
+def _check_nesting(store, names: Sequence[str]) -> None:
+    """Refuse a message that holds itself (directly or through others), or nests deeper than :data:`MAX_MESSAGE_DEPTH`."""
+    depth: dict[str, int] = {}
+    for root in names:
+        path, stack = [root], [iter(_nested_names(store.fielddefs[root][1]))]
+        while stack:
+            child = next(stack[-1], None)
+            if child is None:
+                done = path.pop()
+                stack.pop()
+                kids = _nested_names(store.fielddefs[done][1]) if done in store.fielddefs else []
+                depth[done] = 1 + max((depth.get(k, 0) for k in kids), default=0)
+                continue
+            if child in path:
+                cycle = " -> ".join([*path[path.index(child) :], child])
+                raise ValueError(f"the message type {child} holds itself ({cycle}): a ROS 2 message cannot")
+            if child in depth or child not in store.fielddefs:
+                continue
+            if len(path) >= MAX_MESSAGE_DEPTH:
+                raise ValueError(
+                    f"the message type {root} nests messages more than {MAX_MESSAGE_DEPTH} deep "
+                    f"({' -> '.join(path[:3])} -> ... -> {path[-1]})"
+                )
+            path.append(child)
+            stack.append(iter(_nested_names(store.fielddefs[child][1])))
 
 
 def message_types(definitions: Sequence[MessageDefinition] = (), *, topic_type: str | None = None):
@@ -166,15 +231,30 @@ def message_types(definitions: Sequence[MessageDefinition] = (), *, topic_type: 
             f"the message definition {unnamed[0].source} does not say which type it defines: name it "
             "pkg/msg/Name=FILE or keep it as pkg/msg/Name.msg"
         )
+    defined = []
     for definition in definitions:
         name = definition.name or ros_type_name(topic_type)
+        _check_text(definition)  # before any code is generated from its names
         try:
-            store.register(typesys.get_types_from_msg(definition.text, name))
-        except Exception as err:  # rosbags raises its own TypesysError, or a parser error
+            types = typesys.get_types_from_msg(definition.text, name)
+        except Exception as err:  # rosbags raises its own TypesysError, or a parser error, quoting the text
             raise ValueError(
                 f"{definition.source}: not a message definition rosbags can read for {name} "
-                f"({' '.join(str(err).split())})"
+                f"({type(err).__name__})"
             ) from None
+        for typename in types:
+            pkg, _, short = typename.split("/")
+            bad = [n for n in (pkg, short) if keyword.iskeyword(n)]
+            if bad:
+                raise ValueError(
+                    f"{definition.source}: the type {typename} is named with the Python keyword {bad[0]!r}"
+                )
+        try:
+            store.register(types)
+        except Exception as err:  # a type already defined otherwise
+            raise ValueError(f"{definition.source}: {' '.join(str(err).split())[:200]}") from None
+        defined += list(types)
+    _check_nesting(store, defined)
     return store
 
 
@@ -277,6 +357,7 @@ __all__ = [
     "FRAME_TYPES",
     "IMAGE_TYPE",
     "IMU_TYPE",
+    "MAX_MESSAGE_DEPTH",
     "MAX_MSG_DEF_BYTES",
     "NUMPY_DTYPES",
     "ROS_EXTRA",

@@ -54,6 +54,10 @@ IMAGE_ENCODINGS = {"32FC1": np.dtype(np.float32), "mono16": np.dtype(np.uint16),
 """``sensor_msgs/msg/Image`` encodings read as frames, and the numbers each pixel holds."""
 
 
+ALL_SENSORS = "all"
+""":attr:`TopicFields.sensor` that reads every sensor of a ``TactileState`` (a hand: one stream per sensor)."""
+
+
 class MessageError(ValueError):
     """A message that does not give the values asked for (a field missing, a frame of another size)."""
 
@@ -70,7 +74,8 @@ class TopicFields:
         A dotted path to the field holding the numbers (needed for any type but
         :data:`STANDARD_TYPES`; it overrides their default field).
     sensor : str or None
-        ``TactileState``: the name of the sensor (channel) to read; ``None``: the only one.
+        ``TactileState``: the name of the sensor (channel) to read; ``None``: the only one;
+        :data:`ALL_SENSORS` (``"all"``): every one (:meth:`MessageDecoder.decode_sensors`).
     """
 
     msgtype: str
@@ -142,20 +147,41 @@ class MessageDecoder:
             raise ValueError(
                 f"sensor= names a sensor of {TACTILE_STATE_TYPE} messages, not of {fields.msgtype}"
             )
+        if fields.sensor == ALL_SENSORS and fields.field:
+            raise ValueError(
+                f"sensor='{ALL_SENSORS}' reads every sensor of a {TACTILE_STATE_TYPE}: give no field="
+            )
         self.fields = fields
         self.store = store
         self._path = fields.field.split(".") if fields.field else None
         self._stamped = has_header(store, fields.msgtype)
 
-    def decode(self, cdr: bytes | memoryview) -> MessageValues:
-        """Return the :class:`MessageValues` of one message's CDR bytes (with their 4-byte header)."""
+    def _message(self, cdr: bytes | memoryview):
         try:
-            message = self.store.deserialize_cdr(cdr, self.fields.msgtype)
+            return self.store.deserialize_cdr(cdr, self.fields.msgtype)
         except Exception as err:  # rosbags raises assorted errors on bytes that do not decode
             raise MessageError(
                 f"a message that does not decode as {self.fields.msgtype} ({type(err).__name__})"
             ) from None
-        return self.values(message)
+
+    def decode(self, cdr: bytes | memoryview) -> MessageValues:
+        """Return the :class:`MessageValues` of one message's CDR bytes (with their 4-byte header)."""
+        return self.values(self._message(cdr))
+
+    def decode_sensors(self, cdr: bytes | memoryview) -> tuple[int | None, list[tuple[str, np.ndarray]]]:
+        """Return ``(stamp_ns, [(sensor name, values), ...])`` of every sensor of a ``TactileState`` message.
+
+        The values of each sensor as :meth:`decode` gives one (float, flat, in the message's order); a
+        sensor whose values are not finite is left out (the message is not refused for one bad sensor).
+        """
+        message = self._message(cdr)
+        channels = []
+        for channel in message.sensors:
+            values = np.asarray(channel.values, dtype=np.float64).reshape(-1)
+            if np.isfinite(values).all():
+                channels.append((str(channel.name), saturate_float32(values)))
+        s = message.header.stamp
+        return int(s.sec) * 1_000_000_000 + int(s.nanosec), channels
 
     def values(self, message) -> MessageValues:
         """Return the :class:`MessageValues` of one decoded message."""
@@ -264,6 +290,25 @@ class MessageEncoder:
         return bytes(self.store.serialize_cdr(message, msgtype))
 
 
+def encode_sensors(
+    store, channels: list[tuple[str, np.ndarray]], stamp_ns: int = 0, *, frame_id: str = ""
+) -> bytes:
+    """Return the CDR bytes of one ``TactileState`` holding several sensors' frames: ``[(name, frame), ...]``.
+
+    What a hand's driver publishes, and what the tests and the benchmark play to ``stream --sensor all``.
+    """
+    t = store.types
+    message = default_message(store, TACTILE_STATE_TYPE)
+    channel = t["sensor_msgs/msg/ChannelFloat32"]
+    message.sensors = [
+        channel(name=str(name), values=np.asarray(frame, dtype=np.float32).reshape(-1))
+        for name, frame in channels
+    ]
+    message.header.stamp.sec, message.header.stamp.nanosec = divmod(int(stamp_ns), 1_000_000_000)
+    message.header.frame_id = frame_id
+    return bytes(store.serialize_cdr(message, TACTILE_STATE_TYPE))
+
+
 def _assign(store, message, msgtype: str, path: list[str], values: np.ndarray) -> None:
     from rosbags.typesys.base import Nodetype
 
@@ -327,7 +372,7 @@ def _channel(sensors, name: str | None) -> np.ndarray:
         if len(sensors) != 1:
             raise MessageError(
                 f"a TactileState of {len(sensors)} sensors ({', '.join(map(repr, names)) or 'none'}): choose one "
-                "with sensor="
+                f"with sensor=NAME, or read every one with sensor={ALL_SENSORS}"
             )
         return sensors[0].values
     try:
@@ -339,10 +384,12 @@ def _channel(sensors, name: str | None) -> np.ndarray:
 
 
 __all__ = [
+    "ALL_SENSORS",
     "IMAGE_ENCODINGS",
     "MessageDecoder",
     "MessageEncoder",
     "MessageError",
     "MessageValues",
     "TopicFields",
+    "encode_sensors",
 ]

@@ -112,7 +112,7 @@ def linger(
     subscribers acknowledged everything (up to ``timeout_s``), a best-effort one waits
     :data:`SETTLE_S`.
     """
-    if profile == "reliable":
+    if profile != "sensor":
         from cyclonedds.util import duration
 
         writer.wait_for_acks(duration(seconds=timeout_s))

@@ -42,14 +42,19 @@ from ..contract import (
 )
 from ..runtime import OnnxPipeline, sensor_range_g
 from .early_decision import EarlyRule
-from .output import VOTE_METHODS, TouchResult, WindowResult, WindowVote, classify_segments
+from .output import VOTE_METHODS, WindowResult, WindowVote, classify_segments
 from .port_lines import StreamEvent
-from .segments import END_OF_INPUT, Segments, Sequencer, SlidingWindows, TouchSegmenter
+from .segments import END_OF_INPUT, Segments, SlidingWindows
+from .sequencer import Sequencer
 from .source import FRAME, SAMPLE, ItemSpec, Source
+from .touch_output import TouchResult
+from .touch_segments import TouchSegmenter
 from .touches import SIGNALS, TouchLevels
 
 SEGMENTS = ("auto", "windows", "touches")
 """How a stream is cut: ``touches`` (frame bundles' default), ``windows`` (sliding windows), ``auto``."""
+ON_PARTIAL = ("withhold", "decide")
+"""What the robot is told of a partial touch (cut, the rest of a cut contact, or stretched): see :class:`LiveOptions`."""
 Output = Callable[[WindowResult | TouchResult], None]
 """An output hook: called with every result, in order."""
 
@@ -118,6 +123,13 @@ class LiveOptions:
         Touches: use the bundle's early-decision rule (when it has one).
     onset, release, min_frames, touch_signal
         Touches: replace the bundle's levels (:class:`~tactile_torch.robot.stream.touches.TouchLevels`).
+    on_partial : {"withhold", "decide"}
+        Touches: the decision of an incomplete touch (cut by a break or a gap, or the rest of a contact
+        after such a cut): ``"withhold"`` (the default) gives it only when the bundle's early rule would
+        have at that many frames (its margin reaches the calibrated threshold, and the frames are a
+        touch's first ones), else ``decision`` is ``None``; ``"decide"`` gives every one. Either way
+        the result says ``partial`` (as it does for a complete touch shorter than the bundle's ``T``,
+        which is decided: the bundle's training touches were selected the same way).
     """
 
     segment: str = "auto"
@@ -130,10 +142,16 @@ class LiveOptions:
     release: float | None = None
     min_frames: int | None = None
     touch_signal: str | None = None
+    on_partial: str = "withhold"
 
     def __post_init__(self) -> None:
         if self.segment not in SEGMENTS:
             raise ValueError(f"segment must be one of {SEGMENTS}, got {self.segment!r}")
+        if self.on_partial not in ON_PARTIAL:
+            raise ValueError(f"on_partial must be one of {ON_PARTIAL}, got {self.on_partial!r}")
+        for name, value in (("step", self.step), ("vote", self.vote), ("max_results", self.max_results)):
+            if value is not None and (isinstance(value, bool) or not isinstance(value, int) or value < 1):
+                raise ValueError(f"{name} must be an int >= 1, got {value!r}")
         if self.vote_method not in VOTE_METHODS:
             raise ValueError(f"vote_method must be one of {VOTE_METHODS}, got {self.vote_method!r}")
         if self.touch_signal is not None and self.touch_signal not in SIGNALS:
@@ -183,6 +201,11 @@ def touch_setup(
 class LiveStream:
     """Classify a source's items with a bundle: windows or touches, early decisions, output hooks.
 
+    The one assembly of a live stream (and of ``predict --touches`` on a recording): the stages of
+    :mod:`tactile_torch.robot.stream.source` for every source. A source of several sensors (a hand's
+    ``TactileState``, a serial line of several arrays: :attr:`Source.sensors`) gets one sequencer and
+    one segmenter per sensor (each sensor its own touches) and one classifier.
+
     Parameters
     ----------
     pipe : OnnxPipeline
@@ -191,14 +214,18 @@ class LiveStream:
         :class:`~tactile_torch.robot.stream.source.ArraySource`).
     options : LiveOptions
     on_event : callable, optional
-        Events of the sequencer and the segmenter (gaps, rate, short contacts).
+        Events of the sequencer and the segmenter (gaps, stamps, rate, short contacts).
     clock : callable
         The source's clock (for latencies).
 
     Attributes
     ----------
-    segmenter : SlidingWindows or TouchSegmenter
-    sequencer : Sequencer
+    sensors : tuple of str
+        The source's sensor names (``()`` for a source of one sensor).
+    segmenters : list of SlidingWindows or TouchSegmenter
+        One per sensor; ``segmenter`` is the first.
+    sequencers : list of Sequencer
+        One per sensor; ``sequencer`` is the first.
     levels : TouchLevels or None
     rule : EarlyRule or None
     results : int
@@ -207,6 +234,8 @@ class LiveStream:
         Of them, answered unknown.
     early : int
         Touches decided early.
+    withheld : int
+        Incomplete touches whose decision was withheld (``on_partial="withhold"``).
     """
 
     def __init__(
@@ -225,30 +254,68 @@ class LiveStream:
         if segment == "touches" and not frames:
             raise ValueError(f"segment: touches are cut from frames; {pipe.path} takes vibration windows")
         self.segment = segment
-        self.sequencer = Sequencer(spec.rate_hz, item=spec.kind, on_event=on_event, clock=clock)
+        self._on_event = on_event
         self.levels, self.rule = None, None
-        size = (
+        self.size = (
             int(pipe.input_shape[1])
             if frames
             else int(pipe.metadata.get(WINDOW_SIZE_KEY, pipe.input_shape[-1]))
         )
-        self.size = size
         if segment == "touches":
             self.levels, self.rule = touch_setup(pipe, options)
+        self.step = options.step if options.step is not None else max(self.size // 2, 1)
+        self.votes = {} if segment == "windows" and options.vote > 1 else None
+        first = self._channel(0)
+        self.segments = Segments(source, first[0], first[1], channel=self._channel)
+        self.results = self.unknown = self.early = self.withheld = 0
+
+    def _channel(self, index: int):
+        """The segmenter and sequencer of the source's sensor ``index`` (each sensor is cut on its own)."""
+        spec, clock, on_event = self.source.spec, self._clock, self._on_event
+        names = getattr(self.source, "sensors", None) or ()
+        name = names[index] if index < len(names) else None
+        sequencer = Sequencer(spec.rate_hz, item=spec.kind, on_event=on_event, clock=clock)
+        if self.segment == "touches":
             checkpoints = self.rule.checkpoints if self.rule is not None and self.rule.active else ()
-            self.segmenter = TouchSegmenter(
-                spec, self.levels, size, checkpoints=checkpoints, on_event=on_event, clock=clock
+            segmenter = TouchSegmenter(
+                spec,
+                self.levels,
+                self.size,
+                checkpoints=checkpoints,
+                on_event=on_event,
+                clock=clock,
+                sensor=name,
             )
         else:
-            step = options.step if options.step is not None else max(size // 2, 1)
-            self.segmenter = SlidingWindows(spec, size, step)
-        self.vote = (
-            WindowVote(options.vote, options.vote_method, pipe.class_names)
-            if segment == "windows" and options.vote > 1
-            else None
-        )
-        self.segments = Segments(source, self.segmenter, self.sequencer)
-        self.results = self.unknown = self.early = 0
+            segmenter = SlidingWindows(spec, self.size, self.step, sensor=name)
+        if self.votes is not None:
+            self.votes[name] = WindowVote(self.options.vote, self.options.vote_method, self.pipe.class_names)
+        return segmenter, sequencer
+
+    @property
+    def sensors(self) -> tuple[str, ...]:
+        """The source's sensor names (``()`` for a source of one sensor)."""
+        return tuple(getattr(self.source, "sensors", None) or ())
+
+    @property
+    def segmenters(self) -> list:
+        """One segmenter per sensor read so far (:attr:`segmenter` is the first)."""
+        return self.segments.segmenters
+
+    @property
+    def sequencers(self) -> list:
+        """One sequencer per sensor read so far (:attr:`sequencer` is the first)."""
+        return self.segments.sequencers
+
+    @property
+    def segmenter(self):
+        """The first sensor's segmenter (the only one of a source of one sensor)."""
+        return self.segments.segmenter
+
+    @property
+    def sequencer(self):
+        """The first sensor's sequencer."""
+        return self.segments.sequencer
 
     def warm_up(self) -> None:
         """Run the bundle once on a plausible input: its first call allocates (do it before opening a port)."""
@@ -262,13 +329,20 @@ class LiveStream:
     def _classified(self, segments: Iterable) -> Iterator[WindowResult | TouchResult]:
         range_g = self.source.spec.high if self.source.spec.kind == SAMPLE else math.inf
         for result in classify_segments(
-            segments, self.pipe, vote=self.vote, rule=self.rule, clock=self._clock, range_g=range_g
+            segments,
+            self.pipe,
+            votes=self.votes,
+            rule=self.rule,
+            clock=self._clock,
+            range_g=range_g,
+            on_partial=self.options.on_partial,
         ):
             if result.__class__ is TouchResult and result.kind == "early":
                 self.early += 1
             else:
                 self.results += 1
                 self.unknown += result.label == -1
+                self.withheld += result.__class__ is TouchResult and result.decision is None
             yield result
 
     def __iter__(self) -> Iterator[WindowResult | TouchResult]:
@@ -284,13 +358,13 @@ class LiveStream:
                 return
 
     def finish(self, why: str = END_OF_INPUT) -> Iterator[WindowResult | TouchResult]:
-        """Yield the result of the touch in progress when the stream ends or is stopped (flag ``"cut"``)."""
-        segment = self.segments.finish(why)
-        if segment is not None:
-            yield from self._classified([segment])
+        """Yield the results of the touches in progress when the stream ends or is stopped (flag ``"cut"``)."""
+        segments = self.segments.finish(why)
+        if segments:
+            yield from self._classified(segments)
 
     def run(self, outputs: Iterable[Output] = ()) -> None:
-        """Call every output hook with every result, then with the touch in progress at the end of input."""
+        """Call every output hook with every result, then with the touches in progress at the end of input."""
         outputs = list(outputs)
         for result in self:
             for output in outputs:
@@ -299,21 +373,30 @@ class LiveStream:
             for output in outputs:
                 output(result)
 
+    @property
+    def lost(self) -> int:
+        """Items known lost: from the sensor's ``t`` (every sequencer) and from the transport."""
+        return sum(q.lost for q in self.sequencers) + self.source.counts.lost
+
     def summary(self) -> str:
         """One line: what was read, cut and classified, and the line's faults."""
-        c, q = self.source.counts, self.sequencer
+        c, q = self.source.counts, self.sequencers
         item = self.source.spec.kind
+        short = sum(g.short for g in self.segmenters) if self.segment == "touches" else 0
         cut = (
-            f"{self.results} touches ({self.early} decided early, {self.segmenter.short} contacts too short)"
+            f"{self.results} touches ({self.early} decided early, {self.withheld} partial withheld, {short} contacts "
+            "too short)"
             if self.segment == "touches"
             else f"{self.results} windows"
         )
+        if self.sensors:
+            cut += f" of {len(self.sensors)} sensors"
         what = f"{getattr(self.source, 'skipped_name', 'messages')} skipped"
-        lost = q.lost + c.lost
+        gaps, corrected = sum(s.gaps for s in q), sum(s.corrected for s in q)
         return (
-            f"{c.items} {item}s read, {cut}, {c.skipped} {what}, {c.rejected} {item}s out of range, {q.gaps} gaps "
-            f"({lost} {item}s known lost), {c.reconnects} reconnections, {self.unknown} {self.segment} unknown, "
-            f"{c.format_switches} line-format switches"
+            f"{c.items} {item}s read, {cut}, {c.skipped} {what}, {c.rejected} {item}s out of range, {gaps} gaps "
+            f"({self.lost} {item}s known lost), {corrected} time stamps corrected, {c.reconnects} reconnections, "
+            f"{self.unknown} {self.segment} unknown, {c.format_switches} line-format switches"
         )
 
 

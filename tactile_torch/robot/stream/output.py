@@ -1,12 +1,12 @@
 """Classify a stream's segments and give each result in a form a robot program can use.
 
-:func:`classify_windows` turns the :class:`~tactile_torch.robot.stream.segments.Window` objects of a
-:class:`~tactile_torch.robot.stream.window_reader.WindowReader` into :class:`WindowResult` objects (label, name, scores,
+:func:`classify_windows` turns the :class:`~tactile_torch.robot.stream.segments.Window` objects a stream
+cuts into :class:`WindowResult` objects (label, name, scores,
 latency, flags, and optionally a vote over the last windows); :func:`classify_touches` turns the
-:class:`~tactile_torch.robot.stream.segments.TouchSegment` objects of a touch stream into
+:class:`~tactile_torch.robot.stream.touch_segments.TouchSegment` objects of a touch stream into
 :class:`TouchResult` objects (an ``"early"`` one when the early-decision rule fires during a touch, a
 ``"touch"`` one at its end, with the decision the robot got and when); :func:`classify_segments` does
-either. :func:`result_record` gives a result as a dict, :func:`result_json` and :func:`result_text` as
+either (the touches' are in :mod:`tactile_torch.robot.stream.touch_output`). :func:`result_record` gives a result as a dict, :func:`result_json` and :func:`result_text` as
 one line. numpy and an exported bundle only: importing this module never imports torch.
 
 A window the bundle does not classify (a sample beyond the sensor's range, no vibration at all, or
@@ -18,8 +18,8 @@ A window whose scores are not all finite (its samples overflow the features) get
 Examples
 --------
 >>> pipe = OnnxPipeline("vibration.onnx")                                   # doctest: +SKIP
->>> reader = WindowReader(open_port, window_size=800, step=400, rate_hz=800)  # doctest: +SKIP
->>> for result in classify_windows(reader, pipe, vote=WindowVote(5)):       # doctest: +SKIP
+>>> source = SerialSource(open_port, item_spec(pipe), idle_timeout_s=10)    # doctest: +SKIP
+>>> for result in LiveStream(pipe, source, LiveOptions(step=400, vote=5)):  # doctest: +SKIP
 ...     print(result_json(result))
 {"window": 0, "time": 1767225600.123, "label": 3, "name": "cork", ...}
 """
@@ -27,10 +27,9 @@ Examples
 from __future__ import annotations
 
 import json
-import math
 import time
 from collections import deque
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -38,8 +37,10 @@ import numpy as np
 from ...validation import check_count
 from ..contract import UNKNOWN
 from ..runtime import OnnxPipeline
-from .early_decision import EarlyRule, score_margins
-from .segments import TouchSegment, Window
+from .early_decision import EarlyRule
+from .segments import Window
+from .touch_output import TouchResult, classify_touches, json_number, touch_record, touch_text
+from .touch_segments import TouchSegment
 
 VOTE_METHODS = ("majority", "mean")
 """How :class:`WindowVote` combines windows: majority of the labels, or argmax of the mean scores."""
@@ -164,7 +165,7 @@ def classify_windows(
     windows: Iterable[Window],
     pipeline: OnnxPipeline,
     *,
-    vote: WindowVote | None = None,
+    vote: WindowVote | Mapping[str | None, WindowVote] | None = None,
     clock: Callable[[], float] = time.monotonic,
     range_g: float | None = None,
 ) -> Iterator[WindowResult]:
@@ -173,11 +174,14 @@ def classify_windows(
     Parameters
     ----------
     windows : iterable of Window
-        Typically a :class:`~tactile_torch.robot.stream.window_reader.WindowReader`.
+        From a :class:`~tactile_torch.robot.stream.segments.SlidingWindows` (through
+        :class:`~tactile_torch.robot.stream.segments.Segments`; :class:`~tactile_torch.robot.stream.live.LiveStream`
+        classifies with this).
     pipeline : OnnxPipeline
         A bundle taking ``(B, 3, W)`` windows.
-    vote : WindowVote, optional
-        Adds the vote over the last windows to each result (cleared at gaps).
+    vote : WindowVote or mapping of sensor name to WindowVote, optional
+        Adds the vote over the last windows to each result (cleared at gaps); one per sensor when the
+        windows come from several (:attr:`Window.sensor`).
     clock : callable, default time.monotonic
         The clock of the reader (``Window.read_at``), for the latency.
     range_g : float, optional
@@ -202,11 +206,12 @@ def classify_windows(
                 flags += ("unknown",)
         latency_ms = (clock() - window.read_at) * 1e3
         voted = None
-        if vote is not None:
+        sensor_vote = vote if vote is None or isinstance(vote, WindowVote) else vote[window.sensor]
+        if sensor_vote is not None:
             if window.gaps:
-                vote.reset()
+                sensor_vote.reset()
             if label is not None and label != UNKNOWN:
-                voted = vote.update(label, row)
+                voted = sensor_vote.update(label, row)
         yield WindowResult(
             window,
             label,
@@ -220,10 +225,6 @@ def classify_windows(
         )
 
 
-def _number(value: float | None, digits: int) -> float | None:
-    return None if value is None or not math.isfinite(value) else round(float(value), digits)
-
-
 def _window_record(result: WindowResult) -> dict:
     w = result.window
     scores = None if result.scores is None else [round(float(s), 6) for s in result.scores]
@@ -232,9 +233,9 @@ def _window_record(result: WindowResult) -> dict:
         "window": w.index,
         "time": round(result.time, 6),
         "sample": w.end_sample,
-        "t_start": _number(w.t_start, 6),
-        "t_end": _number(w.t_end, 6),
-        "rate_hz": _number(w.rate_hz, 3),
+        "t_start": json_number(w.t_start, 6),
+        "t_end": json_number(w.t_end, 6),
+        "rate_hz": json_number(w.rate_hz, 3),
         "label": result.label,
         "name": result.name,
         "score": None if scores is None or result.label == UNKNOWN else scores[result.label],
@@ -243,9 +244,11 @@ def _window_record(result: WindowResult) -> dict:
         "skipped": w.skipped,
         "rejected": w.rejected,
         "gaps": w.gaps,
+        "lost": w.lost,
         "flags": list(result.flags),
         "reason": result.reason,
         "vote": None,
+        "sensor": w.sensor,
     }
     if result.vote is not None:
         v = result.vote
@@ -286,6 +289,7 @@ def result_text(result: WindowResult | TouchResult) -> str:
     if isinstance(result, TouchResult):
         return touch_text(result)
     w = result.window
+    sensor = "" if w.sensor is None else f"{w.sensor:<10} "
     if result.label is None:
         line = f"{w.index:>6} {w.end_sample:>9} {'-':<24} no label: scores not finite"
     elif result.label == UNKNOWN:
@@ -300,177 +304,30 @@ def result_text(result: WindowResult | TouchResult) -> str:
         line += f"  vote {v.name} ({v.support:.2f} of {v.windows})"
     extras = [
         f"{n} {what}"
-        for n, what in ((w.skipped, "skipped"), (w.rejected, "rejected"), (w.gaps, "gap(s)"))
+        for n, what in (
+            (w.skipped, "skipped"),
+            (w.rejected, "rejected"),
+            (w.gaps, "gap(s)"),
+            (w.lost, "lost"),
+        )
         if n
     ]
     if extras:
         line += "  " + ", ".join(extras)
     if result.flags:
         line += "  [" + ",".join(result.flags) + "]"
-    return line
-
-
-# ---------------------------------------------------------------------------------------------- touches
-@dataclass(frozen=True)
-class Decision:
-    """The decision a touch got: early (the rule fired at a checkpoint) or at its end.
-
-    Attributes
-    ----------
-    label : int or None
-        ``-1`` unknown, ``None`` when the scores were not finite.
-    name : str or None
-    early : bool
-    frames : int
-        Frames into the touch when it was decided.
-    after_s : float
-        From the touch's first frame to the frame it was decided at: sensor time when the frames carry
-        ``t``, else the reader's clock (the latency comes on top).
-    latency_ms : float
-        From reading that frame (at the end of a touch: from reading the frame, or the break, that ended
-        it) to having the decision.
-    margin : float or None
-        The score margin at the decision (:func:`~tactile_torch.robot.stream.early_decision.score_margins`).
-    """
-
-    label: int | None
-    name: str | None
-    early: bool
-    frames: int
-    after_s: float
-    latency_ms: float
-    margin: float | None = None
-
-
-@dataclass(frozen=True)
-class TouchResult:
-    """The classification of a touch at an early-decision checkpoint (``kind="early"``) or at its end (``"touch"``).
-
-    Attributes
-    ----------
-    segment : TouchSegment
-        The touch (frames, start, duration, what ended it, line counts, flags).
-    kind : {"early", "touch"}
-    label, name, scores, latency_ms, time, flags, reason
-        As :class:`WindowResult`, for the touch's frames so far (``"early"``) or all of them (``"touch"``).
-    margin : float or None
-        The label's score minus the best other score.
-    decision : Decision
-        What the robot was told: the early decision when there was one, else this end-of-touch one.
-    """
-
-    segment: TouchSegment
-    kind: str
-    label: int | None
-    name: str | None
-    scores: np.ndarray | None
-    latency_ms: float
-    time: float
-    flags: tuple[str, ...]
-    margin: float | None
-    decision: Decision
-    reason: str | None = None
-
-
-def _classified(pipeline: OnnxPipeline, data: np.ndarray, range_g: float | None):
-    """``(label, name, scores row, reason, margin, extra flags)`` of one bundle input."""
-    prediction = pipeline.classify(data, range_g=range_g)
-    label, reason, row = int(prediction.labels[0]), prediction.reasons[0], prediction.scores[0]
-    if reason is not None and reason.startswith("scores not finite"):
-        return None, None, None, None, None, ("non_finite_scores",)
-    name = pipeline.label_name(label)
-    row = row if np.isfinite(row).all() else None
-    if label == UNKNOWN:
-        return label, name, row, reason, None, ("unknown",)
-    margin = float(score_margins(row[None], np.array([label]))[0]) if row is not None else None
-    return label, name, row, None, margin, ()
-
-
-def classify_touches(
-    segments: Iterable[TouchSegment],
-    pipeline: OnnxPipeline,
-    *,
-    rule: EarlyRule | None = None,
-    clock: Callable[[], float] = time.monotonic,
-    range_g: float | None = None,
-) -> Iterator[TouchResult]:
-    """Yield a :class:`TouchResult` when a touch is decided early and one at the end of every touch.
-
-    Parameters
-    ----------
-    segments : iterable of TouchSegment
-        From a :class:`~tactile_torch.robot.stream.segments.TouchSegmenter` (through
-        :class:`~tactile_torch.robot.stream.segments.Segments`).
-    pipeline : OnnxPipeline
-        A bundle taking frames ``(B, T, H, W)`` or ``(B, T, 3, H, W)``.
-    rule : EarlyRule, optional
-        Classify the touch at its checkpoints and decide early when the margin reaches the
-        threshold (once per touch); without it, checkpoints are ignored and every decision comes at
-        the end of the touch.
-    clock : callable
-        The clock of the reader (``read_at``), for the latency.
-    range_g : float, optional
-        As :meth:`~tactile_torch.robot.runtime.OnnxPipeline.classify` (frames: ``inf``).
-
-    Early decisions are given for known labels only (a touch answered ``unknown`` at a checkpoint is
-    not decided early). The end-of-touch result is given whatever was decided early, so that it can be
-    compared with ``predict`` on the same touch.
-    """
-    early: dict[int, Decision] = {}
-    active = rule is not None and rule.active
-    for segment in segments:
-        if segment.kind == "checkpoint":
-            if not active or segment.touch in early or segment.frames not in rule.checkpoints:
-                continue
-            label, name, row, reason, margin, flags = _classified(pipeline, segment.data, range_g)
-            if margin is None or margin < rule.threshold:
-                continue
-            latency_ms = (clock() - segment.read_at) * 1e3
-            decision = Decision(label, name, True, segment.frames, segment.duration_s, latency_ms, margin)
-            early[segment.touch] = decision
-            yield TouchResult(
-                segment,
-                "early",
-                label,
-                name,
-                row,
-                latency_ms,
-                time.time(),
-                segment.flags + flags,
-                margin,
-                decision,
-            )
-            continue
-        label, name, row, reason, margin, flags = _classified(pipeline, segment.data, range_g)
-        known = segment.ended_at if segment.ended_at is not None else segment.read_at
-        latency_ms = (clock() - known) * 1e3
-        decision = early.pop(segment.touch, None) or Decision(
-            label, name, False, segment.frames, segment.duration_s, latency_ms, margin
-        )
-        early.clear()  # touches end in order: nothing older is still open
-        yield TouchResult(
-            segment,
-            "touch",
-            label,
-            name,
-            row,
-            latency_ms,
-            time.time(),
-            segment.flags + flags,
-            margin,
-            decision,
-            reason,
-        )
+    return sensor + line
 
 
 def classify_segments(
     segments: Iterable[Window | TouchSegment],
     pipeline: OnnxPipeline,
     *,
-    vote: WindowVote | None = None,
+    votes: WindowVote | Mapping[str | None, WindowVote] | None = None,
     rule: EarlyRule | None = None,
     clock: Callable[[], float] = time.monotonic,
     range_g: float | None = None,
+    on_partial: str = "withhold",
 ) -> Iterator[WindowResult | TouchResult]:
     """Classify windows (:func:`classify_windows`) or touches (:func:`classify_touches`), whichever come."""
     iterator = iter(segments)
@@ -481,101 +338,21 @@ def classify_segments(
 
     chained = itertools.chain([first], iterator)
     if isinstance(first, TouchSegment):
-        yield from classify_touches(chained, pipeline, rule=rule, clock=clock, range_g=range_g)
-    else:
-        yield from classify_windows(chained, pipeline, vote=vote, clock=clock, range_g=range_g)
-
-
-def touch_record(result: TouchResult) -> dict:
-    """Return a touch result as a dict of JSON values.
-
-    Keys: ``event`` (``"early"`` or ``"touch"``), ``touch`` (index), ``time`` (wall clock, s), ``start``
-    (items read before the touch's first frame), ``frames`` (so far, for ``"early"``), ``frames_used``
-    (distinct frames given to the bundle), ``t_start``, ``t_end`` (sensor time, s, or null),
-    ``duration_s``, ``ended_by`` (``"release"``, ``"silence"``, ``"gap"``, ..., null for ``"early"``),
-    ``label``, ``name``, ``score``, ``scores``, ``margin``, ``latency_ms``, ``skipped``, ``rejected``,
-    ``gaps`` (since the previous touch), ``flags``, ``reason``, and ``decision``: ``label``, ``name``,
-    ``early``, ``frames``, ``after_s`` (into the touch), ``latency_ms``.
-    """
-    s = result.segment
-    scores = None if result.scores is None else [round(float(v), 6) for v in result.scores]
-    d = result.decision
-    return {
-        "event": result.kind,
-        "touch": s.touch,
-        "time": round(result.time, 6),
-        "start": s.start_item,
-        "frames": s.frames,
-        "frames_used": s.frames_used,
-        "t_start": _number(s.t_start, 6),
-        "t_end": _number(s.t_end, 6),
-        "duration_s": _number(s.duration_s, 6),
-        "ended_by": s.ended_by,
-        "label": result.label,
-        "name": result.name,
-        "score": None if scores is None or result.label in (None, UNKNOWN) else scores[result.label],
-        "scores": scores,
-        "margin": _number(result.margin, 6),
-        "latency_ms": round(result.latency_ms, 4),
-        "skipped": s.skipped,
-        "rejected": s.rejected,
-        "gaps": s.gaps,
-        "flags": list(result.flags),
-        "reason": result.reason,
-        "decision": {
-            "label": d.label,
-            "name": d.name,
-            "early": d.early,
-            "frames": d.frames,
-            "after_s": _number(d.after_s, 6),
-            "latency_ms": round(d.latency_ms, 4),
-        },
-    }
-
-
-def touch_text(result: TouchResult) -> str:
-    """Return a touch result as a line for a person."""
-    s = result.segment
-    if result.label is None:
-        what = f"{'-':<20} no label: scores not finite"
-    elif result.label == UNKNOWN:
-        what = f"{result.name:<20} {result.reason}"
-    else:
-        margin = "" if result.margin is None else f" margin {result.margin:.3g}"
-        what = f"{result.name:<20} score {float(result.scores[result.label]):+.3f}{margin}"
-    if result.kind == "early":
-        line = f"early {s.touch:>5} after {s.frames} frames ({s.duration_s:.2f} s)  {what} ({result.latency_ms:.2f} ms)"
-    else:
-        line = (
-            f"touch {s.touch:>5} frames {s.start_item}+{s.frames} ({s.duration_s:.2f} s, ended by {s.ended_by})  "
-            f"{what} ({result.latency_ms:.2f} ms)"
+        yield from classify_touches(
+            chained, pipeline, rule=rule, clock=clock, range_g=range_g, on_partial=on_partial
         )
-        d = result.decision
-        if d.early:
-            line += f"  decided early at {d.frames} frames ({d.after_s:.2f} s): {d.name}"
-    extras = [
-        f"{n} {w}" for n, w in ((s.skipped, "skipped"), (s.rejected, "rejected"), (s.gaps, "gap(s)")) if n
-    ]
-    if extras and result.kind == "touch":
-        line += "  " + ", ".join(extras)
-    if result.flags:
-        line += "  [" + ",".join(result.flags) + "]"
-    return line
+    else:
+        yield from classify_windows(chained, pipeline, vote=votes, clock=clock, range_g=range_g)
 
 
 __all__ = [
     "VOTE_METHODS",
-    "Decision",
-    "TouchResult",
     "VoteResult",
     "WindowResult",
     "WindowVote",
     "classify_segments",
-    "classify_touches",
     "classify_windows",
     "result_json",
     "result_record",
     "result_text",
-    "touch_record",
-    "touch_text",
 ]

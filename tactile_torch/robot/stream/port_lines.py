@@ -1,7 +1,7 @@
 """The port under a serial stream: open it, read lines, report silence, time out, reconnect.
 
-:class:`PortLines` is the port side of :class:`tactile_torch.robot.stream.window_reader.WindowReader` (which parses
-the lines and cuts windows); the events and errors it reports are :class:`StreamEvent`,
+:class:`PortLines` is the port side of :class:`tactile_torch.robot.stream.serial_source.SerialSource` (which parses
+the lines into samples or frames); the events and errors it reports are :class:`StreamEvent`,
 :class:`StreamTimeout` and :class:`StreamDisconnected`. Runs on the robot (no torch).
 """
 
@@ -46,7 +46,8 @@ class StreamEvent:
         ``"waiting"`` (no data yet), ``"first"`` (first sample), ``"silence"``, ``"resumed"``, ``"gap"``,
         ``"range"`` (a sample out of range), ``"units"`` (the samples look like other units than
         declared, once), ``"rate"`` (``t`` runs at another rate than expected), ``"format"`` (the lines
-        switched between ``x,y,z`` and ``t,x,y,z``), ``"disconnected"``, ``"reconnected"``.
+        switched between ``x,y,z`` and ``t,x,y,z``), ``"disconnected"`` (the port failed),
+        ``"reopened"`` (open again), ``"reconnected"`` (its first sample: back).
     message : str
         One line for a person.
     """
@@ -87,13 +88,13 @@ def _giving_up(limit: float) -> str:
 
 
 class PortLines:
-    """The port side of :class:`~tactile_torch.robot.stream.window_reader.WindowReader`: open, read lines, time out, reconnect.
+    """The port side of :class:`~tactile_torch.robot.stream.serial_source.SerialSource`: open, read lines, time out, reconnect.
 
     Owns the port: opens it (or takes an open one), reads what has arrived and splits it into lines
     (keeping at most one partial line of ``max_line_bytes``), reports silence and ends with
     :class:`StreamTimeout` after the idle or start timeout, raises :class:`StreamDisconnected` when the
     port fails, or reopens it with exponential backoff (``reconnect``). Every parameter is
-    :class:`~tactile_torch.robot.stream.window_reader.WindowReader`'s of the same name. The subclass parses the
+    :class:`~tactile_torch.robot.stream.serial_source.SerialSource`'s of the same name. The subclass parses the
     lines, counts accepted ``samples``, ``skipped`` lines and ``rejected`` samples, and keeps
     ``_last_sample_at`` (the clock at the last valid sample), ``_silent``, ``_delay`` (the next
     reconnection wait) and ``_units_hint`` (what the samples look like, when not the declared units)
@@ -108,7 +109,7 @@ class PortLines:
     rejected : int
         Samples rejected (counted by the subclass).
     reconnects : int
-        Successful reconnections.
+        Reconnections: a port that failed, reopened and gave a sample again (counted at that sample).
     """
 
     def __init__(
@@ -162,6 +163,11 @@ class PortLines:
         self._last_sample_at, self._silent = clock(), False
         self._delay = self.backoff_s[0]
         self._reconnected = False  # set with the break that a reconnection yields, cleared by the subclass
+        self._back_pending = False  # a port reopened after a failure: its first sample is "back"
+        self._failed_at: float | None = None
+        self.opened_at: float | None = (
+            None  # when a live port first opened: the sensor's losses are bounded by it
+        )
 
     # -- events ---------------------------------------------------------------------------------
 
@@ -223,6 +229,7 @@ class PortLines:
         name = self._name or "the port"
         reopening = error is not None
         if reopening:
+            self._failed_at = self._clock()
             self._emit("disconnected", f"{name} disconnected ({error}); reconnecting")
         started, attempts = self._clock(), 0
         while True:
@@ -246,16 +253,16 @@ class PortLines:
                 error = err
                 continue
             if reopening or attempts > 1:
-                self.reconnects += reopening
+                self._back_pending = reopening  # counted as a reconnection at its first sample ("back")
                 self._emit(
-                    "reconnected",
+                    "reopened",
                     f"{self._port_name(port)} open after {self._clock() - started:.1f} s ({attempts} attempt(s))",
                 )
             return port
 
     # -- iteration ------------------------------------------------------------------------------
 
-    def _lines(self) -> Iterator[tuple[bytes | None, float]]:
+    def _lines(self) -> Iterator[tuple[bytes | None, float]]:  # noqa: PLR0915
         """Yield ``(line, read time)`` from the port; ``(None, time)`` marks a break (silence, reconnection).
 
         Owns the port: reads what has arrived, keeps the partial line, reports silence, raises
@@ -264,12 +271,15 @@ class PortLines:
         clock = self._clock
         port = None
         partial = b""
+        overlong = False  # within a line longer than max_line_bytes, already counted
         try:
             port = self._reopen(None) if self._opens else self._open()
             name = self._port_name(port)
             read = self._reader_of(port)
             # the clocks start once the port is open (opening may take a while, and flushes it)
             self._last_sample_at = opened_at = clock()
+            if self.idle_timeout_s is not None:  # a live port (not a file read to its end)
+                self.opened_at = opened_at
             if self.on_open is not None:
                 self.on_open(name)
             while True:
@@ -284,7 +294,7 @@ class PortLines:
                     self._close(port)
                     port = self._reopen(err)
                     read = self._reader_of(port)
-                    partial = b""
+                    partial, overlong = b"", False
                     # A port reopened late (at the idle timeout itself) gets the idle timeout anew for its
                     # first sample: its first read may well be empty. _reopen still gives up once the
                     # timeout has passed since the last sample, so a port that fails at once is not
@@ -295,11 +305,16 @@ class PortLines:
                     continue
                 now = clock()
                 if chunk:
+                    if overlong:  # the rest of a line already dropped: up to its newline, it counts nothing
+                        end = chunk.find(b"\n")
+                        chunk, overlong = (b"", True) if end < 0 else (chunk[end + 1 :], False)
                     lines = (partial + chunk).split(b"\n")
                     partial = lines.pop()
-                    if len(partial) > self.max_line_bytes:  # noise without newlines: drop it
+                    if (
+                        len(partial) > self.max_line_bytes
+                    ):  # noise without newlines: one line skipped, whatever its length
                         self.skipped += 1
-                        partial = b""
+                        partial, overlong = b"", True
                     for line in lines:
                         yield line, now
                     if self.idle_timeout_s is None:

@@ -20,11 +20,11 @@ from collections.abc import Callable, Iterator
 
 import numpy as np
 
-from ...validation import check_number
+from ...validation import check_number, saturate_float32
 from ..files.csv_logs import STANDARD_GRAVITY, UNITS
 from ..files.data_sources import GRAVITY_BAND_G
 from .port_lines import PortLines, ReadablePort, StreamEvent
-from .source import FORMAT, RECONNECT, REJECTED, SAMPLE, SILENCE, Break, ItemSpec, Reading, SourceCounts
+from .source import FORMAT, RECONNECT, REJECTED, SAMPLE, SILENCE, Break, ItemSpec, Reading
 from .wire import parse_line
 
 TIME_UNITS = ("s", "ms", "us", "samples")
@@ -40,7 +40,8 @@ def parse_values(line: bytes | str, size: int) -> tuple[float | None, np.ndarray
     """Return ``(t, values)`` of a line of ``size`` numbers (or ``t`` and ``size`` numbers), else ``None``.
 
     ``values`` is float64 ``(size,)``; ``t`` is ``None`` without a time field. ``None`` when the line is
-    not ASCII, has another number of fields, or holds a field that is not a finite number.
+    not ASCII, has another number of fields, or holds a field that is not a number, or a value that is
+    not finite (``t`` may be any number: the stream's sequencer judges it).
 
     >>> parse_values(b"0.5,1,2,3,4\\r\\n", 4)
     (0.5, array([1., 2., 3., 4.]))
@@ -57,10 +58,10 @@ def parse_values(line: bytes | str, size: int) -> tuple[float | None, np.ndarray
         values = np.array(fields, dtype=np.float64)
     except (ValueError, UnicodeDecodeError):
         return None
-    if not np.isfinite(values).all():
-        return None
     if n == size:
-        return None, values
+        return (None, values) if np.isfinite(values).all() else None
+    if not np.isfinite(values[1:]).all():
+        return None
     return float(values[0]), values[1:]
 
 
@@ -78,12 +79,6 @@ class _PortCounts:
     reconnects = property(lambda self: self._source.reconnects)
     format_switches = property(lambda self: self._source.format_switches)
     lost = property(lambda self: self._source.lost_on_reconnect)
-
-    def snapshot(self) -> SourceCounts:
-        """The counts now, as a plain :class:`SourceCounts`."""
-        return SourceCounts(
-            self.items, self.skipped, self.rejected, self.reconnects, self.format_switches, self.lost
-        )
 
 
 class SerialSource(PortLines):
@@ -110,16 +105,22 @@ class SerialSource(PortLines):
     silence_s, idle_timeout_s, start_timeout_s, reconnect, backoff_s, on_event, on_open, name, clock, sleep
         As :class:`~tactile_torch.robot.stream.port_lines.PortLines`.
     max_line_bytes : int, optional
-        A partial line longer than this is dropped as skipped (default: room for the item's numbers,
-        at least 256 bytes).
+        A partial line longer than this is dropped as skipped, once however long (default: room for the
+        item's numbers, at least 256 bytes).
+    all_sensors : bool, default False
+        Frames: a line holds the frames of several sensors, one after the other (``v1,...,vHW`` each,
+        ``t`` first if any), as many as the connection's first line holds: each is a reading of its
+        own sensor (:attr:`sensors`: ``"0"``, ``"1"``, ...), cut into touches on its own.
 
     Attributes
     ----------
     counts : SourceCounts
         Items, lines skipped, items rejected, reconnections, format switches (live).
+    sensors : list of str
+        With ``all_sensors``: the sensors' names once the first line has said how many there are.
     """
 
-    def __init__(
+    def __init__(  # noqa: PLR0913
         self,
         source: ReadablePort | Callable[[], ReadablePort],
         spec: ItemSpec,
@@ -138,6 +139,7 @@ class SerialSource(PortLines):
         name: str | None = None,
         clock: Callable[[], float] = time.monotonic,
         sleep: Callable[[float], None] = time.sleep,
+        all_sensors: bool = False,
     ) -> None:
         if time_unit not in TIME_UNITS:
             raise ValueError(f"time_unit must be one of {TIME_UNITS}, got {time_unit!r}")
@@ -147,9 +149,13 @@ class SerialSource(PortLines):
             raise ValueError(f"units must be one of {list(UNITS)}, got {units!r}")
         if spec.kind != SAMPLE and (units != "g" or scale is not None):
             raise ValueError("units and scale apply to accelerometer samples, not to frames")
+        if all_sensors and spec.kind == SAMPLE:
+            raise ValueError("all_sensors reads the frames of several taxel arrays on one line, not samples")
+        self.all_sensors = bool(all_sensors)
+        self.sensors: list[str] = []
         self.units, self.scale = units, None if scale is None else check_number(scale, "scale")
         if max_line_bytes is None:
-            max_line_bytes = max(256, 24 * (spec.size + 1))
+            max_line_bytes = max(256, 24 * (spec.size * (64 if all_sensors else 1) + 1))
         super().__init__(
             source,
             silence_s=silence_s,
@@ -202,18 +208,33 @@ class SerialSource(PortLines):
         return self._name or "the port"
 
     def _decode(self):
-        """Return the line decoder of frames: ``line -> (t, values) | None`` (samples: :func:`parse_line`)."""
+        """Return the line decoder of frames: ``line -> (t, values) | None`` (samples: :func:`parse_line`).
+
+        ``values`` is a frame ``spec.shape``, or with ``all_sensors`` the frames ``(k, *spec.shape)`` of the
+        ``k`` sensors the first line held (a line with another number of values is garbage).
+        """
         size, shape = self.spec.size, self.spec.shape
 
         def frame(line: bytes):
             parsed = parse_values(line, size)
             if parsed is None:
                 return None
-            return parsed[0], parsed[1].astype(np.float32).reshape(shape)
+            # beyond float32 (1e308) reads as float32's largest, then as out of range: never inf, never a warning
+            return parsed[0], saturate_float32(parsed[1]).reshape(shape)
 
-        return frame
+        def frames(line: bytes):
+            n = line.count(b",") + 1
+            k = len(self.sensors) or (n // size if n % size == 0 else (n - 1) // size)
+            parsed = parse_values(line, k * size) if k else None
+            if parsed is None:
+                return None
+            if not self.sensors:  # the first line says how many sensors the line carries
+                self.sensors.extend(str(i) for i in range(k))
+            return parsed[0], saturate_float32(parsed[1]).reshape(k, *shape)
 
-    def readings(self) -> Iterator[Reading | Break]:
+        return frames if self.all_sensors else frame
+
+    def readings(self) -> Iterator[Reading | Break]:  # noqa: C901, PLR0915
         """Yield a :class:`Reading` per accepted line and a :class:`Break` where continuity is lost."""
         spec = self.spec
         sample = spec.kind == SAMPLE
@@ -279,22 +300,30 @@ class SerialSource(PortLines):
                 timed, count = not timed, 0
                 yield Break(FORMAT, now)
             other_run = 0
-            if check and not (
+            if self.all_sensors:
+                good = yield from self._check_sensors(values, now)
+            elif check and not (
                 lo <= values[0] <= hi and lo <= values[1] <= hi and lo <= values[2] <= hi
                 if sample
                 else in_range(values)
             ):
-                self.rejected += 1  # an item is known to be missing here: the segment ends
-                self._emit(
-                    "range",
-                    f"a {self.item} out of the sensor's range {spec.describe_range()} was rejected: "
-                    f"{spec.describe_item(values)}",
-                    repeated=True,
-                )
-                count = 0
+                self._reject(values, now)
                 yield Break(REJECTED, now)
+                good = ()
+            else:
+                good = None
+            if good is not None and not good:
+                count = 0
                 continue
-            if self._silent or not self.samples:
+            if self._back_pending:  # the first sample of a reopened port: the sensor is back
+                self._back_pending = False
+                self.reconnects += 1
+                self._emit(
+                    "reconnected",
+                    f"{self.name}: {self.item}s again {now - self._failed_at:.1f} s after it failed",
+                )
+                self._silent = False
+            elif self._silent or not self.samples:
                 waited = now - self._last_sample_at
                 if self._silent and self.samples:
                     self._emit("resumed", f"{self.item}s again after {waited:.1f} s of silence")
@@ -307,8 +336,34 @@ class SerialSource(PortLines):
             if not count:  # a segment starts: the connection works, so the next failure waits little
                 self._delay = self.backoff_s[0]
             count += 1
-            self.samples += 1
-            yield Reading(values, t * unit if has_t else None, now)
+            stamp = t * unit if has_t else None
+            if good is None:
+                self.samples += 1
+                yield Reading(values, stamp, now)
+                continue
+            for index in good:
+                self.samples += 1
+                yield Reading(values[index], stamp, now, None, index)
+
+    def _reject(self, item, now: float, sensor: str = "") -> None:
+        self.rejected += 1  # an item is known to be missing here: the segment ends
+        self._emit(
+            "range",
+            f"a {self.item}{sensor} out of the sensor's range {self.spec.describe_range()} was rejected: "
+            f"{self.spec.describe_item(item)}",
+            repeated=True,
+        )
+
+    def _check_sensors(self, frames: np.ndarray, now: float):
+        """Yield a break for each sensor's frame out of range; return the indices of the others."""
+        good = []
+        for index, frame in enumerate(frames):
+            if self.spec.in_range(frame):
+                good.append(index)
+            else:
+                self._reject(frame, now, f" of sensor {self.sensors[index]}")
+                yield Break(REJECTED, now, index)
+        return good
 
 
 __all__ = ["FORMAT_RUN", "TIME_UNITS", "SerialSource", "parse_values"]

@@ -55,6 +55,8 @@ REJECTED = "rejected"
 """:attr:`Break.kind`: an item with a value outside the range was refused: one is known to be missing."""
 FORMAT = "format"
 """:attr:`Break.kind`: the items changed format (e.g. ``x,y,z`` lines became ``t,x,y,z``)."""
+LOST = "lost"
+""":attr:`Break.kind`: the transport reported items lost here (a DDS reader's full queue, samples lost on the wire)."""
 
 _EVENT_INTERVAL_S = 1.0  # repeated events beyond _EVENTS_PER_INTERVAL in this interval are counted, not shown
 _EVENTS_PER_INTERVAL = 5
@@ -129,15 +131,29 @@ class Reading(NamedTuple):
         The item, of shape :attr:`ItemSpec.shape` (a sample may be a tuple ``(x, y, z)``).
     t : float or None
         The sensor's time of the item in seconds (a header stamp, a ``t`` field), ``None`` when the
-        transport carries none.
+        transport carries none. Its steps say whether items were lost (the sequencer's rule).
     read_at : float
         The source's clock (``time.monotonic`` by default) when the item was read: where a result's
         latency starts.
+    sent_at : float or None
+        When the sender wrote the item by its own clock (seconds; a DDS sample's source timestamp),
+        ``None`` when the transport does not say. Without ``t`` it is the item's time for silences
+        and durations (never for losses: a publisher's write times are no sensor clock).
+    sensor : int
+        Which sensor of the source the item is from (0 for a source of one sensor;
+        :attr:`Source.sensors` names them).
     """
 
     values: object
     t: float | None
     read_at: float
+    sent_at: float | None = None
+    sensor: int = 0
+
+    @property
+    def clock(self) -> float | None:
+        """The sender's time of the item: ``t``, else ``sent_at`` (``None``: only the reader's clock)."""
+        return self.t if self.t is not None else self.sent_at
 
 
 class Break(NamedTuple):
@@ -146,13 +162,16 @@ class Break(NamedTuple):
     Attributes
     ----------
     kind : str
-        :data:`SILENCE`, :data:`RECONNECT`, :data:`REJECTED` or :data:`FORMAT`.
+        :data:`SILENCE`, :data:`RECONNECT`, :data:`REJECTED`, :data:`FORMAT` or :data:`LOST`.
     at : float
         The source's clock when it happened.
+    sensor : int or None
+        The sensor it concerns (a rejected item of one sensor of a hand); ``None``: every sensor.
     """
 
     kind: str
     at: float
+    sensor: int | None = None
 
 
 @dataclass

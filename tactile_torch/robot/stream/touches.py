@@ -13,7 +13,7 @@ frames of a grasp: the object held); a touch (or the start of one, for an early 
 ``T`` is stretched to ``T`` frames by repeating frames evenly.
 
 One segmentation for the live stream and for ``predict``: :class:`TouchTracker` is the state machine
-both run (:class:`tactile_torch.robot.stream.segments.TouchSegmenter`). numpy only.
+both run (:class:`tactile_torch.robot.stream.touch_segments.TouchSegmenter`). numpy only.
 
 Examples
 --------

@@ -3,7 +3,7 @@
 One ASCII line per sample, ``x,y,z`` in g, or ``t,x,y,z`` with ``t`` a number (seconds unless the
 reader is told otherwise), terminated by ``\\n`` (``\\r\\n`` accepted); a frame of a taxel array is
 one line of its values in row-major order, optionally with ``t`` first (:func:`format_frame`). numpy only: this module runs on
-the robot (through :mod:`tactile_torch.robot.stream.window_reader`, which re-exports these names) and on the bench
+the robot (:class:`~tactile_torch.robot.stream.serial_source.SerialSource` reads these lines) and on the bench
 (``tactile-torch simulate-sensor``).
 """
 
@@ -26,8 +26,9 @@ class _Sink(Protocol):
 def parse_line(line: bytes | str) -> tuple[float | None, float, float, float] | None:
     """Return ``(t, x, y, z)`` of one protocol line (``t`` is ``None`` for ``x,y,z``), or ``None``.
 
-    ``None`` when the line is not ASCII, has other than 3 or 4 fields, a field is not a number, or a
-    value is NaN or infinite.
+    ``None`` when the line is not ASCII, has other than 3 or 4 fields, a field is not a number, or
+    ``x``, ``y`` or ``z`` is NaN or infinite. ``t`` may be any number, ``inf`` and ``nan`` included:
+    the stream's sequencer judges it (a stamp off schedule is corrected, the sample kept).
 
     >>> parse_line(b"12.5,0,0,1\\r\\n")
     (12.5, 0.0, 0.0, 1.0)
@@ -49,7 +50,7 @@ def parse_line(line: bytes | str) -> tuple[float | None, float, float, float] | 
         values = [float(v) for v in fields]
     except ValueError:
         return None
-    for v in values:
+    for v in values[n - 3 :]:
         if not math.isfinite(v):
             return None
     if n == 3:

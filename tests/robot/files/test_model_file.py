@@ -246,6 +246,34 @@ def test_broken_files_get_one_line_naming_the_file(tmp_path, write, match):
     assert "\n" not in str(err.value)
 
 
+def _zip_headers(data: bytes) -> list[int]:
+    """Offsets of every byte of a zip archive's local, central-directory and end records (their fixed parts)."""
+    sizes = {b"PK\x03\x04": 30, b"PK\x01\x02": 46, b"PK\x05\x06": 22}
+    offsets, i = [], data.find(b"PK")
+    while i >= 0:
+        offsets += range(i, i + sizes.get(data[i : i + 4], 0))
+        i = data.find(b"PK", i + 2)
+    return offsets
+
+
+def test_a_flipped_byte_in_any_zip_header_is_one_line(tmp_path):
+    # issue 41: a flipped byte in a zip header (the compression method, the version, the encryption flag)
+    # raised NotImplementedError or RuntimeError from zipfile: an internal error of export
+    good = save_model_file(tmp_path / "good.npz", *_svm_model()).read_bytes()
+    path = tmp_path / "model.npz"
+    refused = 0
+    for offset in _zip_headers(good):
+        damaged = bytearray(good)
+        damaged[offset] ^= 0xFF
+        path.write_bytes(bytes(damaged))
+        try:
+            load_model_file(path)  # a byte that changes nothing read (a time stamp) loads
+        except (ValueError, OSError) as err:
+            assert "\n" not in str(err) and str(err).startswith(str(path)), (offset, err)
+            refused += 1
+    assert refused > 100  # most header bytes matter
+
+
 def test_model_files_load_without_torch(tmp_path):
     path = save_model_file(tmp_path / "model.npz", *_svm_model())
     out = run_without_torch(

@@ -17,7 +17,6 @@ from tactile_torch.robot.ros2.dds import (
     DdsNode,
     DdsOptions,
     DdsTypes,
-    TopicReader,
     check_domain_id,
     dds_topic_name,
     dds_type_name,
@@ -35,6 +34,7 @@ from tactile_torch.robot.ros2.message_types import (
     message_types,
 )
 from tactile_torch.robot.ros2.messages import MessageEncoder, TopicFields
+from tactile_torch.robot.ros2.reader import RELIABILITY_POLICY, TopicReader
 from tests.ros2_helpers import cli, free_domain_id, ros2_env, selected_interfaces, sent_to, traced_loopback
 
 pytest.importorskip(
@@ -174,21 +174,23 @@ def test_a_publisher_process_reaches_the_stream_on_the_loopback_only(tmp_path):
         assert "Domain/General/AllowMulticast/#text: false" in trace.read_text()
 
 
-def test_a_reliable_reader_names_a_best_effort_publisher_it_cannot_match():
-    # ROS 2's sensor-data publishers are best effort: a reliable reader never matches them, and says so
+def test_a_lossless_reader_names_a_best_effort_publisher_it_cannot_match():
+    # ROS 2's sensor-data publishers are best effort: a reliable (lossless) reader never matches them, and
+    # DDS says which policy refused it
     types = DdsTypes(message_types())
-    with DdsNode(DdsOptions(domain_id=free_domain_id(), config="loopback", qos="reliable")) as node:
-        reliable = TopicReader(node, "/tactile", FLOAT_ARRAY_TYPE, types)
+    with DdsNode(DdsOptions(domain_id=free_domain_id(), config="loopback", qos="lossless")) as node:
+        lossless = TopicReader(node, "/tactile", FLOAT_ARRAY_TYPE, types)
         best_effort = TopicReader(node, "/tactile", FLOAT_ARRAY_TYPE, types, profile="sensor")
         # (a writer is deleted when dropped: keep it)
         writer = node.writer("/tactile", FLOAT_ARRAY_TYPE, types, profile="sensor")
         deadline = time.monotonic() + 10
-        while not (refused := reliable.incompatible_qos()) and time.monotonic() < deadline:
+        while (refused := lossless.incompatible()) is None and time.monotonic() < deadline:
             time.sleep(0.05)
-        assert refused and reliable.publishers() == 0 and not reliable.incompatible_qos()  # said once
+        assert refused == RELIABILITY_POLICY and lossless.publishers() == 0
+        assert lossless.incompatible() is None  # said once
         while not best_effort.publishers() and time.monotonic() < deadline:
             time.sleep(0.05)
-        assert best_effort.publishers() == 1 and not best_effort.incompatible_qos() and writer is not None
+        assert best_effort.publishers() == 1 and best_effort.incompatible() is None and writer is not None
 
 
 def test_decisions_are_published_as_std_msgs_string_json():
@@ -200,7 +202,7 @@ def test_decisions_are_published_as_std_msgs_string_json():
     topic = decision_topic("/hand/tactile")
     assert topic == "/hand/tactile/decision"
     with DdsNode(DdsOptions(domain_id=free_domain_id(), config="loopback")) as node:
-        echo = TopicReader(node, topic, STRING_TYPE, types, profile="reliable")
+        echo = TopicReader(node, topic, STRING_TYPE, types, profile="lossless")
         publisher = DecisionPublisher(
             node, topic, types, to_json=lambda r: json.dumps({"event": "touch", "label": r})
         )

@@ -202,8 +202,14 @@ def test_documented_errors(store, tmp_path):
         MessageDecoder(TopicFields(IMAGE_TYPE, sensor="tip"), store)
     with pytest.raises(ValueError, match=r"does not say which type it defines: name it pkg/msg/Name=FILE"):
         message_types([MessageDefinition(PAD_MSG, None, "pad.txt")])
-    with pytest.raises(ValueError, match=r"bad\.msg: not a message definition rosbags can read"):
+    with pytest.raises(
+        ValueError, match=r"bad\.msg line 1: not a field of a message definition \(TYPE NAME\): 'float32\[ x'"
+    ):
         message_types([MessageDefinition("float32[ x\n", "a/msg/B", "bad.msg")])
+    with pytest.raises(
+        ValueError, match=r"^bad\.msg: not a message definition rosbags can read for a/msg/B \(\w+\)$"
+    ):
+        message_types([MessageDefinition("float32 x 1 2 3\n", "a/msg/B", "bad.msg")])
     with pytest.raises(ValueError, match=r"a message type must be named pkg/msg/Name"):
         ros_type_name("Imu")
     big = tmp_path / "big.msg"

@@ -31,7 +31,14 @@ from tactile_torch.robot.stream.output import result_record
 from tactile_torch.robot.stream.port_lines import StreamDisconnected, StreamTimeout
 from tactile_torch.robot.stream.source import ArraySource
 from tactile_torch.robot.stream.touches import TouchLevels, touch_levels
-from tests.ros2_helpers import DecisionListener, cli, free_domain_id, ros2_env, write_frame_bag
+from tests.ros2_helpers import (
+    DecisionListener,
+    cli,
+    free_domain_id,
+    ros2_env,
+    start_publisher,
+    write_frame_bag,
+)
 from tests.stream_helpers import frame_bundle
 
 pytest.importorskip(
@@ -152,15 +159,6 @@ def _start_stream(pipe, topic, domain, *extra):
     return subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=ros2_env())
 
 
-def _start_publisher(tmp_path, values, rate, topic, domain, msgtype, *extra):
-    np.save(tmp_path / "values.npy", values)
-    argv = [
-        sys.executable, "-m", "tests.ros2_publisher", "--domain-id", str(domain), "--topic", topic,
-        "--type", msgtype, "--values", str(tmp_path / "values.npy"), "--rate", str(rate), *extra,
-    ]  # fmt: skip
-    return subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=ros2_env())
-
-
 def _finish(*processes, timeout=60):
     outs = []
     for p in processes:
@@ -254,7 +252,7 @@ def test_touches_over_dds_equal_predict_offline_and_every_decision_is_published(
         # Both start at once: the publisher waits for the stream's reader, which the stream creates
         # after its decision writer, so the listener has the writer before the first decision.
         stream = _start_stream(pipe, topic, domain, *sensor)
-        publisher = _start_publisher(tmp_path, frames, rate, topic, domain, msgtype, *extra)
+        publisher = start_publisher(tmp_path, frames, rate, topic, domain, msgtype, *extra)
         (out, err), (pub_out, _) = _finish(stream, publisher)
         decisions = listener.wait_for(len(out.splitlines()), timeout_s=10)
     finally:
@@ -324,7 +322,7 @@ def test_a_publisher_that_starts_late_pauses_leaves_and_comes_back(tmp_path):
     # touch 1 is frames 5-11: a pause after frame 8; touch 2 (17-22): a departure after frame 19. The
     # publisher starts 0.6 s after the stream: late.
     plan = "0:9,pause=0.45,9:20,leave=0.45,20:37"
-    publisher = _start_publisher(
+    publisher = start_publisher(
         tmp_path,
         frames,
         rate,

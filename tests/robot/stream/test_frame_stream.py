@@ -16,9 +16,10 @@ from tactile_torch.robot.runtime import OnnxPipeline
 from tactile_torch.robot.stream.live import LiveOptions, LiveStream, item_spec, touch_setup
 from tactile_torch.robot.stream.output import result_json, result_record
 from tactile_torch.robot.stream.port_lines import StreamTimeout
-from tactile_torch.robot.stream.segments import Segments, SlidingWindows, TouchSegmenter
+from tactile_torch.robot.stream.segments import Segments, SlidingWindows
 from tactile_torch.robot.stream.serial_source import SerialSource, parse_values
 from tactile_torch.robot.stream.source import REJECTED, ArraySource, Break, ItemSpec, Reading
+from tactile_torch.robot.stream.touch_segments import TouchSegmenter
 from tactile_torch.robot.stream.touches import TouchLevels
 from tactile_torch.robot.stream.wire import format_frame, simulate_frames
 from tests.stream_helpers import PtySensor, frame_bundle
@@ -101,7 +102,7 @@ def test_touches_live_over_a_pty_equal_the_touches_offline(bundle):
         source = SerialSource(port, item_spec(bundle), idle_timeout_s=2.0, silence_s=0.5)
         live = LiveStream(bundle, source, LiveOptions(max_results=3))
         writer = threading.Thread(
-            target=simulate_frames, args=(sensor, frames), kwargs={"t": t, "timestamps": True}
+            target=simulate_frames, args=(sensor, frames), kwargs={"t": t, "timestamps": True}, daemon=True
         )
         writer.start()
         got = [result_record(r) for r in live]
@@ -124,7 +125,9 @@ def test_touches_live_over_a_pty_equal_the_touches_offline(bundle):
     assert early == [(r["touch"], r["frames"], r["name"]) for r in offline if r["event"] == "early"]
     assert all(r["decision"]["early"] and r["decision"]["frames"] == 2 for r in touches)
     assert touches[0]["decision"]["after_s"] == pytest.approx(0.01) and "stretched" in touches[2]["flags"]
-    assert live.summary().startswith("32 frames read, 3 touches (3 decided early, 0 contacts too short)")
+    assert live.summary().startswith(
+        "32 frames read, 3 touches (3 decided early, 0 partial withheld, 0 contacts too short)"
+    )
 
 
 class _Clock:

@@ -14,10 +14,12 @@ import serial
 from numpy.lib.stride_tricks import sliding_window_view
 
 from tactile_torch.robot.runtime import sensor_range_g
+from tactile_torch.robot.stream.live import LiveOptions
 from tactile_torch.robot.stream.port_lines import StreamDisconnected, StreamTimeout
-from tactile_torch.robot.stream.window_reader import WindowReader
+from tactile_torch.robot.stream.serial_source import SerialSource
+from tactile_torch.robot.stream.source import SAMPLE, ItemSpec
 from tactile_torch.robot.stream.wire import format_sample, parse_line, parse_sample, simulate_sensor
-from tests.stream_helpers import PtySensor
+from tests.stream_helpers import PtySensor, SerialWindows
 
 
 def _recording(n, seed=0):
@@ -55,8 +57,9 @@ class _Clock:
 
 
 class _ScriptedPort:
-    """A port whose reads follow a script: bytes are read, a number is that many silent seconds (an
-    empty read), an exception is raised. After the script, every read is 0.1 s of silence."""
+    """A port whose reads follow a script: bytes are read, ``(bytes, s)`` are read after s seconds (the
+    time the sensor took to send them), a number is that many silent seconds (an empty read), an
+    exception is raised. After the script, every read is 0.1 s of silence."""
 
     def __init__(self, script, clock):
         self.script = list(script)
@@ -70,6 +73,9 @@ class _ScriptedPort:
         if isinstance(item, float):
             self.clock.now += item
             return b""
+        if isinstance(item, tuple):
+            item, seconds = item
+            self.clock.now += seconds
         return item
 
     def close(self):
@@ -80,7 +86,7 @@ def _reader(script, clock, **kwargs):
     port = _ScriptedPort(script, clock)
     events = []
     kwargs.setdefault("idle_timeout_s", 10.0)
-    reader = WindowReader(
+    reader = SerialWindows(
         lambda: port, clock=clock, sleep=clock.sleep, on_event=events.append, name="/dev/imu", **kwargs
     )
     return reader, events, port
@@ -91,7 +97,7 @@ def test_reader_yields_the_sliding_windows_of_the_stream(w, step):
     rec = _recording(47)
     port = serial.serial_for_url("loop://", timeout=0.05)
     simulate_sensor(port, rec, realtime=False)
-    reader = WindowReader(port, window_size=w, step=step)
+    reader = SerialWindows(port, window_size=w, step=step)
     windows = list(reader)
     np.testing.assert_array_equal(
         np.concatenate([win.data for win in windows]), _expected_windows(rec, w, step)
@@ -107,7 +113,7 @@ def test_parse_line_reads_t_as_a_number_and_rejects_what_is_not_a_sample():
     for bad in [
         b"ERR,0.1,0.2,0.3\n",
         b"0.1,nan,1",
-        b"inf,0,0,1",
+        b"0,inf,0,1",
         b"1,2",
         b"1,2,3,4,5",
         b"\xff\xfe,1,2",
@@ -115,6 +121,8 @@ def test_parse_line_reads_t_as_a_number_and_rejects_what_is_not_a_sample():
         b"a,b,c",
     ]:
         assert parse_line(bad) is None, bad
+    # a time stamp of any value is a time stamp: the sequencer judges it, the sample is kept
+    assert parse_line(b"inf,0,0,1")[1:] == parse_line(b"nan,0,0,1")[1:] == (0.0, 0.0, 1.0)
     assert parse_sample(b"12.5,0,0,1") == (0.0, 0.0, 1.0)  # the t field is not returned
     assert parse_sample(b"ERR,0,0,1") is None
 
@@ -131,7 +139,7 @@ def test_garbage_is_skipped_counted_per_window_and_flags_the_windows_it_falls_in
     }
     # inserted before sample i (garbage lines are insertions: without t nothing says a sample is lost)
     stream = b"".join(garbage.get(i, b"") + line for i, line in enumerate(lines))
-    reader = WindowReader(io.BytesIO(stream), window_size=10, step=5)
+    reader = SerialWindows(io.BytesIO(stream), window_size=10, step=5)
     windows = list(reader)
     # "0.12,-0.3" runs into the next line: one line "0.12,-0.3<sample 29>" with 5 fields, skipped
     sent = np.delete(rec, 29, axis=0)
@@ -154,7 +162,7 @@ def test_gaps_in_t_are_never_spanned_by_a_window():
     second = _recording(40, seed=5)  # a second recording spliced on: t starts again at 0
     stream = _timed_lines(rec[keep], t[keep]) + _timed_lines(second, np.arange(40) / rate)
     events = []
-    reader = WindowReader(io.BytesIO(stream), window_size=w, step=step, rate_hz=rate, on_event=events.append)
+    reader = SerialWindows(io.BytesIO(stream), window_size=w, step=step, rate_hz=rate, on_event=events.append)
     windows = list(reader)
     segments = [_wire(rec[:30]), _wire(rec[50:]), _wire(second)]
     expected = np.concatenate([sliding_window_view(s, w, axis=0)[::step] for s in segments])
@@ -172,7 +180,7 @@ def test_a_sample_counter_works_as_t():
     rec = _recording(30)
     counter = np.r_[np.arange(10), np.arange(13, 33)]  # samples 10-12 lost
     stream = b"".join(f"{c},".encode() + format_sample(s) for c, s in zip(counter, rec, strict=True))
-    reader = WindowReader(io.BytesIO(stream), window_size=8, rate_hz=100.0, time_unit="samples")
+    reader = SerialWindows(io.BytesIO(stream), window_size=8, rate_hz=100.0, time_unit="samples")
     windows = list(reader)
     assert [w.end_sample for w in windows] == [8, 18, 26]  # a new segment at sample 10
     assert reader.lost == 3 and windows[0].t_start == 0.0 and windows[1].t_start == pytest.approx(0.13)
@@ -183,7 +191,7 @@ def test_a_stream_at_another_rate_is_flagged_not_silenced():
     # sees a steady rate, adopts it for the gap checks, says so once and flags the windows.
     rec = _recording(60)
     events = []
-    reader = WindowReader(
+    reader = SerialWindows(
         io.BytesIO(_timed_lines(rec, np.arange(60) / 100.0)),
         window_size=8,
         rate_hz=800.0,
@@ -201,7 +209,7 @@ def test_a_sample_out_of_range_is_rejected_and_ends_the_segment(bad):
     lines = [format_sample(s) for s in rec]
     lines[20] = f"{bad}\n".encode()
     events = []
-    reader = WindowReader(io.BytesIO(b"".join(lines)), window_size=8, on_event=events.append)
+    reader = SerialWindows(io.BytesIO(b"".join(lines)), window_size=8, on_event=events.append)
     windows = list(reader)
     expected = np.concatenate(
         [sliding_window_view(_wire(rec[a:b]), 8, axis=0)[::8] for a, b in ((0, 20), (21, 40))]
@@ -211,8 +219,8 @@ def test_a_sample_out_of_range_is_rejected_and_ends_the_segment(bad):
     assert [e.kind for e in events] == ["range"] and "±5 g" in events[0].message
     assert np.abs(np.concatenate([w.data for w in windows])).max() <= 5.0
     # the check is the range, not the parser: with no range the value passes
-    assert WindowReader(io.BytesIO(b"".join(lines)), window_size=8, range_g=math.inf).rejected == 0
-    assert len(list(WindowReader(io.BytesIO(b"".join(lines)), window_size=8, range_g=math.inf))) == 5
+    assert SerialWindows(io.BytesIO(b"".join(lines)), window_size=8, range_g=math.inf).rejected == 0
+    assert len(list(SerialWindows(io.BytesIO(b"".join(lines)), window_size=8, range_g=math.inf))) == 5
 
 
 def test_sensor_range_comes_from_the_bundle_metadata():
@@ -227,7 +235,7 @@ def test_a_timestamped_stream_skips_lines_without_t():
     t = np.arange(20) / 800.0
     lines = [format_sample(s, ti) for s, ti in zip(rec, t, strict=True)]
     lines[9] = format_sample(rec[9])  # t lost in transmission: not a sample of this stream
-    reader = WindowReader(io.BytesIO(b"".join(lines)), window_size=5, rate_hz=800.0)
+    reader = SerialWindows(io.BytesIO(b"".join(lines)), window_size=5, rate_hz=800.0)
     windows = list(reader)
     assert reader.skipped == 1 and reader.lost == 1
     assert [w.end_sample for w in windows] == [5, 14, 19]  # sample 9 missing: a new segment at 10
@@ -255,9 +263,9 @@ def test_noise_without_newlines_is_dropped_with_bounded_memory():
             b[: len(chunk)] = chunk
             return len(chunk)
 
-    reader = WindowReader(Chunked(stream), window_size=8, max_line_bytes=256)
+    reader = SerialWindows(Chunked(stream), window_size=8, max_line_bytes=256)
     windows = list(reader)
-    assert reader.samples == 16 and reader.skipped >= 24  # each 4 kB read of noise is dropped
+    assert reader.samples == 16 and reader.skipped == 1  # 100 kB of noise without a newline: one line
     np.testing.assert_array_equal(windows[1].data[0].T, _wire(rec[8:]))
 
 
@@ -313,7 +321,7 @@ def test_a_failing_port_raises_one_clear_error():
         raise serial.SerialException("could not open port /dev/imu: No such file or directory")
 
     with pytest.raises(StreamDisconnected, match="could not open /dev/imu: could not open port"):
-        list(WindowReader(unplugged, window_size=8, name="/dev/imu"))
+        list(SerialWindows(unplugged, window_size=8, name="/dev/imu"))
 
 
 def test_reconnects_with_backoff_and_starts_a_new_window():
@@ -335,7 +343,7 @@ def test_reconnects_with_backoff_and_starts_a_new_window():
         return ports.pop(0)
 
     events = []
-    reader = WindowReader(
+    reader = SerialWindows(
         opener,
         window_size=8,
         reconnect=True,
@@ -348,9 +356,11 @@ def test_reconnects_with_backoff_and_starts_a_new_window():
     )
     windows = list(reader)
     assert clock.slept == [0.5, 1.0, 2.0, 4.0]  # three failed attempts, the fourth opens
-    assert [e.kind for e in events] == ["disconnected", "reconnected"]
+    # "disconnected" when the port fails, "reopened" when it opens again, "reconnected" at its first sample
+    assert [e.kind for e in events] == ["disconnected", "reopened", "reconnected"]
     assert events[0].message == "/dev/imu disconnected ([Errno 5] Input/output error); reconnecting"
     assert "4 attempt(s)" in events[1].message and reader.reconnects == 1
+    assert events[2].message == "/dev/imu: samples again 7.5 s after it failed"
     assert [w.end_sample for w in windows] == [8, 20, 28]  # a new segment after the reconnection
     np.testing.assert_array_equal(windows[1].data[0].T, _wire(rec[12:20]))
 
@@ -363,7 +373,7 @@ def test_reconnection_gives_up_after_the_idle_timeout():
             return _ScriptedPort([b"0,0,1\n" * 3, OSError(5, "Input/output error")], clock)
         raise OSError(2, "No such file")
 
-    reader = WindowReader(
+    reader = SerialWindows(
         opener,
         window_size=8,
         reconnect=True,
@@ -395,7 +405,7 @@ def test_a_port_back_before_the_idle_timeout_is_reopened(first_read):
         return _ScriptedPort([*first_read, b"".join(lines[8:])], clock)
 
     events = []
-    reader = WindowReader(
+    reader = SerialWindows(
         opener,
         window_size=8,
         reconnect=True,
@@ -411,14 +421,14 @@ def test_a_port_back_before_the_idle_timeout_is_reopened(first_read):
             windows.append(window)
     assert reader.reconnects == 1 and len(windows) == 3
     assert clock.slept[:5] == [0.5, 1.0, 2.0, 4.0, 2.5]  # the attempt at 10 s finds it
-    assert "open after 10.0 s (5 attempt(s))" in next(e.message for e in events if e.kind == "reconnected")
+    assert "open after 10.0 s (5 attempt(s))" in next(e.message for e in events if e.kind == "reopened")
 
 
 def test_reader_over_a_pseudo_terminal_until_the_writer_closes_it():
     sensor = PtySensor()
     rec = _recording(64, seed=1)
     port = serial.Serial(sensor.path, timeout=0.1)
-    reader = WindowReader(port, window_size=16, idle_timeout_s=5.0)
+    reader = SerialWindows(port, window_size=16, idle_timeout_s=5.0)
 
     def write_then_close():
         sensor.write_samples(rec)
@@ -448,7 +458,7 @@ def test_a_long_fast_stream_over_a_pty_loses_no_sample():
     port = serial.Serial(sensor.path, timeout=0.1)
     writer = threading.Thread(target=lambda: sensor.write(_timed_lines(rec, np.arange(n) / rate)))
     writer.start()
-    reader = WindowReader(port, window_size=w, step=w // 2, rate_hz=rate, idle_timeout_s=5.0, max_windows=59)
+    reader = SerialWindows(port, window_size=w, step=w // 2, rate_hz=rate, idle_timeout_s=5.0, max_windows=59)
     last = None
     for window in reader:
         last = window
@@ -466,7 +476,7 @@ def test_memory_does_not_grow_with_the_stream():
         source = io.BytesIO(_timed_lines(_recording(n, seed=3), np.arange(n) / 800.0))
         tracemalloc.start()
         base = tracemalloc.get_traced_memory()[0]
-        for _ in WindowReader(source, window_size=800, step=400, rate_hz=800.0):
+        for _ in SerialWindows(source, window_size=800, step=400, rate_hz=800.0):
             pass
         used = tracemalloc.get_traced_memory()[1] - base
         tracemalloc.stop()
@@ -479,25 +489,33 @@ def test_memory_does_not_grow_with_the_stream():
 @pytest.mark.parametrize(
     ("kwargs", "err", "match"),
     [
-        ({"source": object(), "window_size": 8}, TypeError, r"source must have a read\(size\) method"),
-        ({"source": io.BytesIO(), "window_size": 1}, ValueError, "window_size must be an int >= 2, got 1"),
-        ({"source": io.BytesIO(), "window_size": 8, "step": 1.5}, ValueError, "step must be an int >= 1"),
-        (
-            {"source": io.BytesIO(), "window_size": 8, "time_unit": "h"},
-            ValueError,
-            "time_unit must be one of",
-        ),
-        ({"source": io.BytesIO(), "window_size": 8, "time_unit": "samples"}, ValueError, "needs rate_hz"),
-        ({"source": io.BytesIO(), "window_size": 8, "rate_hz": 0}, ValueError, "rate_hz must be > 0, got 0"),
-        ({"source": io.BytesIO(), "window_size": 8, "range_g": "5"}, TypeError, "range_g must be a number"),
-        ({"source": io.BytesIO(), "window_size": 8, "silence_s": -1.0}, ValueError, "silence_s must be > 0"),
-        ({"source": io.BytesIO(), "window_size": 8, "reconnect": True}, ValueError, "reconnect=True needs"),
-        ({"source": io.BytesIO(), "window_size": 8, "backoff_s": (1,)}, ValueError, "backoff_s must be"),
+        ({"source": object()}, TypeError, r"source must have a read\(size\) method"),
+        ({"time_unit": "h"}, ValueError, "time_unit must be one of"),
+        ({"time_unit": "samples", "spec": ItemSpec(SAMPLE, (3,))}, ValueError, "needs rate_hz"),
+        ({"silence_s": -1.0}, ValueError, "silence_s must be > 0"),
+        ({"reconnect": True}, ValueError, "reconnect=True needs"),
+        ({"backoff_s": (1,)}, ValueError, "backoff_s must be"),
+        ({"units": "mg"}, ValueError, "units must be one of"),
     ],
 )
-def test_reader_bad_arguments(kwargs, err, match):
+def test_serial_source_bad_arguments(kwargs, err, match):
+    spec = kwargs.pop("spec", ItemSpec(SAMPLE, (3,), -5.0, 5.0, 800.0, "g"))
     with pytest.raises(err, match=match):
-        WindowReader(**kwargs)
+        SerialSource(kwargs.pop("source", io.BytesIO()), spec, **kwargs)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"step": 1.5}, "step must be an int >= 1, got 1.5"),
+        ({"step": 0}, "step must be an int >= 1, got 0"),
+        ({"vote": 0}, "vote must be an int >= 1, got 0"),
+        ({"max_results": 0}, "max_results must be an int >= 1, got 0"),
+    ],
+)
+def test_live_options_bad_arguments(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        LiveOptions(**kwargs)
 
 
 def test_simulate_sensor_paces_lines_at_the_rate():
@@ -534,26 +552,29 @@ def test_simulate_sensor_bad_arguments(rec, kwargs, match):
 
 
 def test_floods_of_gap_events_are_counted_not_printed():
-    # one or two samples dropped in turn, 20 times: 20 gaps; 5 are shown, the next one shown a second
+    # one sample dropped in every four, 20 times: 20 gaps; 5 are shown, the next one shown a second
     # later gives the count of the 15 left out
-    rec = _recording(80)
-    t = np.arange(80) / 800.0
-    keep = np.zeros(80, bool)
-    keep[np.r_[0, np.cumsum([2, 3] * 10)]] = True
-    keep[51:] = True
+    rec = _recording(87)
+    t = np.arange(84) / 800.0
+    keep = np.ones(84, bool)
+    keep[np.arange(20) * 4 + 1] = False
     clock = _Clock()
-    script = [_timed_lines(rec[keep], t[keep]), 1.0, _timed_lines(rec[:2], [0.2, 0.3])]
+    script = [
+        (_timed_lines(rec[:84][keep], t[keep]), 0.105),  # what the sensor sent in 0.105 s
+        1.0,
+        (_timed_lines(rec[84:], 0.2 + np.arange(3) / 800.0), 0.00375),  # after 76 more lost
+    ]
     reader, events, _ = _reader(
         script, clock, window_size=8, rate_hz=800.0, silence_s=5.0, idle_timeout_s=2.0
     )
     with pytest.raises(StreamTimeout):
         list(reader)
-    assert reader.gaps == 22 and [e.kind for e in events] == ["gap"] * 7
+    assert reader.gaps == 21 and reader.lost == 96 and [e.kind for e in events] == ["gap"] * 6
+    assert events[0].message == "gap in t from 0 to 0.0025 s: 1 sample(s) missing"
     assert (
         events[5].message
-        == "gap in t from 0.09875 to 0.2 s: 80 sample(s) missing (and 15 more not shown before it)"
+        == "gap in t from 0.10375 to 0.2 s: 76 sample(s) missing (and 15 more not shown before it)"
     )
-    assert "more not shown" not in events[6].message
 
 
 def test_a_real_recording_with_its_own_time_column_streams_without_false_gaps(shared_data):
@@ -563,7 +584,7 @@ def test_a_real_recording_with_its_own_time_column_streams_without_false_gaps(sh
     table = np.loadtxt(path, delimiter=",", skiprows=1, usecols=(0, 1, 2, 3))
     lines = path.read_bytes().splitlines()[1:]
     stream = b"".join(b",".join(line.split(b",")[:4]) + b"\n" for line in lines if line)  # time,accel_x,y,z
-    reader = WindowReader(io.BytesIO(stream), window_size=100, step=50, rate_hz=100.0)
+    reader = SerialWindows(io.BytesIO(stream), window_size=100, step=50, rate_hz=100.0)
     windows = list(reader)
     assert reader.samples == len(table) and reader.gaps == reader.skipped == reader.lost == 0
     expected = sliding_window_view(table[:, 1:].astype(np.float32), 100, axis=0)[::50]
@@ -579,15 +600,15 @@ def test_units_and_scale_convert_the_lines_to_g():
     rec = _recording(40)
     for units, scale, factor in (("m/s2", None, G), ("g", 0.0039, 1 / 0.0039)):
         lines = b"".join(format_sample(s) for s in rec * factor)  # m/s^2, or ADXL345 counts
-        reader = WindowReader(io.BytesIO(lines), window_size=8, units=units, scale=scale)
+        reader = SerialWindows(io.BytesIO(lines), window_size=8, units=units, scale=scale)
         got = np.concatenate([w.data[0].T for w in reader])
         wire = np.array([parse_sample(format_sample(s)) for s in rec * factor]) / factor
         np.testing.assert_allclose(got, wire.astype(np.float32), rtol=1e-6)
         assert reader.rejected == 0 and reader.samples == 40
     with pytest.raises(ValueError, match=r"units must be one of \['g', 'm/s2'\], got 'mg'"):
-        WindowReader(io.BytesIO(), window_size=8, units="mg")
+        SerialWindows(io.BytesIO(), window_size=8, units="mg")
     with pytest.raises(ValueError, match="scale must be > 0, got 0"):
-        WindowReader(io.BytesIO(), window_size=8, scale=0)
+        SerialWindows(io.BytesIO(), window_size=8, scale=0)
 
 
 @pytest.mark.parametrize(
@@ -625,7 +646,7 @@ def test_samples_in_other_units_are_named_once(gravity, hint):
 def test_samples_in_g_raise_no_units_line():
     rec = _recording(400) + np.array([0.0, 0.0, 1.0])  # gravity and vibration, in g
     events = []
-    reader = WindowReader(
+    reader = SerialWindows(
         io.BytesIO(b"".join(format_sample(s) for s in rec)), window_size=8, on_event=events.append
     )
     assert len(list(reader)) == 50 and events == []
@@ -640,7 +661,7 @@ def test_samples_lost_across_a_reconnection_are_counted_from_t():
         _ScriptedPort([_timed_lines(rec[21:], t[21:])], clock),  # samples 16-20 sent while unplugged
     ]
     events = []
-    reader = WindowReader(
+    reader = SerialWindows(
         lambda: ports.pop(0),
         window_size=8,
         rate_hz=800.0,
@@ -653,8 +674,8 @@ def test_samples_lost_across_a_reconnection_are_counted_from_t():
     )
     with pytest.raises(StreamTimeout):
         list(reader)
-    # gaps: the reconnection and the silence at the end (the step of t across the reconnection is the
-    # same gap, counted once)
-    assert reader.lost == 5 and reader.gaps == 2 and reader.samples == 35
+    # one gap: the reconnection (the step of t across it is the same gap, counted once); the silence at
+    # the end is the stream's end, not a gap
+    assert reader.lost == 5 and reader.gaps == 1 and reader.samples == 35
     gap = next(e.message for e in events if e.kind == "gap")
     assert gap == "gap in t from 0.01875 to 0.02625 s: 5 sample(s) missing across the reconnection"

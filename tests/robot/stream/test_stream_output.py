@@ -9,9 +9,10 @@ import numpy as np
 import pytest
 
 from tactile_torch.robot.runtime import OnnxPipeline
+from tactile_torch.robot.stream.live import LiveOptions, LiveStream, item_spec
 from tactile_torch.robot.stream.output import WindowVote, classify_windows, result_json, result_text
 from tactile_torch.robot.stream.segments import Window
-from tactile_torch.robot.stream.window_reader import WindowReader
+from tactile_torch.robot.stream.serial_source import SerialSource
 from tactile_torch.robot.stream.wire import format_sample
 from tests.stream_helpers import axis_recording, energy_bundle, expected_axis
 
@@ -31,8 +32,8 @@ def _window(data=None, *, index=0, gaps=0, flags=(), read_at=0.0):
 def test_results_carry_the_bundle_label_and_a_latency(bundle):
     rec, _ = axis_recording("xzy", 32)
     stream = b"".join(format_sample(s) for s in rec)
-    reader = WindowReader(io.BytesIO(stream), window_size=16)
-    results = list(classify_windows(reader, bundle))
+    source = SerialSource(io.BytesIO(stream), item_spec(bundle))
+    results = list(LiveStream(bundle, source, LiveOptions(step=16)))
     assert [r.name for r in results] == [expected_axis(r.window.data[0]) for r in results]
     assert [r.name for r in results] == list("xxzzyy")
     for r in results:
@@ -121,8 +122,8 @@ def test_json_lines_are_strict_json_with_every_field(bundle):
     rec, _ = axis_recording("y", 40)
     t = np.arange(40) / 800.0
     stream = b"".join(format_sample(s, ti) for s, ti in zip(rec, t, strict=True))
-    reader = WindowReader(io.BytesIO(b"junk\n" + stream), window_size=16, step=8, rate_hz=800.0)
-    lines = [result_json(r) for r in classify_windows(reader, bundle, vote=WindowVote(2, class_names="xyz"))]
+    source = SerialSource(io.BytesIO(b"junk\n" + stream), item_spec(bundle))
+    lines = [result_json(r) for r in LiveStream(bundle, source, LiveOptions(step=8, vote=2))]
     records = [
         json.loads(line, parse_constant=lambda c: pytest.fail(f"not strict JSON: {c}")) for line in lines
     ]
@@ -130,7 +131,7 @@ def test_json_lines_are_strict_json_with_every_field(bundle):
     first = records[0]
     assert set(first) == {
         "event", "window", "time", "sample", "t_start", "t_end", "rate_hz", "label", "name", "score", "scores",
-        "latency_ms", "skipped", "rejected", "gaps", "flags", "reason", "vote",
+        "latency_ms", "skipped", "rejected", "gaps", "lost", "flags", "reason", "vote", "sensor",
     }  # fmt: skip
     assert (first["window"], first["sample"], first["name"], first["skipped"]) == (0, 16, "y", 1)
     assert first["event"] == "window"
