@@ -10,6 +10,8 @@ added after any quantisation, it stays in float in an int8 file.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 from ..robot.contract import FEATURES_NAME
 
 
@@ -83,4 +85,14 @@ def distance_branch(front: object, part: object) -> object:
     return compose.merge_models(unsealed(front), tail, io_map=[(FEATURES_NAME, f"head.{FEATURES_NAME}")])
 
 
-__all__ = ["attach_distance", "distance_branch"]
+def write_with_distance(bare: str | Path, part: object, rule: dict, path: str | Path, *, reads: str) -> Path:
+    """Write the bundle file ``bare`` with the distance ``part`` reading its tensor ``reads``
+    (:func:`attach_distance`) to ``path`` (sealed: :func:`tactile_torch.export.save_onnx`); return ``path``."""
+    import onnx
+
+    from ._onnx import save_onnx
+
+    return save_onnx(attach_distance(onnx.load(str(bare)), part, rule, reads=reads), path)
+
+
+__all__ = ["attach_distance", "distance_branch", "write_with_distance"]

@@ -178,11 +178,8 @@ def finish_bundle(
     what they depend on (features, labels, selected columns, standardisation): candidates that differ
     only in their classifier share one (a rule on 2400 per-frame features costs seconds to fit).
     """
-    import onnx
-
-    from ..export import save_onnx
     from ..export.neural import EMBEDDING_OUTPUT
-    from ..export.ood_branch import attach_distance, distance_branch
+    from ..export.ood_branch import distance_branch, write_with_distance
     from ..export.parts import bind_head, export_front, head_key
     from ..robot.contract import INPUT_NAME
     from ..robot.runtime import OnnxPipeline
@@ -221,8 +218,7 @@ def finish_bundle(
     bound = bind_head(pool.result(key), [part])
     if front is not None:
         bound = distance_branch(pool.result(front), bound)
-    proto = attach_distance(onnx.load(str(bare)), bound, rule, reads=reads)
-    return save_onnx(proto, path), (rule, part, n_inputs, reads, front)
+    return write_with_distance(bare, bound, rule, path, reads=reads), (rule, part, n_inputs, reads, front)
 
 
 def measure_file(path: str | Path, raw: np.ndarray, acquisition_s: float) -> dict:

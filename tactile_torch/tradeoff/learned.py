@@ -35,7 +35,7 @@ from sklearn.pipeline import Pipeline
 
 from .. import catalogue
 from ..features.transformers import RawInput
-from ..robot.contract import CLASS_NAMES_KEY, PIPELINE_KEY, STEP_KEY, WINDOW_SIZE_KEY
+from ..robot.contract import CLASS_NAMES_KEY
 from ..robot.files.naming import slug
 from .candidates import is_learned
 
@@ -113,20 +113,6 @@ def kind_of(key: str) -> str:
     """Return the data kind (``"vibration"``, ``"image"``, ``"pressure"``) a learned model takes."""
     raw = catalogue.entry(key).raw_input[0]
     return {"windows": "vibration", "frames": "image", "pressure": "pressure"}[raw]
-
-
-def export_learned(res: object, samples: object, class_names: tuple, path: Path, metadata: dict) -> Path:
-    """Export a learned candidate's first-fold model to ``path`` with the trade-off's metadata."""
-    from ..export import export_classifier
-
-    clf = res.model.steps[-1][1]
-    s = samples
-    raw = np.ascontiguousarray(s.X[s.folds[0][0][:2]])
-    names = [class_names[int(c)] for c in clf.classes_]
-    meta = {PIPELINE_KEY: f"tradeoff: {res.candidate.name}", **metadata}
-    if s.window is not None:
-        meta.update({WINDOW_SIZE_KEY: s.window, STEP_KEY: s.window})
-    return export_classifier(clf, path, raw, class_names=names, metadata=meta)
 
 
 def _fold_file(res: object, k: int, first: Path, samples: object, parts: Path, fold_file) -> Path | None:
@@ -321,7 +307,6 @@ __all__ = [
     "CALIBRATION_SAMPLES",
     "QUICK_EPOCHS",
     "add_int8_and_memory",
-    "export_learned",
     "kind_of",
     "learned_candidates",
     "learned_keys",
