@@ -157,9 +157,7 @@ def _quantised_folds(res: object, s: object, parts: Path, fold_file) -> tuple:
         path = _fold_file(res, k, first, s, parts, fold_file)
         if path is None:
             raise ValueError("features fitted per fold: no int8 variant (one feature graph per fold)")
-        calibration = OnnxPipeline(path).validate(
-            np.ascontiguousarray(s.X[train[:CALIBRATION_SAMPLES]])
-        )
+        calibration = OnnxPipeline(path).validate(np.ascontiguousarray(s.X[train[:CALIBRATION_SAMPLES]]))
         target = parts / f"{first.stem}-int8-{k}.onnx"
         # The networks get dynamic int8: static ranges from the calibration windows kept only
         # 0.55-0.60 of their labels on two data sets (docs/neural.md), dynamic 0.91-0.94. A
@@ -167,9 +165,7 @@ def _quantised_folds(res: object, s: object, parts: Path, fold_file) -> tuple:
         # (a window's spectrum) lost the small vibration the features measure.
         mode = "dynamic" if res.family == "neural" else "static"
         prefix = None if is_learned(res.model) else CLASSIFIER_PREFIX
-        q_path, mode = quantise_bundle(
-            path, target, calibration=calibration, mode=mode, only_prefix=prefix
-        )
+        q_path, mode = quantise_bundle(path, target, calibration=calibration, mode=mode, only_prefix=prefix)
         if k == 0 and not quantised_nodes(q_path):
             q_path.unlink()
             raise _NothingToQuantise()
