@@ -17,9 +17,9 @@ from tactile_torch.tradeoff.inputs import TradeoffData, vibration_data
 AGREEMENT = 0.995
 """The issue's bar: at least this share of a candidate's held-out labels equal its model's (every one, here)."""
 TIMING_FACTOR = 3.0
-"""Two medians of ``time_per_sample`` on one file differ by this factor at most: 40 repeats of one bundle
-gave a spread (largest / smallest) of 1.48 at a load of 10 on the shared 2-core machine, and two
-measurements of one deployed file 1.9 at a load of 7 (the numbers in docs/tradeoff.md)."""
+"""Two medians of ``time_per_sample`` on one file differ by this factor at most: up to 1.6x between
+timings of one file at a load of 13-14 on the shared 2-core machine (docs/tradeoff.md, "What is
+measured": ``python -m bench.tradeoff_cnn_cost OUT_DIR``)."""
 
 
 def _fingertip():
