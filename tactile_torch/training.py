@@ -54,6 +54,10 @@ class TrainedModel:
         How the held-out folds were made, in words.
     fold_accuracy : list of float
         Accuracy on each fold's test part.
+    early_rule : EarlyRule or None
+        Frames (explorations, touches): the early-decision rule calibrated on the held-out touches, each
+        classified on its first frames by the fold's model that did not see it, in the exported graph's
+        scores (:func:`tactile_torch.robot.stream.early_decision.held_out_rule`, the trade-off's calibration).
     """
 
     method: str
@@ -65,6 +69,7 @@ class TrainedModel:
     select: np.ndarray | None = None
     split: str = ""
     fold_accuracy: list = field(default_factory=list)
+    early_rule: object | None = None
 
     def predict(self, X: np.ndarray) -> np.ndarray:
         """Return the class index of each row of unscaled features ``X`` (N, F)."""
@@ -110,8 +115,15 @@ def held_out_folds(features: FeatureSet, n_folds: int = 5, *, random_state: Rand
             split += f"; {_listing(np.unique(session.astype(str)), 'session')}"
         return keep, folds, f"{len(keep)} windows; {split}"
     what = "samples" if features.source.get("kind") == "features" else "explorations"
+    what = "touches" if features.group_label == "session" else what
     folds, split = sample_folds(
-        features.y, features.groups, n_folds=n_folds, names=names, what=what, random_state=random_state
+        features.y,
+        features.groups,
+        n_folds=n_folds,
+        names=names,
+        what=what,
+        group_label=features.group_label,
+        random_state=random_state,
     )
     return np.arange(len(features.y)), folds, f"{len(features.y)} {what}; {split}"
 
@@ -192,6 +204,13 @@ def train_classifier(
         raise ValueError(
             f"labels: training needs at least 2 classes with samples, got {int((counts > 0).sum())}"
         )
+    if len(features.X) and (np.ptp(features.X, axis=0) == 0).all():
+        what = features.source.get("features") or features.source.get("kind", "")
+        raise ValueError(
+            f"features: all {features.X.shape[1]} {what} features are the same for every sample, so there is nothing "
+            "to learn from (e.g. image features of frames too small for the image pipeline); choose other features "
+            "(features='per-taxel' for a small taxel array)"
+        )
     seed = int(numpy_rng(random_state).integers(2**31))
     if select is not None:
         check_positive(select, "select", integer=True)
@@ -201,12 +220,14 @@ def train_classifier(
     X, y = features.X[keep], features.y[keep]
     params = {"C": C, "gamma": gamma, "kernel": kernel}
     pred = np.empty(len(keep), dtype=np.int64)
-    fold_accuracy = []
+    fold_accuracy, fold_models = [], []
     for train, test in folds:
         fitted, scale, columns = _fit_scaled(method, X[train], y[train], seed, select, **params)
         X_test = X[test] if columns is None else X[test][:, columns]
         pred[test] = fitted.predict(X_test / scale)
         fold_accuracy.append(float(np.mean(pred[test] == y[test])))
+        fold_models.append((fitted, scale, columns))
+    rule = None if features.raw is None else _early_rule(features, keep, folds, fold_models)
     tested = np.unique(np.concatenate([test for _, test in folds]))
     estimator, scale, columns = _fit_scaled(method, features.X, features.y, seed, select, **params)
     names = features.class_names
@@ -221,7 +242,47 @@ def train_classifier(
         columns,
         split=split,
         fold_accuracy=fold_accuracy,
+        early_rule=rule,
     )
+
+
+def _early_rule(features: FeatureSet, keep: np.ndarray, folds: list, fold_models: list):
+    """The early rule of frame data, calibrated on the held-out touches as the trade-off calibrates it.
+
+    Each held-out exploration is a touch: its first ``k`` frames, brought to ``T`` as the live stream brings
+    them (:func:`~tactile_torch.robot.stream.touches.fit_frames`), are classified by the fold's model in the
+    scores the exported graph computes (the classifier's inference module on the scaled features), at the
+    checkpoints of :func:`~tactile_torch.robot.stream.early_decision.checkpoints_for`.
+    """
+    import torch
+
+    from .export.classifier_inference import inference_module
+    from .features.files import frame_features
+    from .robot.stream.early_decision import checkpoints_for, held_out_rule, score_margins
+    from .robot.stream.touches import fit_frames
+
+    raw = features.raw[keep]
+    t = raw.shape[1]
+    checkpoints = checkpoints_for(t)
+    kind = features.source.get("features") or ("fused" if features.source.get("fuse", True) else "per-frame")
+    prefixes = [frame_features(np.stack([fit_frames(x[:c], t) for x in raw]), kind) for c in checkpoints]
+    heads = [inference_module(fitted).eval() for fitted, _, _ in fold_models]
+
+    def classify(fold: int, j: int, test: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        fitted, scale, columns = fold_models[fold]
+        z = prefixes[j][test] if columns is None else prefixes[j][test][:, columns]
+        with torch.no_grad():
+            labels, scores = heads[fold](torch.from_numpy(z / scale))
+        labels = labels.numpy().astype(np.int64)
+        return np.asarray(fitted.classes_)[labels], score_margins(scores.numpy(), labels)
+
+    return held_out_rule(
+        features.y[keep],
+        folds,
+        checkpoints,
+        classify,
+        how=f"{len(keep)} held-out touches of {t} frames (train's fold models)",
+    )[2]
 
 
 def write_classifier_file(
@@ -303,12 +364,19 @@ def save_model(path: str | Path, model: TrainedModel, features: FeatureSet) -> P
         path,
         model.estimator,
         class_names=names,
-        source=features.source,
+        source=_with_rule(features.source, model.early_rule),
         scale=model.scale,
         select=model.select,
         test_accuracy=float(model.report.overall_accuracy),
         ood=ood,
     )
+
+
+def _with_rule(source: dict, rule) -> dict:
+    """``source`` with the early-decision rule a frame model records for the live stream (``early_decision``)."""
+    from .robot.contract import EARLY_RULE_KEY
+
+    return source if rule is None else {**source, EARLY_RULE_KEY: rule.to_metadata()}
 
 
 def load_model(path: str | Path):

@@ -113,3 +113,17 @@ def test_time_per_sample():
     assert 0.0 <= seconds < 1e-3 and calls[0] == 10 and len(calls) >= 4  # warm-up + 3
     with pytest.raises(ValueError, match="at least one sample"):
         time_per_sample(lambda x: x, [])
+
+
+def test_the_cli_prints_an_absent_class_as_n_a_never_nan(capsys):
+    # predict on a day's files that hold some of the model's classes: the others have no accuracy
+    from tactile_torch.cli._output import print_class_report
+
+    rep = class_report(
+        torch.tensor([0, 0, 1]), torch.tensor([0, 2, 1]), labels=[0, 1, 2], names=["a", "b", "c"]
+    )
+    print_class_report(rep)
+    out = capsys.readouterr().out
+    assert "nan" not in out.lower()
+    assert [line.split()[2] for line in out.splitlines() if line.startswith("c ")] == ["n/a"]
+    assert out.rstrip().endswith("overall accuracy 0.6667")

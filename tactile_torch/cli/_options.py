@@ -37,9 +37,10 @@ class CommandParser(argparse.ArgumentParser):
 
 DATA_HELP = (
     "a .npz of docs/formats.md (frames, signals or features), CSV logs (t,x,y,z; --columns to name others), "
-    "or ROS 2 bags (directories or .db3/.mcap files; --topic). Class and session from the file name: "
-    "felt_3.csv -> class felt, session 3; without a number, the session is the folder when the files lie in "
-    "several (day2/felt.csv -> session day2), else the file (or --index)"
+    "frame recordings (.npz of frames and t), or ROS 2 bags (directories or .db3/.mcap files; --topic). Class "
+    "and session from the files' layout: felt_3.csv -> class felt, session 3; cork/2026-11-02.csv (a folder per "
+    "class) or day2/cork.csv (a folder per session), decided by which names read as dates or sessions and "
+    "printed first; --class-from, --session-from or --index say it"
 )
 
 
@@ -232,7 +233,8 @@ def add_data_options(
         "--frames",
         type=Number(int, low=1),
         default=None,
-        help="ROS 2 bags of pressure maps: frames per exploration (default: the shortest bag's)",
+        help="ROS 2 bags of pressure maps: frames per exploration (default: the shortest bag's); frame recordings: "
+        "frames each touch is brought to (default: the median touch's)",
     )
     g.add_argument(
         "--max-messages",
@@ -241,6 +243,20 @@ def add_data_options(
         help="ROS 2 bags: read at most this many messages per topic (default: 10,000,000)",
     )
     g.add_argument("--index", default=None, help="CSV file,class[,session] giving each data file's class")
+    g.add_argument(
+        "--class-from",
+        default=None,
+        choices=["folder", "file"],
+        help="each file's class from its folder (cork/2026-11-02.csv -> cork) or its file name (day2/cork.csv -> "
+        "cork); default: decided from the tree (docs/formats.md)",
+    )
+    g.add_argument(
+        "--session-from",
+        default=None,
+        choices=["folder", "file", "recording"],
+        help="each file's session from its folder, its file name, or the file itself (recording: every file its "
+        "own session); default: the level the classes are not taken from",
+    )
 
 
 def add_msg_def(g) -> None:
@@ -340,6 +356,8 @@ def data_options(args: argparse.Namespace):
         msg_defs=message_definitions(args),
         frames=args.frames,
         index=args.index,
+        class_from=args.class_from,
+        session_from=args.session_from,
         sensor_range_g=(args.data_sensor_range or DEFAULT_RANGE_G)
         if "data_sensor_range" in args
         else float("inf"),
@@ -363,6 +381,8 @@ _OPTION_NAMES = {
     "frames": "--frames",
     "max_messages": "--max-messages",
     "index": "--index",
+    "class_from": "--class-from",
+    "session_from": "--session-from",
 }
 
 
@@ -383,6 +403,26 @@ def data_option_words(args: argparse.Namespace) -> list[str]:
         words.append(f"{option} {text}")
     words += [f"--msg-def {path}" for path in getattr(args, "msg_defs", None) or []]
     return words
+
+
+def data_layout(args: argparse.Namespace):
+    """Return how ``--data`` of several files gives classes and sessions (:class:`~tactile_torch.robot.files.naming.RecordingNames`),
+    ``None`` for one file (its classes are its own). Decided from the paths alone, before any file is read:
+    an ambiguous tree is refused here, in one line naming ``--class-from`` and ``--index``."""
+    from ..robot.files.frame_recordings import labelled_recordings, recordings_layout
+
+    if len(args.data) < 2:
+        return None
+    return recordings_layout(args.data, data_options(args), labelled=labelled_recordings(args.data))
+
+
+def announce_layout(args: argparse.Namespace, log) -> None:
+    """Say with ``log`` how ``--data`` gives classes and sessions (:func:`data_layout`), before any long work."""
+    from ._codes import ARGUMENT_FLAGS, with_flags
+
+    names = data_layout(args)
+    if names is not None:
+        log(f"{data_name(args.data)}: {with_flags(names.describe(), ARGUMENT_FLAGS)}")
 
 
 def read_data_arg(args: argparse.Namespace):
@@ -475,8 +515,10 @@ __all__ = [
     "add_allow_pickle",
     "add_csv_options",
     "add_data_options",
+    "announce_layout",
     "at_least",
     "check_out",
+    "data_layout",
     "data_name",
     "data_option_words",
     "data_options",

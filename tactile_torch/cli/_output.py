@@ -15,12 +15,12 @@ from collections.abc import Iterator
 def recordings_line(data, args) -> str:
     """What the command reads from vibration recordings: how many, the sample rate and where it comes
     from, the sessions and where they come from (``"24 recordings at 800 Hz (from the time stamps;
-    --rate states it), 4 sessions (from their folders)"``)."""
+    --rate states it), 4 sessions (folder per session)"``)."""
     from pathlib import Path
 
     import numpy as np
 
-    from ..robot.files.naming import session_source
+    from ._options import data_layout
 
     paths = [Path(p) for p in args.data]
     from_file = len(paths) == 1 and paths[0].suffix.lower() == ".npz"
@@ -32,21 +32,15 @@ def recordings_line(data, args) -> str:
     if data.session is None:
         return line + ", no sessions (each recording its own)"
     n = len(np.unique(np.asarray(data.session).astype(str)))
-    where = (
-        "the file's session array" if from_file else session_source(paths, index=getattr(args, "index", None))
-    )
-    return line + f", {n} session{'s' if n != 1 else ''} (from {where})"
+    names = None if from_file else data_layout(args)
+    where = "the file's session array" if from_file else "the file's name" if names is None else names.layout
+    return line + f", {n} session{'s' if n != 1 else ''} ({where})"
 
 
 def print_class_report(rep) -> None:
-    """Print a :class:`tactile_torch.metrics.ClassReport` as a table, then the overall accuracy."""
-    print(f"{'class':<24} {'samples':>7} {'accuracy':>9} {'type I':>8} {'type II':>8}")
-    for row in rep.rows():
-        print(
-            f"{row['class']:<24} {row['samples']:>7} {row['accuracy']:>9.4f} "
-            f"{row['type I error']:>8.4f} {row['type II error']:>8.4f}"
-        )
-    print(f"overall accuracy {rep.overall_accuracy:.4f}")
+    """Print a :class:`tactile_torch.metrics.ClassReport` as a table, then the overall accuracy ("n/a"
+    where a rate is undefined, e.g. a class of the model with no sample in the data: never "nan")."""
+    print(rep)
 
 
 @contextlib.contextmanager

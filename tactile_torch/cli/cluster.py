@@ -10,6 +10,7 @@ from ._options import (
     UsageError,
     add_allow_pickle,
     add_data_options,
+    announce_layout,
     data_name,
     read_data_arg,
     window_type,
@@ -155,6 +156,7 @@ def run_cluster(args: argparse.Namespace) -> int:
         )
     if args.model == "pyp" and args.coarsen is not None:
         raise UsageError("--coarsen applies to --model mfm, got --model pyp")
+    announce_layout(args, print)  # before any file is read
     data = read_data_arg(args)
     if data.kind not in CLUSTERED_KINDS:
         raise UsageError(

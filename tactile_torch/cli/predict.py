@@ -15,6 +15,7 @@ from ._options import (
     add_allow_pickle,
     add_data_options,
     add_touch_options,
+    announce_layout,
     data_name,
     data_options,
     parse_range_g,
@@ -63,8 +64,9 @@ def register(sub) -> None:
     p.add_argument(
         "--frame-rate",
         type=Number(float, low=0, open_low=True, high=1e6),
-        default=10.0,
-        help="--touches on explorations: frames per second (default: 10, the study's)",
+        default=None,
+        help="--touches on explorations: frames per second (default: the file's frame_rate_hz; explorations "
+        "that state none need it)",
     )
     p.add_argument("--json", action="store_true", help="--touches: one JSON object per touch on stdout")
     add_touch_options(p)
@@ -72,15 +74,16 @@ def register(sub) -> None:
     p.set_defaults(handler=run_predict)
 
 
-def run_predict(args: argparse.Namespace) -> int:  # noqa: PLR0915
+def run_predict(args: argparse.Namespace) -> int:
     """Classify the data file with the bundle and print the labels or a class report; return the exit status."""
     # torch-free: onnxruntime and numpy only, as on the robot.
     import numpy as np
 
     from ..metrics import class_report
-    from ..robot.contract import UNKNOWN, WINDOWS_LAYOUT
+    from ..robot.contract import BEYOND_RANGE, FEATURES_LAYOUT, UNKNOWN, WINDOWS_LAYOUT
     from ..robot.runtime import OnnxPipeline
 
+    announce_layout(args, lambda line: print(f"tactile-torch predict: {line}", file=sys.stderr))
     pipe = OnnxPipeline(args.model, intra_op_threads=args.threads)
     if _touch_data(args, pipe):
         return predict_touches(args, pipe)
@@ -104,24 +107,16 @@ def run_predict(args: argparse.Namespace) -> int:  # noqa: PLR0915
     ]
     labels = np.concatenate([p.labels for p in parts])
     reasons = [r for p in parts for r in p.reasons]
+    causes = np.array([c or "" for p in parts for c in p.causes])
     novel = None if parts[0].novel is None else np.concatenate([p.novel for p in parts])
-    beyond = f"beyond ±{range_g:g} g"
-    n_range = sum(r is not None and r.endswith(f"range ±{range_g:g} g") for r in reasons)
-    n_ood = sum(r is not None and r.startswith("out of distribution") for r in reasons)
-    n_nan = sum(r is not None and r.startswith("scores not finite") for r in reasons)
     classified = labels != UNKNOWN
-    if windows and n_range == len(labels):
+    what = {WINDOWS_LAYOUT: "windows", FEATURES_LAYOUT: "samples"}.get(pipe.input_layout, "explorations")
+    if windows and (causes == BEYOND_RANGE).all():
         raise UsageError(
-            f"{where}: all {n_range} windows have samples {beyond}, so none was classified (the range is the "
-            "bundle's sensor_range_g, else 5 g; --range sets it)"
+            f"{where}: all {len(labels)} windows have samples beyond ±{range_g:g} g, so none was classified (the "
+            "range is the bundle's sensor_range_g, else 5 g; --range sets it)"
         )
-    if n_range:
-        print(
-            f"tactile-torch predict: warning: {where}: {n_range} of {len(labels)} windows have samples "
-            f"{beyond} and were not classified",
-            file=sys.stderr,
-        )
-    print(f"{pipe!r}: {len(labels)} samples of {where}")
+    print(f"{pipe!r}: {len(labels)} {what} of {where}")
     if args.out:
         from ..robot.files.npz import write_npz
 
@@ -134,20 +129,17 @@ def run_predict(args: argparse.Namespace) -> int:  # noqa: PLR0915
         arrays = {"labels": labels, "names": names, **({} if novel is None else {"novel": novel})}
         write_npz(args.out, arrays, inputs=[*args.data, args.model])
         print(f"labels written to {args.out}")
-    if n_range:
-        print(f"{n_range} windows with samples {beyond} were not classified and are left out")
-    if n_ood:
-        threshold = pipe.ood_threshold
-        print(
-            f"{n_ood} samples are unknown: out of distribution (distance to the training data beyond "
-            f"{threshold:.3g}, the {float(pipe.metadata.get('ood_quantile', 'nan')):.1%} quantile of the "
-            "training windows) and are left out"
-        )
-    if n_nan:
-        print(f"{n_nan} samples gave non-finite scores and are left out")
+    clustering = data.labels is not None and pipe.pipeline.endswith("-pyp")
+    # a class of the file the bundle does not know: only a classified sample can be scored against it
+    foreign = (
+        np.zeros(len(labels), dtype=bool)
+        if data.labels is None or clustering
+        else classified & (data.labels < 0)
+    )
+    print(_left_out_line(args, pipe, data, what, causes, foreign, range_g, clustering))
     if novel is not None:
         _print_novel(novel & classified, pipe, data)
-    if data.labels is not None and pipe.pipeline.endswith("-pyp"):
+    if clustering:
         from ..metrics import pairwise_accuracy
 
         if not classified.any():
@@ -157,11 +149,8 @@ def run_predict(args: argparse.Namespace) -> int:  # noqa: PLR0915
         accuracy = pairwise_accuracy(data.file_labels[classified], found)
         print(f"{len(np.unique(found))} components used; pairwise accuracy {accuracy:.4f}")
         return 0
-    known = None if data.labels is None else data.labels >= 0
-    if known is not None and not known.all():
-        print(f"{int((~known).sum())} samples of classes the model does not know are left out")
-    known = classified if known is None else known & classified
-    if data.labels is None or not known.any():
+    scored = classified & ~foreign
+    if data.labels is None or not scored.any():
         counts = np.bincount(labels[classified], minlength=len(pipe.class_names))
         for name, n in zip(pipe.class_names, counts, strict=True):
             print(f"{name:<24} {n:>7}")
@@ -169,9 +158,50 @@ def run_predict(args: argparse.Namespace) -> int:  # noqa: PLR0915
         return 0
     n = len(pipe.class_names)
     print_class_report(
-        class_report(data.labels[known], labels[known], labels=np.arange(n), names=pipe.class_names)
+        class_report(data.labels[scored], labels[scored], labels=np.arange(n), names=pipe.class_names)
     )
     return 0
+
+
+def _left_out_line(args, pipe, data, what: str, causes, foreign, range_g: float, clustering: bool) -> str:
+    """One line counting every sample once: classified (scored against its class), or left out with its one
+    reason (unknown to the bundle, and why; or of a class the bundle does not know)."""
+
+    from ..robot.contract import BEYOND_RANGE, NO_VIBRATION, NOT_FINITE, OUT_OF_DISTRIBUTION
+    from ..robot.files.naming import name_list
+    from ._codes import ARGUMENT_FLAGS, with_flags
+    from ._options import data_layout
+
+    quantile = float(pipe.metadata.get("ood_quantile", "nan"))
+    threshold = pipe.ood_threshold
+    words = {
+        BEYOND_RANGE: f"beyond the sensor's range ±{range_g:g} g",
+        NO_VIBRATION: "no vibration (every axis constant)",
+        NOT_FINITE: "non-finite scores",
+        OUT_OF_DISTRIBUTION: f"out of distribution (distance to the training data beyond {threshold or 0:.3g}, the "
+        f"{quantile:.1%} quantile of the training {what})",
+    }
+    parts = [f"{int((causes == c).sum())} {text}" for c, text in words.items() if (causes == c).any()]
+    if foreign.any():
+        unknown = name_list(sorted({data.file_class_names[i] for i in data.file_labels[foreign]}), 6)
+        part = f"{int(foreign.sum())} of {'a class' if ',' not in unknown else 'classes'} the model does not know ({unknown}"
+        names = data_layout(args)
+        fix = (
+            f": {with_flags(names.other_way, ARGUMENT_FLAGS)} reads the files the other way"
+            if names and names.other_way
+            else ""
+        )
+        parts.append(f"{part}; it knows {name_list(pipe.class_names, 6)}){fix}")
+    kept = int(len(causes) - (causes != "").sum() - foreign.sum())
+    done = (
+        "assigned to a component"
+        if clustering
+        else "scored against their class"
+        if data.labels is not None
+        else "classified"
+    )
+    line = f"{len(causes)} {what}: {kept} {done}"
+    return line + (f", {len(causes) - kept} left out: {', '.join(parts)}" if parts else "")
 
 
 def _print_novel(novel, pipe, data) -> None:
@@ -211,16 +241,30 @@ def _touch_data(args: argparse.Namespace, pipe) -> bool:
         return False
     if args.touches:
         return True
-    if len(args.data) != 1:
-        return False
     from ..robot.ros2.bags import is_bag
 
-    if is_bag(args.data[0]):
+    if len(args.data) == 1 and is_bag(args.data[0]):
         return True
     from ..robot.files.npz import read_npz
 
-    arrays = read_npz(args.data[0], what="data file (.npz of docs/formats.md)")
-    return "frames" in arrays and "t" in arrays
+    return all(
+        {"frames", "t"} <= set(read_npz(path, what="data file (.npz of docs/formats.md)"))
+        for path in args.data
+    )
+
+
+def _labelled_recordings(paths: list, options) -> list:
+    """Frame recordings read together, each frame labelled with its class (its own label, or its file's)."""
+    import numpy as np
+
+    from ..robot.files.frame_recordings import read_frame_recordings
+
+    data = read_frame_recordings(paths, options)
+    for i, rec in enumerate(data.recordings):
+        if data.file_labels is not None:  # one class per file (its layout): every frame of it
+            rec.labels = np.full(len(rec), int(data.file_labels[i]), dtype=np.int64)
+        rec.class_names = data.class_names
+    return data.recordings
 
 
 def predict_touches(args: argparse.Namespace, pipe) -> int:
@@ -231,8 +275,6 @@ def predict_touches(args: argparse.Namespace, pipe) -> int:
     from ..robot.files.frame_recordings import read_frame_recording, touch_labels
     from ..robot.stream.output import result_json, result_text
 
-    if len(args.data) != 1:
-        raise UsageError(f"--data: touches are cut from one recording at a time, got {len(args.data)} files")
     if args.range is not None:
         raise UsageError(
             "--range: frames out of the bundle's value_range are rejected as in stream; --range is for windows"
@@ -244,25 +286,35 @@ def predict_touches(args: argparse.Namespace, pipe) -> int:
         from dataclasses import replace
 
         options = replace(options, shape=tuple(int(d) for d in pipe.input_shape[-2:]))
-    recording = read_frame_recording(args.data[0], rate_hz=args.frame_rate, rest_s=args.rest, options=options)
+    if len(args.data) == 1:
+        recordings = [
+            read_frame_recording(
+                args.data[0], frame_rate_hz=args.frame_rate, rest_s=args.rest, options=options
+            )
+        ]
+    else:  # a day's logs, one after another; their classes from their labels or the files' layout
+        recordings = _labelled_recordings(args.data, options)
 
     def say(event) -> None:
         print(f"tactile-torch predict: {event.message}", file=sys.stderr)
 
-    results, live = classify_recording(pipe, recording, touch_options(args, segment="touches"), on_event=say)
-    touches = [r for r in results if r.kind == "touch"]
     write = result_json if args.json else result_text
-    if not args.json:
-        print(f"{pipe!r}: {len(recording)} frames of {recording.name}")
-    for result in touches:
-        print(write(result))
+    touches, truth = [], []
+    for recording in recordings:
+        results, live = classify_recording(
+            pipe, recording, touch_options(args, segment="touches"), on_event=say
+        )
+        mine = [r for r in results if r.kind == "touch"]
+        if not args.json:
+            print(f"{pipe!r}: {len(recording)} frames of {recording.name}")
+        for result in mine:
+            print(write(result))
+        print(live.summary(), file=sys.stderr if args.json else sys.stdout)
+        touches += mine
+        truth += [touch_labels(recording, r.segment.start_item, r.segment.frames) for r in mine]
     if args.json:
-        print(live.summary(), file=sys.stderr)
         return 0
-    print(live.summary())
-    truth = np.array(
-        [touch_labels(recording, r.segment.start_item, r.segment.frames) for r in touches], dtype=np.int64
-    )
+    truth = np.array(truth, dtype=np.int64)
     decided = np.array(
         [-2 if r.decision.label is None else r.decision.label for r in touches], dtype=np.int64
     )
@@ -291,7 +343,7 @@ def predict_touches(args: argparse.Namespace, pipe) -> int:
         }
         write_npz(args.out, arrays, inputs=[*args.data, args.model])
         print(f"touches written to {args.out}")
-    if recording.labels is None or not (truth >= 0).any():
+    if recordings[0].labels is None or not (truth >= 0).any():
         return 0
     names = list(recording.class_names or ())
     index = {name: i for i, name in enumerate(pipe.class_names)}

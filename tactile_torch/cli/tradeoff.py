@@ -19,6 +19,7 @@ from ._options import (
     Number,
     add_allow_pickle,
     add_data_options,
+    announce_layout,
     data_name,
     data_option_words,
     data_options,
@@ -40,11 +41,18 @@ REPRODUCED = (
     ("random_state", "seed"),
     ("target", "target"),
     ("deploy", "deploy"),
-    ("csv_session", "csv_session"),
 )
 """The options the reproduce line repeats when they are not at their defaults: (option of
 :class:`~tactile_torch.tradeoff.job.TradeoffOptions`, attribute of the parsed arguments), in the
 line's order."""
+
+
+def _classifier_names() -> list[str]:
+    """The ``--classifiers`` help's list: the catalogue's classical classifiers, by display name
+    (:mod:`tactile_torch.catalogue` imports no torch, so the robot's parser builds it too)."""
+    from ..catalogue import CLASSIFIERS, display_name
+
+    return [display_name(key) for key in CLASSIFIERS]
 
 
 def register(sub) -> None:
@@ -87,7 +95,7 @@ def register(sub) -> None:
         "--frame-rate",
         type=Number(low=0, open_low=True),
         default=None,
-        help="explorations: frames/s (default: file or 10)",
+        help="explorations: frames/s (default: the file's frame_rate_hz; frame recordings: from t; never assumed)",
     )
     p.add_argument(
         "--threshold",
@@ -113,7 +121,11 @@ def register(sub) -> None:
         default=None,
         help="samples kept per class (default: 60 quick, 300)",
     )
-    p.add_argument("--classifiers", default=None, help="comma-separated subset of HM-SVM,SVC,LDA,kNN,NCM")
+    p.add_argument(
+        "--classifiers",
+        default=None,
+        help=f"comma-separated subset of {','.join(_classifier_names())} (names or keys)",
+    )
     p.add_argument(
         "--features", default=None, help="comma-separated feature-set name prefixes (e.g. fused,top)"
     )
@@ -131,13 +143,6 @@ def register(sub) -> None:
         metavar="NAME",
         help="also refit candidate NAME (as in tradeoff.json) on all the data and write OUT/<name>.onnx and .npz "
         "(the recommended one always goes to OUT/recommended.onnx)",
-    )
-    p.add_argument(
-        "--csv-session",
-        default=None,
-        choices=["number", "file"],
-        help="CSV logs: session from the file name's trailing number (felt_3.csv -> 3), else the folder when the "
-        "files lie in several (day2/felt.csv -> day2; default: number), or one per file",
     )
     p.add_argument("--seed", type=SEED, default=None, help="random seed (default: 0)")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
@@ -199,7 +204,6 @@ def tradeoff_options(args: argparse.Namespace):
         "features": _names(args.features),
         "target": args.target,
         "deploy": args.deploy or None,
-        "csv_session": args.csv_session,
         "random_state": args.seed,
     }
     return TradeoffOptions(
@@ -257,10 +261,10 @@ def run_tradeoff_command(args: argparse.Namespace) -> int:
     options = tradeoff_options(args)
     command = reproduce_line(args, options)
     log = (lambda line: None) if args.quiet else (lambda line: print(line, file=sys.stderr))
+    announce_layout(args, lambda line: print(f"[tradeoff] {line}", file=sys.stderr))  # before any work
     data = load_tradeoff_data(
         args.data,
         frame_rate_hz=options.frame_rate_hz,
-        csv_session=options.csv_session,
         options=data_options(args),
         name=data_name(args.data),
     )

@@ -5,12 +5,15 @@ from __future__ import annotations
 
 import argparse
 
+from ._codes import ARGUMENT_FLAGS, with_flags
 from ._options import (
     SEED,
     Number,
     add_allow_pickle,
     add_data_options,
+    announce_layout,
     data_name,
+    data_options,
     declare_range,
     read_data_arg,
     window_type,
@@ -61,7 +64,20 @@ def register(sub) -> None:
     p.add_argument(
         "--step", type=Number(int, low=1), default=None, help="vibration window hop (default: the window)"
     )
-    p.add_argument("--no-fuse", action="store_true", help="image: per-frame features instead of fused ones")
+    p.add_argument(
+        "--features",
+        default=None,
+        choices=["fused", "per-frame", "per-taxel"],
+        help="frames: the 12 image features of the fused edges, 12 per frame, or 7 time-series features per "
+        "taxel (default: per-taxel for a pressure array of at most 256 taxels, else fused)",
+    )
+    p.add_argument(
+        "--frame-rate",
+        type=Number(low=0, open_low=True),
+        default=None,
+        help="explorations: frames per second, for the live stream (default: the file's; frame recordings: "
+        "from t)",
+    )
     p.add_argument(
         "--folds",
         type=Number(int, low=2),
@@ -85,12 +101,21 @@ def run_train(args: argparse.Namespace) -> int:
     from ..features.files import load_features
     from ..training import save_model, train_classifier
 
+    announce_layout(args, print)  # before any file is read: a tree read the wrong way costs nothing
     data = read_data_arg(args)
     if data.kind == "vibration":
         print(f"{data_name(args.data)}: {recordings_line(data, args)}")
     features = load_features(
-        data, window=args.window, step=args.step, fuse=not args.no_fuse, name=data_name(args.data)
+        data,
+        window=args.window,
+        step=args.step,
+        features=args.features,
+        frame_rate_hz=args.frame_rate,
+        options=data_options(args),
+        name=data_name(args.data),
     )
+    for note in features.notes:
+        print(f"{data_name(args.data)}: {with_flags(note, ARGUMENT_FLAGS)}")
     declare_range(features.source, args)
     print(
         f"{data_name(args.data)}: {features.X.shape[0]} samples x {features.X.shape[1]} features "
@@ -116,6 +141,8 @@ def run_train(args: argparse.Namespace) -> int:
         f"held out: accuracy per fold {', '.join(f'{a:.3f}' for a in model.fold_accuracy)}; the model "
         f"(--out) is then trained on all {len(model.train_index)} samples"
     )
+    if model.early_rule is not None:  # frames: what the exported bundle decides before a touch ends
+        print(f"early decisions: {model.early_rule.describe()}")
     if args.out:
         print(f"model written to {save_model(args.out, model, features)}")
     return 0

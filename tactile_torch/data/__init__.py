@@ -50,7 +50,6 @@ __getattr__, __dir__, __all__ = lazy_exports(
         "vibration": (
             "VibrationRecordings",
             "VibrationWindows",
-            "load_vibration_csv",
             "load_vibration_npz",
             "save_vibration_npz",
         ),

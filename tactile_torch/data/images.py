@@ -135,6 +135,8 @@ class ImageExplorations:
         :data:`OBJECTS`.
     pressure : tensor of shape (N, T, S, S), float32, or None
         The sensel readings (0-255 counts) behind the frames, when known.
+    frame_rate_hz : float or None
+        Frames per second, when known (the generator's :data:`FRAME_RATE_HZ`; a file's ``frame_rate_hz``).
     """
 
     frames: torch.Tensor
@@ -142,6 +144,7 @@ class ImageExplorations:
     class_names: tuple[str, ...]
     groups: torch.Tensor | None = None
     pressure: torch.Tensor | None = None
+    frame_rate_hz: float | None = None
 
     def __len__(self) -> int:
         return int(self.labels.shape[0])
@@ -368,6 +371,7 @@ def make_explorations(
         class_names=CLASS_NAMES,
         groups=torch.as_tensor(groups, dtype=torch.int64),
         pressure=torch.cat(pressure) if keep_pressure else None,
+        frame_rate_hz=FRAME_RATE_HZ,
     )
 
 
@@ -489,6 +493,7 @@ def save_explorations(path: str | Path, data: ImageExplorations) -> Path:
         labels=data.labels.numpy().astype(np.int64),
         class_names=tuple(data.class_names),
         groups=None if data.groups is None else data.groups.numpy().astype(np.int64),
+        frame_rate_hz=data.frame_rate_hz,
     )
     return write_explorations(path, arrays)
 
@@ -524,6 +529,7 @@ def explorations_from_arrays(arrays, *, frame_size: int | None = None) -> ImageE
         class_names=tuple(arrays.class_names),
         groups=None if arrays.groups is None else torch.from_numpy(arrays.groups.astype(np.int64)),
         pressure=pressure,
+        frame_rate_hz=getattr(arrays, "frame_rate_hz", None),
     )
 
 

@@ -26,8 +26,9 @@ from __future__ import annotations
 import csv
 from pathlib import Path
 
+from ..robot.files.formats import read_csv_recordings
 from . import shared_data_dir
-from .vibration import VibrationRecordings, load_vibration_csv
+from .vibration import VibrationRecordings
 
 HAPMAT_COLUMNS = ("time", "accel_x", "accel_y", "accel_z")
 BOREALTC_COLUMNS = ("time", "ax", "ay", "az")
@@ -73,7 +74,8 @@ def load_hapmat_imu5(
     files = sorted(_data_dir("hapmat_imu5", root).glob("*.csv"))
     if not files:
         raise FileNotFoundError(f"no CSV file in {_data_dir('hapmat_imu5', root)}")
-    return load_vibration_csv(files, columns=HAPMAT_COLUMNS, scale=scale, rate_hz=rate_hz)
+    rec = VibrationRecordings.from_arrays(read_csv_recordings(files, columns=HAPMAT_COLUMNS, scale=scale))
+    return rec if rate_hz is None else rec.resample(rate_hz)
 
 
 def load_borealtc_imu(root: str | Path | None = None, *, rate_hz: float | None = None) -> VibrationRecordings:
@@ -102,14 +104,15 @@ def load_borealtc_imu(root: str | Path | None = None, *, rate_hz: float | None =
         files = sorted(path.glob("*/imu_*.csv"))
     if not files:
         raise FileNotFoundError(f"no imu_*.csv file in {path}")
-    return load_vibration_csv(
+    arrays = read_csv_recordings(
         files,
         class_names=[f.parent.name for f in files],
         sessions=[f"{f.parent.name}/{f.stem}" for f in files],
         columns=BOREALTC_COLUMNS,
         units="m/s2",
-        rate_hz=rate_hz,
     )
+    rec = VibrationRecordings.from_arrays(arrays)
+    return rec if rate_hz is None else rec.resample(rate_hz)
 
 
 __all__ = ["load_borealtc_imu", "load_hapmat_imu5"]

@@ -22,12 +22,16 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, fields, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..exceptions import InputTypeError
-from ..validation import RandomState, check_positive, numpy_rng
+from ..validation import check_positive, numpy_rng
 from .vibration import QUANTUM_G, RANGE_G, SAMPLE_RATE_HZ, VibrationRecordings, VibrationWindows
+
+if TYPE_CHECKING:  # the generator itself is torch-free: simulate-sensor plays it on the robot
+    from ..validation import RandomState
 
 SPEED_M_S = 0.589  # turntable speed under the stylus, 58.9 cm/s
 
@@ -319,7 +323,31 @@ def _lowpass_noise(
     return x / np.maximum(x.std(axis=-1, keepdims=True), 1e-12)
 
 
-def _simulate(  # noqa: PLR0915
+def _add_stick_slip(
+    smooth: np.ndarray,
+    impulses: np.ndarray,
+    slip_hz: float,
+    slip_g: float,
+    rate: float,
+    rng: np.random.Generator,
+) -> None:
+    """Add stick-slip to ``smooth`` and ``impulses`` ``(3, n)`` in place (stage 4 of :func:`_simulate`)."""
+    n = smooth.shape[1]
+    intervals = rng.gamma(16.0, 1.0 / (16.0 * slip_hz), size=int(2 * slip_hz * n / rate) + 4)
+    slips = np.round(np.cumsum(intervals) * rate).astype(np.int64)
+    slips = slips[slips < n]
+    amp = slip_g * rng.lognormal(0.0, 0.2, size=slips.size)
+    np.add.at(impulses, (0, slips), -amp)
+    np.add.at(impulses, (2, slips), 0.3 * amp)
+    if slips.size:
+        last = np.concatenate([[0], slips])
+        which = np.searchsorted(slips, np.arange(n), side="right")
+        nxt = np.concatenate([slips, [n]])
+        ramp = (np.arange(n) - last[which]) / np.maximum(nxt[which] - last[which], 1) - 0.5
+        smooth[0] += 0.4 * slip_g * ramp
+
+
+def _simulate(
     surface: Surface,
     jitter: np.ndarray,
     n: int,
@@ -388,18 +416,7 @@ def _simulate(  # noqa: PLR0915
 
     # 4. stick-slip: slips on x (and a little z) at gamma-distributed intervals, sawtooth in between
     if slip_hz > 0 and slip_g > 0:
-        intervals = rng.gamma(16.0, 1.0 / (16.0 * slip_hz), size=int(2 * slip_hz * n / rate) + 4)
-        slips = np.round(np.cumsum(intervals) * rate).astype(np.int64)
-        slips = slips[slips < n]
-        amp = slip_g * rng.lognormal(0.0, 0.2, size=slips.size)
-        np.add.at(impulses, (0, slips), -amp)
-        np.add.at(impulses, (2, slips), 0.3 * amp)
-        if slips.size:
-            last = np.concatenate([[0], slips])
-            which = np.searchsorted(slips, np.arange(n), side="right")
-            nxt = np.concatenate([slips, [n]])
-            ramp = (np.arange(n) - last[which]) / np.maximum(nxt[which] - last[which], 1) - 0.5
-            smooth[0] += 0.4 * slip_g * ramp
+        _add_stick_slip(smooth, impulses, slip_hz, slip_g, rate, rng)
 
     # 5. through the probe and the contact; impulses scaled so one impact peaks at its amplitude
     response = np.fft.irfft(transfer, n)

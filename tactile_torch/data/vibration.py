@@ -1,4 +1,4 @@
-"""Triaxial vibration recordings in memory and on disk: the ``.npz`` format and CSV logs.
+"""Triaxial vibration recordings in memory and on disk (the ``.npz`` format; CSV logs: ``read_csv_recordings``).
 
 :class:`VibrationRecordings` holds recordings in the vibration format of docs/formats.md (``signals`` in g,
 ``labels``, ``class_names``, ``rate_hz``, optional ``session``); :meth:`~VibrationRecordings.windows`
@@ -16,7 +16,6 @@ torch.Size([4, 3, 400])
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from fractions import Fraction
 from pathlib import Path
@@ -25,7 +24,6 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..exceptions import InputTypeError
-from ..robot.files.csv_logs import read_csv_recording, read_timed_csv_log
 from ..validation import check_positive
 
 if TYPE_CHECKING:
@@ -159,6 +157,14 @@ class VibrationRecordings:
             rate_hz=self.rate_hz,
         )
 
+    @classmethod
+    def from_arrays(cls, arrays: object) -> VibrationRecordings:
+        """Return the recordings a reader of :mod:`tactile_torch.robot.files.formats` gave (``RecordingArrays``:
+        a vibration ``.npz``, CSV logs read by ``read_csv_recordings``, ROS 2 bags)."""
+        return cls(
+            arrays.signals, arrays.labels, arrays.class_names, arrays.rate_hz, arrays.session, arrays.gaps
+        )
+
     def resample(self, rate_hz: float) -> VibrationRecordings:
         """Return the recordings resampled to ``rate_hz`` with ``scipy.signal.resample_poly``.
 
@@ -256,113 +262,7 @@ def load_vibration_npz(path: str | Path, *, allow_pickle: bool = False) -> Vibra
     """
     from ..robot.files.formats import read_recordings
 
-    data = read_recordings(path, allow_pickle=allow_pickle)
-    return VibrationRecordings(
-        data.signals, data.labels, data.class_names, data.rate_hz, data.session, data.gaps
-    )
-
-
-def load_vibration_csv(
-    paths: str | Path | Sequence[str | Path],
-    *,
-    class_names: Sequence[str] | None = None,
-    sessions: Sequence[str] | None = None,
-    index: str | Path | None = None,
-    columns: str | Sequence[str | int] | None = None,
-    units: str = "g",
-    scale: float | None = None,
-    time_unit: str = "auto",
-    rate_hz: float | None = None,
-    sample_rate_hz: float | None = None,
-) -> VibrationRecordings:
-    """Load CSV logs (one recording per file) as :class:`VibrationRecordings` in g.
-
-    Parameters
-    ----------
-    paths : path or sequence of paths
-    class_names, sessions : sequence of str, optional
-        Class and session of each file (same length as ``paths``); default from ``index``, else
-        the naming rule: ``felt_3.csv`` → class ``felt``, session ``3``; ``day2/glass.csv`` → class
-        ``glass``, session ``day2`` when the files lie in several folders, else ``glass``
-        (:func:`tactile_torch.robot.files.naming.names_for`, the rule of the command line). Labels index
-        the sorted distinct classes.
-    index : path, optional
-        A CSV with columns ``file,class[,session]`` (files relative to it).
-    columns : str or sequence, optional
-        The t, x, y, z columns by name or 0-based index, or x, y, z (``"accel_x,accel_y,accel_z"``).
-    units : {"g", "m/s2"}
-    scale : float, optional
-        Units per count, required for integer sensor counts (``0.0039`` for the ADXL345).
-    time_unit : {"auto", "s", "ms", "us"}
-        ``"auto"``: seconds, unless that makes an implausible rate (refused in one line naming the
-        unit to pass).
-    rate_hz : float, optional
-        Resample every file to this rate. Without it, all files must share one rate (within 0.1 %).
-    sample_rate_hz : float, optional
-        The files' sample rate, stated (``--rate``); their time stamps must agree within 5 %. Default:
-        each file's rate from its time stamps, robust to rounding and gaps
-        (:func:`tactile_torch.robot.files.sample_times.time_base`).
-
-    Gaps in the time stamps are kept (``gaps``: no window spans one); gaps and irregular steps give
-    one warning each for all the files.
-
-    Raises
-    ------
-    ValueError
-        One line naming the file (:func:`tactile_torch.robot.files.csv_logs.read_csv_log`).
-
-    Examples
-    --------
-    >>> rec = load_vibration_csv(["felt_1.csv", "felt_2.csv"], units="m/s2", time_unit="ms")  # doctest: +SKIP
-    >>> rec.class_names, rec.session  # doctest: +SKIP
-    (('felt',), array(['1', '2'], dtype='<U1'))
-    """
-    import warnings
-
-    from ..robot.files.naming import names_for
-    from ..robot.files.sample_times import describe_timing
-
-    paths = [paths] if isinstance(paths, str | Path) else list(paths)
-    if not paths:
-        raise ValueError("paths must name at least one CSV file, got none")
-    names, session = names_for(paths, class_names=class_names, sessions=sessions, index=index)
-    logs = [
-        read_timed_csv_log(
-            p, columns=columns, units=units, scale=scale, time_unit=time_unit, sample_rate_hz=sample_rate_hz
-        )
-        for p in paths
-    ]
-    for line in describe_timing(
-        [(str(p), log.timing, log.seconds) for p, log in zip(paths, logs, strict=True)]
-    ):
-        warnings.warn(line, stacklevel=2)
-    classes = tuple(sorted(set(names)))
-    rates = np.array([log.rate_hz for log in logs])
-    signals, gaps = [log.signal for log in logs], [log.gaps for log in logs]
-    if rate_hz is None:
-        if np.abs(rates / rates[0] - 1).max() > 1e-3:
-            raise ValueError(
-                f"the files have different sample rates ({sorted(set(np.round(rates, 3)))} Hz); "
-                "pass rate_hz= to resample them to a common rate"
-            )
-        common = float(rates[0])
-    else:
-        check_positive(rate_hz, "rate_hz")
-        common = float(rate_hz)
-        resampled = [
-            VibrationRecordings([s], np.zeros(1, np.int64), ("_",), r, gaps=[g]).resample(common)
-            for s, r, g in zip(signals, rates, gaps, strict=True)
-        ]
-        signals = [one.signals[0] for one in resampled]
-        gaps = [one.gaps[0] for one in resampled]
-    return VibrationRecordings(
-        signals=signals,
-        labels=np.array([classes.index(n) for n in names]),
-        class_names=classes,
-        rate_hz=common,
-        session=np.array(session),
-        gaps=gaps if any(g.size for g in gaps) else None,
-    )
+    return VibrationRecordings.from_arrays(read_recordings(path, allow_pickle=allow_pickle))
 
 
 __all__ = [
@@ -372,8 +272,6 @@ __all__ = [
     "STANDARD_GRAVITY",
     "VibrationRecordings",
     "VibrationWindows",
-    "load_vibration_csv",
     "load_vibration_npz",
-    "read_csv_recording",
     "save_vibration_npz",
 ]

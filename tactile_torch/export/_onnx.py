@@ -90,11 +90,12 @@ def save_onnx(model: object, path: str | Path, *, inputs: Sequence[str | Path] =
     :class:`~tactile_torch.robot.runtime.OnnxPipeline` checks on load: every exporter writes through
     here. A directory, a device, a symbolic link or one of ``inputs`` at ``path`` is refused in one
     line (:func:`tactile_torch.robot.files.safe_write.write_atomic`); the file appears under its name only
-    complete.
+    complete. The exporter's per-node metadata is removed from ``model`` first (:func:`strip_node_metadata`).
     """
     from ..robot.files.safe_write import write_atomic
     from ..robot.integrity import seal
 
+    strip_node_metadata(model)  # every file written carries no build machine's paths
     data = seal(model.SerializeToString())
     return write_atomic(path, lambda f: f.write(data), inputs=inputs)
 
@@ -125,6 +126,27 @@ def _used_names(graph) -> set[str]:
             for sub in subgraphs:
                 used |= _used_names(sub)
     return used
+
+
+def strip_node_metadata(model) -> int:
+    """Remove the exporter's per-node metadata (``pkg.torch.onnx.*``: stack traces with the build
+    machine's source paths, module names); return how many entries went.
+
+    They carry nothing onnxruntime uses, make a bundle's bytes depend on where it was built and reveal
+    that machine's paths in a file shipped to a robot.
+    """
+    removed = 0
+    graphs = [model.graph, *(f for f in model.functions)]
+    while graphs:
+        graph = graphs.pop()
+        for node in graph.node:
+            removed += len(node.metadata_props)
+            del node.metadata_props[:]
+            for attribute in node.attribute:
+                if attribute.HasField("g"):
+                    graphs.append(attribute.g)
+                graphs.extend(attribute.graphs)
+    return removed
 
 
 def drop_unused_initializers(model) -> int:

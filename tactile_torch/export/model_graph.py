@@ -63,6 +63,7 @@ from ..robot.contract import (
     LABELS_OUTPUT,
     NOVELTY_THRESHOLDS_KEY,
     PIPELINE_KEY,
+    PRESSURE_LAYOUT,
     QUANTILE_KEY,
     RANGE_METADATA_KEY,
     SAMPLE_RATE_KEY,
@@ -70,6 +71,7 @@ from ..robot.contract import (
     STEP_KEY,
     THRESHOLD_KEY,
     TOUCH_LEVELS_KEY,
+    VALUE_RANGE_KEY,
     VERSION_KEY,
     WINDOW_SIZE_KEY,
     WINDOWS_LAYOUT,
@@ -191,6 +193,16 @@ def _front_end(
             else sensor_range_g,
         }
         return [WindowFeatures(window)], [None, 3, window], WINDOWS_LAYOUT, meta
+    if source.get("features") == "per-taxel" or kind == "pressure":  # each taxel's time series
+        from ..features.transformers import TaxelFeatures
+
+        rgb = kind == "image"
+        meta = {"features": "per-taxel"}
+        for key in (FRAME_RATE_KEY, TOUCH_LEVELS_KEY, EARLY_RULE_KEY, VALUE_RANGE_KEY):
+            if key in source:
+                meta[key] = source[key]
+        shape = [None, *(int(v) for v in source["frame_shape"])]
+        return [TaxelFeatures(rgb)], shape, FRAMES_LAYOUT if rgb else PRESSURE_LAYOUT, meta
     if kind == "image":
         from ..image import DEFAULT_EDGE_THRESHOLD, DEFAULT_EROSION, DEFAULT_THRESHOLD, ExplorationFeatures
 
@@ -216,7 +228,9 @@ def _front_end(
     if kind == "features":
         n = int(source["n_features"])
         return [], [None, n], FEATURES_LAYOUT, {}
-    raise ValueError(f"the model's source kind must be 'vibration', 'image' or 'features', got {kind!r}")
+    raise ValueError(
+        f"the model's source kind must be 'vibration', 'image', 'pressure' or 'features', got {kind!r}"
+    )
 
 
 def pipeline_from_model(

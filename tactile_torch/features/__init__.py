@@ -20,6 +20,6 @@ __getattr__, __dir__, __all__ = lazy_exports(
             "TaxelFeatureTransformer",
             "WindowFeatureTransformer",
         ),
-        "files": ("FeatureSet", "load_features"),
+        "files": ("FRAME_FEATURES", "FeatureSet", "frame_features", "load_features"),
     },
 )

@@ -1,10 +1,13 @@
 """The features of a data file: what ``tactile-torch train`` and the trade-off's feature files learn from.
 
 :func:`load_features` reads a data file of ``docs/formats.md`` through :mod:`tactile_torch.robot.files.formats`
-(image explorations: ``frames``; vibration recordings: ``signals`` or CSV logs; a ready ``features``
-matrix) and computes its features (:func:`tactile_torch.image.exploration_features`, or windows and
+(image explorations: ``frames``; a hand's frame recordings: ``frames`` and ``t``, cut into touches by the
+live stream's own stages, :mod:`tactile_torch.robot.stream.recorded_touches`; vibration recordings:
+``signals`` or CSV logs; a ready ``features`` matrix) and computes its features (the image features
+:func:`tactile_torch.image.exploration_features`, fused or per frame; the per-taxel time-series features
+:class:`~tactile_torch.features.transformers.TaxelFeatures`; windows and
 :func:`tactile_torch.signal.window_features`) as a :class:`FeatureSet`, with what held-out splits need
-(groups, recordings, positions).
+(groups, recordings, positions) and what the live stream needs (frame rate, touch levels, value range).
 """
 
 from __future__ import annotations
@@ -12,6 +15,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+
+FRAME_FEATURES = ("fused", "per-frame", "per-taxel")
+"""Feature sets of frames (explorations and touches): the 12 image features of the fused edges, 12 per frame,
+or the 7 time-series features of every taxel (the trade-off's winners on small taxel arrays)."""
 
 
 @dataclass
@@ -33,6 +40,13 @@ class FeatureSet:
         ``session``, else its recording), or an exploration's ``groups``; ``None``: independent rows.
     recording, position : ndarray of shape (N,), optional
         Vibration windows: the recording each comes from and its index in it (time order).
+    raw : ndarray, optional
+        Frames: the explorations (or touches) the features were made from, ``(N, T, H, W)`` pressure or
+        ``(N, T, H, W, 3)`` RGB, for the early-decision rule's prefixes of each touch.
+    notes : list of str
+        What was decided on the way (the touches cut from recordings, the frame rate), one line each.
+    group_label : str
+        What ``groups`` are, in words (``"session"`` for the touches of a hand's recordings).
     """
 
     X: np.ndarray
@@ -42,6 +56,9 @@ class FeatureSet:
     groups: np.ndarray | None = None
     recording: np.ndarray | None = None
     position: np.ndarray | None = None
+    raw: np.ndarray | None = field(default=None, repr=False)
+    notes: list[str] = field(default_factory=list)
+    group_label: str = "the file's groups"
 
 
 def load_features(
@@ -49,7 +66,8 @@ def load_features(
     *,
     window: int = 800,
     step: int | None = None,
-    fuse: bool = True,
+    features: str | None = None,
+    frame_rate_hz: float | None = None,
     allow_pickle: bool = False,
     options=None,
     name: str | None = None,
@@ -66,8 +84,12 @@ def load_features(
         Or what :func:`~tactile_torch.robot.files.data_sources.read_source` returned.
     window, step : int
         Vibration windows: length and hop in samples (default hop: ``window``, no overlap).
-    fuse : bool
-        Image explorations: fused (12) or per-frame (T x 12) features.
+    features : {"fused", "per-frame", "per-taxel"}, optional
+        Frames: the feature set (:data:`FRAME_FEATURES`). Default: per-taxel for pressure maps of at most
+        :data:`~tactile_torch.features.transformers.MAX_TAXELS` taxels (a hand's array), else fused.
+    frame_rate_hz : float, optional
+        Explorations: frames per second, for the live stream (default: the file's ``frame_rate_hz``; frame
+        recordings: from ``t``). Without one the model records none (the stream then needs ``--onset``).
     allow_pickle : bool
         Only for vibration files written by tactile-torch 0.1 with recordings of different lengths
         (a pickled object array): allow it only for files you trust.
@@ -101,15 +123,8 @@ def load_features(
             raise ValueError(f"{where}: missing 'labels'; training needs labels (N,) next to 'features'")
         source = {"kind": "features", "n_features": data.features.shape[1]}
         return FeatureSet(data.features, data.labels, data.class_names, source)
-    if data.kind == "image":
-        from ..data.images import explorations_from_arrays
-        from ..image import exploration_features
-
-        images = explorations_from_arrays(data)
-        X = exploration_features(images.frames, fuse=fuse).double().numpy()
-        source = {"kind": "image", "fuse": fuse, "frame_shape": list(images.frames.shape[1:])}
-        source.update(_live_source(images.frames.numpy()))
-        return FeatureSet(X, data.labels, data.class_names, source, groups=data.groups)
+    if data.kind in ("image", "frame recording"):
+        return _frame_features(data, features, frame_rate_hz, options, where)
     import torch
 
     from ..robot.stream.windows import check_window, window_recordings
@@ -182,19 +197,84 @@ def _check_lengths(data, window: int, where: str) -> None:
     )
 
 
-def _live_source(frames: np.ndarray) -> dict:
-    """What a model file of RGB explorations keeps for the live stream: the frame rate and touch levels."""
-    from ..image import DEFAULT_FRAME_RATE_HZ
-    from ..robot.stream.touches import touch_levels
+def frame_features(raw: np.ndarray, features: str) -> np.ndarray:
+    """Return the features ``(N, F)`` float64 of frames ``raw``: pressure maps ``(N, T, H, W)`` or RGB ``(N, T, H, W, 3)``.
 
-    live = {"frame_rate_hz": DEFAULT_FRAME_RATE_HZ}
-    try:
-        live["touch_levels"] = touch_levels(
-            frames, frame_rate_hz=DEFAULT_FRAME_RATE_HZ, rgb=True
-        ).to_metadata()
-    except ValueError:  # no pressure in the frames at all: the stream will need --onset
-        pass
-    return live
+    ``features`` (:data:`FRAME_FEATURES`): ``"per-taxel"`` (:class:`~tactile_torch.features.transformers.TaxelFeatures`),
+    ``"fused"`` or ``"per-frame"`` (:func:`tactile_torch.image.exploration_features` of the frames as the
+    display shows them: pressure maps rendered by :func:`tactile_torch.data.images.render_pressure`). What
+    :func:`load_features` computes, and ``train``'s early rule on the first frames of each touch.
+    """
+    import torch
+
+    rgb = raw.ndim == 5
+    with torch.no_grad():
+        if features == "per-taxel":
+            from .transformers import TaxelFeatures
+
+            x = torch.from_numpy(np.ascontiguousarray(raw.transpose(0, 1, 4, 2, 3)) if rgb else raw)
+            return TaxelFeatures(rgb)(x).double().numpy()
+        from ..data.images import render_pressure
+        from ..image import exploration_features
+
+        if rgb:
+            frames = torch.from_numpy(np.ascontiguousarray(raw.transpose(0, 1, 4, 2, 3)))
+        else:
+            frames = render_pressure(torch.from_numpy(np.ascontiguousarray(raw, dtype=np.float32)))
+        return exploration_features(frames, fuse=features == "fused").double().numpy()
 
 
-__all__ = ["FeatureSet", "load_features"]
+def _frame_features(
+    data, features: str | None, frame_rate_hz: float | None, options, where: str
+) -> FeatureSet:
+    """The features of explorations or of frame recordings' touches, and the live stream's part of the source."""
+    from ..robot.stream.touches import frame_metadata
+    from .transformers import MAX_TAXELS
+
+    notes, levels, unit = [], None, "the file's groups"
+    if data.kind == "frame recording":
+        from ..robot.stream.recorded_touches import recorded_touches
+
+        touches = recorded_touches(data, n_frames=getattr(options, "frames", None))
+        data, levels, notes, unit = touches.explorations, touches.levels, list(touches.notes), "session"
+    rgb = data.frames is not None
+    raw = data.frames if rgb else data.pressure
+    taxels = raw.shape[2] * raw.shape[3]
+    features = features or (
+        "per-taxel" if not rgb and taxels <= MAX_TAXELS and raw.shape[1] >= 2 else "fused"
+    )
+    if features not in FRAME_FEATURES:
+        raise ValueError(f"features must be one of {FRAME_FEATURES}, got {features!r}")
+    if features == "per-taxel" and (taxels > MAX_TAXELS or raw.shape[1] < 2):
+        raise ValueError(
+            f"features: per-taxel features need frames of at most {MAX_TAXELS} taxels and T >= 2 frames, got "
+            f"{raw.shape[1]} frames of {raw.shape[2]} x {raw.shape[3]} ({where})"
+        )
+    rate = frame_rate_hz or data.frame_rate_hz
+    X = frame_features(raw, features)
+    if features == "per-taxel":
+        shape = [int(raw.shape[1]), 3, *raw.shape[2:4]] if rgb else [int(s) for s in raw.shape[1:]]
+        source = {"kind": "image" if rgb else "pressure", "features": "per-taxel", "frame_shape": shape}
+        if rgb:
+            source["fuse"] = True  # read by older tools; the per-taxel features ignore it
+        live, note = frame_metadata(raw, frame_rate_hz=rate, rgb=rgb, levels=levels)
+    else:  # the image pipeline (pressure maps rendered as the display shows them)
+        from ..data.images import explorations_from_arrays
+
+        frames = explorations_from_arrays(data).frames
+        source = {"kind": "image", "fuse": features == "fused", "frame_shape": list(frames.shape[1:])}
+        live, note = frame_metadata(frames.numpy(), frame_rate_hz=rate, rgb=True, levels=levels)
+        live.pop("value_range", None)  # RGB frames are 0-255 by their type
+    source.update(live)
+    if rate is None:
+        notes.append(
+            "no frame rate (the explorations state none: frame_rate_hz=): the model records none, so the live "
+            "stream's shortest touch is 2 frames"
+        )
+    notes += [note] if note else []
+    return FeatureSet(
+        X, data.labels, data.class_names, source, groups=data.groups, raw=raw, notes=notes, group_label=unit
+    )
+
+
+__all__ = ["FRAME_FEATURES", "FeatureSet", "frame_features", "load_features"]

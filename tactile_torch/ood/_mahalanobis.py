@@ -175,7 +175,18 @@ def fit_ood(
         norm = np.where(norm > 0, norm, 1.0)
         distance = (views / norm[:, None]).max(axis=0)
         state.update(floor=floor, norm=norm)
-    state["threshold"] = np.asarray(np.float64(np.quantile(distance, quantile)))
+    threshold = float(np.quantile(distance, quantile))
+    if not threshold > 0:  # every training row at one point (features that never varied): a degenerate rule
+        import warnings
+
+        threshold = float(np.finfo(np.float32).tiny)
+        warnings.warn(
+            "the training features lie at one point (they do not vary between the training samples), so the "
+            "'unknown' rule answers unknown to any other input; train on features that vary (per-taxel features "
+            "on a small array)",
+            stacklevel=3,
+        )
+    state["threshold"] = np.asarray(np.float64(threshold))
     return state
 
 

@@ -108,6 +108,16 @@ UNKNOWN = -1
 """Label of a sample the bundle does not classify (beyond the sensor's range, or out of distribution)."""
 UNKNOWN_NAME = "unknown"
 """Name printed for :data:`UNKNOWN`."""
+BEYOND_RANGE = "beyond range"
+"""Why a sample is unknown: it holds a value beyond the sensor's range (not run through the graph)."""
+NO_VIBRATION = "no vibration"
+"""Why a vibration window is unknown: every axis is constant (not run through the graph)."""
+NOT_FINITE = "scores not finite"
+"""Why a sample is unknown: the graph's scores for it are not finite."""
+OUT_OF_DISTRIBUTION = "out of distribution"
+"""Why a sample is unknown: its features lie beyond the bundle's distance threshold to the training data."""
+UNKNOWN_CAUSES = (BEYOND_RANGE, NO_VIBRATION, NOT_FINITE, OUT_OF_DISTRIBUTION)
+"""The causes of an unknown sample (:attr:`Prediction.causes`), in the order :meth:`OnnxPipeline.classify` checks them."""
 DEFAULT_RANGE_G = 5.0
 """Range of the ADXL345 as configured in the vibration study (method 2), in g: the default sensor range."""
 
@@ -120,6 +130,7 @@ def metadata_strings(metadata: Mapping[str, object]) -> dict[str, str]:
 
 
 __all__ = [
+    "BEYOND_RANGE",
     "CLASS_NAMES_KEY",
     "DEFAULT_RANGE_G",
     "DIGEST_KEY",
@@ -133,10 +144,13 @@ __all__ = [
     "INPUT_SHAPE_KEY",
     "LABELS_OUTPUT",
     "LAYOUTS",
+    "NOT_FINITE",
     "NOVELTY_SCORE_OUTPUT",
     "NOVELTY_THRESHOLDS_KEY",
     "NOVEL_OUTPUT",
+    "NO_VIBRATION",
     "OOD_OUTPUT",
+    "OUT_OF_DISTRIBUTION",
     "PIPELINE_KEY",
     "PRESSURE_LAYOUT",
     "QUANTILE_KEY",
@@ -148,6 +162,7 @@ __all__ = [
     "TOUCH_LEVELS_KEY",
     "UINT8_SCALE_KEY",
     "UNKNOWN",
+    "UNKNOWN_CAUSES",
     "UNKNOWN_NAME",
     "VALUE_RANGE_KEY",
     "VERSION_KEY",

@@ -36,6 +36,7 @@ import numpy as np
 from ..exceptions import InputTypeError
 from ..validation import check_count
 from .contract import (
+    BEYOND_RANGE,
     CLASS_NAMES_KEY,
     DEFAULT_RANGE_G,
     FEATURES_LAYOUT,
@@ -43,8 +44,11 @@ from .contract import (
     INPUT_LAYOUT_KEY,
     INPUT_SHAPE_KEY,
     LABELS_OUTPUT,
+    NO_VIBRATION,
+    NOT_FINITE,
     NOVEL_OUTPUT,
     OOD_OUTPUT,
+    OUT_OF_DISTRIBUTION,
     PIPELINE_KEY,
     PRESSURE_LAYOUT,
     RANGE_METADATA_KEY,
@@ -105,6 +109,8 @@ class Prediction:
         has none or the sample was not run.
     reasons : list of (str or None)
         Why each unknown sample is unknown (one line), ``None`` for classified samples.
+    causes : list of (str or None)
+        The same as one of :data:`~tactile_torch.robot.contract.UNKNOWN_CAUSES` (to count or branch on).
     novel : ndarray of shape (B,) bool or None
         Clustering bundles: the graph's ``novel`` output (a window of a surface the clustering
         did not see); False for samples not run; ``None`` when the bundle has no such output.
@@ -114,6 +120,7 @@ class Prediction:
     scores: np.ndarray
     distance: np.ndarray
     reasons: list[str | None]
+    causes: list[str | None]
     novel: np.ndarray | None = None
 
 
@@ -390,11 +397,11 @@ class OnnxPipeline:
         """Return the :class:`Prediction` of each sample, with ``-1`` ("unknown") and its reason where due.
 
         A sample is unknown when (checked in this order) it holds a value beyond ``±range_g`` (vibration
-        windows; default :attr:`range_g`, the bundle's ``sensor_range_g``; ``math.inf``: no check),
-        when it is a vibration window constant on every axis (no vibration to classify), when the graph's scores for it are not finite, or when its features lie further from the
-        training data than the bundle's ``ood_threshold`` (bundles exported from model files written
-        since the distance exists; :mod:`tactile_torch.ood`). Samples beyond the range are not run
-        through the graph: their scores and distance are NaN.
+        windows; default :attr:`range_g`, the bundle's ``sensor_range_g``; ``math.inf``: no check), when
+        it is a vibration window constant on every axis (no vibration to classify), when the graph's scores
+        for it are not finite, or when its features lie further from the training data than the bundle's
+        ``ood_threshold`` (bundles of model files written since the distance exists; :mod:`tactile_torch.ood`).
+        Samples beyond the range are not run through the graph: their scores and distance are NaN.
         """
         x = self.validate(raw)
         limit = self.range_g if range_g is None else float(range_g)
@@ -403,11 +410,13 @@ class OnnxPipeline:
         scores = np.full((n, max(len(self.class_names), 1)), np.nan, dtype=np.float32)
         distance = np.full(n, np.nan, dtype=np.float32)
         reasons: list[str | None] = [None] * n
+        causes: list[str | None] = [None] * n
         novel = np.zeros(n, dtype=bool) if NOVEL_OUTPUT in self._outputs else None
         beyond = beyond_range(x, limit) if math.isfinite(limit) else np.zeros(n, dtype=bool)
         for i in np.flatnonzero(beyond):
             peak = float(np.abs(x[i]).max())
             reasons[i] = f"a sample of {peak:.3g} g, beyond the sensor's range ±{limit:g} g"
+            causes[i] = BEYOND_RANGE
         if self.input_layout == WINDOWS_LAYOUT:
             # A window constant on every axis carries no vibration: its features are conventions
             # (zero variance, no crossings), not measurements, so it is not classified.
@@ -416,6 +425,7 @@ class OnnxPipeline:
                 reasons[i] = (
                     f"no vibration: every axis is constant ({', '.join(f'{v:g}' for v in x[i, :, 0])} g)"
                 )
+                causes[i] = NO_VIBRATION
             beyond = beyond | flat
         run = np.flatnonzero(~beyond)
         if len(run):
@@ -438,15 +448,17 @@ class OnnxPipeline:
                     reasons[i] = (
                         "scores not finite (values far outside the sensor's range overflow the features)"
                     )
+                    causes[i] = NOT_FINITE
                 elif threshold is not None and not distance[i] <= threshold:
                     labels[i] = UNKNOWN
                     reasons[i] = (
                         f"out of distribution: distance {distance[i]:.3g} to the training data > {threshold:.3g}"
                     )
-        return Prediction(labels, scores, distance, reasons, novel)
+                    causes[i] = OUT_OF_DISTRIBUTION
+        return Prediction(labels, scores, distance, reasons, causes, novel)
 
     def _raise_non_finite(self, prediction: Prediction) -> None:
-        bad = np.array([r is not None and r.startswith("scores not finite") for r in prediction.reasons])
+        bad = np.array([c == NOT_FINITE for c in prediction.causes])
         if bad.any():
             raise NonFiniteScoresError(np.flatnonzero(bad), len(bad))
 
@@ -525,8 +537,7 @@ class OnnxPipeline:
                     f"{where}: frames must be pressure maps (N, T, H, W) for this {self.pipeline} bundle, got "
                     f"RGB frames {data.frames.shape}"
                 )
-            raw, note = fit_explorations(data.pressure, self.input_shape[1])
-            labels = data.labels
+            (raw, note), labels = fit_explorations(data.pressure, self.input_shape[1]), data.labels
         elif data.kind == "vibration" and layout == WINDOWS_LAYOUT:
             if WINDOW_SIZE_KEY not in self.metadata:
                 raise ValueError(f"{self.path}: no {WINDOW_SIZE_KEY} in the bundle's metadata")

@@ -21,8 +21,9 @@ the candidate as the folds did (its grid on inner folds of those samples,
 * ``<name>.npz``: the same (float) model as a model file (:mod:`tactile_torch.robot.files.model_file`, no
   pickle) with the same rule, which ``tactile-torch export`` turns into the same graph, for the feature
   sets a model file describes (vibration windows, RGB explorations, feature matrices, with or without a
-  best-ranked subset); raw pressure maps, per-taxel features and learned models have no model-file
-  form yet, said in one note.
+  best-ranked subset, per-taxel features of pressure maps or RGB frames, with the live stream's frame
+  rate, touch levels and early rule); the image features of raw pressure maps and learned models have no
+  model-file form yet, said in one note.
 
 ``<name>`` is ``recommended`` for the recommended candidate, the candidate's slug otherwise.
 """
@@ -56,7 +57,12 @@ on the bundled 28 surfaces (300 per class). The study's cap per class, when larg
 
 def _source(step: object, rate_hz: float | None) -> dict | None:
     """The model file's ``source`` of a fitted ``features`` step, or ``None`` when it has no model-file form."""
-    from ..features.transformers import FeaturePassthrough, ImageFeatureTransformer, WindowFeatureTransformer
+    from ..features.transformers import (
+        FeaturePassthrough,
+        ImageFeatureTransformer,
+        TaxelFeatureTransformer,
+        WindowFeatureTransformer,
+    )
     from ..image import DEFAULT_THRESHOLD
 
     if isinstance(step, WindowFeatureTransformer):
@@ -78,6 +84,11 @@ def _source(step: object, rate_hz: float | None) -> dict | None:
             source["threshold"] = float(step.threshold_)
         source["erosion"] = int(step.erosion_)
         return source
+    if isinstance(step, TaxelFeatureTransformer):  # each taxel's time series: frames (RGB) or pressure maps
+        shape = [int(v) for v in step.frame_shape_]
+        if step.rgb_:
+            return {"kind": "image", "features": "per-taxel", "fuse": True, "frame_shape": shape}
+        return {"kind": "pressure", "features": "per-taxel", "frame_shape": shape}
     return None
 
 
@@ -89,10 +100,13 @@ def write_model_file(
     rate_hz: float | None,
     extra: dict | None = None,
     ood: dict | None = None,
+    live: dict | None = None,
 ) -> Path | None:
     """Write a fitted candidate ``Pipeline`` as a model file; return its path, or ``None`` if it has no form.
 
-    ``ood``: its "unknown" rule (:func:`tactile_torch.ood.fit_rule` on the model's standardised features).
+    ``ood``: its "unknown" rule (:func:`tactile_torch.ood.fit_rule` on the model's standardised features);
+    ``live``: frame models' metadata for the live stream (:func:`live_metadata`), kept in the source so that
+    ``tactile-torch export`` writes the bundle the study deployed.
     """
     from ..training import write_classifier_file
 
@@ -100,6 +114,7 @@ def write_model_file(
     source = _source(steps["features"], rate_hz)
     if source is None:
         return None
+    source.update(live or {})
     scaler, classifier = steps["scale"], steps["classifier"]
     select = steps["select"].columns_ if "select" in steps else None
     return write_classifier_file(
@@ -186,6 +201,7 @@ def live_metadata(result: object, name: str, model: object) -> tuple[dict, list[
         contact=contact,
         sign=sign,
         rest=rest,
+        levels=result.data.touch_levels,  # a hand's recordings: the levels their touches were cut at
     )
     notes = [note] if note else []
     curve = result.touch_time.get(name)
@@ -307,6 +323,7 @@ def deploy_candidate(
             rate_hz=result.data.rate_hz,
             extra={"tradeoff": {"candidate": name, "samples": len(s.y), "tuned": _json_params(params)}},
             ood=rule,
+            live=live,
         )
     if model_file is None:
         what = "a learned model" if learned else f"the feature set {cand.features!r}"

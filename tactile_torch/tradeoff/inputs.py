@@ -26,7 +26,6 @@ from pathlib import Path
 
 import numpy as np
 
-from ..image import DEFAULT_FRAME_RATE_HZ
 from ..model_selection import cap_per_class, fold_units, group_ids, sample_folds, window_folds
 from ..robot.contract import FEATURES_LAYOUT, FRAMES_LAYOUT, PRESSURE_LAYOUT, WINDOWS_LAYOUT
 from ..validation import RandomState
@@ -121,6 +120,9 @@ class TradeoffData:
     precomputed : dict of str to (ndarray, float)
         Features of every sample already computed elsewhere, by feature-set name (e.g. ``"fused 12"``),
         with the seconds they took; used instead of computing them again (stateless steps only).
+    touch_levels : TouchLevels or None
+        Frame recordings: the levels their touches were cut at, which the deployed bundle records so that
+        the live stream cuts the touches the study saw (:mod:`tactile_torch.robot.stream.recorded_touches`).
     """
 
     kind: str
@@ -133,6 +135,7 @@ class TradeoffData:
     rate_hz: float | None = None
     notes: list[str] = field(default_factory=list)
     precomputed: dict[str, tuple[np.ndarray, float]] = field(default_factory=dict)
+    touch_levels: object | None = None
 
 
 def load_tradeoff_data(
@@ -140,7 +143,6 @@ def load_tradeoff_data(
     *,
     frame_rate_hz: float | None = None,
     allow_pickle: bool = False,
-    csv_session: str = "number",
     options=None,
     name: str | None = None,
 ) -> TradeoffData:
@@ -155,13 +157,10 @@ def load_tradeoff_data(
         CSV logs ``t,x,y,z`` or ROS 2 bags (one recording per file, class and session from the file
         name: ``felt_3.csv`` → ``felt``, session ``3``); or what ``read_source`` returned.
     frame_rate_hz : float, optional
-        Frames per second of explorations (default 10, the study's).
+        Frames per second of explorations (default: the file's ``frame_rate_hz``; a file that states none
+        needs it: the rate is never assumed). Frame recordings: from their ``t``.
     allow_pickle : bool
         Legacy vibration files that pickled recordings of different lengths (trusted files only).
-    csv_session : {"number", "file"}
-        CSV logs: the session of each file. ``"number"`` (default): the trailing number of its name
-        (``felt_3.csv`` and ``cork_3.csv`` are session ``3``), or the file itself when a name has
-        none; ``"file"``: every file is its own session (recording).
     options : DataOptions, optional
         Columns, units, time unit, topic ... (:class:`tactile_torch.robot.files.data_sources.DataOptions`).
     name : str, optional
@@ -183,8 +182,6 @@ def load_tradeoff_data(
         or frame_rate_hz <= 0
     ):
         raise ValueError(f"frame_rate_hz must be a finite number of frames/s > 0, got {frame_rate_hz!r}")
-    if csv_session not in ("number", "file"):
-        raise ValueError(f"csv_session must be 'number' or 'file', got {csv_session!r}")
     if hasattr(paths, "kind"):
         data, where = paths, name or "data"
     else:
@@ -194,17 +191,19 @@ def load_tradeoff_data(
         where = name or data_name(paths)
     name = Path(where).name
     if data.kind == "vibration":
-        if csv_session == "file" and not hasattr(paths, "kind") and _all_csv(paths):
-            # the naming rule (robot.files.naming) gave each log the trailing number of its name as session
-            files = [paths] if isinstance(paths, str | Path) else list(paths)
-            data.session = np.array([Path(p).stem for p in files])
         return vibration_data(data, name)
+    notes, levels, what = [], None, "explorations"
+    if data.kind == "frame recording":  # a hand's logs: the touches the live stream cuts from them
+        from ..robot.stream.recorded_touches import recorded_touches
+
+        touches = recorded_touches(data, n_frames=getattr(options, "frames", None))
+        data, levels, notes, what = touches.explorations, touches.levels, list(touches.notes), "touches"
     if data.kind == "image":
-        notes = []
-        if frame_rate_hz is None:
-            frame_rate_hz = DEFAULT_FRAME_RATE_HZ
-            notes.append(
-                f"frame rate not given: {frame_rate_hz:g} frames/s assumed (frame_rate_hz= to set it)"
+        frame_rate_hz = frame_rate_hz or data.frame_rate_hz
+        if frame_rate_hz is None:  # never assumed: the touch times, the shortest touch and the stream need it
+            raise ValueError(
+                f"frame_rate_hz: {where} holds explorations without 't' or 'frame_rate_hz', so their frame rate is "
+                "unknown; give it (frame_rate_hz=)"
             )
         kind = "pressure" if data.frames is None else "image"
         raw = (
@@ -212,17 +211,18 @@ def load_tradeoff_data(
             if kind == "pressure"
             else np.ascontiguousarray(data.frames.transpose(0, 1, 4, 2, 3))
         )
-        what = "taxels (raw pressure maps)" if kind == "pressure" else "pixels (RGB)"
+        pixels = "taxels (raw pressure maps)" if kind == "pressure" else "pixels (RGB)"
         return TradeoffData(
             kind=kind,
             class_names=tuple(data.class_names),
-            description=f"{name}: {len(data)} explorations of {raw.shape[1]} frames of "
-            f"{raw.shape[-2]} x {raw.shape[-1]} {what}",
+            description=f"{name}: {len(data)} {what} of {raw.shape[1]} frames of "
+            f"{raw.shape[-2]} x {raw.shape[-1]} {pixels} at {frame_rate_hz:g} frames/s",
             raw=raw,
             labels=data.labels,
             groups=data.groups,
             rate_hz=float(frame_rate_hz),
             notes=notes,
+            touch_levels=levels,
         )
     if data.labels is None:
         raise ValueError(f"{where}: a feature file needs 'labels' next to 'features' to compare models")
@@ -234,11 +234,6 @@ def load_tradeoff_data(
         labels=data.labels,
         groups=getattr(data, "groups", None),
     )
-
-
-def _all_csv(paths: str | Path | Sequence[str | Path]) -> bool:
-    paths = [paths] if isinstance(paths, str | Path) else list(paths)
-    return all(Path(p).suffix.lower() == ".csv" for p in paths)
 
 
 def vibration_data(recordings: object, name: str) -> TradeoffData:

@@ -51,8 +51,6 @@ class TradeoffOptions:
         The accuracy a deployment needs, in (0, 1] (default: the one-standard-error rule).
     deploy : str or None
         A candidate to refit on all the data and write besides the recommended one.
-    csv_session : {"number", "file"}
-        CSV logs: the session of each file.
     random_state : int
     tune : bool
         Tune each candidate inside each training fold (else the catalogue's defaults).
@@ -77,7 +75,6 @@ class TradeoffOptions:
     features: tuple[str, ...] | None = None
     target: float | None = None
     deploy: str | None = None
-    csv_session: str = "number"
     random_state: int = 0
     tune: bool = True
     breaking: bool = True
@@ -125,7 +122,6 @@ class TradeoffOptions:
             "features": None if self.features is None else list(self.features),
             "target": self.target,
             "deploy": ["recommended", *([self.deploy] if self.deploy else [])],
-            "csv_session": self.csv_session,
             "random_state": self.random_state,
             "tune": self.tune,
             "exhaustive": self.exhaustive,

@@ -119,7 +119,6 @@ def plan_tradeoff(  # noqa: PLR0913
     learned: bool = True,
     random_state: int = 0,
     allow_pickle: bool = False,
-    csv_session: str = "number",
     exact_folds: bool = False,
     tune: bool = True,
     progress: bool = True,
@@ -140,7 +139,7 @@ def plan_tradeoff(  # noqa: PLR0913
         Vibration: the reference window (default: the study's 800 samples, or the largest allowed
         below it); ``windows`` overrides the list of sizes tried (default 200, 400, 800, 1600).
     frame_rate_hz : float, optional
-        Explorations: frames per second (default 10, the study's).
+        Explorations: frames per second (default: the file's ``frame_rate_hz``; refused when it states none).
     threshold : "auto", "otsu", "display" or float
         Image pipeline's pressed threshold. RGB frames: ``"auto"`` takes the study's 240/255 for
         displays with a white background, Otsu's threshold of each training fold's histogram
@@ -159,9 +158,6 @@ def plan_tradeoff(  # noqa: PLR0913
         Add the learned models on the raw input (:mod:`.learned`; ``False``: the classical ones only).
     random_state : int
     allow_pickle : bool
-    csv_session : {"number", "file"}
-        CSV logs: session from the file name's trailing number, or one per file
-        (:func:`~.inputs.load_tradeoff_data`).
     exact_folds : bool
         Raise ``ValueError`` when the data allow fewer than ``n_folds`` folds (default: use fewer,
         said in the split's description).
@@ -211,9 +207,7 @@ def plan_tradeoff(  # noqa: PLR0913
             f"frame_rate_hz must be a positive finite number of frames per second, got {frame_rate_hz!r}"
         )
     if not isinstance(data, TradeoffData):
-        data = load_tradeoff_data(
-            data, frame_rate_hz=frame_rate_hz, allow_pickle=allow_pickle, csv_session=csv_session
-        )
+        data = load_tradeoff_data(data, frame_rate_hz=frame_rate_hz, allow_pickle=allow_pickle)
     check_two_classes(data)
     check_finite(data)
     cap = MAX_PER_CLASS["quick" if quick else "full"] if max_per_class == "auto" else max_per_class

@@ -25,8 +25,8 @@ import numpy as np
 from ..robot.stream.early_decision import (
     DEFAULT_ERROR,
     EarlyRule,
-    calibrate_early_rule,
     checkpoints_for,
+    held_out_rule,
     score_margins,
 )
 from ..robot.stream.touches import fit_frames
@@ -141,27 +141,35 @@ def touch_time(
     checkpoints = (
         tuple(sorted({max(1, round(s * t)) for s in QUICK_SHARES} - {t})) if quick else checkpoints_for(t)
     )
-    n, k = len(y), len(checkpoints)
-    predicted = np.full((n, k + 1), -1, dtype=np.int64)
-    margins = np.full((n, k), -np.inf)
     cache = {} if cache is None else cache
     learned = is_learned(result.candidate.estimator)
     shared = not learned and not needs_fit(result.candidate.estimator.steps[0][1])
-    for model, (_, test) in zip(cv.models, samples.folds, strict=True):
-        classes = _classes(model)
+
+    def classify(fold: int, j: int, test: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        model, frames = cv.models[fold], checkpoints[j]
         fitted = model.steps[0][1]
-        for j, frames in enumerate(checkpoints):
-            if shared:  # one transform of every exploration's prefix, for every fold and candidate
-                key = (features_key(result.candidate), frames)
-                if key not in cache:
-                    cache[key] = fitted.transform(prefixes(X, frames, fitted))
-                labels, scores = fold_scores(model, None, cache[key][test])
-            else:
-                labels, scores = fold_scores(model, prefixes(X[test], frames, None if learned else fitted))
-            predicted[test, j] = classes[labels]
-            margins[test, j] = score_margins(scores, labels)
-    predicted[:, k] = cv.predictions  # the whole touch: the study's own out-of-fold predictions
-    correct = predicted[:, :k] == y[:, None]
+        if shared:  # one transform of every exploration's prefix, for every fold and candidate
+            key = (features_key(result.candidate), frames)
+            if key not in cache:
+                cache[key] = fitted.transform(prefixes(X, frames, fitted))
+            labels, scores = fold_scores(model, None, cache[key][test])
+        else:
+            labels, scores = fold_scores(model, prefixes(X[test], frames, None if learned else fitted))
+        return _classes(model)[labels], score_margins(scores, labels)
+
+    n_tested = len(np.unique(np.concatenate([test for _, test in samples.folds])))
+    at_checkpoints, margins, rule = held_out_rule(
+        y,
+        samples.folds,
+        checkpoints,
+        classify,
+        target_error=target_error,
+        how=f"{n_tested} held-out explorations of {t} frames ({result.candidate.name}, fold models)",
+    )
+    predicted = np.column_stack(
+        [at_checkpoints, cv.predictions]
+    )  # the whole touch: the study's own predictions
+    correct = at_checkpoints == y[:, None]
     rows = []
     seconds = [f / rate_hz for f in (*checkpoints, t)]
     for j, frames in enumerate((*checkpoints, t)):
@@ -179,14 +187,6 @@ def touch_time(
                 "n_units": u.n,
             }
         )
-    tested = predicted[:, 0] >= 0
-    rule = calibrate_early_rule(
-        margins[tested],
-        correct[tested],
-        checkpoints,
-        target_error=target_error,
-        how=f"{int(tested.sum())} held-out explorations of {t} frames ({result.candidate.name}, fold models)",
-    )
     return TouchTime(result.candidate.name, [*checkpoints, t], seconds, rows, margins, correct, rule)
 
 

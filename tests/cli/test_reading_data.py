@@ -74,8 +74,11 @@ def test_the_users_logs_train_at_800_hz_by_day_without_warnings(user, tmp_path, 
     assert status == 0 and err == ""  # no "time steps vary" warnings, one per file
     first = f"{paths[0]} (and 3 more)"
     assert (
-        f"{first}: 4 recordings at 800 Hz (from the time stamps; --rate states it), 2 sessions (from their folders)\n"
+        f"{first}: 4 recordings at 800 Hz (from the time stamps; --rate states it), 2 sessions (folder per session)\n"
         in out
+    )
+    assert out.startswith(
+        f"{first}: 4 files read as folder per session (the folder names (day1, day2) look like "
     )
     assert "2 folds grouped by session (none on both sides), stratified; 2 sessions: day1, day2\n" in out
     from tactile_torch.robot.files.model_file import load_model_file
@@ -114,7 +117,7 @@ def test_the_users_logs_train_at_800_hz_by_day_without_warnings(user, tmp_path, 
 def test_a_wrong_time_unit_or_rate_is_one_line(user, capsys, option, says):
     _, paths, _ = user
     status, out, err = _run(["train", "--data", *paths, *USER_COLUMNS, *option], capsys)
-    assert status == BAD_INPUT_EXIT and out == ""
+    assert status == BAD_INPUT_EXIT and out.count("\n") == 1 and "4 files read as folder per session" in out
     assert err == f"tactile-torch train: {paths[0]}: {says}\n"
 
 
@@ -197,7 +200,7 @@ def test_no_window_spans_a_gap_in_the_time_stamps(small, tmp_path, capsys):
     status, out, err = _run(["train", "--data", *paths, "--window", "300", "--method", "ncm"], capsys)
     assert status == 0 and err == (
         f"tactile-torch train: warning: 1 gap(s) in the time stamps of 1 of 4 file(s) (steps longer than 1.5 "
-        f"sample periods; the longest, 1.001 s, in {paths[0]}): no window spans a gap\n"
+        f"sample periods; the longest, a 1 s gap 1.25 s into {paths[0]}): no window spans a gap\n"
     )
     assert "24 samples x 21 features" in out  # 6 + 3 x 6: without the gap's split, 7 + 18 = 25
 
@@ -363,7 +366,8 @@ def test_simulate_sensor_plays_the_users_csv_at_its_rate(user, monkeypatch, caps
         "--fast",
     ]
     status, out, err = _run(argv, capsys)
-    assert status == 0 and err == "" and f"writing {len(rec.signals[0])} samples at 800 Hz to x\n" in out
+    assert status == 0 and err == ""
+    assert f"writing {len(rec.signals[0])} samples at 800 Hz ({paths[0]}; their own t) to x\n" in out
     sent = np.array([parse_sample(line) for line in wire.getvalue().splitlines()])
     np.testing.assert_allclose(sent, rec.signals[0], atol=2e-5)  # m/s^2 with 6 decimals, 5 on the wire
     status, out, err = _run([*argv, "--rate", "1000"], capsys)

@@ -14,7 +14,6 @@ from tactile_torch.data import (
     VibrationRecordings,
     load_borealtc_imu,
     load_hapmat_imu5,
-    load_vibration_csv,
     load_vibration_npz,
     make_vibration_dataset,
     make_vibration_recordings,
@@ -22,7 +21,8 @@ from tactile_torch.data import (
 )
 from tactile_torch.data.stylus import SURFACES, Surface
 from tactile_torch.data.vibration import QUANTUM_G
-from tactile_torch.robot.files.csv_logs import read_csv_recording
+from tactile_torch.robot.files.csv_logs import read_csv_log
+from tactile_torch.robot.files.formats import read_csv_recordings
 from tactile_torch.signal import clustering_features, window_features
 from tests.conftest import require_shared_data
 
@@ -315,25 +315,27 @@ def test_csv_loader(tmp_path):
     a = _write_csv(tmp_path / "cork_1.csv", _log())
     b = _write_csv(tmp_path / "cork_2.csv", _log(), header=None)
     c = _write_csv(tmp_path / "felt_1.csv", _log()[:, [1, 0, 2, 3]], header="X,Time,Y,Z")
-    rec = load_vibration_csv([a, b, c], class_names=["cork", "cork", "felt"])
+    rec = read_csv_recordings([a, b, c], class_names=["cork", "cork", "felt"])
     assert rec.rate_hz == 100.0 and rec.class_names == ("cork", "felt") and rec.labels.tolist() == [0, 0, 1]
     assert rec.session.tolist() == ["1", "2", "1"]  # the naming rule: <class>_<session>
     for s in rec.signals:
         np.testing.assert_allclose(s, _log()[:, 1:], atol=1e-6)
-    single = load_vibration_csv(a)  # the same rule as the command line: cork_1.csv is class cork
+    single = read_csv_recordings([a])  # the same rule as the command line: cork_1.csv is class cork
     assert single.class_names == ("cork",) and single.session.tolist() == ["1"]
-    signal, _ = read_csv_recording(
+    signal = read_csv_log(
         _write_csv(tmp_path / "ms2.csv", _log(scale=9.80665), header="time,ax,ay,az"),
         columns=("time", "ax", "ay", "az"),
         scale=1 / 9.80665,
-    )
+    ).signal
     np.testing.assert_allclose(signal, _log()[:, 1:], atol=1e-5)
-    # different rates: an error unless a common rate is asked for
+    # different rates: an error naming both; read alone, each is resampled to a common rate
     d = _write_csv(tmp_path / "fast.csv", _log(100, rate=200.0))
-    with pytest.raises(ValueError, match="different sample rates"):
-        load_vibration_csv([a, d])
-    both = load_vibration_csv([a, d], rate_hz=400.0)
-    assert both.rate_hz == 400.0 and [len(s) for s in both.signals] == [200, 200]
+    with pytest.raises(
+        ValueError, match=r"different sample rates \(.*cork_1\.csv: 100 Hz, .*fast\.csv: 200 Hz\)"
+    ):
+        read_csv_recordings([a, d])
+    both = [VibrationRecordings.from_arrays(read_csv_recordings([p])).resample(400.0) for p in (a, d)]
+    assert [r.rate_hz for r in both] == [400.0, 400.0] and [len(r.signals[0]) for r in both] == [200, 200]
 
 
 @pytest.mark.parametrize(
@@ -353,14 +355,14 @@ def test_csv_errors(tmp_path, content, kwargs, error, match):
     path = tmp_path / "bad.csv"
     path.write_text(content)
     with pytest.raises(error, match=match):
-        read_csv_recording(path, **kwargs)
+        read_csv_log(path, **kwargs)
 
 
 def test_csv_irregular_steps_warn(tmp_path):
     rows = _log()
     rows[10:, 0] += 0.003
     with pytest.warns(UserWarning, match="uniformly spaced"):
-        read_csv_recording(_write_csv(tmp_path / "jitter.csv", rows))
+        read_csv_recordings([_write_csv(tmp_path / "jitter.csv", rows)])
 
 
 # --------------------------------------------------------------------------------------------

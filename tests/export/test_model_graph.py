@@ -349,7 +349,7 @@ def test_out_of_distribution_windows_are_unknown_in_predict_and_stream(tmp_path,
         == 0
     )
     out = capsys.readouterr().out
-    assert "10 samples are unknown: out of distribution" in out
+    assert "10 windows: 0 scored against their class, 10 left out: 10 out of distribution" in out
     assert (np.load(tmp_path / "p.npz")["labels"] == -1).all()
     sensor = PtySensor()
     try:

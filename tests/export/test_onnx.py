@@ -55,3 +55,15 @@ def test_drop_unused_initializers_keeps_what_nodes_read():
     assert [init.name for init in model.graph.initializer] == ["scale"]
     onnx.checker.check_model(model, full_check=True)
     assert drop_unused_initializers(model) == 0
+
+
+def test_a_saved_file_carries_no_build_machine_paths(tmp_path):
+    # torch's exporter stamps every node with its Python stack trace (absolute source paths) and module
+    # names; a bundle shipped to a robot keeps none of it, so its bytes do not depend on where it was built
+    import tactile_torch
+
+    path = export_onnx(_Spectrum(), (torch.randn(2, 3, 64),), tmp_path / "m.onnx")
+    model = onnx.load(str(path))
+    assert model.graph.node and not any(node.metadata_props for node in model.graph.node)
+    source = str(__import__("pathlib").Path(tactile_torch.__file__).resolve().parent.parent)
+    assert source.encode() not in path.read_bytes() and __file__.encode() not in path.read_bytes()

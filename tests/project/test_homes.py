@@ -324,11 +324,8 @@ SIZE_EXCEPTIONS = {
     "tactile_torch/model_selection/_validation.py::cross_validate": "documented signature (docs/tradeoff.md), keyword-only options",
     "tactile_torch/neural/training.py::train_network": "keyword-only training settings of every network",
     # to split (issue 40 left them to the engineers working in these packages at the same time):
-    "tactile_torch/cli/predict.py::run_predict": "to split: issue 42's command",
     "tactile_torch/cli/stream.py::_stream_until_stopped": "to split: issue 41's command",
-    "tactile_torch/data/stylus.py::_simulate": "to split: issue 42's data layouts",
     "tactile_torch/mixture/_estimator.py::fit": "to split: issue 38's mixture",
-    "tactile_torch/robot/files/model_file.py::validate_model": "to split: issue 42's model files",
     "tactile_torch/robot/ros2/bags.py::read_bag": "to split: issue 41's ROS 2 side",
     "tactile_torch/robot/ros2/source.py::__init__": "to split: issue 41's options object",
     "tactile_torch/robot/stream/port_lines.py::_lines": "to split: issue 41's stream",

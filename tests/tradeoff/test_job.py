@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import inspect
 
+import numpy as np
 import pytest
 
 from tactile_torch.cli import build_parser
@@ -17,7 +18,7 @@ def test_the_defaults_are_the_library_defaults():
     keywords = TradeoffOptions().run_keywords()
     signature = inspect.signature(plan_tradeoff).parameters
     shared = [name for name in keywords if name in signature]
-    assert len(shared) >= 15
+    assert len(shared) >= 14
     for name in shared:
         assert keywords[name] == signature[name].default, name
     assert keywords["deploy"] == ["recommended"] and keywords["target"] is None
@@ -67,14 +68,22 @@ def test_the_library_notes_name_arguments_and_the_command_prints_options(tmp_pat
     from tactile_torch.tradeoff import load_tradeoff_data
     from tactile_torch.tradeoff.output import COST, INTERVAL, RULE
 
-    path = save_explorations(
-        tmp_path / "ex.npz", make_explorations(2, n_frames=3, frame_size=12, sensels=4, random_state=0)
-    )
-    notes = load_tradeoff_data(path).notes
-    assert notes == [f"frame rate not given: {RATE:g} frames/s assumed (frame_rate_hz= to set it)"]
+    explorations = make_explorations(2, n_frames=3, frame_size=12, sensels=4, random_state=0)
+    path = save_explorations(tmp_path / "ex.npz", explorations)  # it states the generator's frame rate
+    data = load_tradeoff_data(path)
+    assert data.notes == [] and data.rate_hz == RATE
+    # a file that states no frame rate: refused in one line, never assumed (issue 42)
+    bare = tmp_path / "bare.npz"
+    np.savez(bare, frames=explorations.frames.permute(0, 1, 3, 4, 2).numpy(), labels=[0, 0, 1, 1, 2, 2, 3, 3],
+             class_names=list(explorations.class_names))  # fmt: skip
+    says = "holds explorations without 't' or 'frame_rate_hz', so their frame rate is unknown; give it"
+    with pytest.raises(ValueError, match=rf"^frame_rate_hz: .*bare\.npz {says} \(frame_rate_hz=\)$"):
+        load_tradeoff_data(bare)
+    assert main(["tradeoff", "--data", str(bare), "--out", str(tmp_path / "b")]) == 2
+    assert capsys.readouterr().err.splitlines()[-1].endswith(f"{says} (--frame-rate)")
+    notes = ["threshold: from each training fold's histogram (Otsu) (threshold= to set one)"]
     for text in (*notes, RULE, COST, INTERVAL):
         assert "--" not in text, text
-    assert with_flags(notes[0]) == f"frame rate not given: {RATE:g} frames/s assumed (--frame-rate to set it)"
     assert with_flags(RULE).startswith("with --target ACC: the cheapest candidate")
     assert (
         with_flags("feature set 'top 7' left out (features=)") == "feature set 'top 7' left out (--features)"
@@ -86,7 +95,7 @@ def test_the_library_notes_name_arguments_and_the_command_prints_options(tmp_pat
 
     # the command prints the summary and the notes of the run through with_flags
     result = SimpleNamespace(
-        notes=[*notes, "threshold: from each training fold's histogram (Otsu) (threshold= to set one)"],
+        notes=notes,
         status="recommended",
         seconds=1.0,
         incomplete=[],
@@ -95,9 +104,8 @@ def test_the_library_notes_name_arguments_and_the_command_prints_options(tmp_pat
     monkeypatch.setattr(tactile_torch.tradeoff.job, "run_tradeoff_job", lambda *a, **k: (result, {}))
     monkeypatch.setattr(tactile_torch.tradeoff, "summary_lines", lambda r: [f"recommended: x ({RULE[:20]})"])
     assert main(["tradeoff", "--data", str(path), "--out", str(tmp_path / "o"), "--quiet"]) == 0
-    assert capsys.readouterr().out.splitlines()[:3] == [
+    assert capsys.readouterr().out.splitlines()[:2] == [
         "recommended: x (with --target ACC: the)",
-        f"note:        frame rate not given: {RATE:g} frames/s assumed (--frame-rate to set it)",
         "note:        --threshold: from each training fold's histogram (Otsu) (--threshold to set one)",
     ]
     # a late stage that failed (a bug): what was complete is written; one line, status 1, never 2

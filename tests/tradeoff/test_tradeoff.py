@@ -393,6 +393,7 @@ def test_tradeoff_on_small_taxel_arrays(tmp_path, monkeypatch):
         frames=200.0 + data.pressure.numpy(),
         labels=data.labels.numpy(),
         class_names=np.array(data.class_names),
+        frame_rate_hz=10.0,  # explorations state their rate: it is never assumed (issue 42)
     )
     cwd = tmp_path / "cwd"
     cwd.mkdir()
@@ -618,7 +619,9 @@ def test_csv_sessions_come_from_the_trailing_number(tmp_path):
 
     with pytest.raises(ValueError, match=r"n_folds: 4 folds asked, but the data allow 3"):
         plan_tradeoff(paths, n_folds=4, exact_folds=True, windows=[100], log=lambda s: None)
-    by_file = load_tradeoff_data(paths, csv_session="file")
+    from tactile_torch.robot.files.data_sources import DataOptions
+
+    by_file = load_tradeoff_data(paths, options=DataOptions(session_from="recording"))
     assert sorted(by_file.recordings.session.tolist())[0] == "cork_1"
 
 

@@ -39,7 +39,7 @@ import numpy as np
 from ...validation import saturate_float32
 from .npz import _too_large, max_read_bytes
 from .safe_write import write_atomic
-from .sample_times import RATE_TOLERANCE, TimeBase, describe_timing, rate_hz, stamp_resolution, time_base
+from .sample_times import RATE_TOLERANCE, TimeBase, rate_hz, stamp_resolution, time_base
 
 PathLike = str | os.PathLike
 
@@ -164,7 +164,7 @@ def integer_counts_message(where: str, found: str) -> str:
 
 @dataclass(frozen=True)
 class CsvLog:
-    """One CSV log as read by :func:`read_timed_csv_log`.
+    """One CSV log as read by :func:`read_csv_log`.
 
     Attributes
     ----------
@@ -178,6 +178,9 @@ class CsvLog:
         What the time stamps say, in their unit; ``seconds`` converts it.
     seconds : float
         Seconds per unit of the time column.
+    t : ndarray (n,) float64
+        Each sample's time stamp in seconds, as logged (an epoch time stays one): what
+        ``simulate-sensor`` plays back.
     """
 
     signal: np.ndarray
@@ -185,9 +188,10 @@ class CsvLog:
     gaps: np.ndarray
     timing: TimeBase
     seconds: float
+    t: np.ndarray
 
 
-def read_timed_csv_log(
+def read_csv_log(
     path: PathLike,
     *,
     columns: str | Sequence[str | int] | None = None,
@@ -196,7 +200,11 @@ def read_timed_csv_log(
     time_unit: str = "auto",
     sample_rate_hz: float | None = None,
 ) -> CsvLog:
-    """Read one CSV log; return its samples in g, its rate and the gaps of its time stamps.
+    """Read one CSV log; return its samples in g, its rate, the gaps of its time stamps and the stamps.
+
+    The one reader of a CSV log: :func:`tactile_torch.robot.files.formats.read_csv_recordings` reads
+    several with it (classes and sessions, one rate, one warning for all), ``simulate-sensor`` plays
+    one.
 
     The rate is the slope of ``t`` against the sample index between gaps (robust to stamps rounded
     to 0.1 ms or 1 ms, :func:`tactile_torch.robot.files.sample_times.time_base`), rounded to the digits the
@@ -208,7 +216,11 @@ def read_timed_csv_log(
     Raises
     ------
     ValueError
-        One line naming the file: see :func:`read_csv_log`.
+        One line naming the file: a missing column, a value that is not a finite number, fewer than
+        2 rows, time stamps that do not strictly increase, a rate implausible for the time unit
+        (declared or ``"auto"``) or off the stated one, integer counts without ``scale``, an unknown
+        unit, text that is not UTF-8, or a file whose parsing would exceed the read bound
+        (:func:`tactile_torch.robot.files.npz.max_read_bytes`, ``--max-read-mb``).
     """
     path = Path(path)
     if units not in UNITS:
@@ -265,7 +277,7 @@ def read_timed_csv_log(
         timing = time_base(values[:, 0], resolution=resolution, period=1.0 / (rate * seconds))
     factor = (1.0 if scale is None else float(scale)) * UNITS[units]
     signal = saturate_float32(values[:, 1:] * factor)
-    return CsvLog(signal, rate, timing.gaps, timing, seconds)
+    return CsvLog(signal, rate, timing.gaps, timing, seconds, values[:, 0] * seconds)
 
 
 def _read_table(path: Path, spec: list | None) -> tuple[np.ndarray, list[str] | None, list[int]]:
@@ -307,87 +319,11 @@ def _column_name(header: list[str] | None, column: int) -> str:
     return f"{column} ({header[column]})" if header is not None and column < len(header) else str(column)
 
 
-def read_csv_log(
-    path: PathLike,
-    *,
-    columns: str | Sequence[str | int] | None = None,
-    units: str = "g",
-    scale: float | None = None,
-    time_unit: str = "auto",
-    sample_rate_hz: float | None = None,
-) -> tuple[np.ndarray, float]:
-    """Read one CSV log; return ``(signal (n, 3) float32 in g, rate_hz)``.
-
-    Parameters
-    ----------
-    path : path
-    columns, units, scale, time_unit
-        See the module notes.
-    sample_rate_hz : float, optional
-        The sample rate, stated; the time stamps must agree with it within 5 %.
-
-    Returns
-    -------
-    signal : ndarray (n, 3) float32
-        ``value * scale * units factor`` (scale 1 when not given), in g.
-    rate_hz : float
-        The slope of ``t`` against the sample index between gaps, in the declared (or detected) time
-        unit (:func:`read_timed_csv_log`), or ``sample_rate_hz``. One warning says when the stamps
-        have gaps or steps further than 5 % from the period (beyond their resolution); the samples
-        are returned as one recording (:func:`read_timed_csv_log` gives the gaps).
-
-    Raises
-    ------
-    ValueError
-        One line naming the file: a missing column, a value that is not a finite number, fewer than
-        2 rows, time stamps that do not strictly increase, a rate implausible for the time unit
-        (declared or ``"auto"``) or off the stated one, integer counts without ``scale``, an unknown
-        unit, text that is not UTF-8, or a file whose parsing would exceed the read bound
-        (:func:`tactile_torch.robot.files.npz.max_read_bytes`, ``--max-read-mb``).
-    """
-    import warnings
-
-    log = read_timed_csv_log(
-        path, columns=columns, units=units, scale=scale, time_unit=time_unit, sample_rate_hz=sample_rate_hz
-    )
-    for line in describe_timing([(str(path), log.timing, log.seconds)]):
-        warnings.warn(line, stacklevel=2)
-    return log.signal, log.rate_hz
-
-
-def read_csv_recording(
-    path: PathLike,
-    *,
-    columns: str | Sequence[str | int] | None = None,
-    scale: float | None = None,
-    units: str = "g",
-    time_unit: str = "auto",
-    sample_rate_hz: float | None = None,
-) -> tuple[np.ndarray, float]:
-    """Read one CSV log of time and three accelerations; return ``(signal (n, 3) float32 in g, rate_hz)``.
-
-    ``columns`` (names or indices of t, x, y, z), ``units`` (``"g"``, ``"m/s2"``), ``scale`` (units
-    per count, required for integer counts), ``time_unit`` (``"s"``, ``"ms"``, ``"us"``,
-    ``"auto"``) and ``sample_rate_hz`` (the rate, stated) are those of :func:`read_csv_log`, which
-    reads the file (NumPy only). The rate is the slope of ``t`` against the sample index.
-
-    Raises
-    ------
-    ValueError
-        If a column is missing, a value is not a finite number, there are fewer than 2 rows, the
-        time stamps do not strictly increase, the rate is implausible for the time unit or off the
-        stated one, or the accelerations are integer counts without a ``scale``.
-    """
-    return read_csv_log(
-        path, columns=columns, units=units, scale=scale, time_unit=time_unit, sample_rate_hz=sample_rate_hz
-    )
-
-
 def write_csv_recording(path: PathLike, signal: np.ndarray, rate_hz: float) -> Path:
     """Write one recording ``(n, 3)`` in g as a CSV log with the header ``t,x,y,z``; return the path.
 
     Times are ``i / rate_hz`` seconds; values keep float32 precision (9 significant digits), so
-    :func:`read_csv_recording` gives the same samples and rate back.
+    :func:`read_csv_log` gives the same samples and rate back.
     """
     signal = np.asarray(signal)
     if signal.ndim != 2 or signal.shape[1] != 3:
@@ -408,7 +344,5 @@ __all__ = [
     "CsvLog",
     "integer_counts_message",
     "read_csv_log",
-    "read_csv_recording",
-    "read_timed_csv_log",
     "write_csv_recording",
 ]

@@ -20,9 +20,9 @@ import numpy as np
 
 from ...validation import FLOAT32_MAX
 from ..contract import DEFAULT_RANGE_G
-from ..ros2.bags import MAX_BAG_MESSAGES, is_bag, read_bag
+from ..ros2.bags import MAX_BAG_MESSAGES, is_bag, read_bag_topic
 from .csv_logs import STANDARD_GRAVITY, UNITS
-from .naming import names_for
+from .naming import recording_names
 from .sample_times import RATE_TOLERANCE, describe_timing, time_base
 
 PathLike = str | os.PathLike
@@ -63,7 +63,13 @@ class DataOptions:
     frames : int, optional
         Bags of pressure maps: frames per exploration (default: the shortest recording's length).
     index : path, optional
-        A CSV ``file,class[,session]`` giving each file's class and session (else the naming rule).
+        A CSV ``file,class[,session]`` giving each file's class and session (else the files' layout).
+    class_from : {"folder", "file"}, optional
+        Each file's class from its folder or its file name (default: the tree decides,
+        :func:`tactile_torch.robot.files.naming.recording_names`).
+    session_from : {"folder", "file", "recording"}, optional
+        Each file's session from its folder, its file name, or the file itself (default: the other
+        level than the class's).
     sensor_range_g : float
         Samples beyond ±this are refused (``inf``: no check).
     max_messages : int
@@ -87,6 +93,8 @@ class DataOptions:
     msg_defs: tuple = ()
     frames: int | None = None
     index: PathLike | None = None
+    class_from: str | None = None
+    session_from: str | None = None
     sensor_range_g: float = DEFAULT_RANGE_G
     max_messages: int = MAX_BAG_MESSAGES
     allow_pickle: bool = False
@@ -99,15 +107,29 @@ def _kind_of(path: Path) -> str:
     return "csv" if path.suffix.lower() == ".csv" else "npz"
 
 
+def _frame_recording(path: Path) -> bool:
+    """Whether one ``.npz`` is a frame recording (``frames`` and ``t``), from its member names only."""
+    import zipfile
+
+    try:
+        with zipfile.ZipFile(path) as archive:
+            members = set(archive.namelist())
+    except (OSError, zipfile.BadZipFile):
+        return False  # the reader says what is wrong with it
+    return {"frames.npy", "t.npy"} <= members
+
+
 def read_source(paths: PathLike | Sequence[PathLike], options: DataOptions | None = None):
     """Read ``paths`` (one ``.npz``, CSV logs, or ROS 2 bags) with ``options``; return its arrays.
 
     Returns
     -------
-    ExplorationArrays, RecordingArrays or FeatureArrays
-        As :func:`tactile_torch.robot.files.formats.read_data` (``.kind`` says which). Vibration recordings are
+    ExplorationArrays, RecordingArrays, FeatureArrays or FrameRecordings
+        As :func:`tactile_torch.robot.files.formats.read_data` (``.kind`` says which); frame recordings
+        (``.npz`` of ``frames`` and ``t``, one or several) as
+        :func:`~tactile_torch.robot.files.frame_recordings.read_frame_recordings`. Vibration recordings are
         in g and have passed :func:`check_recordings`; ``RecordingArrays.session`` is set from the
-        naming rule or the index.
+        files' layout or the index.
 
     Raises
     ------
@@ -123,11 +145,20 @@ def read_source(paths: PathLike | Sequence[PathLike], options: DataOptions | Non
     if not paths:
         raise ValueError("data must name a .npz file, CSV logs or ROS 2 bags, got none")
     kinds = {_kind_of(p) for p in paths}
-    if len(kinds) > 1 or (kinds == {"npz"} and len(paths) > 1):
+    if len(kinds) > 1:
         raise ValueError(
-            f"data must be one .npz file, or CSV logs, or ROS 2 bags (one kind), got {[str(p) for p in paths]}"
+            f"data must be one .npz file, frame recordings, CSV logs or ROS 2 bags (one kind), got {[str(p) for p in paths]}"
         )
     kind = kinds.pop()
+    if kind == "npz" and (len(paths) > 1 or _frame_recording(paths[0])):
+        from .frame_recordings import read_frame_recordings
+
+        arrays = [read_npz(p, what="data file (.npz of docs/formats.md)") for p in paths]
+        if len(paths) > 1 and not all("frames" in a and "t" in a for a in arrays):
+            raise ValueError(
+                f"data must be one .npz file, or frame recordings (frames and t), got {[str(p) for p in paths]}"
+            )
+        return read_frame_recordings(paths, options, arrays=arrays)
     units = options.units or "g"
     if units not in UNITS:
         raise ValueError(f"units must be one of {list(UNITS)}, got {units!r}")
@@ -140,6 +171,8 @@ def read_source(paths: PathLike | Sequence[PathLike], options: DataOptions | Non
         data = read_csv_recordings(
             paths,
             index=options.index,
+            class_from=options.class_from,
+            session_from=options.session_from,
             columns=options.columns,
             scale=options.scale,
             units=units,
@@ -200,23 +233,13 @@ def _check_stated(stated: float, found: float, what: str) -> None:
         )
 
 
-def read_bag_topic(path: PathLike, options: DataOptions):
-    """Read the topic of the bag ``path`` that ``options`` name (:func:`tactile_torch.robot.ros2.bags.read_bag`)."""
-    return read_bag(
-        path,
-        options.topic,
-        shape=options.shape,
-        field=options.field,
-        sensor=options.sensor,
-        msg_defs=options.msg_defs,
-        max_messages=options.max_messages,
-    )
-
-
 def _read_bags(paths: list[Path], options: DataOptions):
     from .formats import RecordingArrays
 
-    classes, sessions = names_for(paths, index=options.index)
+    names = recording_names(
+        paths, index=options.index, class_from=options.class_from, session_from=options.session_from
+    )
+    classes, sessions = names.classes, names.sessions
     topics = [read_bag_topic(p, options) for p in paths]
     kinds = {t.kind for t in topics}
     if len(kinds) > 1:
@@ -286,8 +309,9 @@ def _explorations(topics, labels: np.ndarray, names: tuple[str, ...], frames: in
         parts.append(t.values[: n * frames].reshape(n, frames, *t.values.shape[1:]))
         y += [label] * n
         groups += [g] * n
+    rate = float(np.median([t.rate_hz for t in topics]))  # the stamps' rate: a bag states its frame rate
     return ExplorationArrays(
-        None, np.concatenate(parts), np.array(y, np.int64), names, np.array(groups, np.int64)
+        None, np.concatenate(parts), np.array(y, np.int64), names, np.array(groups, np.int64), rate
     )
 
 
@@ -349,4 +373,4 @@ def check_recordings(
             )
 
 
-__all__ = ["GRAVITY_BAND_G", "DataOptions", "check_recordings", "read_bag_topic", "read_source"]
+__all__ = ["GRAVITY_BAND_G", "DataOptions", "check_recordings", "read_source"]

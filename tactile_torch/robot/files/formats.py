@@ -12,7 +12,7 @@ format                     contents
 =========================  =====================================================================
 image explorations .npz    ``frames`` uint8 ``(N, T, H, W, 3)`` RGB (or float pressure maps
                            ``(N, T, H, W)``), ``labels`` int ``(N,)``, ``class_names`` str ``(C,)``,
-                           optional ``groups`` int ``(N,)``
+                           optional ``groups`` int ``(N,)`` and ``frame_rate_hz`` float
 vibration recordings .npz  ``signals`` float in g: ``(R, n, 3)`` when the recordings are equally
                            long, else all samples concatenated ``(sum n_i, 3)`` with ``lengths``
                            int ``(R,)``; ``labels`` int ``(R,)``, ``class_names`` str ``(C,)``,
@@ -48,8 +48,8 @@ from pathlib import Path
 import numpy as np
 
 from ...validation import saturate_float32
-from .csv_logs import integer_counts_message, read_timed_csv_log
-from .naming import check_class_names, names_for
+from .csv_logs import integer_counts_message, read_csv_log
+from .naming import check_class_names, recording_names
 from .npz import PathLike, read_npz, write_npz
 from .sample_times import describe_timing
 
@@ -70,6 +70,7 @@ class ExplorationArrays:
     labels : ndarray (N,) int64
     class_names : tuple of str
     groups : ndarray (N,) int64, or None
+    frame_rate_hz : float or None (frames per second, when the file states it; never assumed)
     """
 
     frames: np.ndarray | None
@@ -77,6 +78,7 @@ class ExplorationArrays:
     labels: np.ndarray
     class_names: tuple[str, ...]
     groups: np.ndarray | None = None
+    frame_rate_hz: float | None = None
     kind = "image"
 
     def __len__(self) -> int:
@@ -253,7 +255,10 @@ def _explorations(arrays: dict[str, np.ndarray], path: Path) -> ExplorationArray
     groups = arrays.get("groups")
     if groups is not None:
         groups = _int_vector(groups, path, "groups", n)
-    return ExplorationArrays(frames, pressure, labels, names, groups)
+    rate = arrays.get("frame_rate_hz")
+    if rate is not None and not (rate.shape == () and rate.dtype.kind in "fiu" and 0 < rate < np.inf):
+        raise ValueError(f"{path}: frame_rate_hz must be a number of frames/s > 0, got {rate!r}")
+    return ExplorationArrays(frames, pressure, labels, names, groups, None if rate is None else float(rate))
 
 
 def write_explorations(path: PathLike, data: ExplorationArrays) -> Path:
@@ -272,6 +277,8 @@ def write_explorations(path: PathLike, data: ExplorationArrays) -> Path:
     }
     if data.groups is not None:
         arrays["groups"] = np.asarray(data.groups, dtype=np.int64)
+    if data.frame_rate_hz is not None:
+        arrays["frame_rate_hz"] = np.float64(data.frame_rate_hz)
     path = _data_path(path)
     _explorations(arrays, path)  # refuse to write what would not read back
     return write_npz(path, arrays)
@@ -424,6 +431,8 @@ def read_csv_recordings(
     class_names: Sequence[str] | None = None,
     sessions: Sequence[str] | None = None,
     index: PathLike | None = None,
+    class_from: str | None = None,
+    session_from: str | None = None,
     columns: str | Sequence[str | int] | None = None,
     scale: float | None = None,
     units: str = "g",
@@ -432,24 +441,28 @@ def read_csv_recordings(
 ) -> RecordingArrays:
     """Read CSV logs (one recording each) sharing one sample rate as :class:`RecordingArrays`.
 
-    Each file's class and session come from ``class_names``/``sessions``, else an ``index`` CSV
-    (``file,class[,session]``), else the naming rule (``felt_3.csv`` → class ``felt``, session
-    ``3``; ``day2/felt.csv`` → session ``day2`` when the files lie in several folders;
-    :func:`tactile_torch.robot.files.naming.names_for`). Labels index the sorted distinct classes.
-    ``columns``, ``scale``, ``units``, ``time_unit``, ``sample_rate_hz``: see
-    :func:`~tactile_torch.robot.files.csv_logs.read_csv_log`. The files must share one sample rate within
-    0.1 % (:meth:`tactile_torch.data.VibrationRecordings.resample` converts). Gaps in the time stamps
-    are kept in ``gaps`` (no window spans one); gaps and irregular steps give one warning each for
-    all the files (:func:`tactile_torch.robot.files.sample_times.describe_timing`), not one per file.
+    The one reader of several CSV logs (every ``--data``, the data sets' loaders, Python). Classes and
+    sessions: ``class_names``/``sessions``, an ``index`` CSV, or the files' layout with ``class_from`` /
+    ``session_from`` (:func:`tactile_torch.robot.files.naming.recording_names`); labels index the sorted
+    classes. ``columns`` ... ``sample_rate_hz``: :func:`~tactile_torch.robot.files.csv_logs.read_csv_log`.
+    One sample rate within 0.1 % (resample others alone: ``VibrationRecordings.resample``); gaps kept in
+    ``gaps``; one warning per finding for all the files (``sample_times.describe_timing``).
     """
     import warnings
 
     paths = [Path(p) for p in paths]
     if not paths:
         raise ValueError("paths must name at least one CSV file, got none")
-    names, session = names_for(paths, class_names=class_names, sessions=sessions, index=index)
+    names = recording_names(
+        paths,
+        class_names=class_names,
+        sessions=sessions,
+        index=index,
+        class_from=class_from,
+        session_from=session_from,
+    )
     logs = [
-        read_timed_csv_log(
+        read_csv_log(
             p, columns=columns, scale=scale, units=units, time_unit=time_unit, sample_rate_hz=sample_rate_hz
         )
         for p in paths
@@ -459,19 +472,20 @@ def read_csv_recordings(
         odd = int(np.argmax(np.abs(rates / rates[0] - 1)))
         raise ValueError(
             f"the files have different sample rates ({paths[0]}: {rates[0]:g} Hz, {paths[odd]}: "
-            f"{rates[odd]:g} Hz); resample them to a common rate (load_vibration_csv(..., rate_hz=))"
+            f"{rates[odd]:g} Hz); resample them to a common rate first (each file read alone, "
+            "tactile_torch.data.VibrationRecordings.resample)"
         )
     for line in describe_timing(
         [(str(p), log.timing, log.seconds) for p, log in zip(paths, logs, strict=True)]
     ):
         warnings.warn(line, stacklevel=2)
-    classes = check_class_names(sorted(set(names)), "class names (of the CSV files)")
+    classes = check_class_names(sorted(set(names.classes)), "class names (of the CSV files)")
     return RecordingArrays(
         signals=[log.signal for log in logs],
-        labels=np.array([classes.index(n) for n in names], dtype=np.int64),
+        labels=np.array([classes.index(n) for n in names.classes], dtype=np.int64),
         class_names=classes,
         rate_hz=float(rates[0]),
-        session=np.array(session),
+        session=np.array(names.sessions),
         gaps=[log.gaps for log in logs] if any(log.gaps.size for log in logs) else None,
     )
 
@@ -542,14 +556,8 @@ def read_data(
 ) -> ExplorationArrays | RecordingArrays | FeatureArrays:
     """Read one data file of any kind, or CSV logs; return its arrays (``.kind`` says which).
 
-    Parameters
-    ----------
-    paths : path or sequence of paths
-        One ``.npz`` (image explorations, vibration recordings or a feature matrix, told apart by
-        ``frames``, ``signals`` or ``features``), or one or more ``.csv`` logs (one recording each,
-        class from the file name, see :func:`read_csv_recordings`).
-    allow_pickle : bool
-        Vibration files only: read the legacy pickled object array of a trusted file.
+    ``paths``: one ``.npz`` (explorations, recordings or features: ``frames``, ``signals``, ``features``), or
+    ``.csv`` logs (:func:`read_csv_recordings`). ``allow_pickle``: a trusted legacy vibration file only.
     """
     paths = [Path(paths)] if isinstance(paths, str | os.PathLike) else [Path(p) for p in paths]
     if not paths:

@@ -20,7 +20,14 @@ ROS 2 bag                       a topic of frames (:mod:`tactile_torch.robot.ros
                                 (else receive stamps) as ``t``; the class from the bag's name (docs/formats.md)
 ==============================  ==========================================================================
 
-:func:`write_frame_recording` writes the first form. numpy only (bags need the ``ros`` extra).
+:func:`write_frame_recording` writes the first form. Several frame recordings read together for training
+(:func:`read_frame_recordings`, what ``--data`` of frame recordings gives) are :class:`FrameRecordings`:
+each frame's class from the files' ``labels``, or one class per file from the files' layout
+(:func:`tactile_torch.robot.files.naming.recording_names`), and each file's session; the training side
+cuts them into touches with the live stream's own stages (:mod:`tactile_torch.robot.stream.recorded_touches`).
+The frame rate is the slope of ``t`` against the frame index (:func:`tactile_torch.robot.files.sample_times.time_base`,
+the rule of the samples' time stamps); explorations (no ``t``) state theirs in ``frame_rate_hz``, or it is
+given, never assumed. numpy only (bags need the ``ros`` extra).
 """
 
 from __future__ import annotations
@@ -31,6 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from .npz import PathLike, read_npz, write_npz
+from .sample_times import rate_hz, time_base
 
 DEFAULT_REST_S = 0.5
 """Seconds of resting frames after each exploration when a file of explorations is played as one recording."""
@@ -64,10 +72,15 @@ class FrameRecording:
 
     @property
     def rate_hz(self) -> float:
-        """Frames per second: one over the median step of ``t``."""
+        """Frames per second: the slope of ``t`` against the frame index between gaps (NaN below 2 frames).
+
+        The rule of the samples' time stamps (:func:`tactile_torch.robot.files.sample_times.time_base`):
+        stamps rounded or jittered by a logger, and gaps, do not bias it as a median step would.
+        """
         if len(self.t) < 2:
             return float("nan")
-        return float(1.0 / np.median(np.diff(self.t)))
+        base = time_base(self.t - self.t[0])
+        return rate_hz(base.period, base.period_error)
 
     @property
     def rgb(self) -> bool:
@@ -107,10 +120,18 @@ def _check(rec: FrameRecording) -> FrameRecording:
     return rec
 
 
-def _from_explorations(path: Path, recording: int | None, rate_hz: float, rest_s: float) -> FrameRecording:
+def _from_explorations(
+    path: Path, recording: int | None, frame_rate_hz: float | None, rest_s: float
+) -> FrameRecording:
     from .formats import read_explorations
 
     data = read_explorations(path)
+    frame_rate_hz = frame_rate_hz or data.frame_rate_hz
+    if frame_rate_hz is None:
+        raise ValueError(
+            f"frame_rate_hz: {path} holds explorations without 't' or 'frame_rate_hz', so their frame rate is "
+            "unknown; give it (frame_rate_hz=)"
+        )
     x = data.frames if data.frames is not None else data.pressure
     if recording is not None:
         if not 0 <= recording < len(x):
@@ -119,13 +140,13 @@ def _from_explorations(path: Path, recording: int | None, rate_hz: float, rest_s
         labels = np.full(len(frames), int(data.labels[recording]), dtype=np.int64)
     else:
         rest = np.full(x.shape[2:], 255, np.uint8) if x.ndim == 5 else x.min(axis=(0, 1))
-        n_rest = max(1, round(rest_s * rate_hz))
+        n_rest = max(1, round(rest_s * frame_rate_hz))
         parts, labels = [], []
         for frames_i, label in zip(x, data.labels, strict=True):
             parts += [frames_i, np.broadcast_to(rest, (n_rest, *rest.shape))]
             labels += [int(label)] * len(frames_i) + [-1] * n_rest
         frames, labels = np.concatenate(parts), np.array(labels, dtype=np.int64)
-    t = np.arange(len(frames)) / float(rate_hz)
+    t = np.arange(len(frames)) / float(frame_rate_hz)
     return FrameRecording(frames, t, labels, tuple(data.class_names), str(path))
 
 
@@ -133,7 +154,7 @@ def read_frame_recording(
     path: PathLike,
     *,
     recording: int | None = None,
-    rate_hz: float = 10.0,
+    frame_rate_hz: float | None = None,
     rest_s: float = DEFAULT_REST_S,
     options=None,
 ) -> FrameRecording:
@@ -144,8 +165,8 @@ def read_frame_recording(
     path : path
     recording : int, optional
         Explorations: play only this one (default: all, with rest between them).
-    rate_hz : float
-        Explorations: frames per second (default 10, the study's).
+    frame_rate_hz : float, optional
+        Explorations: frames per second (default: the file's ``frame_rate_hz``; one of them is needed).
     rest_s : float
         Explorations: seconds of rest after each one.
     options : DataOptions, optional
@@ -156,23 +177,22 @@ def read_frame_recording(
     ValueError
         One line naming the file: not a recording, vibration data, malformed fields.
     """
-    if not rate_hz > 0 or not rest_s >= 0:
-        raise ValueError(f"rate_hz must be > 0 and rest_s >= 0, got {rate_hz!r} and {rest_s!r}")
+    if not (frame_rate_hz is None or frame_rate_hz > 0) or not rest_s >= 0:
+        raise ValueError(f"frame_rate_hz must be > 0 and rest_s >= 0, got {frame_rate_hz!r} and {rest_s!r}")
     from ..ros2.bags import is_bag
 
     path = Path(path)
     if is_bag(path):
-        from .data_sources import DataOptions, read_bag_topic
-        from .naming import names_for
+        from ..ros2.bags import read_bag_topic
+        from .naming import recording_names
 
-        options = options or DataOptions()
         topic = read_bag_topic(path, options)
         if topic.kind != "frame":
             raise ValueError(
                 f"{topic.name} holds {topic.msgtype}, not frames (Float32MultiArray, Image, TactileState, or a "
                 "field= of numbers)"
             )
-        classes, _ = names_for([path], index=getattr(options, "index", None))
+        classes = recording_names([path], index=getattr(options, "index", None)).classes
         labels = np.zeros(len(topic.values), dtype=np.int64)
         return _check(FrameRecording(topic.values, topic.stamps_s, labels, (classes[0],), topic.name))
     arrays = read_npz(path, what="frame recording (.npz of frames and t)")
@@ -181,9 +201,14 @@ def read_frame_recording(
     if "frames" not in arrays:
         raise ValueError(f"{path}: expected 'frames' (and 't' for a recording), found {sorted(arrays)}")
     if "t" not in arrays:
-        return _check(_from_explorations(path, recording, float(rate_hz), float(rest_s)))
+        return _check(_from_explorations(path, recording, frame_rate_hz, float(rest_s)))
     if recording is not None:
         raise ValueError(f"recording: {path} is one frame recording (it has 't'); play it whole")
+    return _from_arrays(arrays, path)
+
+
+def _from_arrays(arrays: dict[str, np.ndarray], path: Path) -> FrameRecording:
+    """The checked :class:`FrameRecording` of a frame recording file's arrays (``frames`` and ``t``)."""
     names = None
     if "class_names" in arrays:
         from .formats import _names
@@ -193,6 +218,130 @@ def read_frame_recording(
     if rec.labels is not None and names is None:
         raise ValueError(f"{path}: labels need class_names")
     return _check(rec)
+
+
+@dataclass
+class FrameRecordings:
+    """Frame recordings read together (a hand's logs, the training data of a taxel array): what
+    :func:`read_frame_recordings` and ``--data`` of frame recordings give.
+
+    Attributes
+    ----------
+    recordings : list of FrameRecording
+        In the order given; with per-frame ``labels`` that index ``class_names`` (the files' own, merged),
+        or none.
+    class_names : tuple of str
+    file_labels : ndarray of shape (R,) int64, or None
+        Each recording's class (index into ``class_names``) when the files carry no per-frame labels:
+        from the files' layout (their names, folders, or an index CSV).
+    session : ndarray of shape (R,) str
+        Each recording's session (what held-out splits keep on one side).
+    """
+
+    recordings: list[FrameRecording]
+    class_names: tuple[str, ...]
+    file_labels: np.ndarray | None
+    session: np.ndarray
+    kind = "frame recording"
+
+    def __len__(self) -> int:
+        return len(self.recordings)
+
+
+def labelled_recordings(paths) -> bool:
+    """Whether every path is a frame recording ``.npz`` that labels its frames (``t`` and ``labels``), from the
+    archives' member names (nothing is read)."""
+    import zipfile
+
+    try:
+        for path in paths:
+            with zipfile.ZipFile(path) as archive:
+                if not {"frames.npy", "t.npy", "labels.npy"} <= set(archive.namelist()):
+                    return False
+    except (OSError, zipfile.BadZipFile):
+        return False
+    return bool(paths)
+
+
+def recordings_layout(paths, options=None, *, labelled: bool):
+    """Return the classes and sessions frame recordings get from their files (:class:`~.naming.RecordingNames`).
+
+    Files that label their frames take only their sessions from the layout: their folder when they lie in
+    several, else their name (``session_from`` or an index to say otherwise); the others take their class
+    and session as any recording file (:func:`~.naming.recording_names`).
+    """
+    from .naming import FRAME_LABELS, RecordingNames, folder_names, recording_names
+
+    index, class_from, session_from = (
+        getattr(options, k, None) for k in ("index", "class_from", "session_from")
+    )
+    if not labelled:
+        return recording_names(paths, index=index, class_from=class_from, session_from=session_from)
+    several = folder_names(paths) is not None
+    names = recording_names(
+        paths,
+        index=index,
+        class_from=None if index else "file",
+        session_from=None if index else session_from or ("folder" if several else "file"),
+    )
+    return RecordingNames(
+        ("(their frames' labels)",) * len(paths),
+        names.sessions,
+        FRAME_LABELS,
+        "the labels give the classes; "
+        + ("the folders" if several and not index else "the index" if index else "the file names")
+        + " the sessions",
+    )
+
+
+def read_frame_recordings(paths, options=None, *, arrays: list | None = None) -> FrameRecordings:
+    """Read frame recording ``.npz`` files (``frames`` and ``t``) for training; return :class:`FrameRecordings`.
+
+    Files that label their frames (``labels``, ``class_names``) keep them, their class names merged; files
+    that do not get one class each, and every file a session, from the files' layout with ``options``'
+    ``index``, ``class_from`` and ``session_from`` (:func:`tactile_torch.robot.files.naming.recording_names`;
+    the sessions of labelled files from their folders, else their names). ``arrays``: the files' arrays
+    when already read.
+
+    Raises
+    ------
+    ValueError
+        One line naming the file: not a frame recording, malformed fields, frames of different shapes,
+        some files labelled and others not.
+    """
+    from .naming import check_class_names
+
+    paths = [Path(p) for p in paths]
+    arrays = arrays or [read_npz(p, what="frame recording (.npz of frames and t)") for p in paths]
+    for path, a in zip(paths, arrays, strict=True):
+        if "frames" not in a or "t" not in a:
+            raise ValueError(
+                f"{path}: a frame recording needs 'frames' and 't' (docs/formats.md), found {sorted(a)}"
+            )
+    recs = [_from_arrays(a, p) for a, p in zip(arrays, paths, strict=True)]
+    shapes = {r.frames.shape[1:] for r in recs}
+    if len(shapes) > 1:
+        raise ValueError(
+            f"the recordings hold frames of different shapes ({sorted(shapes)}); give those of one sensor"
+        )
+    labelled = [r.labels is not None for r in recs]
+    if any(labelled) and not all(labelled):
+        odd = paths[labelled.index(not labelled[0])]
+        raise ValueError(
+            f"{odd}: the frame recordings must all label their frames (labels, class_names) or none"
+        )
+    names = recordings_layout(paths, options, labelled=all(labelled))
+    if all(labelled):
+        classes = check_class_names(
+            sorted({c for r in recs for c in r.class_names}), "class names (of the recordings)"
+        )
+        for r in recs:
+            lookup = np.array([classes.index(c) for c in r.class_names] + [-1], dtype=np.int64)
+            r.labels, r.class_names = lookup[r.labels], classes
+        return FrameRecordings(recs, classes, None, np.array(names.sessions))
+    classes = check_class_names(sorted(set(names.classes)), "class names (of the recordings)")
+    file_labels = np.array([classes.index(c) for c in names.classes], dtype=np.int64)
+    return FrameRecordings(recs, classes, file_labels, np.array(names.sessions))
 
 
 def write_frame_recording(path: PathLike, recording: FrameRecording) -> Path:
@@ -219,7 +368,11 @@ def touch_labels(recording: FrameRecording, start: int, frames: int) -> int:
 __all__ = [
     "DEFAULT_REST_S",
     "FrameRecording",
+    "FrameRecordings",
+    "labelled_recordings",
     "read_frame_recording",
+    "read_frame_recordings",
+    "recordings_layout",
     "touch_labels",
     "write_frame_recording",
 ]

@@ -6,21 +6,23 @@ headers and copies numbers, so a crafted file cannot run code (``torch.load`` un
 its ``weights_only=True`` mode runs an unpickler over the file; this format has none). This module
 needs NumPy only, so a robot can read and check a model file's header without torch.
 
-Layout (format version 1, ``docs/formats.md``):
+Layout (``docs/formats.md``; the versions: :data:`FORMAT_VERSION`):
 
 ``header`` (JSON)
     ``format`` = ``"tactile-torch/model"``, ``format_version``, ``library_version``, ``kind``
     (``"classifier"`` or ``"clustering"``), ``method`` (``hmsvm``, ``svm``, ``lda``, ``knn``, ``ncm``,
-    ``pyp``), ``class_names``
-    (in the order of the head's labels), ``source`` (how the raw input becomes features: ``kind``
-    ``"vibration"`` with ``window``, ``step``, ``rate_hz``; ``"image"`` with ``fuse``,
-    ``frame_shape`` ``[T, 3, H, W]`` and optionally ``threshold`` (gray level, default 240/255) and
-    ``erosion`` (pixels, default 10); ``"features"`` with ``n_features``), ``head`` (its ``type``
-    and settings), optional ``transform``, ``params`` (hyper-parameters), ``test_accuracy``,
-    ``summary``; classifiers: ``ood`` (``type`` ``"mahalanobis"``, ``quantile``, ``threshold``: the
-    out-of-distribution distance of :mod:`tactile_torch.ood`); clusterings: ``per_session`` (bool,
-    optional: fitted to features standardised per session; not exportable), ``novelty``
-    (optional: ``false_alarm``, ``calibration_rows``: how ``head.novelty_thresholds`` were set).
+    ``pyp``), ``class_names`` (in the order of the head's labels), ``source`` (how the raw input becomes
+    features: ``kind`` ``"vibration"`` with ``window``, ``step``, ``rate_hz``; ``"image"`` with ``fuse``,
+    ``frame_shape`` ``[T, 3, H, W]`` and optionally ``threshold`` (gray level, default 240/255), ``erosion``
+    (pixels, default 10) and ``features`` (``"per-taxel"``: each pixel's time series, instead of the image
+    features); ``"pressure"`` (raw pressure maps) with ``frame_shape`` ``[T, H, W]`` and ``features``
+    ``"per-taxel"``; frame sources also keep what the live stream needs: ``frame_rate_hz``, ``touch_levels``,
+    ``value_range``, ``early_decision``; ``"features"`` with ``n_features``), ``head`` (its ``type`` and
+    settings), optional ``transform``, ``params`` (hyper-parameters), ``test_accuracy``, ``summary``;
+    classifiers: ``ood`` (``type`` ``"mahalanobis"``, ``quantile``, ``threshold``: the out-of-distribution
+    distance of :mod:`tactile_torch.ood`); clusterings: ``per_session`` (bool, optional: fitted to features
+    standardised per session; not exportable), ``novelty`` (optional: ``false_alarm``, ``calibration_rows``:
+    how ``head.novelty_thresholds`` were set).
 ``scale`` ``(F,)``
     classifiers: the training standard deviation each feature is divided by.
 ``center`` ``(F,)`` (optional)
@@ -29,16 +31,15 @@ Layout (format version 1, ``docs/formats.md``):
     classifiers: the columns of the front end's features the head takes (best-ranked subsets),
     applied before ``center`` and ``scale``.
 ``head.<name>``
-    the head's arrays: an SVM's ``support_vectors`` ``(S, F)``, ``dual_coef`` ``(M, S)``,
-    ``intercept`` ``(M,)`` (and the tree tables of a hierarchical SVM); a linear head's (LDA, nearest
-    class mean) ``coef`` ``(M, F)``, ``intercept`` ``(M,)``; a nearest-neighbour head's training
-    ``samples`` ``(T, F)`` and ``labels`` ``(T,)``; a mixture's ``means``
-    ``(K, D)``, ``precisions_cholesky`` ``(K, D, D)``, ``log_weights`` ``(K,)`` and optionally
-    ``novelty_thresholds`` ``(W,)`` (the calibrated threshold of the mean novelty score over
-    N = 1 … W windows; empty: not calibrated) and the new-component density (``novelty_means``, ...);
-    with the head's ``cluster_features`` K (< F): ``means`` ``(C, K)`` on the first K features and the
-    novelty density over all F, ``density_means`` ``(Q, F)``, ``density_precisions_cholesky``
-    ``(Q, F, F)``, ``density_log_weights`` ``(Q,)``.
+    the head's arrays: an SVM's ``support_vectors`` ``(S, F)``, ``dual_coef`` ``(M, S)``, ``intercept``
+    ``(M,)`` (and the tree tables of a hierarchical SVM); a linear head's (LDA, nearest class mean) ``coef``
+    ``(M, F)``, ``intercept`` ``(M,)``; a nearest-neighbour head's training ``samples`` ``(T, F)`` and
+    ``labels`` ``(T,)``; a mixture's ``means`` ``(K, D)``, ``precisions_cholesky`` ``(K, D, D)``,
+    ``log_weights`` ``(K,)`` and optionally ``novelty_thresholds`` ``(W,)`` (the calibrated threshold of the
+    mean novelty score over N = 1 … W windows; empty: not calibrated) and the new-component density
+    (``novelty_means``, ...); with the head's ``cluster_features`` K (< F): ``means`` ``(C, K)`` on the first
+    K features and the novelty density over all F, ``density_means`` ``(Q, F)``,
+    ``density_precisions_cholesky`` ``(Q, F, F)``, ``density_log_weights`` ``(Q,)``.
 ``ood.means`` ``(C, F)``, ``ood.precision_cholesky`` ``(F, F)``, ``ood.offset`` ``(F,)``, and the second view ``ood.floor`` ``(F,)``, ``ood.log_means``, ``ood.log_precision_cholesky``, ``ood.norm`` ``(2,)``
     classifiers: the statistics of the out-of-distribution distance (:mod:`tactile_torch.ood`; older
     files lack them, or the offset and the second view).
@@ -46,13 +47,12 @@ Layout (format version 1, ``docs/formats.md``):
     clusterings of vibration windows: the fitted attributes of the
     :class:`~tactile_torch.signal.ClusteringTransform` (``mean_``, ``scale_``, ``components_``, ...).
 
-:func:`load_model_file` validates all of it against :data:`HEADS` and :data:`TRANSFORMS` (field
-types, shapes that agree with each other, finite values, indices in range) and refuses anything else
-with one line naming the file and the field. What the arrays mean is the business of
-:mod:`tactile_torch.training` (classifiers) and :mod:`tactile_torch.clustering_model` (clusterings),
-which build their kind's header and arrays and write them through :func:`save_model_file`, the one
-writer; :func:`load_model_file` is the one reader, used by every command. Building the torch pipeline
-from any model file is :mod:`tactile_torch.export.model_graph`'s.
+:func:`load_model_file` validates all of it against :data:`HEADS` and :data:`TRANSFORMS` (field types, shapes
+that agree with each other, finite values, indices in range) and refuses anything else with one line naming
+the file and the field. What the arrays mean is the business of :mod:`tactile_torch.training` (classifiers)
+and :mod:`tactile_torch.clustering_model` (clusterings), which build their kind's header and arrays and write
+them through :func:`save_model_file`, the one writer; :func:`load_model_file` is the one reader, used by every
+command. Building the torch pipeline from any model file is :mod:`tactile_torch.export.model_graph`'s.
 """
 
 from __future__ import annotations
@@ -71,9 +71,10 @@ from .naming import check_class_names
 from .npz import MAX_READ_ENV, PathLike, max_read_bytes, read_npz, write_npz
 
 FORMAT = "tactile-torch/model"
-FORMAT_VERSION = 2
-"""Newest layout read and written here (2: ``center``, ``select``, ``linear`` and ``neighbours`` heads;
-files without them are written as version 1); files of a newer version are refused with a clear message."""
+FORMAT_VERSION = 3
+"""Newest layout read and written here (2: ``center``, ``select``, ``linear`` and ``neighbours`` heads; 3:
+per-taxel sources, ``source.features`` and the ``pressure`` kind; files without them are written as the
+oldest version that holds them); files of a newer version are refused with a clear message."""
 MODEL_KINDS = ("classifier", "clustering")
 HEADER = "header"
 
@@ -161,6 +162,7 @@ DIMENSIONS = {
 METHODS = {"classifier": ("hmsvm", "svm", "lda", "knn", "ncm"), "clustering": ("pyp",)}
 VIBRATION_FEATURES = 21  # window_features: 7 per axis
 IMAGE_FEATURES = 12  # exploration_features per fused image (or per frame without fusion)
+TAXEL_FEATURES = 7  # window features of one taxel's time series (per-taxel features)
 
 
 @dataclass(frozen=True)
@@ -215,18 +217,20 @@ def save_model_file(path: PathLike, header: Mapping, arrays: Mapping[str, np.nda
     """
     from ... import __version__
 
-    arrays_given = {k: np.asarray(v) for k, v in arrays.items()}
+    arrays = {k: np.asarray(v) for k, v in arrays.items()}
     head_type = (header.get("head") or {}).get("type") if isinstance(header.get("head"), dict) else None
-    # Version 2 added what a version-1 reader would misread or refuse (centring, column selection, the
-    # linear and nearest-neighbour heads); files without them stay version 1, readable by older versions.
-    newer = "center" in arrays_given or "select" in arrays_given or head_type in ("linear", "neighbours")
+    # Each version adds what the previous one's reader would misread or refuse (2: centring, column selection,
+    # the linear and nearest-neighbour heads; 3: per-taxel and pressure sources); a file is written as the
+    # oldest version that holds it, readable by older versions of tactile-torch.
+    newer = "center" in arrays or "select" in arrays or head_type in ("linear", "neighbours")
+    source = header.get("source") if isinstance(header.get("source"), dict) else {}
+    taxels = "features" in source or source.get("kind") == "pressure"
     header = {
         "format": FORMAT,
-        "format_version": FORMAT_VERSION if newer else 1,
+        "format_version": 3 if taxels else 2 if newer else 1,
         "library_version": __version__,
         **dict(header),
     }
-    arrays = {k: np.asarray(v) for k, v in arrays.items()}
     if HEADER in arrays:
         raise ValueError(f"arrays must not be named {HEADER!r} (the JSON header)")
     validate_model(header, arrays, where="model")
@@ -341,9 +345,8 @@ def _check_source(where: str, source: object) -> int | None:
     if kind == "vibration":
         for name, want in (("window", int), ("step", int), ("rate_hz", float)):
             _check_type(where, f"source.{name}", source.get(name), want)
-        if (
-            not MIN_WINDOW <= source["window"] <= MAX_WINDOW
-        ):  # what train makes; checked before any allocation
+        # what train makes; checked before any allocation
+        if not MIN_WINDOW <= source["window"] <= MAX_WINDOW:
             _fail(
                 where,
                 f"source.window must be a number of samples in {MIN_WINDOW} .. {MAX_WINDOW:,} (what train makes), "
@@ -354,7 +357,25 @@ def _check_source(where: str, source: object) -> int | None:
                 where, f"source must have step in 1 .. {MAX_WINDOW:,} and a finite rate_hz > 0, got {source}"
             )
         return VIBRATION_FEATURES
-    if kind == "image":
+    if kind == "image" or kind == "pressure":
+        return _check_frame_source(where, source)
+    if kind == "features":
+        _check_type(where, "source.n_features", source.get("n_features"), int)
+        if source["n_features"] < 1:
+            _fail(where, f"source.n_features must be >= 1, got {source['n_features']}")
+        return source["n_features"]
+    _fail(where, f"source.kind must be 'vibration', 'image', 'pressure' or 'features', got {kind!r}")
+    return None
+
+
+def _check_frame_source(where: str, source: dict) -> int:
+    """Validate an ``image`` or ``pressure`` source; return the number of features its front end makes."""
+    rgb = source["kind"] == "image"
+    features = source.get("features", "per-taxel" if not rgb else None)
+    if features not in ((None, "per-taxel") if rgb else ("per-taxel",)):
+        want = "absent (image features) or 'per-taxel'" if rgb else "'per-taxel'"
+        _fail(where, f"source.features must be {want} for {source['kind']} input, got {features!r:.40}")
+    if rgb:
         _check_type(where, "source.fuse", source.get("fuse"), bool)
         if "threshold" in source:
             _check_type(where, "source.threshold", source["threshold"], float)
@@ -364,53 +385,32 @@ def _check_source(where: str, source: object) -> int | None:
             _check_type(where, "source.erosion", source["erosion"], int)
             if source["erosion"] < 1:
                 _fail(where, f"source.erosion must be >= 1 pixel, got {source['erosion']!r}")
-        shape = source.get("frame_shape")
-        if not (
-            isinstance(shape, list)
-            and len(shape) == 4
-            and all(isinstance(v, int) and not isinstance(v, bool) and v >= 1 for v in shape)
-            and shape[1] == 3
-        ):
-            _fail(where, f"source.frame_shape must be [T, 3, H, W], got {shape!r:.80}")
-        if 4 * math.prod(shape) > max_read_bytes():  # one float32 exploration: checked before any allocation
-            _fail(
-                where,
-                f"source.frame_shape {shape} makes one exploration of {4 * math.prod(shape):,} bytes, more than the "
-                f"read limit of {max_read_bytes():,} bytes (raise it with {MAX_READ_ENV}=MB if the file is trusted)",
-            )
-        return IMAGE_FEATURES if source["fuse"] else IMAGE_FEATURES * shape[0]
-    if kind == "features":
-        _check_type(where, "source.n_features", source.get("n_features"), int)
-        if source["n_features"] < 1:
-            _fail(where, f"source.n_features must be >= 1, got {source['n_features']}")
-        return source["n_features"]
-    _fail(where, f"source.kind must be 'vibration', 'image' or 'features', got {kind!r}")
-    return None
-
-
-def validate_model(header: object, arrays: Mapping[str, np.ndarray], *, where: str = "model") -> None:  # noqa: C901, PLR0915
-    """Raise ``ValueError`` (``"<where>: <what is wrong>"``) unless header and arrays form a valid model."""
-    if not isinstance(header, dict) or header.get("format") != FORMAT:
-        got = header.get("format") if isinstance(header, dict) else type(header).__name__
-        _fail(where, f"not a tactile-torch model file (header format must be {FORMAT!r}, got {got!r})")
-    version = header.get("format_version")
-    if not isinstance(version, int) or isinstance(version, bool) or version < 1:
-        _fail(where, f"format_version must be an int >= 1, got {version!r}")
-    if version > FORMAT_VERSION:
+    shape = source.get("frame_shape")
+    if not (
+        isinstance(shape, list)
+        and len(shape) == (4 if rgb else 3)
+        and all(isinstance(v, int) and not isinstance(v, bool) and v >= 1 for v in shape)
+        and (shape[1] == 3 or not rgb)
+    ):
+        _fail(
+            where, f"source.frame_shape must be {'[T, 3, H, W]' if rgb else '[T, H, W]'}, got {shape!r:.80}"
+        )
+    if 4 * math.prod(shape) > max_read_bytes():  # one float32 exploration: checked before any allocation
         _fail(
             where,
-            f"written by a newer tactile-torch ({header.get('library_version')}, model format version "
-            f"{version}); this one ({FORMAT_VERSION}) cannot read it: upgrade tactile-torch",
+            f"source.frame_shape {shape} makes one exploration of {4 * math.prod(shape):,} bytes, more than the "
+            f"read limit of {max_read_bytes():,} bytes (raise it with {MAX_READ_ENV}=MB if the file is trusted)",
         )
-    kind = header.get("kind")
-    if kind not in MODEL_KINDS:
-        _fail(where, f"kind must be one of {MODEL_KINDS}, got {kind!r}")
-    if header.get("method") not in METHODS[kind]:
-        _fail(where, f"method of a {kind} must be one of {METHODS[kind]}, got {header.get('method')!r}")
-    names = header.get("class_names")
-    if not isinstance(names, list) or not names or not all(isinstance(c, str) for c in names):
-        _fail(where, f"class_names must be a non-empty list of strings, got {names!r:.80}")
-    check_class_names(names, f"{where}: class_names")
+    if features == "per-taxel":
+        if shape[0] < 2:
+            _fail(where, f"source.frame_shape must have T >= 2 frames for per-taxel features, got {shape}")
+        return TAXEL_FEATURES * shape[-2] * shape[-1]
+    return IMAGE_FEATURES if source["fuse"] else IMAGE_FEATURES * shape[0]
+
+
+def validate_model(header: object, arrays: Mapping[str, np.ndarray], *, where: str = "model") -> None:
+    """Raise ``ValueError`` (``"<where>: <what is wrong>"``) unless header and arrays form a valid model."""
+    kind, names = _check_identity(where, header)
     n_features = _check_source(where, header.get("source"))
     dims: dict[str, int] = {"C": len(names)}
     head = _check_settings(where, "head", {}, header.get("head"), HEADS)
@@ -451,12 +451,46 @@ def validate_model(header: object, arrays: Mapping[str, np.ndarray], *, where: s
     if head["type"] == "gaussian-mixture":
         head_arrays = _mixture_arrays(where, head, head_arrays, arrays, dims)
     _check_arrays(where, "head", head_arrays, arrays, dims)
+    if kind == "classifier" and header.get("ood") is not None:
+        _check_ood(where, header["ood"], arrays, dims)
+    if kind == "clustering":
+        _check_novelty(where, header, arrays)
+    _check_head_values(where, head, arrays, dims)
+
+
+def _check_identity(where: str, header: object) -> tuple[str, list[str]]:
+    """Check what a model file says it is (format, version, kind, method, class names); return kind and names."""
+    if not isinstance(header, dict) or header.get("format") != FORMAT:
+        got = header.get("format") if isinstance(header, dict) else type(header).__name__
+        _fail(where, f"not a tactile-torch model file (header format must be {FORMAT!r}, got {got!r})")
+    version = header.get("format_version")
+    if not isinstance(version, int) or isinstance(version, bool) or version < 1:
+        _fail(where, f"format_version must be an int >= 1, got {version!r}")
+    if version > FORMAT_VERSION:
+        _fail(
+            where,
+            f"written by a newer tactile-torch ({header.get('library_version')}, model format version "
+            f"{version}); this one ({FORMAT_VERSION}) cannot read it: upgrade tactile-torch",
+        )
+    kind = header.get("kind")
+    if kind not in MODEL_KINDS:
+        _fail(where, f"kind must be one of {MODEL_KINDS}, got {kind!r}")
+    if header.get("method") not in METHODS[kind]:
+        _fail(where, f"method of a {kind} must be one of {METHODS[kind]}, got {header.get('method')!r}")
+    names = header.get("class_names")
+    if not isinstance(names, list) or not names or not all(isinstance(c, str) for c in names):
+        _fail(where, f"class_names must be a non-empty list of strings, got {names!r:.80}")
+    check_class_names(names, f"{where}: class_names")
+    return kind, names
+
+
+def _check_head_values(
+    where: str, head: dict, arrays: Mapping[str, np.ndarray], dims: dict[str, int]
+) -> None:
+    """What a head's shapes do not say: a neighbours head's settings and labels, an SVM's tree or pairs."""
     if head["type"] == "neighbours":
-        if (
-            head["weights"] not in ("uniform", "distance")
-            or head["p"] not in (1, 2)
-            or head["n_neighbors"] < 1
-        ):
+        settings_ok = head["weights"] in ("uniform", "distance") and head["p"] in (1, 2)
+        if not settings_ok or head["n_neighbors"] < 1:
             _fail(
                 where,
                 "head must have weights 'uniform' or 'distance', p 1 or 2 and n_neighbors >= 1, got "
@@ -465,10 +499,6 @@ def validate_model(header: object, arrays: Mapping[str, np.ndarray], *, where: s
         labels = arrays["head.labels"]
         if labels.size and (labels.min() < 0 or labels.max() >= dims["C"]):
             _fail(where, f"head.labels must lie in 0..{dims['C'] - 1}, got {labels.min()}..{labels.max()}")
-    if kind == "classifier" and header.get("ood") is not None:
-        _check_ood(where, header["ood"], arrays, dims)
-    if kind == "clustering":
-        _check_novelty(where, header, arrays)
     if head["type"] == "svm" and head["mode"] == "tree":
         _check_tree(where, arrays, dims, head["depth"])
     if head["type"] == "svm" and head["mode"] == "ovo":

@@ -30,6 +30,7 @@ Examples
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -66,6 +67,9 @@ class TimeBase:
     period_error : float
         Standard error of ``period`` relative to it, from the residuals of the fit (0 for a stated
         period); :func:`rate_hz` rounds the rate to it.
+    longest_gap_at : float
+        Where the longest gap starts: its first stamp's time since the recording's first one (0 when
+        there is no gap).
     """
 
     period: float
@@ -73,6 +77,7 @@ class TimeBase:
     longest_gap: float
     irregular: float
     period_error: float = 0.0
+    longest_gap_at: float = 0.0
 
 
 def _pooled_slope(t: np.ndarray, gap: np.ndarray) -> tuple[float, float]:
@@ -126,12 +131,14 @@ def time_base(t: np.ndarray, *, resolution: float = 0.0, period: float | None = 
     gap = dt > (1.0 + GAP_TOLERANCE) * period + resolution
     regular = dt[~gap]
     excess = np.abs(regular - period) - resolution if regular.size else np.zeros(1)
+    longest = int(np.argmax(np.where(gap, dt, -np.inf))) if gap.any() else 0
     return TimeBase(
         period=float(period),
         gaps=(np.flatnonzero(gap) + 1).astype(np.int64),
-        longest_gap=float(dt[gap].max()) if gap.any() else 0.0,
+        longest_gap=float(dt[longest]) if gap.any() else 0.0,
         irregular=float(max(0.0, excess.max()) / period),
         period_error=error,
+        longest_gap_at=float(t[longest] - t[0]) if gap.any() else 0.0,
     )
 
 
@@ -169,6 +176,44 @@ def stamp_resolution(texts: np.ndarray) -> float:
     return float(10.0 ** int(power.min()))
 
 
+def describe_duration(seconds: float) -> str:
+    """Return a duration as people read it: ``"40 ms"``, ``"0.4 s"``, ``"12.3 s"``, ``"2 min 5 s"``, ``"3 h 02 min"``.
+
+    Three significant digits below a minute; minutes and seconds below an hour; hours and minutes below
+    two days, then days and hours; non-finite or beyond a century: the seconds as a number.
+
+    >>> [describe_duration(s) for s in (0.0004, 0.04, 0.4, 12.34, 125, 10_920, 3 * 86400 + 7200)]
+    ['0.4 ms', '40 ms', '0.4 s', '12.3 s', '2 min 5 s', '3 h 02 min', '3 d 2 h']
+    """
+    s = float(seconds)
+    if not math.isfinite(s) or abs(s) >= 100 * 365.25 * 86400:
+        return f"{s:.3g} s"
+    if abs(s) < 0.1:
+        return f"{s * 1e3:.3g} ms"
+    if abs(s) < 60:
+        return f"{s:.3g} s"
+    whole = round(abs(s))
+    sign = "-" if s < 0 else ""
+    if whole < 3600:
+        return f"{sign}{whole // 60} min {whole % 60} s"
+    if whole < 2 * 86400:
+        return f"{sign}{whole // 3600} h {whole % 3600 // 60:02d} min"
+    return f"{sign}{whole // 86400} d {whole % 86400 // 3600} h"
+
+
+def describe_gap(gap_s: float, at_s: float, where: str) -> str:
+    """Return where a gap is, as people read it: ``"a 0.4 s gap 12.3 s into day2/felt.csv"``.
+
+    ``gap_s``: how long the step of the time stamps lasted; ``at_s``: when it started, in seconds since
+    the recording's (or the stream's) first stamp; ``where``: the file or the stream. Never two epoch
+    times side by side (``1.76243e+09 to 1.76243e+09``, which read the same).
+
+    >>> describe_gap(0.4, 12.34, "day2/felt.csv")
+    'a 0.4 s gap 12.3 s into day2/felt.csv'
+    """
+    return f"a {describe_duration(gap_s)} gap {describe_duration(at_s)} into {where}"
+
+
 def describe_timing(found: Sequence[tuple[str, TimeBase, float]], *, what: str = "file") -> list[str]:
     """Return the readers' warnings about the time stamps of several recordings: at most one per finding.
 
@@ -182,7 +227,8 @@ def describe_timing(found: Sequence[tuple[str, TimeBase, float]], *, what: str =
         total = sum(int(b.gaps.size) for _, b, _ in gappy)
         lines.append(
             f"{total} gap(s) in the time stamps of {len(gappy)} of {len(found)} {what}(s) (steps longer than "
-            f"{1 + GAP_TOLERANCE:g} sample periods; the longest, {base.longest_gap * seconds:.4g} s, in {name}): "
+            f"{1 + GAP_TOLERANCE:g} sample periods; the longest, "
+            f"{describe_gap(base.longest_gap * seconds, base.longest_gap_at * seconds, name)}): "
             "no window spans a gap"
         )
     odd = [(name, base) for name, base, _ in found if base.irregular > IRREGULAR_TOLERANCE]
@@ -201,6 +247,8 @@ __all__ = [
     "IRREGULAR_TOLERANCE",
     "RATE_TOLERANCE",
     "TimeBase",
+    "describe_duration",
+    "describe_gap",
     "describe_timing",
     "rate_hz",
     "stamp_resolution",

@@ -298,6 +298,20 @@ def read_bag(  # noqa: PLR0915
     return BagTopic(path, topic, msgtype, (ns - ns[0]) * 1e-9, array, rate, timing=timing, kind=fields.kind)
 
 
+def read_bag_topic(path, options=None) -> BagTopic:
+    """Read the topic of the bag ``path`` that ``options`` name (a :class:`~tactile_torch.robot.files.data_sources.DataOptions`:
+    ``topic``, ``shape``, ``field``, ``sensor``, ``msg_defs``, ``max_messages``; ``None``: the defaults)."""
+    return read_bag(
+        path,
+        getattr(options, "topic", None),
+        shape=getattr(options, "shape", None),
+        field=getattr(options, "field", None),
+        sensor=getattr(options, "sensor", None),
+        msg_defs=getattr(options, "msg_defs", ()),
+        max_messages=getattr(options, "max_messages", MAX_BAG_MESSAGES),
+    )
+
+
 __all__ = [
     "IMU_TYPE",
     "MAX_BAG_BYTES",
@@ -307,4 +321,5 @@ __all__ = [
     "MissingExtraError",
     "is_bag",
     "read_bag",
+    "read_bag_topic",
 ]

@@ -53,6 +53,7 @@ import math
 import time
 from collections.abc import Callable, Iterator, Sequence
 
+from ..files.sample_times import describe_duration
 from ..stream.port_lines import StreamDisconnected, StreamEvent, StreamTimeout
 from ..stream.source import (
     LOST,
@@ -248,7 +249,7 @@ class _Reading:
         self.all = decoder.fields.sensor == ALL_SENSORS
         self.sensor_index: dict[str, int] = {}
         self.refused: set[str] = set()  # sensors whose frames do not fit the bundle (said once)
-        self.last_item = source.opened_at  # time counts from when the reader is there
+        self.last_item = self.first_item = source.opened_at  # time counts from when the reader is there
         self.silent = self.had_publisher = self.said_quiet = False
         self.matched_at: float | None = None  # when a publisher matched while nothing was read yet
         self.fresh = False  # readings since the last break: a break with none is no news to the segmenter
@@ -308,8 +309,9 @@ class _Reading:
         sent = received.source_ns * 1e-9
         if self.silent or not counts.items:
             waited = now - self.last_item
+            self.first_item = now if not counts.items else self.first_item
             if self.silent and counts.items:
-                emit("resumed", f"{source.item}s again after {waited:.1f} s of silence")
+                emit("resumed", f"{source.item}s again after {describe_duration(waited)} of silence")
             elif waited >= source.silence_s:
                 emit("first", f"first {source.item} after {waited:.1f} s")
             self.silent = False
@@ -517,7 +519,8 @@ class _Reading:
         if counts.items:
             self.emit(
                 "silence",
-                f"no {source.item} for {waited:.1f} s after {counts.items} {source.item}s; waiting ({_giving_up(limit)})",
+                f"no {source.item} for {describe_duration(waited)} after {counts.items} {source.item}s, "
+                f"{describe_duration(self.last_item - self.first_item)} into the stream; waiting ({_giving_up(limit)})",
             )
             if self.fresh:
                 self.fresh = False

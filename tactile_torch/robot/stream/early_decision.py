@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -221,6 +222,56 @@ def calibrate_early_rule(
     return EarlyRule(threshold, tuple(checkpoints), target_error, errors / m, m, n, median, how)
 
 
+def held_out_rule(
+    y: np.ndarray,
+    folds: Sequence[tuple[np.ndarray, np.ndarray]],
+    checkpoints: tuple[int, ...],
+    classify: Callable[[int, int, np.ndarray], tuple[np.ndarray, np.ndarray]],
+    *,
+    target_error: float = DEFAULT_ERROR,
+    how: str = "",
+) -> tuple[np.ndarray, np.ndarray, EarlyRule]:
+    """Return the held-out decisions of touches at each checkpoint, their margins, and the rule they calibrate.
+
+    The one calibration of the early rule, for ``tactile-torch tradeoff`` (its touch-time study) and
+    ``train`` (its held-out folds): each touch ``i`` of a fold's test part is classified at every
+    checkpoint by that fold's model, which did not see it, and :func:`calibrate_early_rule` sets the
+    threshold on what those decisions were worth.
+
+    Parameters
+    ----------
+    y : ndarray of shape (N,)
+        Each touch's class.
+    folds : sequence of (train rows, test rows)
+    checkpoints : tuple of int
+        Frames into the touch (:func:`checkpoints_for`).
+    classify : callable
+        ``classify(fold, j, test)`` -> ``(classes, margins)`` of the touches ``test`` at checkpoint ``j``:
+        the predicted class of each, and its score margin (:func:`score_margins`, in the bundle's scores).
+    target_error, how
+        As :func:`calibrate_early_rule`.
+
+    Returns
+    -------
+    predicted : ndarray of shape (N, K) int64
+        The class each touch was given at each checkpoint (-1: not tested).
+    margins : ndarray of shape (N, K)
+    rule : EarlyRule
+    """
+    n, k = len(y), len(checkpoints)
+    predicted = np.full((n, k), -1, dtype=np.int64)
+    margins = np.full((n, k), -np.inf)
+    for f, (_, test) in enumerate(folds):
+        for j in range(k):
+            predicted[test, j], margins[test, j] = classify(f, j, test)
+    tested = predicted[:, 0] >= 0 if k else np.zeros(n, dtype=bool)
+    correct = predicted == np.asarray(y)[:, None]
+    rule = calibrate_early_rule(
+        margins[tested], correct[tested], checkpoints, target_error=target_error, how=how
+    )
+    return predicted, margins, rule
+
+
 __all__ = [
     "CHECKPOINT_SHARES",
     "DEFAULT_ERROR",
@@ -228,5 +279,6 @@ __all__ = [
     "calibrate_early_rule",
     "checkpoints_for",
     "first_decisions",
+    "held_out_rule",
     "score_margins",
 ]

@@ -274,7 +274,9 @@ class LiveStream:
         spec, clock, on_event = self.source.spec, self._clock, self._on_event
         names = getattr(self.source, "sensors", None) or ()
         name = names[index] if index < len(names) else None
-        sequencer = Sequencer(spec.rate_hz, item=spec.kind, on_event=on_event, clock=clock)
+        sequencer = Sequencer(
+            spec.rate_hz, item=spec.kind, name=self.source.name, on_event=on_event, clock=clock
+        )
         if self.segment == "touches":
             checkpoints = self.rule.checkpoints if self.rule is not None and self.rule.active else ()
             segmenter = TouchSegmenter(

@@ -35,7 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...validation import check_count
-from ..contract import UNKNOWN
+from ..contract import NOT_FINITE, UNKNOWN
 from ..runtime import OnnxPipeline
 from .early_decision import EarlyRule
 from .segments import Window
@@ -196,7 +196,7 @@ def classify_windows(
         flags = window.flags
         prediction = pipeline.classify(window.data, range_g=range_g)
         label, reason, row = int(prediction.labels[0]), prediction.reasons[0], prediction.scores[0]
-        if reason is not None and reason.startswith("scores not finite"):
+        if prediction.causes[0] == NOT_FINITE:
             label = name = row = None
             flags += ("non_finite_scores",)
         else:

@@ -15,6 +15,7 @@ from typing import Protocol
 
 from ...exceptions import InputTypeError
 from ...validation import check_count, check_number
+from ..files.sample_times import describe_duration
 
 _EVENT_INTERVAL_S = (
     1.0  # gap/range events beyond _EVENTS_PER_INTERVAL in this interval are counted, not shown
@@ -161,6 +162,9 @@ class PortLines:
         self._event_window: dict[str, tuple[float, int]] = {}
         self._held_events: dict[str, int] = {}
         self._last_sample_at, self._silent = clock(), False
+        self._first_sample_at: float | None = (
+            None  # the clock at the stream's first valid sample (set by the subclass)
+        )
         self._delay = self.backoff_s[0]
         self._reconnected = False  # set with the break that a reconnection yields, cleared by the subclass
         self._back_pending = False  # a port reopened after a failure: its first sample is "back"
@@ -349,10 +353,17 @@ class PortLines:
                 if waited >= self.silence_s and not self._silent:
                     self._silent = True
                     if self.samples:
+                        into = (
+                            ""
+                            if self._first_sample_at is None
+                            else (
+                                f", {describe_duration(self._last_sample_at - self._first_sample_at)} into the stream"
+                            )
+                        )
                         self._emit(
                             "silence",
-                            f"{what} for {waited:.1f} s after {self.samples} {item}s{skipped}; waiting "
-                            f"({_giving_up(limit)})",
+                            f"{what} for {describe_duration(waited)} after {self.samples} {item}s{into}{skipped}; "
+                            f"waiting ({_giving_up(limit)})",
                         )
                         yield None, now
                     else:

@@ -210,12 +210,13 @@ class SlidingWindows:
 class _Channel:
     """One sensor's stages: its sequencer and segmenter, its latest reading, and a silence awaiting its clock."""
 
-    __slots__ = ("last", "segmenter", "sequencer", "silence")
+    __slots__ = ("broken", "last", "segmenter", "sequencer", "silence")
 
     def __init__(self, segmenter, sequencer: Sequencer) -> None:
         self.segmenter, self.sequencer = segmenter, sequencer
         self.last: Reading | None = None
         self.silence: float | None = None
+        self.broken = False  # a break cut a segment: a gap once items follow (the end of the input is none)
 
 
 class Segments:
@@ -248,7 +249,9 @@ class Segments:
         self._new_channel = channel
         segmenters = list(segmenter) if isinstance(segmenter, list | tuple) else [segmenter]
         if sequencer is None:
-            sequencers = [Sequencer(source.spec.rate_hz, item=source.spec.kind) for _ in segmenters]
+            sequencers = [
+                Sequencer(source.spec.rate_hz, item=source.spec.kind, name=source.name) for _ in segmenters
+            ]
         else:
             sequencers = list(sequencer) if isinstance(sequencer, list | tuple) else [sequencer]
         if len(sequencers) != len(segmenters):
@@ -304,6 +307,9 @@ class Segments:
             )
             if c.silence is not None:
                 yield from self._resume(c, reading)
+            if c.broken:
+                c.sequencer.gaps += 1
+                c.broken = False
             released = c.sequencer.push(reading)
             c.last = reading
             if released is None:
@@ -328,8 +334,7 @@ class Segments:
 
     def _cut(self, c: _Channel, kind: str, at: float) -> Iterator:
         yield from self._released(c, c.sequencer.reset(kind))
-        if c.segmenter.pending:
-            c.sequencer.gaps += 1
+        c.broken = c.broken or c.segmenter.pending > 0
         out = c.segmenter.cut(kind, at)
         if out is not None:
             yield out

@@ -29,7 +29,12 @@ import math
 import time
 from collections.abc import Callable
 
-from ..files.sample_times import GAP_TOLERANCE, RATE_TOLERANCE  # one rule for files and the live stream
+from ..files.sample_times import (  # one rule for files and the live stream, one wording
+    GAP_TOLERANCE,
+    RATE_TOLERANCE,
+    describe_duration,
+    describe_gap,
+)
 from .port_lines import StreamEvent
 from .source import RECONNECT, EventEmitter, Reading
 
@@ -52,6 +57,10 @@ class Sequencer:
         The expected rate; without it only ``t`` going back breaks continuity, and nothing is counted lost.
     item : str
         What an item is called in messages (``"sample"``, ``"frame"``).
+    name : str
+        What the stream reads (port, topic, file), for messages: times are said as durations and
+        positions since the stream's first ``t`` (``a 0.4 s gap 12.3 s into /dev/ttyUSB0``,
+        :func:`~tactile_torch.robot.files.sample_times.describe_gap`), never as epoch times.
     on_event, clock
         Events ``"gap"`` and ``"stamp"`` (rate-limited) and ``"rate"`` (once).
 
@@ -73,11 +82,13 @@ class Sequencer:
         rate_hz: float | None = None,
         *,
         item: str = "sample",
+        name: str = "the stream",
         on_event: Callable[[StreamEvent], None] | None = None,
         clock: Callable[[], float] = time.monotonic,
     ) -> None:
         self.rate_hz = rate_hz
-        self.item = item
+        self.item, self.name = item, name
+        self._first_t: float | None = None  # the stream's first t: where positions are counted from
         self.gaps = self.lost = self.corrected = 0
         self.origin: float | None = None
         self._period = None if rate_hz is None else 1.0 / rate_hz
@@ -105,6 +116,11 @@ class Sequencer:
     def period(self) -> float | None:
         """The period the steps are judged by (the bundle's, or the data's own once adopted), seconds."""
         return self._period
+
+    def _into(self, t: float) -> str:
+        """``"12.3 s into /dev/ttyUSB0"``: where ``t`` lies in the stream, as people read it."""
+        first = self._first_t if self._first_t is not None else t
+        return f"{describe_duration(t - first)} into {self.name}"
 
     def note(self, kind: str, message: str) -> None:
         """Say something about the stream's continuity (rate-limited, as gaps are)."""
@@ -150,6 +166,8 @@ class Sequencer:
         self._last_at = reading.read_at
         if reading.t is not None:
             self._prev_t = reading.t
+            if self._first_t is None:
+                self._first_t = reading.t
 
     def _regular(self, reading: Reading, out: list) -> None:
         self._pass(reading, out)
@@ -193,7 +211,8 @@ class Sequencer:
             if t <= prev:
                 self.note(
                     "gap",
-                    f"gap in t from {prev:.6g} to {t:.6g} s: t went back (a spliced recording or a sensor reset)",
+                    f"{self._into(prev)}, t went back by {describe_duration(prev - t)}: a spliced recording or a "
+                    "sensor reset",
                 )
             self._pass(reading, out, cut=t <= prev)
             return
@@ -211,7 +230,12 @@ class Sequencer:
         d1, d2 = h.t - prev, t - h.t
         if abs(t - prev - 2 * period) <= GAP_TOLERANCE * period:  # back on schedule: h's stamp was wrong
             self._held = []
-            self._correct(h, out, f"a time stamp off schedule ({h.t:.6g} s)", due=prev + period)
+            self._correct(
+                h,
+                out,
+                f"a time stamp {describe_duration(h.t - prev - period)} off schedule",
+                due=prev + period,
+            )
             self._judge(reading, out)
         elif d1 > 0 and abs(d2 - d1) <= SAME_STEP * d1:  # a second step like the first: another rate?
             held.append(reading)
@@ -241,7 +265,10 @@ class Sequencer:
             self.corrected += 1
             due = last.t + step
             self._events.emit(
-                "stamp", f"a time stamp off schedule ({suspect.t:.6g} s); taken as {due:.6g} s", repeated=True
+                "stamp",
+                f"a time stamp {describe_duration(suspect.t - due)} off schedule; taken at its due time, "
+                f"{self._into(due)}",
+                repeated=True,
             )
             held += [suspect._replace(t=due), reading]
             if len(held) >= RATE_RUN:
@@ -280,7 +307,7 @@ class Sequencer:
         if due is None and self._prev_t is not None and self._period is not None:
             due = self._prev_t + self._period
         self.corrected += 1
-        taken = "taken without a stamp" if due is None else f"taken as {due:.6g} s, its due time"
+        taken = "taken without a stamp" if due is None else f"taken at its due time, {self._into(due)}"
         self._events.emit("stamp", f"{what}; {taken}", repeated=True)
         if due is None:
             out.append((False, reading._replace(t=None)))
@@ -299,8 +326,9 @@ class Sequencer:
         elif self._breaks == RATE_RUN:
             self._events.emit(
                 "gap",
-                f"t has not stepped regularly for {RATE_RUN} {self.item}s since {self._open[0]:.6g} s (now "
-                f"{reading.t:.6g} s): no window or touch can be cut; is t the sensor's clock, in the unit declared?",
+                f"t has not stepped regularly for {RATE_RUN} {self.item}s since {self._into(self._open[0])} (for "
+                f"{describe_duration(reading.t - self._open[0])}): no window or touch can be cut; is t the sensor's "
+                "clock, in the unit declared?",
             )
 
     def _settle(self, at: float) -> None:
@@ -311,12 +339,14 @@ class Sequencer:
         before, count_before, after, across = self._open
         self._open = None
         t, count = self._prev_t, self._count
-        span = (
-            f"from {before:.6g} to {after:.6g} s"
-            if self._breaks == 1
-            else f"between {before:.6g} and {t:.6g} s"
-        )
-        what = f"gap{'s' if self._breaks > 1 else ''} in t {span}: "
+        if self._breaks > 1:
+            span = f"{self._breaks} gaps in t over {describe_duration(t - before)} from {self._into(before)}"
+        elif after >= before:
+            first = self._first_t if self._first_t is not None else before
+            span = describe_gap(after - before, before - first, self.name)
+        else:
+            span = f"{self._into(before)}, t went back by {describe_duration(before - after)}"
+        what = f"{span}: "
         periods = (t - before) / self._period if self._period else math.nan
         if not settled:  # the stream broke or ended before t stepped regularly again: nothing to count by
             what += (
@@ -335,7 +365,7 @@ class Sequencer:
                         f" (t says {missing}, more than the sensor can have sent since the stream started)"
                     )
             elif after < before:
-                what += "t went back (a spliced recording or a sensor reset)"
+                what += "a spliced recording or a sensor reset"
             else:
                 what += f"time stamps off schedule, no {self.item} missing"
         if across:

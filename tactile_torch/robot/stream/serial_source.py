@@ -23,6 +23,7 @@ import numpy as np
 from ...validation import check_number, saturate_float32
 from ..files.csv_logs import STANDARD_GRAVITY, UNITS
 from ..files.data_sources import GRAVITY_BAND_G
+from ..files.sample_times import describe_duration
 from .port_lines import PortLines, ReadablePort, StreamEvent
 from .source import FORMAT, RECONNECT, REJECTED, SAMPLE, SILENCE, Break, ItemSpec, Reading
 from .wire import parse_line
@@ -325,8 +326,10 @@ class SerialSource(PortLines):
                 self._silent = False
             elif self._silent or not self.samples:
                 waited = now - self._last_sample_at
+                if self._first_sample_at is None:
+                    self._first_sample_at = now
                 if self._silent and self.samples:
-                    self._emit("resumed", f"{self.item}s again after {waited:.1f} s of silence")
+                    self._emit("resumed", f"{self.item}s again after {describe_duration(waited)} of silence")
                 elif waited >= self.silence_s:
                     self._emit("first", f"first {self.item} after {waited:.1f} s")
                 self._silent = False

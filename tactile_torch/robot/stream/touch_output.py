@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..contract import UNKNOWN
+from ..contract import NOT_FINITE, UNKNOWN
 from ..runtime import OnnxPipeline
 from .early_decision import EarlyRule, score_margins
 from .touch_segments import TouchSegment
@@ -104,7 +104,7 @@ def _classified(pipeline: OnnxPipeline, data: np.ndarray, range_g: float | None)
     """``(label, name, scores row, reason, margin, extra flags)`` of one bundle input."""
     prediction = pipeline.classify(data, range_g=range_g)
     label, reason, row = int(prediction.labels[0]), prediction.reasons[0], prediction.scores[0]
-    if reason is not None and reason.startswith("scores not finite"):
+    if prediction.causes[0] == NOT_FINITE:
         return None, None, None, None, None, ("non_finite_scores",)
     name = pipeline.label_name(label)
     row = row if np.isfinite(row).all() else None

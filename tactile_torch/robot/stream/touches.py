@@ -395,14 +395,16 @@ def frame_metadata(
     contact: str = "raises",
     sign: float | None = None,
     rest: np.ndarray | None = None,
+    levels: TouchLevels | None = None,
 ) -> tuple[dict, str | None]:
     """Return the metadata a frame bundle records for the live stream, and a note when the levels could not be set.
 
     Keys (:mod:`tactile_torch.robot.contract`): ``frame_rate_hz``; ``value_range`` for pressure maps
     (the training values' range widened by its own width on each side: a corrupted value, or data in
     other units, lies outside; RGB frames are 0-255 by their type); ``touch_levels``
-    (:func:`touch_levels`), unless the training frames do not allow them (then the note says why and
-    the stream needs ``--onset``).
+    (:func:`touch_levels`, or ``levels`` when the training touches were cut at those: a hand's recordings,
+    :mod:`tactile_torch.robot.stream.recorded_touches`), unless the training frames do not allow them (then
+    the note says why and the stream needs ``--onset``).
     """
     from ..contract import FRAME_RATE_KEY, TOUCH_LEVELS_KEY, VALUE_RANGE_KEY
 
@@ -415,7 +417,10 @@ def frame_metadata(
         span = max(hi - lo, abs(hi), 1.0)
         meta[VALUE_RANGE_KEY] = [lo - span, hi + span]
     try:
-        levels = touch_levels(x, frame_rate_hz=frame_rate_hz, contact=contact, sign=sign, rest=rest, rgb=rgb)
+        if levels is None:
+            levels = touch_levels(
+                x, frame_rate_hz=frame_rate_hz, contact=contact, sign=sign, rest=rest, rgb=rgb
+            )
     except ValueError as err:
         return meta, f"no touch levels in the bundle ({err}); stream needs --onset"
     meta[TOUCH_LEVELS_KEY] = levels.to_metadata()

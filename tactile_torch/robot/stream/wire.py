@@ -108,8 +108,9 @@ def pseudo_terminal(*, drain_timeout_s: float = 10.0) -> Iterator[tuple[BinaryIO
     """Open a pseudo-terminal pair (POSIX); yield ``(sink, path)``: what is written to ``sink`` is read at ``path``.
 
     ``path`` (e.g. ``/dev/pts/3``) is the port a reader opens as it would open ``/dev/ttyUSB0``; the
-    terminal is raw (no echo, no line editing). On exit, waits up to ``drain_timeout_s`` for the
-    reader to take what was written (closing a pseudo-terminal drops unread input), then closes it:
+    terminal is raw (no echo, no line editing). This side keeps no handle on ``path``, so
+    :func:`wait_for_reader` sees when a reader opens it. On exit, waits up to ``drain_timeout_s`` for
+    the reader to take what was written (closing a pseudo-terminal drops unread input), then closes it:
     the reader's next read fails, as when a sensor's adapter is unplugged.
     """
     import fcntl
@@ -118,10 +119,16 @@ def pseudo_terminal(*, drain_timeout_s: float = 10.0) -> Iterator[tuple[BinaryIO
     import tty
 
     master, slave = os.openpty()
+    path = os.ttyname(slave)
     try:
-        tty.setraw(slave)
+        tty.setraw(slave)  # the settings stay with the terminal, for whoever opens it
+        os.close(slave)
+        slave = -1
         with open(master, "wb", buffering=0, closefd=False) as sink:
-            yield sink, os.ttyname(slave)
+            yield sink, path
+        if not reader_attached(master):
+            return
+        slave = os.open(path, os.O_RDONLY | os.O_NOCTTY | os.O_NONBLOCK)  # to count what is still unread
         # Written bytes pass through the kernel's flip buffer before the reader's queue counts them:
         # wait for the queue to stay empty a while, not just to be empty once.
         unread = array.array("i", [0])
@@ -134,7 +141,78 @@ def pseudo_terminal(*, drain_timeout_s: float = 10.0) -> Iterator[tuple[BinaryIO
             time.sleep(0.01)
     finally:
         os.close(master)
-        os.close(slave)
+        if slave >= 0:
+            os.close(slave)
+
+
+def reader_attached(sink: BinaryIO | int) -> bool:
+    """Return whether a reader holds the terminal side of a :func:`pseudo_terminal` open (its ``sink`` or fd)."""
+    import select
+
+    poll = select.poll()
+    poll.register(sink, select.POLLHUP)
+    return not any(event & select.POLLHUP for _, event in poll.poll(0))
+
+
+def wait_for_reader(
+    sink: BinaryIO | int,
+    timeout_s: float | None = None,
+    *,
+    settle_s: float = 0.3,
+    sleep: Callable[[float], None] = time.sleep,
+) -> bool:
+    """Wait until a reader opens the terminal side of a :func:`pseudo_terminal`; return whether one did.
+
+    A reader that opens a serial port discards what was buffered before (pyserial's ``open`` flushes
+    the input, as ``tactile-torch stream`` relies on): writing before the reader is there, or in the
+    moment it opens, loses the first lines. So this waits for the open, then ``settle_s`` more for the
+    reader's flush, before the caller writes. ``timeout_s`` ``None``: wait as long as it takes.
+    """
+    deadline = None if timeout_s is None else time.monotonic() + float(timeout_s)
+    while not reader_attached(sink):
+        if deadline is not None and time.monotonic() >= deadline:
+            return False
+        sleep(0.01)
+    sleep(settle_s)
+    return True
+
+
+def _play(
+    sink: _Sink,
+    line: Callable[[int, float | None], bytes],
+    n: int,
+    *,
+    rate_hz: float,
+    t: np.ndarray | None,
+    pace: np.ndarray | None,
+    timestamps: bool,
+    realtime: bool,
+    sleep: Callable[[float], None],
+    t0: float = 0.0,
+) -> int:
+    """Write ``line(i, stamp)`` for ``i`` in ``0 .. n-1``; return ``n`` (:func:`simulate_sensor`, :func:`simulate_frames`).
+
+    The stamps are ``t`` (the recording's own), else ``t0 + i / rate_hz``; written only with
+    ``timestamps``. Item ``i`` goes out ``pace[i]`` seconds after the first (default: its stamp's offset).
+    """
+    if t is not None:
+        t = np.asarray(t, dtype=np.float64)
+        if t.shape != (n,) or not np.isfinite(t).all():
+            raise ValueError(f"t must hold {n} finite times in seconds, got shape {t.shape}")
+    elif not rate_hz > 0:
+        raise ValueError(f"rate_hz must be > 0, got {rate_hz}")
+    own = t if t is not None else t0 + np.arange(n) / float(rate_hz)
+    pace = own - own[0] if pace is None and n else own if pace is None else np.asarray(pace, dtype=np.float64)
+    if pace.shape != (n,):
+        raise ValueError(f"pace must hold {n} times in seconds, got shape {pace.shape}")
+    start = time.perf_counter()
+    for i in range(n):
+        if realtime:
+            lag = start + pace[i] - time.perf_counter()
+            if lag > 0:
+                sleep(lag)
+        sink.write(line(i, float(own[i]) if timestamps else None))
+    return n
 
 
 def simulate_sensor(
@@ -145,29 +223,27 @@ def simulate_sensor(
     realtime: bool = True,
     timestamps: bool = False,
     t0: float = 0.0,
+    t: np.ndarray | None = None,
+    pace: np.ndarray | None = None,
     sleep: Callable[[float], None] = time.sleep,
 ) -> int:
     """Write a recording ``(n, 3)`` in g to ``sink`` as protocol lines; return the number of samples.
 
-    With ``realtime=True`` the lines are paced at ``rate_hz`` against a monotonic clock (no drift
-    accumulates); otherwise they are written as fast as the sink takes them. With ``timestamps=True``
-    each line is ``t,x,y,z`` with ``t = t0 + i / rate_hz`` seconds.
+    With ``realtime=True`` the lines are paced against a monotonic clock (no drift accumulates): at
+    ``rate_hz``, or at the recording's own times ``t`` (seconds, ``(n,)``: a logger's stamps, gaps
+    included), or at ``pace`` (seconds since the first line, when it differs from ``t``: several
+    recordings played one after another); otherwise they are written as fast as the sink takes them.
+    With ``timestamps=True`` each line is ``t,x,y,z``: ``t`` the recording's own stamps when given,
+    else ``t0 + i / rate_hz`` seconds.
     """
     recording = np.asarray(recording)
     if recording.ndim != 2 or recording.shape[1] != 3:
         raise ValueError(f"recording must have shape (n, 3), got {recording.shape}")
     if not np.isfinite(recording).all():
         raise ValueError("recording must be finite, got NaN or inf samples")
-    if not rate_hz > 0:
-        raise ValueError(f"rate_hz must be > 0, got {rate_hz}")
-    start = time.perf_counter()
-    for i, sample in enumerate(recording):
-        if realtime:
-            lag = start + i / rate_hz - time.perf_counter()
-            if lag > 0:
-                sleep(lag)
-        sink.write(format_sample(sample, t0 + i / rate_hz if timestamps else None))
-    return len(recording)
+    fmt = format_sample
+    return _play(sink, lambda i, ti: fmt(recording[i], ti), len(recording), rate_hz=rate_hz, t=t, pace=pace,
+                 timestamps=timestamps, realtime=realtime, sleep=sleep, t0=t0)  # fmt: skip
 
 
 def simulate_frames(
@@ -178,35 +254,23 @@ def simulate_frames(
     rate_hz: float = 10.0,
     realtime: bool = True,
     timestamps: bool = False,
+    pace: np.ndarray | None = None,
     sleep: Callable[[float], None] = time.sleep,
 ) -> int:
     """Write frames ``(n, H, W)`` (or ``(n, H, W, 3)`` RGB) to ``sink`` as frame lines; return the number written.
 
-    With ``t`` (seconds, ``(n,)``) the frames are paced at their recorded times (pauses included) and
-    ``timestamps=True`` writes that ``t``; without it they are paced at ``rate_hz`` and ``t = i / rate_hz``.
-    ``realtime=False`` writes as fast as the sink takes them.
+    With ``t`` (seconds, ``(n,)``) the frames are paced at their recorded times (pauses included; or at
+    ``pace``, seconds since the first frame) and ``timestamps=True`` writes that ``t``; without it they
+    are paced at ``rate_hz`` and ``t = i / rate_hz``. ``realtime=False`` writes as fast as the sink takes them.
     """
     frames = np.asarray(frames)
     if frames.ndim not in (3, 4) or len(frames) == 0:
         raise ValueError(f"frames must have shape (n, H, W) or (n, H, W, 3) with n >= 1, got {frames.shape}")
     if not np.isfinite(frames).all():
         raise ValueError("frames must be finite, got NaN or inf values")
-    if t is None:
-        if not rate_hz > 0:
-            raise ValueError(f"rate_hz must be > 0, got {rate_hz}")
-        t = np.arange(len(frames)) / float(rate_hz)
-    else:
-        t = np.asarray(t, dtype=np.float64)
-        if t.shape != (len(frames),) or not np.isfinite(t).all():
-            raise ValueError(f"t must hold {len(frames)} finite times in seconds, got shape {t.shape}")
-    start, t0 = time.perf_counter(), float(t[0])
-    for i, frame in enumerate(frames):
-        if realtime:
-            lag = start + (t[i] - t0) - time.perf_counter()
-            if lag > 0:
-                sleep(lag)
-        sink.write(format_frame(frame, float(t[i]) if timestamps else None))
-    return len(frames)
+    fmt = format_frame
+    return _play(sink, lambda i, ti: fmt(frames[i], ti), len(frames), rate_hz=rate_hz, t=t, pace=pace,
+                 timestamps=timestamps, realtime=realtime, sleep=sleep)  # fmt: skip
 
 
 __all__ = [
@@ -215,6 +279,8 @@ __all__ = [
     "parse_line",
     "parse_sample",
     "pseudo_terminal",
+    "reader_attached",
     "simulate_frames",
     "simulate_sensor",
+    "wait_for_reader",
 ]

@@ -76,22 +76,22 @@ def test_csv_in_m_s2_with_headers_and_t_in_ms(tmp_path, rec):
         read_source([path], DataOptions(columns="time,ax,ay,az"))
     back = read_source([path], DataOptions(columns="time,ax,ay,az", units="m/s2"))
     np.testing.assert_allclose(back.signals[0], signal, atol=1e-5)
-    by_index, rate = read_csv_log(path, columns=[0, 1, 2, 3], units="m/s2")
-    np.testing.assert_allclose(by_index, signal, atol=1e-5)
-    three, _ = read_csv_log(path, columns="ax,ay,az", units="m/s2")  # time found by name
-    np.testing.assert_array_equal(three, by_index)
-    assert rate == 800.0
+    by_index = read_csv_log(path, columns=[0, 1, 2, 3], units="m/s2")
+    np.testing.assert_allclose(by_index.signal, signal, atol=1e-5)
+    three = read_csv_log(path, columns="ax,ay,az", units="m/s2")  # time found by name
+    np.testing.assert_array_equal(three.signal, by_index.signal)
+    assert by_index.rate_hz == 800.0 and by_index.t[1] == 1 / 800.0  # the stamps as logged, in seconds
     ms = _log(tmp_path / "ms.csv", signal, 800.0, t_factor=1e3)
     with pytest.raises(
         ValueError,
         match=r"t looks like milliseconds: a step of 1\.25 s would be 0\.8 Hz; pass time_unit='ms'",
     ):
         read_csv_log(ms)
-    assert read_csv_log(ms, time_unit="ms")[1] == 800.0
+    assert read_csv_log(ms, time_unit="ms").rate_hz == 800.0
     us = _log(tmp_path / "us.csv", signal, 800.0, t_factor=1e6)
     with pytest.raises(ValueError, match="t looks like microseconds"):
         read_csv_log(us)
-    assert read_csv_log(us, time_unit="us")[1] == 800.0
+    assert read_csv_log(us, time_unit="us").rate_hz == 800.0
     # a declared unit is checked as "auto" is (issue 34): 0.8 Hz and 800 kHz are refused, naming the fix
     with pytest.raises(
         ValueError, match=r"t in seconds \(time_unit='s'\) gives 0\.8 Hz, .*pass time_unit='ms'"
@@ -99,7 +99,7 @@ def test_csv_in_m_s2_with_headers_and_t_in_ms(tmp_path, rec):
         read_csv_log(ms, time_unit="s")
     with pytest.raises(ValueError, match=r"t in microseconds \(time_unit='us'\) gives 8e\+05 Hz"):
         read_csv_log(ms, time_unit="us")
-    assert read_csv_log(ms, time_unit="s", sample_rate_hz=0.8)[1] == 0.8  # a stated rate: taken as said
+    assert read_csv_log(ms, time_unit="s", sample_rate_hz=0.8).rate_hz == 0.8  # a stated rate: taken as said
 
 
 def test_integer_counts_csv_and_npz_alike(tmp_path, rec):

@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from numpy.lib.stride_tricks import sliding_window_view
 
-from tactile_torch.robot.files.csv_logs import read_csv_recording, write_csv_recording
+from tactile_torch.robot.files.csv_logs import read_csv_log, write_csv_recording
 from tactile_torch.robot.files.formats import (
     ExplorationArrays,
     FeatureArrays,
@@ -93,9 +93,9 @@ def test_csv_round_trip_and_class_names(tmp_path):
     rec = _recordings((400,))
     path = write_csv_recording(tmp_path / "cork_3.csv", rec.signals[0], 800.0)
     assert path.read_text().splitlines()[0] == "t,x,y,z"
-    signal, rate = read_csv_recording(path)
-    np.testing.assert_array_equal(signal, rec.signals[0])
-    assert rate == 800.0 and csv_class_name(path) == "cork"
+    log = read_csv_log(path)
+    np.testing.assert_array_equal(log.signal, rec.signals[0])
+    assert log.rate_hz == 800.0 and csv_class_name(path) == "cork"
     write_csv_recording(tmp_path / "felt.csv", rec.signals[0][:300], 800.0)
     both = read_data([path, tmp_path / "felt.csv"])
     assert both.kind == "vibration" and both.class_names == ("cork", "felt")

@@ -130,7 +130,7 @@ def _changed(model, header=None, arrays=None, drop=()):
 @pytest.mark.parametrize(
     ("model", "match"),
     [
-        (_changed(_svm_model(), {"format_version": 3}), "written by a newer tactile-torch .* version 3"),
+        (_changed(_svm_model(), {"format_version": 4}), "written by a newer tactile-torch .* version 4"),
         (_changed(_svm_model(), {"format_version": "1"}), "format_version must be an int >= 1"),
         (_changed(_svm_model(), {"kind": "regressor"}), "kind must be one of"),
         (

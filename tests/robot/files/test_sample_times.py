@@ -42,8 +42,17 @@ def test_a_gap_is_found_and_does_not_bias_the_rate():
     (line,) = describe_timing([("a.csv", base, 1e-3), ("b.csv", time_base(t[:2_000], resolution=0.1), 1e-3)])
     assert line == (
         "1 gap(s) in the time stamps of 1 of 2 file(s) (steps longer than 1.5 sample periods; the longest, "
-        "1.001 s, in a.csv): no window spans a gap"
+        "a 1 s gap 3.12 s into a.csv): no window spans a gap"
     )
+
+
+def test_epoch_stamps_give_a_gap_people_can_read():
+    t = np.round(1_762_430_000_000.0 + np.arange(16_000) * 1.25, 1)  # epoch milliseconds, 800 Hz
+    t[9_840:] += 400.0  # 0.4 s lost 12.3 s into the log
+    base = time_base(t, resolution=0.1)
+    (line,) = describe_timing([("day2/felt.csv", base, 1e-3)])
+    assert "the longest, a 0.401 s gap 12.3 s into day2/felt.csv" in line
+    assert "e+09" not in line and "e+12" not in line
 
 
 def test_one_lost_sample_is_a_gap_and_jitter_is_irregular_not_a_gap():

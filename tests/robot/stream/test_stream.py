@@ -570,10 +570,10 @@ def test_floods_of_gap_events_are_counted_not_printed():
     with pytest.raises(StreamTimeout):
         list(reader)
     assert reader.gaps == 21 and reader.lost == 96 and [e.kind for e in events] == ["gap"] * 6
-    assert events[0].message == "gap in t from 0 to 0.0025 s: 1 sample(s) missing"
+    assert events[0].message == "a 2.5 ms gap 0 ms into /dev/imu: 1 sample(s) missing"
     assert (
         events[5].message
-        == "gap in t from 0.10375 to 0.2 s: 76 sample(s) missing (and 15 more not shown before it)"
+        == "a 96.3 ms gap 0.104 s into /dev/imu: 76 sample(s) missing (and 15 more not shown before it)"
     )
 
 
@@ -678,4 +678,4 @@ def test_samples_lost_across_a_reconnection_are_counted_from_t():
     # the end is the stream's end, not a gap
     assert reader.lost == 5 and reader.gaps == 1 and reader.samples == 35
     gap = next(e.message for e in events if e.kind == "gap")
-    assert gap == "gap in t from 0.01875 to 0.02625 s: 5 sample(s) missing across the reconnection"
+    assert gap == "a 7.5 ms gap 18.8 ms into /dev/imu: 5 sample(s) missing across the reconnection"
