@@ -332,7 +332,6 @@ SIZE_EXCEPTIONS = {
     "tactile_torch/robot/stream/serial_source.py::readings": "to split: issue 41's stream",
     "tests/ros2_publisher.py::main": "to split: issue 41's test publisher (a separate process)",
     "tactile_torch/tradeoff/charts.py::draw_chart": "to split: issue 39's charts",
-    "tactile_torch/tradeoff/evaluation.py::export_and_time": "to split: issue 39's export and timing",
     "tactile_torch/tradeoff/runner.py::plan_tradeoff": "to take one options object from the command line",
 }
 
