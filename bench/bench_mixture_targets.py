@@ -1,13 +1,15 @@
-"""Time to a converged posterior of K at the defaults: before and after issue 32, and what a user would pick instead.
+"""Time to a converged posterior of K at the defaults: before and after issue 38, and what a user would pick instead.
 
-Three sources (:func:`sources`): the README example (3 Gaussian clusters, 150 points, D = 3), the
-bundled 28 surfaces (1,680 windows of 800 samples, PCA-3 features) and 100 points of 4 clusters in
-D = 21 (the start-up data of ``bench_mixture``). On each, in this one run:
+Four sources (:func:`sources`): the README example (3 Gaussian clusters, 150 points, D = 3), the
+bundled 28 surfaces (1,680 windows of 800 samples, PCA-3 features), 7 surfaces recorded on 5 days
+(1,295 windows, PCA-3; :func:`tactile_torch.studies.clustering_sessions.multi_day`, seed 2) and
+100 points of 4 clusters in D = 21 (the start-up data of ``bench_mixture``). On each, in this one run:
 
 - **after**: ``PitmanYorGMM(random_state=0).fit(X)`` of this checkout, its defaults (``n_iter="auto"``:
-  until R-hat of K < 1.01 and bulk ESS of K >= 400, or an early stop with its reason);
+  until R-hat of K < 1.01 and bulk ESS of K >= 400, or an early stop with its reason); on the
+  multi-day source also ``fit(X, sessions=day)``, what ``tactile-torch cluster`` now fits there;
 - **before**: the same call in a fresh process on the checkout of :data:`BEFORE` (main before
-  issue 32), extracted with ``git archive`` into a temporary directory, its compiled kernels cached
+  issue 38), extracted with ``git archive`` into a temporary directory, its compiled kernels cached
   in ``bench/.cache/mixture-before`` (the first run compiles them: minutes). Skipped, with a note,
   when git or that commit is not available;
 - **scikit-learn**: ``BayesianGaussianMixture`` (Dirichlet-process prior, variational, 2 sqrt(n)
@@ -15,7 +17,8 @@ D = 21 (the start-up data of ``bench_mixture``). On each, in this one run:
   2 sqrt(n), one start each), the answers a user would otherwise get, with their wall time.
 
 Reported: wall time of the fit, sweeps per chain, sweeps per second (all chains), bulk ESS of K and
-effective samples of K per second, R-hat of K, K's mode and 95 % interval, and why the run stopped.
+effective samples of K per second, R-hat of K, K's mode and 95 % interval, why the run stopped, and
+the machine's one-minute load average when the fit started (``os.getloadavg``).
 The two cores are shared with other jobs: absolute times are noisy, the before / after ratio is
 taken within the run. Where a sweep's time goes (:func:`sweep_profile`): the compiled sweep with
 one part switched off at a time, on the fitted state of the README example and of the bundled data.
@@ -35,10 +38,10 @@ from pathlib import Path
 
 import numpy as np
 
-TITLE = "Mixture: time to a converged posterior of K (before / after issue 32; scikit-learn side by side)"
+TITLE = "Mixture: time to a converged posterior of K (before / after issue 38; scikit-learn side by side)"
 
-BEFORE = "d0e518f"
-"""main before issue 32: the restricted-Gibbs split-merge sampler, its run-length rule and fixed costs."""
+BEFORE = "81032b6"
+"""main before issue 38: algorithm 8 with a bound per component and one exponential per weight, no session effects."""
 
 ROOT = Path(__file__).resolve().parents[1]
 BEFORE_CACHE = ROOT / "bench" / ".cache" / "mixture-before"
@@ -66,26 +69,33 @@ print(json.dumps({"file": tactile_torch.__file__, "seconds": seconds, "n_iter": 
 """
 
 
-def sources(quick: bool = False) -> dict[str, np.ndarray]:
-    """Return {name: X}: the README example, the bundled 28 surfaces (not with ``quick``) and D = 21."""
+MULTI_DAY = "7 surfaces x 5 days (1,295, PCA-3)"
+"""The multi-day source: its rows fit with and without the sessions."""
+
+
+def sources(quick: bool = False) -> dict[str, tuple[np.ndarray, np.ndarray | None]]:
+    """Return {name: (X, sessions or None)}: the README example, the bundled 28 surfaces and 7 x 5 days (not with ``quick``), D = 21."""
     from bench.bench_mixture import startup_data
     from tactile_torch.studies.clustering_k import bundled_28, gaussian_three
+    from tactile_torch.studies.clustering_sessions import multi_day
 
-    out = {"README example: 3 Gaussian clusters (150, D = 3)": gaussian_three(0)[0]}
+    out = {"README example: 3 Gaussian clusters (150, D = 3)": (gaussian_three(0)[0], None)}
     if not quick:
-        out["bundled 28 surfaces, W = 800 (1,680, PCA-3)"] = bundled_28(0)[0]
-    out["4 clusters in D = 21 (100, start-up data)"] = startup_data(21)
+        out["bundled 28 surfaces, W = 800 (1,680, PCA-3)"] = (bundled_28(0)[0], None)
+        X, _, day = multi_day(7, 5, 2)
+        out[MULTI_DAY] = (X, day)
+    out["4 clusters in D = 21 (100, start-up data)"] = (startup_data(21), None)
     return out
 
 
-def fit_after(X: np.ndarray) -> dict:
-    """This checkout's default fit of ``X``: the numbers of :data:`_FIT`."""
+def fit_after(X: np.ndarray, sessions: np.ndarray | None = None) -> dict:
+    """This checkout's default fit of ``X`` (with ``sessions`` when given): the numbers of :data:`_FIT`."""
     from tactile_torch.mixture import PitmanYorGMM
 
     t0 = time.perf_counter()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        m = PitmanYorGMM(random_state=0, progress=False).fit(X)
+        m = PitmanYorGMM(random_state=0, progress=False).fit(X, sessions=sessions)
     seconds = time.perf_counter() - t0
     conv = {r["quantity"]: r for r in m.convergence_}
     return {
@@ -130,11 +140,12 @@ def fit_before(checkout: Path, data: Path) -> dict:
     return result
 
 
-def _row(source: str, who: str, r: dict) -> dict:
+def _row(source: str, who: str, r: dict, load: float) -> dict:
     sweeps = r["n_iter"] * r["chains"]
     return {
         "source": source,
         "what": who,
+        "load": load,
         "seconds": r["seconds"],
         "sweeps_per_chain": r["n_iter"],
         "sweeps_per_s": sweeps / r["seconds"],
@@ -189,7 +200,7 @@ def sweep_profile(name: str, X: np.ndarray, sweeps: int) -> list[dict]:
     from tactile_torch.mixture._chains import neighbours
 
     nbr = neighbours(Xw)
-    base = g.Settings(5, 5, 3, True, False, False, True, 0.0, 1e-10, 10**9, 0.9, True, len(X))
+    base = g.Settings(5, 5, 3, True, False, False, True, 0.0, 1e-10, 10**9, 0.9, True, len(X), False)
     cases = {
         "whole sweep": base,
         "without split-merge": base._replace(n_split_merge=0),
@@ -230,23 +241,37 @@ def run(quick: bool) -> dict:
     data = sources(quick)
     with tempfile.TemporaryDirectory() as tmp:
         checkout = None if quick else before_checkout(Path(tmp))
-        for name, X in data.items():
+        for name, (X, day) in data.items():
             path = Path(tmp) / f"{len(rows)}.npy"
             np.save(path, X)
             if checkout is not None:  # before and after alternate per source: the load falls on both
+                load = os.getloadavg()[0]
                 before = fit_before(checkout, path)
-                rows.append(_row(name, f"before ({BEFORE}): PitmanYorGMM(random_state=0).fit(X)", before))
+                rows.append(
+                    _row(name, f"before ({BEFORE}): PitmanYorGMM(random_state=0).fit(X)", before, load)
+                )
+            load = os.getloadavg()[0]
             after = fit_after(X)
-            rows.append(_row(name, "after: PitmanYorGMM(random_state=0).fit(X)", after))
+            rows.append(_row(name, "after: PitmanYorGMM(random_state=0).fit(X)", after, load))
             if after["reason"]:
                 notes.append(f"{name}: stopped early ({after['stopped_by']}): {after['reason']}")
             if checkout is not None:
                 rows.append({"source": name, "what": "time before / after", "ratio": before["seconds"] / after["seconds"],
                              "ESS_K_per_s_ratio": (after["ess"] / after["seconds"]) / (before["ess"] / before["seconds"])})  # fmt: skip
+            if day is not None:
+                load = os.getloadavg()[0]
+                with_days = fit_after(X, day)
+                rows.append(
+                    _row(name, "after: PitmanYorGMM(random_state=0).fit(X, sessions=day)", with_days, load)
+                )
+                if checkout is not None:
+                    rows.append({"source": name, "what": "time before / after with sessions",
+                                 "ratio": before["seconds"] / with_days["seconds"],
+                                 "ESS_K_per_s_ratio": (with_days["ess"] / with_days["seconds"]) / (before["ess"] / before["seconds"])})  # fmt: skip
             rows += scikit_learn_rows(name, X)
     if checkout is None and not quick:
         notes.append(f"before rows skipped: git or commit {BEFORE} not available (git archive failed)")
-    for name, X in list(data.items())[:2]:
+    for name, (X, _) in list(data.items())[:2]:
         rows += sweep_profile(name, X, 200 if quick or len(X) > 1000 else 2000)
     notes += [
         "after / before: `PitmanYorGMM(random_state=0).fit(X)` with every default (4 chains on the default threads, "
@@ -258,6 +283,7 @@ def run(quick: bool) -> dict:
         "n_components=ceil(2 sqrt(n)), max_iter=1000) and GaussianMixture(k).bic for k = 1 .. ceil(2 sqrt(n)), "
         "random_state=0, default threads; their K: components that own points, and the BIC minimiser.",
         "Sweep profile: thread CPU time of one chain on the state of a 300-sweep fit, fastest of 3.",
-        "The machine's 2 cores are shared with other jobs: absolute times are noisy; ratios are within this run.",
+        "The machine's 2 cores are shared with other jobs: absolute times are noisy; ratios are within this run; "
+        "load: the one-minute load average when each fit started.",
     ]
     return {"rows": rows, "notes": notes}

@@ -52,8 +52,9 @@ def main(argv: list[str] | None = None) -> int:
     from tactile_torch.export.parts import ExportPool
     from tactile_torch.robot.runtime import OnnxPipeline
     from tactile_torch.robot.stream.windows import window_recordings
+    from tactile_torch.tradeoff.execution import execute_plan
     from tactile_torch.tradeoff.inputs import vibration_data
-    from tactile_torch.tradeoff.runner import execute_plan, plan_tradeoff
+    from tactile_torch.tradeoff.runner import plan_tradeoff
 
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     source = parser.add_mutually_exclusive_group()
@@ -90,7 +91,13 @@ def main(argv: list[str] | None = None) -> int:
     with tempfile.TemporaryDirectory() as tmp, ExportPool(Path(tmp) / "parts", background=False) as pool:
         out = Path(tmp)
         result = execute_plan(
-            plan, pool, out_dir=out, progress=False, log=lambda s: None, random_state=args.seed
+            plan,
+            pool,
+            out_dir=out,
+            progress=False,
+            log=lambda s: None,
+            random_state=args.seed,
+            exhaustive=True,
         )
         from tactile_torch.tradeoff.deploy import deploy_candidate
 

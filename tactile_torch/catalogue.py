@@ -9,7 +9,7 @@ key     name      estimator (defaults)                                          
 hmsvm   HM-SVM    :class:`tactile_torch.svm.HierarchicalSVC`, RBF, ``C = 16``, ``gamma="scale"``  C x gamma
 svc     SVC       :class:`tactile_torch.svm.SVC` (one-vs-one), same kernel and defaults          C x gamma
 lda     LDA       scikit-learn ``LinearDiscriminantAnalysis`` (SVD solver)                       shrinkage
-knn     kNN       ``KNeighborsClassifier(3, metric="cityblock", weights="distance")`` (study's)  k
+knn     kNN       ``StableKNeighborsClassifier(3, metric="cityblock", weights="distance")``     k
 ncm     NCM       nearest class mean, scikit-learn ``NearestCentroid`` (Euclidean)               shrinkage
 ======  ========  ============================================================================  ==========
 
@@ -43,8 +43,8 @@ is a subset that still tunes every parameter the full grid tunes.
 Examples
 --------
 >>> make_classifier("knn")
-KNeighborsClassifier(algorithm='ball_tree', metric='cityblock', n_neighbors=3,
-                     weights='distance')
+StableKNeighborsClassifier(algorithm='brute', metric='cityblock', n_neighbors=3,
+                           weights='distance')
 >>> resolve("HM-SVM"), resolve("svm"), display_name("ncm")
 ('hmsvm', 'svc', 'NCM')
 >>> sorted(param_grid("svc", 4, quick=True))
@@ -140,12 +140,12 @@ def _lda(random_state=None, **params):
 
 
 def _knn(random_state=None, **params):
-    from sklearn.neighbors import KNeighborsClassifier
+    from .neighbors import StableKNeighborsClassifier
 
-    # A ball tree finds the same neighbours as brute force and was an order of magnitude faster with
-    # the city-block metric on a busy 2-core machine (measured in the breaking-point section).
-    settings = {"n_neighbors": KNN_K, "metric": "cityblock", "weights": "distance", "algorithm": "ball_tree"}
-    return KNeighborsClassifier(**{**settings, **params})
+    # Ties in training order, as the exported graph resolves them (tactile_torch.neighbors): its
+    # neighbours are found by brute force, so no search tree is built at fit.
+    settings = {"n_neighbors": KNN_K, "metric": "cityblock", "weights": "distance", "algorithm": "brute"}
+    return StableKNeighborsClassifier(**{**settings, **params})
 
 
 def _ncm(random_state=None, **params):
@@ -218,7 +218,8 @@ ENTRIES: dict[str, ClassifierEntry] = {
             "knn",
             "kNN",
             "classical",
-            "scikit-learn KNeighborsClassifier, k = 3, city-block distance, inverse-distance weights (the study's)",
+            "k nearest neighbours (scikit-learn's, ties in training order: tactile_torch.neighbors), k = 3, "
+            "city-block distance, inverse-distance weights (the study's)",
             _knn,
             _knn_grid,
         ),

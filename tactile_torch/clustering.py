@@ -14,9 +14,15 @@ thresholds are set on them (:meth:`~tactile_torch.mixture.PitmanYorGMM.calibrate
 consecutive windows N = 1 … 10), so that the exported graph's ``novel`` output and ``tactile-torch
 stream --discover N`` decide at a false-alarm rate set on windows the fit did not see. A feature
 matrix is calibrated only when ``calibrate`` is given (a random hold-out: its rows have no time
-order). **Per-session standardisation** (``sessions=True``) standardises the components within
-each recording session (:func:`tactile_torch.signal.sessions.standardise_per_session`); such a
-model cannot be exported (the robot cannot standardise a session it has not seen).
+order). **Sessions** (recordings of several days: day folders, a ``session`` array, an index CSV):
+by default (``sessions="auto"``) the mixture is fitted with session effects
+(:meth:`~tactile_torch.mixture.PitmanYorGMM.fit` with ``sessions=``: each surface's location may
+move from session to session, so K counts surfaces across the sessions) whenever some session
+holds recordings of several surfaces; ``"model"`` insists on it, ``"none"`` ignores the sessions,
+``"standardise"`` standardises the components within each session instead
+(:func:`tactile_torch.signal.sessions.standardise_per_session`; such a model cannot be exported:
+the robot cannot standardise a session it has not seen). A model with session effects exports: a
+window of a new session is classified with its session's effect integrated out.
 
 :func:`write_clustering` writes the results into a directory: ``clustering.npz`` (the point estimate,
 the MAP sample, the posterior samples of K and of the prior's parameters), ``model.npz`` (the model
@@ -63,6 +69,14 @@ class Clustering:
         ``X`` was standardised within each recording session.
     false_alarm : float or None
         The false-alarm rate the thresholds were calibrated for (None: not calibrated).
+    sessions : ndarray of str (N,) or None
+        The session of every row of ``X`` (None: the data have none).
+    session_mode : {"model", "standardised", "none"}
+        How the sessions were used: session effects in the mixture, per-session standardisation,
+        or not at all.
+    sessions_from : str or None
+        Where the sessions came from (``"their folders"``, ``"the file's session array"``, ...),
+        for the summary.
     """
 
     mixture: object
@@ -74,6 +88,9 @@ class Clustering:
     calibration_rows: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     per_session: bool = False
     false_alarm: float | None = None
+    sessions: np.ndarray | None = None
+    session_mode: str = "none"
+    sessions_from: str | None = None
 
     def __post_init__(self) -> None:
         if self.fitted_rows is None:
@@ -88,6 +105,8 @@ NOVELTY_COMPONENTS = 5
 """Principal components of the novelty rule's density (recordings); the first ``components`` of them count K."""
 MAX_WINDOWS = 10
 """Thresholds are calibrated for decisions after N = 1 … ``MAX_WINDOWS`` consecutive windows."""
+SESSION_MODES = ("auto", "model", "standardise", "none")
+"""How :func:`fit_clustering` uses the recordings' sessions (its ``sessions`` argument)."""
 
 
 def holdout_rows(
@@ -134,7 +153,8 @@ def fit_clustering(
     log: Callable[[str], None] | None = None,
     calibrate: float | None = None,
     false_alarm: float = 0.02,
-    sessions: bool = False,
+    sessions: str = "auto",
+    sessions_from: str | None = None,
     **mixture_params,
 ) -> Clustering:
     """Return the clustering of ``data``: its rows, and the mixture fitted to them.
@@ -169,8 +189,14 @@ def fit_clustering(
     false_alarm : float
         Target share of novel decisions on windows of known surfaces: the thresholds are the
         ``1 - false_alarm`` quantiles on the held-out rows.
-    sessions : bool
-        Vibration recordings with sessions: standardise the components within each session.
+    sessions : {"auto", "model", "standardise", "none"}
+        How to use the recordings' sessions (days): ``"model"``, session effects in the mixture
+        (K counts surfaces across sessions; :func:`check_session_effects` must pass);
+        ``"standardise"``, standardise the components within each session (:func:`check_sessions`
+        must pass; not exportable); ``"none"``, ignore them; ``"auto"`` (default), ``"model"``
+        when :func:`check_session_effects` passes, else ``"none"``.
+    sessions_from : str, optional
+        Where the sessions came from, for the summary (``"their folders"``).
     **mixture_params
         Passed to :class:`~tactile_torch.mixture.PitmanYorGMM` (``model``, ``coarsen``, ``alpha``,
         ``n_iter``, ``random_state``, ``progress``, ...), which validates them at ``fit``.
@@ -178,11 +204,14 @@ def fit_clustering(
     Raises
     ------
     ValueError
-        ``data`` of another kind (images), ``sessions`` without recordings in several sessions, a
-        hold-out that leaves no row to fit or to calibrate, or data and parameters the readers or
-        the mixture refuse.
+        ``data`` of another kind (images), ``sessions`` that the data cannot serve, a hold-out
+        that leaves no row to fit or to calibrate, or data and parameters the readers or the
+        mixture refuse.
     """
     from .mixture import PitmanYorGMM
+
+    if sessions not in SESSION_MODES:
+        raise ValueError(f"sessions must be one of {', '.join(map(repr, SESSION_MODES))}, got {sessions!r}")
 
     if isinstance(false_alarm, bool) or not (isinstance(false_alarm, int | float) and 0 < false_alarm < 1):
         raise ValueError(f"false_alarm must be a number in (0, 1), got {false_alarm!r}")
@@ -193,13 +222,11 @@ def fit_clustering(
     ):
         raise ValueError(f"novelty_components must be an integer >= 1 or None, got {novelty_components!r}")
     transform = None
-    if sessions and data.kind == "vibration":
-        check_sessions(data, name)  # before any work: a fit on meaningless sessions runs for minutes
+    mode = _session_mode(
+        data, sessions, name
+    )  # before any work: a fit on meaningless sessions runs for minutes
+    row_sessions = None
     if data.kind == "features":  # labels optional: clustering does not need them
-        if sessions:
-            raise ValueError(
-                f"{name}: sessions needs vibration recordings with sessions, got a feature matrix"
-            )
         X, truth = data.features, data.labels
         source = {"kind": "features", "n_features": int(X.shape[1])}
         rows = _holdout(len(X), calibrate, None, None, mixture_params.get("random_state"), name)
@@ -218,7 +245,9 @@ def fit_clustering(
         transform, X = fit_clustering_transform(features.X, width, fit_rows=rows[0])
         if width > components:
             mixture_params = {"cluster_features": components} | mixture_params
-        if sessions:
+        if data.session is not None:
+            row_sessions = np.asarray(data.session).astype(str)[features.recording]
+        if mode == "standardised":
             X = _standardise_sessions(X, data, features.recording, name)
         if log is not None:
             held = f", {rows[1].size} held out to calibrate the novelty rule" if rows[1].size else ""
@@ -232,13 +261,85 @@ def fit_clustering(
             f"cluster, got {data.kind} data"
         )
     fitted, held = rows
-    mixture = PitmanYorGMM(**mixture_params).fit(X[fitted])
+    mixture = PitmanYorGMM(**mixture_params)
+    mixture.fit(X[fitted], sessions=row_sessions[fitted] if mode == "model" else None)
     rate = None
     if held.size:
         groups = None if data.kind == "features" else features.recording[held]
         mixture.calibrate_novelty(X[held], false_alarm=false_alarm, max_windows=MAX_WINDOWS, groups=groups)
         rate = float(false_alarm)
-    return Clustering(mixture, X, truth, source, transform, fitted, held, bool(sessions), rate)
+    return Clustering(
+        mixture, X, truth, source, transform, fitted, held, mode == "standardised", rate, row_sessions, mode,
+        sessions_from if row_sessions is not None else None,
+    )  # fmt: skip
+
+
+def _session_mode(data, sessions: str, name: str) -> str:
+    """``"model"``, ``"standardised"`` or ``"none"``: how :func:`fit_clustering` uses the sessions; refuse what cannot be."""
+    if sessions == "none":
+        return "none"
+    if data.kind != "vibration":
+        if sessions in ("model", "standardise") and data.kind == "features":
+            raise ValueError(
+                f"{name}: sessions={sessions!r} needs vibration recordings with sessions, got a feature matrix"
+            )
+        return "none"
+    if data.session is None and sessions == "auto":
+        return "none"
+    if sessions == "standardise":
+        check_sessions(data, name)
+        return "standardised"
+    if sessions == "model":
+        check_session_effects(data, name)
+        return "model"
+    try:  # auto
+        check_session_effects(data, name)
+    except ValueError:
+        return "none"
+    return "model"
+
+
+def _several_sessions(data, name: str, what: str) -> np.ndarray:
+    """The recordings' sessions as strings; ``ValueError`` (``"<name>: <what> recordings of at least two sessions ..."``) when fewer."""
+    session = None if data.session is None else np.asarray(data.session).astype(str)
+    if session is None or np.unique(session).size < 2:
+        raise ValueError(
+            f"{name}: {what} recordings of at least two sessions (a 'session' array, CSV logs named "
+            "<class>_<session>.csv, or one folder per session), got "
+            + ("none" if session is None else f"one ({session[0]!r})")
+        )
+    return session
+
+
+def check_session_effects(data, name: str = "data") -> None:
+    """Refuse recordings whose sessions cannot inform session effects (``cluster --sessions model``), in one line.
+
+    A session effect is told from a surface by the other surfaces recorded in the same session:
+    refused are fewer than two sessions, and sessions that each hold a single recording, or (with
+    labels of several classes) recordings of a single surface each (every session would then be a
+    surface, and its effect could take any surface onto another).
+
+    Raises
+    ------
+    ValueError
+        Naming the data and what its sessions hold.
+    """
+    session = _several_sessions(data, name, "session effects need")
+    labels = np.asarray(data.labels) if data.labels is not None else np.zeros(len(session), dtype=np.int64)
+    several = np.unique(labels).size > 1
+    shared = [
+        s
+        for s in np.unique(session)
+        if np.unique(labels[session == s] if several else np.flatnonzero(session == s)).size > 1
+    ]
+    if not shared:
+        alone = all(np.count_nonzero(session == s) == 1 for s in np.unique(session))
+        what = "a single recording" if alone or not several else "recordings of a single surface"
+        raise ValueError(
+            f"{name}: each of the {np.unique(session).size} sessions holds {what}; a session effect is told from "
+            "a surface by other surfaces recorded in the same session (one folder per day holding several "
+            "surfaces, or an index CSV, index=); pass sessions='none'"
+        )
 
 
 def _holdout(n_rows, share, recording, position, random_state, name) -> tuple[np.ndarray, np.ndarray]:
@@ -271,13 +372,7 @@ def check_sessions(data, name: str = "data") -> None:
     ValueError
         Naming the data, the session and what it holds.
     """
-    session = None if data.session is None else np.asarray(data.session).astype(str)
-    if session is None or np.unique(session).size < 2:
-        raise ValueError(
-            f"{name}: sessions needs recordings of at least two sessions (a 'session' array, CSV logs named "
-            "<class>_<session>.csv, or one folder per session), got "
-            + ("none" if session is None else f"one ({session[0]!r})")
-        )
+    session = _several_sessions(data, name, "sessions needs")
     if all(np.count_nonzero(session == s) == 1 for s in np.unique(session)):
         raise ValueError(
             f"{name}: every session holds one recording; standardising within it would remove what "
@@ -306,21 +401,60 @@ def _standardise_sessions(X: np.ndarray, data, recording: np.ndarray, name: str)
 
 
 def clustering_summary(clustering: Clustering) -> str:
-    """Return the mixture's summary (posterior of K first) and, with labels, the pairwise accuracies."""
+    """Return the mixture's summary (posterior of K first), how sessions were used and, with labels, the agreement with them."""
+    model = clustering.mixture
+    summary = model.summary()
+    for line in (sessions_line(clustering), novelty_line(clustering), labels_line(clustering)):
+        if line:
+            summary += "\n" + line
+    return summary
+
+
+def sessions_line(clustering: Clustering) -> str:
+    """Return one line on how the recordings' sessions were used ("" when the data have none)."""
+    if clustering.sessions is None:
+        return ""
+    names = np.unique(clustering.sessions)
+    listed = ", ".join(names[:6]) + (", ..." if names.size > 6 else "")
+    where = f" from {clustering.sessions_from}" if clustering.sessions_from else ""
+    head = f"sessions: {names.size}{where} ({listed})"
+    if clustering.session_mode == "model":
+        lam = clustering.mixture.session_scale_
+        return (
+            f"{head}; K counts surfaces across them: a session may move every surface by a common offset and "
+            f"each by its own effect (variance {lam:.3g} times the surface's spread, posterior mean); a window "
+            "of a new session is classified with its session's offset and effect integrated out"
+        )
+    if clustering.session_mode == "standardised":
+        return f"{head}; the components were standardised within each session (not exportable)"
+    return f"{head}; not used: K counts blobs of any session as surfaces (sessions='model' to use them)"
+
+
+def labels_line(clustering: Clustering) -> str:
+    """Return one line comparing the point estimate and the MAP sample with the data's labels ("" without labels)."""
+    from sklearn.metrics import adjusted_rand_score
+
     from .metrics import pairwise_accuracy
 
-    model, truth = clustering.mixture, clustering.truth
-    summary = model.summary()
-    line = novelty_line(clustering)
-    if line:
-        summary += "\n" + line
-    if truth is not None:
-        truth = np.asarray(truth)[clustering.fitted_rows]
-        summary += (
-            f"\npairwise accuracy: point estimate {pairwise_accuracy(truth, model.labels_):.4f}, "
-            f"MAP sample {pairwise_accuracy(truth, model.map_labels_):.4f}"
+    if clustering.truth is None:
+        return ""
+    truth = np.asarray(clustering.truth)[clustering.fitted_rows]
+    model = clustering.mixture
+    n_classes = np.unique(truth).size
+
+    def scores(labels: np.ndarray) -> str:
+        return (
+            f"pairwise accuracy {pairwise_accuracy(truth, labels):.4f}, "
+            f"adjusted Rand index {adjusted_rand_score(truth, labels):.4f}"
         )
-    return summary
+
+    return (
+        f"against the data's labels ({n_classes} classes, {truth.size} fitted windows): point estimate "
+        f"({model.n_clusters_} clusters) {scores(model.labels_)}; MAP sample ({model.map_n_clusters_}) "
+        f"{scores(model.map_labels_)}. Pairwise accuracy is the share of window pairs put together or "
+        "apart as the labels do (high whenever most pairs are of different classes); the adjusted Rand "
+        "index is 1 for the labels' partition and 0 for chance"
+    )
 
 
 def novelty_line(clustering: Clustering) -> str:
@@ -336,6 +470,16 @@ def novelty_line(clustering: Clustering) -> str:
     )
 
 
+def _session_header(clustering: Clustering) -> dict | None:
+    """The model file's ``sessions`` entry of a mixture fitted with session effects (None otherwise)."""
+    if clustering.session_mode != "model":
+        return None
+    return {
+        "names": [str(s) for s in np.unique(clustering.sessions[clustering.fitted_rows])],
+        "scale": float(clustering.mixture.session_scale_),
+    }
+
+
 def write_clustering(out_dir: str | Path, clustering: Clustering) -> dict[str, Path]:
     """Write the results of ``clustering`` into ``out_dir`` (made if missing); return the paths by role.
 
@@ -343,7 +487,8 @@ def write_clustering(out_dir: str | Path, clustering: Clustering) -> dict[str, P
     rows), ``means``, ``covariances``, ``precisions_cholesky``, ``weights``, ``n_clusters_samples``,
     ``n_clusters_interval``, ``alpha_samples``, ``discount_samples``, ``fitted_rows`` and
     ``calibration_rows`` (indices of the data's rows), ``novelty_thresholds`` (``(N,)``, empty when
-    not calibrated), ``per_session``), ``"summary"``
+    not calibrated), ``per_session``, ``sessions`` (of every row, empty without), ``session_mode``
+    and ``session_scale`` (lambda, NaN without session effects)), ``"summary"``
     (``summary.txt``) and ``"model"`` (``model.npz``, for ``tactile-torch export``).
     """
     from .clustering_model import save_clustering_model
@@ -369,6 +514,9 @@ def write_clustering(out_dir: str | Path, clustering: Clustering) -> dict[str, P
         calibration_rows=clustering.calibration_rows,
         novelty_thresholds=np.zeros(0) if thresholds is None else thresholds,
         per_session=np.array(clustering.per_session),
+        sessions=np.zeros(0, dtype=str) if clustering.sessions is None else clustering.sessions,
+        session_mode=np.array(clustering.session_mode),
+        session_scale=np.array(np.nan if model.session_scale_ is None else model.session_scale_),
     )
     save_clustering_model(
         out / MODEL_FILE,
@@ -376,6 +524,7 @@ def write_clustering(out_dir: str | Path, clustering: Clustering) -> dict[str, P
         source=clustering.source,
         transform=clustering.transform,
         per_session=clustering.per_session,
+        sessions=_session_header(clustering),
         novelty={
             "false_alarm": clustering.false_alarm,
             "calibration_rows": int(clustering.calibration_rows.size),

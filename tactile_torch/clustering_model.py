@@ -23,6 +23,7 @@ def save_clustering_model(
     source: dict,
     transform: nn.Module | None = None,
     per_session: bool = False,
+    sessions: dict | None = None,
     novelty: dict | None = None,
 ) -> Path:
     """Write a fitted :class:`~tactile_torch.mixture.PitmanYorGMM` (and the transform before it) to a model file.
@@ -45,6 +46,10 @@ def save_clustering_model(
     per_session : bool
         The mixture was fitted to features standardised within each session (recorded as the
         header's ``per_session``; such a model cannot be exported).
+    sessions : dict, optional
+        The mixture was fitted with session effects: ``{"names": [...], "scale": lambda}``, kept as
+        the header's ``sessions`` (the head's components are already those of a window of a new
+        session, so the file exports as any other).
     novelty : dict, optional
         How the novelty thresholds were calibrated (``false_alarm``, ``calibration_rows``), kept
         in the header's ``novelty``; the thresholds themselves are the head's ``novelty_thresholds``.
@@ -67,6 +72,8 @@ def save_clustering_model(
     }
     if per_session:
         header["per_session"] = True
+    if sessions is not None:
+        header["sessions"] = dict(sessions)
     if novelty is not None:
         header["novelty"] = dict(novelty)
     arrays = {f"head.{name}": buf.numpy() for name, buf in module.named_buffers()}

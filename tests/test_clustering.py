@@ -33,7 +33,7 @@ def test_features_are_clustered_as_they_are_and_the_results_written(tmp_path):
     assert res["n_clusters_samples"].shape == (30,)  # 40 sweeps, 10 burnt
     summary = paths["summary"].read_text()
     assert summary == clustering_summary(clustering) + "\n"
-    assert "pairwise accuracy: point estimate 1.0000" in summary
+    assert "point estimate (3 clusters) pairwise accuracy 1.0000, adjusted Rand index 1.0000" in summary
 
 
 def test_without_labels_the_summary_has_no_accuracy(tmp_path):
@@ -159,15 +159,17 @@ def test_per_session_models_are_recorded_and_not_exported(tmp_path, capsys):
     arrays["class_names"] = np.array(rec.class_names)
     np.savez(tmp_path / "one.npz", **arrays, session=np.array(rec.session))  # "glass/0": one recording each
     with pytest.raises(ValueError, match="every session holds one recording"):
-        fit_clustering(read_source([tmp_path / "one.npz"]), window=400, sessions=True, **FAST)
+        fit_clustering(read_source([tmp_path / "one.npz"]), window=400, sessions="standardise", **FAST)
     np.savez(tmp_path / "none.npz", **arrays)
     with pytest.raises(ValueError, match="sessions needs recordings of at least two sessions"):
-        fit_clustering(read_source([tmp_path / "none.npz"]), window=400, sessions=True, **FAST)
-    with pytest.raises(ValueError, match="sessions needs vibration recordings"):
-        fit_clustering(_features(tmp_path)[0], sessions=True, **FAST)
+        fit_clustering(read_source([tmp_path / "none.npz"]), window=400, sessions="standardise", **FAST)
+    with pytest.raises(ValueError, match="sessions='standardise' needs vibration recordings with sessions"):
+        fit_clustering(_features(tmp_path)[0], sessions="standardise", **FAST)
     session = np.array([s.rsplit("/", 1)[1] for s in rec.session])  # "0", "1": both surfaces in each
     np.savez(tmp_path / "two.npz", **arrays, session=session)
-    clustering = fit_clustering(read_source([tmp_path / "two.npz"]), window=400, sessions=True, **FAST)
+    clustering = fit_clustering(
+        read_source([tmp_path / "two.npz"]), window=400, sessions="standardise", **FAST
+    )
     for s in ("0", "1"):  # standardised within each session
         rows = session[np.repeat(np.arange(4), len(clustering.X) // 4)] == s
         np.testing.assert_allclose(clustering.X[rows].mean(axis=0), 0.0, atol=1e-9)
@@ -180,3 +182,60 @@ def test_per_session_models_are_recorded_and_not_exported(tmp_path, capsys):
     assert main(args) == BAD_INPUT_EXIT
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "standardised per session" in err
+
+
+def _days(tmp_path, n_days=3, duration_s=8.0, name="days.npz"):
+    """3 surfaces recorded on ``n_days`` days, each day's signals scaled by its own gain: a .npz with sessions."""
+    from tactile_torch.data.stylus import make_vibration_recordings
+
+    rec = make_vibration_recordings(3, duration_s=duration_s, n_sessions=n_days, random_state=0)
+    day = np.array([int(s.rsplit("/", 1)[1]) for s in rec.session])
+    gains = np.array([0.8, 1.0, 1.25, 0.9, 1.1])[day]
+    arrays = dict(
+        signals=np.stack(rec.signals) * gains[:, None, None].astype(np.float32),
+        rate_hz=rec.rate_hz,
+        labels=rec.labels,
+        class_names=np.array(rec.class_names),
+    )
+    np.savez(tmp_path / name, **arrays, session=np.array([f"day{k}" for k in day]))
+    return read_source([tmp_path / name]), arrays
+
+
+def test_sessions_shared_by_surfaces_become_session_effects_by_default(tmp_path):
+    from tactile_torch.robot.files.model_file import load_model_file
+
+    data, arrays = _days(tmp_path)
+    clustering = fit_clustering(data, window=400, sessions_from="the file's session array", **FAST)
+    assert clustering.session_mode == "model" and clustering.mixture.n_sessions_ == 3
+    assert clustering.mixture.session_scale_ > 0
+    summary = clustering_summary(clustering)
+    assert (
+        "sessions: 3 from the file's session array (day0, day1, day2); K counts surfaces across them"
+        in summary
+    )
+    assert "against the data's labels (3 classes, " in summary and "adjusted Rand index" in summary
+    paths = write_clustering(tmp_path / "out", clustering)
+    res = np.load(paths["results"])
+    assert str(res["session_mode"]) == "model" and res["sessions"].shape == (len(clustering.X),)
+    header = load_model_file(paths["model"]).header
+    assert header["sessions"]["names"] == ["day0", "day1", "day2"] and header["sessions"]["scale"] > 0
+    # the other uses of the sessions, and what cannot use them
+    assert fit_clustering(data, window=400, sessions="none", **FAST).session_mode == "none"
+    assert "; not used: K counts blobs" in clustering_summary(
+        fit_clustering(data, window=400, sessions="none", **FAST)
+    )
+    np.savez(
+        tmp_path / "own.npz", **arrays, session=np.array([f"r{i}" for i in range(len(arrays["labels"]))])
+    )
+    own = read_source([tmp_path / "own.npz"])
+    assert (
+        fit_clustering(own, window=400, **FAST).session_mode == "none"
+    )  # auto: each recording its own session
+    with pytest.raises(
+        ValueError, match="each of the 9 sessions holds a single recording; a session effect is told"
+    ):
+        fit_clustering(own, window=400, sessions="model", **FAST)
+    with pytest.raises(
+        ValueError, match="sessions must be one of 'auto', 'model', 'standardise', 'none', got True"
+    ):
+        fit_clustering(data, window=400, sessions=True, **FAST)

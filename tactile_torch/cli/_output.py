@@ -20,8 +20,6 @@ def recordings_line(data, args) -> str:
 
     import numpy as np
 
-    from ._options import data_layout
-
     paths = [Path(p) for p in args.data]
     from_file = len(paths) == 1 and paths[0].suffix.lower() == ".npz"
     if getattr(args, "sample_rate_hz", None) is not None:
@@ -32,9 +30,20 @@ def recordings_line(data, args) -> str:
     if data.session is None:
         return line + ", no sessions (each recording its own)"
     n = len(np.unique(np.asarray(data.session).astype(str)))
-    names = None if from_file else data_layout(args)
-    where = "the file's session array" if from_file else "the file's name" if names is None else names.layout
-    return line + f", {n} session{'s' if n != 1 else ''} ({where})"
+    return line + f", {n} session{'s' if n != 1 else ''} ({session_origin(args)})"
+
+
+def session_origin(args) -> str:
+    """Where the sessions of ``args.data`` come from, as :func:`recordings_line` says it."""
+    from pathlib import Path
+
+    from ._options import data_layout
+
+    paths = [Path(p) for p in args.data]
+    if len(paths) == 1 and paths[0].suffix.lower() == ".npz":
+        return "the file's session array"
+    names = data_layout(args)
+    return "the file's name" if names is None else names.layout
 
 
 def print_class_report(rep) -> None:

@@ -137,9 +137,12 @@ def register(sub) -> None:
     )
     p.add_argument(
         "--sessions",
-        action="store_true",
-        help="standardise the components within each recording session (removes a session's gain shift; "
-        "such a model cannot be exported)",
+        choices=("auto", "model", "standardise", "none"),
+        default="auto",
+        help="how to use the recordings' sessions (days): 'model' fits a mixture in which each surface may move "
+        "from session to session, so that K counts surfaces across them; 'standardise' standardises the "
+        "components within each session (not exportable); 'none' ignores them; 'auto' (default): 'model' when "
+        "some session holds recordings of several surfaces, else 'none'",
     )
     p.add_argument("--seed", type=SEED, default=0, help="random seed (default: 0)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -163,6 +166,11 @@ def run_cluster(args: argparse.Namespace) -> int:
             f"{data_name(args.data)}: --data must hold vibration recordings ('signals') or a 'features' "
             f"array (n, D) to cluster, got {data.kind} data"
         )
+    sessions_from = None
+    if data.kind == "vibration" and data.session is not None:
+        from ._output import session_origin
+
+        sessions_from = session_origin(args)
     clustering = fit_clustering(
         data,
         window=args.window,
@@ -175,6 +183,7 @@ def run_cluster(args: argparse.Namespace) -> int:
         calibrate=args.calibrate,
         false_alarm=args.false_alarm,
         sessions=args.sessions,
+        sessions_from=sessions_from,
         model=args.model,
         coarsen=args.coarsen,
         alpha=args.alpha,
@@ -190,9 +199,12 @@ def run_cluster(args: argparse.Namespace) -> int:
     )
     paths = write_clustering(args.out, clustering)
     print(clustering_summary(clustering))
+    note = {
+        "standardised": ", per-session standardised: not exportable",
+        "model": ", a window of a new session classified with its session's effect integrated out",
+    }.get(clustering.session_mode, "")
     print(
         f"written: {paths['results']}, {paths['summary']}, {paths['model']} (tactile-torch export: "
-        f"the point estimate's {clustering.mixture.n_clusters_} components"
-        + (", per-session standardised: not exportable)" if clustering.per_session else ")")
+        f"the point estimate's {clustering.mixture.n_clusters_} components{note})"
     )
     return 0

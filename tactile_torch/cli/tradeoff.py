@@ -158,6 +158,12 @@ def register(sub) -> None:
         "each training fold (for comparison)",
     )
     p.add_argument(
+        "--exhaustive",
+        action="store_true",
+        help="evaluate every candidate on every fold (default: a candidate that cannot be recommended stops "
+        "early; docs/tradeoff.md, 'What the default study evaluates, and what it skips')",
+    )
+    p.add_argument(
         "--backend",
         default=None,
         choices=["sequential", "loky", "threading", "multiprocessing", "dask"],
@@ -204,6 +210,7 @@ def tradeoff_options(args: argparse.Namespace):
         quick=args.quick,
         tune=not args.no_tune,
         breaking=not args.no_breaking,
+        exhaustive=args.exhaustive,
         **{name: value for name, value in given.items() if value is not None},
     )
 
@@ -218,6 +225,7 @@ def reproduce_line(args: argparse.Namespace, options) -> str:
     words += ["--quick"] if args.quick else []
     words += ["--no-breaking"] if args.no_breaking else []
     words += ["--no-tune"] if args.no_tune else []
+    words += ["--exhaustive"] if args.exhaustive else []
     changed = options.changed()
     words += [
         f"--{name.replace('_', '-')} {_word(getattr(args, name))}"

@@ -10,7 +10,7 @@ Modules: ``model_graph`` (the whole inference graph of a model file, :func:`pipe
 :func:`inference_module`), ``neural`` (a network's bundle, :func:`export_classifier`), ``parts`` (the
 trade-off's candidates exported in parts and joined), ``fitted`` (the graph and bundle of any fitted
 model the trade-off compares), ``int8`` (int8 copies, :func:`quantise_bundle`), ``ood_branch`` (the
-"unknown" rule as a branch of a bundle, :func:`add_distance`). The SVMs' and the mixture's graphs
+"unknown" rule as a part of a bundle, :func:`attach_distance`). The SVMs' and the mixture's graphs
 belong to their estimators (:mod:`tactile_torch.svm.inference`, ``tactile_torch.mixture._inference``).
 
 Examples
@@ -37,6 +37,6 @@ __getattr__, __dir__, __all__ = lazy_exports(
         "neural": ("export_classifier",),
         "int8": ("quantise_bundle",),
         "classifier_inference": ("inference_module",),
-        "ood_branch": ("add_distance",),
+        "ood_branch": ("attach_distance",),
     },
 )

@@ -20,7 +20,9 @@ estimator                                       module
                                                 estimator's ``decision_function``); two classes ``[-f, f]``
 ``KNeighborsClassifier`` (uniform or distance   :class:`NeighboursInference`: the ``k`` nearest training
 weights; ``minkowski``/``euclidean``/           samples, votes weighted as scikit-learn does; scores are its
-``manhattan``/``cityblock`` metric)             ``predict_proba``
+``manhattan``/``cityblock`` metric)             ``predict_proba``; of samples at equal distance the earlier
+                                                is nearer (:class:`~tactile_torch.neighbors.StableKNeighborsClassifier`'s
+                                                rule, which scikit-learn's own leaves to its search tree)
 ``NearestCentroid`` (euclidean)                 :class:`LinearInference` of the equivalent linear rule:
                                                 scores ``2 x . mean_c - ||mean_c||^2`` (``||x||^2 -
                                                 ||x - mean_c||^2``: ranked as minus the distance)
@@ -29,7 +31,7 @@ weights; ``minkowski``/``euclidean``/           samples, votes weighted as sciki
 ==============================================  ============================================================
 
 Every module computes in float64 by default (the input is cast), so that its labels equal the
-estimator's ``predict`` except on exact ties; ties go to the lowest class index (``argmax``).
+estimator's ``predict``: ties of scores go to the lowest class index (``argmax``), as the estimators' own.
 
 Examples
 --------
@@ -134,7 +136,14 @@ class NeighboursInference(nn.Module):
     def forward(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         diff = x.to(self.samples.dtype)[:, None, :] - self.samples[None, :, :]  # (B, N, F)
         dist = diff.abs().sum(-1) if self.p == 1 else (diff * diff).sum(-1).sqrt()
-        near, index = torch.topk(dist, self.n_neighbors, dim=1, largest=False)  # (B, k)
+        # Ties in training order (tactile_torch.neighbors.StableKNeighborsClassifier): ONNX's TopK keeps
+        # the lower index first, torch's topk leaves the order of equal values open, so torch sorts stably
+        # (a stable sort has no ONNX export).
+        if torch.compiler.is_exporting():
+            near, index = torch.topk(dist, self.n_neighbors, dim=1, largest=False)  # (B, k)
+        else:
+            near, index = torch.sort(dist, dim=1, stable=True)
+            near, index = near[:, : self.n_neighbors], index[:, : self.n_neighbors]
         if self.weights == "distance":
             exact = near == 0
             any_exact = exact.any(dim=1, keepdim=True)

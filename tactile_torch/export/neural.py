@@ -32,6 +32,35 @@ from ._onnx import export_onnx
 
 LAYOUTS = {3: WINDOWS_LAYOUT, 4: PRESSURE_LAYOUT, 5: FRAMES_LAYOUT}
 """Input layout by the raw input's number of dimensions."""
+EMBEDDING_OUTPUT = "embedding"
+"""A learned bundle's embedding (:class:`EmbeddingGraph`): an output while the bundle is built, the tensor
+its "unknown" rule reads once attached (:func:`tactile_torch.export.ood_branch.attach_distance`)."""
+
+
+class EmbeddingGraph(torch.nn.Module):
+    """A learned model's graph (``embed`` and ``classify``) as raw input → ``(labels, scores, embedding)``.
+
+    ``graph`` is a ``to_module()`` of the networks or the learned front ends
+    (:class:`tactile_torch.neural.networks.ClassifierGraph`,
+    :class:`tactile_torch.neural.front_end.HardFrontEndGraph`). Its submodules and buffers are registered
+    under their own names, so that the exported weights are named as in the graph alone
+    (:func:`tactile_torch.tradeoff.comparison.rebind` binds another fold's weights by those names).
+    """
+
+    output_names = (LABELS_OUTPUT, SCORES_OUTPUT, EMBEDDING_OUTPUT)
+
+    def __init__(self, graph: torch.nn.Module) -> None:
+        super().__init__()
+        for name, child in graph.named_children():
+            self.add_module(name, child)
+        for name, buffer in graph.named_buffers(recurse=False):
+            self.register_buffer(name, buffer)
+        object.__setattr__(self, "inner", graph)  # not a submodule: its weights are registered above
+
+    def forward(self, raw: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        embedding = self.inner.embed(raw)
+        labels, scores = self.inner.classify(embedding)
+        return labels, scores, embedding
 
 
 def export_classifier(
@@ -41,6 +70,7 @@ def export_classifier(
     *,
     class_names: Sequence[str] | None = None,
     metadata: dict[str, object] | None = None,
+    graph: torch.nn.Module | None = None,
 ) -> Path:
     """Write ``estimator``'s inference graph to the ONNX bundle ``path``; return the path.
 
@@ -56,6 +86,9 @@ def export_classifier(
         Name of each class of ``classes_`` (default: the classes as strings).
     metadata : dict, optional
         Further metadata (window size, sample rate ...); JSON for non-strings.
+    graph : torch.nn.Module, optional
+        The graph to export instead of ``estimator.to_module()`` (the same raw input; its outputs are
+        named by its ``output_names`` attribute when it has one, e.g. :class:`EmbeddingGraph`'s third).
     """
     from .. import __version__
 
@@ -74,14 +107,15 @@ def export_classifier(
             **(metadata or {}),
         }
     )
+    module = estimator.to_module() if graph is None else graph
     return export_onnx(
-        estimator.to_module(),
+        module,
         (torch.from_numpy(example),),
         path,
         input_names=[INPUT_NAME],
-        output_names=[LABELS_OUTPUT, SCORES_OUTPUT],
+        output_names=list(getattr(module, "output_names", (LABELS_OUTPUT, SCORES_OUTPUT))),
         metadata=meta,
     )
 
 
-__all__ = ["LAYOUTS", "export_classifier"]
+__all__ = ["EMBEDDING_OUTPUT", "LAYOUTS", "EmbeddingGraph", "export_classifier"]

@@ -56,7 +56,7 @@ class _Lifted(nn.Module):
         self.module = module
         self.names = [name for name, _ in module.named_buffers()]
 
-    def forward(self, x: torch.Tensor, *buffers: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    def forward(self, x: torch.Tensor, *buffers: torch.Tensor) -> object:
         return torch.func.functional_call(self.module, dict(zip(self.names, buffers, strict=True)), (x,))
 
 
@@ -130,11 +130,18 @@ def head_key(modules: list[nn.Module], n_inputs: int) -> tuple:
     return _settings(nn.Sequential(*modules)), n_inputs == 1
 
 
-def export_head(modules: list[nn.Module], n_inputs: int, path: str | Path) -> Path:
+def export_head(
+    modules: list[nn.Module],
+    n_inputs: int,
+    path: str | Path,
+    *,
+    output_names: tuple[str, ...] = (LABELS_OUTPUT, SCORES_OUTPUT),
+) -> Path:
     """Export ``nn.Sequential(*modules)`` with every buffer as an input of dynamic size to ``path``.
 
     Inputs: ``features`` ``(B, n_inputs)`` and one per buffer (named after it); outputs ``labels``
-    and ``scores``. :func:`bind_head` turns the buffer inputs into a candidate's initializers.
+    and ``scores`` (or ``output_names``: the "unknown" rule's distance part has one,
+    ``ood_distance``). :func:`bind_head` turns the buffer inputs into a candidate's initializers.
     """
     lifted = _Lifted(nn.Sequential(*modules).eval())
     buffers = dict(lifted.module.named_buffers())
@@ -149,7 +156,7 @@ def export_head(modules: list[nn.Module], n_inputs: int, path: str | Path) -> Pa
         (example, *values),
         path,
         input_names=[FEATURES_NAME, *lifted.names],
-        output_names=[LABELS_OUTPUT, SCORES_OUTPUT],
+        output_names=list(output_names),
         dynamic_shapes=(dims[0], tuple(dims[1:])),
     )
 

@@ -328,6 +328,33 @@ _SWITCHES_NEEDED = 100
 _PROJECTION_SLACK = 2.0
 
 
+def run_to_targets(
+    chains: Chains,
+    n_iter: int,
+    burn_in: int,
+    snap_sweeps: np.ndarray,
+    quantities: tuple[str, ...],
+    auto: bool,
+    max_seconds: float | None,
+    ceiling: int | None,
+) -> tuple:
+    """Run the chains ``n_iter`` sweeps, or with ``auto`` until the targets are met or a stop (``max_seconds``,
+    the run length ``n_iter``, an early stop; ``ceiling``: the MFM's bound on K).
+
+    Return (runs, snapshot sweeps, sweeps per chain, burn-in, stopped_by, stop reason or None, whether the
+    targets were missed).
+    """
+    if auto:
+        plan = RunLength(n_iter, max_seconds, burn_in, quantities, ceiling)
+        runs, snap_sweeps, stopped_by, diag = run_chains_until(chains, plan)
+        n_iter = runs[0]["trace"].shape[0]
+        burn_in = auto_burn_in(n_iter, burn_in)
+        snap_sweeps = keep_after_burn_in(runs, snap_sweeps, burn_in)
+        return runs, snap_sweeps, n_iter, burn_in, stopped_by, diag.get("reason"), stopped_by != "converged"
+    runs = run_chains(chains, n_iter, snap_sweeps)
+    return runs, snap_sweeps, n_iter, burn_in, "n_iter", None, not targets_met(runs, burn_in, quantities)
+
+
 def stuck_groups(k: np.ndarray) -> list[list[int]]:
     """Return the chains grouped by the K values they visited: chains that share a value are in one group.
 
@@ -435,6 +462,8 @@ def chain_attributes(
     out["discount_samples_"] = post["discount"].ravel()
     out["beta_samples_"] = post["beta"].ravel()
     out["log_posterior_samples_"] = post["log_posterior"].ravel()
+    out["session_scale_samples_"] = post["session_scale"].ravel()
+    out["offset_variance_samples_"] = post["offset_variance"].ravel()
     out["labels_samples_"] = np.stack([r["labels"] for r in runs])
     out["labels_sweeps_"] = snap_sweeps
     out["_burn_in"] = burn_in

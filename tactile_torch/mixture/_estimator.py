@@ -31,6 +31,7 @@ WARM_UP_SWEEPS = 0
 # Algorithm 8's auxiliary means are drawn afresh every this many points, reused in between (None: once
 # per sweep, Favaro & Teh's "ReUse"; 1: before every point, as in Neal's algorithm 8).
 AUX_REFRESH = None
+SESSION_SCALE_START = 1.0  # starting value of lambda (the session effects' variance ratio): its prior median
 
 
 def split_merge_moves(n_split_merge: int | str, n: int) -> int:
@@ -54,6 +55,16 @@ class PitmanYorGMM(PredictionMixin, PosteriorMixin, ClusterMixin, BaseEstimator)
         S_j                ~ Wishart(beta, (beta W)^{-1})  (so E[S_j] = W^{-1})
         xi ~ N(0, I),  R ~ Wishart(D, I/D),  W ~ Wishart(D, I/D) restricted to W >= 1e-10 I
         1/(beta - D + 1) ~ Gamma(shape 1/2, rate D/2),  1/alpha ~ Gamma(shape 1/2, rate 1/2),  d ~ U(0, 1)
+
+    **Sessions** (``fit(X, sessions=...)``, at least two): a point of session s in component j is
+    ``z = mu_j + c_s + b_(s,j) + e``: an offset ``c_s ~ N(0, omega I)`` moving every component of
+    the session alike (a sensor's gain), an effect ``b_(s,j) ~ N(0, lambda S_j^{-1})`` per
+    (component, session) (pressure, speed, wear) and ``e ~ N(0, S_j^{-1})``, so that K counts
+    surfaces rather than surface-by-day blobs; ``lambda / (1 + lambda) ~ U(0, 1)`` and ``sqrt(omega)
+    ~ half-Cauchy(0, 1)``. The ``b`` are integrated out given ``(mu_j, S_j, lambda)`` and the offsets
+    drawn from their normal conditionals: every step stays exact under the same prior
+    (``tactile_torch/mixture/_gibbs/sessions.py``, docs/mixture.md). A new window is taken to be of
+    a new session: covariance ``(1 + lambda) S_j^{-1} + omega I`` (prediction, export).
 
     ``Wishart(nu, V)`` has scale matrix ``V`` and mean ``nu V`` (``scipy.stats.wishart(df=nu,
     scale=V)``); ``Gamma(shape, rate)`` has mean shape/rate. On whitened data ``N(0, I)``,
@@ -113,8 +124,8 @@ class PitmanYorGMM(PredictionMixin, PosteriorMixin, ClusterMixin, BaseEstimator)
         Dirichlet(``weight_concentration``); its posterior of K is consistent for the number of
         components, the Pitman-Yor process's is not (Miller & Harrison 2014). Same sampler, weights
         ``n_j + gamma`` and ``gamma V_n(K + 1) / V_n(K)`` (``alpha`` and ``discount`` are unused).
-        ``"pyp"``: the study's Pitman-Yor process (with ``coarsen=None`` it reproduces the
-        study's results bit for bit on a seed).
+        ``"pyp"``: the study's Pitman-Yor process (with ``coarsen=None``, the study's model and
+        prior; the draws of a seed are not those of earlier versions).
     coarsen : float or None, default None
         Coarsened posterior (Miller & Dunson 2018): the likelihood is raised to
         ``zeta = coarsen / (coarsen + n)``, which asks the model to fit the data only up to a
@@ -226,7 +237,17 @@ class PitmanYorGMM(PredictionMixin, PosteriorMixin, ClusterMixin, BaseEstimator)
     map_labels_, map_n_clusters_, map_chain_, map_sweep_, map_log_posterior_
         The MAP sample: labels (0 … K-1 by decreasing size), K, chain, sweep, log joint density.
     means_, covariances_ : ndarray of shape (K, D), (K, D, D)
-        The point estimate's components in the original coordinates (posterior means given ``labels_``).
+        The point estimate's components in the original coordinates (posterior means given
+        ``labels_``); with sessions, the covariance of a window of a new session, ``(1 + lambda) S^{-1}``.
+    n_sessions_ : int
+        Sessions given to ``fit`` (1: none, or one: no session effects).
+    session_scale_ : float or None
+        Posterior mean of lambda, the variance of a session's effect relative to a component's
+        covariance (None without sessions); ``session_scale_samples_`` its post-burn-in draws.
+    session_offsets_ : ndarray of shape (S, D) or None
+        Posterior means of the sessions' offsets ``c_s`` in the original coordinates, from the
+        point estimate's fixed-partition run (None without sessions); ``offset_variance_samples_``:
+        the post-burn-in draws of omega (whitened units).
     precisions_cholesky_ : ndarray of shape (K, D, D)
         Upper-triangular ``U_k`` with precision ``U_k U_k^T`` (scikit-learn's convention).
     weights_ : ndarray of shape (K,)
@@ -240,7 +261,7 @@ class PitmanYorGMM(PredictionMixin, PosteriorMixin, ClusterMixin, BaseEstimator)
         rule: a new component more probable than every cluster).
     alpha_, discount_ : float
         Posterior means given the point estimate.
-    n_clusters_samples_, alpha_samples_, discount_samples_, beta_samples_, log_posterior_samples_ : ndarray
+    n_clusters_samples_, alpha_samples_, discount_samples_, beta_samples_, log_posterior_samples_, session_scale_samples_ : ndarray
         Post-burn-in values of every sweep, chains concatenated (chain-major), shape
         ``(n_chains * (n_iter - burn_in),)``.
     trace_ : dict of ndarray of shape (n_chains, n_iter)
@@ -429,35 +450,49 @@ class PitmanYorGMM(PredictionMixin, PosteriorMixin, ClusterMixin, BaseEstimator)
             _, labels = kmeans2(Xw, k, iter=20, minit="++", seed=rng)
         return np.unique(labels, return_inverse=True)[1].astype(np.int64)
 
+    def _session_ids(self, sessions: object, n: int) -> np.ndarray | None:
+        """Sessions as integers 0 .. S-1 (n,), or None for none or a single one; refuse what cannot be combined."""
+        if sessions is None:
+            return None
+        labels = np.asarray(_as_array(sessions))
+        if labels.shape != (n,):
+            raise ValueError(f"sessions must have shape ({n},) like X's rows, got {labels.shape}")
+        if labels.dtype.kind not in "iubUSO":
+            raise ValueError(f"sessions must hold labels (integers or strings), got dtype {labels.dtype}")
+        ids = np.unique(labels.astype(str) if labels.dtype.kind == "O" else labels, return_inverse=True)[1]
+        ids = ids.astype(np.int64).reshape(n)
+        if ids.max(initial=0) < 1:
+            return None
+        if self.coarsen is not None:
+            raise ValueError(
+                f"coarsen cannot be combined with sessions (the session effects are integrated out under the "
+                f"standard likelihood), got coarsen={self.coarsen}; pass coarsen=None or no sessions"
+            )
+        if self.split_merge != "sequential":
+            raise ValueError(f"sessions need split_merge='sequential', got split_merge={self.split_merge!r}")
+        return ids
+
     # ------------------------------------------------------------------------------------------
     # fit
     # ------------------------------------------------------------------------------------------
     @_fit_context(prefer_skip_nested_validation=True)
-    def fit(self, X: object, y: object = None) -> PitmanYorGMM:  # noqa: PLR0915
+    def fit(self, X: object, y: object = None, sessions: object = None) -> PitmanYorGMM:
         """Run the chains on ``X`` of shape (n_samples, n_features); return ``self``.
 
         ``X`` is an array-like or a tensor; ``y`` is ignored (present for scikit-learn pipelines).
+        ``sessions`` (n_samples,): the session (day) of every row, any labels (*Sessions* above);
+        ``None`` or a single session: no session effects.
         """
         t_fit = time.perf_counter()
         self._check_params()
         # the compiled kernels load here, at the first fit of a process, not at import
         from . import _gibbs as g
-        from ._chains import (
-            Chains,
-            RunLength,
-            auto_burn_in,
-            chain_attributes,
-            keep_after_burn_in,
-            neighbours,
-            run_chains,
-            run_chains_until,
-            targets_met,
-            warm_up,
-        )
+        from ._chains import Chains, chain_attributes, neighbours, run_to_targets, warm_up
 
         X = validate_data(self, _as_array(X), dtype=np.float64)
         rng = numpy_rng(self.random_state)
         n, F = X.shape
+        session_ids = self._session_ids(sessions, n)
         D = F if self.cluster_features is None else int(self.cluster_features)
         if D > F:
             raise ValueError(
@@ -467,16 +502,8 @@ class PitmanYorGMM(PredictionMixin, PosteriorMixin, ClusterMixin, BaseEstimator)
         Xw = np.ascontiguousarray(np.linalg.solve(scale, (X[:, :D] - mean).T).T)
         mfm = self.model == "mfm"
         fit_alpha, fit_d = self.alpha is None and not mfm, self.discount is None and not mfm
-        d_low = max(0.0, -float(self.alpha)) if (not fit_alpha and fit_d) else 0.0
-        alpha0 = 1.0 if fit_alpha else float(self.alpha or 0.0)
-        d0 = (d_low + 0.5 * (1.0 - d_low) if d_low > 0 else 0.25) if fit_d else float(self.discount or 0.0)
-        gamma = float(self.weight_concentration) if mfm else 0.0
+        d_low, alpha0, d0, gamma, lv = self._prior_start(n, fit_alpha, fit_d)
         zeta = coarsening_power(self.coarsen, n)
-        if mfm:
-            alpha0, d0 = 0.0, -gamma
-            lv = log_v(n, gamma, float(self.k_prior_mean))
-        else:
-            lv = None
         self.zeta_ = zeta
         auto = self.n_iter == "auto"
         n_iter = int(self.max_iter) if auto else int(self.n_iter)
@@ -497,12 +524,16 @@ class PitmanYorGMM(PredictionMixin, PosteriorMixin, ClusterMixin, BaseEstimator)
             near=float(self.near_pairs if self.near_pairs is not None else (0.9 if mfm else 0.0)),
             sequential=self.split_merge == "sequential",
             refresh=max(1, n) if AUX_REFRESH is None else AUX_REFRESH,
+            fit_lambda=session_ids is not None,
         )
         nbr = neighbours(Xw) if cfg.near > 0 and cfg.n_split_merge > 0 else np.zeros((n, 0), dtype=np.int64)
         chain_rngs = rng.spawn(n_chains)
         states = []
         for c in range(n_chains):
-            st = g.new_state(self._initial_labels(Xw, chain_rngs[c]), D, alpha0, d0, zeta, gamma, lv)
+            lam = 0.0 if session_ids is None else SESSION_SCALE_START
+            st = g.new_state(
+                self._initial_labels(Xw, chain_rngs[c]), D, alpha0, d0, zeta, gamma, lv, session_ids, lam
+            )
             g.init_components(Xw, st, cfg.use_lik, chain_rngs[c])
             warm_up(Xw, st, cfg, chain_rngs[c], WARM_UP_SWEEPS)
             states.append(st)
@@ -512,26 +543,21 @@ class PitmanYorGMM(PredictionMixin, PosteriorMixin, ClusterMixin, BaseEstimator)
         )
         chains = Chains(Xw, states, cfg, chain_rngs, nbr, workers, bool(self.progress))
         quantities = ("n_clusters",) + ("alpha",) * fit_alpha + ("discount",) * fit_d
-        self.stop_reason_ = None
-        if auto:
-            plan = RunLength(n_iter, self.max_seconds, burn_in, quantities, k_ceiling(n) if mfm else None)
-            runs, snap_sweeps, self.stopped_by_, diag = run_chains_until(chains, plan)
-            self.stop_reason_ = diag.get("reason")
-            n_iter = runs[0]["trace"].shape[0]
-            burn_in = auto_burn_in(n_iter, burn_in)
-            snap_sweeps = keep_after_burn_in(runs, snap_sweeps, burn_in)
-            self.budget_exhausted_ = self.stopped_by_ != "converged"
-        else:
-            runs = run_chains(chains, n_iter, snap_sweeps)
-            self.stopped_by_ = "n_iter"
-            self.budget_exhausted_ = not targets_met(runs, burn_in, quantities)
+        ceiling = k_ceiling(n) if mfm else None
+        runs, snap_sweeps, n_iter, burn_in, self.stopped_by_, self.stop_reason_, self.budget_exhausted_ = (
+            run_to_targets(chains, n_iter, burn_in, snap_sweeps, quantities, auto, self.max_seconds, ceiling)
+        )
         self.n_features_in_ = F
+        self.n_sessions_ = 1 if session_ids is None else int(session_ids.max()) + 1
         self.data_mean_, self.data_scale_ = mean, scale
         self.n_iter_ = n_iter
         for name, value in chain_attributes(
             runs, snap_sweeps, burn_in, self.alpha is None and not mfm, self.discount is None and not mfm
         ).items():
             setattr(self, name, value)
+        self.session_scale_ = None if session_ids is None else float(np.mean(self.session_scale_samples_))
+        if session_ids is None:
+            self.session_scale_samples_ = self.offset_variance_samples_ = None
         self._store_point_estimate(Xw, runs, cfg, rng, X if D < F else None)
         self._pred = pack_predictive(runs, n, self.labels_, rng, float(self.k_prior_mean))
         self.sweep_seconds_ = float(np.mean([r["seconds"] for r in runs]) / n_iter)
@@ -541,6 +567,17 @@ class PitmanYorGMM(PredictionMixin, PosteriorMixin, ClusterMixin, BaseEstimator)
             warnings.warn(warning, RuntimeWarning, stacklevel=2)
         return self
 
-    def fit_predict(self, X: object, y: object = None) -> np.ndarray:
-        """Fit and return ``labels_`` (the point estimate of the training points' partition)."""
-        return self.fit(X).labels_
+    def _prior_start(self, n: int, fit_alpha: bool, fit_d: bool) -> tuple:
+        """(d_low, alpha0, d0, gamma, log V or None): the partition prior's bounds and the chains' start."""
+        mfm = self.model == "mfm"
+        d_low = max(0.0, -float(self.alpha)) if (not fit_alpha and fit_d) else 0.0
+        alpha0 = 1.0 if fit_alpha else float(self.alpha or 0.0)
+        d0 = (d_low + 0.5 * (1.0 - d_low) if d_low > 0 else 0.25) if fit_d else float(self.discount or 0.0)
+        gamma = float(self.weight_concentration) if mfm else 0.0
+        if mfm:
+            return d_low, 0.0, -gamma, gamma, log_v(n, gamma, float(self.k_prior_mean))
+        return d_low, alpha0, d0, gamma, None
+
+    def fit_predict(self, X: object, y: object = None, sessions: object = None) -> np.ndarray:
+        """Fit (``sessions`` as :meth:`fit`'s) and return ``labels_``, the point estimate of the partition."""
+        return self.fit(X, sessions=sessions).labels_

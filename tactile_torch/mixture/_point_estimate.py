@@ -51,10 +51,11 @@ def wishart_cholesky(rng: np.random.Generator, dof: float, scale_chol: np.ndarra
     return scale_chol @ A
 
 
-def new_component_gaussian(xi, GR, GW, beta, rng) -> tuple[np.ndarray, np.ndarray]:
+def new_component_gaussian(xi, GR, GW, beta, rng, scale: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
     """One Gaussian of the Monte Carlo prior predictive of a new component (whitened): (mean, covariance).
 
-    ``x | S ~ N(xi, S^{-1} + R^{-1})`` with ``mu`` integrated out, ``S ~ Wishart(beta, (beta W)^{-1})``.
+    ``x | S ~ N(xi, c S^{-1} + R^{-1})`` with ``mu`` integrated out, ``S ~ Wishart(beta, (beta W)^{-1})``
+    and ``c = scale`` (``1 + lambda`` with session effects: a window of a new session; else 1).
     With ``beta W = F F^T`` (``F = sqrt(beta) GW``) and ``A`` a Bartlett factor of ``Wishart(beta, I)``,
     ``S = F^{-T} A A^T F^{-1}``, so ``S^{-1} = M^T M`` with ``M = A^{-1} F^T``: no inverse of a
     possibly ill-conditioned ``W`` is formed.
@@ -64,7 +65,18 @@ def new_component_gaussian(xi, GR, GW, beta, rng) -> tuple[np.ndarray, np.ndarra
     # (scipy.linalg.solve_triangular took milliseconds per 3 x 3 call on a busy machine; numpy does not)
     M = np.linalg.solve(A, math.sqrt(beta) * GW.T)
     N = np.linalg.inv(GR)  # R^{-1} = N^T N
-    return xi.copy(), M.T @ M + N.T @ N
+    return xi.copy(), scale * (M.T @ M) + N.T @ N
+
+
+def new_session_terms(sc: np.ndarray) -> tuple[float, float]:
+    """``(1 + lambda, omega)`` of a chain's scalars ``sc``: a window of a new session has covariance ``(1 + lambda) S^{-1} + omega I``.
+
+    Its session's offset (``N(0, omega I)``) and its effect in the component (``N(0, lambda
+    S^{-1})``) are unknown, so both are integrated out (whitened units); ``(1, 0)`` without sessions.
+    """
+    if sc[5] > 0.0:
+        return 1.0 + float(sc[5]), float(sc[6])
+    return 1.0, 0.0
 
 
 def precision_cholesky(cov: np.ndarray) -> np.ndarray:
@@ -90,12 +102,19 @@ class Components(NamedTuple):
     discount: float
     novelty_means: np.ndarray
     novelty_precisions_cholesky: np.ndarray
+    offsets: np.ndarray | None = None
+    """Posterior means of the sessions' offsets (S, D), original coordinates; None without sessions."""
 
 
 def partition_components(
     Xw, labels, map_state, cfg, rng, data_mean, data_scale, k_mean=10.0, *, same_features=True
 ) -> Components:
     """Return the components of the partition ``labels``: posterior means from a fixed-partition Gibbs run.
+
+    With session effects (``map_state.sc[5] > 0``, the points' sessions in ``map_state.sess``) the
+    covariances are those of a window of a *new* session, ``(1 + lambda) S^{-1} + omega I`` (its
+    offset and effect integrated out, :func:`new_session_terms`), averaged over the run as lambda
+    and omega are sampled; so are the novelty Gaussians.
 
     The run starts from the MAP sample's hyperparameters (``same_features``; otherwise, for
     features other than the chains', from the prior's centre: ``xi = 0``, ``R = W = I``, ``beta =
@@ -111,18 +130,19 @@ def partition_components(
     K = int(labels.max()) + 1
     NO_NEIGHBOURS = np.zeros((n, 0), dtype=np.int64)  # no split-merge moves: the partition is fixed
     NO_SNAPSHOTS, NO_LABELS = np.zeros(0, dtype=np.int64), np.zeros((0, n), dtype=np.int32)
-    st = g.new_state(labels, D, float(map_state.sc[0]), float(map_state.sc[1]))
+    st = g.new_state(labels, D, float(map_state.sc[0]), float(map_state.sc[1]), sessions=map_state.sess)
     if same_features:
         for name in ("sc", "xi", "R", "GR", "W", "GW"):  # lv is not used: the partition is fixed
             np.copyto(getattr(st, name), getattr(map_state, name))
     else:
-        for k in (0, 1, 3, 4):  # alpha, d, zeta, gamma; beta stays at D
+        for k in (0, 1, 3, 4, 5, 6):  # alpha, d, zeta, gamma, lambda, omega; beta stays at D
             st.sc[k] = map_state.sc[k]
     fixed = cfg._replace(allocate=False, burn_in=_FIXED_SWEEPS)
     g.init_components(Xw, st, fixed.use_lik, rng)
     trace = np.zeros((_FIXED_SWEEPS, len(g.TRACE_NAMES)))
     kept = _FIXED_SWEEPS - _FIXED_SWEEPS // 4
     mus, covs, scs, novelty = np.zeros((K, D)), np.zeros((K, D, D)), np.zeros(st.sc.size), []
+    offs = np.zeros_like(st.off)
     unused = g.ChainState(*(a.copy() for a in st))
     for s in range(_FIXED_SWEEPS):
         g.run_sweeps(
@@ -132,11 +152,14 @@ def partition_components(
         if s < _FIXED_SWEEPS - kept:
             continue
         Linv = np.linalg.inv(st.L[:K])  # S^{-1} = L^{-T} L^{-1}
+        scale, offset = new_session_terms(st.sc)
         mus += st.mu[:K]
-        covs += np.swapaxes(Linv, 1, 2) @ Linv
+        offs += st.off
+        covs += scale * (np.swapaxes(Linv, 1, 2) @ Linv) + offset * np.eye(D)
         scs += st.sc
         if len(novelty) < _NOVELTY_DRAWS and (s % max(1, kept // _NOVELTY_DRAWS) == 0):
-            novelty.append(new_component_gaussian(st.xi, st.GR, st.GW, st.sc[2], rng))
+            xi, cov = new_component_gaussian(st.xi, st.GR, st.GW, st.sc[2], rng, scale)
+            novelty.append((xi, cov + offset * np.eye(D)))
     mus /= kept
     covs /= kept
     scs /= kept
@@ -163,6 +186,7 @@ def partition_components(
         discount=d,
         novelty_means=np.stack([m + A @ mu for mu, _ in novelty]),
         novelty_precisions_cholesky=np.stack([precision_cholesky(A @ c @ A.T) for _, c in novelty]),
+        offsets=(offs / kept) @ A.T if st.sc[5] > 0.0 else None,
     )
 
 

@@ -36,6 +36,7 @@ class PosteriorMixin:
         self.weights_, self.novelty_weight_ = c.weights, c.novelty_weight
         self.means_, self.covariances_ = c.means, c.covariances
         self.precisions_cholesky_ = c.precisions_cholesky
+        self.session_offsets_ = c.offsets
         self._components = c
         self._density = None
         self.density_means_ = self.density_covariances_ = self.density_weights_ = None

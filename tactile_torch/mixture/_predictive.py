@@ -15,7 +15,7 @@ import math
 import numpy as np
 
 from ._mfm import predictive_weights
-from ._point_estimate import new_component_gaussian, precision_cholesky
+from ._point_estimate import new_component_gaussian, new_session_terms, precision_cholesky
 
 # At most this many saved partitions per chain enter the posterior predictive of predict/predict_proba.
 _PREDICTIVE_SAMPLES = 50
@@ -62,6 +62,9 @@ def log_gauss_upper(X: np.ndarray, means: np.ndarray, U: np.ndarray) -> np.ndarr
 def pack_predictive(runs, n, labels, rng, k_mean: float = 10.0) -> dict:
     """Pack the components of (at most ``_PREDICTIVE_SAMPLES`` per chain) saved sweeps for prediction.
 
+    With session effects a new point is taken to come from a new session: every component's
+    covariance is ``(1 + lambda) S^{-1} + omega I`` (the session's offset and effect integrated out).
+
     ``runs``: the chains' saved samples (after the burn-in, each with its sweep's partition);
     ``labels``: the point estimate, onto whose clusters every
     sample's components are mapped. One Gaussian of the new component's prior predictive is drawn
@@ -76,20 +79,29 @@ def pack_predictive(runs, n, labels, rng, k_mean: float = 10.0) -> dict:
         )
         for k in pick:
             smp = run["samples"][k]
-            alpha, d, beta, _, gamma = smp["sc"]
+            alpha, d, beta, _, gamma = smp["sc"][:5]
             Ks = smp["cnt"].size
             log_join, log_new = predictive_weights(n, smp["cnt"], alpha, d, gamma, k_mean)
             s = len(new_logw)
+            # a new point is of a new session: its offset and effect integrated out (new_session_terms)
+            scale, offset = new_session_terms(smp["sc"])
             mus.append(smp["mu"])
-            Ls.append(smp["L"])
-            ldets.append(smp["ldet"])
+            if offset > 0.0:
+                Linv = np.linalg.inv(smp["L"])
+                cov = scale * (np.swapaxes(Linv, 1, 2) @ Linv) + offset * np.eye(D)
+                Lc = np.linalg.cholesky(np.linalg.inv(cov))  # lower, L L^T = precision
+                Ls.append(Lc)
+                ldets.append(2.0 * np.log(np.diagonal(Lc, axis1=1, axis2=2)).sum(axis=1))
+            else:
+                Ls.append(smp["L"])
+                ldets.append(smp["ldet"])
             logw.append(log_join)
             table = np.zeros((Ks, K))
             np.add.at(table, (smp["labels"], labels), 1.0)
             share.append(table / table.sum(axis=1, keepdims=True))
             owner.append(np.full(Ks, s))
-            xi, cov = new_component_gaussian(smp["xi"], smp["GR"], smp["GW"], beta, rng)
-            U = precision_cholesky(cov)  # upper, U U^T = cov^{-1}
+            xi, cov = new_component_gaussian(smp["xi"], smp["GR"], smp["GW"], beta, rng, scale)
+            U = precision_cholesky(cov + offset * np.eye(D))  # upper, U U^T = cov^{-1}
             new_mu.append(xi)
             new_prec.append(U)
             new_ldet.append(2.0 * np.log(np.abs(np.diag(U))).sum())

@@ -83,6 +83,15 @@ def summary_text(model) -> str:
         lines.append(
             f"WARNING: R-hat > {RHAT_THRESHOLD} for {', '.join(bad)}: the chains disagree, run longer"
         )
+    if getattr(model, "session_scale_", None) is not None:
+        lam, omega = model.session_scale_samples_, model.offset_variance_samples_
+        lines.insert(
+            2,
+            f"sessions: {model.n_sessions_}; a session moves every component by an offset (variance omega, "
+            f"posterior mean {omega.mean():.3g}, whitened units) and each by its own effect (lambda, its variance "
+            f"relative to the component's, posterior mean {lam.mean():.3g}, 95% [{np.quantile(lam, 0.025):.3g}, "
+            f"{np.quantile(lam, 0.975):.3g}]); K counts components across sessions",
+        )
     if model.model == "mfm":
         lines.insert(
             2,

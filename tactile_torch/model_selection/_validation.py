@@ -177,6 +177,7 @@ def cross_validate(  # noqa: PLR0913
     progress: bool = False,
     desc: str = "",
     features_out: dict | None = None,
+    fold_ids: list[int] | None = None,
 ) -> dict[str, CVResult]:
     """Cross-validate raw-input models over ``folds``; return one :class:`CVResult` per model, in order.
 
@@ -206,7 +207,8 @@ def cross_validate(  # noqa: PLR0913
         Models not named (or ``None``) run at their own parameters.
     cache : mapping, optional
         Whole-set features of steps that need no fit, by :func:`~tactile_torch.model_selection.signature`:
-        ``(Z, seconds)``; used instead of computing them.
+        ``(Z, seconds)``; used instead of computing them. A ``dict`` given is filled with those computed
+        here, so that a later call on other folds of the same samples reuses them.
     backend, n_jobs, scheduler
         Where the tasks run (:class:`~tactile_torch.model_selection.Backend`); results do not depend on them.
     random_state : int
@@ -219,21 +221,32 @@ def cross_validate(  # noqa: PLR0913
     features_out : dict, optional
         Filled with the features by signature: per fold ``(fitted step, Z_train, Z_test)``, or the
         exception of a step that failed (for sweeps that reuse them).
+    fold_ids : list of int, optional
+        The number of each of ``folds`` in a larger set (default ``0 .. len(folds) - 1``): a caller that
+        runs the folds of one cross-validation a few at a time (to stop models early) gets the seeds,
+        and ``CVResult.fold``, of the whole run.
     """
     y = np.asarray(y)
     group_ids = np.arange(len(y)) if groups is None else np.asarray(groups)
     runner = as_backend(backend, n_jobs, scheduler)
     split = models if isinstance(models, Models) else Models(models)
     tuning = dict(tuning or {})
+    ids = list(range(len(folds))) if fold_ids is None else [int(k) for k in fold_ids]
+    if len(ids) != len(folds):
+        raise ValueError(f"fold_ids must name each of the {len(folds)} folds, got {len(ids)}")
     with runner:
         features = _FoldFeatures(split, X, y, folds)
         features.compute(runner, dict(cache or {}), desc, progress)
+        if isinstance(cache, dict):  # the caller's cache gains the features computed on all samples
+            cache.update((key, value) for key, value in features.whole.items() if key not in cache)
         if features_out is not None:
             features_out.update(features.export())
-        by_model = _fit_stage(split, features, y, folds, groups, tuning, runner, random_state, desc, progress)
+        by_model = _fit_stage(
+            split, features, y, folds, groups, tuning, runner, random_state, desc, progress, ids
+        )
     return {
         name: _result(
-            name, split, features, by_model.get(name, {}), X, y, folds, group_ids, tuning, keep_models
+            name, split, features, by_model.get(name, {}), X, y, folds, group_ids, tuning, keep_models, ids
         )
         for name in split.names
     }
@@ -292,7 +305,7 @@ class _FoldFeatures:
         }
 
 
-def _fit_stage(split, features, y, folds, groups, tuning, runner, random_state, desc, progress) -> dict:
+def _fit_stage(split, features, y, folds, groups, tuning, runner, random_state, desc, progress, ids) -> dict:
     """Stage 2 of :func:`cross_validate`: tune, fit and test every model on every fold; ``{name: {k: out}}``."""
     threads = 1 if runner.parallel else None
     inner_groups = None if groups is None else np.asarray(groups)
@@ -303,7 +316,7 @@ def _fit_stage(split, features, y, folds, groups, tuning, runner, random_state, 
         for k, (tr, _) in enumerate(folds):
             _, Z_tr, Z_te, _ = features.fold(split.signature[name], k)
             g_tr = None if inner_groups is None else inner_groups[tr]
-            seed = seed_of(random_state, name, k)
+            seed = seed_of(random_state, name, ids[k])
             tasks.append((split.rest[name], Z_tr, y[tr], g_tr, Z_te, tuning.get(name), seed, threads))
             where.append((name, k))
     done = runner.map(_fit_task, tasks, desc=f"{desc}fit".strip(), progress=progress)
@@ -313,7 +326,7 @@ def _fit_stage(split, features, y, folds, groups, tuning, runner, random_state, 
     return by_model
 
 
-def _result(name, split, features, outs, X, y, folds, group_ids, tuning, keep_models) -> CVResult:
+def _result(name, split, features, outs, X, y, folds, group_ids, tuning, keep_models, ids) -> CVResult:
     """Stage 3 of :func:`cross_validate`: one model's :class:`CVResult` from its folds' outputs."""
     missing = -1 if np.issubdtype(y.dtype, np.integer) else None
     res = CVResult(
@@ -337,7 +350,7 @@ def _result(name, split, features, outs, X, y, folds, group_ids, tuning, keep_mo
             break
         fitted_step, _, _, feature_s = features.fold(key, k)
         res.predictions[te] = out["predicted"]
-        res.fold[te] = k
+        res.fold[te] = ids[k]
         res.fold_accuracy.append(float(np.mean(out["predicted"] == y[te])))
         res.feature_seconds.append(float(feature_s))
         res.tune_seconds.append(float(out["tune_s"]))

@@ -120,9 +120,17 @@ class HardFrontEndGraph(nn.Module):
         self.register_buffer("scale", scale.to(torch.float32))
         self.linear = linear
 
-    def forward(self, frames: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        scores = self.linear((self.features(frames).to(torch.float32) - self.mean) / self.scale)
+    def embed(self, frames: torch.Tensor) -> torch.Tensor:
+        """Return the standardised features ``(B, F)``: what the linear scores are computed from."""
+        return (self.features(frames).to(torch.float32) - self.mean) / self.scale
+
+    def classify(self, embedding: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """Return ``(labels, scores)`` of standardised features (``forward(x) == classify(embed(x))``)."""
+        scores = self.linear(embedding)
         return scores.argmax(-1), scores
+
+    def forward(self, frames: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        return self.classify(self.embed(frames))
 
 
 def _train_head(

@@ -98,10 +98,14 @@ class WindowCNN(nn.Module):
         std = centred.transpose(0, 1).reshape(3, -1).std(-1)
         self.scale = torch.where(std > 0, std, torch.ones_like(std)).to(torch.float32)[:, None]
 
-    def forward(self, windows: torch.Tensor) -> torch.Tensor:
+    def embed(self, windows: torch.Tensor) -> torch.Tensor:
+        """Return what the last layer classifies, ``(B, widths[-1])``: the pooled convolution channels."""
         x = windows.to(torch.float32)
         x = (x - x.mean(-1, keepdim=True)) / self.scale
-        return self.head(self.body(x).mean(-1))
+        return self.body(x).mean(-1)
+
+    def forward(self, windows: torch.Tensor) -> torch.Tensor:
+        return self.head(self.embed(windows))
 
 
 class TaxelCNN(nn.Module):
@@ -134,11 +138,15 @@ class TaxelCNN(nn.Module):
         self.mean = maps.to(torch.float32).mean()
         self.scale = std if bool(std > 0) else torch.ones(())
 
-    def forward(self, maps: torch.Tensor) -> torch.Tensor:
+    def embed(self, maps: torch.Tensor) -> torch.Tensor:
+        """Return what the last layer classifies, ``(B, 2 * width)``: each channel's mean and maximum over time."""
         x = (maps.to(torch.float32) - self.mean) / self.scale
         x = x.flatten(2).transpose(1, 2)  # (B, H * W, T): one channel per taxel
         h = self.body(x)
-        return self.head(torch.cat([h.mean(-1), h.amax(-1)], dim=1))
+        return torch.cat([h.mean(-1), h.amax(-1)], dim=1)
+
+    def forward(self, maps: torch.Tensor) -> torch.Tensor:
+        return self.head(self.embed(maps))
 
 
 class ExplorationCNN(nn.Module):
@@ -180,6 +188,10 @@ class ExplorationCNN(nn.Module):
         """Return the logits of what :meth:`seen` returned (the trained part of the network)."""
         return self.head(self.body(seen).mean((-2, -1)))
 
+    def embed(self, frames: torch.Tensor) -> torch.Tensor:
+        """Return what the last layer classifies, ``(B, IMAGE_WIDTHS[-1])``: the pooled channels."""
+        return self.body(self.seen(frames)).mean((-2, -1))
+
     def forward(self, frames: torch.Tensor) -> torch.Tensor:
         return self.classify(self.seen(frames))
 
@@ -196,11 +208,25 @@ class SeenClassifier(nn.Module):
 
 
 class ClassifierGraph(nn.Module):
-    """Raw input → ``(labels (B,) int64, scores (B, C) float32)``: argmax and softmax of ``network``'s logits."""
+    """Raw input → ``(labels (B,) int64, scores (B, C) float32)``: argmax and softmax of ``network``'s logits.
+
+    :meth:`embed` and :meth:`classify` split it where the last layer starts (``forward(raw) ==
+    classify(embed(raw))``), so that a graph can measure something on the embedding too (the "unknown"
+    rule's distance) without computing the network twice.
+    """
 
     def __init__(self, network: nn.Module) -> None:
         super().__init__()
         self.network = network
+
+    def embed(self, raw: torch.Tensor) -> torch.Tensor:
+        """Return the network's embedding ``(B, E)`` of ``raw``: the input of its last (linear) layer."""
+        return self.network.embed(raw)
+
+    def classify(self, embedding: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """Return ``(labels, scores)`` of an embedding (the last layer, then softmax)."""
+        scores = torch.softmax(self.network.head(embedding), dim=-1)
+        return scores.argmax(-1), scores
 
     def forward(self, raw: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         scores = torch.softmax(self.network(raw), dim=-1)

@@ -238,6 +238,36 @@ def level_text(f, levels: list, position: float) -> tuple[str, float | None]:
     return f.label(value), float(value)
 
 
+def _numeric(levels: list) -> bool:
+    return bool(levels) and all(isinstance(v, int | float) for v in levels)
+
+
+def bound_text(f, levels: list, position: float) -> tuple[str, float]:
+    """One end of a breaking point's interval: its text and a key that orders it with the other end by
+    value (``-inf``/``inf`` for an end outside the sweep: below or above every level swept, in words)."""
+    text, value = level_text(f, levels, position)
+    if value is not None:
+        return text, value
+    if not _numeric(levels):
+        return text, position
+    falling = len(levels) > 1 and levels[-1] < levels[0]  # harsher levels are lower numbers (dB, frames)
+    if math.isinf(position):  # past the harshest level swept
+        edge = f.label(levels[-1])
+        return (
+            (f"< {edge} (beyond the sweep)", -math.inf)
+            if falling
+            else (f"> {edge} (beyond the sweep)", math.inf)
+        )
+    edge = f.label(levels[0])  # before the mildest level swept: between the clean input and it
+    return (f"> {edge}", math.inf) if falling else (f"< {edge}", -math.inf)
+
+
+def interval_text(f, levels: list, low: float, high: float) -> str:
+    """``[a, b]``: a breaking point's interval with its ends in numeric order (module notes)."""
+    ends = sorted((bound_text(f, levels, p) for p in (low, high)), key=lambda e: e[1])
+    return f"[{ends[0][0]}, {ends[1][0]}]"
+
+
 def build_curve(
     f, model: str, levels: tuple, rows: list, groups: np.ndarray, chance: float, n_bootstrap: int, seed: int
 ):
@@ -278,18 +308,15 @@ def build_curve(
         status, text = "not reached", "no level evaluated"
     elif math.isfinite(position):
         status, (text, value) = "reached", level_text(f, path_levels, position)
-        bounds = [level_text(f, path_levels, p) for p in (lo_pos, hi_pos)]
-        if bounds[0][1] is not None and bounds[1][1] is not None and bounds[0][1] > bounds[1][1]:
-            bounds.reverse()  # levels that fall as they get harsher (dB, frames): show low, high
-        text += f" [{bounds[0][0]}, {bounds[1][0]}]"
+        text += f" {interval_text(f, path_levels, lo_pos, hi_pos)}"
     elif failed is not None:  # never below halfway while it could be fitted: broken where it cannot
         position = lo_pos = hi_pos = float(len(path_levels) + 1)
         status, text = "fit failed", f"{f.label(failed)} (cannot be fitted there)"
         value = float(failed) if isinstance(failed, int | float) else None
     else:
-        status, text = "not reached", f"not reached by {f.label(path_levels[-1])}"
+        status, text = "not reached", f"beyond the sweep (not reached by {f.label(path_levels[-1])})"
         if math.isfinite(lo_pos):
-            text += f" [{level_text(f, path_levels, lo_pos)[0]}, beyond]"
+            text += f" {interval_text(f, path_levels, lo_pos, math.inf)}"
     return dict(
         factor=f,
         model=model,

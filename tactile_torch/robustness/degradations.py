@@ -76,6 +76,9 @@ class Degradation:
     needs : tuple of str
         Keys that must be in the sweep's ``context`` (e.g. ``"pitch_px"``); without them the factor is
         skipped with a note.
+    needs_words : str
+        What those keys are, in the user's words (the note: ``"needs <needs_words>, which these data do
+        not give"``).
     ndim : int or None
         Only for raw input of this many dimensions (image noise: RGB frames, 5).
     path : tuple of int or None
@@ -95,6 +98,7 @@ class Degradation:
     random: bool = False
     limit: str | None = None
     needs: tuple[str, ...] = ()
+    needs_words: str = ""
     ndim: int | None = None
     path: tuple[int, ...] | None = None
     log_x: bool = False
@@ -183,6 +187,7 @@ FACTORS: tuple[Degradation, ...] = (
         "side of the erosion square relative to the texture pitch (context pitch_px), retrained",
         _erosion_from_pitch,
         needs=("pitch_px",),
+        needs_words="the texture's pitch in pixels (a data file does not say it)",
     ),
     Degradation(
         "window",
@@ -260,6 +265,8 @@ FACTORS: tuple[Degradation, ...] = (
         "trained on the first 30 % of every recording, tested on the later 70 % cut into 5 segments (level: "
         "the segment's centre; the first segment, centred at 0.37, is the clean reference)",
         needs=("position", "recording"),
+        needs_words="where each window lies in its recording (the trade-off's windows are cut without it; "
+        "tactile-torch report sweeps drift on the bundled recordings)",
     ),
 )
 """The default factors, in report order."""

@@ -276,7 +276,7 @@ def _skip_reason(f: Degradation, s: _SweepState) -> str | None:
     """Why factor ``f`` does not apply to the sweep's data at all, or ``None``."""
     missing = [k for k in f.needs if k not in s.context]
     if missing:
-        return f"needs {missing} in context"
+        return f"needs {f.needs_words or ', '.join(missing)}, which these data do not give"
     if s.kind not in f.kinds or (f.ndim is not None and s.X.ndim != f.ndim):
         return f"does not apply to X of shape {tuple(s.X.shape)}"
     return None

@@ -15,8 +15,9 @@ drift over each recording) and, when present, on the real accelerometer sets of 
   Dirichlet process vs Pitman-Yor;
 - new surfaces: surfaces withheld from training, novelty recall and false alarms.
 
-``make run`` runs a reduced size (20 training windows of W = 800 per surface, 4 chains x 700
-sweeps) within its time budget; ``tactile-torch report --full`` runs the study's size (W = 1600, up to 50 windows per
+``make run`` runs a reduced size (20 training windows of W = 800 per surface; every mixture at
+``n_iter="auto"``, until R-hat of K < 1.01 and bulk ESS of K >= 400, within :data:`FIT_SECONDS` per
+fit) within its time budget; ``tactile-torch report --full`` runs the study's size (W = 1600, up to 50 windows per
 surface, longer chains, every window size). Where :mod:`tactile_torch.signal` is not installed,
 seeded Gaussian clusters in 3-D stand in.
 """
@@ -48,6 +49,9 @@ from .clustering_experiments import (
 
 TITLE = "Clustering: how many surfaces (Pitman-Yor mixture, mixture of finite mixtures)"
 
+FIT_SECONDS = 6.0
+"""Wall-clock budget of each mixture fit of the default run (``n_iter="auto"``, ``max_seconds``)."""
+
 
 # ----------------------------------------------------------------------------------------------
 # data: training period, later windows, a second session on worn surfaces
@@ -61,14 +65,34 @@ def _sizes(ctx) -> dict[str, Any]:
             train=30,
             test=6,
             surfaces=28,
-            n_iter=4000,
+            n_iter="auto",
             burn_in=1000,
             chains=4,
             per=[1, 2, 5, 10, 20, 30],
         )
     return dict(
-        W=800, train=20, test=10, surfaces=28, n_iter=700, burn_in=200, chains=4, per=[1, 2, 5, 10, 20]
+        W=800,
+        train=20,
+        test=10,
+        surfaces=28,
+        n_iter="auto",
+        burn_in=250,
+        chains=4,
+        per=[1, 2, 5, 10, 20],
+        max_seconds=FIT_SECONDS,
     )
+
+
+def _budget(sz: dict) -> dict[str, Any]:
+    """The fits' run-length keywords beyond ``n_iter`` and ``burn_in``: the time budget of an ``"auto"`` run."""
+    return {"max_seconds": sz["max_seconds"]} if "max_seconds" in sz else {}
+
+
+def _fraction(sz: dict, key: str, k: int, floor: int = 0) -> int | str:
+    """``sz[key] // k`` (at least ``floor``) for a fixed run length; ``"auto"`` stays ``"auto"`` (its burn-in: 250)."""
+    if sz["n_iter"] == "auto":
+        return "auto" if key == "n_iter" else sz["burn_in"]
+    return max(floor, sz[key] // k)
 
 
 def study_windows(ctx) -> dict[str, Any]:
@@ -145,21 +169,39 @@ def run(section, ctx) -> None:
     # Everything here works on 3 x 3 matrices and a few hundred points: BLAS threads only contend (the
     # scikit-learn baselines took 24 s with them and 1.4 s without on the shared 2-core machine). The
     # chains run in parallel through their own threads.
-    # The reduced run's chains are short: their R-hat warnings (one per fit) are collected into one
-    # line of the report and the log instead of a warning per fit; the tables show every fit's R-hat.
+    # A fit that missed the convergence targets warns: the warnings (one per fit) are collected into
+    # one line of the report and the log instead of a warning per fit; the tables show every fit's R-hat.
     with threadpool_limits(1), warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", RuntimeWarning)
         _run(section, ctx)
-    unconverged = [w for w in caught if issubclass(w.category, RuntimeWarning) and "R-hat" in str(w.message)]
+    unconverged = [
+        w
+        for w in caught
+        if issubclass(w.category, RuntimeWarning) and str(w.message).startswith("PitmanYorGMM:")
+    ]
     for w in caught:
         if w not in unconverged:
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    sz = _sizes(ctx)
     if unconverged:
         line = (
-            f"R-hat > 1.01 in {len(unconverged)} of this section's fits: their chains disagree at this run's "
-            "chain length, so read their posteriors of K as indicative (`--full` runs longer chains; "
-            "`PitmanYorGMM.summary()` shows R-hat and ESS for K, alpha and d)."
+            f"{len(unconverged)} of this section's fits missed the convergence targets (R-hat < 1.01 for K, alpha "
+            "and d, bulk ESS of K >= 400) "
+            + (
+                f"within their {sz['max_seconds']:g} s"
+                if "max_seconds" in sz
+                else f"at this run's chain length ({sz['n_iter']} sweeps)"
+            )
+            + ": read their posteriors of K as indicative (`PitmanYorGMM.summary()` shows R-hat and ESS)."
         )
+    else:
+        line = (
+            "every mixture of this section converged: R-hat < 1.01 for K (and alpha and d where sampled) and bulk "
+            "ESS of K >= 400 (`n_iter='auto'`)"
+            + (f", each within {sz['max_seconds']:g} s" if "max_seconds" in sz else "")
+            + "."
+        )
+    if sz["n_iter"] == "auto" or unconverged:
         section.text(f"**Convergence:** {line}")
         print(f"[report] clustering: {line}", flush=True)
 
@@ -177,9 +219,15 @@ def _run(section, ctx) -> None:
         if vib
         else f"{n_surf} seeded Gaussian clusters in 3-D (tactile_torch.signal is not installed)"
     )
+    length = (
+        "run until R-hat < 1.01 and bulk ESS of K >= 400 (`n_iter='auto'`"
+        + (f", at most {sz['max_seconds']:g} s per fit)" if "max_seconds" in sz else ")")
+        if sz["n_iter"] == "auto"
+        else f"of {sz['n_iter']} Gibbs sweeps ({sz['burn_in']} burn-in)"
+    )
     section.text(
-        f"Unlabelled data: {what}. The Pitman-Yor mixture is not told K: {sz['chains']} chains of "
-        f"{sz['n_iter']} Gibbs sweeps ({sz['burn_in']} burn-in), each from its own k-means start. The "
+        f"Unlabelled data: {what}. The Pitman-Yor mixture is not told K: {sz['chains']} chains {length}, "
+        "each from its own k-means start. The "
         "headline is the posterior of K; the clustering is the point estimate that minimises the "
         "posterior expected Variation of Information over the saved samples (Wade & Ghahramani 2018). "
         "The MAP sample is shown and named as such: the joint density over spaces whose dimension grows "
@@ -198,6 +246,7 @@ def _run(section, ctx) -> None:
         burn_in=sz["burn_in"],
         n_chains=sz["chains"],
         random_state=ctx.seed("clustering", "study mixture and baselines"),
+        **_budget(sz),
         max_components=n_surf + (2 if ctx.quick else 6 if ctx.full else 4),
         min_components=None if ctx.full else max(1, n_surf - 6),
         n_init=5 if ctx.full else 2,
@@ -217,7 +266,9 @@ def _run(section, ctx) -> None:
         _novelty(section, data, sz, ctx)
     if ctx.full and vib:
         _window_sizes(section, ctx, sz)
-    real_data(section, ctx, n_iter=sz["n_iter"] // 2, burn_in=sz["burn_in"] // 2)
+    real_data(
+        section, ctx, n_iter=_fraction(sz, "n_iter", 2), burn_in=_fraction(sz, "burn_in", 2), **_budget(sz)
+    )
 
 
 def _robust_k(section, X: np.ndarray, y: np.ndarray, study: PitmanYorGMM, sz: dict, ctx) -> None:
@@ -229,6 +280,7 @@ def _robust_k(section, X: np.ndarray, y: np.ndarray, study: PitmanYorGMM, sz: di
         n_iter=sz["n_iter"],
         burn_in=sz["burn_in"],
         n_chains=sz["chains"],
+        **_budget(sz),
     )
     rows = [coverage_row("this section's data", y, "pyp (study)", study, study.fit_seconds_)]
     rows += k_coverage({"this section's data": (X, y)}, {"mfm": SETTINGS["mfm"]}, **fit)
@@ -385,9 +437,10 @@ def _learning_curve(section, data: dict, sz: dict, ctx) -> None:
         X,
         y,
         per,
-        n_iter=max(150, sz["n_iter"] // 3),
-        burn_in=max(50, sz["burn_in"] // 3),
+        n_iter=_fraction(sz, "n_iter", 3, 150),
+        burn_in=_fraction(sz, "burn_in", 3, 50),
         random_state=ctx.seed("clustering", "learning curve"),
+        **_budget(sz),
     )
     section.table(
         rows,
@@ -428,10 +481,11 @@ def _novelty(section, data: dict, sz: dict, ctx) -> None:
             cluster_features=3 if "X_novelty" in data else None,
             model=prior,
             coarsen=None,
-            n_iter=sz["n_iter"] // 2,
-            burn_in=sz["burn_in"] // 2,
+            n_iter=_fraction(sz, "n_iter", 2),
+            burn_in=_fraction(sz, "burn_in", 2),
             n_chains=2,
             random_state=ctx.seed("clustering", "novelty"),
+            **_budget(sz),
         )
         rows.append({"data": "bundled stylus recordings", "model": prior, **row})
     section.text(
@@ -465,9 +519,10 @@ def _window_sizes(section, ctx, sz: dict) -> None:
         y = ds.labels.numpy()
         model = PitmanYorGMM(
             **STUDY,
-            n_iter=sz["n_iter"] // 2,
-            burn_in=sz["burn_in"] // 2,
+            n_iter=_fraction(sz, "n_iter", 2),
+            burn_in=_fraction(sz, "burn_in", 2),
             random_state=ctx.seed("clustering", "window sizes"),
+            **_budget(sz),
             progress=False,
         ).fit(X)
         rows.append(
@@ -481,7 +536,7 @@ def _window_sizes(section, ctx, sz: dict) -> None:
     section.table(rows, caption="Window size: K found on the bundled recordings (50 windows per surface)")
 
 
-def real_data(section, ctx, *, n_iter: int, burn_in: int) -> None:
+def real_data(section, ctx, *, n_iter: int | str, burn_in: int, **budget: Any) -> None:
     """The honest K, accuracy and novelty on the real accelerometer sets of ``../shared/data`` when present."""
     from sklearn.cluster import KMeans
 
@@ -496,10 +551,12 @@ def real_data(section, ctx, *, n_iter: int, burn_in: int) -> None:
     for name in present:
         X, y, pos, n_classes = real_windows(name, per)
         seed = ctx.seed("clustering", f"real data {name}")
-        model = PitmanYorGMM(n_iter=n_iter, burn_in=burn_in, random_state=seed, progress=False, **STUDY).fit(
-            X
-        )
-        robust = PitmanYorGMM(n_iter=n_iter, burn_in=burn_in, random_state=seed, progress=False).fit(X)
+        model = PitmanYorGMM(
+            n_iter=n_iter, burn_in=burn_in, random_state=seed, progress=False, **STUDY, **budget
+        ).fit(X)
+        robust = PitmanYorGMM(
+            n_iter=n_iter, burn_in=burn_in, random_state=seed, progress=False, **budget
+        ).fit(X)
         km_labels = KMeans(n_classes, n_init=10, random_state=seed).fit_predict(X)
         rows.append(
             {
@@ -524,7 +581,7 @@ def real_data(section, ctx, *, n_iter: int, burn_in: int) -> None:
         for prior in ("pyp", "mfm"):
             row = novelty_test(
                 X[first], y[first], [(X[~first], y[~first])], withheld, model=prior, coarsen=None,
-                n_iter=n_iter, burn_in=burn_in, n_chains=2, random_state=seed,
+                n_iter=n_iter, burn_in=burn_in, n_chains=2, random_state=seed, **budget,
             )  # fmt: skip
             nov.append({"data": name, "model": prior, **row})
     section.text(

@@ -75,10 +75,20 @@ def cluster_and_compare(
     n_chains: int = 4,
     n_init: int = 5,
     min_components: int | None = None,
+    **fit: Any,
 ) -> dict[str, Any]:
-    """Fit the Pitman-Yor mixture and the scikit-learn baselines; return the model and Table 2's rows."""
+    """Fit the Pitman-Yor mixture and the scikit-learn baselines; return the model and Table 2's rows.
+
+    ``fit``: further keyword arguments of the mixture (``max_seconds``).
+    """
     model = PitmanYorGMM(
-        n_iter=n_iter, burn_in=burn_in, n_chains=n_chains, random_state=random_state, progress=False, **STUDY
+        n_iter=n_iter,
+        burn_in=burn_in,
+        n_chains=n_chains,
+        random_state=random_state,
+        progress=False,
+        **STUDY,
+        **fit,
     ).fit(X)
     n_true = int(np.unique(y).size)
     ks = model.n_clusters_summary_
@@ -149,11 +159,12 @@ def learning_curve(
     random_state: int,
     n_chains: int = 2,
     discounts: tuple[float | None, ...] = (0.0, None),
+    **fit: Any,
 ) -> list[dict[str, Any]]:
     """Expected K, the point estimate's K and pairwise accuracy with the first ``m`` windows of every class.
 
     One row per ``m`` in ``per_class`` and per prior (``discount=0``: Dirichlet process, ``None``:
-    Pitman-Yor with d sampled).
+    Pitman-Yor with d sampled); ``fit``: further keyword arguments of the mixture (``max_seconds``).
     """
     rows = []
     classes = np.unique(y)
@@ -167,6 +178,7 @@ def learning_curve(
                 burn_in=burn_in,
                 n_chains=n_chains,
                 random_state=random_state,
+                **fit,
             )
             model.set_params(progress=False).fit(X[keep])
             rows.append(

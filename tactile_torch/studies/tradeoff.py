@@ -117,7 +117,8 @@ def run(section, ctx) -> None:
     from ..export.parts import ExportPool
     from ..tradeoff import write_outputs
     from ..tradeoff.evaluation import submit_fronts
-    from ..tradeoff.runner import execute_plan, plan_tradeoff
+    from ..tradeoff.execution import execute_plan
+    from ..tradeoff.runner import plan_tradeoff
 
     mode = ctx.mode
     quick = mode != "full"

@@ -14,6 +14,65 @@ from typing import Any
 
 QUICK_SPLITS, FULL_SPLITS = 2, 5
 """Folds of the sweeps with and without ``--quick`` (at most as many as the study's folds allow)."""
+SWEEP_CLEAN = "clean accuracy [95 % CI]"
+"""The column :func:`tactile_torch.robustness.output.breaking_table` names the clean accuracy."""
+CLEAN_COLUMN = "clean accuracy in the sweep ({n} folds, 95 % bootstrap CI)"
+"""Its name in the trade-off's table: the sweep's own cross-validation (its folds, every sample pooled,
+a cluster-bootstrap interval of that mean), not the study's accuracy (mean over units, prediction
+interval for a new unit), so the two differ."""
+
+
+def refits(kind: str, *, quick: bool) -> int:
+    """Return about how many times a sweep of one model refits it (the estimate of the time the breaking
+    points take, :mod:`.progress`): per factor, every level that retrains, on every fold; one fit per fold
+    for the factors that only degrade the test input."""
+    from ..robustness.degradations import QUICK_LEVELS, factors_for
+
+    splits = QUICK_SPLITS if quick else FULL_SPLITS
+    total = 0
+    for f in factors_for(kind):
+        levels = QUICK_LEVELS.get(f.name, f.levels) if quick else f.levels
+        total += splits * (1 if f.stage == "test" else len(levels))
+    return total
+
+
+def plausibility_notes(curves: list, X: object) -> list[str]:
+    """Notes on results a reader should doubt: a degradation that improves accuracy beyond its interval,
+    and a sensor range below the data's own level (gravity) that costs nothing. Each says what the sweep
+    does, so that the reader can tell a property of the data from a bug."""
+    import numpy as np
+
+    notes = []
+    own = None
+    for c in curves:
+        unit = c.factor.unit
+        for level, acc, low in zip(c.levels, c.accuracy, c.low, strict=False):
+            if np.isfinite(low) and low > c.clean + 1e-9:
+                notes.append(
+                    f"{c.factor.name} at {c.factor.label(level)} scores {acc:.3f} (95 % CI from {low:.3f}) for "
+                    f"{c.model}, above its clean {c.clean:.3f}: a degradation that improves accuracy. The sweep "
+                    f"refits the model at each level ({c.factor.description}); a degraded input can remove "
+                    "noise a model fitted to, but check the sweep before trusting it"
+                )
+                break
+        if c.factor.name != "saturation":
+            continue
+        if own is None:
+            x = np.abs(np.asarray(X, dtype=np.float64))
+            own = float(np.quantile(x, 0.99))
+        for level, acc in reversed(list(zip(c.levels, c.accuracy, strict=False))):  # the harshest first
+            if level < own and acc >= c.clean_low:
+                clipped = (np.abs(np.asarray(X, dtype=np.float64)) > level).mean(axis=(0, 2))
+                axes = ", ".join(f"{a}: {v:.0%}" for a, v in zip("xyz", clipped, strict=False))
+                notes.append(
+                    f"saturation at ±{level:g} {unit}, below the data's own level (99 % of the samples within "
+                    f"±{own:.2g} {unit}, gravity included), costs {c.model} nothing ({acc:.3f} against "
+                    f"{c.clean:.3f} clean): samples clipped per axis {axes}. The sweep refits the model on the "
+                    "clipped windows, so this says a model trained on such a sensor does as well: what tells "
+                    "the surfaces apart survives on the axes that still vary"
+                )
+                break
+    return notes
 
 
 def add_breaking_points(
@@ -77,7 +136,15 @@ def add_breaking_points(
             progress=progress,
         )
         part = breaking_summary(sweep_result, out / "breaking" / key)
-        summary["rows"] += [{"input": key, **row} for row in part["rows"]]
+        n_splits = sweep_result.n_splits or (QUICK_SPLITS if quick else FULL_SPLITS)
+        summary["rows"] += [
+            {
+                "input": key,
+                **{CLEAN_COLUMN.format(n=n_splits) if k == SWEEP_CLEAN else k: v for k, v in row.items()},
+            }
+            for row in part["rows"]
+        ]
+        notes += plausibility_notes(sweep_result.curves, samples.X)
         summary["figures"] += [str(Path(p).relative_to(out)) for p in part["figures"]]
         summary["skipped"] += [[f"{key}: {name}", why] for name, why in part["skipped"]]
         for name, why in part["failed"]:  # a bug in one factor: the other factors' curves are kept
@@ -87,4 +154,4 @@ def add_breaking_points(
     return summary
 
 
-__all__ = ["add_breaking_points"]
+__all__ = ["add_breaking_points", "plausibility_notes", "refits"]

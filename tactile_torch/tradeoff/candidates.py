@@ -40,6 +40,7 @@ from ..features.transformers import (
     FeaturePassthrough,
     ImageFeatureTransformer,
     PressureImageFeatures,
+    RawInput,
     TaxelFeatureTransformer,
     WindowFeatureTransformer,
 )
@@ -283,7 +284,7 @@ class CandidateResult:
     notes : list of str
         Warnings raised while fitting, export errors.
     parity_predictions : ndarray or None
-        The first fold's predictions of its first :data:`.evaluation.PARITY_SAMPLES` test samples (what the
+        The first fold's predictions of its test samples (what the
         exported file must reproduce).
     predictions : ndarray of shape (N,) or None
         Out-of-fold prediction of every sample of the candidate's raw input (``-1`` if never tested),
@@ -303,6 +304,17 @@ class CandidateResult:
         An int8 variant's quantisation (:mod:`.learned`); ``None`` for a float candidate.
     variant_of : str or None
         An int8 variant: the name of its float candidate.
+    stopped : str or None
+        Why the study stopped it early, before its last fold (:mod:`.stopping`); ``None`` when it ran
+        every fold. A stopped candidate's accuracy is over the units it was tested on, and it is not
+        chosen.
+    bare_file : Path or None
+        Its first-fold file without the "unknown" rule (what an int8 variant quantises, :mod:`.bundle`).
+    train_features : ndarray or None
+        The first fold's training features while its timing file is written (its "unknown" rule), then
+        ``None``.
+    distance : tuple or None
+        Its timing file's "unknown" rule: ``(rule, distance part, inputs)`` (:func:`~.bundle.finish_bundle`).
     """
 
     candidate: Candidate
@@ -325,6 +337,22 @@ class CandidateResult:
     quantisation: str | None = None
     family: str = "classical"
     variant_of: str | None = None
+    stopped: str | None = None
+    bare_file: object = field(default=None, repr=False)
+    train_features: object = field(default=None, repr=False)
+    distance: tuple | None = field(default=None, repr=False)
+
+
+def features_key(candidate: Candidate) -> tuple:
+    """What the candidate's features depend on: its raw input and its ``features`` step (type, parameters)."""
+    step = candidate.estimator.named_steps["features"]
+    return candidate.input, type(step).__name__, repr(sorted(step.get_params().items()))
+
+
+def is_learned(model: object) -> bool:
+    """Return whether a candidate's (fitted or not) pipeline is a learned model on the raw input."""
+    steps = getattr(model, "steps", None)
+    return bool(steps) and isinstance(steps[0][1], RawInput)
 
 
 __all__ = [
@@ -336,4 +364,6 @@ __all__ = [
     "build_candidates",
     "candidate_tuning",
     "feature_sets",
+    "features_key",
+    "is_learned",
 ]

@@ -10,13 +10,14 @@ the candidate as the folds did (its grid on inner folds of those samples,
 :meth:`tactile_torch.model_selection.CVResult.final_model`), fits it with the chosen parameters and writes
 
 * ``<name>.onnx``: raw input → labels and scores, with the metadata ``tactile-torch predict`` and
-  ``stream`` read (one file, onnxruntime only); an int8 variant is quantised as in the study (its float
-  twin refitted, then quantised, calibrated on training samples). Every file carries the "unknown" rule
-  of :mod:`tactile_torch.ood` (the ``ood_distance`` output and its threshold, fitted on the same samples
-  the same way as ``train`` + ``export``), as a float branch (:func:`tactile_torch.export.ood_branch.add_distance`): a
-  classical model's distance is on its own standardised features, a network's on the reference features
-  of its raw input. Its labels are checked against the refitted pipeline's on up to
-  :data:`CHECK_SAMPLES` samples;
+  ``stream`` read (one file, onnxruntime only), written as the study's timing files are
+  (:mod:`.bundle`); an int8 variant is quantised as in the study (its float twin refitted, then
+  quantised, calibrated on training samples). Every file carries the "unknown" rule of
+  :mod:`tactile_torch.ood` (the ``ood_distance`` output and its threshold, fitted on the same samples),
+  measured on what the file computes anyway (:mod:`.unknown`): a classical model's on its own
+  standardised features, a learned model's on its embedding. Its labels are checked against the
+  refitted pipeline's on up to :data:`CHECK_SAMPLES` samples, and it is timed again (latency, size,
+  memory: what the recommendation line, ``tradeoff.json`` and the charts then show);
 * ``<name>.npz``: the same (float) model as a model file (:mod:`tactile_torch.robot.files.model_file`, no
   pickle) with the same rule, which ``tactile-torch export`` turns into the same graph, for the feature
   sets a model file describes (vibration windows, RGB explorations, feature matrices, with or without a
@@ -35,21 +36,14 @@ import numpy as np
 from sklearn.base import clone
 
 from ..robot.contract import (
-    CLASS_NAMES_KEY,
-    DEFAULT_RANGE_G,
     EARLY_RULE_KEY,
     FRAMES_LAYOUT,
-    INPUT_LAYOUT_KEY,
-    INPUT_SHAPE_KEY,
     LABELS_OUTPUT,
     PIPELINE_KEY,
     PRESSURE_LAYOUT,
-    RANGE_METADATA_KEY,
-    SAMPLE_RATE_KEY,
-    STEP_KEY,
-    WINDOW_SIZE_KEY,
 )
 from ..robot.files.naming import slug
+from .bundle import touch_cost, window_metadata
 
 CHECK_SAMPLES = 64
 """Samples on which the deployed ONNX file's labels are compared with the refitted pipeline's."""
@@ -221,6 +215,24 @@ def live_metadata(result: object, name: str, model: object) -> tuple[dict, list[
     return meta, notes
 
 
+def _quantised_bare(bare: Path, quantised: Path, s: object, mode: str, learned: bool) -> Path:
+    """Quantise the deployed file without its rule ``bare`` into ``quantised`` as the study did (its mode; a
+    classical file's classifier only), calibrated on evenly spaced samples of ``s``; ``bare`` is removed."""
+    from ..export.int8 import CLASSIFIER_PREFIX, quantise_bundle
+    from ..robot.runtime import OnnxPipeline
+    from .learned import CALIBRATION_SAMPLES
+
+    calibration = OnnxPipeline(bare).validate(
+        np.ascontiguousarray(s.X[_evenly(len(s.y), CALIBRATION_SAMPLES)])
+    )
+    prefix = None if learned else CLASSIFIER_PREFIX  # as in the study (tactile_torch.tradeoff.learned)
+    try:
+        quantise_bundle(bare, quantised, calibration=calibration, mode=mode, only_prefix=prefix)
+    finally:
+        bare.unlink(missing_ok=True)
+    return quantised
+
+
 def deploy_candidate(
     result: object, name: str, out_dir: str | Path, pool: object, *, random_state: int = 0
 ) -> dict:
@@ -243,11 +255,13 @@ def deploy_candidate(
     dict
         ``name``, ``onnx`` (path), ``model_file`` (path or ``None``), ``samples`` (fitted on),
         ``available`` (samples the data hold), ``agreement`` (share of checked samples whose ONNX label
-        equals the pipeline's), ``ood_threshold``, ``params``, ``notes``.
+        equals the pipeline's), ``ood_threshold``, ``params``, the file's ``latency_ms``, ``size_bytes``,
+        ``decision_s`` and ``memory_mib`` (the study's harness), ``touch_ms`` (frame bundles: inference per
+        touch at most, :func:`touch_cost`), ``notes``.
     """
-    from ..export.ood_branch import add_distance
     from ..robot.runtime import OnnxPipeline
-    from .learned import CALIBRATION_SAMPLES, is_learned
+    from .bundle import bare_bundle, finish_bundle
+    from .candidates import features_key, is_learned
 
     names = [r.candidate.name for r in result.results]
     if name not in names:
@@ -270,32 +284,32 @@ def deploy_candidate(
         else f"{len(s.y)} of {available} (evenly spaced: at most {DEPLOY_MAX_PER_CLASS} per class, about {DEPLOY_MAX_SAMPLES} in all)"
     )
     meta = {PIPELINE_KEY: f"tradeoff: {name}, fitted on {samples} samples"}
-    if s.window is not None:
-        meta.update({WINDOW_SIZE_KEY: s.window, STEP_KEY: s.window, SAMPLE_RATE_KEY: result.data.rate_hz})
-        meta[RANGE_METADATA_KEY] = DEFAULT_RANGE_G
+    meta.update(window_metadata(s, result.data.rate_hz))
     live, live_notes = live_metadata(result, name, model)  # frame bundles: rate, touch levels, early rule
     meta.update(live)
     learned = is_learned(model)
     path = out / f"{stem}.onnx"
-    if learned:  # a network or learned front end: its own graph, exported whole (docs/neural.md)
-        path = _export_learned(result, model, check, path, meta)
-    else:
-        path = _export_classical(result, cand, model, s, check, path, meta, pool)
+    bare = out / f".{stem}.bare.onnx"
+    front = ("front", *features_key(cand), *(() if _stateless(model) else ("all data",)))
+    bare_bundle(
+        model,
+        check,
+        bare,
+        meta,
+        pool,
+        front=front,
+        class_names=result.data.class_names,
+        layout=s.layout,
+    )
     notes = list(live_notes)
     if variant.quantisation is not None:
-        from ..export.int8 import CLASSIFIER_PREFIX, quantise_bundle
-
-        calibration = OnnxPipeline(path).validate(
-            np.ascontiguousarray(s.X[_evenly(len(s.y), CALIBRATION_SAMPLES)])
+        bare = _quantised_bare(bare, out / f".{stem}.bare-int8.onnx", s, variant.quantisation, learned)
+    try:
+        path, (rule, *_) = finish_bundle(
+            bare, path, model, s.X, s.y, pool, reference=result.references.get(cand.input)
         )
-        quantised = path.with_name(f"{path.stem}-int8.onnx")
-        prefix = None if learned else CLASSIFIER_PREFIX  # as in the study (tactile_torch.tradeoff.learned)
-        quantise_bundle(
-            path, quantised, calibration=calibration, mode=variant.quantisation, only_prefix=prefix
-        )
-        path = quantised.replace(path)
-    rule, branch = unknown_rule(result, cand, model, s, pool)
-    add_distance(path, branch, rule)
+    finally:
+        bare.unlink(missing_ok=True)
     pipe = OnnxPipeline(path)
     classes = model.steps[-1][1].classes_
     graph_labels = np.asarray(pipe.run(pipe.validate(check))[LABELS_OUTPUT], dtype=np.int64)
@@ -321,6 +335,15 @@ def deploy_candidate(
             f"{stem}.npz holds the float model ({cand.name}): tactile-torch export writes its float graph; "
             f"{stem}.onnx is the int8 file"
         )
+    from .bundle import measure_file
+    from .memory import peak_memory_mib
+
+    cost = measure_file(path, check[:1], s.acquisition_s)  # the study's harness, on the file written
+    try:
+        cost["memory_mib"] = peak_memory_mib(path, pipe.validate(check[:1]))
+    except Exception as err:  # a late measurement: the file is written all the same
+        cost["memory_mib"] = None
+        notes.append(f"memory of {stem}.onnx not measured: {type(err).__name__}: {str(err)[:200]}")
     return {
         "name": name,
         "onnx": str(path),
@@ -330,97 +353,16 @@ def deploy_candidate(
         "params": _json_params(params),
         "agreement": agreement,
         "ood_threshold": float(rule["threshold"]),
+        **cost,
+        "touch_ms": touch_cost(cost["latency_ms"], live.get(EARLY_RULE_KEY), s),
         "notes": notes,
     }
 
 
-def unknown_rule(result: object, cand: object, model: object, s: object, pool: object) -> tuple[dict, object]:
-    """Fit the "unknown" rule of a deployed model on its training samples; return it and its ONNX branch
-    (raw input → ``ood_distance``, :func:`tactile_torch.export.ood_branch.distance_graph`).
+def _stateless(model: object) -> bool:
+    from ..model_selection import needs_fit
 
-    A classical model: on its own features, selected columns and standardisation (what its head takes,
-    as ``train`` + ``export`` do). A learned model (no feature vector): on the reference feature set of
-    its raw input (:attr:`~.summary.TradeoffResult.references`), standardised on the same samples. The
-    feature graph is the study's (``pool``): exported once, shared with the classical candidates."""
-    from sklearn.preprocessing import StandardScaler
-
-    from ..export.ood_branch import distance_graph
-    from ..export.parts import export_front
-    from ..ood import DistanceHead, fit_rule
-    from .evaluation import _stateless
-    from .learned import is_learned
-
-    if is_learned(model):
-        step = result.references[cand.input].make().fit(s.X, s.y)
-        features = np.asarray(step.transform(s.X), dtype=np.float64)
-        scaler = StandardScaler().fit(features)
-        select = None
-    else:
-        step = model.named_steps["features"]
-        features = np.asarray(step.transform(s.X), dtype=np.float64)
-        select = model.named_steps["select"].columns_ if "select" in model.named_steps else None
-        features = features if select is None else features[:, select]
-        scaler = model.named_steps["scale"]
-    rule = fit_rule(features, s.y, scale=scaler.scale_, center=scaler.mean_)
-    head = DistanceHead(rule, scale=scaler.scale_, center=scaler.mean_, select=select)
-    example = np.ascontiguousarray(s.X[:2])
-    key = ("front", cand.input, type(step).__name__, repr(sorted(step.get_params().items())))
-    if not _stateless(step):
-        key = (*key, "all data")
-    pool.submit(key, export_front, step, example, background=False)  # a no-op when already exported
-    n_features = int(np.asarray(step.transform(example[:1])).shape[1])
-    return rule, distance_graph(pool.result(key), head, n_features)
-
-
-def _export_classical(result, cand, model, s, check, path: Path, meta: dict, pool) -> Path:
-    """Join the fitted model's feature graph and classifier graph (the study's export parts) into ``path``."""
-    from ..export.parts import (
-        bind_head,
-        export_fixed_head,
-        export_front,
-        export_head,
-        head_key,
-        head_modules,
-        join,
-    )
-    from .evaluation import _stateless, features_key
-
-    step = model.named_steps["features"]
-    front = ("front", *features_key(cand))
-    if not _stateless(step):
-        front = (*front, "all data")
-        pool.submit(front, export_front, step, check[:2], background=False)
-    else:
-        pool.submit(
-            front, export_front, clone(step).fit(check[:2]), check[:2]
-        )  # a no-op when already exported
-    modules = head_modules(model)
-    n_features = int(step.transform(check[:1]).shape[1])
-    head = ("head", *head_key(modules, n_features))
-    pool.submit(head, export_head, modules, n_features, background=False)
-    try:
-        classifier = bind_head(pool.result(head), modules)
-    except Exception:  # a structure that cannot be exported with free sizes
-        plain = ("plain head", cand.name, "all data")
-        pool.submit(plain, export_fixed_head, modules, n_features, background=False)
-        classifier = pool.result(plain)
-    classes = model.named_steps["classifier"].classes_
-    meta = {
-        **meta,
-        INPUT_SHAPE_KEY: [None, *s.X.shape[1:]],
-        INPUT_LAYOUT_KEY: s.layout,
-        CLASS_NAMES_KEY: [result.data.class_names[int(c)] for c in classes],
-    }
-    return join(pool.result(front), classifier, path, meta)
-
-
-def _export_learned(result, model, check: np.ndarray, path: Path, meta: dict) -> Path:
-    """Export a learned candidate fitted on all the data (its own graph, :func:`tactile_torch.export.export_classifier`)."""
-    from ..export import export_classifier
-
-    clf = model.steps[-1][1]
-    names = [result.data.class_names[int(c)] for c in clf.classes_]
-    return export_classifier(clf, path, check[:2], class_names=names, metadata=meta)
+    return not needs_fit(model.named_steps["features"])
 
 
 __all__ = [
@@ -430,6 +372,5 @@ __all__ = [
     "deploy_candidate",
     "deployment_samples",
     "live_metadata",
-    "unknown_rule",
     "write_model_file",
 ]

@@ -56,6 +56,10 @@ class TradeoffOptions:
         Tune each candidate inside each training fold (else the catalogue's defaults).
     breaking : bool
         Also sweep the breaking points of the recommended and the study's model.
+    exhaustive : bool
+        Evaluate every candidate on every fold (default: candidates that cannot be recommended stop
+        early, :mod:`tactile_torch.tradeoff.stopping`), and sweep the breaking points at every level with
+        5 folds (default: the quick levels with 2 folds, as ``quick``).
     """
 
     quick: bool = False
@@ -74,6 +78,7 @@ class TradeoffOptions:
     random_state: int = 0
     tune: bool = True
     breaking: bool = True
+    exhaustive: bool = False
 
     def __post_init__(self) -> None:
         if self.n_folds is not None and (
@@ -119,6 +124,8 @@ class TradeoffOptions:
             "deploy": ["recommended", *([self.deploy] if self.deploy else [])],
             "random_state": self.random_state,
             "tune": self.tune,
+            "exhaustive": self.exhaustive,
+            "estimate_breaking": self.breaking,
         }
 
 
@@ -178,8 +185,14 @@ def run_tradeoff_job(
         if options.breaking and result.recommended is not None:  # docs/robustness.md
             log("[tradeoff] breaking points of the recommended and the study's model")
             try:
+                # the full sweeps (every level, 5 folds, 10 draws per SNR) retrain a network hundreds of
+                # times: they run with --exhaustive; by default the quick levels (docs/tradeoff.md)
                 add_breaking_points(
-                    result, staging, quick=options.quick, random_state=options.random_state, progress=progress
+                    result,
+                    staging,
+                    quick=options.quick or not options.exhaustive,
+                    random_state=options.random_state,
+                    progress=progress,
                 )
             except Exception as err:  # a late stage: what the earlier ones computed is written all the same
                 result.mark_incomplete("breaking points", err)

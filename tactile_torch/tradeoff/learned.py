@@ -35,19 +35,15 @@ from sklearn.pipeline import Pipeline
 
 from .. import catalogue
 from ..features.transformers import RawInput
-from ..robot.contract import CLASS_NAMES_KEY, PIPELINE_KEY, STEP_KEY, WINDOW_SIZE_KEY
+from ..robot.contract import CLASS_NAMES_KEY
+from ..robot.files.naming import slug
+from .candidates import is_learned
 
 QUICK_EPOCHS = 30
 """Epochs of the networks under ``quick`` (early stopping may end them sooner)."""
 CALIBRATION_SAMPLES = 32
 """Training samples of each fold that calibrate its static int8 quantisation."""
 RAW_NAMES = {"windows": "raw window", "frames": "raw frames", "pressure": "raw maps"}
-
-
-def is_learned(model: object) -> bool:
-    """Return whether a candidate's (fitted or not) pipeline is a learned model on the raw input."""
-    steps = getattr(model, "steps", None)
-    return bool(steps) and isinstance(steps[0][1], RawInput)
 
 
 def learned_keys(kind: str, *, quick: bool) -> list[str]:
@@ -119,20 +115,6 @@ def kind_of(key: str) -> str:
     return {"windows": "vibration", "frames": "image", "pressure": "pressure"}[raw]
 
 
-def export_learned(res: object, samples: object, class_names: tuple, path: Path, metadata: dict) -> Path:
-    """Export a learned candidate's first-fold model to ``path`` with the trade-off's metadata."""
-    from ..export import export_classifier
-
-    clf = res.model.steps[-1][1]
-    s = samples
-    raw = np.ascontiguousarray(s.X[s.folds[0][0][:2]])
-    names = [class_names[int(c)] for c in clf.classes_]
-    meta = {PIPELINE_KEY: f"tradeoff: {res.candidate.name}", **metadata}
-    if s.window is not None:
-        meta.update({WINDOW_SIZE_KEY: s.window, STEP_KEY: s.window})
-    return export_classifier(clf, path, raw, class_names=names, metadata=meta)
-
-
 def _fold_file(res: object, k: int, first: Path, samples: object, parts: Path, fold_file) -> Path | None:
     """Return an ONNX file of fold ``k``'s model of ``res`` (the first fold's file for ``k == 0``)."""
     if k == 0:
@@ -161,70 +143,82 @@ class _NothingToQuantise(Exception):
     """The quantiser left a bundle as it was: no int8 variant to measure."""
 
 
+def _quantised_folds(res: object, s: object, parts: Path, fold_file) -> tuple:
+    """Quantise ``res``'s file of every fold and test it: ``(fold accuracies, the first fold's int8 file,
+    its agreement with the float file, the mode, every sample's out-of-fold label)``; raises
+    :class:`_NothingToQuantise` when the quantiser left the first fold's file as it was."""
+    from ..export.int8 import CLASSIFIER_PREFIX, quantise_bundle, quantised_nodes
+    from ..robot.runtime import OnnxPipeline
+
+    first = Path(res.bare_file)
+    fold_accuracy, q_first, agreement, mode = [], None, None, None
+    predictions = np.full(len(s.y), -1, dtype=np.int64)
+    for k, (train, test) in enumerate(s.folds):
+        path = _fold_file(res, k, first, s, parts, fold_file)
+        if path is None:
+            raise ValueError("features fitted per fold: no int8 variant (one feature graph per fold)")
+        calibration = OnnxPipeline(path).validate(np.ascontiguousarray(s.X[train[:CALIBRATION_SAMPLES]]))
+        target = parts / f"{first.stem}-int8-{k}.onnx"
+        # The networks get dynamic int8: static ranges from the calibration windows kept only
+        # 0.55-0.60 of their labels on two data sets (docs/neural.md), dynamic 0.91-0.94. A
+        # classical bundle quantises its classifier only: int8 activations of its feature graph
+        # (a window's spectrum) lost the small vibration the features measure.
+        mode = "dynamic" if res.family == "neural" else "static"
+        prefix = None if is_learned(res.model) else CLASSIFIER_PREFIX
+        q_path, mode = quantise_bundle(path, target, calibration=calibration, mode=mode, only_prefix=prefix)
+        if k == 0 and not quantised_nodes(q_path):
+            q_path.unlink()
+            raise _NothingToQuantise()
+        q = OnnxPipeline(q_path)
+        labels = q.predict(s.X[test])
+        classes = res.cv.models[k].steps[-1][1].classes_
+        predictions[test] = classes[labels]
+        fold_accuracy.append(float(np.mean(classes[labels] == s.y[test])))
+        if k == 0:
+            q_first = q_path
+            agreement = float(np.mean(labels == OnnxPipeline(path).predict(s.X[test])))
+    return fold_accuracy, q_first, agreement, mode, predictions
+
+
 def add_int8_and_memory(
     results: list,
     samples: dict,
     out_dir: str | Path,
     *,
     fold_file,
+    pool: object,
     quick: bool,
     progress: bool = True,
     notes: list | None = None,
 ) -> list:
-    """Append the int8 variants to ``results`` and fill ``memory_mib`` (module notes); return ``results``.
+    """Append the int8 variants to ``results`` (module notes); return ``results``.
 
     ``notes`` receives one line naming the candidates that get no variant (nothing to quantise).
 
     ``fold_file(candidate, model, path)`` writes a classical fold model's file (the trade-off's export pool) and
-    returns its path, or ``None`` when it cannot (features fitted per fold).
+    returns its path, or ``None`` when it cannot (features fitted per fold). The variant's timing file is
+    its first fold's quantised file with its "unknown" rule (:func:`~.bundle.finish_bundle`: a classical
+    file keeps its float twin's rule, its features being float; a learned one's is fitted on the int8
+    embedding), timed as every other (:func:`~.evaluation.measure_file`). Candidates stopped early get
+    none.
     """
     import dataclasses
 
-    from ..export.int8 import CLASSIFIER_PREFIX, quantise_bundle, quantised_nodes
     from ..model_selection import progress_bar
-    from ..robot.runtime import OnnxPipeline
     from .candidates import CandidateResult
 
     out_dir = Path(out_dir)
     parts = out_dir / "parts-int8"
     added, unchanged = [], []
-    chosen = [r for r in results if r.onnx_file and (not quick or is_learned(r.model))]
+    chosen = [
+        r
+        for r in results
+        if r.onnx_file and r.bare_file and not r.stopped and (not quick or is_learned(r.model))
+    ]
     for res in progress_bar(chosen, "int8", progress):
         s = samples[res.candidate.input]
-        first = out_dir / res.onnx_file
-        fold_accuracy, q_first, agreement, mode = [], None, None, None
-        predictions = np.full(len(s.y), -1, dtype=np.int64)
         try:
-            for k, (train, test) in enumerate(s.folds):
-                path = _fold_file(res, k, first, s, parts, fold_file)
-                if path is None:
-                    raise ValueError("features fitted per fold: no int8 variant (one feature graph per fold)")
-                calibration = OnnxPipeline(path).validate(
-                    np.ascontiguousarray(s.X[train[:CALIBRATION_SAMPLES]])
-                )
-                target = (
-                    out_dir / f"{first.stem}-int8.onnx" if k == 0 else parts / f"{first.stem}-int8-{k}.onnx"
-                )
-                # The networks get dynamic int8: static ranges from the calibration windows kept only
-                # 0.55-0.60 of their labels on two data sets (docs/neural.md), dynamic 0.91-0.94. A
-                # classical bundle quantises its classifier only: int8 activations of its feature graph
-                # (a window's spectrum) lost the small vibration the features measure.
-                mode = "dynamic" if res.family == "neural" else "static"
-                prefix = None if is_learned(res.model) else CLASSIFIER_PREFIX
-                q_path, mode = quantise_bundle(
-                    path, target, calibration=calibration, mode=mode, only_prefix=prefix
-                )
-                if k == 0 and not quantised_nodes(q_path):
-                    q_path.unlink()
-                    raise _NothingToQuantise()
-                q = OnnxPipeline(q_path)
-                labels = q.predict(s.X[test])
-                classes = res.cv.models[k].steps[-1][1].classes_
-                predictions[test] = classes[labels]
-                fold_accuracy.append(float(np.mean(classes[labels] == s.y[test])))
-                if k == 0:
-                    q_first = q_path
-                    agreement = float(np.mean(labels == OnnxPipeline(path).predict(s.X[test])))
+            fold_accuracy, q_first, agreement, mode, predictions = _quantised_folds(res, s, parts, fold_file)
         except _NothingToQuantise:
             unchanged.append(res.candidate.name)
             continue
@@ -232,23 +226,40 @@ def add_int8_and_memory(
             lines = [line for line in str(err).splitlines() if line.strip()]
             res.notes.append(f"int8: {type(err).__name__}: {(lines or [''])[-1][:200]}")
             continue
-        from ..metrics import time_per_sample
+        from ..export.neural import EMBEDDING_OUTPUT
+        from .bundle import finish_bundle, measure_file
 
-        pipe = OnnxPipeline(q_first)
-        raw = np.ascontiguousarray(s.X[s.folds[0][1][:1]])
-        latency = 1e3 * time_per_sample(pipe.predict, raw)
+        train = s.folds[0][0]
+        try:
+            timing, _ = finish_bundle(
+                q_first,
+                out_dir / f"{slug(res.candidate.name)}-int8.onnx",
+                res.model,
+                s.X[train],
+                s.y[train],
+                pool,
+                # a rule on the embedding is fitted again on the int8 file's own; one on float features kept
+                distance=None
+                if res.distance is None or res.distance[3] == EMBEDDING_OUTPUT
+                else res.distance,
+            )
+        except Exception as err:
+            lines = [line for line in str(err).splitlines() if line.strip()]
+            res.notes.append(f"int8: {type(err).__name__}: {(lines or [''])[-1][:200]}")
+            continue
         cand = dataclasses.replace(res.candidate, name=f"{res.candidate.name} (int8)")
         variant = CandidateResult(
             cand,
             fold_accuracy,
             res.fit_s,
             None,
-            latency_ms=latency,
-            size_bytes=int(q_first.stat().st_size),
-            decision_s=s.acquisition_s + latency / 1e3,
             onnx_agreement=agreement,
-            onnx_file=q_first.name,
-            notes=[f"int8 ({mode}) of {res.candidate.name}; onnx_agreement: with the float file, first fold"],
+            onnx_file=timing.name,
+            notes=[
+                f"int8 ({mode}) copy of {res.candidate.name}; its agreement is with the float file's labels on "
+                "the first fold"
+            ],
+            **measure_file(timing, np.ascontiguousarray(s.X[s.folds[0][1][:1]]), s.acquisition_s),
         )
         variant.predictions = predictions  # every sample's out-of-fold int8 label (per-unit intervals)
         variant.n_parameters = res.n_parameters
@@ -292,8 +303,6 @@ __all__ = [
     "CALIBRATION_SAMPLES",
     "QUICK_EPOCHS",
     "add_int8_and_memory",
-    "export_learned",
-    "is_learned",
     "kind_of",
     "learned_candidates",
     "learned_keys",

@@ -52,7 +52,36 @@ def describe(row: dict) -> str:
         text += f" (int8 loses {row['int8_loss']:.3f} against its float model, beyond its interval)"
     if row["latency_ms"] is None:
         return text
-    return f"{text}, latency {row['latency_ms']:.2f} ms, {_size(row['size_bytes'])}, decision in {row['decision_s']:.3g} s"
+    text += f", latency {row['latency_ms']:.3g} ms"
+    if row.get("touch_ms") is not None:
+        text += f" ({row['touch_ms']:.3g} ms per touch at most)"
+    text += f", {_size(row['size_bytes'])}, decision in {row['decision_s']:.3g} s"
+    if row.get("measured_on"):
+        text += f" (measured on {row['measured_on']})"
+    return text
+
+
+def whole_range(row: dict) -> bool:
+    """Whether a row's interval (or range) is the whole [0, 1]: it says nothing about the next unit."""
+    return (
+        row["accuracy_low"] is not None and row["accuracy_low"] <= 5e-4 and row["accuracy_high"] >= 1 - 5e-4
+    )
+
+
+def why_whole_range(row: dict) -> str:
+    """Why a row's interval is the whole [0, 1], in words, from its units' accuracies."""
+    values = [u["accuracy"] for u in row.get("unit_accuracy") or []]
+    unit, n = row["unit"], row["n_units"]
+    spread = f"its {n} {unit}s score {min(values):.2f} to {max(values):.2f}" if values else f"its {n} {unit}s"
+    if row["interval"] == "range":
+        what = f"{spread}, and fewer than 5 {unit}s give their range, not an interval"
+    else:
+        what = f"{spread}: too spread for {n} {unit}s to say what a new one scores"
+    return (
+        f"its {'range' if row['interval'] == 'range' else '95 % interval'} is the whole [0, 1] ({what}); it is "
+        f"chosen because it beats the majority class {unit} by {unit} (p = {row['baseline_p']:.2g}), not "
+        f"because a new {unit} will go well: more {unit}s narrow it"
+    )
 
 
 def _baseline_text(result: TradeoffResult) -> str:
@@ -111,7 +140,14 @@ def summary_lines(result: TradeoffResult) -> list[str]:
             else f"no candidate is significantly above the trivial baseline ({_baseline_text(result)})"
         )
         return [*lines, f"no recommendation: {why}; the best: {describe(best)}"]
-    lines.append(f"recommended: {describe(result.row(result.recommended))}")
+    chosen = result.row(result.recommended)
+    if whole_range(chosen):  # the rule's choice, but no recommendation on this evidence alone
+        lines.append(f"chosen:      {describe(chosen)}")
+        lines.append(f"caution:     not a recommendation on this evidence: {why_whole_range(chosen)}")
+    else:
+        lines.append(f"recommended: {describe(chosen)}")
+    for variant in _variants(result, chosen):
+        lines.append(f"  variant:   {describe(variant)}")
     if result.runner_up is not None:
         lines.append(f"runner-up:   {describe(result.row(result.runner_up))}")
     lines.append(f"baselines:   {_baseline_text(result)}")
@@ -125,6 +161,18 @@ def summary_lines(result: TradeoffResult) -> list[str]:
         lines.append(f"deployed:    {d['name']} refitted on {count} samples: {files}")
         lines += [f"note:        {n}" for n in d["notes"]]
     return lines
+
+
+def _variants(result: TradeoffResult, row: dict) -> list[dict]:
+    """The other variants of ``row``'s model (its int8 copy, or its float twin), shown beside it."""
+    model = row.get("variant_of") or row["name"]
+    return [
+        r
+        for r in result.rows
+        if r["name"] != row["name"]
+        and (r.get("variant_of") or r["name"]) == model
+        and r["decision_s"] is not None
+    ]
 
 
 def _chart(result: TradeoffResult, which: str, path: Path) -> Path:
@@ -252,12 +300,15 @@ def table_rows(result: TradeoffResult) -> list[dict]:
     out = []
     for r in order:
         mark = (
-            "recommended"
+            ("chosen (interval [0, 1])" if whole_range(r) else "recommended")
             if r["name"] == result.recommended
             else "runner-up"
             if r["name"] == result.runner_up
+            else f"stopped after {r['folds']} folds"
+            if r.get("stopped")
             else ""
         )
+        frames = any(x.get("touch_ms") is not None for x in result.rows)
         fitted = r["accuracy"] is not None
         interval = "-"
         if fitted:
@@ -274,6 +325,11 @@ def table_rows(result: TradeoffResult) -> list[dict]:
                 "fit s": r["fit_s"] if fitted else "-",
                 "of it tuning s": r.get("tune_s") if fitted and r.get("tune_s") is not None else "-",
                 "latency ms": r["latency_ms"] if r["latency_ms"] is not None else "-",
+                **(
+                    {"per touch ms (at most)": r["touch_ms"] if r.get("touch_ms") is not None else "-"}
+                    if frames
+                    else {}
+                ),
                 "size": _size(r["size_bytes"]),
                 "decision s": r["decision_s"] if r["decision_s"] is not None else "-",
                 "Pareto": "yes" if r["pareto"] else "",
@@ -355,7 +411,16 @@ def markdown(result: TradeoffResult, *, command: str = "", figures: dict[str, Pa
         lines += touch_time_markdown(result.touch_time, None if touch is None else touch.as_posix())
     if result.breaking_points:
         points = result.breaking_points
-        lines += ["## Breaking points", "", *_table(points.get("rows") or [])]
+        lines += [
+            "## Breaking points",
+            "",
+            "Each factor is swept with its own cross-validation (fewer folds, every sample pooled, a "
+            "cluster-bootstrap interval of that accuracy), so its clean accuracy differs from the study's "
+            "above (the mean over units, with the prediction interval for a new unit). A breaking point is "
+            "`level [low, high]`, the ends in numeric order; an end outside the levels swept says so.",
+            "",
+            *_table(points.get("rows") or []),
+        ]
         lines += [f"- {n}" for n in points.get("notes") or []]
         lines += [f"- not swept: {name}: {why}" for name, why in points.get("skipped") or []]
         lines += [
@@ -367,12 +432,12 @@ def markdown(result: TradeoffResult, *, command: str = "", figures: dict[str, Pa
             f"![breaking point]({Path(p).as_posix()})" for p in result.breaking_points.get("figures") or []
         ]
         lines.append("")
-    issues = [(r["name"], n) for r in result.rows for n in r["notes"]]
+    issues = grouped_notes(result.rows)
     agreement = [r for r in result.rows if r["onnx_agreement"] is not None and r["onnx_agreement"] < 1.0]
     if result.notes or issues or agreement:
         lines += ["## Notes", ""]
         lines += [f"- {n}" for n in result.notes]
-        lines += [f"- {name}: {n}" for name, n in issues]
+        lines += [f"- {line}" for line in issues]
         lines += [
             f"- {r['name']}: the ONNX file's labels agree with the pipeline's on {r['onnx_agreement']:.1%} of the "
             "held-out samples checked"
@@ -383,6 +448,22 @@ def markdown(result: TradeoffResult, *, command: str = "", figures: dict[str, Pa
         f"_{len(result.rows)} candidates in {result.seconds:.0f} s ({result.exports} ONNX exports)._"
     )
     return "\n".join(lines) + "\n"
+
+
+def grouped_notes(rows: list[dict]) -> list[str]:
+    """The candidates' notes, each said once: ``"<note> (3 candidates: A, B, C)"`` or ``"<name>: <note>"``."""
+    by_note: dict[str, list[str]] = {}
+    for r in rows:
+        for note in r["notes"]:
+            by_note.setdefault(note, []).append(r["name"])
+    out = []
+    for note, names in by_note.items():
+        if len(names) == 1:
+            out.append(f"{names[0]}: {note}")
+        else:
+            shown = ", ".join(names[:3]) + (f" and {len(names) - 3} more" if len(names) > 3 else "")
+            out.append(f"{note} ({len(names)} candidates: {shown})")
+    return out
 
 
 STAGING = ".{name}.partial-{pid}"
@@ -442,6 +523,7 @@ __all__ = [
     "describe",
     "draw_chart",
     "feature_family",
+    "grouped_notes",
     "incomplete_lines",
     "markdown",
     "staged_output",

@@ -1,18 +1,19 @@
-"""``run_tradeoff``: a data file → candidates → accuracy, speed and size → the recommended model."""
+"""``run_tradeoff``: a data file → candidates → accuracy, speed and size → the recommended model.
+
+:func:`plan_tradeoff` reads the data and makes the candidates; :func:`~.execution.execute_plan` evaluates
+them; :func:`run_tradeoff` does both and deploys the recommended model."""
 
 from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from ..export.parts import ExportPool
-from ..robot.contract import SAMPLE_RATE_KEY
 from .candidates import build_candidates, feature_sets
-from .evaluation import cross_validate, export_and_time, submit_fronts
+from .execution import TradeoffPlan, execute_plan
 from .inputs import (
     WINDOW_SIZES,
     Samples,
@@ -22,7 +23,7 @@ from .inputs import (
     load_tradeoff_data,
     vibration_samples,
 )
-from .summary import TradeoffResult, _unit_warnings, baseline_rows, summarise
+from .summary import TradeoffResult
 from .validation import check_finite, check_folds_fit, check_target, check_two_classes
 
 STUDY_WINDOW = 800
@@ -99,36 +100,6 @@ def _vibration_inputs(
         s = vibration_samples(rec, w, n_folds=n_folds, max_per_class=cap, random_state=random_state)
         inputs[s.key] = s
     return chosen, inputs
-
-
-@dataclass
-class TradeoffPlan:
-    """What :func:`plan_tradeoff` decided: the raw inputs with their folds and the candidates.
-
-    Attributes
-    ----------
-    data : TradeoffData
-    inputs : dict of str to Samples
-    candidates : list of Candidate
-    notes : list of str
-    precomputed : dict
-        Features already known (see :attr:`TradeoffData.precomputed`), by features key.
-    seconds : float
-        Time spent planning.
-    quick : bool
-    references : dict of str to FeatureRecipe
-        Per raw input, its reference feature set (all features: the 21 at the window, fused 12, all
-        columns), on which a learned model's "unknown" rule is measured (:mod:`.deploy`).
-    """
-
-    data: TradeoffData
-    inputs: dict[str, Samples]
-    candidates: list
-    notes: list[str]
-    precomputed: dict = field(default_factory=dict)
-    seconds: float = 0.0
-    quick: bool = False
-    references: dict = field(default_factory=dict)
 
 
 def plan_tradeoff(  # noqa: PLR0913
@@ -212,7 +183,7 @@ def plan_tradeoff(  # noqa: PLR0913
     """
     from ..model_selection import needs_fit
     from ..validation import check_positive
-    from .evaluation import features_key
+    from .candidates import features_key
 
     start = time.perf_counter()
     check_positive(n_folds, "n_folds", integer=True)
@@ -320,115 +291,24 @@ def plan_tradeoff(  # noqa: PLR0913
     )
 
 
-def execute_plan(
-    plan: TradeoffPlan,
-    pool: ExportPool,
-    *,
-    out_dir: str | Path,
-    target: float | None = None,
-    progress: bool = True,
-    log: Callable[[str], None] = print,
-    backend: str | None = None,
-    n_jobs: int | None = None,
-    scheduler: str | None = None,
-    random_state: int = 0,
-) -> TradeoffResult:
-    """Cross-validate, export and time the candidates of ``plan`` (fronts already submitted to ``pool``).
+def measured_on_deployed(row: dict, deployed: dict) -> None:
+    """Put the costs measured on a deployed file into its candidate's row (``tradeoff.json``, the lines and
+    the charts then show what the robot runs); the timing file's stay as ``timing_latency_ms`` and
+    ``timing_size_bytes``. The choice was made on the timing files: a deployed model fitted on more
+    samples (a kNN's neighbours, an SVM's support vectors) may cost more, said in a note."""
+    from pathlib import Path as _Path
 
-    The timing files (each candidate fitted on the first training fold, for latency and size only) go
-    to ``out_dir / "timing"``. ``target``: the accuracy a deployment needs (:func:`~.selection.choose`).
-    ``backend``, ``n_jobs`` and ``scheduler`` say where the cross-validation tasks run
-    (:class:`tactile_torch.model_selection.Backend`: ``"loky"``, ``"threading"``, ``"dask"`` with a scheduler
-    address ...); the results do not depend on them.
-    """
-    check_target(target)
-    start = time.perf_counter()
-    data, inputs = plan.data, plan.inputs
-    submit_fronts(plan.candidates, inputs, pool)
-    log(f"[tradeoff] {len(plan.candidates)} candidates, {len(inputs)} raw input(s); cross-validating")
-    stage = time.perf_counter()
-    results = cross_validate(
-        plan.candidates,
-        inputs,
-        precomputed=plan.precomputed,
-        progress=progress,
-        backend=backend,
-        n_jobs=n_jobs,
-        scheduler=scheduler,
-        random_state=random_state,
-    )
-    log(
-        f"[tradeoff] cross-validation: {time.perf_counter() - stage:.1f} s; exporting every candidate to ONNX "
-        "(timing files)"
-    )
-    stage = time.perf_counter()
-    meta = {SAMPLE_RATE_KEY: data.rate_hz} if data.kind == "vibration" else {}
-    parts = export_and_time(
-        results, inputs, data.class_names, Path(out_dir) / "timing", pool, metadata=meta, progress=progress
-    )
-    log(f"[tradeoff] ONNX export and timing: {time.perf_counter() - stage:.1f} s ({parts} exported parts)")
-    stage = time.perf_counter()
-    from .evaluation import classical_fold_file
-    from .learned import add_int8_and_memory, measure_memory
-
-    def fold_file(cand, model, path):
-        return classical_fold_file(pool, cand, inputs[cand.input], data.class_names, meta)(model, path)
-
-    models_dir = Path(out_dir) / "timing"
-    add_int8_and_memory(
-        results,
-        inputs,
-        models_dir,
-        fold_file=fold_file,
-        quick=plan.quick,
-        progress=progress,
-        notes=plan.notes,
-    )
-    rows, recommended, runner_up = summarise(results, inputs, target=target)
-    only = None
-    if plan.quick:  # a child process per file: the front, the learned and the int8 ones
-        only = {r["name"] for r in rows if r["pareto"] or r["family"] != "classical" or r["quantisation"]}
-    measure_memory(results, inputs, models_dir, only=only, progress=progress)
-    memory = {res.candidate.name: res.memory_mib for res in results}
-    for row in rows:
-        row["memory_mib"] = memory.get(row["name"])
-    log(f"[tradeoff] int8 variants and memory: {time.perf_counter() - stage:.1f} s")
-    baselines = baseline_rows(inputs)
-    for b in baselines.values():
-        b.pop("_units")
-    result = TradeoffResult(
-        data=data,
-        results=results,
-        rows=rows,
-        recommended=recommended,
-        runner_up=runner_up,
-        splits={k: s.split for k, s in inputs.items()},
-        notes=plan.notes,
-        seconds=plan.seconds + time.perf_counter() - start,
-        exports=parts,
-        study_model=_study_model(plan),
-        inputs=inputs,
-        target=target,
-        chance=1.0 / len(data.class_names),
-        baselines=baselines,
-        warnings=_unit_warnings(inputs),
-        references=plan.references,
-    )
-    if data.kind in ("image", "pressure"):  # how long the hand must hold (docs/tradeoff.md)
-        from .touch_time import accuracy_vs_time
-
-        stage = time.perf_counter()
-        result.touch_time = accuracy_vs_time(result, quick=plan.quick, log=log)
-        result.seconds += time.perf_counter() - stage
-    return result
-
-
-def _study_model(plan: TradeoffPlan) -> str | None:
-    reference = plan.candidates[0].features if plan.candidates else None
-    for cand in plan.candidates:
-        if cand.classifier == "HM-SVM" and cand.features == reference:
-            return cand.name
-    return None
+    row["timing_latency_ms"], row["timing_size_bytes"] = row["latency_ms"], row["size_bytes"]
+    for key in ("latency_ms", "size_bytes", "decision_s", "memory_mib", "touch_ms"):
+        if deployed.get(key) is not None:
+            row[key] = deployed[key]
+    row["measured_on"] = _Path(deployed["onnx"]).name
+    before, after = row["timing_latency_ms"], row["latency_ms"]
+    if before and after and after > 1.5 * before:
+        row["notes"].append(
+            f"{row['measured_on']} (fitted on {deployed['samples']} samples) runs in {after:.3g} ms against "
+            f"{before:.3g} ms for its first-fold timing file: the model grows with its training samples"
+        )
 
 
 def run_tradeoff(
@@ -479,7 +359,10 @@ def run_tradeoff(
         ``backend="dask"``: the address of a running ``dask.distributed`` scheduler; ``None`` starts a
         local cluster for the run. Results do not depend on the backend or the number of workers.
     **options
-        See :func:`plan_tradeoff`, and ``target`` (the accuracy a deployment needs, in (0, 1]).
+        See :func:`plan_tradeoff`, ``target`` (the accuracy a deployment needs, in (0, 1]),
+        ``exhaustive`` (evaluate every candidate on every fold: no early stops, :mod:`.stopping`) and
+        ``estimate_breaking`` (the breaking points follow, :func:`~.job.run_tradeoff_job`: the estimate
+        of the time left counts them).
 
     Returns
     -------
@@ -490,6 +373,8 @@ def run_tradeoff(
     runner = Backend(backend, n_jobs, scheduler)  # checked before any work
     target = options.pop("target", None)
     check_target(target)
+    exhaustive = bool(options.pop("exhaustive", False))
+    breaking = bool(options.pop("estimate_breaking", False))
     plan = plan_tradeoff(data, log=log, progress=progress, **options)
     seed = int(options.get("random_state", 0))
     wanted = [deploy] if isinstance(deploy, str) else list(deploy or ())
@@ -515,6 +400,8 @@ def run_tradeoff(
                 log=log,
                 backend=runner,
                 random_state=seed,
+                exhaustive=exhaustive,
+                breaking=breaking,
             )
         names = [result.recommended if d == "recommended" else d for d in wanted]
         measured = {r.candidate.name for r in result.results}
@@ -529,7 +416,9 @@ def run_tradeoff(
                 continue
             stage = time.perf_counter()
             try:
-                result.deployed.append(deploy_candidate(result, name, out_dir, pool, random_state=seed))
+                deployed = deploy_candidate(result, name, out_dir, pool, random_state=seed)
+                result.deployed.append(deployed)
+                measured_on_deployed(result.row(name), deployed)
             except Exception as err:  # a late stage: the measured candidates are written all the same
                 result.mark_incomplete(f"deployment of {name}", err)
                 continue
@@ -544,9 +433,7 @@ def run_tradeoff(
 __all__ = [
     "MAX_PER_CLASS",
     "STUDY_WINDOW",
-    "TradeoffPlan",
     "check_target",
-    "execute_plan",
     "plan_tradeoff",
     "run_tradeoff",
 ]

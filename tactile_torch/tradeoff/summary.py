@@ -33,7 +33,8 @@ class TradeoffResult:
     rows : list of dict
         One per candidate: the fields of ``tradeoff.json``.
     recommended, runner_up : str or None
-        Candidate names (``runner_up`` is ``None`` with a single eligible candidate).
+        Candidate names (``runner_up`` is ``None`` with a single eligible model: it is another model than
+        the recommended one, never its int8 copy or float twin).
     splits : dict of str to str
         How each raw input was split into folds.
     notes : list of str
@@ -68,7 +69,7 @@ class TradeoffResult:
         is still written; ``tradeoff.json`` and ``tradeoff.md`` say what is missing, and the command
         ends with status 1 (:meth:`mark_incomplete`).
     references : dict of str to FeatureRecipe
-        Per raw input, its reference feature set (:class:`~.runner.TradeoffPlan`).
+        Per raw input, its reference feature set (:class:`~.execution.TradeoffPlan`).
     touch_time : dict of str to TouchTime
         Frame data: accuracy against time into the touch of the recommended candidate and the
         runner-up, with the early-decision rule their held-out touches calibrate (:mod:`.touch_time`).
@@ -234,7 +235,7 @@ def summarise(
                     for i, a, k in zip(u.units, u.accuracy, u.count, strict=True)
                 ],
             )
-            if c.input in baselines:
+            if c.input in baselines and not res.stopped:  # a stopped one was tested on some units only
                 base = baselines[c.input]
                 significant, p = above_baseline(u, base["_units"])
                 row.update(baseline_accuracy=base["accuracy"], above_baseline=bool(significant), baseline_p=p)
@@ -253,16 +254,25 @@ def summarise(
                 "size_bytes": res.size_bytes,
                 "memory_mib": res.memory_mib,
                 "decision_s": res.decision_s,
+                "touch_ms": None,
                 "pareto": False,
                 "adequate": False,
                 "timing_onnx_file": res.onnx_file,
                 "onnx_agreement": res.onnx_agreement,
+                "folds": len(res.fold_accuracy),
+                "stopped": res.stopped,
                 "notes": res.notes,
             }
         )
+        if samples and res.latency_ms is not None:
+            row["touch_ms"] = touch_ms(res.latency_ms, samples[c.input])
         rows.append(row)
     mark_int8_losses(rows)
-    ok = [i for i, r in enumerate(rows) if r["decision_s"] is not None and r["accuracy"] is not None]
+    ok = [
+        i
+        for i, r in enumerate(rows)
+        if r["decision_s"] is not None and r["accuracy"] is not None and not r["stopped"]
+    ]
     if not ok:
         return rows, None, None
     acc = np.array([rows[i]["accuracy"] for i in ok])
@@ -279,10 +289,22 @@ def summarise(
     first = choose(acc, se, low, cost, size, adequate=adequate, target=target)
     if first is None:
         return rows, None, None
-    excluded = np.zeros(len(ok), dtype=bool)
-    excluded[first] = True
+    # the runner-up is another model: an int8 copy (or the float twin) of the recommended one is its variant
+    model = rows[ok[first]]["variant_of"] or rows[ok[first]]["name"]
+    excluded = np.array([(rows[i]["variant_of"] or rows[i]["name"]) == model for i in ok])
     second = choose(acc, se, low, cost, size, adequate=adequate, target=target, exclude=excluded)
     return rows, rows[ok[first]]["name"], None if second is None else rows[ok[second]]["name"]
+
+
+def touch_ms(latency_ms: float, samples: Samples) -> float | None:
+    """A frame candidate's inference per touch, at most: the end of the touch and every checkpoint of an
+    early-decision rule (:func:`tactile_torch.robot.stream.early_decision.checkpoints_for`); ``None`` otherwise."""
+    from ..robot.contract import FRAMES_LAYOUT, PRESSURE_LAYOUT
+    from ..robot.stream.early_decision import checkpoints_for
+
+    if samples.layout not in (PRESSURE_LAYOUT, FRAMES_LAYOUT):
+        return None
+    return latency_ms * (1 + len(checkpoints_for(samples.X.shape[1])))
 
 
 def mark_int8_losses(rows: list[dict]) -> None:

@@ -85,7 +85,7 @@ def fold_scores(
     from torch import nn
 
     from ..export.parts import head_modules
-    from .learned import is_learned
+    from .candidates import is_learned
 
     with torch.no_grad():
         if is_learned(model):
@@ -132,8 +132,7 @@ def touch_time(
     ``features`` step needs no fit.
     """
     from ..model_selection import needs_fit
-    from .evaluation import features_key
-    from .learned import is_learned
+    from .candidates import features_key, is_learned
     from .selection import unit_accuracy, unit_interval
 
     cv = result.cv
@@ -229,16 +228,22 @@ def draw_touch_time(curves: dict[str, TouchTime], path: str | Path, *, chance: f
 
     fig, ax = plt.subplots(figsize=(7.0, 4.2))
     handles = []
-    span = max(max(c.seconds) for c in curves.values())
     for i, (name, curve) in enumerate(curves.items()):
-        x = np.array(curve.seconds) + (i - 0.5) * 0.012 * span  # side by side: the intervals stay apart
+        x = np.array(curve.seconds)  # at the measured time: the runner-up's interval is a band, not bars
         acc = np.array([r["accuracy"] for r in curve.rows])
         low = np.array([r["accuracy_low"] for r in curve.rows])
         high = np.array([r["accuracy_high"] for r in curve.rows])
         colour = ("tab:blue", "tab:orange")[i % 2]
         role = ("recommended", "runner-up")[i % 2]
-        ax.errorbar(x, acc, yerr=[acc - low, high - acc], fmt="o-", color=colour, capsize=3, lw=1.4, ms=5)
-        handles.append(Line2D([], [], color=colour, marker="o", label=f"{role}: {name}"))
+        if i % 2 == 0:
+            ax.errorbar(x, acc, yerr=[acc - low, high - acc], fmt="o-", color=colour, capsize=3, lw=1.4, ms=5)
+        else:
+            ax.fill_between(x, low, high, color=colour, alpha=0.18, lw=0)
+            ax.plot(x, acc, "s--", color=colour, lw=1.4, ms=5)
+        handles.append(
+            Line2D([], [], color=colour, marker="o" if i % 2 == 0 else "s", ls="-" if i % 2 == 0 else "--",
+                   label=f"{role}: {name}" + ("" if i % 2 == 0 else " (band: its interval)"))
+        )  # fmt: skip
         rule = curve.rule
         if rule is not None and rule.active and rule.median_frames is not None and i == 0:
             at = rule.median_frames / curve.frames[-1] * curve.seconds[-1]

@@ -38,7 +38,7 @@ def test_cli_cluster_writes_the_clustering(tmp_path, capsys):
     assert res["n_clusters_samples"].shape == (60,)  # 2 chains x 30 sweeps after burn-in
     summary = (out / "summary.txt").read_text()
     assert summary.splitlines()[1].startswith("K, posterior: mode 3")
-    assert "pairwise accuracy: point estimate 1.0000" in summary
+    assert "point estimate (3 clusters) pairwise accuracy 1.0000, adjusted Rand index 1.0000" in summary
     assert (out / "model.npz").is_file()  # for tactile-torch export (tests/export/test_model_graph.py)
     np.savez(tmp_path / "bad.npz", X=X)
     assert main(["cluster", "--data", str(tmp_path / "bad.npz"), "--out", str(out)]) == 2

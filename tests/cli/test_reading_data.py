@@ -311,7 +311,8 @@ def test_cluster_refuses_sessions_of_one_surface_before_any_work(tmp_path, capsy
 
     monkeypatch.setattr(tactile_torch.features.files, "load_features", no_work)
     status, _out, err = _run(
-        ["cluster", "--data", tmp_path / "s.npz", "--sessions", "--out", tmp_path / "k"], capsys
+        ["cluster", "--data", tmp_path / "s.npz", "--sessions", "standardise", "--out", tmp_path / "k"],
+        capsys,
     )
     assert status == BAD_INPUT_EXIT and err == (
         f"tactile-torch cluster: {tmp_path / 's.npz'}: 2 of 2 sessions hold a single surface (session "

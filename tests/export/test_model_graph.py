@@ -170,6 +170,59 @@ def test_cli_cluster_export_predict_round_trip(tmp_path, vibration_npz, capsys):
     assert "pairwise accuracy" in capsys.readouterr().out
 
 
+@pytest.mark.slow  # a fit, an export and a stream: about 20 s on a quiet 2-core machine
+def test_a_model_fitted_with_sessions_exports_and_classifies_a_held_back_day(tmp_path, monkeypatch, capsys):
+    # 3 surfaces on 3 days, each day's gain its own: cluster (session effects) on days 0 and 1,
+    # export, and classify day 2's windows on the robot's runtime: a new session, its offset and
+    # effect integrated out (docs/mixture.md, "Sessions"); the bundle decides as the estimator does.
+    # Day 2's gain lies between the first two days' (a new day's shift beyond those seen is the
+    # documented limit: its windows land on other surfaces or are flagged novel)
+    from sklearn.metrics import adjusted_rand_score
+
+    from tactile_torch.clustering import fit_clustering, write_clustering
+    from tactile_torch.robot.files.data_sources import read_source
+
+    rec = make_vibration_recordings(3, duration_s=12.0, n_sessions=3, random_state=1)
+    day = np.array([int(s.rsplit("/", 1)[1]) for s in rec.session])
+    signals = np.stack(rec.signals) * np.array([0.85, 1.2, 1.0], dtype=np.float32)[day][:, None, None]
+    arrays = dict(rate_hz=rec.rate_hz, class_names=np.array(rec.class_names))
+    np.savez(tmp_path / "train.npz", signals=signals[day < 2], labels=rec.labels[day < 2],
+             session=np.array([f"day{k}" for k in day[day < 2]]), **arrays)  # fmt: skip
+    np.savez(tmp_path / "day2.npz", signals=signals[day == 2], labels=rec.labels[day == 2], **arrays)
+    clustering = fit_clustering(
+        read_source([tmp_path / "train.npz"]), window=400, random_state=0,
+        progress=False,
+    )  # fmt: skip
+    assert clustering.session_mode == "model"
+    paths = write_clustering(tmp_path / "out", clustering)
+    bundle = OnnxPipeline(
+        export_pipeline(pipeline_from_model(load_model_file(paths["model"])), tmp_path / "c.onnx")
+    )
+    held = bundle.read_npz(tmp_path / "day2.npz")
+    out = bundle.run(held.raw)
+    day2 = load_features(tmp_path / "day2.npz", window=400)
+    X = np.asarray(clustering.transform.transform(day2.X))
+    decided = np.where(out["novel"], -1, out["labels"])  # the calibrated rule's novel windows: -1
+    np.testing.assert_array_equal(decided, clustering.mixture.predict(X, using="point"))
+    assert adjusted_rand_score(day2.y, decided) > 0.8
+    # and live: the held-back day's first recording over a serial line, `stream --discover 3`: the
+    # same decision per window as the bundle (no state kept for the new day), novel windows named
+    from tactile_torch.robot.stream.wire import format_sample
+
+    first = np.flatnonzero(day == 2)[0]
+    n = signals.shape[1] // 400
+    lines = b"".join(format_sample(s) for s in signals[first])
+    with monkeypatch.context() as patch:
+        patch.setattr(serial, "serial_for_url", lambda *a, **k: io.BytesIO(lines))
+        capsys.readouterr()
+        args = ["stream", "--model", str(tmp_path / "c.onnx"), "--port", "test://", "--step", "400"]
+        assert main([*args, "--max-windows", str(n), "--json", "--discover", "3"]) == 0
+    printed = capsys.readouterr().out.splitlines()
+    live = [json.loads(line) for line in printed if line.startswith("{")]
+    assert [r["label"] for r in live] == out["labels"][:n].tolist()
+    assert sum(line.startswith("  novel window") for line in printed) == int(out["novel"][:n].sum())
+
+
 def test_cli_predict_prints_a_class_report_without_torch(tmp_path, vibration_npz):
     _, model, model_path = _trained(tmp_path, vibration_npz, "svm", window=400)
     onnx_path = tmp_path / "svm.onnx"

@@ -1,5 +1,6 @@
-"""tactile_torch.export.ood_branch: the "unknown" rule added beside an exported bundle, as the trade-off's
-deployed models carry it (model files' bundles compute it inside their head: tests/export/test_model_graph.py)."""
+"""tactile_torch.export.ood_branch: the "unknown" rule attached to an exported bundle, reading the tensor it is
+measured on, as the trade-off's files carry it (model files' bundles compute it inside their head:
+tests/export/test_model_graph.py)."""
 
 import numpy as np
 import onnx
@@ -9,17 +10,25 @@ from sklearn.pipeline import Pipeline
 from sklearn.preprocessing import StandardScaler
 
 from tactile_torch.data import make_vibration_recordings
-from tactile_torch.export.fitted import export_model
-from tactile_torch.export.ood_branch import add_distance, distance_graph
-from tactile_torch.export.parts import export_front
+from tactile_torch.export import save_onnx
+from tactile_torch.export.ood_branch import attach_distance
+from tactile_torch.export.parts import bind_head, export_front, export_head, head_modules, join
 from tactile_torch.features import WindowFeatureTransformer
 from tactile_torch.ood import DistanceHead, fit_rule, ood_distance
-from tactile_torch.robot.contract import OOD_OUTPUT, THRESHOLD_KEY
+from tactile_torch.robot.contract import (
+    CLASS_NAMES_KEY,
+    FEATURES_NAME,
+    INPUT_LAYOUT_KEY,
+    INPUT_SHAPE_KEY,
+    OOD_OUTPUT,
+    THRESHOLD_KEY,
+    WINDOWS_LAYOUT,
+)
 from tactile_torch.robot.runtime import OnnxPipeline
 
 
-@pytest.mark.slow  # two dynamo exports of the window-feature graph: 18 s on a loaded 2-core machine
-def test_branch_computes_the_distance_and_the_runtime_says_unknown_beyond_it(tmp_path):
+@pytest.mark.slow  # three dynamo exports (the window-feature graph, the head, the distance part): 15 s on a loaded 2-core machine
+def test_part_reads_the_bundles_features_and_the_runtime_says_unknown_beyond_it(tmp_path):
     windows = make_vibration_recordings(3, duration_s=4, random_state=0).windows(64)
     X, y = windows.windows.numpy(), windows.labels.numpy()
     model = Pipeline(
@@ -30,12 +39,29 @@ def test_branch_computes_the_distance_and_the_runtime_says_unknown_beyond_it(tmp
         ]
     ).fit(X, y)
     features = model.named_steps["features"].transform(X)
-    bundle = export_model(model, tmp_path / "lda.onnx", X[:2], ["a", "b", "c"])
+    front = export_front(model.named_steps["features"], X[:2], tmp_path / "front.onnx")
+    modules = head_modules(model)
+    template = export_head(modules, features.shape[1], tmp_path / "head.onnx")
+    meta = {
+        CLASS_NAMES_KEY: ["a", "b", "c"],
+        INPUT_SHAPE_KEY: [None, *X.shape[1:]],
+        INPUT_LAYOUT_KEY: WINDOWS_LAYOUT,
+    }
+    bundle = join(
+        onnx.load(str(front)), bind_head(onnx.load(str(template)), modules), tmp_path / "lda.onnx", meta
+    )
     scaler = model.named_steps["scale"]
     rule = fit_rule(features, y, scale=scaler.scale_, center=scaler.mean_)
     head = DistanceHead(rule, scale=scaler.scale_, center=scaler.mean_)
-    front = export_front(model.named_steps["features"], X[:2], tmp_path / "front.onnx")
-    add_distance(bundle, distance_graph(onnx.load(str(front)), head, features.shape[1]), rule)
+    part = export_head([head], features.shape[1], tmp_path / "part.onnx", output_names=(OOD_OUTPUT,))
+    proto = onnx.load(str(bundle))
+    with pytest.raises(ValueError, match="reads must name a tensor the bundle computes"):
+        attach_distance(proto, bind_head(onnx.load(str(part)), [head]), rule, reads="nothing")
+    save_onnx(
+        attach_distance(proto, bind_head(onnx.load(str(part)), [head]), rule, reads=FEATURES_NAME), bundle
+    )
+    # one feature graph: the part reads the features the classifier reads, not a copy of them
+    assert sum(n.op_type == "DFT" for n in onnx.load(str(bundle)).graph.node) <= 1
 
     pipe = OnnxPipeline(bundle)
     assert float(pipe.metadata[THRESHOLD_KEY]) == float(rule["threshold"])

@@ -125,7 +125,7 @@ def test_component_step_density_is_the_product_of_its_conditionals(zeta):
     beta = 4.2
     mu, L = np.empty(D), np.empty((D, D))
     logq, ldet = conditionals.component_step(
-        7, mean, scat, mu0, beta, W, R, R @ xi, True, mu, L, 0.0, zeta, rng
+        7, 7, mean, scat, mu0, beta, W, R, R @ xi, True, mu, L, 0.0, zeta, rng
     )
     S = L @ L.T
     P = beta * W + zeta * (pts - mu0).T @ (pts - mu0)
@@ -135,7 +135,7 @@ def test_component_step_density_is_the_product_of_its_conditionals(zeta):
     want += stats.multivariate_normal(m, np.linalg.inv(lam)).logpdf(mu)
     np.testing.assert_allclose(logq, want, rtol=1e-9)
     again, _ = conditionals.component_step(
-        7, mean, scat, mu0, beta, W, R, R @ xi, False, mu, L, ldet, zeta, rng
+        7, 7, mean, scat, mu0, beta, W, R, R @ xi, False, mu, L, ldet, zeta, rng
     )
     np.testing.assert_allclose(again, logq, rtol=1e-12)
 
@@ -167,7 +167,8 @@ def test_prior_only_chain_samples_the_hyperpriors():
     model = PitmanYorGMM(
         **PYP, n_iter=12000, burn_in=500, n_chains=1, prior_only=True, random_state=2, progress=False
     ).fit(X)
-    thin = slice(None, None, 20)
+    # beta's draws are autocorrelated over tens of sweeps; KS wants them independent
+    thin = slice(None, None, 60)
     d = model.discount_samples_[thin]
     a = model.alpha_samples_[thin]
     b = model.beta_samples_[thin]

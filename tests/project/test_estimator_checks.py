@@ -35,6 +35,7 @@ from tactile_torch.features.transformers import (
 )
 from tactile_torch.mixture import PitmanYorGMM
 from tactile_torch.model_selection import SVMGridSearchCV
+from tactile_torch.neighbors import StableKNeighborsClassifier
 from tactile_torch.neural import (
     ExplorationCNNClassifier,
     LearnedCutoffClassifier,
@@ -67,6 +68,7 @@ MATRIX_ESTIMATORS = {
     "ClusteringTransform-window": ClusteringTransform(),
     "FeaturePassthrough": FeaturePassthrough(),
     "RankedFeatureSelector": RankedFeatureSelector(k=1),
+    "StableKNeighborsClassifier": StableKNeighborsClassifier(3, metric="cityblock", weights="distance"),
     "MahalanobisNovelty": MahalanobisNovelty(),
     "MahalanobisNovelty-one-view": MahalanobisNovelty(two_views=False),
 }

@@ -325,7 +325,6 @@ SIZE_EXCEPTIONS = {
     "tactile_torch/neural/training.py::train_network": "keyword-only training settings of every network",
     # to split (issue 40 left them to the engineers working in these packages at the same time):
     "tactile_torch/cli/stream.py::_stream_until_stopped": "to split: issue 41's command",
-    "tactile_torch/mixture/_estimator.py::fit": "to split: issue 38's mixture",
     "tactile_torch/robot/ros2/bags.py::read_bag": "to split: issue 41's ROS 2 side",
     "tactile_torch/robot/ros2/source.py::__init__": "to split: issue 41's options object",
     "tactile_torch/robot/stream/port_lines.py::_lines": "to split: issue 41's stream",
@@ -333,7 +332,6 @@ SIZE_EXCEPTIONS = {
     "tactile_torch/robot/stream/serial_source.py::readings": "to split: issue 41's stream",
     "tests/ros2_publisher.py::main": "to split: issue 41's test publisher (a separate process)",
     "tactile_torch/tradeoff/charts.py::draw_chart": "to split: issue 39's charts",
-    "tactile_torch/tradeoff/evaluation.py::export_and_time": "to split: issue 39's export and timing",
     "tactile_torch/tradeoff/runner.py::plan_tradeoff": "to take one options object from the command line",
 }
 

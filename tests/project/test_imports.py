@@ -51,6 +51,7 @@ FLOORS = {
     "mixture": ("mixture", 3),
     "neural": ("neural", 3),
     "ood": ("ood", 3),
+    "neighbors": ("neighbors", 3),
     "catalogue": ("catalogue", 4),
     "export": ("export", 5),
     "model_selection": ("model_selection", 6),

@@ -70,6 +70,11 @@ def test_level_text_in_value_log_and_label_space():
     assert _evaluation.level_text(snr, [30, 20, 10], 2.5) == ("15 dB", 15.0)
     assert _evaluation.level_text(snr, [30, 20, 10], 0.5)[0] == "before 30 dB"
     assert _evaluation.level_text(snr, [30, 20, 10], math.inf)[0] == "beyond 10 dB"
+    # an interval's ends in numeric order, the end past the sweep in words (dB fall as they get harsher)
+    assert (
+        _evaluation.interval_text(snr, [30, 20, 10], 1.5, math.inf) == "[< 10 dB (beyond the sweep), 25 dB]"
+    )
+    assert _evaluation.interval_text(snr, [30, 20, 10], 0.5, 2.5) == "[15 dB, > 30 dB]"
     noise = factor("sensor noise")  # log axis: geometric interpolation
     assert _evaluation.level_text(noise, [0.01, 0.1], 1.5)[1] == pytest.approx(math.sqrt(0.01 * 0.1))
     grid = factor("image noise")
@@ -297,7 +302,12 @@ def test_every_image_factor_runs_on_tiny_frames():
     skipped = sweep(
         {"fused": model}, frames, y, factors=["erosion / pitch"], n_splits=2, random_state=0
     ).skipped
-    assert skipped == [("erosion / pitch", "needs ['pitch_px'] in context")]
+    assert skipped == [
+        (
+            "erosion / pitch",
+            "needs the texture's pitch in pixels (a data file does not say it), which these data do not give",
+        )
+    ]
 
 
 def test_parameter_factor_skips_models_without_the_parameter():

@@ -86,3 +86,65 @@ def test_bad_arguments_give_one_line_naming_them(tmp_path, recordings, capsys):
         errors = capsys.readouterr().err.strip().splitlines()
         assert len(errors) == 1 and errors[0].startswith("tactile-torch tradeoff: "), errors
         assert "internal error" not in errors[0]
+
+
+def test_fold_by_fold_gives_the_one_call_results(tmp_path):
+    """The study runs the folds one at a time (to stop candidates early): the seeds, predictions, fold
+    numbers and tuned parameters are those of one cross-validation over every fold."""
+    from tactile_torch.model_selection import cross_validate as engine_cross_validate
+
+    path = _features_file(tmp_path / "feat.npz", seed=2)
+    _, results, plan = _run(path)
+    s = plan.inputs["features"]
+    once = engine_cross_validate(
+        {c.name: c.estimator for c in plan.candidates}, s.X, s.y, s.folds, groups=s.groups,
+        tuning={c.name: c.tuning for c in plan.candidates},
+    )  # fmt: skip
+    for name, res in results.items():
+        np.testing.assert_array_equal(res.cv.predictions, once[name].predictions)
+        np.testing.assert_array_equal(res.cv.fold, once[name].fold)
+        assert res.cv.params == once[name].params and res.fold_accuracy == once[name].fold_accuracy
+
+
+def test_the_runner_up_is_another_model_never_the_recommended_ones_int8_copy(tmp_path):
+    import dataclasses
+
+    path = _features_file(tmp_path / "feat.npz", seed=3)
+    _, results, plan = _run(path)
+    ordered = list(results.values())
+    for i, res in enumerate(ordered):
+        res.latency_ms, res.size_bytes, res.decision_s = 0.1 + i, 1000 + i, 0.1 + i
+    first = summarise(ordered, plan.inputs)[1]
+    best = results[first]
+    copy = dataclasses.replace(
+        best,
+        candidate=dataclasses.replace(best.candidate, name=f"{first} (int8)"),
+        latency_ms=0.05,
+        decision_s=0.05,
+    )
+    copy.variant_of, copy.quantisation = first, "dynamic"
+    _, recommended, runner_up = summarise([*ordered, copy], plan.inputs)
+    assert recommended == f"{first} (int8)"  # cheaper, as accurate
+    assert runner_up is not None and runner_up not in (first, f"{first} (int8)")
+
+
+@pytest.mark.slow  # two studies with their exports (one head and one distance part each): 15 s loaded
+def test_early_stops_recommend_what_the_exhaustive_study_does(tmp_path):
+    """A study on features where a costlier candidate is clearly worse: it stops after a few folds, and the
+    recommendation is the exhaustive study's."""
+    from tactile_torch.export.parts import ExportPool
+    from tactile_torch.tradeoff.execution import execute_plan
+
+    path = _features_file(tmp_path / "feat.npz", seed=4, n=120)
+    chosen = {}
+    for exhaustive in (False, True):
+        plan = plan_tradeoff(path, classifiers=["lda", "knn"], features=["all"], log=lambda s: None)
+        out = tmp_path / f"out-{exhaustive}"
+        with ExportPool(out / "parts", background=False) as pool:
+            result = execute_plan(
+                plan, pool, out_dir=out, progress=False, log=lambda s: None, exhaustive=exhaustive
+            )
+        chosen[exhaustive] = result.recommended
+        stopped = [r for r in result.rows if r["stopped"]]
+        assert not stopped if exhaustive else all(r["folds"] < 5 for r in stopped)
+    assert chosen[False] == chosen[True] is not None

@@ -9,7 +9,8 @@ import pytest
 
 from tactile_torch import catalogue
 from tactile_torch.features.transformers import RawInput
-from tactile_torch.tradeoff.learned import is_learned, learned_candidates
+from tactile_torch.tradeoff.candidates import is_learned
+from tactile_torch.tradeoff.learned import learned_candidates
 
 
 def test_catalogue_lists_learned_models_apart_from_the_classifiers():

@@ -828,7 +828,37 @@ def test_charts_for_5_to_40_candidates(tmp_path, n):
             target=0.8,
         )
         assert path.read_bytes()[:4] == b"\x89PNG"
-    assert {feature_family(r["features"]).split(",")[0] for r in rows} <= {"all features", "top k"}
+    # every subset size has its own marker (top 3 and top 7 apart), windows apart
+    assert {feature_family(r["features"]).split(",")[0] for r in rows} <= {"all features", "top 7", "top 3"}
+
+
+def test_charts_draw_every_point_at_its_cost_and_zoom_into_dense_ranges(tmp_path, monkeypatch):
+    """Points are never moved: equal costs are shown side by side in a zoomed panel of their range."""
+    import matplotlib
+    import matplotlib.pyplot as plt
+
+    matplotlib.use("Agg")
+    from tactile_torch.tradeoff.charts import DENSE_MIN, dense_ranges, draw_chart
+
+    x = np.array([0.2001, 0.2003, 0.2002, 0.2004, 0.2005, 0.8001, 0.8002, 1.6])
+    ranges = dense_ranges(x, log=True)
+    assert [sorted(r.tolist()) for r in ranges] == [[0, 1, 2, 3, 4]]  # 0.8 s holds 2 < DENSE_MIN
+    assert dense_ranges(x[: DENSE_MIN - 1], log=False) == []
+    rows = _synthetic_rows(20)
+    kept = []
+    monkeypatch.setattr(plt, "close", kept.append)
+    draw_chart(rows, "decision", tmp_path / "d.png", recommended=rows[0]["name"], runner_up=rows[1]["name"])
+    fig = kept[-1]
+    main = fig.axes[0]
+    costs = {round(r["decision_s"], 9) for r in rows}
+    drawn = {
+        round(float(v), 9)
+        for line in main.get_lines()
+        if line.get_marker() not in ("None", "", None)
+        for v in line.get_xdata()
+    }
+    assert drawn <= costs  # every marker of the main panel sits at a measured cost
+    assert len(fig.axes) >= 2  # the three windows' candidates share a cost: zoomed, not spread
 
 
 def test_an_int8_variant_below_its_float_interval_is_flagged_in_rows_lines_and_chart(tmp_path, monkeypatch):
@@ -874,3 +904,52 @@ def test_an_int8_variant_below_its_float_interval_is_flagged_in_rows_lines_and_c
     draw_chart(rows, "latency", tmp_path / "int8.png", chance=0.2)
     assert any("int8 below its float interval" in labels for labels in fig_calls)
     assert (tmp_path / "int8.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_an_interval_of_the_whole_range_is_said_and_notes_are_said_once():
+    from tactile_torch.tradeoff.output import grouped_notes, whole_range, why_whole_range
+
+    row = {
+        "accuracy_low": 0.0, "accuracy_high": 1.0, "interval": "range", "unit": "session", "n_units": 3,
+        "baseline_p": 0.03, "unit_accuracy": [{"accuracy": 0.0}, {"accuracy": 1.0}, {"accuracy": 1.0}],
+    }  # fmt: skip
+    assert whole_range(row) and not whole_range({**row, "accuracy_low": 0.2})
+    why = why_whole_range(row)
+    assert "its 3 sessions score 0.00 to 1.00" in why and "fewer than 5 sessions give their range" in why
+    assert "p = 0.03" in why and "more sessions narrow it" in why
+    notes = grouped_notes(
+        [
+            {"name": "A", "notes": ["tuned on 3 grouped folds of each training fold"]},
+            {"name": "B", "notes": ["tuned on 3 grouped folds of each training fold", "its own"]},
+            {"name": "C", "notes": ["tuned on 3 grouped folds of each training fold"]},
+        ]
+    )
+    assert notes == ["tuned on 3 grouped folds of each training fold (3 candidates: A, B, C)", "B: its own"]
+
+
+def test_breaking_points_doubted_where_a_degradation_helps_or_a_range_below_gravity_costs_nothing():
+    from types import SimpleNamespace
+
+    from tactile_torch.robustness.degradations import FACTORS
+    from tactile_torch.tradeoff.breaking import plausibility_notes
+
+    factor = {f.name: f for f in FACTORS}
+    X = np.zeros((4, 3, 50), dtype=np.float32)
+    X[:, 2] = 1.0  # gravity on z
+    X[:, 0] = np.sin(np.arange(50))[None] * 0.01  # small vibration on x
+    curves = [
+        SimpleNamespace(
+            factor=factor["saturation"], model="LDA", levels=(0.5, 0.02), accuracy=np.array([0.9, 0.9]),
+            low=np.array([0.85, 0.85]), clean=0.9, clean_low=0.85,
+        ),
+        SimpleNamespace(
+            factor=factor["sample rate"], model="CNN", levels=(2, 4), accuracy=np.array([0.99, 0.7]),
+            low=np.array([0.97, 0.6]), clean=0.94, clean_low=0.9,
+        ),
+    ]  # fmt: skip
+    notes = plausibility_notes(curves, X)
+    assert any(
+        n.startswith("saturation at ±0.02 g, below the data's own level") and "z: 100%" in n for n in notes
+    )
+    assert any(n.startswith("sample rate at") and "above its clean 0.940" in n for n in notes)
+    assert len(notes) == 2  # one per curve: the harshest range that costs nothing (±0.5 g costs nothing too)

@@ -14,11 +14,12 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit, types
 
-from .allocation import _component_stats, allocate, update_components
+from .allocation import _component_stats, allocate, component_terms, update_components
 from .conditionals import component_step
 from .hyper import update_hyper
 from .linalg import A1, A2, I1, I2, J2, RNG, b1, f8, i8, void
 from .sequential import sequential_moves
+from .sessions import offset_data, update_offsets
 from .split_merge import split_merge_moves
 from .state import STATE, copy_state, log_prior_terms
 
@@ -50,12 +51,14 @@ class Settings(NamedTuple):
     """True: sequentially-allocated merge-split moves; False: restricted Gibbs (Jain & Neal)."""
     refresh: int
     """Algorithm 8's auxiliary means are drawn afresh every ``refresh`` points (1: every point)."""
+    fit_lambda: bool = False
+    """Sample the variance ratio of the session effects (``sc[5] > 0``); False keeps it fixed."""
 
 
-SETTINGS = types.NamedTuple((i8, i8, i8, b1, b1, b1, b1, f8, f8, i8, f8, b1, i8), Settings)
+SETTINGS = types.NamedTuple((i8, i8, i8, b1, b1, b1, b1, f8, f8, i8, f8, b1, i8, b1), Settings)
 """numba type of :class:`Settings`."""
 
-TRACE_NAMES = ("n_clusters", "alpha", "discount", "beta", "log_posterior")
+TRACE_NAMES = ("n_clusters", "alpha", "discount", "beta", "log_posterior", "session_scale", "offset_variance")
 """Columns of the per-sweep trace written by :func:`run_sweeps`."""
 
 
@@ -66,7 +69,12 @@ def init_components(X, st, use_lik, rng):
     K = st.ist[0]
     means = np.zeros((K, D))
     scats = np.zeros((K, D, D))
+    me = np.zeros((K, D))
+    se = np.zeros((K, D, D))
+    Es = np.zeros(K)
+    pens = np.zeros(K)
     _component_stats(X, st.z, st.pos, K, st.cnt, st.act, means, scats)
+    component_terms(X, st, K, means, scats, me, se, Es, pens)
     Rxi = st.R @ st.xi
     zero_mean = np.zeros(D)
     zero_scat = np.zeros((D, D))
@@ -74,12 +82,13 @@ def init_components(X, st, use_lik, rng):
         j = st.act[t]
         if use_lik:
             st.ldet[j] = component_step(
-                st.cnt[j], means[t], scats[t], means[t].copy(), st.sc[2], st.W, st.R, Rxi, True,
+                st.cnt[j], Es[t], me[t], se[t], me[t].copy(), st.sc[2], st.W, st.R, Rxi, True,
                 st.mu[j], st.L[j], 0.0, st.sc[3], rng,
             )[1]  # fmt: skip
         else:
             st.ldet[j] = component_step(
                 0,
+                0.0,
                 zero_mean,
                 zero_scat,
                 zero_mean,
@@ -105,24 +114,31 @@ def run_sweeps(X, st, cfg, rng, start, count, trace, counters, best, best_val, n
     partition is written to ``labels[r]`` (int32, components numbered 0 .. K-1 in slot order).
 
     ``counters`` accumulates the split-merge statistics; from sweep ``cfg.burn_in`` on, a state whose
-    log joint density exceeds ``best_val[0]`` is copied into ``best`` (the MAP sample).
+    log joint density exceeds ``best_val[0]`` is copied into ``best`` (the MAP sample). With session
+    effects (``sc[5] > 0``) the moves, the allocation and the component updates see ``X`` minus the
+    sessions' offsets, which are updated after the allocation (:func:`~.sessions.update_offsets`).
     """
     n = X.shape[0]
     relabel = np.zeros(st.cnt.shape[0], dtype=np.int32)
     r = 0
     while r < snaps.shape[0] and snaps[r] < start:
         r += 1
+    sessions = st.sc[5] > 0.0
+    Xc = offset_data(X, st) if sessions else X  # what the kernels see: X minus the sessions' offsets
     for s in range(start, start + count):
         if cfg.allocate:
             if cfg.n_split_merge > 0:
                 if cfg.sequential:
-                    sequential_moves(cfg.n_split_merge, X, st, cfg.use_lik, rng, counters, nbr, cfg.near)
+                    sequential_moves(cfg.n_split_merge, Xc, st, cfg.use_lik, rng, counters, nbr, cfg.near)
                 else:
                     split_merge_moves(
-                        cfg.n_split_merge, X, st, cfg.n_launch, cfg.use_lik, rng, counters, nbr, cfg.near
+                        cfg.n_split_merge, Xc, st, cfg.n_launch, cfg.use_lik, rng, counters, nbr, cfg.near
                     )
-            allocate(X, st, cfg.n_aux, cfg.use_lik, rng, cfg.refresh)
-        loglik = update_components(X, st, cfg.use_lik, rng)
+            allocate(Xc, st, cfg.n_aux, cfg.use_lik, rng, cfg.refresh)
+        if sessions and cfg.fit_lambda:
+            update_offsets(X, st, rng, cfg.use_lik)
+            Xc = offset_data(X, st)
+        loglik = update_components(Xc, st, cfg.use_lik, rng, cfg.fit_lambda)
         update_hyper(st, n, cfg.fit_alpha, cfg.fit_d, cfg.d_low, cfg.w_min, rng)
         lj = loglik + log_prior_terms(st)
         trace[s, 0] = st.ist[0]
@@ -130,6 +146,8 @@ def run_sweeps(X, st, cfg, rng, start, count, trace, counters, best, best_val, n
         trace[s, 2] = st.sc[1]
         trace[s, 3] = st.sc[2]
         trace[s, 4] = lj
+        trace[s, 5] = st.sc[5]
+        trace[s, 6] = st.sc[6]
         if s >= cfg.burn_in and lj > best_val[0]:
             best_val[0] = lj
             copy_state(st, best)

@@ -35,6 +35,7 @@ from numba import njit
 from .conditionals import base_logpdf, component_step, group_loglik
 from .densities import log_new_weight
 from .linalg import _logdet_chol
+from .sessions import effective_stats, n_sessions
 from .split_merge import MERGE_ACCEPTED, MERGE_PROPOSED, SPLIT_ACCEPTED, SPLIT_PROPOSED
 from .state import activate, deactivate, pop_free
 
@@ -53,27 +54,53 @@ def _whiten_rows(X, idx, ns, i, j, GW, Y):
 
 
 @njit(cache=True)
-def _add_point(x, n, mean, scat):
-    """Welford's update of a group's ``mean`` and ``scat`` (scatter about the mean) with ``x``; ``n`` after."""
-    D = x.shape[0]
+def _add_point(X, k, n, mean, scat):
+    """Welford's update of a group's ``mean`` and ``scat`` (scatter about the mean) with ``X[k]``; ``n`` after."""
+    D = X.shape[1]
     for a in range(D):
-        da = x[a] - mean[a]
+        da = X[k, a] - mean[a]
         mean[a] += da / n
         for b in range(a + 1):
-            scat[a, b] += da * (x[b] - mean[b])
+            scat[a, b] += da * (X[k, b] - mean[b])
             scat[b, a] = scat[a, b]
 
 
 @njit(cache=True)
-def _allocate_sequentially(X, Y, idx, ns, i, j, order, d, use_lik, draw, lab, rng, mA, sA, mB, sB):
+def _tables(n, d, D, ltab, lfac, hq):
+    """``ltab[k] = log(k - d)``, ``lfac[k] = -D/2 log(1 + 1/k)`` and ``hq[k] = 1 / (2 (1 + 1/k))`` for k = 1 .. n."""
+    for k in range(1, n + 1):
+        ltab[k] = math.log(k - d)
+        lfac[k] = -0.5 * D * math.log1p(1.0 / k)
+        hq[k] = 0.5 * k / (k + 1.0)
+
+
+@njit(cache=True)
+def _allocate_sequentially(
+    X, Y, idx, ns, i, j, order, tabs, use_lik, draw, lab, rng, mA, sA, mB, sB, sess, lam, part_sums
+):
     """Visit ``idx[order[t]]`` in turn; put each in part A (0) or B (1); return (log probability, nA, nB).
 
     With ``draw`` the parts are sampled; otherwise ``lab`` holds the labels whose probability is
     computed. ``Y`` holds the rows whitened by ``W`` (:func:`_whiten_rows`: the visited points,
-    then i, then j). On return ``mA, sA, mB, sB`` are the parts' means and scatters in X's
-    coordinates (i in A, j in B).
+    then i, then j); ``tabs = (ltab, lfac, hq)`` of :func:`_tables`. On return ``mA, sA, mB, sB``
+    are the parts' means and scatters in X's coordinates (i in A, j in B). A point joins A with
+    probability ``1 / (1 + exp(lb - la))``: one exponential and one logarithm per point.
+
+    With session effects (``lam > 0``; ``sess`` the points' sessions) the part's predictive of a
+    point of session s follows the model's (:mod:`.sessions`): mean ``m + f (t_s - n_s m)``, covariance
+    ``(1 + 1/n + f) W`` with ``f = lam / (1 + lam n_s)``, ``n_s`` and ``t_s`` the part's points of
+    session s so far and their sum (``part_sums``: (2, S, D + 1) work array, whitened sums and
+    counts); so that a surface seen on several days is not proposed split along its days.
     """
+    ltab, lfac, hq = tabs
     D = X.shape[1]
+    if lam > 0.0:
+        part_sums[:] = 0.0
+        for a in range(D):
+            part_sums[0, sess[i], a] = Y[ns, a]
+            part_sums[1, sess[j], a] = Y[ns + 1, a]
+        part_sums[0, sess[i], D] = 1.0
+        part_sums[1, sess[j], D] = 1.0
     yA = np.empty(D)
     yB = np.empty(D)
     for a in range(D):
@@ -89,34 +116,55 @@ def _allocate_sequentially(X, Y, idx, ns, i, j, order, d, use_lik, draw, lab, rn
     for u in range(ns):
         t = order[u]
         k = idx[t]
-        la = math.log(nA - d)
-        lb = math.log(nB - d)
-        if use_lik:
+        la = ltab[nA]
+        lb = ltab[nB]
+        if use_lik and lam > 0.0:
+            s = sess[k]
+            cA = part_sums[0, s, D]
+            cB = part_sums[1, s, D]
+            fA = lam / (1.0 + lam * cA)
+            fB = lam / (1.0 + lam * cB)
+            qa = 0.0
+            qb = 0.0
+            for a in range(D):
+                qa += (Y[t, a] - yA[a] - fA * (part_sums[0, s, a] - cA * yA[a])) ** 2
+                qb += (Y[t, a] - yB[a] - fB * (part_sums[1, s, a] - cB * yB[a])) ** 2
+            vA = 1.0 + 1.0 / nA + fA
+            vB = 1.0 + 1.0 / nB + fB
+            la += -0.5 * D * math.log(vA) - 0.5 * qa / vA
+            lb += -0.5 * D * math.log(vB) - 0.5 * qb / vB
+        elif use_lik:
             qa = 0.0
             qb = 0.0
             for a in range(D):
                 qa += (Y[t, a] - yA[a]) ** 2
                 qb += (Y[t, a] - yB[a]) ** 2
-            fa = 1.0 + 1.0 / nA
-            fb = 1.0 + 1.0 / nB
-            la += -0.5 * D * math.log(fa) - 0.5 * qa / fa
-            lb += -0.5 * D * math.log(fb) - 0.5 * qb / fb
-        mx = max(la, lb)
-        lz = mx + math.log(math.exp(la - mx) + math.exp(lb - mx))
+            la += lfac[nA] - hq[nA] * qa
+            lb += lfac[nB] - hq[nB] * qb
+        v = lb - la  # P(A) = 1 / (1 + e^v); log(1 + e^v) computed stably
+        e = math.exp(-abs(v))
+        softplus = max(v, 0.0) + math.log1p(e)
         if draw:
-            lab[t] = 0 if rng.random() < math.exp(la - lz) else 1
+            p_a = (e if v > 0.0 else 1.0) / (1.0 + e)
+            lab[t] = 0 if rng.random() < p_a else 1
+        if lam > 0.0:
+            part = lab[t]
+            s = sess[k]
+            for a in range(D):
+                part_sums[part, s, a] += Y[t, a]
+            part_sums[part, s, D] += 1.0
         if lab[t] == 0:
-            logq += la - lz
+            logq -= softplus
             nA += 1
             for a in range(D):
                 yA[a] += (Y[t, a] - yA[a]) / nA
-            _add_point(X[k], nA, mA, sA)
+            _add_point(X, k, nA, mA, sA)
         else:
-            logq += lb - lz
+            logq += v - softplus
             nB += 1
             for a in range(D):
                 yB[a] += (Y[t, a] - yB[a]) / nB
-            _add_point(X[k], nB, mB, sB)
+            _add_point(X, k, nB, mB, sB)
     return logq, nA, nB
 
 
@@ -135,15 +183,91 @@ def _pool(nA, mA, sA, nB, mB, sB, mC, sC):
 
 
 @njit(cache=True)
+def _group_by_session(order, idx, ns, sess, S, rng, rank, start, work):
+    """Reorder ``order[:ns]`` (a uniform shuffle) session by session, the sessions in a uniformly random order.
+
+    Within a session the shuffled order is kept (a stable counting sort). The visiting order still
+    depends on the data's sessions and the random draws only, never on the partition, so a move and
+    its reverse share it; visiting a session's points together lets a part's predictive of the
+    session sharpen after its first points there (:func:`_allocate_sequentially`).
+    """
+    for s in range(S):
+        rank[s] = s
+    for s in range(S - 1, 0, -1):
+        r = min(int(rng.random() * (s + 1)), s)
+        rank[s], rank[r] = rank[r], rank[s]
+    start[:] = 0
+    for t in range(ns):
+        start[rank[sess[idx[order[t]]]] + 1] += 1
+    for s in range(S):
+        start[s + 1] += start[s]
+    for t in range(ns):
+        g = rank[sess[idx[order[t]]]]
+        work[start[g]] = order[t]
+        start[g] += 1
+    for t in range(ns):
+        order[t] = work[t]
+
+
+@njit(cache=True)
+def _session_sums(X, sess, idx, ns, i, j, lab, nsA, suA, nsB, suB):
+    """Per-session counts and sums of part A (``i`` and the ``idx`` labelled 0) and part B (``j`` and those labelled 1)."""
+    D = X.shape[1]
+    nsA[:] = 0
+    nsB[:] = 0
+    suA[:] = 0.0
+    suB[:] = 0.0
+    for t in range(ns + 2):
+        k = idx[t] if t < ns else (i if t == ns else j)
+        part_a = lab[t] == 0 if t < ns else t == ns
+        s = sess[k]
+        if part_a:
+            nsA[s] += 1
+            for a in range(D):
+                suA[s, a] += X[k, a]
+        else:
+            nsB[s] += 1
+            for a in range(D):
+                suB[s, a] += X[k, a]
+
+
+@njit(cache=True)
+def _part_terms(n, mean, scat, ns, sums, lam, use_lik, mean_e, scat_e):
+    """``(n, E, D/2 pen)`` of a part for :func:`component_step` and its likelihood; effective stats in ``mean_e``, ``scat_e``.
+
+    Without the likelihood: no data (``n = E = 0``, zero statistics); without session effects the
+    plain statistics (``E = n``, no penalty); with them :func:`~.sessions.effective_stats`.
+    """
+    D = mean.shape[0]
+    if not use_lik:
+        mean_e[:] = 0.0
+        scat_e[:] = 0.0
+        return 0, 0.0, 0.0
+    if lam > 0.0:
+        E, pen = effective_stats(n, mean, scat, ns, sums, lam, mean_e, scat_e)
+        return n, E, 0.5 * D * pen
+    mean_e[:] = mean
+    scat_e[:] = scat
+    return n, float(n), 0.0
+
+
+@njit(cache=True)
 def sequential_moves(n_moves, X, st, use_lik, rng, counters, nbr, near):
-    """Run ``n_moves`` sequentially-allocated merge-split Metropolis-Hastings moves (see the module docstring)."""
-    z, cnt, mu, L, ldet, sc, xi, R, GR, W, GW = (
-        st.z, st.cnt, st.mu, st.L, st.ldet, st.sc, st.xi, st.R, st.GR, st.W, st.GW
+    """Run ``n_moves`` sequentially-allocated merge-split Metropolis-Hastings moves (see the module docstring).
+
+    With session effects (``sc[5] = lambda > 0``) the parts' likelihoods and parameter steps use
+    their effective statistics (:func:`~.sessions.effective_stats`); the sequential allocation,
+    a proposal, stays the plain one.
+    """
+    z, cnt, mu, L, ldet, sc, xi, R, GR, W, GW, sess = (
+        st.z, st.cnt, st.mu, st.L, st.ldet, st.sc, st.xi, st.R, st.GR, st.W, st.GW, st.sess
     )  # fmt: skip
     n, D = X.shape
     if n < 2:
         return
-    d, beta, zeta = sc[1], sc[2], sc[3]
+    d, beta, lam = sc[1], sc[2], sc[5]
+    zeta = sc[3] if use_lik else 1.0
+    S = n_sessions(sess) if lam > 0.0 else 1
     Rxi = np.empty(D)
     for a in range(D):
         s = 0.0
@@ -157,11 +281,18 @@ def sequential_moves(n_moves, X, st, use_lik, rng, counters, nbr, near):
     Y = np.empty((n + 2, D))
     mA, mB, mC = np.empty(D), np.empty(D), np.empty(D)
     sA, sB, sC = np.empty((D, D)), np.empty((D, D)), np.empty((D, D))
+    eA, eB, eC = np.empty(D), np.empty(D), np.empty(D)  # effective means
+    tA, tB, tC = np.empty((D, D)), np.empty((D, D)), np.empty((D, D))  # effective scatters
+    nsA, nsB, nsC = np.zeros(S, dtype=np.int64), np.zeros(S, dtype=np.int64), np.zeros(S, dtype=np.int64)
+    suA, suB, suC = np.zeros((S, D)), np.zeros((S, D)), np.zeros((S, D))
     newA_mu, newB_mu, newC_mu = np.empty(D), np.empty(D), np.empty(D)
     newA_L, newB_L, newC_L = np.empty((D, D)), np.empty((D, D)), np.empty((D, D))
-    # the likelihood off (prior only): the parameter steps see no data
-    zero_m = np.zeros(D)
-    zero_s = np.zeros((D, D))
+    tabs = (np.empty(n + 1), np.empty(n + 1), np.empty(n + 1))
+    part_sums = np.zeros((2, S, D + 1))
+    session_rank = np.empty(S, dtype=np.int64)
+    session_start = np.empty(S + 1, dtype=np.int64)
+    shuffled = np.empty(n, dtype=np.int64)
+    _tables(n, d, D, *tabs)
     for _move in range(n_moves):
         i = min(int(rng.random() * n), n - 1)
         if near > 0.0 and nbr.shape[1] > 0 and rng.random() < near:
@@ -182,68 +313,69 @@ def sequential_moves(n_moves, X, st, use_lik, rng, counters, nbr, near):
         for t in range(ns - 1, 0, -1):
             r = min(int(rng.random() * (t + 1)), t)
             order[t], order[r] = order[r], order[t]
+        if lam > 0.0 and use_lik:
+            _group_by_session(order, idx, ns, sess, S, rng, session_rank, session_start, shuffled)
         if use_lik:
             _whiten_rows(X, idx, ns, i, j, GW, Y)
         K = st.ist[0]
         u = rng.random()
-        if ci == cj:
+        split = ci == cj
+        if split:
             counters[SPLIT_PROPOSED] += 1
-            logq, nA, nB = _allocate_sequentially(
-                X, Y, idx, ns, i, j, order, d, use_lik, True, lab, rng, mA, sA, mB, sB
+        else:
+            counters[MERGE_PROPOSED] += 1
+            for t in range(ns):
+                lab[t] = 0 if z[idx[t]] == ci else 1
+        # the split proposed (or, for a merge, the one it undoes): its log probability and the parts
+        logq_split, nA, nB = _allocate_sequentially(
+            X, Y, idx, ns, i, j, order, tabs, use_lik, split, lab, rng, mA, sA, mB, sB, sess, lam, part_sums
+        )
+        nC = _pool(nA, mA, sA, nB, mB, sB, mC, sC)
+        if lam > 0.0 and use_lik:
+            _session_sums(X, sess, idx, ns, i, j, lab, nsA, suA, nsB, suB)
+            for s in range(S):
+                nsC[s] = nsA[s] + nsB[s]
+                for a in range(D):
+                    suC[s, a] = suA[s, a] + suB[s, a]
+        pA, EA, penA = _part_terms(nA, mA, sA, nsA, suA, lam, use_lik, eA, tA)
+        pB, EB, penB = _part_terms(nB, mB, sB, nsB, suB, lam, use_lik, eB, tB)
+        pC, EC, penC = _part_terms(nC, mC, sC, nsC, suC, lam, use_lik, eC, tC)
+        # log [p(split state) / p(merged state)] of the partition prior (the others cancel)
+        log_prior = (
+            log_new_weight(sc, st.lv, K if split else K - 1)
+            + math.lgamma(nA - d)
+            + math.lgamma(nB - d)
+            - math.lgamma(1.0 - d)
+            - math.lgamma(nC - d)
+        )
+        if split:
+            qA, ldA = component_step(
+                pA, EA, eA, tA, eA, beta, W, R, Rxi, True, newA_mu, newA_L, 0.0, zeta, rng
             )
-            nC = _pool(nA, mA, sA, nB, mB, sB, mC, sC)
-            if use_lik:
-                qA, ldA = component_step(
-                    nA, mA, sA, mA, beta, W, R, Rxi, True, newA_mu, newA_L, 0.0, zeta, rng
-                )
-                qB, ldB = component_step(
-                    nB, mB, sB, mB, beta, W, R, Rxi, True, newB_mu, newB_L, 0.0, zeta, rng
-                )
-                q_rev, _ = component_step(
-                    nC, mC, sC, mC, beta, W, R, Rxi, False, mu[ci].copy(), L[ci].copy(), ldet[ci], zeta, rng
-                )
-            else:
-                qA, ldA = component_step(
-                    0, zero_m, zero_s, zero_m, beta, W, R, Rxi, True, newA_mu, newA_L, 0.0, 1.0, rng
-                )
-                qB, ldB = component_step(
-                    0, zero_m, zero_s, zero_m, beta, W, R, Rxi, True, newB_mu, newB_L, 0.0, 1.0, rng
-                )
-                q_rev, _ = component_step(
-                    0,
-                    zero_m,
-                    zero_s,
-                    zero_m,
-                    beta,
-                    W,
-                    R,
-                    Rxi,
-                    False,
-                    mu[ci].copy(),
-                    L[ci].copy(),
-                    ldet[ci],
-                    1.0,
-                    rng,
-                )
+            qB, ldB = component_step(
+                pB, EB, eB, tB, eB, beta, W, R, Rxi, True, newB_mu, newB_L, 0.0, zeta, rng
+            )
+            q_merge, _ = component_step(
+                pC, EC, eC, tC, eC, beta, W, R, Rxi, False, mu[ci].copy(), L[ci].copy(), ldet[ci], zeta, rng
+            )
             log_ratio = (
-                log_new_weight(sc, st.lv, K)
-                + math.lgamma(nA - d)
-                + math.lgamma(nB - d)
-                - math.lgamma(1.0 - d)
-                - math.lgamma(nC - d)
+                log_prior
                 + base_logpdf(newA_mu, newA_L, ldA, beta, W, ldet_w, xi, GR)
                 + base_logpdf(newB_mu, newB_L, ldB, beta, W, ldet_w, xi, GR)
                 - base_logpdf(mu[ci], L[ci], ldet[ci], beta, W, ldet_w, xi, GR)
-                + q_rev
-                - logq
+                + q_merge
+                - logq_split
                 - qA
                 - qB
             )
             if use_lik:
                 log_ratio += (
-                    group_loglik(nA, mA, sA, newA_mu, newA_L, ldA, zeta)
-                    + group_loglik(nB, mB, sB, newB_mu, newB_L, ldB, zeta)
-                    - group_loglik(nC, mC, sC, mu[ci], L[ci], ldet[ci], zeta)
+                    group_loglik(nA, EA, eA, tA, newA_mu, newA_L, ldA, zeta)
+                    + group_loglik(nB, EB, eB, tB, newB_mu, newB_L, ldB, zeta)
+                    - group_loglik(nC, EC, eC, tC, mu[ci], L[ci], ldet[ci], zeta)
+                    - penA
+                    - penB
+                    + penC
                 )
             if u > 0.0 and math.log(u) < log_ratio:
                 counters[SPLIT_ACCEPTED] += 1
@@ -262,78 +394,33 @@ def sequential_moves(n_moves, X, st, use_lik, rng, counters, nbr, near):
                 cnt[ci] = nA
                 cnt[jb] = nB
         else:
-            counters[MERGE_PROPOSED] += 1
-            for t in range(ns):
-                lab[t] = 0 if z[idx[t]] == ci else 1
-            logq_rev, nA, nB = _allocate_sequentially(
-                X, Y, idx, ns, i, j, order, d, use_lik, False, lab, rng, mA, sA, mB, sB
+            qC, ldC = component_step(
+                pC, EC, eC, tC, eC, beta, W, R, Rxi, True, newC_mu, newC_L, 0.0, zeta, rng
             )
-            nC = _pool(nA, mA, sA, nB, mB, sB, mC, sC)
-            if use_lik:
-                qC, ldC = component_step(
-                    nC, mC, sC, mC, beta, W, R, Rxi, True, newC_mu, newC_L, 0.0, zeta, rng
-                )
-                qA, _ = component_step(
-                    nA, mA, sA, mA, beta, W, R, Rxi, False, mu[ci].copy(), L[ci].copy(), ldet[ci], zeta, rng
-                )
-                qB, _ = component_step(
-                    nB, mB, sB, mB, beta, W, R, Rxi, False, mu[cj].copy(), L[cj].copy(), ldet[cj], zeta, rng
-                )
-            else:
-                qC, ldC = component_step(
-                    0, zero_m, zero_s, zero_m, beta, W, R, Rxi, True, newC_mu, newC_L, 0.0, 1.0, rng
-                )
-                qA, _ = component_step(
-                    0,
-                    zero_m,
-                    zero_s,
-                    zero_m,
-                    beta,
-                    W,
-                    R,
-                    Rxi,
-                    False,
-                    mu[ci].copy(),
-                    L[ci].copy(),
-                    ldet[ci],
-                    1.0,
-                    rng,
-                )
-                qB, _ = component_step(
-                    0,
-                    zero_m,
-                    zero_s,
-                    zero_m,
-                    beta,
-                    W,
-                    R,
-                    Rxi,
-                    False,
-                    mu[cj].copy(),
-                    L[cj].copy(),
-                    ldet[cj],
-                    1.0,
-                    rng,
-                )
+            qA, _ = component_step(
+                pA, EA, eA, tA, eA, beta, W, R, Rxi, False, mu[ci].copy(), L[ci].copy(), ldet[ci], zeta, rng
+            )
+            qB, _ = component_step(
+                pB, EB, eB, tB, eB, beta, W, R, Rxi, False, mu[cj].copy(), L[cj].copy(), ldet[cj], zeta, rng
+            )
             log_ratio = (
-                -log_new_weight(sc, st.lv, K - 1)
-                + math.lgamma(1.0 - d)
-                + math.lgamma(nC - d)
-                - math.lgamma(nA - d)
-                - math.lgamma(nB - d)
+                -log_prior
                 + base_logpdf(newC_mu, newC_L, ldC, beta, W, ldet_w, xi, GR)
                 - base_logpdf(mu[ci], L[ci], ldet[ci], beta, W, ldet_w, xi, GR)
                 - base_logpdf(mu[cj], L[cj], ldet[cj], beta, W, ldet_w, xi, GR)
-                + logq_rev
+                + logq_split
                 + qA
                 + qB
                 - qC
             )
             if use_lik:
                 log_ratio += (
-                    group_loglik(nC, mC, sC, newC_mu, newC_L, ldC, zeta)
-                    - group_loglik(nA, mA, sA, mu[ci], L[ci], ldet[ci], zeta)
-                    - group_loglik(nB, mB, sB, mu[cj], L[cj], ldet[cj], zeta)
+                    group_loglik(nC, EC, eC, tC, newC_mu, newC_L, ldC, zeta)
+                    - group_loglik(nA, EA, eA, tA, mu[ci], L[ci], ldet[ci], zeta)
+                    - group_loglik(nB, EB, eB, tB, mu[cj], L[cj], ldet[cj], zeta)
+                    - penC
+                    + penA
+                    + penB
                 )
             if u > 0.0 and math.log(u) < log_ratio:
                 counters[MERGE_ACCEPTED] += 1

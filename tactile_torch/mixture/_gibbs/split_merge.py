@@ -131,7 +131,21 @@ def _part_step(X, anchor, idx, ns, lab, want, mu0, sc, R, Rxi, W, use_lik, draw,
     scat = np.empty((D, D))
     n = _group_stats(X, anchor, idx, ns, lab, want, mean, scat)
     logq, ldet = component_step(
-        n if use_lik else 0, mean, scat, mu0, sc[2], W, R, Rxi, draw, mu, L, ldet_in, sc[3], rng
+        n if use_lik else 0,
+        n if use_lik else 0,
+        mean,
+        scat,
+        mu0,
+        sc[2],
+        W,
+        R,
+        Rxi,
+        draw,
+        mu,
+        L,
+        ldet_in,
+        sc[3],
+        rng,
     )
     return n, logq, ldet
 
@@ -186,7 +200,7 @@ def _merge_launch(X, i, j, idx, ns, lab, mu0, n_launch, sc, R, Rxi, W, use_lik, 
     mu0[:] = mean if use_lik else X[i]
     Ltmp = np.empty((D, D))
     for _ in range(n_launch + 1):
-        component_step(nM, mean, scat, mu0.copy(), sc[2], W, R, Rxi, True, mu0, Ltmp, 0.0, sc[3], rng)
+        component_step(nM, nM, mean, scat, mu0.copy(), sc[2], W, R, Rxi, True, mu0, Ltmp, 0.0, sc[3], rng)
     return nM, mean, scat
 
 
@@ -260,6 +274,7 @@ def split_merge_moves(n_moves, X, st, n_launch, use_lik, rng, counters, nbr, nea
             # reverse: the merge launch's final update landing on the current parameters
             logq_rev, _ = component_step(
                 nM,
+                nM,
                 meanM,
                 scatM,
                 muM0,
@@ -314,7 +329,7 @@ def split_merge_moves(n_moves, X, st, n_launch, use_lik, rng, counters, nbr, nea
             newM_mu = np.empty(D)
             newM_L = np.empty((D, D))
             logq, newM_ld = component_step(
-                nM, meanM, scatM, muM0, beta, W, R, Rxi, True, newM_mu, newM_L, 0.0, zeta, rng
+                nM, nM, meanM, scatM, muM0, beta, W, R, Rxi, True, newM_mu, newM_L, 0.0, zeta, rng
             )
             # reverse: the split launch's final scan landing on the current labels and parameters
             target = np.empty(ns, dtype=np.int64)
