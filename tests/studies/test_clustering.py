@@ -77,3 +77,21 @@ def test_real_accelerometer_sets_go_through_the_clustering_study(shared_data, tm
     nov = next(r for r in novelty_rows if r["data"] == "hapmat_imu5")
     assert 0.0 <= nov["recall (samples)"] <= 1.0 and 0.0 <= nov["false alarms (samples)"] <= 1.0
     assert 0.0 <= nov["recall (calibrated 2 %)"] <= 1.0
+
+
+def test_the_convergence_line_says_the_study_fit_apart_from_the_fixed_chains():
+    from types import SimpleNamespace
+
+    from tactile_torch.studies.clustering import convergence_line
+
+    default = {"n_iter": "auto", "max_seconds": 20.0, "other_n_iter": 700}
+    done = SimpleNamespace(stopped_by_="converged", fit_seconds_=15.1)
+    line = convergence_line(default, done, 3)
+    assert line.startswith("the study's fit (the headline K) converged in 15.1 s")
+    assert "3 of the section's other fits, at fixed chains of 700 sweeps or fewer, missed them: read" in line
+    missed = SimpleNamespace(stopped_by_="max_seconds", fit_seconds_=20.3)
+    line = convergence_line(default, missed, 3)
+    assert "missed the targets in 20.3 s" in line and "; 2 of the section's other fits" in line
+    assert convergence_line(default, done, 0).endswith("missed them.")  # none of them did: said as 0
+    assert convergence_line({"n_iter": 150}, done, 4).startswith("4 of this section's fits missed")
+    assert convergence_line({"n_iter": "auto"}, done, 0).startswith("every mixture of this section converged")
