@@ -208,7 +208,12 @@ def write_outputs(result: TradeoffResult, out_dir: str | Path, *, command: str =
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     paths = {}
-    for kind in chart_kinds(result) if any(r["decision_s"] is not None for r in result.rows) else []:
+    drawn = [r for r in result.rows if r["decision_s"] is not None and not r.get("stopped")]
+    if result.rows and not drawn:  # every candidate stopped early (none can reach the target): no chart
+        result.notes.append(
+            "no cost charts: every candidate stopped early, so none has a full accuracy to draw"
+        )
+    for kind in chart_kinds(result) if drawn else []:
         try:
             paths[kind] = _chart(result, kind, out / "figures" / CHARTS[kind][0])
         except Exception as err:  # a chart that fails leaves the results (and the other charts) written
