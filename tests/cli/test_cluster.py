@@ -139,4 +139,10 @@ def test_cluster_export_predict_and_stream_share_the_calibrated_novelty_rule(tmp
     d = SurfaceDiscovery(3, thresholds=json.loads(bundle.metadata[NOVELTY_THRESHOLDS_KEY]))
     flags = [d.update(0, False, float(s)).novel for s in novelty]
     means = np.convolve(novelty, np.ones(3) / 3, mode="valid")
-    np.testing.assert_array_equal(flags[2:], means > thresholds[2])
+    # the bundle's thresholds (float32 in its metadata): a window whose mean lies within float32's
+    # rounding of the threshold may go either way, and is left out of the comparison
+    stream_threshold = d.threshold
+    assert stream_threshold == pytest.approx(thresholds[2], rel=1e-6)
+    clear = np.abs(means - stream_threshold) > 1e-6 * stream_threshold
+    assert clear.sum() >= len(means) - 1
+    np.testing.assert_array_equal(np.asarray(flags[2:])[clear], (means > stream_threshold)[clear])
