@@ -99,7 +99,8 @@ def _cnn_ratio(result, out: Path) -> tuple[float, float] | None:
     s = result.inputs[res.candidate.input]
     clf = res.model.steps[-1][1]
     bare = export_classifier(clf, out / "bare-cnn.onnx", s.X[:2])
-    with_rule = measure_file(deployed["onnx"], s.X[:1], s.acquisition_s)["latency_ms"]
+    # the study wrote its files in a staging folder renamed to ``out`` at its end: the file by its name
+    with_rule = measure_file(out / Path(deployed["onnx"]).name, s.X[:1], s.acquisition_s)["latency_ms"]
     alone = measure_file(bare, s.X[:1], s.acquisition_s)["latency_ms"]
     return with_rule, alone
 
