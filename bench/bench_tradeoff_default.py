@@ -29,6 +29,7 @@ from pathlib import Path
 TITLE = "Default trade-off study as the data grow: time, early stops, deployed cost (lab logs, 4x4 fingertip)"
 
 CNN = "temporal CNN | raw maps"
+SCALES_ENV = "TACTILE_TORCH_BENCH_SCALES"
 KEEP_ENV = "TACTILE_TORCH_BENCH_KEEP"
 """A directory to keep the studies' outputs in (default: a temporary one, removed)."""
 
@@ -110,7 +111,8 @@ def run(quick: bool) -> dict:
     from tactile_torch.tradeoff.job import TradeoffOptions
 
     rows, notes = [], []
-    scales = (1,) if quick else (1, 4)
+    # TACTILE_TORCH_BENCH_SCALES="1": the two sets at their size only (the 4x studies take the longest)
+    scales = (1,) if quick else tuple(int(v) for v in os.environ.get(SCALES_ENV, "1,4").split(","))
     keep = os.environ.get(KEEP_ENV)  # the studies' outputs (charts, tradeoff.md) kept to be looked at
     with tempfile.TemporaryDirectory(prefix="bench-tradeoff-") as scratch:
         tmp = Path(keep) if keep else Path(scratch)
