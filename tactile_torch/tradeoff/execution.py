@@ -193,6 +193,7 @@ def _export_first_folds(plan, results, pool, stopping, clock, out_dir, progress)
         Path(out_dir) / "timing",
         pool,
         rate_hz=meta_rate,
+        references=plan.references,  # a 1-D CNN's rule on its window features, in its timing file too
         progress=progress,
     )
     for res in firsts:

@@ -48,3 +48,28 @@ def test_learned_candidates_take_the_raw_input():
         "taxel-cnn"
     ]
     assert learned_candidates("features", "features") == []
+
+
+def test_a_window_cnn_is_timed_with_its_unknown_rule_on_the_window_features(tmp_path, capsys):
+    # the rule a deployed 1-D CNN carries (a distance on the 21 window features, module
+    # tactile_torch.tradeoff.unknown) is in its timing files too, float and int8, so the study ranks
+    # it by what the robot runs: its files carry the window-feature graph, as large as the LDA's
+    import json
+
+    from tactile_torch.cli import main
+    from tactile_torch.data.stylus import make_vibration_recordings
+
+    make_vibration_recordings(4, duration_s=8.0, n_sessions=3, random_state=0).save(tmp_path / "rec.npz")
+    out = tmp_path / "o"
+    argv = ["tradeoff", "--data", str(tmp_path / "rec.npz"), "--out", str(out), "--quick", "--quiet"]
+    assert main([*argv, "--classifiers", "LDA,1-D CNN small", "--windows", "400", "--no-breaking"]) == 0
+    capsys.readouterr()
+    rows = {r["name"]: r for r in json.loads((out / "tradeoff.json").read_text())["candidates"]}
+    lda = rows["LDA | 21 features, W = 400"]
+    features_graph = (out / "timing" / lda["timing_onnx_file"]).stat().st_size
+    cnns = [r for name, r in rows.items() if name.startswith("1-D CNN small")]
+    assert len(cnns) == 2  # the float file and its int8 copy
+    for row in cnns:
+        size = (out / "timing" / row["timing_onnx_file"]).stat().st_size
+        assert row.get("timing_size_bytes", row["size_bytes"]) == size
+        assert size > 0.9 * features_graph, (row["name"], size, features_graph)
