@@ -112,6 +112,13 @@ def dense_ranges(x: np.ndarray, *, log: bool) -> list[np.ndarray]:
     return out
 
 
+def charted(rows: list[dict], field: str) -> list[dict]:
+    """The rows a chart of ``field`` draws: measured on it, with a full accuracy (not stopped early)."""
+    return [
+        r for r in rows if r.get(field) is not None and r.get("accuracy") is not None and not r.get("stopped")
+    ]
+
+
 def draw_chart(  # noqa: PLR0915
     rows: list[dict],
     which: str,
@@ -139,9 +146,7 @@ def draw_chart(  # noqa: PLR0915
     from .selection import pareto_front
 
     _, field, label = CHARTS[which]
-    rows = [
-        r for r in rows if r.get(field) is not None and r.get("accuracy") is not None and not r.get("stopped")
-    ]
+    rows = charted(rows, field)
     if not rows:
         raise ValueError(f"no candidate has a {field} to chart")
     raw = np.array([r[field] for r in rows], dtype=np.float64)
@@ -322,6 +327,7 @@ __all__ = [
     "DENSE",
     "DENSE_MIN",
     "ZOOMS",
+    "charted",
     "dense_ranges",
     "draw_chart",
     "feature_family",

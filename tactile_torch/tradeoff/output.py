@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .charts import CHARTS, draw_chart, feature_family
+from .charts import CHARTS, charted, draw_chart, feature_family
 from .summary import TradeoffResult
 
 COST = (
@@ -208,7 +208,7 @@ def write_outputs(result: TradeoffResult, out_dir: str | Path, *, command: str =
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     paths = {}
-    drawn = [r for r in result.rows if r["decision_s"] is not None and not r.get("stopped")]
+    drawn = charted(result.rows, "decision_s")
     if result.rows and not drawn:  # every candidate stopped early (none can reach the target): no chart
         result.notes.append(
             "no cost charts: every candidate stopped early, so none has a full accuracy to draw"
